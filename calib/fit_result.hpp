@@ -1,0 +1,55 @@
+#pragma once
+// What every estimator returns, whatever its method; serialised to the stable JSON of
+// `standcal fit --json` and rendered as the bench engineer's report.
+#include <Eigen/Dense>
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "calib/parameters.hpp"
+#include "calib/position_average.hpp"
+
+namespace standcal {
+
+struct ParameterEstimate {
+  // Empty when the programme cannot observe the parameter (`unobservable_reason` says why).
+  std::optional<double> value;  // internal units (g, dimensionless, rad)
+  std::optional<double> sigma;  // 1 sigma, same units
+  std::string unobservable_reason;
+};
+
+// A named stand-error combination estimated by the full-vector method ("stand health").
+struct StandEstimate {
+  std::string name;
+  std::string description;
+  double value = 0;
+  double sigma = 0;
+  std::string unit;  // report unit, e.g. "arcsec"
+};
+
+struct PositionResidual {
+  int pos = 0;
+  double alpha1_cmd_deg = 0;
+  double alpha2_cmd_deg = 0;
+  Mount mount = Mount::x;
+  Eigen::VectorXd residual_g;  // 1 (invariant) or 3 (full-vector) components, in g
+  Eigen::VectorXd sigma_g;     // their standard errors
+};
+
+struct FitResult {
+  std::string estimator;  // "joint", "paper-sequential", "full"
+  int positions = 0;
+  int parameters_estimated = 0;
+  int redundancy = 0;     // measurements - estimated parameters
+  double chi2 = 0;
+  double chi2_dof = 0;    // NaN when redundancy is zero
+  double residual_rms_g = 0;
+  std::array<ParameterEstimate, kUnitParameterCount> unit;
+  Eigen::MatrixXd correlation;   // over the nine unit parameters, NaN rows for unobservable
+  std::vector<PositionResidual> residuals;
+  std::vector<StandEstimate> stand;  // full-vector only
+  std::vector<std::string> notes;    // plain-language remarks (zero redundancy, ...)
+};
+
+}  // namespace standcal

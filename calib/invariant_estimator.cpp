@@ -1,0 +1,209 @@
+#include "calib/invariant_estimator.hpp"
+
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace standcal {
+
+namespace {
+
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// What multiplies each parameter in delta_J_L, for plain-language reasons.
+constexpr const char* kRegressorText[kUnitParameterCount] = {
+    "u_x", "u_y", "u_z", "u_x^2", "u_y^2", "u_z^2", "u_x*u_y", "u_x*u_z", "u_y*u_z"};
+
+struct InvariantData {
+  MatrixXd H;     // n x 9 regressors
+  VectorXd y;     // delta_J_L per position, in g
+  VectorXd sigma; // its standard error
+};
+
+InvariantData invariant_data(const std::vector<PositionAverage>& positions) {
+  const Eigen::Index n = static_cast<Eigen::Index>(positions.size());
+  InvariantData d{MatrixXd(n, kUnitParameterCount), VectorXd(n), VectorXd(n)};
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const PositionAverage& p = positions[static_cast<std::size_t>(k)];
+    const Vec3 u = p.up();
+    d.H.row(k) = invariant_regressor(u);
+    d.y[k] = delta_J_L(u, p.mean_g);
+    d.sigma[k] = invariant_sigma_g(p);
+  }
+  return d;
+}
+
+// Parameters outside the column space the programme can resolve, each with a reason.
+std::vector<std::string> unobservable_reasons(const InvariantData& d) {
+  std::vector<std::string> reasons(kUnitParameterCount);
+  MatrixXd A = d.sigma.cwiseInverse().asDiagonal() * d.H;
+  for (int j = 0; j < kUnitParameterCount; ++j) {
+    if (d.H.col(j).norm() < 1e-9 * std::sqrt(static_cast<double>(d.H.rows()))) {
+      reasons[j] = std::string(kRegressorText[j]) +
+                   " is zero at every position of this programme, so delta_J_L does not "
+                   "depend on " + std::string(kUnitParameterNames[j]);
+      A.col(j).setZero();
+    } else {
+      A.col(j).normalize();
+    }
+  }
+  Eigen::JacobiSVD<MatrixXd> svd(A, Eigen::ComputeFullV);
+  const VectorXd& s = svd.singularValues();
+  const double tol = 1e-8 * std::max(1.0, s.size() ? s[0] : 0.0);
+  for (Eigen::Index k = 0; k < kUnitParameterCount; ++k) {
+    const double sk = k < s.size() ? s[k] : 0.0;
+    if (sk > tol) continue;
+    const VectorXd v = svd.matrixV().col(k);
+    std::string combo;
+    for (int j = 0; j < kUnitParameterCount; ++j)
+      if (std::abs(v[j]) > 1e-6 && reasons[j].empty())
+        combo += (combo.empty() ? "" : ", ") + std::string(kUnitParameterNames[j]);
+    for (int j = 0; j < kUnitParameterCount; ++j)
+      if (std::abs(v[j]) > 1e-6 && reasons[j].empty())
+        reasons[j] = "this programme determines only a combination of " + combo +
+                     ", not each one (their regressors in delta_J_L are linearly dependent)";
+  }
+  return reasons;
+}
+
+// Fills everything derived from a linear estimate x = L y with diagonal Cov(y).
+void finish_linear_fit(const InvariantData& d, const std::vector<PositionAverage>& positions,
+                       const MatrixXd& L, const std::vector<int>& fitted, FitResult& r) {
+  const VectorXd x = L * d.y;
+  const MatrixXd cov = L * d.sigma.cwiseAbs2().asDiagonal() * L.transpose();
+  MatrixXd full_H(d.H.rows(), static_cast<Eigen::Index>(fitted.size()));
+  for (std::size_t c = 0; c < fitted.size(); ++c) full_H.col(static_cast<Eigen::Index>(c)) = d.H.col(fitted[c]);
+  const VectorXd residual = d.y - full_H * x;
+
+  r.positions = static_cast<int>(positions.size());
+  r.parameters_estimated = static_cast<int>(fitted.size());
+  r.redundancy = r.positions - r.parameters_estimated;
+  r.chi2 = residual.cwiseQuotient(d.sigma).squaredNorm();
+  r.chi2_dof = r.redundancy > 0 ? r.chi2 / r.redundancy : kNaN;
+  r.residual_rms_g = std::sqrt(residual.squaredNorm() / static_cast<double>(residual.size()));
+  r.correlation = MatrixXd::Constant(kUnitParameterCount, kUnitParameterCount, kNaN);
+  for (std::size_t a = 0; a < fitted.size(); ++a) {
+    const auto ia = static_cast<Eigen::Index>(a);
+    r.unit[static_cast<std::size_t>(fitted[a])].value = x[ia];
+    r.unit[static_cast<std::size_t>(fitted[a])].sigma = std::sqrt(cov(ia, ia));
+    for (std::size_t b = 0; b < fitted.size(); ++b) {
+      const auto ib = static_cast<Eigen::Index>(b);
+      r.correlation(fitted[a], fitted[b]) = cov(ia, ib) / std::sqrt(cov(ia, ia) * cov(ib, ib));
+    }
+  }
+  for (std::size_t k = 0; k < positions.size(); ++k) {
+    const auto ik = static_cast<Eigen::Index>(k);
+    PositionResidual pr;
+    pr.pos = positions[k].pos;
+    pr.alpha1_cmd_deg = positions[k].alpha1_cmd_deg;
+    pr.alpha2_cmd_deg = positions[k].alpha2_cmd_deg;
+    pr.mount = positions[k].mount;
+    pr.residual_g = VectorXd::Constant(1, residual[ik]);
+    pr.sigma_g = VectorXd::Constant(1, d.sigma[ik]);
+    r.residuals.push_back(pr);
+  }
+  if (r.redundancy == 0)
+    r.notes.push_back("Zero redundancy: " + std::to_string(r.positions) + " positions for " +
+                      std::to_string(r.parameters_estimated) +
+                      " parameters. The fit is exact (residuals are zero by construction), so "
+                      "it cannot reveal a wrong model; add positions to check it.");
+}
+
+// Weighted least-squares map P with x = P r for rows `rows` of H, columns `cols`.
+MatrixXd weighted_ls_map(const InvariantData& d, const std::vector<Eigen::Index>& rows,
+                         const std::vector<int>& cols) {
+  MatrixXd A(static_cast<Eigen::Index>(rows.size()), static_cast<Eigen::Index>(cols.size()));
+  VectorXd w(static_cast<Eigen::Index>(rows.size()));
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    for (std::size_t j = 0; j < cols.size(); ++j)
+      A(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = d.H(rows[i], cols[j]);
+    w[static_cast<Eigen::Index>(i)] = 1.0 / d.sigma[rows[i]];
+  }
+  const MatrixXd Aw = w.asDiagonal() * A;
+  // x = (Aw^T Aw)^-1 Aw^T (w .* r), via a rank-revealing QR for conditioning.
+  return Aw.colPivHouseholderQr().solve(MatrixXd(w.asDiagonal()));
+}
+
+}  // namespace
+
+double invariant_sigma_g(const PositionAverage& p) {
+  const Vec3 u = p.up();
+  const double var = u.cwiseAbs2().dot(p.standard_error_g.cwiseAbs2());
+  return std::max(std::sqrt(var), kInvariantSigmaFloor_g);
+}
+
+FitResult fit_invariant_joint(const std::vector<PositionAverage>& positions) {
+  if (positions.empty()) throw std::runtime_error("no positions to fit");
+  const InvariantData d = invariant_data(positions);
+  FitResult r;
+  r.estimator = "joint";
+  const std::vector<std::string> reasons = unobservable_reasons(d);
+  std::vector<int> fitted;
+  for (int j = 0; j < kUnitParameterCount; ++j) {
+    if (reasons[static_cast<std::size_t>(j)].empty()) fitted.push_back(j);
+    else r.unit[static_cast<std::size_t>(j)].unobservable_reason = reasons[static_cast<std::size_t>(j)];
+  }
+  std::vector<Eigen::Index> rows(positions.size());
+  for (std::size_t k = 0; k < rows.size(); ++k) rows[k] = static_cast<Eigen::Index>(k);
+  const MatrixXd L = fitted.empty() ? MatrixXd(0, d.y.size()) : weighted_ls_map(d, rows, fitted);
+  finish_linear_fit(d, positions, L, fitted, r);
+  return r;
+}
+
+FitResult fit_paper_sequential(const std::vector<PositionAverage>& positions) {
+  if (positions.empty()) throw std::runtime_error("no positions to fit");
+  const InvariantData d = invariant_data(positions);
+  const auto near_zero = [](double a_deg) {
+    return std::abs(std::remainder(a_deg, 360.0)) < 1e-6;
+  };
+  std::vector<Eigen::Index> step1, step2, step3;
+  for (std::size_t k = 0; k < positions.size(); ++k) {
+    const PositionAverage& p = positions[k];
+    if (p.mount != Mount::x)
+      throw std::runtime_error("paper-sequential applies to one mounting (x); position " +
+                               std::to_string(p.pos) + " is mounted " + mount_name(p.mount));
+    const auto ik = static_cast<Eigen::Index>(k);
+    if (near_zero(p.alpha2_cmd_deg)) step1.push_back(ik);
+    else if (near_zero(p.alpha1_cmd_deg)) step2.push_back(ik);
+    else step3.push_back(ik);
+  }
+  if (step1.size() < 5 || step2.size() < 3 || step3.empty())
+    throw std::runtime_error(
+        "paper-sequential needs the paper's structure: at least 5 positions at alpha2 = 0, 3 "
+        "at alpha1 = 0 and 1 with both angles non-zero; this programme has " +
+        std::to_string(step1.size()) + ", " + std::to_string(step2.size()) + " and " +
+        std::to_string(step3.size()) + " (use --method joint)");
+
+  // Each step fits its columns to what the earlier steps leave unexplained; tracking the
+  // linear map L (x = L y) lets the covariance follow exactly.
+  const std::vector<std::pair<std::vector<Eigen::Index>, std::vector<int>>> steps{
+      {step1, {kBiasX, kBiasY, kScaleX, kScaleY, kGamma12}},
+      {step2, {kBiasZ, kScaleZ, kGamma23}},
+      {step3, {kGamma13}}};
+  MatrixXd L = MatrixXd::Zero(kUnitParameterCount, d.y.size());
+  std::vector<int> known;
+  for (const auto& [rows, cols] : steps) {
+    MatrixXd R = MatrixXd::Zero(static_cast<Eigen::Index>(rows.size()), d.y.size());
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      const auto ii = static_cast<Eigen::Index>(i);
+      R(ii, rows[i]) = 1.0;
+      for (int j : known) R.row(ii) -= d.H(rows[i], j) * L.row(j);
+    }
+    const MatrixXd P = weighted_ls_map(d, rows, cols);
+    const MatrixXd step_map = P * R;
+    for (std::size_t c = 0; c < cols.size(); ++c) L.row(cols[c]) = step_map.row(static_cast<Eigen::Index>(c));
+    known.insert(known.end(), cols.begin(), cols.end());
+  }
+  FitResult r;
+  r.estimator = "paper-sequential";
+  std::vector<int> all(kUnitParameterCount);
+  for (int j = 0; j < kUnitParameterCount; ++j) all[static_cast<std::size_t>(j)] = j;
+  finish_linear_fit(d, positions, L, all, r);
+  return r;
+}
+
+}  // namespace standcal

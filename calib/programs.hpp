@@ -1,0 +1,70 @@
+#pragma once
+// Calibration programmes: the paper's 9 positions (Table 2), the classic 24, and user
+// programmes from JSON; validated and normalised against the stand's axis ranges.
+#include <nlohmann/json_fwd.hpp>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "calib/model.hpp"
+
+namespace standcal {
+
+struct ProgramPosition {
+  double alpha1_deg = 0;
+  double alpha2_deg = 0;
+  Mount mount = Mount::x;
+  std::optional<double> dwell_s;   // overrides the run's dwell
+  std::optional<double> settle_s;  // overrides the run's settle time
+};
+
+struct Program {
+  std::string name;
+  std::vector<ProgramPosition> positions;
+
+  // Indices of positions that need an operator re-mount first (mount differs from the
+  // previous position's). The first position's mount is the one the run starts with.
+  std::vector<std::size_t> remount_before() const;
+};
+
+// One stand axis: continuous, or limited to [min_deg, max_deg] (cable wrap).
+struct AxisRange {
+  bool continuous = false;
+  double min_deg = -180;
+  double max_deg = 180;
+};
+
+struct StandLimits {
+  AxisRange alpha1;
+  AxisRange alpha2;
+};
+
+// A programme that cannot be used; the message names the source and the position.
+class ProgramError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// The paper's Table 2: five alpha1 steps of 72 deg from alpha1_start at alpha2 = 0,
+// alpha2 = 57.5/122.5/270 deg at alpha1 = 0, and (45 + n*90, 90).
+Program paper9(double alpha1_start_deg = 0, int position9_n = 0);
+// Three mountings x, y, z; alpha1 = 90, 270 x alpha2 = 0, 90, 180, 270 (model.md).
+Program classic24();
+// A user programme from JSON {"name": ..., "positions": [{"alpha1_deg", "alpha2_deg",
+// "mount"?, "dwell_s"?, "settle_s"?}, ...]}; `source` names it in errors.
+Program program_from_json(const nlohmann::json& doc, const std::string& source);
+// "paper9", "classic24", or a path to a JSON programme file.
+Program load_program(const std::string& name_or_path, double paper9_alpha1_start_deg = 0);
+// The programme as JSON (the schema program_from_json reads).
+nlohmann::json program_to_json(const Program& program);
+
+// The angle equivalent to angle_deg (mod 360) inside the axis range: continuous axes
+// give (-180, 180]; limited axes keep the angle if inside, else the equivalent nearest
+// the middle of the range. Empty when no equivalent angle lies inside.
+std::optional<double> normalise_angle_deg(double angle_deg, const AxisRange& range);
+// Every position normalised to the stand's ranges; throws ProgramError naming the first
+// position and axis that cannot be reached.
+Program normalise_program(const Program& program, const StandLimits& limits);
+
+}  // namespace standcal

@@ -1,0 +1,443 @@
+#include "calib/recording.hpp"
+
+#include <unistd.h>
+
+#include <array>
+#include <charconv>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <unordered_set>
+
+namespace standcal {
+
+namespace {
+
+std::string locate(const std::string& source, int line, int column) {
+  std::string where = source + ":" + std::to_string(line);
+  if (column > 0) where += ": column " + std::to_string(column);
+  return where;
+}
+
+std::string_view trim(std::string_view s) {
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r'))
+    s.remove_suffix(1);
+  return s;
+}
+
+bool parse_double(std::string_view text, double& out) {
+  text = trim(text);
+  if (!text.empty() && text.front() == '+') text.remove_prefix(1);
+  if (text.empty()) return false;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), out);
+  return ec == std::errc() && end == text.data() + text.size() && std::isfinite(out);
+}
+
+bool parse_int(std::string_view text, int& out) {
+  text = trim(text);
+  if (!text.empty() && text.front() == '+') text.remove_prefix(1);
+  if (text.empty()) return false;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), out);
+  return ec == std::errc() && end == text.data() + text.size();
+}
+
+enum Column : int {
+  kT = 0, kPos, kA1Cmd, kA2Cmd, kA1, kA2, kFx, kFy, kFz, kTemp, kMountCol, kTArrive,
+  kApproach, kColumnKinds
+};
+
+constexpr std::array<std::string_view, kColumnKinds> kColumnNames{
+    "t_s", "pos", "alpha1_cmd_deg", "alpha2_cmd_deg", "alpha1_deg", "alpha2_deg",
+    "fx_mps2", "fy_mps2", "fz_mps2", "temp_c", "mount", "t_arrive_s", "approach"};
+constexpr int kRequiredColumns = 7;  // t_s, pos, both commanded angles, fx, fy, fz
+constexpr std::array<Column, kRequiredColumns> kRequired{kT, kPos, kA1Cmd, kA2Cmd,
+                                                          kFx, kFy, kFz};
+
+// Splits a line at commas into `fields` (views into the line).
+void split_fields(std::string_view line, std::vector<std::string_view>& fields) {
+  fields.clear();
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t comma = line.find(',', start);
+    if (comma == std::string_view::npos) {
+      fields.push_back(line.substr(start));
+      return;
+    }
+    fields.push_back(line.substr(start, comma - start));
+    start = comma + 1;
+  }
+}
+
+class Parser {
+ public:
+  Parser(std::string_view text, const std::string& source) : text_(text) {
+    rec_.source = source;
+  }
+
+  Recording run() {
+    read_header_lines();
+    read_column_line();
+    read_rows();
+    finish_header();
+    return std::move(rec_);
+  }
+
+ private:
+  [[noreturn]] void fail(int column, const std::string& what) const {
+    throw RecordingError(rec_.source, line_no_, column, what);
+  }
+
+  // Next line without its newline; false at end. Flags a final line lacking '\n'.
+  bool next_line(std::string_view& line) {
+    if (offset_ >= text_.size()) return false;
+    const std::size_t nl = text_.find('\n', offset_);
+    ++line_no_;
+    if (nl == std::string_view::npos) {
+      line = text_.substr(offset_);
+      offset_ = text_.size();
+      last_line_truncated_ = true;
+    } else {
+      line = text_.substr(offset_, nl - offset_);
+      offset_ = nl + 1;
+    }
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    return true;
+  }
+
+  void read_header_lines() {
+    std::string_view line;
+    while (true) {
+      const std::size_t before = offset_;
+      const int line_before = line_no_;
+      if (!next_line(line)) fail(0, "no column-header line: the file ends inside its header");
+      if (trim(line).empty()) continue;
+      if (line.front() != '#') {  // the column line: hand it back
+        offset_ = before;
+        line_no_ = line_before;
+        last_line_truncated_ = false;
+        return;
+      }
+      parse_header_line(line);
+    }
+  }
+
+  void parse_header_line(std::string_view line) {
+    std::string_view body = line.substr(1);
+    if (body.empty() || body.front() != ' ')
+      fail(1, "header line must look like '# key: value'");
+    body = trim(body);
+    const std::size_t colon = body.find(':');
+    if (colon == std::string_view::npos || colon == 0)
+      fail(2, "header line must look like '# key: value' (no ':' found)");
+    std::string key(trim(body.substr(0, colon)));
+    std::string value(trim(body.substr(colon + 1)));
+    if (seen_keys_.count(key)) fail(3, "header key '" + key + "' appears twice");
+    seen_keys_.insert(key);
+    header_lines_[key] = line_no_;
+    rec_.header.emplace_back(std::move(key), std::move(value));
+  }
+
+  void read_column_line() {
+    std::string_view line;
+    next_line(line);
+    if (last_line_truncated_) fail(0, "the file ends at its column-header line (no samples)");
+    column_line_ = line_no_;
+    std::vector<std::string_view> names;
+    split_fields(line, names);
+    index_.fill(-1);
+    for (std::size_t i = 0; i < names.size(); ++i) {
+      const std::string_view name = trim(names[i]);
+      const int column = static_cast<int>(i) + 1;
+      for (int k = 0; k < kColumnKinds; ++k) {
+        if (kColumnNames[k] != name) continue;
+        if (index_[k] >= 0) fail(column, "column '" + std::string(name) + "' appears twice");
+        index_[k] = static_cast<int>(i);
+      }
+    }
+    field_count_ = names.size();
+    for (Column c : kRequired)
+      if (index_[c] < 0)
+        fail(0, "required column '" + std::string(kColumnNames[c]) + "' is missing");
+    rec_.columns.alpha_measured = index_[kA1] >= 0 || index_[kA2] >= 0;
+    rec_.columns.temp = index_[kTemp] >= 0;
+    rec_.columns.mount = index_[kMountCol] >= 0;
+    rec_.columns.t_arrive = index_[kTArrive] >= 0;
+    rec_.columns.approach = index_[kApproach] >= 0;
+  }
+
+  double number(const std::vector<std::string_view>& f, Column c, bool optional) const {
+    const int i = index_[c];
+    if (i < 0) return kNoValue;
+    if (optional && trim(f[static_cast<std::size_t>(i)]).empty()) return kNoValue;
+    double v = 0;
+    if (!parse_double(f[static_cast<std::size_t>(i)], v))
+      fail(i + 1, "column '" + std::string(kColumnNames[c]) + "': '" +
+                      std::string(f[static_cast<std::size_t>(i)]) + "' is not a number");
+    return v;
+  }
+
+  void read_rows() {
+    std::string_view line;
+    std::vector<std::string_view> fields;
+    while (next_line(line)) {
+      if (last_line_truncated_) {
+        if (!trim(line).empty())
+          rec_.warnings.push_back(locate(rec_.source, line_no_, 0) +
+                                  ": last line has no newline (a run cut off mid-write?); "
+                                  "dropped");
+        break;
+      }
+      if (trim(line).empty()) continue;
+      split_fields(line, fields);
+      if (fields.size() != field_count_)
+        fail(0, "expected " + std::to_string(field_count_) + " fields as in the column line " +
+                    std::to_string(column_line_) + ", found " + std::to_string(fields.size()));
+      rec_.samples.push_back(parse_row(fields));
+      check_order(rec_.samples.back());
+    }
+  }
+
+  RecordingSample parse_row(const std::vector<std::string_view>& f) const {
+    RecordingSample s;
+    s.t_s = number(f, kT, false);
+    const int pos_col = index_[kPos];
+    if (!parse_int(f[static_cast<std::size_t>(pos_col)], s.pos) || s.pos < 0)
+      fail(pos_col + 1, "column 'pos': '" + std::string(f[static_cast<std::size_t>(pos_col)]) +
+                            "' is not a position index (an integer >= 0)");
+    s.alpha1_cmd_deg = number(f, kA1Cmd, false);
+    s.alpha2_cmd_deg = number(f, kA2Cmd, false);
+    s.alpha1_deg = number(f, kA1, true);
+    s.alpha2_deg = number(f, kA2, true);
+    s.f_mps2 = Vec3(number(f, kFx, false), number(f, kFy, false), number(f, kFz, false));
+    s.temp_c = number(f, kTemp, true);
+    s.t_arrive_s = number(f, kTArrive, true);
+    parse_mount_field(f, s);
+    parse_approach_field(f, s);
+    return s;
+  }
+
+  void parse_mount_field(const std::vector<std::string_view>& f, RecordingSample& s) const {
+    const int i = index_[kMountCol];
+    if (i < 0) return;
+    const std::string text(trim(f[static_cast<std::size_t>(i)]));
+    if (text.empty()) return;
+    Mount m{};
+    if (!parse_mount(text, m)) fail(i + 1, "column 'mount': '" + text + "' is not x, y or z");
+    s.mount = m;
+  }
+
+  void parse_approach_field(const std::vector<std::string_view>& f, RecordingSample& s) const {
+    const int i = index_[kApproach];
+    if (i < 0 || trim(f[static_cast<std::size_t>(i)]).empty()) return;
+    int a = 0;
+    if (!parse_int(f[static_cast<std::size_t>(i)], a) || (a != 1 && a != -1))
+      fail(i + 1, "column 'approach': '" + std::string(f[static_cast<std::size_t>(i)]) +
+                      "' must be +1 or -1");
+    s.approach = a;
+  }
+
+  void check_order(const RecordingSample& s) {
+    if (!first_row_) {
+      const RecordingSample& prev = rec_.samples[rec_.samples.size() - 2];
+      if (s.t_s < prev.t_s)
+        fail(index_[kT] + 1, "t_s goes backwards (" + std::to_string(s.t_s) + " after " +
+                                 std::to_string(prev.t_s) + "); times must not decrease");
+      if (s.pos == prev.pos) {
+        if (s.alpha1_cmd_deg != prev.alpha1_cmd_deg || s.alpha2_cmd_deg != prev.alpha2_cmd_deg)
+          fail(index_[kA1Cmd] + 1, "commanded angles change inside position " +
+                                       std::to_string(s.pos) + " (a new position needs a new pos)");
+        return;
+      }
+    }
+    first_row_ = false;
+    if (!finished_positions_.insert(s.pos).second)
+      fail(index_[kPos] + 1, "position " + std::to_string(s.pos) +
+                                 " appears again after other positions: the rows of one "
+                                 "position must be contiguous (a repeat needs a new pos index)");
+  }
+
+  double header_number(const std::string& key, const std::string& value) const {
+    double v = 0;
+    if (!parse_double(value, v))
+      throw RecordingError(rec_.source, header_lines_.at(key), 0,
+                           "header '" + key + "': '" + value + "' is not a number");
+    return v;
+  }
+
+  void finish_header() {
+    const std::string format = rec_.header_value("format");
+    if (!seen_keys_.count("format"))
+      throw RecordingError(rec_.source, 1, 0,
+                           "required header '# format: " + std::string(kRecordingFormat) +
+                               "' is missing");
+    if (format != kRecordingFormat)
+      throw RecordingError(rec_.source, header_lines_.at("format"), 0,
+                           "unsupported format '" + format + "' (this reader reads " +
+                               std::string(kRecordingFormat) + ")");
+    for (const auto& [key, value] : rec_.header) apply_known_key(key, value);
+    if (!rec_.g_from_header)
+      rec_.warnings.push_back(rec_.source +
+                              ": no '# g_local_mps2' header; assuming standard gravity 9.80665 "
+                              "m/s^2 (a wrong g reads as a common scale-factor error)");
+  }
+
+  void apply_known_key(const std::string& key, const std::string& value) {
+    if (key == "g_local_mps2") {
+      rec_.g_local_mps2 = header_number(key, value);
+      rec_.g_from_header = true;
+      if (rec_.g_local_mps2 < 9.7 || rec_.g_local_mps2 > 9.9)
+        throw RecordingError(rec_.source, header_lines_.at(key), 0,
+                             "header 'g_local_mps2': " + value +
+                                 " m/s^2 is not a plausible local gravity (9.7 ... 9.9)");
+    } else if (key == "settle_s") {
+      rec_.settle_s = header_number(key, value);
+    } else if (key == "sample_rate_hz") {
+      rec_.sample_rate_hz = header_number(key, value);
+    } else if (key == "temp_ref_c") {
+      rec_.temp_ref_c = header_number(key, value);
+    } else if (key == "unit_serial") {
+      rec_.unit_serial = value;
+    } else if (key == "program") {
+      rec_.program = value;
+    } else if (key == "mount") {
+      Mount m{};
+      if (!parse_mount(value, m))
+        throw RecordingError(rec_.source, header_lines_.at(key), 0,
+                             "header 'mount': '" + value + "' is not x, y or z");
+      rec_.default_mount = m;
+    }
+  }
+
+  std::string_view text_;
+  std::size_t offset_ = 0;
+  int line_no_ = 0;
+  int column_line_ = 0;
+  bool last_line_truncated_ = false;
+  bool first_row_ = true;
+  std::size_t field_count_ = 0;
+  std::array<int, kColumnKinds> index_{};
+  std::unordered_set<std::string> seen_keys_;
+  std::map<std::string, int> header_lines_;
+  std::unordered_set<int> finished_positions_;
+  Recording rec_;
+};
+
+void append_number(std::string& out, double v, int decimals) {
+  if (std::isnan(v)) return;  // empty field
+  std::array<char, 64> buf{};
+  const auto [end, ec] =
+      std::to_chars(buf.data(), buf.data() + buf.size(), v, std::chars_format::fixed, decimals);
+  if (ec == std::errc()) out.append(buf.data(), end);
+}
+
+}  // namespace
+
+RecordingError::RecordingError(const std::string& source, int line, int column,
+                               const std::string& what)
+    : std::runtime_error(locate(source, line, column) + ": " + what),
+      source_(source),
+      line_(line),
+      column_(column) {}
+
+std::string Recording::header_value(std::string_view key) const {
+  for (const auto& [k, v] : header)
+    if (k == key) return v;
+  return {};
+}
+
+void Recording::set_header(const std::string& key, const std::string& value) {
+  for (auto& [k, v] : header)
+    if (k == key) {
+      v = value;
+      return;
+    }
+  header.emplace_back(key, value);
+}
+
+Recording parse_recording(std::string_view text, const std::string& source) {
+  return Parser(text, source).run();
+}
+
+Recording read_recording(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(path + ": cannot open recording");
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  const std::string text = buffer.str();
+  return parse_recording(text, path);
+}
+
+std::string format_recording_header(const Recording& rec) {
+  std::string out = "# format: " + std::string(kRecordingFormat) + "\n";
+  for (const auto& [key, value] : rec.header)
+    if (key != "format") out += "# " + key + ": " + value + "\n";
+  out += "t_s,pos,alpha1_cmd_deg,alpha2_cmd_deg";
+  if (rec.columns.alpha_measured) out += ",alpha1_deg,alpha2_deg";
+  out += ",fx_mps2,fy_mps2,fz_mps2";
+  if (rec.columns.temp) out += ",temp_c";
+  if (rec.columns.mount) out += ",mount";
+  if (rec.columns.t_arrive) out += ",t_arrive_s";
+  if (rec.columns.approach) out += ",approach";
+  out += "\n";
+  return out;
+}
+
+void append_recording_rows(std::string& out, const RecordingColumns& columns,
+                           const std::vector<RecordingSample>& samples) {
+  for (const RecordingSample& s : samples) {
+    append_number(out, s.t_s, 4);
+    out += ',';
+    out += std::to_string(s.pos);
+    out += ',';
+    append_number(out, s.alpha1_cmd_deg, 6);
+    out += ',';
+    append_number(out, s.alpha2_cmd_deg, 6);
+    if (columns.alpha_measured) {
+      out += ',';
+      append_number(out, s.alpha1_deg, 6);
+      out += ',';
+      append_number(out, s.alpha2_deg, 6);
+    }
+    for (int i = 0; i < 3; ++i) {
+      out += ',';
+      append_number(out, s.f_mps2[i], 9);
+    }
+    if (columns.temp) {
+      out += ',';
+      append_number(out, s.temp_c, 3);
+    }
+    if (columns.mount) {
+      out += ',';
+      if (s.mount) out += mount_name(*s.mount);
+    }
+    if (columns.t_arrive) {
+      out += ',';
+      append_number(out, s.t_arrive_s, 4);
+    }
+    if (columns.approach) {
+      out += ',';
+      if (s.approach != 0) out += s.approach > 0 ? "1" : "-1";
+    }
+    out += '\n';
+  }
+}
+
+void write_recording(const Recording& rec, const std::string& path) {
+  std::string text = format_recording_header(rec);
+  text.reserve(text.size() + rec.samples.size() * 110);
+  append_recording_rows(text, rec.columns, rec.samples);
+  const std::string tmp = path + ".tmp";
+  std::FILE* f = std::fopen(tmp.c_str(), "wb");
+  if (!f) throw std::runtime_error(path + ": cannot create recording file");
+  const bool written = std::fwrite(text.data(), 1, text.size(), f) == text.size() &&
+                       std::fflush(f) == 0 && ::fsync(fileno(f)) == 0;
+  std::fclose(f);
+  if (!written || std::rename(tmp.c_str(), path.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    throw std::runtime_error(path + ": could not write the recording (disk full?)");
+  }
+}
+
+}  // namespace standcal

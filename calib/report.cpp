@@ -1,0 +1,233 @@
+#include "calib/report.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+
+namespace standcal {
+
+namespace {
+
+using nlohmann::json;
+
+json number_or_null(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+std::string format(const char* fmt, double a) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, fmt, a);
+  return buf;
+}
+
+std::string chi2_verdict(const FitResult& fit) {
+  if (fit.redundancy <= 0)
+    return "not testable: no redundancy (the fit passes through every position)";
+  const double p = chi2_upper_tail(fit.chi2, fit.redundancy);
+  std::string text = format("%.2f", fit.chi2_dof) + " with " + std::to_string(fit.redundancy) +
+                     " degrees of freedom (p = " + format("%.3f", p) + "): ";
+  if (p < 0.001) return text + "the residuals are LARGER than the noise explains; the model "
+                               "misses something (run `standcal diagnose`)";
+  if (p > 0.999) return text + "the residuals are smaller than the noise predicts; the standard "
+                               "errors may be overstated";
+  return text + "consistent with the measured noise";
+}
+
+void append_parameters(std::string& out, const FitResult& fit) {
+  out += "  parameter        value          1 sigma\n";
+  for (int j = 0; j < kUnitParameterCount; ++j) {
+    const ParameterEstimate& p = fit.unit[static_cast<std::size_t>(j)];
+    char line[160];
+    if (p.value) {
+      std::snprintf(line, sizeof line, "  %-10s %+12.2f %-6s %10.2f\n",
+                    std::string(kUnitParameterNames[static_cast<std::size_t>(j)]).c_str(),
+                    *p.value * report_scale(j),
+                    std::string(kUnitParameterUnits[static_cast<std::size_t>(j)]).c_str(),
+                    *p.sigma * report_scale(j));
+      out += line;
+    } else {
+      std::snprintf(line, sizeof line, "  %-10s   not observable\n",
+                    std::string(kUnitParameterNames[static_cast<std::size_t>(j)]).c_str());
+      out += line;
+      out += "      (" + p.unobservable_reason + ")\n";
+    }
+  }
+}
+
+void append_residuals(std::string& out, const FitResult& fit, const ReportContext& ctx) {
+  out += "\nResiduals per position (ug; invariant residual = u.J - 1 minus the model):\n";
+  out += "  pos  alpha1    alpha2   mount  samples  residual      sigma   res/sigma\n";
+  for (std::size_t k = 0; k < fit.residuals.size(); ++k) {
+    const PositionResidual& r = fit.residuals[k];
+    const std::size_t samples = k < ctx.averages.size() ? ctx.averages[k].samples : 0;
+    for (Eigen::Index c = 0; c < r.residual_g.size(); ++c) {
+      char line[160];
+      std::snprintf(line, sizeof line, "  %3d %8.3f %9.3f   %s  %7zu  %+9.3f  %9.3f   %+6.2f\n",
+                    r.pos, r.alpha1_cmd_deg, r.alpha2_cmd_deg, mount_name(r.mount).c_str(), samples,
+                    r.residual_g[c] / kUg, r.sigma_g[c] / kUg, r.residual_g[c] / r.sigma_g[c]);
+      out += line;
+    }
+  }
+}
+
+void append_strong_correlations(std::string& out, const FitResult& fit) {
+  std::string list;
+  for (int a = 0; a < kUnitParameterCount; ++a)
+    for (int b = a + 1; b < kUnitParameterCount; ++b) {
+      const double c = fit.correlation.size() ? fit.correlation(a, b) : NAN;
+      if (std::isfinite(c) && std::abs(c) >= 0.5)
+        list += "  " + std::string(kUnitParameterNames[static_cast<std::size_t>(a)]) + " / " +
+                std::string(kUnitParameterNames[static_cast<std::size_t>(b)]) + ": " +
+                format("%+.2f", c) + "\n";
+    }
+  out += "\nStrong correlations (|r| >= 0.5):\n" + (list.empty() ? "  none\n" : list);
+}
+
+}  // namespace
+
+ReportContext report_context(const Recording& rec, std::vector<PositionAverage> averages) {
+  return {rec.source, rec.unit_serial, rec.program, rec.g_local_mps2, rec.g_from_header,
+          rec.warnings, std::move(averages)};
+}
+
+double chi2_upper_tail(double chi2, int dof) {
+  if (dof <= 0) return std::nan("");
+  const double k = dof;
+  const double z = (std::cbrt(chi2 / k) - (1.0 - 2.0 / (9.0 * k))) / std::sqrt(2.0 / (9.0 * k));
+  return 0.5 * std::erfc(z / std::sqrt(2.0));
+}
+
+json fit_to_json(const FitResult& fit) {
+  json params = json::object();
+  for (int j = 0; j < kUnitParameterCount; ++j) {
+    const ParameterEstimate& p = fit.unit[static_cast<std::size_t>(j)];
+    json e{{"unit", std::string(kUnitParameterUnits[static_cast<std::size_t>(j)])}};
+    e["value"] = p.value ? json(*p.value * report_scale(j)) : json(nullptr);
+    e["sigma"] = p.sigma ? json(*p.sigma * report_scale(j)) : json(nullptr);
+    if (!p.value) e["unobservable_reason"] = p.unobservable_reason;
+    params[std::string(kUnitParameterNames[static_cast<std::size_t>(j)])] = e;
+  }
+  json correlation = json::array();
+  for (Eigen::Index a = 0; a < fit.correlation.rows(); ++a) {
+    json row = json::array();
+    for (Eigen::Index b = 0; b < fit.correlation.cols(); ++b)
+      row.push_back(number_or_null(fit.correlation(a, b)));
+    correlation.push_back(row);
+  }
+  json residuals = json::array();
+  for (const PositionResidual& r : fit.residuals) {
+    json res = json::array(), sig = json::array();
+    for (Eigen::Index c = 0; c < r.residual_g.size(); ++c) {
+      res.push_back(r.residual_g[c] / kUg);
+      sig.push_back(r.sigma_g[c] / kUg);
+    }
+    residuals.push_back({{"pos", r.pos}, {"alpha1_cmd_deg", r.alpha1_cmd_deg},
+                         {"alpha2_cmd_deg", r.alpha2_cmd_deg}, {"mount", mount_name(r.mount)},
+                         {"residual_ug", res}, {"sigma_ug", sig}});
+  }
+  json out{{"estimator", fit.estimator},
+           {"positions", fit.positions},
+           {"parameters_estimated", fit.parameters_estimated},
+           {"redundancy", fit.redundancy},
+           {"residual_rms_ug", fit.residual_rms_g / kUg},
+           {"chi2", fit.chi2},
+           {"chi2_dof", number_or_null(fit.chi2_dof)},
+           {"parameters", params},
+           {"correlation_order", json(std::vector<std::string>(kUnitParameterNames.begin(),
+                                                               kUnitParameterNames.end()))},
+           {"correlation", correlation},
+           {"residuals", residuals},
+           {"notes", fit.notes}};
+  if (!fit.stand.empty()) {
+    json stand = json::object();
+    for (const StandEstimate& s : fit.stand)
+      stand[s.name] = {{"value", s.value}, {"sigma", s.sigma}, {"unit", s.unit},
+                       {"description", s.description}};
+    out["stand"] = stand;
+  }
+  return out;
+}
+
+std::string format_report(const FitResult& fit, const ReportContext& ctx) {
+  std::string out = "standcal calibration report\n===========================\n";
+  out += "Recording:  " + ctx.source + "\n";
+  out += "Unit:       " + (ctx.unit_serial.empty() ? std::string("(no serial)") : ctx.unit_serial) + "\n";
+  out += "Programme:  " + (ctx.program.empty() ? std::string("(not stated)") : ctx.program) + ", " +
+         std::to_string(fit.positions) + " positions\n";
+  out += "Gravity:    " + format("%.5f", ctx.g_local_mps2) + " m/s^2" +
+         (ctx.g_from_header ? " (from the recording)" : " (ASSUMED standard gravity)") + "\n";
+  out += "Estimator:  " + fit.estimator + ", " + std::to_string(fit.parameters_estimated) +
+         " parameters, redundancy " + std::to_string(fit.redundancy) + "\n";
+  for (const std::string& w : ctx.warnings) out += "WARNING:    " + w + "\n";
+  out += "\nUnit parameters (value +- 1 sigma):\n";
+  append_parameters(out, fit);
+  if (!fit.stand.empty()) {
+    out += "\nStand health (identifiable stand-error combinations):\n";
+    for (const StandEstimate& s : fit.stand) {
+      char line[200];
+      std::snprintf(line, sizeof line, "  %-28s %+10.2f +- %6.2f %s  (%s)\n", s.name.c_str(), s.value,
+                    s.sigma, s.unit.c_str(), s.description.c_str());
+      out += line;
+    }
+  }
+  out += "\nModel check: residual rms " + format("%.3f", fit.residual_rms_g / kUg) +
+         " ug; chi2/dof " + chi2_verdict(fit) + "\n";
+  append_strong_correlations(out, fit);
+  append_residuals(out, fit, ctx);
+  if (!fit.notes.empty()) {
+    out += "\nNotes:\n";
+    for (const std::string& n : fit.notes) out += "  - " + n + "\n";
+  }
+  return out;
+}
+
+Compensation make_compensation(const FitResult& fit, double g_local_mps2) {
+  Compensation c;
+  c.g_local_mps2 = g_local_mps2;
+  UnitErrors unit;
+  Vec3 gamma_sums = Vec3::Zero();
+  for (int j = 0; j < kUnitParameterCount; ++j) {
+    const ParameterEstimate& p = fit.unit[static_cast<std::size_t>(j)];
+    if (!p.value) {
+      c.notes.push_back(std::string(kUnitParameterNames[static_cast<std::size_t>(j)]) +
+                        " was not observable in this calibration; the compensation assumes 0");
+      continue;
+    }
+    if (j < 3) unit.bias_g[j] = *p.value;
+    else if (j < 6) unit.scale[j - 3] = *p.value;
+    else gamma_sums[j - 6] = *p.value;
+  }
+  unit.set_gamma_pair_sums_rad(gamma_sums);
+  c.bias_mps2 = unit.bias_g * g_local_mps2;
+  c.matrix = unit.output_matrix().inverse();
+  c.notes.push_back(
+      "Only the symmetric part of the non-orthogonality is known (gravity reveals the pair sums "
+      "gamma_ij + gamma_ji); each pair is split equally, so the corrected axes are orthogonal "
+      "but their common rotation relative to the case is not calibrated.");
+  return c;
+}
+
+json compensation_to_json(const Compensation& c) {
+  json m = json::array();
+  for (int i = 0; i < 3; ++i) m.push_back({c.matrix(i, 0), c.matrix(i, 1), c.matrix(i, 2)});
+  return {{"format", "standcal-compensation/1"},
+          {"equation", "f = M * (f_raw - b)"},
+          {"bias_mps2", {c.bias_mps2.x(), c.bias_mps2.y(), c.bias_mps2.z()}},
+          {"matrix", m},
+          {"g_local_mps2", c.g_local_mps2},
+          {"notes", c.notes}};
+}
+
+std::string compensation_to_csv(const Compensation& c) {
+  char line[200];
+  std::string out = "# f = M * (f_raw - b); b in m/s^2, M dimensionless\nname,c1,c2,c3\n";
+  std::snprintf(line, sizeof line, "b_mps2,%.9e,%.9e,%.9e\n", c.bias_mps2.x(), c.bias_mps2.y(),
+                c.bias_mps2.z());
+  out += line;
+  for (int i = 0; i < 3; ++i) {
+    std::snprintf(line, sizeof line, "M_row%d,%.12f,%.12f,%.12f\n", i + 1, c.matrix(i, 0),
+                  c.matrix(i, 1), c.matrix(i, 2));
+    out += line;
+  }
+  return out;
+}
+
+}  // namespace standcal

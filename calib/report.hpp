@@ -1,0 +1,45 @@
+#pragma once
+// The fit as the stable JSON of `standcal fit --json` and as the text report a bench
+// engineer reads; plus the compensation the INS loads.
+#include <nlohmann/json_fwd.hpp>
+#include <string>
+#include <vector>
+
+#include "calib/fit_result.hpp"
+#include "calib/recording.hpp"
+
+namespace standcal {
+
+// Where the fitted data came from, for the report header.
+struct ReportContext {
+  std::string source;       // recording path
+  std::string unit_serial;
+  std::string program;
+  double g_local_mps2 = kStandardGravity_mps2;
+  bool g_from_header = false;
+  std::vector<std::string> warnings;
+  std::vector<PositionAverage> averages;
+};
+
+ReportContext report_context(const Recording& rec, std::vector<PositionAverage> averages);
+
+// Probability that chi2 with `dof` degrees of freedom exceeds `chi2` (Wilson-Hilferty;
+// accurate to ~0.01 for dof >= 3, which is all a consistency verdict needs).
+double chi2_upper_tail(double chi2, int dof);
+
+nlohmann::json fit_to_json(const FitResult& fit);
+std::string format_report(const FitResult& fit, const ReportContext& context);
+
+// f = M (f_raw - b): what the INS loads to turn raw outputs into calibrated specific force.
+struct Compensation {
+  Vec3 bias_mps2 = Vec3::Zero();
+  Mat3 matrix = Mat3::Identity();
+  double g_local_mps2 = kStandardGravity_mps2;
+  std::vector<std::string> notes;
+};
+
+Compensation make_compensation(const FitResult& fit, double g_local_mps2);
+nlohmann::json compensation_to_json(const Compensation& c);
+std::string compensation_to_csv(const Compensation& c);
+
+}  // namespace standcal

@@ -1,0 +1,319 @@
+#include "calib/simulator.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <stdexcept>
+
+#include "calib/averaging.hpp"
+
+namespace standcal {
+
+namespace {
+
+using nlohmann::json;
+
+json vec_json(const Vec3& v, double scale) { return {v.x() * scale, v.y() * scale, v.z() * scale}; }
+
+// Reads the keys of an object, rejecting unknown ones (a typo in a truth file would
+// otherwise silently simulate a perfect unit).
+class Keys {
+ public:
+  Keys(const json& obj, std::string where, std::set<std::string> known)
+      : obj_(obj), where_(std::move(where)) {
+    if (!obj_.is_object()) throw std::runtime_error(where_ + ": must be a JSON object");
+    for (const auto& item : obj_.items())
+      if (!known.count(item.key()))
+        throw std::runtime_error(where_ + ": unknown key '" + item.key() + "'");
+  }
+  bool has(const char* key) const { return obj_.contains(key); }
+  const json& at(const char* key) const { return obj_.at(key); }
+  std::string path(const char* key) const { return where_ + "." + key; }
+
+  void number(const char* key, double& out, double scale = 1.0) const {
+    if (!has(key)) return;
+    if (!obj_.at(key).is_number()) throw std::runtime_error(path(key) + ": must be a number");
+    out = obj_.at(key).get<double>() * scale;
+  }
+  void vec3(const char* key, Vec3& out, double scale) const {
+    if (!has(key)) return;
+    const json& a = obj_.at(key);
+    if (!a.is_array() || a.size() != 3)
+      throw std::runtime_error(path(key) + ": must be an array of 3 numbers [x, y, z]");
+    for (std::size_t i = 0; i < 3; ++i) {
+      if (!a[i].is_number()) throw std::runtime_error(path(key) + ": must hold numbers");
+      out[static_cast<Eigen::Index>(i)] = a[i].get<double>() * scale;
+    }
+  }
+
+ private:
+  const json& obj_;
+  std::string where_;
+};
+
+void read_gamma(const Keys& unit, UnitErrors& u) {
+  if (!unit.has("gamma_arcsec")) return;
+  const Keys g(unit.at("gamma_arcsec"), unit.path("gamma_arcsec"),
+               {"xy", "yx", "xz", "zx", "yz", "zy"});
+  const char* names[3][3] = {{nullptr, "xy", "xz"}, {"yx", nullptr, "yz"}, {"zx", "zy", nullptr}};
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      if (names[i][j]) g.number(names[i][j], u.gamma_rad(i, j), kArcsecToRad);
+}
+
+void read_stand(const Keys& stand, StandErrors& s) {
+  if (stand.has("levelling_arcsec")) {
+    const Keys l(stand.at("levelling_arcsec"), stand.path("levelling_arcsec"), {"x", "z"});
+    l.number("x", s.levelling_x_rad, kArcsecToRad);
+    l.number("z", s.levelling_z_rad, kArcsecToRad);
+  }
+  if (stand.has("angle_offset_arcsec")) {
+    const Keys o(stand.at("angle_offset_arcsec"), stand.path("angle_offset_arcsec"),
+                 {"alpha1", "alpha2"});
+    o.number("alpha1", s.alpha1_offset_rad, kArcsecToRad);
+    o.number("alpha2", s.alpha2_offset_rad, kArcsecToRad);
+  }
+  if (stand.has("angle_scale_ppm")) {
+    const Keys o(stand.at("angle_scale_ppm"), stand.path("angle_scale_ppm"), {"alpha1", "alpha2"});
+    o.number("alpha1", s.alpha1_scale, kPpm);
+    o.number("alpha2", s.alpha2_scale, kPpm);
+  }
+  if (stand.has("skew_arcsec")) {
+    const Keys k(stand.at("skew_arcsec"), stand.path("skew_arcsec"), {"y", "z"});
+    k.number("y", s.skew_y_rad, kArcsecToRad);
+    k.number("z", s.skew_z_rad, kArcsecToRad);
+  }
+  if (stand.has("mounting_arcsec")) {
+    const Keys m(stand.at("mounting_arcsec"), stand.path("mounting_arcsec"), {"x", "y", "z"});
+    m.vec3("x", s.mounting_rad[0], kArcsecToRad);
+    m.vec3("y", s.mounting_rad[1], kArcsecToRad);
+    m.vec3("z", s.mounting_rad[2], kArcsecToRad);
+  }
+}
+
+}  // namespace
+
+TruthModel default_truth() {
+  TruthModel t;
+  t.unit.bias_g = Vec3(45, -30, 70) * kUg;
+  t.unit.scale = Vec3(150, -220, 310) * kPpm;
+  t.unit.gamma_rad << 0, 12, -15, 8, 0, 20, -10, 15, 0;
+  t.unit.gamma_rad *= kArcsecToRad;
+  t.stand.levelling_x_rad = 1.5 * kArcsecToRad;
+  t.stand.levelling_z_rad = -2.0 * kArcsecToRad;
+  t.stand.alpha1_offset_rad = 3.0 * kArcsecToRad;
+  t.stand.alpha2_offset_rad = -2.0 * kArcsecToRad;
+  t.stand.skew_y_rad = 3.0 * kArcsecToRad;
+  t.stand.skew_z_rad = -4.0 * kArcsecToRad;
+  t.stand.mounting_rad[0] = Vec3(30, -45, 20) * kArcsecToRad;
+  t.stand.mounting_rad[1] = Vec3(-25, 40, 15) * kArcsecToRad;
+  t.stand.mounting_rad[2] = Vec3(20, 35, -30) * kArcsecToRad;
+  return t;
+}
+
+json truth_to_json(const TruthModel& t) {
+  const Mat3& g = t.unit.gamma_rad;
+  const double as = kRadToArcsec;
+  const StandErrors& s = t.stand;
+  return {
+      {"format", "standcal-model/1"},
+      {"g_local_mps2", t.g_local_mps2},
+      {"unit",
+       {{"bias_ug", vec_json(t.unit.bias_g, 1.0 / kUg)},
+        {"scale_ppm", vec_json(t.unit.scale, 1.0 / kPpm)},
+        {"gamma_arcsec",
+         {{"xy", g(0, 1) * as}, {"yx", g(1, 0) * as}, {"xz", g(0, 2) * as},
+          {"zx", g(2, 0) * as}, {"yz", g(1, 2) * as}, {"zy", g(2, 1) * as}}}}},
+      {"stand",
+       {{"levelling_arcsec", {{"x", s.levelling_x_rad * as}, {"z", s.levelling_z_rad * as}}},
+        {"angle_offset_arcsec",
+         {{"alpha1", s.alpha1_offset_rad * as}, {"alpha2", s.alpha2_offset_rad * as}}},
+        {"angle_scale_ppm", {{"alpha1", s.alpha1_scale / kPpm}, {"alpha2", s.alpha2_scale / kPpm}}},
+        {"skew_arcsec", {{"y", s.skew_y_rad * as}, {"z", s.skew_z_rad * as}}},
+        {"mounting_arcsec",
+         {{"x", vec_json(s.mounting_rad[0], as)},
+          {"y", vec_json(s.mounting_rad[1], as)},
+          {"z", vec_json(s.mounting_rad[2], as)}}}}},
+      {"noise",
+       {{"density_ug_rthz", t.noise.density_ug_rthz},
+        {"bias_instability_ug", t.noise.bias_instability_ug},
+        {"bias_instability_tau_s", t.noise.bias_instability_tau_s},
+        {"random_walk_ug_rthr", t.noise.random_walk_ug_rthr},
+        {"quantization_ug", t.noise.quantization_ug},
+        {"angle_noise_arcsec", t.noise.angle_noise_arcsec}}},
+      {"temperature",
+       {{"start_c", t.temperature.start_c},
+        {"rate_c_per_h", t.temperature.rate_c_per_h},
+        {"noise_c", t.temperature.noise_c}}}};
+}
+
+TruthModel truth_from_json(const json& doc, const std::string& source) {
+  const Keys top(doc, source, {"format", "g_local_mps2", "unit", "stand", "noise", "temperature"});
+  if (top.has("format") && top.at("format") != "standcal-model/1")
+    throw std::runtime_error(source + ".format: expected \"standcal-model/1\"");
+  TruthModel t;
+  t.unit = UnitErrors{};
+  t.stand = StandErrors{};
+  top.number("g_local_mps2", t.g_local_mps2);
+  if (top.has("unit")) {
+    const Keys unit(top.at("unit"), top.path("unit"), {"bias_ug", "scale_ppm", "gamma_arcsec"});
+    unit.vec3("bias_ug", t.unit.bias_g, kUg);
+    unit.vec3("scale_ppm", t.unit.scale, kPpm);
+    read_gamma(unit, t.unit);
+  }
+  if (top.has("stand"))
+    read_stand(Keys(top.at("stand"), top.path("stand"),
+                    {"levelling_arcsec", "angle_offset_arcsec", "angle_scale_ppm", "skew_arcsec",
+                     "mounting_arcsec"}),
+               t.stand);
+  if (top.has("noise")) {
+    const Keys n(top.at("noise"), top.path("noise"),
+                 {"density_ug_rthz", "bias_instability_ug", "bias_instability_tau_s",
+                  "random_walk_ug_rthr", "quantization_ug", "angle_noise_arcsec"});
+    n.number("density_ug_rthz", t.noise.density_ug_rthz);
+    n.number("bias_instability_ug", t.noise.bias_instability_ug);
+    n.number("bias_instability_tau_s", t.noise.bias_instability_tau_s);
+    n.number("random_walk_ug_rthr", t.noise.random_walk_ug_rthr);
+    n.number("quantization_ug", t.noise.quantization_ug);
+    n.number("angle_noise_arcsec", t.noise.angle_noise_arcsec);
+    if (t.noise.bias_instability_tau_s <= 0)
+      throw std::runtime_error(n.path("bias_instability_tau_s") + ": must be > 0");
+  }
+  if (top.has("temperature")) {
+    const Keys k(top.at("temperature"), top.path("temperature"), {"start_c", "rate_c_per_h", "noise_c"});
+    k.number("start_c", t.temperature.start_c);
+    k.number("rate_c_per_h", t.temperature.rate_c_per_h);
+    k.number("noise_c", t.temperature.noise_c);
+  }
+  return t;
+}
+
+TruthModel load_truth(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error(path + ": cannot open model file");
+  json doc;
+  try {
+    doc = json::parse(in);
+  } catch (const json::parse_error& e) {
+    throw std::runtime_error(path + ": not valid JSON (" + e.what() + ")");
+  }
+  return truth_from_json(doc, path);
+}
+
+void save_truth(const TruthModel& truth, const std::string& path) {
+  std::ofstream out(path);
+  out << truth_to_json(truth).dump(2) << "\n";
+  if (!out) throw std::runtime_error(path + ": could not write the model file");
+}
+
+UnitSimulator::UnitSimulator(const TruthModel& truth, std::uint64_t seed, double sample_rate_hz)
+    : truth_(truth),
+      sample_sigma_g_(truth.noise.density_ug_rthz * kUg * std::sqrt(sample_rate_hz)),
+      rng_(seed) {
+  for (int a = 0; a < 3; ++a)
+    bias_gauss_markov_g_[a] = truth_.noise.bias_instability_ug * kUg * gauss_(rng_);
+}
+
+void UnitSimulator::advance_bias_processes(double t_s) {
+  const double dt = t_s - t_last_s_;
+  if (dt <= 0) return;
+  t_last_s_ = t_s;
+  const NoiseModel& n = truth_.noise;
+  if (n.bias_instability_ug > 0) {
+    const double decay = std::exp(-dt / n.bias_instability_tau_s);
+    const double drive = n.bias_instability_ug * kUg * std::sqrt(1.0 - decay * decay);
+    for (int a = 0; a < 3; ++a)
+      bias_gauss_markov_g_[a] = decay * bias_gauss_markov_g_[a] + drive * gauss_(rng_);
+  }
+  if (n.random_walk_ug_rthr > 0) {
+    const double step = n.random_walk_ug_rthr * kUg * std::sqrt(dt / 3600.0);
+    for (int a = 0; a < 3; ++a) bias_random_walk_g_[a] += step * gauss_(rng_);
+  }
+}
+
+Vec3 UnitSimulator::specific_force_mps2(double t_s, double alpha1_cmd_deg, double alpha2_cmd_deg,
+                                        Mount m) {
+  advance_bias_processes(t_s);
+  const Vec3 u_true =
+      true_up_vector(alpha1_cmd_deg * kDegToRad, alpha2_cmd_deg * kDegToRad, m, truth_.stand);
+  Vec3 J = unit_output_g(truth_.unit, u_true) + bias_gauss_markov_g_ + bias_random_walk_g_;
+  for (int a = 0; a < 3; ++a) J[a] += sample_sigma_g_ * gauss_(rng_);
+  Vec3 f = J * truth_.g_local_mps2;
+  if (truth_.noise.quantization_ug > 0) {
+    const double lsb_mps2 = truth_.noise.quantization_ug * kUg * truth_.g_local_mps2;
+    for (int a = 0; a < 3; ++a) f[a] = lsb_mps2 * std::round(f[a] / lsb_mps2);
+  }
+  return f;
+}
+
+double UnitSimulator::temperature_c(double t_s) {
+  const TemperatureProfile& p = truth_.temperature;
+  return p.start_c + p.rate_c_per_h * t_s / 3600.0 + p.noise_c * gauss_(rng_);
+}
+
+double UnitSimulator::angle_reading_deg(double alpha_cmd_deg) {
+  return alpha_cmd_deg + truth_.noise.angle_noise_arcsec / 3600.0 * gauss_(rng_);
+}
+
+Recording simulate_run(const SimulationRequest& req) {
+  const Program program = normalise_program(req.program, req.limits);
+  if (req.timing.sample_rate_hz <= 0 || req.timing.dwell_s <= 0 || req.timing.move_rate_deg_s <= 0)
+    throw std::runtime_error("simulation needs sample rate, dwell and move rate > 0");
+  UnitSimulator unit(req.truth, req.seed, req.timing.sample_rate_hz);
+  Recording rec;
+  rec.source = "simulation";
+  rec.set_header("format", std::string(kRecordingFormat));
+  rec.set_header("g_local_mps2", std::to_string(req.truth.g_local_mps2));
+  rec.set_header("settle_s", std::to_string(req.timing.settle_s));
+  rec.set_header("sample_rate_hz", std::to_string(req.timing.sample_rate_hz));
+  rec.set_header("unit_serial", req.unit_serial);
+  rec.set_header("program", program.name);
+  rec.set_header("simulation_seed", std::to_string(req.seed));
+  rec.g_local_mps2 = req.truth.g_local_mps2;
+  rec.g_from_header = true;
+  rec.settle_s = req.timing.settle_s;
+  rec.sample_rate_hz = req.timing.sample_rate_hz;
+  rec.unit_serial = req.unit_serial;
+  rec.program = program.name;
+  rec.columns = {true, true, !program.remount_before().empty(), true, true};
+
+  std::vector<std::pair<double, double>> commanded;
+  for (const auto& p : program.positions) commanded.emplace_back(p.alpha1_deg, p.alpha2_deg);
+  const std::vector<int> approach = approach_directions(commanded);
+  const std::vector<std::size_t> remounts = program.remount_before();
+
+  double t_s = 0, a1 = 0, a2 = 0;
+  for (std::size_t i = 0; i < program.positions.size(); ++i) {
+    const ProgramPosition& p = program.positions[i];
+    if (std::find(remounts.begin(), remounts.end(), i) != remounts.end()) t_s += req.timing.remount_s;
+    t_s += std::max(std::abs(p.alpha1_deg - a1), std::abs(p.alpha2_deg - a2)) /
+           req.timing.move_rate_deg_s;
+    const double t_arrive_s = t_s;
+    const double t_first_s = t_arrive_s + p.settle_s.value_or(req.timing.settle_s);
+    const auto n = static_cast<long>(std::llround(p.dwell_s.value_or(req.timing.dwell_s) *
+                                                  req.timing.sample_rate_hz));
+    for (long k = 0; k < n; ++k) {
+      RecordingSample s;
+      s.t_s = t_first_s + static_cast<double>(k) / req.timing.sample_rate_hz;
+      s.pos = static_cast<int>(i);
+      s.alpha1_cmd_deg = p.alpha1_deg;
+      s.alpha2_cmd_deg = p.alpha2_deg;
+      s.alpha1_deg = unit.angle_reading_deg(p.alpha1_deg);
+      s.alpha2_deg = unit.angle_reading_deg(p.alpha2_deg);
+      s.f_mps2 = unit.specific_force_mps2(s.t_s, p.alpha1_deg, p.alpha2_deg, p.mount);
+      s.temp_c = unit.temperature_c(s.t_s);
+      if (rec.columns.mount) s.mount = p.mount;
+      s.t_arrive_s = t_arrive_s;
+      s.approach = approach[i];
+      rec.samples.push_back(s);
+      t_s = s.t_s;
+    }
+    a1 = p.alpha1_deg;
+    a2 = p.alpha2_deg;
+  }
+  return rec;
+}
+
+}  // namespace standcal

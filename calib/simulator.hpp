@@ -1,0 +1,94 @@
+#pragma once
+// The simulated calibration run: per-sample streams from the full measurement model
+// (model.md) with white noise, bias instability, bias random walk, quantisation, a
+// temperature profile, stand moves, settling and dwell. Seeded and reproducible.
+#include <cstdint>
+#include <nlohmann/json_fwd.hpp>
+#include <random>
+#include <string>
+
+#include "calib/model.hpp"
+#include "calib/programs.hpp"
+#include "calib/recording.hpp"
+
+namespace standcal {
+
+struct NoiseModel {
+  double density_ug_rthz = 10;        // white noise N; one sample has sigma N*sqrt(fs)
+  double bias_instability_ug = 0;     // first-order Gauss-Markov bias, steady-state sigma
+  double bias_instability_tau_s = 300;
+  double random_walk_ug_rthr = 0;     // bias random walk: sigma grows as K*sqrt(t / 1 h)
+  double quantization_ug = 0;         // output LSB, 0 = none
+  double angle_noise_arcsec = 0;      // noise of the recorded angle-sensor readings
+};
+
+struct TemperatureProfile {
+  double start_c = 23;
+  double rate_c_per_h = 0;
+  double noise_c = 0.005;
+};
+
+// Everything the simulator needs to know about the world: the `--truth` / `--model`
+// JSON (format standcal-model/1).
+struct TruthModel {
+  double g_local_mps2 = 9.81625;
+  UnitErrors unit;
+  StandErrors stand;
+  NoiseModel noise;
+  TemperatureProfile temperature;
+};
+
+// A realistic navigation-grade unit on a well-adjusted stand (model.md magnitudes).
+TruthModel default_truth();
+nlohmann::json truth_to_json(const TruthModel& truth);
+// Reads a model; throws std::runtime_error naming `source` and the bad key.
+TruthModel truth_from_json(const nlohmann::json& doc, const std::string& source);
+TruthModel load_truth(const std::string& path);
+void save_truth(const TruthModel& truth, const std::string& path);
+
+struct RunTiming {
+  double sample_rate_hz = 100;
+  double dwell_s = 60;
+  double settle_s = 5;
+  double move_rate_deg_s = 10;
+  double remount_s = 600;
+};
+
+// The unit on the stand, sample by sample. Noise processes advance with time, so the
+// calls must come in non-decreasing t_s (the drivers' simulated backend uses this too).
+class UnitSimulator {
+ public:
+  UnitSimulator(const TruthModel& truth, std::uint64_t seed, double sample_rate_hz);
+  // Specific force (m/s^2) at time t_s with the stand at the commanded angles.
+  Vec3 specific_force_mps2(double t_s, double alpha1_cmd_deg, double alpha2_cmd_deg, Mount m);
+  // Unit temperature at time t_s (deg C).
+  double temperature_c(double t_s);
+  // A recorded angle-sensor reading of a commanded angle (with the sensor noise).
+  double angle_reading_deg(double alpha_cmd_deg);
+
+ private:
+  void advance_bias_processes(double t_s);
+
+  TruthModel truth_;
+  double sample_sigma_g_;
+  std::mt19937_64 rng_;
+  std::normal_distribution<double> gauss_{0.0, 1.0};
+  double t_last_s_ = 0;
+  Vec3 bias_gauss_markov_g_ = Vec3::Zero();
+  Vec3 bias_random_walk_g_ = Vec3::Zero();
+};
+
+struct SimulationRequest {
+  Program program;
+  TruthModel truth;
+  RunTiming timing;
+  StandLimits limits;
+  std::uint64_t seed = 1;
+  std::string unit_serial = "AU-SIM";
+};
+
+// A whole run in the recording format: the stand starts at (0, 0) at t = 0, moves to
+// each position at the move rate (both axes at once), settles, then records the dwell.
+Recording simulate_run(const SimulationRequest& request);
+
+}  // namespace standcal

@@ -1,0 +1,14 @@
+#!/usr/bin/env bash
+# Configures and builds one flavour of standcal: release (default) or asan.
+#   scripts/build.sh [release|asan]   -> build/<flavour>
+set -euo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
+flavour="${1:-release}"
+"$root/scripts/setup.sh"
+case "$flavour" in
+  release) flags=(-DCMAKE_BUILD_TYPE=Release) ;;
+  asan) flags=(-DCMAKE_BUILD_TYPE=RelWithDebInfo -DSTANDCAL_SANITIZE=ON -DSTANDCAL_BUILD_BENCH=OFF) ;;
+  *) echo "build.sh: unknown flavour '$flavour' (release, asan)" >&2; exit 2 ;;
+esac
+cmake -S "$root" -B "$root/build/$flavour" -G Ninja "${flags[@]}" >/dev/null
+cmake --build "$root/build/$flavour" -j "$(nproc)"

@@ -1,0 +1,27 @@
+#!/usr/bin/env bash
+# Installs every Debian package standcal builds, tests or runs with. Idempotent:
+# packages already present are skipped, so a second run is fast and offline-safe.
+set -euo pipefail
+
+packages=(
+  build-essential cmake ninja-build pkg-config
+  libeigen3-dev nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev
+  libmodbus-dev libsystemd-dev
+  libgtest-dev libgmock-dev libbenchmark-dev
+  socat
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || missing+=("$p")
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  exit 0
+fi
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+echo "setup: installing ${missing[*]}" >&2
+$SUDO apt-get update -qq
+DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >&2

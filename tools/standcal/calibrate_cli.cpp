@@ -1,0 +1,124 @@
+// `standcal simulate` and `standcal fit`: the offline calibration commands.
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+
+#include "calib/averaging.hpp"
+#include "calib/invariant_estimator.hpp"
+#include "calib/programs.hpp"
+#include "calib/recording.hpp"
+#include "calib/report.hpp"
+#include "calib/simulator.hpp"
+#include "tools/standcal/commands.hpp"
+
+namespace standcal::cli {
+
+namespace {
+
+struct SimulateOptions {
+  std::string program = "paper9";
+  std::uint64_t seed = 1;
+  std::string output;
+  std::string truth_out;
+  std::string model_in;
+  std::string unit_serial = "AU-SIM";
+  double alpha1_start_deg = 0;
+  RunTiming timing;
+  std::string fit_method;
+};
+
+struct FitOptions {
+  std::string recording;
+  std::string method = "joint";
+  bool json = false;
+  std::string compensation;
+};
+
+void write_text_file(const std::string& path, const std::string& text) {
+  std::ofstream out(path);
+  out << text;
+  if (!out) throw std::runtime_error(path + ": could not write");
+}
+
+void run_simulate(const SimulateOptions& o) {
+  SimulationRequest req;
+  req.program = load_program(o.program, o.alpha1_start_deg);
+  req.truth = o.model_in.empty() ? default_truth() : load_truth(o.model_in);
+  req.timing = o.timing;
+  req.seed = o.seed;
+  req.unit_serial = o.unit_serial;
+  const Recording rec = simulate_run(req);
+  write_recording(rec, o.output);
+  if (!o.truth_out.empty()) save_truth(req.truth, o.truth_out);
+  std::fprintf(stderr, "simulated %s: %zu positions, %zu samples, %.0f s of run -> %s\n",
+               req.program.name.c_str(), req.program.positions.size(), rec.samples.size(),
+               rec.samples.empty() ? 0.0 : rec.samples.back().t_s, o.output.c_str());
+}
+
+FitResult fit_with(const std::string& method, const std::vector<PositionAverage>& averages) {
+  if (method == "joint") return fit_invariant_joint(averages);
+  if (method == "paper-sequential") return fit_paper_sequential(averages);
+  throw std::runtime_error("unknown fit method '" + method + "' (joint, paper-sequential)");
+}
+
+void write_compensation(const FitResult& fit, double g_mps2, const std::string& path) {
+  const Compensation c = make_compensation(fit, g_mps2);
+  std::string stem = path;
+  if (stem.size() > 5 && stem.substr(stem.size() - 5) == ".json") stem.resize(stem.size() - 5);
+  write_text_file(stem + ".json", compensation_to_json(c).dump(2) + "\n");
+  write_text_file(stem + ".csv", compensation_to_csv(c));
+  std::fprintf(stderr, "compensation written to %s.json and %s.csv\n", stem.c_str(), stem.c_str());
+}
+
+void run_fit(const FitOptions& o) {
+  const Recording rec = read_recording(o.recording);
+  for (const std::string& w : rec.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  std::vector<PositionAverage> averages = average_positions(rec);
+  const FitResult fit = fit_with(o.method, averages);
+  if (o.json) {
+    std::cout << fit_to_json(fit).dump(2) << "\n";
+  } else {
+    std::cout << format_report(fit, report_context(rec, std::move(averages)));
+  }
+  if (!o.compensation.empty()) write_compensation(fit, rec.g_local_mps2, o.compensation);
+}
+
+void add_calibrate_commands(CLI::App& app) {
+  auto sim_opts = std::make_shared<SimulateOptions>();
+  CLI::App* sim = app.add_subcommand("simulate", "simulate a calibration run into a recording");
+  sim->add_option("--program", sim_opts->program, "paper9, classic24 or a programme JSON file")
+      ->capture_default_str();
+  sim->add_option("--seed", sim_opts->seed, "random seed (same seed, same recording)")
+      ->capture_default_str();
+  sim->add_option("-o,--output", sim_opts->output, "recording to write")->required();
+  sim->add_option("--truth", sim_opts->truth_out, "write the model used (JSON)");
+  sim->add_option("--model", sim_opts->model_in, "simulate this model (JSON, as --truth writes)")
+      ->check(CLI::ExistingFile);
+  sim->add_option("--unit-serial", sim_opts->unit_serial)->capture_default_str();
+  sim->add_option("--alpha1-start-deg", sim_opts->alpha1_start_deg, "paper9's alpha1(1)")
+      ->capture_default_str();
+  sim->add_option("--dwell-s", sim_opts->timing.dwell_s)->capture_default_str()->check(CLI::PositiveNumber);
+  sim->add_option("--settle-s", sim_opts->timing.settle_s)->capture_default_str()->check(CLI::NonNegativeNumber);
+  sim->add_option("--rate-hz", sim_opts->timing.sample_rate_hz)->capture_default_str()->check(CLI::PositiveNumber);
+  sim->add_option("--move-rate-deg-s", sim_opts->timing.move_rate_deg_s)->capture_default_str()->check(CLI::PositiveNumber);
+  sim->add_option("--remount-s", sim_opts->timing.remount_s)->capture_default_str()->check(CLI::NonNegativeNumber);
+  sim->callback([sim_opts] { run_simulate(*sim_opts); });
+
+  auto fit_opts = std::make_shared<FitOptions>();
+  CLI::App* fit = app.add_subcommand("fit", "estimate the unit's parameters from a recording");
+  fit->add_option("recording", fit_opts->recording, "recording (standcal-recording/1 CSV)")
+      ->required();
+  fit->add_option("--method", fit_opts->method, "joint | paper-sequential")->capture_default_str();
+  fit->add_flag("--json", fit_opts->json, "machine-readable output");
+  fit->add_option("--compensation", fit_opts->compensation,
+                  "write the compensation (bias, correction matrix) as FILE.json and FILE.csv");
+  fit->callback([fit_opts] { run_fit(*fit_opts); });
+}
+
+const bool registered = register_command_group(add_calibrate_commands);
+
+}  // namespace
+
+}  // namespace standcal::cli

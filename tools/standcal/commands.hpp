@@ -1,0 +1,16 @@
+#pragma once
+// Sub-commands of `standcal` register themselves here, one file per command group
+// (simulate/fit, design, stand, unit, ...), so adding a group never edits main.cpp.
+#include <CLI/CLI.hpp>
+#include <functional>
+
+namespace standcal::cli {
+
+// Adds a command group's sub-commands to the application. Called once, at start-up.
+using CommandGroup = std::function<void(CLI::App& app)>;
+
+// Registers a group; use from a namespace-scope initialiser:
+//   static const bool registered = register_command_group(add_my_commands);
+bool register_command_group(CommandGroup group);
+
+}  // namespace standcal::cli
