@@ -1,6 +1,7 @@
 #include "calib/programs.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -18,6 +19,13 @@ ProgramPosition at(double alpha1_deg, double alpha2_deg, Mount mount = Mount::x)
   p.alpha2_deg = alpha2_deg;
   p.mount = mount;
   return p;
+}
+
+// An angle as an operator writes it: 122.5, not 122.500000.
+std::string deg_text(double deg) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", deg);
+  return buf;
 }
 
 std::string position_label(const std::string& source, std::size_t index, std::size_t count) {
@@ -149,15 +157,15 @@ Program normalise_program(const Program& program, const StandLimits& limits) {
     const auto a1 = normalise_angle_deg(p.alpha1_deg, limits.alpha1);
     const auto a2 = normalise_angle_deg(p.alpha2_deg, limits.alpha2);
     const auto range_text = [](const AxisRange& r) {
-      return "[" + std::to_string(r.min_deg) + ", " + std::to_string(r.max_deg) + "] deg";
+      return "[" + deg_text(r.min_deg) + ", " + deg_text(r.max_deg) + "] deg";
     };
     if (!a1)
       throw ProgramError(position_label(program.name, i, n) + ": alpha1 = " +
-                         std::to_string(p.alpha1_deg) + " deg has no equivalent angle in the "
+                         deg_text(p.alpha1_deg) + " deg has no equivalent angle in the "
                          "outer axis range " + range_text(limits.alpha1));
     if (!a2)
       throw ProgramError(position_label(program.name, i, n) + ": alpha2 = " +
-                         std::to_string(p.alpha2_deg) + " deg has no equivalent angle in the "
+                         deg_text(p.alpha2_deg) + " deg has no equivalent angle in the "
                          "inner axis range " + range_text(limits.alpha2));
     p.alpha1_deg = *a1;
     p.alpha2_deg = *a2;

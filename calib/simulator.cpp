@@ -236,9 +236,18 @@ void UnitSimulator::advance_bias_processes(double t_s) {
 Vec3 UnitSimulator::specific_force_mps2(double t_s, double alpha1_cmd_deg, double alpha2_cmd_deg,
                                         Mount m) {
   advance_bias_processes(t_s);
-  const Vec3 u_true =
-      true_up_vector(alpha1_cmd_deg * kDegToRad, alpha2_cmd_deg * kDegToRad, m, truth_.stand);
-  Vec3 J = unit_output_g(truth_.unit, u_true) + bias_gauss_markov_g_ + bias_random_walk_g_;
+  // The stand holds still during a dwell: compute the noise-free output once per position.
+  if (!cached_ || alpha1_cmd_deg != cached_alpha1_deg_ || alpha2_cmd_deg != cached_alpha2_deg_ ||
+      m != cached_mount_) {
+    const Vec3 u_true =
+        true_up_vector(alpha1_cmd_deg * kDegToRad, alpha2_cmd_deg * kDegToRad, m, truth_.stand);
+    cached_J_g_ = unit_output_g(truth_.unit, u_true);
+    cached_alpha1_deg_ = alpha1_cmd_deg;
+    cached_alpha2_deg_ = alpha2_cmd_deg;
+    cached_mount_ = m;
+    cached_ = true;
+  }
+  Vec3 J = cached_J_g_ + bias_gauss_markov_g_ + bias_random_walk_g_;
   for (int a = 0; a < 3; ++a) J[a] += sample_sigma_g_ * gauss_(rng_);
   Vec3 f = J * truth_.g_local_mps2;
   if (truth_.noise.quantization_ug > 0) {

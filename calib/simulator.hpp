@@ -76,6 +76,11 @@ class UnitSimulator {
   double t_last_s_ = 0;
   Vec3 bias_gauss_markov_g_ = Vec3::Zero();
   Vec3 bias_random_walk_g_ = Vec3::Zero();
+  bool cached_ = false;  // noise-free output of the last stand position
+  double cached_alpha1_deg_ = 0;
+  double cached_alpha2_deg_ = 0;
+  Mount cached_mount_ = Mount::x;
+  Vec3 cached_J_g_ = Vec3::Zero();
 };
 
 struct SimulationRequest {

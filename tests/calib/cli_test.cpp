@@ -1,0 +1,116 @@
+// The offline CLI as a user runs it: real process, real files.
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct CliRun {
+  int exit_code;
+  std::string output;  // stdout and stderr
+};
+
+CliRun run_cli(const std::string& args) {
+  const std::string command = std::string(STANDCAL_CLI) + " " + args + " 2>&1";
+  FILE* pipe = popen(command.c_str(), "r");
+  std::string out;
+  std::array<char, 4096> buf{};
+  while (std::size_t n = std::fread(buf.data(), 1, buf.size(), pipe)) out.append(buf.data(), n);
+  const int status = pclose(pipe);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+class Cli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("standcal_cli_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+  fs::path dir_;
+};
+
+}  // namespace
+
+TEST_F(Cli, SimulateThenFitJsonHasTheStableShape) {
+  ASSERT_EQ(run_cli("simulate --program paper9 --seed 5 --dwell-s 10 -o " + path("r.csv") + " --truth " +
+                path("t.json")).exit_code, 0);
+  const CliRun fit = run_cli("fit " + path("r.csv") + " --json");
+  ASSERT_EQ(fit.exit_code, 0) << fit.output;
+  const auto j = nlohmann::json::parse(fit.output);
+  EXPECT_EQ(j["estimator"], "joint");
+  EXPECT_EQ(j["positions"], 9);
+  EXPECT_EQ(j["redundancy"], 0);
+  EXPECT_TRUE(j["chi2_dof"].is_null());
+  EXPECT_TRUE(j["residual_rms_ug"].is_number());
+  for (const char* name : {"bias_x", "bias_y", "bias_z", "scale_x", "scale_y", "scale_z", "gamma12",
+                           "gamma13", "gamma23"}) {
+    EXPECT_TRUE(j["parameters"][name]["value"].is_number()) << name;
+    EXPECT_TRUE(j["parameters"][name]["sigma"].is_number()) << name;
+  }
+  EXPECT_EQ(j["parameters"]["bias_x"]["unit"], "ug");
+  EXPECT_EQ(j["parameters"]["scale_z"]["unit"], "ppm");
+  EXPECT_EQ(j["parameters"]["gamma13"]["unit"], "arcsec");
+  // The truth file holds what the simulator used, and re-simulating it is identical.
+  ASSERT_EQ(run_cli("simulate --program paper9 --seed 5 --dwell-s 10 -o " + path("r2.csv") + " --model " +
+                path("t.json")).exit_code, 0);
+  std::ifstream a(path("r.csv")), b(path("r2.csv"));
+  EXPECT_EQ(std::string(std::istreambuf_iterator<char>(a), {}), std::string(std::istreambuf_iterator<char>(b), {}));
+}
+
+TEST_F(Cli, ClassicProgrammeReportsGammaAsNullWithAReason) {
+  ASSERT_EQ(run_cli("simulate --program classic24 --dwell-s 2 -o " + path("c.csv")).exit_code, 0);
+  const CliRun fit = run_cli("fit " + path("c.csv") + " --json");
+  ASSERT_EQ(fit.exit_code, 0) << fit.output;
+  const auto j = nlohmann::json::parse(fit.output);
+  EXPECT_TRUE(j["parameters"]["gamma12"]["value"].is_null());
+  EXPECT_NE(j["parameters"]["gamma12"]["unobservable_reason"].get<std::string>().find("u_x*u_y"), std::string::npos);
+  EXPECT_EQ(j["redundancy"], 18);
+}
+
+TEST_F(Cli, TextReportSaysWhatABenchEngineerNeeds) {
+  ASSERT_EQ(run_cli("simulate --program paper9 --dwell-s 5 -o " + path("r.csv")).exit_code, 0);
+  const CliRun fit = run_cli("fit " + path("r.csv") + " --method paper-sequential --compensation " + path("comp"));
+  ASSERT_EQ(fit.exit_code, 0) << fit.output;
+  EXPECT_NE(fit.output.find("Estimator:  paper-sequential"), std::string::npos);
+  EXPECT_NE(fit.output.find("Zero redundancy"), std::string::npos);
+  EXPECT_NE(fit.output.find("gamma13"), std::string::npos);
+  const auto comp = nlohmann::json::parse(std::ifstream(path("comp.json")));
+  EXPECT_EQ(comp["equation"], "f = M * (f_raw - b)");
+  EXPECT_EQ(comp["matrix"].size(), 3u);
+  EXPECT_TRUE(fs::exists(path("comp.csv")));
+}
+
+TEST_F(Cli, BadRecordingFailsNamingLineAndWritesNothing) {
+  std::ofstream(path("bad.csv")) << "# format: standcal-recording/1\n"
+                                    "t_s,pos,alpha1_cmd_deg,alpha2_cmd_deg,fx_mps2,fy_mps2,fz_mps2\n"
+                                    "0,0,0,0,0,9.8,0\n"
+                                    "0.01,0,0,0,0,nine,0\n";
+  const CliRun fit = run_cli("fit " + path("bad.csv") + " --compensation " + path("comp"));
+  EXPECT_NE(fit.exit_code, 0);
+  EXPECT_NE(fit.output.find("bad.csv:4: column 6: column 'fy_mps2': 'nine' is not a number"), std::string::npos)
+      << fit.output;
+  EXPECT_FALSE(fs::exists(path("comp.json")));
+}
+
+TEST_F(Cli, UnknownProgrammeAndMethodAreClearErrors) {
+  const CliRun sim = run_cli("simulate --program paper10 -o " + path("x.csv"));
+  EXPECT_NE(sim.exit_code, 0);
+  EXPECT_NE(sim.output.find("paper10: not a built-in programme"), std::string::npos) << sim.output;
+  EXPECT_FALSE(fs::exists(path("x.csv")));
+  ASSERT_EQ(run_cli("simulate --dwell-s 1 -o " + path("r.csv")).exit_code, 0);
+  const CliRun fit = run_cli("fit " + path("r.csv") + " --method magic");
+  EXPECT_NE(fit.exit_code, 0);
+  EXPECT_NE(fit.output.find("unknown fit method 'magic'"), std::string::npos) << fit.output;
+}

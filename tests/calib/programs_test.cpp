@@ -1,0 +1,104 @@
+// Programmes: the paper's Table 2, the classic 24, user JSON, and the axis ranges.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include "calib/programs.hpp"
+#include "calib/units.hpp"
+
+using namespace standcal;
+
+TEST(Paper9, IsTable2WithConfigurableFirstAngle) {
+  const Program p = paper9(10.0, 1);
+  ASSERT_EQ(p.positions.size(), 9u);
+  for (int k = 0; k < 5; ++k) {
+    EXPECT_DOUBLE_EQ(p.positions[static_cast<std::size_t>(k)].alpha1_deg, 10.0 + 72.0 * k);
+    EXPECT_DOUBLE_EQ(p.positions[static_cast<std::size_t>(k)].alpha2_deg, 0.0);
+  }
+  EXPECT_DOUBLE_EQ(p.positions[5].alpha2_deg, 57.5);
+  EXPECT_DOUBLE_EQ(p.positions[6].alpha2_deg, 122.5);
+  EXPECT_DOUBLE_EQ(p.positions[7].alpha2_deg, 270.0);
+  EXPECT_DOUBLE_EQ(p.positions[8].alpha1_deg, 135.0);
+  EXPECT_DOUBLE_EQ(p.positions[8].alpha2_deg, 90.0);
+  EXPECT_TRUE(p.remount_before().empty());
+}
+
+TEST(Classic24, HasThreeMountingsTwoRemountsAndUnitUpVectors) {
+  const Program p = classic24();
+  ASSERT_EQ(p.positions.size(), 24u);
+  EXPECT_EQ(p.remount_before(), (std::vector<std::size_t>{8, 16}));
+  for (const auto& pos : p.positions) {
+    const Vec3 u = up_vector(pos.alpha1_deg * kDegToRad, pos.alpha2_deg * kDegToRad, pos.mount);
+    EXPECT_NEAR(u.cwiseAbs().maxCoeff(), 1.0, 1e-12);  // u = +-e_i
+  }
+}
+
+TEST(UserProgramme, ReadsPositionsWithOverrides) {
+  const auto doc = nlohmann::json::parse(R"({"name": "mine", "positions": [
+      {"alpha1_deg": 0, "alpha2_deg": 0},
+      {"alpha1_deg": 90, "alpha2_deg": 45, "mount": "y", "dwell_s": 120, "settle_s": 10}]})");
+  const Program p = program_from_json(doc, "mine.json");
+  EXPECT_EQ(p.name, "mine");
+  ASSERT_EQ(p.positions.size(), 2u);
+  EXPECT_EQ(p.positions[1].mount, Mount::y);
+  EXPECT_EQ(*p.positions[1].dwell_s, 120);
+  EXPECT_EQ(p.remount_before(), (std::vector<std::size_t>{1}));
+  EXPECT_EQ(program_from_json(program_to_json(p), "again").positions.size(), 2u);
+}
+
+TEST(UserProgramme, ErrorsNameTheFileAndThePosition) {
+  const auto message = [](const char* text) {
+    try {
+      program_from_json(nlohmann::json::parse(text), "p.json");
+    } catch (const ProgramError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(message(R"({"positions": [{"alpha1_deg": 0, "alpha2_deg": 0}, {"alpha1_deg": 5}]})"),
+            "p.json: position 2 of 2: 'alpha2_deg' is missing");
+  EXPECT_EQ(message(R"({"positions": [{"alpha1_deg": 0, "alpha2_deg": 0, "alpha_3": 1}]})"),
+            "p.json: position 1 of 1: unknown key 'alpha_3' (known: alpha1_deg, alpha2_deg, mount, "
+            "dwell_s, settle_s)");
+  EXPECT_EQ(message(R"({"positions": [{"alpha1_deg": 0, "alpha2_deg": 0, "mount": "q"}]})"),
+            "p.json: position 1 of 1: 'mount' must be \"x\", \"y\" or \"z\"");
+  EXPECT_EQ(message(R"({"positions": [{"alpha1_deg": 0, "alpha2_deg": 0, "dwell_s": -1}]})"),
+            "p.json: position 1 of 1: 'dwell_s' must be > 0");
+  EXPECT_EQ(message(R"({"positions": [{"alpha1_deg": "0", "alpha2_deg": 0}]})"),
+            "p.json: position 1 of 1: 'alpha1_deg' must be a number");
+  EXPECT_EQ(message(R"({"positions": []})"), "p.json: 'positions' is empty");
+  EXPECT_EQ(message(R"([1, 2])"), "p.json: a programme is an object with a 'positions' array");
+}
+
+TEST(AxisRange, LimitedAxisTakes270AsMinus90) {
+  const AxisRange pm180;
+  EXPECT_DOUBLE_EQ(*normalise_angle_deg(270, pm180), -90);
+  EXPECT_DOUBLE_EQ(*normalise_angle_deg(-270, pm180), 90);
+  EXPECT_DOUBLE_EQ(*normalise_angle_deg(180, pm180), 180);
+  EXPECT_DOUBLE_EQ(*normalise_angle_deg(725, pm180), 5);
+}
+
+TEST(AxisRange, ContinuousAxisWrapsToPlusMinus180) {
+  const AxisRange continuous{true, 0, 0};
+  EXPECT_DOUBLE_EQ(*normalise_angle_deg(270, continuous), -90);
+  EXPECT_DOUBLE_EQ(*normalise_angle_deg(-180, continuous), 180);
+}
+
+TEST(AxisRange, UnreachableAngleIsAnErrorNamingPositionAndAxis) {
+  StandLimits limits;
+  limits.alpha2 = AxisRange{false, -90, 90};
+  EXPECT_FALSE(normalise_angle_deg(150, limits.alpha2));
+  try {
+    normalise_program(paper9(), limits);
+    FAIL() << "paper9 needs alpha2 = 122.5";
+  } catch (const ProgramError& e) {
+    EXPECT_NE(std::string(e.what()).find("paper9: position 7 of 9: alpha2 = 122.5"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("inner axis range"), std::string::npos);
+  }
+}
+
+TEST(AxisRange, WideRangeKeepsAnAngleAlreadyInside) {
+  const AxisRange wide{false, -270, 270};
+  EXPECT_DOUBLE_EQ(*normalise_angle_deg(200, wide), 200);
+  EXPECT_DOUBLE_EQ(*normalise_angle_deg(300, wide), -60);
+}

@@ -1,0 +1,185 @@
+// The recording format's rules (recording-format.md), one test per rule.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "calib/recording.hpp"
+#include "calib/simulator.hpp"
+
+using namespace standcal;
+
+namespace {
+
+const std::string kHeader =
+    "# format: standcal-recording/1\n"
+    "# g_local_mps2: 9.81625\n"
+    "# settle_s: 5\n"
+    "# sample_rate_hz: 100\n"
+    "# unit_serial: AU-0042\n";
+const std::string kColumns =
+    "t_s,pos,alpha1_cmd_deg,alpha2_cmd_deg,alpha1_deg,alpha2_deg,fx_mps2,fy_mps2,fz_mps2,temp_c\n";
+const std::string kRow0 = "5.000,0,0.0000,0.0000,0.000012,-0.000210,0.000421,9.816702,-0.000217,23.05\n";
+const std::string kRow1 = "5.010,0,0.0000,0.0000,0.000012,-0.000210,0.000425,9.816700,-0.000219,23.05\n";
+const std::string kRow2 = "20.000,1,90.0000,0.0000,,,9.816702,0.000421,-0.000217,\n";
+
+// The error message of parsing `text`, or "" when it parses.
+std::string error_of(const std::string& text) {
+  try {
+    parse_recording(text, "rec.csv");
+  } catch (const RecordingError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST(RecordingReader, ReadsTheExampleOfTheFormatDocument) {
+  const Recording r = parse_recording(kHeader + kColumns + kRow0 + kRow1 + kRow2, "rec.csv");
+  ASSERT_EQ(r.samples.size(), 3u);
+  EXPECT_DOUBLE_EQ(r.g_local_mps2, 9.81625);
+  EXPECT_DOUBLE_EQ(r.settle_s, 5.0);
+  EXPECT_EQ(r.unit_serial, "AU-0042");
+  EXPECT_DOUBLE_EQ(r.samples[0].f_mps2.y(), 9.816702);
+  EXPECT_DOUBLE_EQ(r.samples[0].alpha2_deg, -0.000210);
+  EXPECT_TRUE(std::isnan(r.samples[2].alpha1_deg));  // empty optional field
+  EXPECT_TRUE(std::isnan(r.samples[2].temp_c));
+  EXPECT_TRUE(r.warnings.empty());
+}
+
+TEST(RecordingReader, FindsColumnsByNameInAnyOrder) {
+  const std::string text = kHeader + "fz_mps2,fy_mps2,fx_mps2,pos,t_s,alpha2_cmd_deg,alpha1_cmd_deg\n" +
+                           "3,2,1,0,0.5,20,10\n";
+  const Recording r = parse_recording(text, "rec.csv");
+  EXPECT_EQ(r.samples[0].f_mps2, Vec3(1, 2, 3));
+  EXPECT_DOUBLE_EQ(r.samples[0].alpha1_cmd_deg, 10);
+  EXPECT_FALSE(r.columns.temp);
+}
+
+TEST(RecordingReader, IntegerAndDecimalHeaderNumbersAreTheSame) {
+  const std::string a = "# format: standcal-recording/1\n# g_local_mps2: 9.8\n# settle_s: 5\n";
+  const std::string b = "# format: standcal-recording/1\n# g_local_mps2: 9.8\n# settle_s: 5.0\n";
+  EXPECT_DOUBLE_EQ(parse_recording(a + kColumns + kRow0, "a").settle_s,
+                   parse_recording(b + kColumns + kRow0, "b").settle_s);
+}
+
+TEST(RecordingReader, KeepsUnknownHeaderKeysAndIgnoresThem) {
+  const Recording r = parse_recording(kHeader + "# operator: Ivanova\n" + kColumns + kRow0, "rec.csv");
+  EXPECT_EQ(r.header_value("operator"), "Ivanova");
+}
+
+TEST(RecordingReader, MissingGravityAssumesStandardWithAWarning) {
+  const Recording r = parse_recording("# format: standcal-recording/1\n" + kColumns + kRow0, "rec.csv");
+  EXPECT_DOUBLE_EQ(r.g_local_mps2, 9.80665);
+  ASSERT_EQ(r.warnings.size(), 1u);
+  EXPECT_NE(r.warnings[0].find("9.80665"), std::string::npos);
+}
+
+TEST(RecordingReader, TruncatedLastLineIsDroppedWithAWarning) {
+  const std::string cut = kRow1.substr(0, 20);  // no newline: a crash mid-write
+  const Recording r = parse_recording(kHeader + kColumns + kRow0 + cut, "rec.csv");
+  EXPECT_EQ(r.samples.size(), 1u);
+  ASSERT_EQ(r.warnings.size(), 1u);
+  EXPECT_NE(r.warnings[0].find("rec.csv:8"), std::string::npos);
+  EXPECT_NE(r.warnings[0].find("dropped"), std::string::npos);
+}
+
+TEST(RecordingReader, CompleteLastLineWithoutNewlineIsStillDropped) {
+  // The rule is about the newline: a line without one may be cut inside a number.
+  const std::string row = kRow1.substr(0, kRow1.size() - 1);
+  const Recording r = parse_recording(kHeader + kColumns + kRow0 + row, "rec.csv");
+  EXPECT_EQ(r.samples.size(), 1u);
+  EXPECT_EQ(r.warnings.size(), 1u);
+}
+
+TEST(RecordingErrors, MissingFormatHeader) {
+  EXPECT_NE(error_of("# g_local_mps2: 9.8\n" + kColumns + kRow0).find("'# format: standcal-recording/1' is missing"),
+            std::string::npos);
+}
+
+TEST(RecordingErrors, UnsupportedFormat) {
+  EXPECT_NE(error_of("# format: other/2\n" + kColumns + kRow0).find("rec.csv:1: unsupported format 'other/2'"),
+            std::string::npos);
+}
+
+TEST(RecordingErrors, MissingColumnIsNamed) {
+  const std::string cols = "t_s,pos,alpha1_cmd_deg,alpha2_cmd_deg,fx_mps2,fz_mps2\n";
+  EXPECT_NE(error_of(kHeader + cols + "0,0,0,0,1,2\n").find("rec.csv:6: required column 'fy_mps2' is missing"),
+            std::string::npos);
+}
+
+TEST(RecordingErrors, NonNumberNamesLineAndColumn) {
+  const std::string bad = "5.020,0,0.0000,0.0000,0.000012,-0.000210,0.000421,9.81x,-0.000217,23.05\n";
+  EXPECT_NE(error_of(kHeader + kColumns + kRow0 + bad + kRow2)
+                .find("rec.csv:8: column 8: column 'fy_mps2': '9.81x' is not a number"),
+            std::string::npos);
+}
+
+TEST(RecordingErrors, TimeGoingBackwards) {
+  EXPECT_NE(error_of(kHeader + kColumns + kRow1 + kRow0).find("rec.csv:8: column 1: t_s goes backwards"),
+            std::string::npos);
+}
+
+TEST(RecordingErrors, PositionBlockNotContiguous) {
+  const std::string again = "21.000,0,0.0000,0.0000,,,0.1,9.8,0.1,\n";
+  EXPECT_NE(error_of(kHeader + kColumns + kRow0 + kRow2 + again)
+                .find("rec.csv:9: column 2: position 0 appears again"),
+            std::string::npos);
+}
+
+TEST(RecordingErrors, WrongFieldCount) {
+  EXPECT_NE(error_of(kHeader + kColumns + "5.0,0,0,0\n").find("rec.csv:7: expected 10 fields"),
+            std::string::npos);
+}
+
+TEST(RecordingErrors, BadPositionIndexApproachMountAndHeaderNumber) {
+  EXPECT_NE(error_of(kHeader + kColumns + "5.0,-1,0,0,,,0,9.8,0,\n").find("not a position index"),
+            std::string::npos);
+  const std::string cols = "t_s,pos,alpha1_cmd_deg,alpha2_cmd_deg,fx_mps2,fy_mps2,fz_mps2,approach,mount\n";
+  EXPECT_NE(error_of(kHeader + cols + "5,0,0,0,0,9.8,0,2,x\n").find("column 8: column 'approach': '2' must be +1 or -1"),
+            std::string::npos);
+  EXPECT_NE(error_of(kHeader + cols + "5,0,0,0,0,9.8,0,1,w\n").find("column 9: column 'mount': 'w' is not x, y or z"),
+            std::string::npos);
+  EXPECT_NE(error_of("# format: standcal-recording/1\n# settle_s: five\n" + kColumns + kRow0)
+                .find("rec.csv:2: header 'settle_s': 'five' is not a number"),
+            std::string::npos);
+}
+
+TEST(RecordingErrors, CommandedAngleChangingInsideABlock) {
+  const std::string moved = "5.020,0,0.5000,0.0000,,,0.1,9.8,0.1,\n";
+  EXPECT_NE(error_of(kHeader + kColumns + kRow0 + moved).find("commanded angles change inside position 0"),
+            std::string::npos);
+}
+
+TEST(RecordingErrors, HeaderWithoutColumnLine) {
+  EXPECT_NE(error_of(kHeader).find("no column-header line"), std::string::npos);
+}
+
+TEST(RecordingWriter, RoundTripsASimulatedRunExactlyEnough) {
+  SimulationRequest req;
+  req.program = classic24();
+  req.timing.dwell_s = 0.5;
+  const Recording original = simulate_run(req);
+  const std::string path = (std::filesystem::temp_directory_path() / "standcal_roundtrip.csv").string();
+  write_recording(original, path);
+  const Recording back = read_recording(path);
+  std::filesystem::remove(path);
+  ASSERT_EQ(back.samples.size(), original.samples.size());
+  EXPECT_TRUE(back.columns.mount && back.columns.approach && back.columns.t_arrive);
+  for (std::size_t i = 0; i < back.samples.size(); i += 7) {
+    EXPECT_NEAR((back.samples[i].f_mps2 - original.samples[i].f_mps2).norm(), 0, 1e-9);
+    EXPECT_EQ(back.samples[i].pos, original.samples[i].pos);
+    EXPECT_EQ(back.samples[i].mount, original.samples[i].mount);
+    EXPECT_EQ(back.samples[i].approach, original.samples[i].approach);
+  }
+  EXPECT_EQ(back.unit_serial, original.unit_serial);
+  EXPECT_DOUBLE_EQ(back.g_local_mps2, original.g_local_mps2);
+}
+
+TEST(RecordingWriter, LeavesNoFileWhenTheDirectoryCannotBeWritten) {
+  Recording rec;
+  EXPECT_THROW(write_recording(rec, "/nonexistent-dir/rec.csv"), std::runtime_error);
+  EXPECT_FALSE(std::filesystem::exists("/nonexistent-dir/rec.csv"));
+}
