@@ -1,0 +1,67 @@
+#pragma once
+// AccelUnit: the accelerometer unit as the daemon sees it, whatever carries its data
+// (SocketCAN now, a simulated unit in drivers/sim). Real and simulated backends are
+// chosen in configuration, never with `if (simulated)` (docs/architecture.md).
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "drivers/status.hpp"
+
+namespace standcal::drivers {
+
+// One joined sample of the three accelerometers.
+struct AccelSample {
+  double t_s = 0;                          // sample time (CLOCK_REALTIME seconds)
+  std::array<double, 3> force_mps2{};      // specific force along x, y, z in m/s^2
+  double temperature_c = 0;                // unit temperature, NaN when not reported
+  std::uint64_t counter = 0;               // sample counter, unwrapped across wraps
+};
+
+// CAN controller error state (ISO 11898 fault confinement).
+enum class BusState { error_active, error_passive, bus_off };
+
+// Human-readable bus state: "error-active", "error-passive", "bus-off".
+const char* bus_state_name(BusState s);
+
+// Counters that tell an operator whether the link to the unit is healthy.
+struct AccelUnitHealth {
+  std::uint64_t frames = 0;              // data frames received
+  std::uint64_t samples = 0;             // complete samples delivered
+  std::uint64_t incomplete_samples = 0;  // samples dropped: a frame missing or late
+  std::uint64_t duplicate_frames = 0;    // frames seen twice (ignored)
+  std::uint64_t late_frames = 0;         // frames for samples already delivered/dropped
+  std::uint64_t unknown_frames = 0;      // frames with ids or lengths the layout lacks
+  std::uint64_t counter_resyncs = 0;     // sample counter jumped (unit restarted?)
+  std::uint64_t error_frames = 0;        // CAN error frames received
+  std::uint64_t restarts = 0;            // controller restarts after bus-off
+  BusState bus_state = BusState::error_active;
+  bool silent = false;                   // no frame within the silence timeout
+};
+
+class AccelUnit {
+ public:
+  virtual ~AccelUnit() = default;
+  // Where the unit is, for messages ("can0", "fd 5", "sim").
+  virtual std::string name() const = 0;
+  // Begins accepting samples; earlier queued data is discarded.
+  virtual Status start() = 0;
+  // Stops accepting samples.
+  virtual Status stop() = 0;
+  // Collects the samples of the next `seconds`; fails if the unit falls silent.
+  virtual Result<std::vector<AccelSample>> collect(double seconds) = 0;
+  // Link health counters since construction.
+  virtual AccelUnitHealth health() const = 0;
+};
+
+inline const char* bus_state_name(BusState s) {
+  switch (s) {
+    case BusState::error_active: return "error-active";
+    case BusState::error_passive: return "error-passive";
+    case BusState::bus_off: return "bus-off";
+  }
+  return "unknown";
+}
+
+}  // namespace standcal::drivers

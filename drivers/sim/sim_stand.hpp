@@ -1,0 +1,71 @@
+#pragma once
+// A simulated two-axis stand: constant-rate moves, homing to 0, the lifecycle and the
+// emergency stop of a real controller. Angles are what its angle sensors read; the
+// stand errors of calib's model act in the simulated unit (sim_unit.hpp).
+#include <array>
+#include <memory>
+#include <mutex>
+
+#include "drivers/sim/sim_clock.hpp"
+#include "drivers/stand.hpp"
+
+namespace standcal::drivers {
+
+struct SimStandConfig {
+  AxisRange outer;  // alpha1
+  AxisRange inner;  // alpha2
+  double move_rate_deg_s = 10;
+};
+
+class SimStand : public Stand {
+ public:
+  SimStand(std::shared_ptr<const SimClock> clock, const SimStandConfig& config);
+
+  Status configure() override;
+  Status activate() override;
+  Status deactivate() override;
+  Status cleanup() override;
+  Status recover() override;
+  Lifecycle lifecycle() const override;
+  Status enable(StandAxis axis) override;
+  Status disable(StandAxis axis) override;
+  Status home(StandAxis axis) override;
+  Status move_to(StandAxis axis, double angle_deg) override;
+  Status stop(StandAxis axis) override;
+  Status emergency_stop() override;
+  Result<AxisState> read_state(StandAxis axis) override;
+  Result<double> read_angle_deg(StandAxis axis) override;
+  AxisRange range(StandAxis axis) const override;
+  std::string name() const override { return "sim"; }
+
+  // Both angles (alpha1, alpha2) at simulated time t_s, for the simulated unit.
+  std::array<double, 2> angles_at_deg(double t_s) const;
+
+ private:
+  struct Axis {
+    AxisRange range;
+    bool enabled = false;
+    bool homed = false;
+    bool homing = false;
+    bool commanded = false;  // a move or homing was commanded and not stopped
+    double start_deg = 0;
+    double target_deg = 0;
+    double start_t_s = 0;
+  };
+  Axis& axis_of(StandAxis axis) { return axes_[axis == StandAxis::outer ? 0 : 1]; }
+  const Axis& axis_of(StandAxis axis) const { return axes_[axis == StandAxis::outer ? 0 : 1]; }
+  double angle_at(const Axis& a, double t_s) const;
+  bool arrived(const Axis& a, double t_s) const;
+  Status require_active(const char* what) const;
+  void settle_homing(Axis& a, double t_s);
+  void freeze(Axis& a, double t_s);
+
+  std::shared_ptr<const SimClock> clock_;
+  double rate_deg_s_;
+  mutable std::mutex mutex_;
+  Lifecycle lifecycle_ = Lifecycle::unconfigured;
+  bool estop_ = false;
+  std::array<Axis, 2> axes_;
+};
+
+}  // namespace standcal::drivers

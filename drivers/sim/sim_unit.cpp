@@ -1,0 +1,77 @@
+#include "drivers/sim/sim_unit.hpp"
+
+#include <cmath>
+
+namespace standcal::drivers {
+
+SimUnit::SimUnit(std::shared_ptr<const SimClock> clock, std::shared_ptr<const SimStand> stand,
+                 const TruthModel& truth, std::uint64_t seed, double sample_rate_hz)
+    : clock_(std::move(clock)),
+      stand_(std::move(stand)),
+      sample_rate_hz_(sample_rate_hz),
+      simulator_(truth, seed, sample_rate_hz) {}
+
+Status SimUnit::start() {
+  std::lock_guard lock(mutex_);
+  started_ = true;
+  next_sample_t_s_ = clock_->now_s();
+  return Status::ok();
+}
+
+Status SimUnit::stop() {
+  std::lock_guard lock(mutex_);
+  started_ = false;
+  return Status::ok();
+}
+
+Result<std::vector<AccelSample>> SimUnit::collect(double seconds) {
+  if (seconds <= 0) return Status::error(ErrorKind::invalid_argument, "collect needs seconds > 0");
+  {
+    std::lock_guard lock(mutex_);
+    if (!started_) return Status::error(ErrorKind::not_allowed, "sim unit is not started");
+  }
+  const double t_begin_s = clock_->now_s();
+  clock_->sleep_s(seconds);
+  std::lock_guard lock(mutex_);
+  if (silent_) {
+    health_.silent = true;
+    return Status::error(ErrorKind::timeout, "no data from the accelerometer unit (sim) for " +
+                                                 std::to_string(seconds) + " s: the unit is silent");
+  }
+  health_.silent = false;
+  // Samples on a fixed grid: continue it, or restart it when the caller paused.
+  if (next_sample_t_s_ < t_begin_s) next_sample_t_s_ = t_begin_s;
+  const double t_end_s = t_begin_s + seconds;
+  std::vector<AccelSample> out;
+  out.reserve(static_cast<std::size_t>(seconds * sample_rate_hz_) + 1);
+  for (; next_sample_t_s_ < t_end_s; next_sample_t_s_ += 1.0 / sample_rate_hz_) {
+    const auto angles = stand_->angles_at_deg(next_sample_t_s_);
+    const Vec3 f = simulator_.specific_force_mps2(next_sample_t_s_, angles[0], angles[1], mount_);
+    AccelSample s;
+    s.t_s = next_sample_t_s_;
+    s.force_mps2 = {f.x(), f.y(), f.z()};
+    s.temperature_c = simulator_.temperature_c(next_sample_t_s_);
+    s.counter = counter_++;
+    out.push_back(s);
+  }
+  health_.frames += 4 * out.size();
+  health_.samples += out.size();
+  return out;
+}
+
+AccelUnitHealth SimUnit::health() const {
+  std::lock_guard lock(mutex_);
+  return health_;
+}
+
+void SimUnit::remount(Mount mount) {
+  std::lock_guard lock(mutex_);
+  mount_ = mount;
+}
+
+void SimUnit::set_silent(bool silent) {
+  std::lock_guard lock(mutex_);
+  silent_ = silent;
+}
+
+}  // namespace standcal::drivers
