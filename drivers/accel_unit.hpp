@@ -13,10 +13,10 @@ namespace standcal::drivers {
 
 // One joined sample of the three accelerometers.
 struct AccelSample {
-  double t_s = 0;                          // sample time (CLOCK_REALTIME seconds)
-  std::array<double, 3> force_mps2{};      // specific force along x, y, z in m/s^2
-  double temperature_c = 0;                // unit temperature, NaN when not reported
-  std::uint64_t counter = 0;               // sample counter, unwrapped across wraps
+  double t_s = 0;                      // sample time (CLOCK_REALTIME seconds)
+  std::array<double, 3> force_mps2{};  // specific force along x, y, z in m/s^2
+  double temperature_c = 0;            // unit temperature, NaN when not reported
+  std::uint64_t counter = 0;           // sample counter, unwrapped across wraps
 };
 
 // CAN controller error state (ISO 11898 fault confinement).
@@ -37,7 +37,7 @@ struct AccelUnitHealth {
   std::uint64_t error_frames = 0;        // CAN error frames received
   std::uint64_t restarts = 0;            // controller restarts after bus-off
   BusState bus_state = BusState::error_active;
-  bool silent = false;                   // no frame within the silence timeout
+  bool silent = false;  // sampling found no frame within the silence timeout (until the next frame)
 };
 
 class AccelUnit {
@@ -57,9 +57,12 @@ class AccelUnit {
 
 inline const char* bus_state_name(BusState s) {
   switch (s) {
-    case BusState::error_active: return "error-active";
-    case BusState::error_passive: return "error-passive";
-    case BusState::bus_off: return "bus-off";
+    case BusState::error_active:
+      return "error-active";
+    case BusState::error_passive:
+      return "error-passive";
+    case BusState::bus_off:
+      return "bus-off";
   }
   return "unknown";
 }
