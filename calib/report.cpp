@@ -53,16 +53,19 @@ void append_parameters(std::string& out, const FitResult& fit) {
 }
 
 void append_residuals(std::string& out, const FitResult& fit, const ReportContext& ctx) {
-  out += "\nResiduals per position (ug; invariant residual = u.J - 1 minus the model):\n";
-  out += "  pos  alpha1    alpha2   mount  samples  residual      sigma   res/sigma\n";
+  const bool per_axis = !fit.residuals.empty() && fit.residuals[0].residual_g.size() == 3;
+  out += per_axis ? "\nResiduals per position and axis (ug; measured J minus the model):\n"
+                  : "\nResiduals per position (ug; invariant residual = u.J - 1 minus the model):\n";
+  out += "  pos  alpha1    alpha2   mount  samples  axis  residual      sigma   res/sigma\n";
   for (std::size_t k = 0; k < fit.residuals.size(); ++k) {
     const PositionResidual& r = fit.residuals[k];
     const std::size_t samples = k < ctx.averages.size() ? ctx.averages[k].samples : 0;
     for (Eigen::Index c = 0; c < r.residual_g.size(); ++c) {
       char line[160];
-      std::snprintf(line, sizeof line, "  %3d %8.3f %9.3f   %s  %7zu  %+9.3f  %9.3f   %+6.2f\n",
+      const char* axis = per_axis ? (c == 0 ? "x" : c == 1 ? "y" : "z") : "u";
+      std::snprintf(line, sizeof line, "  %3d %8.3f %9.3f   %s  %7zu   %s  %+9.3f  %9.3f   %+6.2f\n",
                     r.pos, r.alpha1_cmd_deg, r.alpha2_cmd_deg, mount_name(r.mount).c_str(), samples,
-                    r.residual_g[c] / kUg, r.sigma_g[c] / kUg, r.residual_g[c] / r.sigma_g[c]);
+                    axis, r.residual_g[c] / kUg, r.sigma_g[c] / kUg, r.residual_g[c] / r.sigma_g[c]);
       out += line;
     }
   }
@@ -162,10 +165,9 @@ std::string format_report(const FitResult& fit, const ReportContext& ctx) {
   if (!fit.stand.empty()) {
     out += "\nStand health (identifiable stand-error combinations):\n";
     for (const StandEstimate& s : fit.stand) {
-      char line[200];
-      std::snprintf(line, sizeof line, "  %-28s %+10.2f +- %6.2f %s  (%s)\n", s.name.c_str(), s.value,
-                    s.sigma, s.unit.c_str(), s.description.c_str());
-      out += line;
+      char line[120];
+      std::snprintf(line, sizeof line, "  %+10.2f +- %6.2f %-7s ", s.value, s.sigma, s.unit.c_str());
+      out += line + s.name + "\n      " + s.description + "\n";
     }
   }
   out += "\nModel check: residual rms " + format("%.3f", fit.residual_rms_g / kUg) +

@@ -114,3 +114,14 @@ TEST_F(Cli, UnknownProgrammeAndMethodAreClearErrors) {
   EXPECT_NE(fit.exit_code, 0);
   EXPECT_NE(fit.output.find("unknown fit method 'magic'"), std::string::npos) << fit.output;
 }
+
+TEST_F(Cli, FullVectorFitAddsStandHealth) {
+  ASSERT_EQ(run_cli("simulate --program paper9 --dwell-s 10 -o " + path("r.csv")).exit_code, 0);
+  const CliRun fit = run_cli("fit " + path("r.csv") + " --method full --json");
+  ASSERT_EQ(fit.exit_code, 0) << fit.output;
+  const auto j = nlohmann::json::parse(fit.output);
+  EXPECT_EQ(j["estimator"], "full");
+  EXPECT_TRUE(j["parameters"]["gamma13"]["value"].is_number());
+  ASSERT_TRUE(j.contains("stand"));
+  EXPECT_FALSE(j["stand"].empty());
+}

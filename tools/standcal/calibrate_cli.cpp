@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "calib/averaging.hpp"
+#include "calib/full_estimator.hpp"
 #include "calib/invariant_estimator.hpp"
 #include "calib/programs.hpp"
 #include "calib/recording.hpp"
@@ -34,6 +35,7 @@ struct FitOptions {
   std::string method = "joint";
   bool json = false;
   std::string compensation;
+  std::string mounting = "common";
 };
 
 void write_text_file(const std::string& path, const std::string& text) {
@@ -57,10 +59,15 @@ void run_simulate(const SimulateOptions& o) {
                rec.samples.empty() ? 0.0 : rec.samples.back().t_s, o.output.c_str());
 }
 
-FitResult fit_with(const std::string& method, const std::vector<PositionAverage>& averages) {
-  if (method == "joint") return fit_invariant_joint(averages);
-  if (method == "paper-sequential") return fit_paper_sequential(averages);
-  throw std::runtime_error("unknown fit method '" + method + "' (joint, paper-sequential)");
+FitResult fit_with(const FitOptions& o, const std::vector<PositionAverage>& averages) {
+  if (o.method == "joint") return fit_invariant_joint(averages);
+  if (o.method == "paper-sequential") return fit_paper_sequential(averages);
+  if (o.method == "full") {
+    FullFitOptions full;
+    full.mounting = o.mounting == "per-mount" ? MountingModel::per_mount : MountingModel::common_fixture;
+    return fit_full_vector(averages, full);
+  }
+  throw std::runtime_error("unknown fit method '" + o.method + "' (joint, paper-sequential, full)");
 }
 
 void write_compensation(const FitResult& fit, double g_mps2, const std::string& path) {
@@ -76,7 +83,7 @@ void run_fit(const FitOptions& o) {
   const Recording rec = read_recording(o.recording);
   for (const std::string& w : rec.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
   std::vector<PositionAverage> averages = average_positions(rec);
-  const FitResult fit = fit_with(o.method, averages);
+  const FitResult fit = fit_with(o, averages);
   if (o.json) {
     std::cout << fit_to_json(fit).dump(2) << "\n";
   } else {
@@ -110,7 +117,12 @@ void add_calibrate_commands(CLI::App& app) {
   CLI::App* fit = app.add_subcommand("fit", "estimate the unit's parameters from a recording");
   fit->add_option("recording", fit_opts->recording, "recording (standcal-recording/1 CSV)")
       ->required();
-  fit->add_option("--method", fit_opts->method, "joint | paper-sequential")->capture_default_str();
+  fit->add_option("--method", fit_opts->method, "joint | paper-sequential | full")
+      ->capture_default_str();
+  fit->add_option("--mounting", fit_opts->mounting,
+                  "full method, re-mounted programmes: common (one rigid fixture) | per-mount")
+      ->check(CLI::IsMember({"common", "per-mount"}))
+      ->capture_default_str();
   fit->add_flag("--json", fit_opts->json, "machine-readable output");
   fit->add_option("--compensation", fit_opts->compensation,
                   "write the compensation (bias, correction matrix) as FILE.json and FILE.csv");

@@ -1,0 +1,66 @@
+// Prints how long `design optimize` takes for N = 9 and N = 24 (target < 5 s each) and a
+// full-vector fit of a simulated 24-position recording (target < 0.2 s: read + average + fit).
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <unistd.h>
+
+#include "calib/averaging.hpp"
+#include "calib/design.hpp"
+#include "calib/full_estimator.hpp"
+#include "calib/programs.hpp"
+#include "calib/recording.hpp"
+#include "calib/simulator.hpp"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+void time_optimize(int positions) {
+  standcal::OptimizeOptions options;
+  options.positions = positions;
+  const auto t0 = Clock::now();
+  const auto best = standcal::optimize_program(options);
+  const double s = seconds_since(t0);
+  std::printf("optimize N=%-2d (invariant, %d restarts): %.3f s  [target < 5 s]  det^(1/9) %.4f (paper9 %.4f)\n",
+              positions, options.restarts, s, best.d_criterion, best.paper9_d_criterion);
+}
+
+void time_full_fit() {
+  standcal::SimulationRequest req;
+  req.program = standcal::classic24();
+  req.truth = standcal::default_truth();
+  req.timing.dwell_s = 10;
+  const auto path = (std::filesystem::temp_directory_path() /
+                     ("bench_design_" + std::to_string(::getpid()) + ".csv")).string();
+  standcal::write_recording(standcal::simulate_run(req), path);
+  constexpr int kRepeats = 5;
+  double fit_only = 0, whole = 0;
+  std::size_t samples = 0;
+  for (int r = 0; r < kRepeats; ++r) {
+    const auto t0 = Clock::now();
+    const standcal::Recording rec = standcal::read_recording(path);
+    const auto averages = standcal::average_positions(rec);
+    const auto t1 = Clock::now();
+    const standcal::FitResult fit = standcal::fit_full_vector(averages);
+    fit_only += seconds_since(t1) / kRepeats;
+    whole += seconds_since(t0) / kRepeats;
+    samples = rec.samples.size();
+    if (fit.positions != 24) std::printf("unexpected: %d positions fitted\n", fit.positions);
+  }
+  std::filesystem::remove(path);
+  std::printf("full-vector fit of a 24-position recording (%zu samples): fit %.4f s, read+average+fit %.4f s  "
+              "[target < 0.2 s]\n", samples, fit_only, whole);
+}
+
+}  // namespace
+
+int main() {
+  time_optimize(9);
+  time_optimize(24);
+  time_full_fit();
+  return 0;
+}

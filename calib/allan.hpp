@@ -1,0 +1,37 @@
+#pragma once
+// Overlapping Allan deviation of a sampled signal (IEEE Std 952 / 1293 conventions) and
+// the three noise figures read off it: white-noise density, bias instability, random walk.
+#include <optional>
+#include <vector>
+
+namespace standcal {
+
+struct AllanPoint {
+  double tau_s = 0;
+  double deviation = 0;  // same unit as the samples
+  long terms = 0;        // second differences averaged (confidence falls as this falls)
+};
+
+// Overlapping Allan deviation over one or more contiguous segments sampled every
+// sample_period_s (segments pool their second differences, so the static dwells of a
+// run can be combined). tau runs from one sample to a third of the longest segment,
+// about points_per_decade values per decade.
+std::vector<AllanPoint> overlapping_allan_deviation(const std::vector<std::vector<double>>& segments,
+                                                    double sample_period_s, int points_per_decade = 10);
+
+struct NoiseFigures {
+  // White noise N (unit/sqrt(Hz)): the slope -1/2 line read at tau = 1 s, so that the mean
+  // of a T-second dwell has sigma N / sqrt(T) (docs/model.md convention).
+  std::optional<double> white_density;
+  // Bias instability B (unit): the flat minimum of the curve / 0.664.
+  std::optional<double> bias_instability;
+  double bias_instability_tau_s = 0;
+  // Rate random walk K (unit / sqrt(s)): the slope +1/2 line read at tau = 3 s.
+  std::optional<double> random_walk;
+};
+
+// Reads the figures off a curve: each from the points whose local log-log slope is near
+// its signature slope (-1/2 before the minimum, +1/2 after it).
+NoiseFigures noise_figures(const std::vector<AllanPoint>& curve);
+
+}  // namespace standcal

@@ -1,0 +1,126 @@
+#pragma once
+// Experiment design (issue 3): what a programme can measure and how long it takes.
+// Information matrices for the invariant model (model.md eq. 22) and the full-vector
+// model, predicted 1 sigma per parameter, D- and A-criteria, bench time, D-optimal
+// programmes over the stand's reachable angles, and dwell allocation for a target.
+//
+// Noise convention (model.md): a dwell of T s has a mean with sigma N / sqrt(T) per axis;
+// the invariant measurement's sigma is that projected on u, which for equal axes is the same.
+#include <Eigen/Dense>
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "calib/full_estimator.hpp"
+#include "calib/parameters.hpp"
+#include "calib/programs.hpp"
+
+namespace standcal {
+
+enum class DesignModel { invariant, full };
+std::string design_model_name(DesignModel m);
+
+// Bench timing and noise; defaults are issue 3's.
+struct DesignSettings {
+  double noise_density_ug_rthz = 10;
+  double dwell_s = 30;  // per position, unless the programme overrides it
+  double settle_s = 5;
+  double move_rate_deg_s = 10;
+  double remount_s = 600;
+  MountingModel mounting = MountingModel::common_fixture;
+};
+
+// Target 1 sigma for the nine unit parameters (report units).
+struct AccuracyTarget {
+  double bias_ug = 2;
+  double scale_ppm = 2;
+  double gamma_arcsec = 1;
+  // Per unit parameter, internal units (g, dimensionless, rad).
+  std::array<double, kUnitParameterCount> sigma_internal() const;
+};
+// Parses "bias=2ug,scale=2ppm,gamma=1asec" (units optional; missing keys keep defaults).
+AccuracyTarget parse_accuracy_target(const std::string& text);
+
+// The linearised model of a programme: per pose a block G_k (rows x estimated parameters)
+// such that one dwell of T s at pose k adds T / N^2 * G_k^T G_k to the information.
+struct DesignBasis {
+  DesignModel model = DesignModel::invariant;
+  std::vector<Eigen::MatrixXd> blocks;
+  std::vector<std::string> parameter_names;           // estimated parameters, column order
+  std::array<int, kUnitParameterCount> unit_column{};  // column of each unit parameter, -1 if not observable
+  std::array<std::string, kUnitParameterCount> unobservable_reason;
+  std::vector<std::string> notes;                     // what is unobservable or constrained, and why
+  int columns() const { return static_cast<int>(parameter_names.size()); }
+};
+DesignBasis design_basis(const std::vector<StandPose>& poses, DesignModel model,
+                         MountingModel mounting = MountingModel::common_fixture);
+
+std::vector<StandPose> poses_of(const Program& program);
+
+struct BenchTime {
+  double move_s = 0, settle_s = 0, dwell_s = 0, remount_s = 0;
+  int remounts = 0;
+  double total_s() const { return move_s + settle_s + dwell_s + remount_s; }
+};
+// Moves run both axes at once from the previous position (the first from (0, 0)); settle
+// and dwell per position (programme overrides first, then `dwell_s` if given, then settings).
+BenchTime bench_time(const Program& program, const DesignSettings& settings,
+                     const std::vector<double>& dwell_s = {});
+
+struct DesignEvaluation {
+  std::string program;
+  DesignModel model = DesignModel::invariant;
+  std::vector<std::string> parameter_names;
+  Eigen::MatrixXd information;  // for the dwells and noise given, internal units
+  std::array<std::optional<double>, kUnitParameterCount> unit_sigma;  // report units
+  std::array<std::string, kUnitParameterCount> unobservable_reason;
+  double d_criterion = 0;  // det(unit-block information per unit measurement variance)^(1/9)
+  double a_criterion = 0;  // trace of the unit-block covariance per unit measurement variance
+  std::vector<std::string> notes;
+  std::vector<double> dwell_s;
+  BenchTime time;
+};
+DesignEvaluation evaluate_design(const Program& program, DesignModel model, const DesignSettings& settings);
+
+// D-criterion of a basis with weights per pose (empty: one unit each): det(M_unit)^(1/9),
+// where M_unit is the information of the unit parameters with nuisance ones marginalised.
+// Zero when a unit parameter is unobservable.
+double d_criterion(const DesignBasis& basis, const std::vector<double>& weights = {});
+
+struct DwellPlan {
+  std::vector<double> dwell_s;  // per position
+  double total_dwell_s = 0;
+  std::string limiting_parameter;  // the target that sets the time (equal dwell)
+  bool feasible = true;            // false when the programme cannot observe a target parameter
+  std::string reason;
+};
+// The least equal dwell per position meeting the target.
+DwellPlan equal_dwell_for_target(const DesignBasis& basis, const AccuracyTarget& target,
+                                 const DesignSettings& settings);
+// Dwell per position meeting the target in the least total dwell.
+DwellPlan allocated_dwell_for_target(const DesignBasis& basis, const AccuracyTarget& target,
+                                     const DesignSettings& settings);
+// The least total dwell any programme on this stand could need (continuous optimal design
+// over a grid of reachable poses, single mount).
+double continuous_lower_bound_s(DesignModel model, const AccuracyTarget& target, const DesignSettings& settings,
+                                const StandLimits& limits = {});
+
+struct OptimizeOptions {
+  int positions = 9;
+  DesignModel model = DesignModel::invariant;
+  bool paper_structure = false;  // 5 at alpha2 = 0, 3 at alpha1 = 0, one fixed at (45, 90)
+  StandLimits limits;
+  int restarts = 6;
+  unsigned seed = 1;
+};
+struct OptimizedProgram {
+  Program program;
+  double d_criterion = 0;
+  double paper9_d_criterion = 0;  // for comparison
+  int sweeps = 0;
+};
+// D-optimal programme by coordinate exchange (grid scan per position, then local polish).
+OptimizedProgram optimize_program(const OptimizeOptions& options);
+
+}  // namespace standcal

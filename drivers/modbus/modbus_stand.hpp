@@ -1,0 +1,83 @@
+#pragma once
+// The Stand over Modbus TCP or RTU (docs/stand-modbus.md).
+//
+// Threading: libmodbus contexts are not thread-safe, so each ModbusStand runs ONE I/O
+// thread that owns its link. Calls from any thread are queued to it and wait for the
+// answer; between requests that thread writes the heartbeat every
+// timing.heartbeat_period_s and, when the link is down, re-opens it with back-off.
+// Dropping a ModbusStand without deactivate() sends no command: the controller's
+// heartbeat watchdog stops any motion (comm-loss safety).
+#include <atomic>
+#include <condition_variable>
+#include <deque>
+#include <functional>
+#include <future>
+#include <memory>
+#include <mutex>
+#include <thread>
+
+#include "drivers/modbus/link.hpp"
+#include "drivers/modbus/register_map.hpp"
+#include "drivers/modbus/url.hpp"
+#include "drivers/stand.hpp"
+
+namespace standcal::drivers::modbus {
+
+class ModbusStand final : public Stand {
+ public:
+  // Checks the URL; opens nothing until configure().
+  static Result<std::unique_ptr<ModbusStand>> create(const std::string& url, ModbusStandConfig config);
+  ~ModbusStand() override;
+
+  Status configure() override;
+  Status activate() override;
+  Status deactivate() override;
+  Status cleanup() override;
+  Status recover() override;
+  Lifecycle lifecycle() const override { return lifecycle_.load(); }
+
+  Status enable(StandAxis axis) override;
+  Status disable(StandAxis axis) override;
+  Status home(StandAxis axis) override;
+  Status move_to(StandAxis axis, double angle_deg) override;
+  Status stop(StandAxis axis) override;
+  Status emergency_stop() override;
+
+  Result<AxisState> read_state(StandAxis axis) override;
+  Result<double> read_angle_deg(StandAxis axis) override;
+  AxisRange range(StandAxis axis) const override { return config_.ranges[static_cast<int>(axis) - 1]; }
+  std::string name() const override { return name_; }
+
+  std::uint64_t heartbeats_written() const { return heartbeats_.load(); }  // for bring-up and tests
+  int link_opens() const { return link_opens_.load(); }                     // 1 + reconnects so far
+
+ private:
+  ModbusStand(ModbusUrl url, ModbusStandConfig config);
+  // Runs `job` on the I/O thread and returns its Status; lifecycle → error on link loss.
+  Status on_link(std::function<Status(ModbusLink&)> job);
+  Status write_axis_command(StandAxis axis, AxisCommand command, const std::string& what);
+  Status require_active(const char* what) const;
+  Status open_and_arm(ModbusLink& link);
+  void io_loop();
+  void beat(ModbusLink& link);
+
+  struct Job {
+    std::function<Status(ModbusLink&)> run;
+    std::promise<Status> done;
+  };
+
+  ModbusUrl url_;
+  ModbusStandConfig config_;
+  std::string name_;
+  std::atomic<Lifecycle> lifecycle_{Lifecycle::unconfigured};
+  std::atomic<bool> heartbeat_on_{false};
+  std::atomic<std::uint64_t> heartbeats_{0};
+  std::atomic<int> link_opens_{0};
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  std::deque<Job*> queue_;
+  bool quit_ = false;
+  std::thread io_thread_;  // last: starts after every member it uses exists
+};
+
+}  // namespace standcal::drivers::modbus

@@ -1,0 +1,172 @@
+#include "drivers/socketcan/socketcan_unit.hpp"
+
+#include <linux/can.h>
+#include <sys/epoll.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <ctime>
+#include <vector>
+
+namespace standcal::drivers::can {
+namespace {
+
+double monotonic_now_s() {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<double>(ts.tv_sec) + static_cast<double>(ts.tv_nsec) * 1e-9;
+}
+
+double realtime_now_s() {
+  timespec ts{};
+  clock_gettime(CLOCK_REALTIME, &ts);
+  return static_cast<double>(ts.tv_sec) + static_cast<double>(ts.tv_nsec) * 1e-9;
+}
+
+std::string seconds_text(double s) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", s);
+  return buf;
+}
+
+}  // namespace
+
+Result<std::unique_ptr<SocketCanUnit>> SocketCanUnit::open(const std::string& iface,
+                                                           FrameLayout layout,
+                                                           SocketCanUnitConfig config) {
+  auto link = CanLink::open(iface, layout.can_ids());
+  if (!link) return link.status();
+  return std::make_unique<SocketCanUnit>(std::move(link.value()), std::move(layout), config);
+}
+
+Result<std::unique_ptr<SocketCanUnit>> SocketCanUnit::adopt_fd(int fd, FrameLayout layout,
+                                                               SocketCanUnitConfig config) {
+  auto link = CanLink::adopt(fd, "fd " + std::to_string(fd));
+  if (!link) return link.status();
+  return std::make_unique<SocketCanUnit>(std::move(link.value()), std::move(layout), config);
+}
+
+SocketCanUnit::SocketCanUnit(CanLink link, FrameLayout layout, SocketCanUnitConfig config)
+    : link_(std::move(link)),
+      layout_(std::move(layout)),
+      config_(config),
+      joiner_(layout_.counter_modulus(), config.join_window) {
+  epoll_fd_ = epoll_create1(EPOLL_CLOEXEC);
+  if (epoll_fd_ >= 0) {
+    epoll_event ev{};
+    ev.events = EPOLLIN;
+    ev.data.fd = link_.fd();
+    epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, link_.fd(), &ev);
+  }
+}
+
+SocketCanUnit::~SocketCanUnit() {
+  if (epoll_fd_ >= 0) ::close(epoll_fd_);
+}
+
+Status SocketCanUnit::start() {
+  if (epoll_fd_ < 0)
+    return Status::error(ErrorKind::link,
+                         "cannot watch CAN link " + link_.name() + ": epoll_create1 failed");
+  running_ = true;
+  joiner_.reset();
+  last_unit_frame_mono_s_ = monotonic_now_s();
+  std::vector<AccelSample> stale;  // frames queued before start: counted in health, not delivered
+  return read_queued(stale);
+}
+
+Status SocketCanUnit::stop() {
+  running_ = false;
+  return Status::ok();
+}
+
+Status SocketCanUnit::silence_error() const {
+  return Status::error(ErrorKind::timeout, "no CAN frame from the accelerometer unit on " +
+                                               link_.name() + " for " +
+                                               seconds_text(config_.silence_timeout_s) + " s");
+}
+
+Result<std::vector<AccelSample>> SocketCanUnit::collect(double seconds) {
+  if (!running_)
+    return Status::error(ErrorKind::not_allowed,
+                         "accelerometer unit on " + link_.name() + " is not started");
+  if (!(seconds > 0))
+    return Status::error(ErrorKind::invalid_argument, "sampling time must be positive");
+  std::vector<AccelSample> samples;
+  if (auto s = read_queued(samples); !s) return s;  // frames queued before this call
+  const double start_real_s = realtime_now_s();     // samples before it are not ours
+  const double deadline_s = monotonic_now_s() + seconds;
+  bus_off_seen_ = false;
+  for (;;) {
+    const double now = monotonic_now_s();
+    if (now - last_unit_frame_mono_s_ >= config_.silence_timeout_s) {
+      health_.silent = true;
+      joiner_.reset();
+      return silence_error();
+    }
+    if (now >= deadline_s) break;
+    const double wake_s = std::min(deadline_s, last_unit_frame_mono_s_ + config_.silence_timeout_s);
+    const int timeout_ms = static_cast<int>(std::ceil((wake_s - now) * 1000.0));
+    epoll_event ev{};
+    const int n = epoll_wait(epoll_fd_, &ev, 1, std::max(timeout_ms, 1));
+    if (n < 0 && errno != EINTR)
+      return Status::error(ErrorKind::link, "waiting for CAN frames on " + link_.name() +
+                                                " failed: " + std::strerror(errno));
+    if (n > 0)
+      if (auto s = read_queued(samples); !s) return s;
+    if (bus_off_seen_)
+      return Status::error(ErrorKind::link,
+                           "CAN controller of " + link_.name() +
+                               " went bus-off while sampling the accelerometer unit");
+  }
+  std::erase_if(samples, [&](const AccelSample& a) { return a.t_s < start_real_s; });
+  return samples;
+}
+
+Status SocketCanUnit::read_queued(std::vector<AccelSample>& out) {
+  ReceivedFrame f;
+  for (;;) {
+    auto r = link_.receive(f);
+    if (!r) return r.status();
+    if (!r.value()) return Status::ok();
+    if (auto s = handle(f, out); !s) return s;
+  }
+}
+
+Status SocketCanUnit::handle(const ReceivedFrame& f, std::vector<AccelSample>& out) {
+  if ((f.can_id & CAN_ERR_FLAG) != 0) {
+    ++health_.error_frames;
+    const BusEvent e = classify_error_frame(f.can_id, f.data, f.len);
+    if (apply_bus_event(e, health_.bus_state)) ++health_.restarts;
+    if (e.bus_off) bus_off_seen_ = true;
+    return Status::ok();
+  }
+  FrameValues v;
+  const std::uint32_t key =
+      f.can_id & (CAN_EFF_FLAG | ((f.can_id & CAN_EFF_FLAG) ? CAN_EFF_MASK : CAN_SFF_MASK));
+  if ((f.can_id & CAN_RTR_FLAG) != 0 || !layout_.decode(key, f.data, f.len, v)) {
+    ++health_.unknown_frames;
+    return Status::ok();
+  }
+  ++health_.frames;
+  health_.silent = false;
+  last_unit_frame_mono_s_ = monotonic_now_s();
+  if (running_) joiner_.add(v, f.t_s, out);
+  return Status::ok();
+}
+
+AccelUnitHealth SocketCanUnit::health() const {
+  AccelUnitHealth h = health_;
+  const JoinCounters& j = joiner_.counters();
+  h.samples = j.samples;
+  h.incomplete_samples = j.incomplete_samples;
+  h.duplicate_frames = j.duplicate_frames;
+  h.late_frames = j.late_frames;
+  h.counter_resyncs = j.counter_resyncs;
+  return h;
+}
+
+}  // namespace standcal::drivers::can

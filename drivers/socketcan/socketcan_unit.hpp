@@ -1,0 +1,57 @@
+#pragma once
+// The accelerometer unit on a CAN bus: CanLink (transport) + FrameLayout (decoder) +
+// SampleJoiner (per-axis frames -> samples), driven by epoll, with silence detection
+// and error-frame reporting (docs/unit-can.md).
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "drivers/accel_unit.hpp"
+#include "drivers/socketcan/can_link.hpp"
+#include "drivers/socketcan/frame_layout.hpp"
+#include "drivers/socketcan/sample_joiner.hpp"
+
+namespace standcal::drivers::can {
+
+struct SocketCanUnitConfig {
+  double silence_timeout_s = 0.5;  // no unit frame this long -> silent, sampling fails
+  std::uint32_t join_window = 4;   // samples a frame may lag before its sample is given up
+};
+
+class SocketCanUnit final : public AccelUnit {
+ public:
+  // Opens the unit on a CAN interface ("can0").
+  static Result<std::unique_ptr<SocketCanUnit>> open(const std::string& iface, FrameLayout layout,
+                                                     SocketCanUnitConfig config = {});
+  // Uses an fd that carries CAN frame datagrams (socketpair, inherited fd); takes ownership.
+  static Result<std::unique_ptr<SocketCanUnit>> adopt_fd(int fd, FrameLayout layout,
+                                                         SocketCanUnitConfig config = {});
+
+  SocketCanUnit(CanLink link, FrameLayout layout, SocketCanUnitConfig config);
+  ~SocketCanUnit() override;
+  SocketCanUnit(const SocketCanUnit&) = delete;
+  SocketCanUnit& operator=(const SocketCanUnit&) = delete;
+
+  std::string name() const override { return link_.name(); }
+  Status start() override;
+  Status stop() override;
+  Result<std::vector<AccelSample>> collect(double seconds) override;
+  AccelUnitHealth health() const override;
+
+ private:
+  Status read_queued(std::vector<AccelSample>& out);
+  Status handle(const ReceivedFrame& f, std::vector<AccelSample>& out);
+  Status silence_error() const;
+
+  CanLink link_;
+  FrameLayout layout_;
+  SocketCanUnitConfig config_;
+  SampleJoiner joiner_;
+  int epoll_fd_ = -1;
+  bool running_ = false;
+  bool bus_off_seen_ = false;  // a bus-off arrived while collecting
+  double last_unit_frame_mono_s_ = 0;
+  AccelUnitHealth health_;
+};
+
+}  // namespace standcal::drivers::can

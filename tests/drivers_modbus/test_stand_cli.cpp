@@ -1,0 +1,77 @@
+// `standcal stand ...` bring-up commands against the emulator process: what an engineer
+// types and reads.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "emulator_process.hpp"
+
+namespace standcal::test {
+namespace {
+
+struct CliRun {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr together
+};
+
+CliRun standcal_stand(const std::string& arguments) {
+  CliRun run;
+  const std::string command = std::string(STANDCAL_CLI_PATH) + " stand " + arguments + " 2>&1";
+  FILE* pipe = popen(command.c_str(), "r");
+  if (pipe == nullptr) return run;
+  char buffer[512];
+  while (std::fgets(buffer, sizeof buffer, pipe) != nullptr) run.output += buffer;
+  const int status = pclose(pipe);
+  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return run;
+}
+
+TEST(StandCli, EnableMoveAndStatusAgainstTheEmulator) {
+  EmulatorProcess emulator("tcp://127.0.0.1:0", {"--time-scale", "10"});
+  const std::string url = "--url " + emulator.url();
+  const CliRun enabled = standcal_stand(url + " enable");
+  ASSERT_EQ(enabled.exit_code, 0) << enabled.output;
+  const CliRun moved = standcal_stand(url + " --timeout-s 20 move 270 -45.5");
+  ASSERT_EQ(moved.exit_code, 0) << moved.output;
+  double outer_deg = 0, inner_deg = 0;
+  ASSERT_EQ(std::sscanf(moved.output.c_str(), "outer %lf° inner %lf°", &outer_deg, &inner_deg), 2) << moved.output;
+  EXPECT_NEAR(outer_deg, -90.0, 0.001);  // the angles reached, read with encoder noise
+  EXPECT_NEAR(inner_deg, -45.5, 0.001);
+  const CliRun status = standcal_stand(url + " status --json");
+  ASSERT_EQ(status.exit_code, 0) << status.output;
+  const auto json = nlohmann::json::parse(status.output);
+  EXPECT_NEAR(json["axes"]["outer"]["angle_deg"].get<double>(), -90.0, 0.001);
+  EXPECT_EQ(json["axes"]["inner"]["mode"], "in_position");
+  EXPECT_EQ(json["axes"]["inner"]["enabled"], true);
+}
+
+TEST(StandCli, NoServerExitsNonZeroWithOneLine) {
+  std::string url;
+  {
+    EmulatorProcess gone("tcp://127.0.0.1:0", {});
+    url = gone.url();
+  }
+  const CliRun run = standcal_stand("--url " + url + " status");
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_EQ(run.output.rfind("standcal: no reply from " + url + " unit 1 after 3 tries", 0), 0u) << run.output;
+  EXPECT_EQ(run.output.find('\n'), run.output.size() - 1) << "one line: " << run.output;
+}
+
+TEST(StandCli, EstopThenResetThenEnable) {
+  EmulatorProcess emulator("tcp://127.0.0.1:0", {});
+  const std::string url = "--url " + emulator.url();
+  ASSERT_EQ(standcal_stand(url + " estop").exit_code, 0);
+  const CliRun refused = standcal_stand(url + " enable");
+  EXPECT_EQ(refused.exit_code, 1);
+  EXPECT_NE(refused.output.find("recover first"), std::string::npos) << refused.output;
+  ASSERT_EQ(standcal_stand(url + " reset").exit_code, 0);
+  const CliRun enabled = standcal_stand(url + " enable");
+  EXPECT_EQ(enabled.exit_code, 0) << enabled.output;
+}
+
+}  // namespace
+}  // namespace standcal::test
