@@ -93,7 +93,75 @@ void read_stand(const Keys& stand, StandErrors& s) {
   }
 }
 
+bool is_pair_axis(const std::string& a) {
+  return a.size() == 2 && a[0] != a[1] && std::string("xyz").find(a[0]) != std::string::npos &&
+         std::string("xyz").find(a[1]) != std::string::npos;
+}
+
+bool is_single_axis(const std::string& a) { return a == "x" || a == "y" || a == "z"; }
+
+ExtraEffect read_extra_effect(const json& item, const std::string& where) {
+  const Keys k(item, where, {"id", "axis", "value", "unit", "tau_s"});
+  ExtraEffect e;
+  if (!k.has("id") || !k.at("id").is_string()) throw std::runtime_error(k.path("id") + ": must be a catalog id string");
+  e.id = k.at("id").get<std::string>();
+  const std::string unit = extra_effect_unit(e.id);
+  if (unit.empty())
+    throw std::runtime_error(k.path("id") + ": '" + e.id + "' is not an effect the simulator models");
+  if (!k.has("axis") || !k.at("axis").is_string()) throw std::runtime_error(k.path("axis") + ": must be a string");
+  e.axis = k.at("axis").get<std::string>();
+  const bool pair = e.id == "cross_coupling";
+  if (pair ? !is_pair_axis(e.axis) : !is_single_axis(e.axis))
+    throw std::runtime_error(k.path("axis") + ": '" + e.axis + "' is not " +
+                             (pair ? "an ordered axis pair such as \"zx\"" : "x, y or z"));
+  if (!k.has("value")) throw std::runtime_error(k.path("value") + ": missing");
+  k.number("value", e.value);
+  if (k.has("unit") && (!k.at("unit").is_string() || k.at("unit").get<std::string>() != unit))
+    throw std::runtime_error(k.path("unit") + ": must be \"" + unit + "\" for " + e.id);
+  k.number("tau_s", e.tau_s);
+  if (e.id == "settling_transient" && !(e.tau_s > 0)) throw std::runtime_error(k.path("tau_s") + ": must be > 0");
+  return e;
+}
+
+std::vector<ExtraEffect> read_extra_physics(const json& arr, const std::string& where) {
+  if (!arr.is_array()) throw std::runtime_error(where + ": must be an array of effects");
+  std::vector<ExtraEffect> out;
+  for (std::size_t i = 0; i < arr.size(); ++i)
+    out.push_back(read_extra_effect(arr[i], where + "[" + std::to_string(i) + "]"));
+  return out;
+}
+
 }  // namespace
+
+std::string extra_effect_unit(const std::string& id) {
+  if (id == "scale_nonlinearity_k2" || id == "cross_coupling") return "ug/g2";
+  if (id == "scale_nonlinearity_k3") return "ug/g3";
+  if (id == "bias_temperature") return "ug/degC";
+  if (id == "scale_temperature") return "ppm/degC";
+  if (id == "bias_drift") return "ug/h";
+  if (id == "hysteresis" || id == "settling_transient") return "ug";
+  return "";
+}
+
+int extra_effect_output_axis(const ExtraEffect& e) {
+  return static_cast<int>(std::string("xyz").find(e.axis.empty() ? 'x' : e.axis[0]));
+}
+
+double extra_effect_output_g(const ExtraEffect& e, const Vec3& J, double t_s, double temp_delta_c,
+                             int approach, double since_arrival_s) {
+  const int i = extra_effect_output_axis(e);
+  const double v = e.value * 1e-6;  // every catalog unit is micro-something per something
+  if (e.id == "scale_nonlinearity_k2") return v * J[i] * J[i];
+  if (e.id == "scale_nonlinearity_k3") return v * J[i] * J[i] * J[i];
+  if (e.id == "cross_coupling") return v * J[i] * J[static_cast<int>(std::string("xyz").find(e.axis[1]))];
+  if (e.id == "bias_temperature") return v * temp_delta_c;
+  if (e.id == "scale_temperature") return v * temp_delta_c * J[i];
+  if (e.id == "bias_drift") return v * t_s / 3600.0;
+  if (e.id == "hysteresis") return v * approach;
+  if (e.id == "settling_transient")
+    return since_arrival_s >= 0 ? v * std::exp(-since_arrival_s / e.tau_s) : 0.0;
+  return 0.0;
+}
 
 TruthModel default_truth() {
   TruthModel t;
@@ -113,7 +181,8 @@ TruthModel default_truth() {
   return t;
 }
 
-json truth_to_json(const TruthModel& t) {
+namespace {
+json base_truth_json(const TruthModel& t) {
   const Mat3& g = t.unit.gamma_rad;
   const double as = kRadToArcsec;
   const StandErrors& s = t.stand;
@@ -148,9 +217,26 @@ json truth_to_json(const TruthModel& t) {
         {"rate_c_per_h", t.temperature.rate_c_per_h},
         {"noise_c", t.temperature.noise_c}}}};
 }
+}  // namespace
+
+json truth_to_json(const TruthModel& t) {
+  json doc = base_truth_json(t);
+  // Only models with extra physics carry the key, so older model files stay byte-identical.
+  if (!t.extra_physics.empty()) {
+    json extra = json::array();
+    for (const ExtraEffect& e : t.extra_physics) {
+      json item = {{"id", e.id}, {"axis", e.axis}, {"value", e.value}, {"unit", extra_effect_unit(e.id)}};
+      if (e.id == "settling_transient") item["tau_s"] = e.tau_s;
+      extra.push_back(item);
+    }
+    doc["extra_physics"] = extra;
+  }
+  return doc;
+}
 
 TruthModel truth_from_json(const json& doc, const std::string& source) {
-  const Keys top(doc, source, {"format", "g_local_mps2", "unit", "stand", "noise", "temperature"});
+  const Keys top(doc, source,
+                 {"format", "g_local_mps2", "unit", "stand", "noise", "temperature", "extra_physics"});
   if (top.has("format") && top.at("format") != "standcal-model/1")
     throw std::runtime_error(source + ".format: expected \"standcal-model/1\"");
   TruthModel t;
@@ -187,6 +273,7 @@ TruthModel truth_from_json(const json& doc, const std::string& source) {
     k.number("rate_c_per_h", t.temperature.rate_c_per_h);
     k.number("noise_c", t.temperature.noise_c);
   }
+  if (top.has("extra_physics")) t.extra_physics = read_extra_physics(top.at("extra_physics"), top.path("extra_physics"));
   return t;
 }
 
@@ -248,6 +335,14 @@ Vec3 UnitSimulator::specific_force_mps2(double t_s, double alpha1_cmd_deg, doubl
     cached_ = true;
   }
   Vec3 J = cached_J_g_ + bias_gauss_markov_g_ + bias_random_walk_g_;
+  if (!truth_.extra_physics.empty()) {
+    // Deterministic terms only: the noise sequence stays that of the same model without them.
+    const TemperatureProfile& p = truth_.temperature;
+    const double temp_delta_c = p.rate_c_per_h * t_s / 3600.0;  // noise-free T - start_c
+    for (const ExtraEffect& e : truth_.extra_physics)
+      J[extra_effect_output_axis(e)] +=
+          extra_effect_output_g(e, cached_J_g_, t_s, temp_delta_c, approach_, t_s - t_arrive_s_);
+  }
   for (int a = 0; a < 3; ++a) J[a] += sample_sigma_g_ * gauss_(rng_);
   Vec3 f = J * truth_.g_local_mps2;
   if (truth_.noise.quantization_ug > 0) {
@@ -255,6 +350,11 @@ Vec3 UnitSimulator::specific_force_mps2(double t_s, double alpha1_cmd_deg, doubl
     for (int a = 0; a < 3; ++a) f[a] = lsb_mps2 * std::round(f[a] / lsb_mps2);
   }
   return f;
+}
+
+void UnitSimulator::set_position_context(int approach, double t_arrive_s) {
+  approach_ = approach;
+  t_arrive_s_ = t_arrive_s;
 }
 
 double UnitSimulator::temperature_c(double t_s) {
@@ -280,6 +380,11 @@ Recording simulate_run(const SimulationRequest& req) {
   rec.set_header("unit_serial", req.unit_serial);
   rec.set_header("program", program.name);
   rec.set_header("simulation_seed", std::to_string(req.seed));
+  if (!req.truth.extra_physics.empty()) {
+    // Temperature terms of the extra physics are referenced to the profile's start.
+    rec.set_header("temp_ref_c", std::to_string(req.truth.temperature.start_c));
+    rec.temp_ref_c = req.truth.temperature.start_c;
+  }
   rec.g_local_mps2 = req.truth.g_local_mps2;
   rec.g_from_header = true;
   rec.settle_s = req.timing.settle_s;
@@ -301,6 +406,7 @@ Recording simulate_run(const SimulationRequest& req) {
            req.timing.move_rate_deg_s;
     const double t_arrive_s = t_s;
     const double t_first_s = t_arrive_s + p.settle_s.value_or(req.timing.settle_s);
+    unit.set_position_context(approach[i], t_arrive_s);
     const auto n = static_cast<long>(std::llround(p.dwell_s.value_or(req.timing.dwell_s) *
                                                   req.timing.sample_rate_hz));
     for (long k = 0; k < n; ++k) {

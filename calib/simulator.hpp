@@ -6,6 +6,7 @@
 #include <nlohmann/json_fwd.hpp>
 #include <random>
 #include <string>
+#include <vector>
 
 #include "calib/model.hpp"
 #include "calib/programs.hpp"
@@ -28,6 +29,29 @@ struct TemperatureProfile {
   double noise_c = 0.005;
 };
 
+// One effect of the catalog of physics the calibration model leaves out (model.md,
+// "Physics the model leaves out"), in its report unit. `axis` is "x", "y" or "z", or for
+// cross_coupling the output axis then the other axis ("zx": K_zx a_z a_x on the z output).
+// Temperature terms are referenced to the temperature profile's start_c (the simulator
+// then writes `temp_ref_c` into the recording), drift to t = 0, hysteresis is h * d.
+struct ExtraEffect {
+  std::string id;     // bias_temperature, bias_drift, hysteresis, settling_transient,
+                      // scale_nonlinearity_k2, scale_nonlinearity_k3, cross_coupling,
+                      // scale_temperature
+  std::string axis;
+  double value = 0;   // ug/g2, ug/g3, ug/g2, ug/degC, ppm/degC, ug/h, ug, ug (amplitude)
+  double tau_s = 0;   // settling_transient only: time constant after arrival
+};
+
+// The report unit of a catalog id ("" when the id is unknown to the simulator).
+std::string extra_effect_unit(const std::string& id);
+// The effect's contribution to J (in g) of one accelerometer output. J_nominal is the
+// noise-free output without extra physics; temp_delta_c = T - temp_ref; approach = +-1.
+double extra_effect_output_g(const ExtraEffect& e, const Vec3& J_nominal_g, double t_s,
+                             double temp_delta_c, int approach, double time_since_arrival_s);
+// Index 0..2 of the output axis an effect acts on.
+int extra_effect_output_axis(const ExtraEffect& e);
+
 // Everything the simulator needs to know about the world: the `--truth` / `--model`
 // JSON (format standcal-model/1).
 struct TruthModel {
@@ -36,6 +60,7 @@ struct TruthModel {
   StandErrors stand;
   NoiseModel noise;
   TemperatureProfile temperature;
+  std::vector<ExtraEffect> extra_physics;  // optional `extra_physics` array in the JSON
 };
 
 // A realistic navigation-grade unit on a well-adjusted stand (model.md magnitudes).
@@ -65,6 +90,10 @@ class UnitSimulator {
   double temperature_c(double t_s);
   // A recorded angle-sensor reading of a commanded angle (with the sensor noise).
   double angle_reading_deg(double alpha_cmd_deg);
+  // Where the stand came from into the current position (approach +-1, model.md rule)
+  // and when it arrived: hysteresis and settling transients of the extra physics need
+  // them. Without a call: approach +1 and no transient.
+  void set_position_context(int approach, double t_arrive_s);
 
  private:
   void advance_bias_processes(double t_s);
@@ -81,6 +110,8 @@ class UnitSimulator {
   double cached_alpha2_deg_ = 0;
   Mount cached_mount_ = Mount::x;
   Vec3 cached_J_g_ = Vec3::Zero();
+  int approach_ = +1;
+  double t_arrive_s_ = -1e300;
 };
 
 struct SimulationRequest {

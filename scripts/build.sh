@@ -7,7 +7,9 @@ flavour="${1:-release}"
 "$root/scripts/setup.sh"
 case "$flavour" in
   release) flags=(-DCMAKE_BUILD_TYPE=Release) ;;
-  asan) flags=(-DCMAKE_BUILD_TYPE=RelWithDebInfo -DSTANDCAL_SANITIZE=ON -DSTANDCAL_BUILD_BENCH=OFF) ;;
+  # -O1 -g1: line tables for sanitizer reports, at a fraction of full debug info's build time.
+  asan) flags=(-DCMAKE_BUILD_TYPE=None "-DCMAKE_CXX_FLAGS=-O1 -g1" "-DCMAKE_C_FLAGS=-O1 -g1"
+               -DSTANDCAL_SANITIZE=ON -DSTANDCAL_BUILD_BENCH=OFF) ;;
   *) echo "build.sh: unknown flavour '$flavour' (release, asan)" >&2; exit 2 ;;
 esac
 cmake -S "$root" -B "$root/build/$flavour" -G Ninja "${flags[@]}" >/dev/null

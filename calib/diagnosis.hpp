@@ -1,0 +1,101 @@
+#pragma once
+// Model-mismatch diagnosis (issue 6): fit the baseline model, test whether its residuals
+// are noise, locate where they are not, test every candidate of the catalog of missing
+// physics (../shared/docs/model.md) with the parametrisations it fixes, keep a term only
+// if an information criterion AND a leave-positions-out prediction check both want it,
+// refit, and say what was found in words and as a model the simulator reproduces.
+#include <nlohmann/json_fwd.hpp>
+#include <string>
+#include <vector>
+
+#include "calib/fit_result.hpp"
+#include "calib/recording.hpp"
+#include "calib/simulator.hpp"
+
+namespace standcal {
+
+struct DiagnoseOptions {
+  // A term must lower chi2 by this much (4 sigma for one parameter: with ~50 candidates
+  // tested per round the chance of a false finding stays below 1 %), besides BIC.
+  double significance_chi2 = 16;
+  // Two candidates whose chi2 gains differ by less than this (3 sigma) cannot be told apart.
+  double ambiguity_chi2 = 9;
+  // Residuals count as consistent with noise when P(chi2 > observed) exceeds this.
+  double consistency_p = 1e-3;
+  // A candidate's signature must keep this fraction of its size after the baseline
+  // parameters have absorbed what they can; otherwise the programme cannot test it.
+  double min_unabsorbed_fraction = 0.05;
+  int max_terms = 4;
+  // Settling-transient time constants searched on the raw samples (s).
+  std::vector<double> settling_tau_grid_s{1, 2, 4, 8, 15, 30};
+};
+
+// A trend of the baseline's normalised residuals against one variable, per axis.
+struct StructureTest {
+  std::string axis;     // "x", "y", "z" (full vector) or "L" (invariant projection)
+  std::string against;  // "time", "temperature", "approach", "angle_u2", "angle_u3"
+  double z = 0;         // trend in sigma units (about N(0,1) for pure noise)
+};
+
+// One catalog candidate tested against the current model.
+struct CandidateTest {
+  std::string effect;  // catalog id
+  std::string axis;    // "x", "y", "z" or ordered pair "zx"
+  std::string unit;    // report unit
+  bool testable = true;
+  std::string reason;  // why not testable
+  double value = 0, sigma = 0;
+  double delta_chi2 = 0;
+  double delta_bic = 0;     // BIC(before) - BIC(after): positive favours the term
+  double press_gain = 0;    // held-out chi2 (leave-one-position-out) before - after
+  double tau_s = 0;         // settling transient only
+};
+
+struct Finding {
+  std::string effect, axis, unit;
+  double value = 0, sigma = 0, tau_s = 0;
+  double delta_chi2 = 0;
+  double chi2_dof_before = 0, chi2_dof_after = 0;
+  std::string absorbed_into;  // e.g. "bias_z (+23.1 ug)"
+  std::string explanation;
+};
+
+struct ProposedPosition {
+  double alpha1_deg = 0, alpha2_deg = 0;
+  double predicted_difference_sigma = 0;  // ambiguous: between the two rivals; else 0
+  std::string why;
+};
+
+// Normalised residuals (residual / standard error) of one position, before and after.
+struct ResidualRow {
+  int pos = 0;
+  double alpha1_deg = 0, alpha2_deg = 0, t_mid_s = 0, temp_c = 0;
+  int approach = 1;
+  std::vector<double> before, after;  // 3 (full) or 1 (invariant) components
+};
+
+struct Diagnosis {
+  std::string verdict;  // consistent | explained | unexplained | insufficient_redundancy | ambiguous
+  std::string method;   // "full" (full-vector) or "joint" (invariant)
+  std::string source;
+  FitResult baseline;
+  FitResult final_fit;
+  double baseline_p = 1, final_p = 1;  // P(chi2 > observed)
+  double final_chi2_dof = 0;
+  std::vector<StructureTest> structure;
+  std::vector<std::string> located;  // where the mismatch is, in words
+  std::vector<CandidateTest> candidates;  // the first round: every candidate vs the baseline
+  std::vector<Finding> findings;          // most significant first
+  std::vector<std::string> not_tested;    // catalog ids not tested, with why
+  std::vector<ProposedPosition> proposed_positions;
+  std::vector<ResidualRow> residuals;
+  std::vector<std::string> summary;  // the diagnosis in sentences, with numbers
+  TruthModel model;                  // augmented model for `standcal simulate --model`
+};
+
+Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& options = {});
+nlohmann::json diagnose_to_json(const Diagnosis& d);
+// A self-contained HTML page generated from the diagnosis (tables, no plots).
+std::string diagnose_to_html(const Diagnosis& d);
+
+}  // namespace standcal

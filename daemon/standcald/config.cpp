@@ -1,0 +1,245 @@
+#include "daemon/standcald/config.hpp"
+
+#include <cstdio>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+namespace standcal::daemon {
+
+using nlohmann::json;
+
+namespace {
+
+// One JSON object of the config, read key by key; keys nobody read are errors (a typo
+// must not silently fall back to a default).
+class Section {
+ public:
+  Section(const json& j, std::string path, const std::string& source)
+      : j_(j), path_(std::move(path)), source_(source) {
+    if (!j_.is_object()) fail("", "must be a JSON object");
+  }
+
+  [[noreturn]] void fail(const std::string& key, const std::string& why) const {
+    std::string where = path_;
+    if (!key.empty()) where += (where.empty() ? "" : ".") + key;
+    throw ConfigError(source_ + ": " + (where.empty() ? "top level" : where) + ": " + why);
+  }
+
+  const json* find(const std::string& key) {
+    seen_.insert(key);
+    auto it = j_.find(key);
+    return it == j_.end() ? nullptr : &*it;
+  }
+
+  void number(const std::string& key, double& out, double min, double max) {
+    const json* v = find(key);
+    if (v == nullptr) return;
+    if (!v->is_number()) fail(key, "must be a number");
+    const double d = v->get<double>();
+    if (!(d >= min && d <= max)) {
+      fail(key, "must be between " + fmt(min) + " and " + fmt(max) + " (got " + fmt(d) + ")");
+    }
+    out = d;
+  }
+  void integer(const std::string& key, int& out, int min, int max) {
+    double d = out;
+    number(key, d, min, max);
+    if (d != static_cast<double>(static_cast<int>(d))) fail(key, "must be a whole number");
+    out = static_cast<int>(d);
+  }
+  void text(const std::string& key, std::string& out) {
+    const json* v = find(key);
+    if (v == nullptr) return;
+    if (!v->is_string()) fail(key, "must be a string");
+    out = v->get<std::string>();
+  }
+  void choice(const std::string& key, std::string& out, std::initializer_list<const char*> allowed) {
+    text(key, out);
+    std::string list;
+    for (const char* a : allowed) {
+      if (out == a) return;
+      list += std::string(list.empty() ? "" : ", ") + "\"" + a + "\"";
+    }
+    fail(key, "must be one of " + list + " (got \"" + out + "\")");
+  }
+  void flag(const std::string& key, bool& out) {
+    const json* v = find(key);
+    if (v == nullptr) return;
+    if (!v->is_boolean()) fail(key, "must be true or false");
+    out = v->get<bool>();
+  }
+  // A nested object, or nullptr when absent.
+  std::unique_ptr<Section> sub(const std::string& key) {
+    const json* v = find(key);
+    if (v == nullptr) return nullptr;
+    return std::make_unique<Section>(*v, path_.empty() ? key : path_ + "." + key, source_);
+  }
+  void reject_unknown() const {
+    for (auto it = j_.begin(); it != j_.end(); ++it) {
+      if (!seen_.count(it.key())) fail(it.key(), "unknown key (see docs/daemon.md for the keys)");
+    }
+  }
+
+ private:
+  static std::string fmt(double d) {
+    std::ostringstream s;
+    s << d;
+    return s.str();
+  }
+  const json& j_;
+  std::string path_;
+  const std::string& source_;
+  std::set<std::string> seen_;
+};
+
+void read_range(Section* s, drivers::AxisRange& r) {
+  if (s == nullptr) return;
+  s->flag("continuous", r.continuous);
+  s->number("min_deg", r.min_deg, -3600, 3600);
+  s->number("max_deg", r.max_deg, -3600, 3600);
+  std::string wrap = r.cable_wrap == drivers::CableWrap::centred ? "centred" : "nearest";
+  s->choice("cable_wrap", wrap, {"nearest", "centred"});
+  r.cable_wrap = wrap == "centred" ? drivers::CableWrap::centred : drivers::CableWrap::nearest;
+  if (!r.continuous && r.max_deg - r.min_deg < 1) s->fail("max_deg", "must exceed min_deg by at least 1 degree");
+  s->reject_unknown();
+}
+
+void read_server(Section& top, DaemonConfig& c) {
+  if (auto s = top.sub("socket")) {
+    s->text("path", c.socket_path);
+    if (c.socket_path.empty()) s->fail("path", "must not be empty");
+    s->text("group", c.socket_group);
+    s->reject_unknown();
+  }
+  if (auto s = top.sub("tcp")) {
+    s->flag("enabled", c.tcp_enabled);
+    s->integer("port", c.tcp_port, 0, 65535);
+    s->reject_unknown();
+  }
+  top.integer("max_clients", c.max_clients, 256, 65536);
+  top.text("state_dir", c.state_dir);
+  if (c.state_dir.empty()) top.fail("state_dir", "must not be empty");
+  top.choice("log_level", c.log_level, {"trace", "debug", "info", "warn", "error"});
+}
+
+void read_stand(Section& top, DaemonConfig& c) {
+  auto s = top.sub("stand");
+  if (!s) return;
+  s->choice("backend", c.stand_backend, {"sim", "modbus"});
+  s->text("id", c.stand_id);
+  s->text("url", c.modbus_url);
+  s->text("register_map", c.modbus_map_file);
+  if (c.stand_backend == "modbus" && c.modbus_url.empty()) s->fail("url", "is required for the modbus backend");
+  read_range(s->sub("outer").get(), c.outer);
+  read_range(s->sub("inner").get(), c.inner);
+  if (auto ip = s->sub("in_position")) {
+    ip->number("window_deg", c.in_position.window_deg, 1e-6, 10);
+    ip->number("dwell_s", c.in_position.dwell_s, 0, 60);
+    ip->number("timeout_s", c.in_position.timeout_s, 1, 3600);
+    ip->reject_unknown();
+  }
+  s->number("home_timeout_s", c.home_timeout_s, 1, 3600);
+  s->reject_unknown();
+}
+
+void read_unit(Section& top, DaemonConfig& c) {
+  auto s = top.sub("unit");
+  if (!s) return;
+  s->choice("backend", c.unit_backend, {"sim", "socketcan"});
+  s->text("interface", c.can_interface);
+  s->text("layout", c.can_layout_file);
+  s->number("sample_rate_hz", c.sample_rate_hz, 1, 100000);
+  s->reject_unknown();
+}
+
+void read_sim(Section& top, DaemonConfig& c) {
+  auto s = top.sub("sim");
+  if (!s) return;
+  s->number("time_scale", c.sim.time_scale, 0.01, 100000);
+  double seed = static_cast<double>(c.sim.seed);
+  s->number("seed", seed, 0, 9e15);
+  c.sim.seed = static_cast<std::uint64_t>(seed);
+  s->number("move_rate_deg_s", c.sim.move_rate_deg_s, 0.1, 1000);
+  s->text("truth", c.sim.truth_file);
+  s->reject_unknown();
+}
+
+void read_run(Section& top, DaemonConfig& c) {
+  auto s = top.sub("run");
+  if (!s) return;
+  s->number("settle_s", c.settle_s, 0, 3600);
+  s->number("dwell_s", c.dwell_s, 0.1, 36000);
+  s->number("g_local_mps2", c.g_local_mps2, 9.7, 9.9);
+  s->text("g_source", c.g_source);
+  if (auto st = s->sub("stability")) {
+    st->number("sigma_limit_ug", c.stability.sigma_limit_ug, 0.001, 1e7);
+    st->number("trend_limit_ug", c.stability.trend_limit_ug, 0.001, 1e7);
+    st->number("min_sample_fraction", c.stability.min_sample_fraction, 0, 1);
+    st->integer("remeasure_max", c.stability.remeasure_max, 0, 100);
+    st->reject_unknown();
+  }
+  if (auto th = s->sub("thermal_wait")) {
+    th->flag("enabled", c.thermal.enabled);
+    th->number("rate_limit_c_per_min", c.thermal.rate_limit_c_per_min, 1e-6, 100);
+    th->number("window_s", c.thermal.window_s, 1, 36000);
+    th->number("timeout_s", c.thermal.timeout_s, 1, 360000);
+    th->reject_unknown();
+  }
+  s->reject_unknown();
+}
+
+}  // namespace
+
+DaemonConfig parse_config(const json& doc, const std::string& source) {
+  DaemonConfig c;
+  c.source = source;
+  c.document = doc;
+  Section top(doc, "", c.source);
+  read_server(top, c);
+  read_stand(top, c);
+  read_unit(top, c);
+  read_sim(top, c);
+  read_run(top, c);
+  if (auto p = top.sub("programs")) {
+    p->text("library_dir", c.program_library_dir);
+    p->reject_unknown();
+  }
+  top.reject_unknown();
+  return c;
+}
+
+DaemonConfig load_config(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw ConfigError(path + ": cannot open the config file");
+  json doc = json::parse(in, nullptr, /*allow_exceptions=*/false);
+  if (doc.is_discarded()) throw ConfigError(path + ": not valid JSON");
+  return parse_config(doc, path);
+}
+
+DaemonConfig sim_config(const std::string& socket_path, const std::string& state_dir, double time_scale) {
+  DaemonConfig c;
+  c.source = "--sim";
+  c.socket_path = socket_path;
+  c.state_dir = state_dir;
+  c.sim.time_scale = time_scale;
+  c.document = json{{"sim", {{"time_scale", time_scale}}}, {"socket", {{"path", socket_path}}},
+                    {"state_dir", state_dir}};
+  return c;
+}
+
+std::string config_hash(const DaemonConfig& config) {
+  // FNV-1a over the canonical dump: stable across runs and machines, which is all
+  // traceability needs (it identifies, it does not protect).
+  const std::string text = config.document.dump();
+  std::uint64_t h = 1469598103934665603ULL;
+  for (unsigned char ch : text) {
+    h ^= ch;
+    h *= 1099511628211ULL;
+  }
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
+  return buf;
+}
+
+}  // namespace standcal::daemon

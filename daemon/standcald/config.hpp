@@ -1,0 +1,86 @@
+#pragma once
+// standcald's configuration (docs/daemon.md lists every key): where it listens, where it
+// keeps its state, which backend drives the stand and the unit, and the run defaults.
+// A bad file fails at start with a ConfigError naming the key and the reason.
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+#include <string>
+
+#include "drivers/stand.hpp"
+
+namespace standcal::daemon {
+
+class ConfigError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct SimSettings {
+  double time_scale = 1;         // simulated seconds per real second
+  std::uint64_t seed = 1;
+  double move_rate_deg_s = 10;
+  std::string truth_file;        // standcal-model/1 JSON; empty = calib's default truth
+};
+
+// When a position's samples are good enough to keep (else re-measure, then fault).
+struct StabilityRule {
+  double sigma_limit_ug = 5000;       // per-axis sample sigma above this: too noisy
+  double trend_limit_ug = 2000;       // per-axis drift over the dwell (linear fit) above this
+  double min_sample_fraction = 0.9;   // fewer samples than this share of dwell x rate: incomplete
+  int remeasure_max = 2;              // re-measurements before the run faults
+};
+
+// Optional wait for thermal stability before the first position.
+struct ThermalWait {
+  bool enabled = false;
+  double rate_limit_c_per_min = 0.05;
+  double window_s = 60;
+  double timeout_s = 3600;
+};
+
+struct DaemonConfig {
+  std::string source = "(built-in defaults)";  // file the config came from
+  nlohmann::json document = nlohmann::json::object();  // as read, for the configuration hash
+  // Server.
+  std::string socket_path = "/run/standcal/standcald.sock";
+  std::string socket_group;  // empty: leave the group of the socket file alone
+  bool tcp_enabled = false;  // loopback TCP listener (127.0.0.1)
+  int tcp_port = 0;          // 0: any free port (logged)
+  int max_clients = 256;
+  std::string state_dir = "/var/lib/standcald";
+  std::string log_level = "info";
+  // Hardware.
+  std::string stand_backend = "sim";  // "sim" | "modbus"
+  std::string unit_backend = "sim";   // "sim" | "socketcan"
+  std::string stand_id = "sim-stand";
+  std::string modbus_url;             // stand.url for "modbus"
+  std::string modbus_map_file;        // stand.register_map: a register-map JSON file (optional)
+  std::string can_interface = "can0"; // unit.interface for "socketcan"
+  std::string can_layout_file;        // unit.layout: a frame-layout JSON file (optional)
+  double sample_rate_hz = 100;        // unit.sample_rate_hz: the unit's output rate
+  SimSettings sim;
+  drivers::AxisRange outer{false, -180, 180, drivers::CableWrap::nearest};
+  drivers::AxisRange inner{false, -180, 180, drivers::CableWrap::nearest};
+  drivers::InPositionRule in_position{0.001, 0.3, 120.0, 0.02};
+  double home_timeout_s = 180;
+  // Run defaults.
+  double settle_s = 5;
+  double dwell_s = 60;
+  double g_local_mps2 = 9.81625;
+  std::string g_source = "configured value (set run.g_local_mps2 and run.g_source for this site)";
+  StabilityRule stability;
+  ThermalWait thermal;
+  std::string program_library_dir;    // "NAME" -> DIR/NAME.json
+};
+
+// Reads and checks a JSON config file; throws ConfigError("FILE: KEY: reason").
+DaemonConfig load_config(const std::string& path);
+// Parses a config document (`source` names it in errors).
+DaemonConfig parse_config(const nlohmann::json& doc, const std::string& source);
+// Built-in defaults with the simulated backend (standcald --sim).
+DaemonConfig sim_config(const std::string& socket_path, const std::string& state_dir, double time_scale);
+// A short stable hash of the effective configuration, for traceability.
+std::string config_hash(const DaemonConfig& config);
+
+}  // namespace standcal::daemon

@@ -1,0 +1,117 @@
+// standcald: the calibration service. `standcald --config FILE`, or for demos and tests
+// `standcald --sim --socket PATH --state-dir DIR [--time-scale K]` (docs/daemon.md).
+#include <CLI/CLI.hpp>
+#include <signal.h>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+#include <systemd/sd-daemon.h>
+
+#include <cstdio>
+#include <exception>
+#include <memory>
+
+#include "daemon/standcald/config.hpp"
+#include "daemon/standcald/hardware.hpp"
+#include "daemon/standcald/run_store.hpp"
+#include "daemon/standcald/sequencer.hpp"
+#include "daemon/standcald/server.hpp"
+#include "standcal/version.hpp"
+
+namespace {
+
+struct Options {
+  std::string config_file;
+  bool sim = false;
+  std::string socket_path;
+  std::string state_dir;
+  double time_scale = 1;
+  int tcp_port = -1;
+  std::string log_level;
+};
+
+standcal::daemon::DaemonConfig effective_config(const Options& o) {
+  using namespace standcal::daemon;
+  if (o.config_file.empty() && !o.sim) {
+    throw ConfigError("give --config FILE, or --sim --socket PATH --state-dir DIR for the simulated backend");
+  }
+  DaemonConfig c = o.config_file.empty() ? sim_config(o.socket_path.empty() ? "/run/standcal/standcald.sock" : o.socket_path,
+                                                      o.state_dir.empty() ? "/var/lib/standcald" : o.state_dir,
+                                                      o.time_scale)
+                                         : load_config(o.config_file);
+  // Command-line values override the file (handy for a quick test of a lab config).
+  if (!o.config_file.empty()) {
+    if (!o.socket_path.empty()) c.socket_path = o.socket_path;
+    if (!o.state_dir.empty()) c.state_dir = o.state_dir;
+    if (o.sim) {
+      c.stand_backend = c.unit_backend = "sim";
+      c.sim.time_scale = o.time_scale;
+    }
+  }
+  if (o.tcp_port >= 0) {
+    c.tcp_enabled = true;
+    c.tcp_port = o.tcp_port;
+  }
+  if (!o.log_level.empty()) c.log_level = o.log_level;
+  return c;
+}
+
+int run_daemon(const standcal::daemon::DaemonConfig& config) {
+  using namespace standcal::daemon;
+  spdlog::set_level(spdlog::level::from_str(config.log_level));
+  // Block the shutdown signals in every thread: the server reads them from a signalfd.
+  sigset_t mask;
+  sigemptyset(&mask);
+  sigaddset(&mask, SIGTERM);
+  sigaddset(&mask, SIGINT);
+  pthread_sigmask(SIG_BLOCK, &mask, nullptr);
+  ::signal(SIGPIPE, SIG_IGN);
+
+  RunStore store(config.state_dir);
+  Hardware hardware = make_hardware(config);
+  spdlog::info("standcald {} starting: backend {}, state in {}", standcal::kVersion, hardware.description,
+               config.state_dir);
+  Server* server_ptr = nullptr;
+  Sequencer sequencer(config, std::move(hardware), store, [&server_ptr](const std::string& event, const nlohmann::json& p) {
+    if (server_ptr != nullptr) server_ptr->publish(event, p);
+  });
+  Server server(config, sequencer);
+  server_ptr = &server;
+  server.open_listeners();
+  if (server.tcp_port() > 0) std::fprintf(stderr, "standcald: tcp port %d\n", server.tcp_port());
+  sequencer.start();
+  sd_notifyf(0, "READY=1\nSTATUS=listening on %s", config.socket_path.c_str());
+  server.run();
+  sd_notify(0, "STOPPING=1\nSTATUS=stopping the stand");
+  sequencer.request_shutdown();
+  sequencer.join();
+  server_ptr = nullptr;
+  spdlog::info("standcald stopped");
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  spdlog::set_default_logger(spdlog::stderr_color_mt("standcald"));
+  spdlog::set_pattern("%Y-%m-%d %H:%M:%S.%e [%l] %v");
+  CLI::App app{"standcald: the standcal calibration service (JSON-RPC 2.0 over a Unix socket)"};
+  app.set_version_flag("--version", standcal::kVersion);
+  Options o;
+  app.add_option("--config", o.config_file, "configuration file (JSON; docs/daemon.md)");
+  app.add_flag("--sim", o.sim, "use the simulated stand and unit");
+  app.add_option("--socket", o.socket_path, "Unix socket path");
+  app.add_option("--state-dir", o.state_dir, "state directory (recordings, run index)");
+  app.add_option("--time-scale", o.time_scale, "simulated time runs this many times faster (--sim)")
+      ->check(CLI::Range(0.01, 100000.0));
+  app.add_option("--tcp-port", o.tcp_port, "also listen on 127.0.0.1:PORT (0: any free port, printed)")
+      ->check(CLI::Range(0, 65535));
+  app.add_option("--log-level", o.log_level, "trace, debug, info, warn, error");
+  CLI11_PARSE(app, argc, argv);
+  try {
+    return run_daemon(effective_config(o));
+  } catch (const std::exception& e) {
+    spdlog::critical("{}", e.what());
+    std::fprintf(stderr, "standcald: %s\n", e.what());
+    return 1;
+  }
+}

@@ -1,0 +1,271 @@
+#include "daemon/standcald/run_store.hpp"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <cstring>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+#include "protocol/jsonrpc/methods.hpp"
+
+namespace standcal::daemon {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+std::string errno_text() { return std::strerror(errno); }
+
+void fsync_dir(const std::string& dir) {
+  const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd >= 0) {
+    ::fsync(fd);
+    ::close(fd);
+  }
+}
+
+void write_all(int fd, const std::string& text, const std::string& path) {
+  std::size_t off = 0;
+  while (off < text.size()) {
+    const ssize_t n = ::write(fd, text.data() + off, text.size() - off);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      throw std::runtime_error("cannot write " + path + ": " + errno_text());
+    }
+    off += static_cast<std::size_t>(n);
+  }
+}
+
+// Filenames from unit serials: keep what is safe, replace the rest.
+std::string safe_name(const std::string& s) {
+  std::string out;
+  for (char ch : s) out += (std::isalnum(static_cast<unsigned char>(ch)) || ch == '-' || ch == '_' || ch == '.') ? ch : '_';
+  if (out.empty() || out[0] == '.') out = "_" + out;
+  return out;
+}
+
+}  // namespace
+
+std::string utc_now_iso() {
+  const std::time_t t = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
+}
+
+void write_file_atomically(const std::string& path, const std::string& text) {
+  const std::string tmp = path + ".tmp";
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0640);
+  if (fd < 0) throw std::runtime_error("cannot create " + tmp + ": " + errno_text());
+  try {
+    write_all(fd, text, tmp);
+  } catch (...) {
+    ::close(fd);
+    throw;
+  }
+  if (::fsync(fd) != 0 || ::close(fd) != 0) throw std::runtime_error("cannot flush " + tmp + ": " + errno_text());
+  if (::rename(tmp.c_str(), path.c_str()) != 0) throw std::runtime_error("cannot rename " + tmp + ": " + errno_text());
+  fsync_dir(fs::path(path).parent_path().string());
+}
+
+json to_json(const RunRecord& r) {
+  return json{{"run_id", r.run_id},
+              {"unit_serial", r.unit_serial},
+              {"program_name", r.program_name},
+              {"program", r.program},
+              {"dwell_s", r.dwell_s},
+              {"settle_s", r.settle_s},
+              {"operator", r.operator_name},
+              {"state", r.state},
+              {"reason", r.reason},
+              {"positions", r.positions},
+              {"positions_done", r.positions_done},
+              {"recording_bytes", r.recording_bytes},
+              {"last_t_s", r.last_t_s},
+              {"started_utc", r.started_utc},
+              {"ended_utc", r.ended_utc},
+              {"recording_path", r.recording_path},
+              {"result_path", r.result_path},
+              {"stand_id", r.stand_id},
+              {"config_hash", r.config_hash},
+              {"software_version", r.software_version},
+              {"g_source", r.g_source},
+              {"g_local_mps2", r.g_local_mps2}};
+}
+
+RunRecord run_record_from_json(const json& j) {
+  RunRecord r;
+  r.run_id = j.at("run_id").get<std::string>();
+  r.unit_serial = j.value("unit_serial", "");
+  r.program_name = j.value("program_name", "");
+  r.program = j.value("program", json::object());
+  r.dwell_s = j.value("dwell_s", 60.0);
+  r.settle_s = j.value("settle_s", 5.0);
+  r.operator_name = j.value("operator", "");
+  r.state = j.value("state", "");
+  r.reason = j.value("reason", "");
+  r.positions = j.value("positions", 0);
+  r.positions_done = j.value("positions_done", 0);
+  r.recording_bytes = j.value("recording_bytes", std::uint64_t{0});
+  r.last_t_s = j.value("last_t_s", 0.0);
+  r.started_utc = j.value("started_utc", "");
+  r.ended_utc = j.value("ended_utc", "");
+  r.recording_path = j.value("recording_path", "");
+  r.result_path = j.value("result_path", "");
+  r.stand_id = j.value("stand_id", "");
+  r.config_hash = j.value("config_hash", "");
+  r.software_version = j.value("software_version", "");
+  r.g_source = j.value("g_source", "");
+  r.g_local_mps2 = j.value("g_local_mps2", 0.0);
+  return r;
+}
+
+RunStore::RunStore(std::string state_dir) : state_dir_(std::move(state_dir)) {
+  std::error_code ec;
+  fs::create_directories(fs::path(state_dir_) / "runs", ec);
+  fs::create_directories(fs::path(state_dir_) / "units", ec);
+  if (!fs::is_directory(fs::path(state_dir_) / "runs")) {
+    throw std::runtime_error("cannot create the state directory " + state_dir_ + ": " + ec.message());
+  }
+  for (const auto& entry : fs::directory_iterator(fs::path(state_dir_) / "runs")) {
+    const fs::path file = entry.path() / "run.json";
+    std::ifstream in(file);
+    if (!in) continue;
+    json j = json::parse(in, nullptr, false);
+    if (j.is_discarded() || !j.contains("run_id")) continue;  // never written completely: ignore
+    runs_.push_back(run_record_from_json(j));
+  }
+  std::sort(runs_.begin(), runs_.end(),
+            [](const RunRecord& a, const RunRecord& b) { return a.run_id < b.run_id; });
+  namespace st = protocol::run_state;
+  for (RunRecord& r : runs_) {
+    if (r.state == st::running || r.state == st::paused || r.state == st::waiting_operator) {
+      r.state = st::interrupted;
+      r.reason = "standcald stopped during the run (crash, kill or power loss); run.resume continues it";
+      write_file_atomically(run_dir(r.run_id) + "/run.json", to_json(r).dump(2) + "\n");
+    }
+  }
+}
+
+std::string RunStore::new_run_id(const std::string& unit_serial) {
+  std::lock_guard lock(mutex_);
+  const std::time_t t = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char stamp[32];
+  std::strftime(stamp, sizeof stamp, "%Y%m%dT%H%M%SZ", &tm);
+  const std::string base = std::string(stamp) + "-" + safe_name(unit_serial);
+  std::string id = base;
+  for (int n = 2; fs::exists(fs::path(state_dir_) / "runs" / id); ++n) id = base + "-" + std::to_string(n);
+  fs::create_directories(fs::path(state_dir_) / "runs" / id);
+  return id;
+}
+
+std::string RunStore::run_dir(const std::string& run_id) const {
+  return (fs::path(state_dir_) / "runs" / run_id).string();
+}
+
+void RunStore::save(const RunRecord& r) {
+  std::lock_guard lock(mutex_);
+  write_file_atomically(run_dir(r.run_id) + "/run.json", to_json(r).dump(2) + "\n");
+  auto it = std::find_if(runs_.begin(), runs_.end(), [&](const RunRecord& x) { return x.run_id == r.run_id; });
+  const bool is_new = it == runs_.end();
+  if (is_new) {
+    runs_.push_back(r);
+  } else {
+    *it = r;
+  }
+  if (is_new) write_unit_index(r.unit_serial);
+}
+
+void RunStore::write_unit_index(const std::string& unit_serial) const {
+  json ids = json::array();
+  for (const RunRecord& r : runs_) {
+    if (r.unit_serial == unit_serial) ids.push_back(r.run_id);
+  }
+  const std::string path = (fs::path(state_dir_) / "units" / (safe_name(unit_serial) + ".json")).string();
+  write_file_atomically(path, json{{"unit_serial", unit_serial}, {"runs", ids}}.dump(2) + "\n");
+}
+
+std::optional<RunRecord> RunStore::get(const std::string& run_id) const {
+  std::lock_guard lock(mutex_);
+  for (const RunRecord& r : runs_) {
+    if (r.run_id == run_id) return r;
+  }
+  return std::nullopt;
+}
+
+std::vector<RunRecord> RunStore::list(const std::string& unit_serial) const {
+  std::lock_guard lock(mutex_);
+  std::vector<RunRecord> out;
+  for (auto it = runs_.rbegin(); it != runs_.rend(); ++it) {
+    if (unit_serial.empty() || it->unit_serial == unit_serial) out.push_back(*it);
+  }
+  return out;
+}
+
+std::optional<RunRecord> RunStore::latest_resumable() const {
+  namespace st = protocol::run_state;
+  std::lock_guard lock(mutex_);
+  for (auto it = runs_.rbegin(); it != runs_.rend(); ++it) {
+    if (it->state == st::interrupted || it->state == st::faulted || it->state == st::paused) return *it;
+  }
+  return std::nullopt;
+}
+
+RecordingFile::RecordingFile(std::string path, int fd, std::uint64_t length)
+    : path_(std::move(path)), fd_(fd), length_(length) {}
+
+RecordingFile::RecordingFile(RecordingFile&& o) noexcept : path_(std::move(o.path_)), fd_(o.fd_), length_(o.length_) {
+  o.fd_ = -1;
+}
+
+RecordingFile::~RecordingFile() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+RecordingFile RecordingFile::create(const std::string& path, const std::string& header) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_APPEND | O_CLOEXEC, 0640);
+  if (fd < 0) throw std::runtime_error("cannot create the recording " + path + ": " + errno_text());
+  RecordingFile f(path, fd, 0);
+  f.append_durably(header);
+  fsync_dir(fs::path(path).parent_path().string());
+  return f;
+}
+
+RecordingFile RecordingFile::reopen(const std::string& path, std::uint64_t length) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_APPEND | O_CLOEXEC);
+  if (fd < 0) throw std::runtime_error("cannot open the recording " + path + ": " + errno_text());
+  struct stat st {};
+  if (::fstat(fd, &st) != 0 || static_cast<std::uint64_t>(st.st_size) < length) {
+    ::close(fd);
+    throw std::runtime_error("the recording " + path + " is shorter than its run record says (" +
+                             std::to_string(length) + " bytes): it was changed or lost");
+  }
+  // Cut off whatever a crash left after the last durable position.
+  if (::ftruncate(fd, static_cast<off_t>(length)) != 0 || ::fsync(fd) != 0) {
+    ::close(fd);
+    throw std::runtime_error("cannot cut back the recording " + path + ": " + errno_text());
+  }
+  return RecordingFile(path, fd, length);
+}
+
+std::uint64_t RecordingFile::append_durably(const std::string& text) {
+  write_all(fd_, text, path_);
+  if (::fsync(fd_) != 0) throw std::runtime_error("cannot fsync the recording " + path_ + ": " + errno_text());
+  length_ += text.size();
+  return length_;
+}
+
+}  // namespace standcal::daemon

@@ -1,0 +1,102 @@
+#pragma once
+// The state directory (docs/daemon.md):
+//   STATE/runs/RUN_ID/run.json        what the run is and how far it got (atomic rewrite)
+//   STATE/runs/RUN_ID/recording.csv   the recording, appended and fsync'ed per position
+//   STATE/runs/RUN_ID/result.json     the calibration, once the run is done
+//   STATE/units/SERIAL.json           the index of runs per unit serial
+// run.json is rewritten only AFTER the recording holds a position durably, and records
+// the recording's length at that point: on resume the file is cut back to that length,
+// so a position half-written by a crash is measured again, never kept twice.
+#include <cstdint>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace standcal::daemon {
+
+struct RunRecord {
+  std::string run_id;
+  std::string unit_serial;
+  std::string program_name;
+  nlohmann::json program;       // the normalised programme (calib's programme JSON)
+  double dwell_s = 60;
+  double settle_s = 5;
+  std::string operator_name;
+  std::string state;            // protocol::run_state
+  std::string reason;           // why faulted / aborted / interrupted
+  int positions = 0;
+  int positions_done = 0;       // positions durably in the recording
+  std::uint64_t recording_bytes = 0;  // recording length covering positions_done
+  double last_t_s = 0;          // last t_s written (the run clock resumes after it)
+  std::string started_utc;
+  std::string ended_utc;
+  std::string recording_path;
+  std::string result_path;      // empty until the fit is stored
+  std::string stand_id;
+  std::string config_hash;
+  std::string software_version;
+  std::string g_source;
+  double g_local_mps2 = 0;
+};
+
+nlohmann::json to_json(const RunRecord& r);
+RunRecord run_record_from_json(const nlohmann::json& j);
+
+// Writes `text` to `path` atomically: temporary file, fsync, rename, fsync of the folder.
+void write_file_atomically(const std::string& path, const std::string& text);
+
+// Thread-safe: the sequencer writes, the server's readers read.
+class RunStore {
+ public:
+  // Opens (creating) the state directory and loads every run; runs a crash left
+  // running, paused or waiting for the operator become `interrupted`.
+  explicit RunStore(std::string state_dir);
+
+  // A new id ("20261121T221500Z-AU-0042"), unique in this store.
+  std::string new_run_id(const std::string& unit_serial);
+  std::string run_dir(const std::string& run_id) const;
+  // Stores (creates or replaces) a run's record and updates its unit's index.
+  void save(const RunRecord& r);
+  std::optional<RunRecord> get(const std::string& run_id) const;
+  // Newest first; only `unit_serial`'s when not empty.
+  std::vector<RunRecord> list(const std::string& unit_serial = {}) const;
+  // The newest run that can be resumed (interrupted, faulted or paused).
+  std::optional<RunRecord> latest_resumable() const;
+  const std::string& state_dir() const { return state_dir_; }
+
+ private:
+  void write_unit_index(const std::string& unit_serial) const;
+
+  std::string state_dir_;
+  mutable std::mutex mutex_;
+  std::vector<RunRecord> runs_;  // in creation order
+};
+
+// Appends rows to a recording and makes them durable (write, fflush, fsync).
+class RecordingFile {
+ public:
+  // Creates `path` with the header block.
+  static RecordingFile create(const std::string& path, const std::string& header);
+  // Opens `path` for appending after cutting it to `length` bytes.
+  static RecordingFile reopen(const std::string& path, std::uint64_t length);
+  RecordingFile(RecordingFile&& other) noexcept;
+  RecordingFile& operator=(RecordingFile&&) = delete;
+  RecordingFile(const RecordingFile&) = delete;
+  ~RecordingFile();
+  // Appends and fsyncs; returns the file length afterwards. Throws with the path and errno.
+  std::uint64_t append_durably(const std::string& text);
+  std::uint64_t length() const { return length_; }
+
+ private:
+  RecordingFile(std::string path, int fd, std::uint64_t length);
+  std::string path_;
+  int fd_ = -1;
+  std::uint64_t length_ = 0;
+};
+
+// "2026-11-21T22:15:00Z"
+std::string utc_now_iso();
+
+}  // namespace standcal::daemon

@@ -1,0 +1,153 @@
+#pragma once
+// The run sequencer: the one thread that talks to the hardware. The socket server hands
+// it commands (submit) and gets the answers back through each command's reply callback;
+// while a run or a long stand command is in progress, every wait of that thread still
+// takes commands, so `estop`, `run.pause`, `run.abort`, `stand.stop` and
+// `operator.confirm` act at once and everything else gets `busy`.
+//
+// A run: [thermal wait] → per position: [re-mount: wait for operator.confirm] → move →
+// wait in position → settle → sample the dwell → stability check (re-measure up to the
+// configured count, then fault) → average → append to the recording and fsync → next;
+// at the end the invariant fit (and the full-vector fit) stored as result.json.
+#include <atomic>
+#include <condition_variable>
+#include <deque>
+#include <functional>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "calib/programs.hpp"
+#include "daemon/standcald/config.hpp"
+#include "daemon/standcald/hardware.hpp"
+#include "daemon/standcald/run_store.hpp"
+
+namespace standcal::daemon {
+
+// The answer to one command: a result, or an error (code != 0).
+struct Outcome {
+  nlohmann::json result;
+  int error_code = 0;
+  std::string error_message;
+};
+using ReplyFn = std::function<void(Outcome)>;
+// An event notification for subscribed clients (called on the sequencer thread).
+using EventFn = std::function<void(const std::string& event, const nlohmann::json& params)>;
+
+class Sequencer {
+ public:
+  Sequencer(DaemonConfig config, Hardware hardware, RunStore& store, EventFn events);
+  ~Sequencer();
+  Sequencer(const Sequencer&) = delete;
+  Sequencer& operator=(const Sequencer&) = delete;
+
+  void start();
+  // Queues a command (any thread); `reply` is called exactly once, on the sequencer thread.
+  void submit(std::string method, nlohmann::json params, ReplyFn reply);
+  // SIGTERM: interrupt any run (it becomes `interrupted`), stop and disable the axes,
+  // then end the thread. join() waits for that.
+  void request_shutdown();
+  void join();
+
+  // Counts the thread's loop turns: it moves at least once a second while the thread is
+  // healthy, so the watchdog pings only while it moves.
+  std::uint64_t heartbeat() const { return heartbeat_.load(); }
+
+  // Thread-safe views, answered without waiting for the hardware thread.
+  nlohmann::json status() const;
+  nlohmann::json run_status(const std::string& run_id) const;  // empty id: current or newest
+  nlohmann::json run_result(const std::string& run_id) const;
+  nlohmann::json runs_list(const std::string& unit_serial) const;
+
+  // Whether `method` is one this class executes (the server answers unknown ones).
+  static bool executes(const std::string& method);
+
+ private:
+  struct Command {
+    std::string method;
+    nlohmann::json params;
+    ReplyFn reply;
+  };
+  enum class Mode { idle, command, run_active, run_paused, run_waiting_operator };
+  enum class Interrupt { none = 0, pause = 1, abort = 2, shutdown = 3, estop = 4 };
+  struct Interrupted {
+    Interrupt kind;
+  };
+
+  void thread_main();
+  void handle(Command& cmd);
+  nlohmann::json execute_idle(const Command& cmd);
+  void raise_interrupt(Interrupt kind);
+  // Takes pending commands; throws Interrupted when one asked to interrupt.
+  void service();
+  // Waits `real_s` seconds of real time, serving commands meanwhile; returns early once
+  // `until` (checked after each command) holds.
+  void wait_real(double real_s, const std::function<bool()>& until = {});
+
+  // Stand operations (throw protocol::RpcError).
+  void prepare_stand(bool home_if_needed);
+  void home_axes();
+  std::pair<double, double> move_and_wait(double alpha1_deg, double alpha2_deg);
+  void start_move(double alpha1_deg, double alpha2_deg);
+  std::pair<double, double> wait_in_position(double target1_deg, double target2_deg);
+  void stop_axes_quietly();
+  void emergency_stop();
+  drivers::AxisState read_axis(drivers::StandAxis axis);
+  nlohmann::json unit_read(double seconds);
+  std::vector<drivers::AccelSample> collect(double seconds);
+  void refresh_stand_snapshot();
+
+  // Runs.
+  nlohmann::json start_run(const nlohmann::json& params);
+  nlohmann::json resume_run(const nlohmann::json& params);
+  void run_loop(RunRecord record);
+  void measure_position(RunRecord& record, const Program& program, int index, RecordingFile& file);
+  void wait_for_operator(RunRecord& record, const Program& program, int index);
+  void wait_thermal_stability(RunRecord& record);
+  bool wait_while_paused(RunRecord& record);
+  void finish_interrupted(RunRecord& record, Interrupt kind);
+  void finish_with_fit(RunRecord& record);
+  void set_state(RunRecord& record, const std::string& state, const std::string& reason = {});
+  void set_progress(const RunRecord& record, int position, const std::string& phase);
+  double run_clock_s() const;
+  double stand_time_s(double real_s) const { return real_s * hw_.time_scale; }
+  double real_time_s(double stand_s) const { return stand_s / hw_.time_scale; }
+
+  DaemonConfig config_;
+  Hardware hw_;
+  RunStore& store_;
+  EventFn events_;
+
+  std::thread thread_;
+  std::atomic<std::uint64_t> heartbeat_{0};
+  mutable std::mutex queue_mutex_;
+  std::condition_variable queue_cv_;
+  std::deque<Command> queue_;
+  bool shutdown_ = false;  // guarded by queue_mutex_
+
+  // Sequencer-thread state.
+  Mode mode_ = Mode::idle;
+  std::string busy_with_;          // what holds the hardware, for `busy` messages
+  Interrupt interrupt_ = Interrupt::none;
+  bool resume_requested_ = false;
+  bool operator_confirmed_ = false;
+  bool estop_latched_ = false;
+  double run_clock_base_s_ = 0;
+  double run_clock_start_real_s_ = 0;
+  double last_t_s_ = 0;
+  std::pair<double, double> last_cmd_deg_{0, 0};
+  std::optional<Mount> mounted_;     // how the unit is believed mounted; empty: ask the operator
+  double mean_position_real_s_ = 0;  // for the ETA
+  int positions_timed_ = 0;
+
+  // Snapshot for the thread-safe views.
+  mutable std::mutex snapshot_mutex_;
+  nlohmann::json stand_snapshot_ = nlohmann::json::object();
+  nlohmann::json progress_ = nullptr;  // the active run's live progress
+  std::string active_run_id_;
+};
+
+}  // namespace standcal::daemon

@@ -1,0 +1,470 @@
+#include "daemon/standcald/server.hpp"
+
+#include <arpa/inet.h>
+#include <fcntl.h>
+#include <grp.h>
+#include <netinet/in.h>
+#include <signal.h>
+#include <spdlog/spdlog.h>
+#include <sys/epoll.h>
+#include <sys/eventfd.h>
+#include <sys/signalfd.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/timerfd.h>
+#include <sys/un.h>
+#include <systemd/sd-daemon.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstring>
+#include <stdexcept>
+
+#include "protocol/jsonrpc/jsonrpc.hpp"
+#include "protocol/jsonrpc/methods.hpp"
+#include "standcal/version.hpp"
+
+namespace standcal::daemon {
+
+using nlohmann::json;
+using protocol::ErrorCode;
+using protocol::RpcError;
+namespace m = protocol::method;
+
+namespace {
+
+std::string errno_text() { return std::strerror(errno); }
+
+double now_s() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+sockaddr_un unix_address(const std::string& path) {
+  sockaddr_un addr{};
+  if (path.size() >= sizeof(addr.sun_path)) {
+    throw std::runtime_error("socket path too long (max " + std::to_string(sizeof(addr.sun_path) - 1) +
+                             " bytes): " + path);
+  }
+  addr.sun_family = AF_UNIX;
+  std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
+  return addr;
+}
+
+// A socket file left by a crashed daemon is replaced; a live daemon's is not.
+void remove_stale_socket(const std::string& path) {
+  struct stat st {};
+  if (::lstat(path.c_str(), &st) != 0) return;
+  if (!S_ISSOCK(st.st_mode)) throw std::runtime_error(path + " exists and is not a socket; not replacing it");
+  const sockaddr_un addr = unix_address(path);
+  const int probe = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  const bool live = probe >= 0 && ::connect(probe, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) == 0;
+  if (probe >= 0) ::close(probe);
+  if (live) throw std::runtime_error("another standcald is already listening on " + path);
+  spdlog::info("replacing the stale socket {} (left by a daemon that did not exit cleanly)", path);
+  ::unlink(path.c_str());
+}
+
+const std::set<std::string>& known_events() {
+  namespace ev = protocol::event;
+  static const std::set<std::string> names{ev::run_progress, ev::position_reached, ev::position_averaged,
+                                           ev::run_state, ev::fault};
+  return names;
+}
+
+}  // namespace
+
+Server::Server(const DaemonConfig& config, Sequencer& sequencer) : config_(config), sequencer_(sequencer) {
+  started_s_ = now_s();
+  epoll_fd_ = ::epoll_create1(EPOLL_CLOEXEC);
+  wake_fd_ = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+  sigset_t mask;
+  sigemptyset(&mask);
+  sigaddset(&mask, SIGTERM);
+  sigaddset(&mask, SIGINT);
+  signal_fd_ = ::signalfd(-1, &mask, SFD_NONBLOCK | SFD_CLOEXEC);
+  if (epoll_fd_ < 0 || wake_fd_ < 0 || signal_fd_ < 0) throw std::runtime_error("cannot set up the event loop: " + errno_text());
+  add_fd(wake_fd_, EPOLLIN);
+  add_fd(signal_fd_, EPOLLIN);
+  std::uint64_t watchdog_usec = 0;
+  if (sd_watchdog_enabled(0, &watchdog_usec) > 0 && watchdog_usec > 0) {
+    // Tick at half the watchdog period: a ping goes out only when both this loop and the
+    // sequencer thread have moved since the previous tick.
+    timer_fd_ = ::timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC);
+    itimerspec spec{};
+    const std::uint64_t half = watchdog_usec / 2;
+    spec.it_interval.tv_sec = static_cast<time_t>(half / 1000000);
+    spec.it_interval.tv_nsec = static_cast<long>((half % 1000000) * 1000);
+    spec.it_value = spec.it_interval;
+    ::timerfd_settime(timer_fd_, 0, &spec, nullptr);
+    add_fd(timer_fd_, EPOLLIN);
+    spdlog::info("systemd watchdog: {} ms, ticking every {} ms", watchdog_usec / 1000, half / 1000);
+  }
+}
+
+Server::~Server() {
+  for (auto& [fd, c] : clients_) ::close(fd);
+  for (int fd : {unix_fd_, tcp_fd_, signal_fd_, wake_fd_, timer_fd_, epoll_fd_}) {
+    if (fd >= 0) ::close(fd);
+  }
+  if (unix_fd_ >= 0 && !unix_from_systemd_) ::unlink(config_.socket_path.c_str());
+}
+
+void Server::add_fd(int fd, std::uint32_t events) {
+  epoll_event ev{};
+  ev.events = events;
+  ev.data.fd = fd;
+  if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, fd, &ev) != 0) throw std::runtime_error("epoll_ctl: " + errno_text());
+}
+
+void Server::open_listeners() {
+  const int n = sd_listen_fds(1);
+  for (int i = 0; i < n; ++i) {
+    const int fd = SD_LISTEN_FDS_START + i;
+    if (sd_is_socket_unix(fd, SOCK_STREAM, 1, nullptr, 0) > 0) {
+      unix_fd_ = fd;
+      unix_from_systemd_ = true;
+      ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) | O_NONBLOCK);
+      ::fcntl(fd, F_SETFD, FD_CLOEXEC);
+      spdlog::info("listening on the socket systemd passed (socket activation)");
+    }
+  }
+  if (unix_fd_ < 0) {
+    remove_stale_socket(config_.socket_path);
+    const sockaddr_un addr = unix_address(config_.socket_path);
+    unix_fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+    if (unix_fd_ < 0 || ::bind(unix_fd_, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) != 0) {
+      throw std::runtime_error("cannot bind " + config_.socket_path + ": " + errno_text());
+    }
+    if (::chmod(config_.socket_path.c_str(), 0660) != 0) {
+      throw std::runtime_error("cannot set mode 0660 on " + config_.socket_path + ": " + errno_text());
+    }
+    if (!config_.socket_group.empty()) {
+      const group* g = ::getgrnam(config_.socket_group.c_str());
+      if (g == nullptr) throw std::runtime_error("socket.group: no group named " + config_.socket_group);
+      if (::chown(config_.socket_path.c_str(), static_cast<uid_t>(-1), g->gr_gid) != 0) {
+        throw std::runtime_error("cannot give " + config_.socket_path + " to group " + config_.socket_group + ": " + errno_text());
+      }
+    }
+    if (::listen(unix_fd_, 512) != 0) throw std::runtime_error("cannot listen on " + config_.socket_path + ": " + errno_text());
+    spdlog::info("listening on {}", config_.socket_path);
+  }
+  add_fd(unix_fd_, EPOLLIN);
+  if (config_.tcp_enabled) {
+    tcp_fd_ = ::socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+    const int one = 1;
+    ::setsockopt(tcp_fd_, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);  // loopback only, by design
+    addr.sin_port = htons(static_cast<std::uint16_t>(config_.tcp_port));
+    socklen_t len = sizeof addr;
+    if (::bind(tcp_fd_, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0 || ::listen(tcp_fd_, 512) != 0 ||
+        ::getsockname(tcp_fd_, reinterpret_cast<sockaddr*>(&addr), &len) != 0) {
+      throw std::runtime_error("cannot listen on 127.0.0.1:" + std::to_string(config_.tcp_port) + ": " + errno_text());
+    }
+    tcp_port_ = ntohs(addr.sin_port);
+    add_fd(tcp_fd_, EPOLLIN);
+    spdlog::info("listening on tcp://127.0.0.1:{}", tcp_port_);
+  }
+}
+
+void Server::post(std::function<void()> job) {
+  {
+    std::lock_guard lock(posted_mutex_);
+    posted_.push_back(std::move(job));
+  }
+  const std::uint64_t one = 1;
+  [[maybe_unused]] const ssize_t n = ::write(wake_fd_, &one, sizeof one);
+}
+
+void Server::publish(const std::string& event, const json& params) {
+  post([this, event, params] {
+    if (event == protocol::event::run_state) {
+      sd_notifyf(0, "STATUS=run %s: %s", params.value("run_id", "").c_str(), params.value("state", "").c_str());
+    }
+    const std::string line = protocol::make_notification(event, params);
+    for (auto& [fd, c] : clients_) {
+      if (c->events.count(event) || c->events.count("*")) send_line(*c, line);
+    }
+  });
+}
+
+void Server::run_posted() {
+  std::uint64_t count = 0;
+  [[maybe_unused]] const ssize_t n = ::read(wake_fd_, &count, sizeof count);
+  std::vector<std::function<void()>> jobs;
+  {
+    std::lock_guard lock(posted_mutex_);
+    jobs.swap(posted_);
+  }
+  for (auto& job : jobs) job();
+}
+
+void Server::watchdog_tick() {
+  std::uint64_t expirations = 0;
+  [[maybe_unused]] const ssize_t n = ::read(timer_fd_, &expirations, sizeof expirations);
+  const std::uint64_t beat = sequencer_.heartbeat();
+  if (beat != last_heartbeat_) {
+    sd_notify(0, "WATCHDOG=1");
+  } else {
+    spdlog::warn("the sequencer thread has not answered since the last watchdog tick; not pinging systemd");
+  }
+  last_heartbeat_ = beat;
+}
+
+void Server::run() {
+  std::vector<epoll_event> events(64);
+  std::vector<int> dead;
+  while (running_) {
+    const int n = ::epoll_wait(epoll_fd_, events.data(), static_cast<int>(events.size()), -1);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      throw std::runtime_error("epoll_wait: " + errno_text());
+    }
+    for (int i = 0; i < n; ++i) {
+      const int fd = events[i].data.fd;
+      const std::uint32_t what = events[i].events;
+      if (fd == unix_fd_ || fd == tcp_fd_) {
+        accept_clients(fd);
+      } else if (fd == signal_fd_) {
+        signalfd_siginfo si{};
+        while (::read(signal_fd_, &si, sizeof si) == sizeof si) {
+          spdlog::info("received signal {}: shutting down", si.ssi_signo);
+          running_ = false;
+        }
+      } else if (fd == wake_fd_) {
+        run_posted();
+      } else if (fd == timer_fd_) {
+        watchdog_tick();
+      } else {
+        auto it = clients_.find(fd);
+        if (it == clients_.end()) continue;
+        Client& c = *it->second;
+        if (what & EPOLLIN) read_client(c);
+        if ((what & EPOLLOUT) && c.fd >= 0) flush(c);
+        if ((what & (EPOLLHUP | EPOLLERR)) && !(what & EPOLLIN) && c.fd >= 0) c.fd = -1;
+      }
+    }
+    // Close the clients marked dead (fd = -1) during this round.
+    for (auto it = clients_.begin(); it != clients_.end();) {
+      if (it->second->fd < 0) {
+        ::close(it->first);
+        it = clients_.erase(it);
+      } else {
+        ++it;
+      }
+    }
+  }
+}
+
+void Server::accept_clients(int listen_fd) {
+  for (;;) {
+    const int fd = ::accept4(listen_fd, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
+    if (fd < 0) {
+      if (errno == EINTR) continue;
+      if (errno != EAGAIN && errno != EWOULDBLOCK) spdlog::warn("accept: {}", errno_text());
+      return;
+    }
+    if (clients_.size() >= static_cast<std::size_t>(config_.max_clients)) {
+      // Answer and close at once: never leave a connection hanging.
+      const std::string line =
+          protocol::make_error(nullptr, static_cast<int>(ErrorCode::too_many_clients),
+                               "standcald already serves " + std::to_string(config_.max_clients) +
+                                   " clients (the limit); try again later") + "\n";
+      [[maybe_unused]] const ssize_t n = ::send(fd, line.data(), line.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+      ::close(fd);
+      ++dropped_clients_;
+      continue;
+    }
+    auto c = std::make_unique<Client>();
+    c->fd = fd;
+    c->serial = next_serial_++;
+    add_fd(fd, EPOLLIN | EPOLLRDHUP);
+    Client& ref = *c;
+    clients_[fd] = std::move(c);
+    send_line(ref, protocol::make_notification(
+                       m::hello, json{{"daemon", "standcald"},
+                                      {"version", kVersion},
+                                      {"protocol", protocol::kProtocolVersion},
+                                      {"max_request_bytes", protocol::kMaxRequestBytes}}));
+  }
+}
+
+void Server::read_client(Client& c) {
+  char buf[65536];
+  // A bounded amount per wake-up, so one busy client cannot starve the others.
+  for (int round = 0; round < 4 && c.fd >= 0; ++round) {
+    const ssize_t n = ::recv(c.fd, buf, sizeof buf, 0);
+    if (n == 0) {
+      c.fd = -1;  // closed by the client
+      return;
+    }
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      if (errno != EAGAIN && errno != EWOULDBLOCK) c.fd = -1;
+      return;
+    }
+    c.in.append(std::string_view(buf, static_cast<std::size_t>(n)));
+    bool oversized = false;
+    while (c.fd >= 0) {
+      auto line = c.in.next_line();
+      if (!line) break;
+      if (line->size() > protocol::kMaxRequestBytes) {
+        oversized = true;
+        break;
+      }
+      handle_line(c, *line);
+    }
+    if (c.fd >= 0 && (oversized || c.in.overflowed())) {
+      send_line(c, protocol::make_error(nullptr, static_cast<int>(ErrorCode::invalid_request),
+                                        "request longer than " + std::to_string(protocol::kMaxRequestBytes) +
+                                            " bytes; closing the connection"));
+      spdlog::warn("client sent a request longer than {} bytes; closed", protocol::kMaxRequestBytes);
+      if (c.fd >= 0) {
+        ::shutdown(c.fd, SHUT_WR);
+        c.fd = -1;
+      }
+      ++dropped_clients_;
+      return;
+    }
+    if (static_cast<std::size_t>(n) < sizeof buf) return;
+  }
+}
+
+void Server::handle_line(Client& c, const std::string& line) {
+  if (line.find_first_not_of(" \t\r") == std::string::npos) return;  // blank lines are ignored
+  ++requests_;
+  auto parsed = protocol::parse_request(line);
+  if (auto* bad = std::get_if<protocol::BadRequest>(&parsed)) {
+    send_line(c, protocol::make_error(bad->id, bad->error.code(), bad->error.what()));
+    return;
+  }
+  protocol::Request& req = std::get<protocol::Request>(parsed);
+  try {
+    json result;
+    protocol::Params p(req.params, req.method);
+    if (req.method == m::status) {
+      p.only({});
+      result = status();
+    } else if (req.method == m::run_status) {
+      p.only({"run_id"});
+      result = sequencer_.run_status(p.optional_string("run_id").value_or(""));
+    } else if (req.method == m::run_result) {
+      p.only({"run_id"});
+      result = sequencer_.run_result(p.string("run_id"));
+    } else if (req.method == m::runs_list) {
+      p.only({"unit_serial"});
+      result = sequencer_.runs_list(p.optional_string("unit_serial").value_or(""));
+    } else if (req.method == m::subscribe) {
+      result = subscribe(c, req.params);
+    } else if (Sequencer::executes(req.method)) {
+      const std::uint64_t serial = c.serial;
+      const int fd = c.fd;
+      const json id = req.id;
+      const bool notification = req.is_notification;
+      sequencer_.submit(req.method, req.params, [this, serial, fd, id, notification](Outcome o) {
+        if (notification) return;
+        post([this, serial, fd, id, o = std::move(o)] { reply_later(serial, fd, id, o); });
+      });
+      return;
+    } else {
+      throw RpcError(ErrorCode::method_not_found, "unknown method \"" + req.method + "\" (see docs/protocol.md)");
+    }
+    if (!req.is_notification) send_line(c, protocol::make_result(req.id, result));
+  } catch (const RpcError& e) {
+    if (!req.is_notification) send_line(c, protocol::make_error(req.id, e.code(), e.what(), e.data()));
+  } catch (const std::exception& e) {
+    if (!req.is_notification) send_line(c, protocol::make_error(req.id, static_cast<int>(ErrorCode::internal_error), e.what()));
+  }
+}
+
+void Server::reply_later(std::uint64_t serial, int fd, const json& id, Outcome o) {
+  auto it = clients_.find(fd);
+  if (it == clients_.end() || it->second->serial != serial || it->second->fd < 0) return;  // client gone
+  send_line(*it->second, o.error_code == 0 ? protocol::make_result(id, o.result)
+                                           : protocol::make_error(id, o.error_code, o.error_message));
+}
+
+json Server::subscribe(Client& c, const json& params) {
+  protocol::Params p(params, m::subscribe);
+  p.only({"events"});
+  const json* ev = p.find("events");
+  std::set<std::string> wanted;
+  if (ev == nullptr || (ev->is_string() && (*ev == "all" || *ev == "*"))) {
+    wanted.insert("*");
+  } else if (ev->is_array()) {
+    for (const json& e : *ev) {
+      if (!e.is_string()) throw RpcError(ErrorCode::invalid_params, "subscribe: \"events\" must be a list of event names");
+      const std::string name = e.get<std::string>();
+      if (name != "*" && !known_events().count(name)) {
+        throw RpcError(ErrorCode::invalid_params, "subscribe: unknown event \"" + name + "\"");
+      }
+      wanted.insert(name);
+    }
+  } else {
+    throw RpcError(ErrorCode::invalid_params, "subscribe: \"events\" must be a list of event names or \"all\"");
+  }
+  c.events = wanted;
+  json names = json::array();
+  if (wanted.count("*")) {
+    for (const auto& n : known_events()) names.push_back(n);
+  } else {
+    for (const auto& n : wanted) names.push_back(n);
+  }
+  return json{{"events", names}};
+}
+
+json Server::status() const {
+  json s = sequencer_.status();
+  s["daemon"] = json{{"version", kVersion},
+                     {"protocol", protocol::kProtocolVersion},
+                     {"uptime_s", now_s() - started_s_},
+                     {"clients", clients_.size()},
+                     {"max_clients", config_.max_clients},
+                     {"requests", requests_},
+                     {"dropped_clients", dropped_clients_},
+                     {"state_dir", config_.state_dir},
+                     {"socket", config_.socket_path},
+                     {"tcp_port", tcp_port_ > 0 ? json(tcp_port_) : json(nullptr)}};
+  return s;
+}
+
+void Server::send_line(Client& c, const std::string& line) {
+  if (c.fd < 0) return;
+  c.out += line;
+  c.out += '\n';
+  flush(c);
+  if (c.fd >= 0 && c.out.size() > kMaxUnsentBytes) {
+    spdlog::warn("a client stopped reading ({} bytes unsent); dropped", c.out.size());
+    ++dropped_clients_;
+    c.fd = -1;
+  }
+}
+
+void Server::flush(Client& c) {
+  std::size_t sent = 0;
+  while (sent < c.out.size()) {
+    const ssize_t n = ::send(c.fd, c.out.data() + sent, c.out.size() - sent, MSG_NOSIGNAL | MSG_DONTWAIT);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      if (errno != EAGAIN && errno != EWOULDBLOCK) {
+        c.fd = -1;
+        return;
+      }
+      break;
+    }
+    sent += static_cast<std::size_t>(n);
+  }
+  c.out.erase(0, sent);
+  const bool want = !c.out.empty();
+  if (want != c.want_write) {
+    epoll_event ev{};
+    ev.events = EPOLLIN | EPOLLRDHUP | (want ? EPOLLOUT : 0u);
+    ev.data.fd = c.fd;
+    ::epoll_ctl(epoll_fd_, EPOLL_CTL_MOD, c.fd, &ev);
+    c.want_write = want;
+  }
+}
+
+}  // namespace standcal::daemon

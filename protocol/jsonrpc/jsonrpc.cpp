@@ -1,0 +1,147 @@
+#include "protocol/jsonrpc/jsonrpc.hpp"
+
+namespace standcal::protocol {
+
+using nlohmann::json;
+
+const char* error_code_name(int code) {
+  switch (static_cast<ErrorCode>(code)) {
+    case ErrorCode::parse_error: return "parse error";
+    case ErrorCode::invalid_request: return "invalid request";
+    case ErrorCode::method_not_found: return "method not found";
+    case ErrorCode::invalid_params: return "invalid params";
+    case ErrorCode::internal_error: return "internal error";
+    case ErrorCode::busy: return "busy";
+    case ErrorCode::not_homed: return "not homed";
+    case ErrorCode::limit: return "limit";
+    case ErrorCode::estop_active: return "estop active";
+    case ErrorCode::hardware_fault: return "hardware fault";
+    case ErrorCode::not_found: return "not found";
+    case ErrorCode::invalid_state: return "invalid state";
+    case ErrorCode::too_many_clients: return "too many clients";
+  }
+  return "error";
+}
+
+namespace {
+
+bool valid_id(const json& id) { return id.is_string() || id.is_number_integer() || id.is_null(); }
+
+BadRequest invalid(json id, const std::string& why) {
+  return BadRequest{std::move(id), RpcError(ErrorCode::invalid_request, why)};
+}
+
+}  // namespace
+
+std::variant<Request, BadRequest> parse_request(std::string_view line) {
+  json doc = json::parse(line.begin(), line.end(), nullptr, /*allow_exceptions=*/false);
+  if (doc.is_discarded()) {
+    return BadRequest{nullptr, RpcError(ErrorCode::parse_error, "request is not valid JSON")};
+  }
+  if (!doc.is_object()) return invalid(nullptr, "request must be a JSON object");
+  json id = nullptr;
+  const bool has_id = doc.contains("id");
+  if (has_id) {
+    if (!valid_id(doc["id"])) return invalid(nullptr, "\"id\" must be a string, an integer or null");
+    id = doc["id"];
+  }
+  if (!doc.contains("jsonrpc") || doc["jsonrpc"] != "2.0") {
+    return invalid(id, "\"jsonrpc\" must be \"2.0\"");
+  }
+  if (!doc.contains("method") || !doc["method"].is_string()) {
+    return invalid(id, "\"method\" must be a string");
+  }
+  Request r;
+  r.id = id;
+  r.is_notification = !has_id;
+  r.method = doc["method"].get<std::string>();
+  if (doc.contains("params")) {
+    const json& p = doc["params"];
+    if (p.is_null()) {
+      r.params = json::object();
+    } else if (p.is_object()) {
+      r.params = p;
+    } else {
+      // Positional parameters are allowed by JSON-RPC but no standcald method takes them.
+      return BadRequest{id, RpcError(ErrorCode::invalid_params, "\"params\" must be an object of named parameters")};
+    }
+  }
+  return r;
+}
+
+std::string make_request(const json& id, const std::string& method, const json& params) {
+  return json{{"jsonrpc", "2.0"}, {"id", id}, {"method", method}, {"params", params}}.dump();
+}
+
+std::string make_result(const json& id, const json& result) {
+  return json{{"jsonrpc", "2.0"}, {"id", id}, {"result", result}}.dump(-1, ' ', false, json::error_handler_t::replace);
+}
+
+std::string make_error(const json& id, int code, const std::string& message, const json& data) {
+  json err{{"code", code}, {"message", message}};
+  if (!data.is_null()) err["data"] = data;
+  return json{{"jsonrpc", "2.0"}, {"id", id}, {"error", err}}.dump(-1, ' ', false, json::error_handler_t::replace);
+}
+
+std::string make_notification(const std::string& method, const json& params) {
+  return json{{"jsonrpc", "2.0"}, {"method", method}, {"params", params}}.dump(-1, ' ', false,
+                                                                               json::error_handler_t::replace);
+}
+
+void Params::wrong(const char* key, const char* expected) const {
+  throw RpcError(ErrorCode::invalid_params,
+                 method_ + ": parameter \"" + key + "\" must be " + expected);
+}
+
+const json* Params::find(const char* key) const {
+  auto it = p_.find(key);
+  if (it == p_.end() || it->is_null()) return nullptr;
+  return &*it;
+}
+
+double Params::number(const char* key) const {
+  const json* v = find(key);
+  if (v == nullptr) {
+    throw RpcError(ErrorCode::invalid_params, method_ + ": parameter \"" + key + "\" is required");
+  }
+  if (!v->is_number()) wrong(key, "a number");
+  return v->get<double>();
+}
+
+std::optional<double> Params::optional_number(const char* key) const {
+  if (find(key) == nullptr) return std::nullopt;
+  return number(key);
+}
+
+std::string Params::string(const char* key) const {
+  const json* v = find(key);
+  if (v == nullptr) {
+    throw RpcError(ErrorCode::invalid_params, method_ + ": parameter \"" + key + "\" is required");
+  }
+  if (!v->is_string()) wrong(key, "a string");
+  return v->get<std::string>();
+}
+
+std::optional<std::string> Params::optional_string(const char* key) const {
+  if (find(key) == nullptr) return std::nullopt;
+  return string(key);
+}
+
+bool Params::optional_bool(const char* key, bool fallback) const {
+  const json* v = find(key);
+  if (v == nullptr) return fallback;
+  if (!v->is_boolean()) wrong(key, "true or false");
+  return v->get<bool>();
+}
+
+void Params::only(std::initializer_list<const char*> allowed) const {
+  for (auto it = p_.begin(); it != p_.end(); ++it) {
+    bool known = false;
+    for (const char* a : allowed) known = known || it.key() == a;
+    if (!known) {
+      throw RpcError(ErrorCode::invalid_params, method_ + ": unknown parameter \"" + it.key() + "\"");
+    }
+  }
+}
+
+}  // namespace standcal::protocol

@@ -1,0 +1,46 @@
+#pragma once
+// The names fixed by the protocol (docs/protocol.md): methods, events, run states.
+namespace standcal::protocol {
+
+namespace method {
+inline constexpr const char* hello = "hello";  // notification sent by the daemon on connect
+inline constexpr const char* status = "status";
+inline constexpr const char* stand_enable = "stand.enable";
+inline constexpr const char* stand_disable = "stand.disable";
+inline constexpr const char* stand_home = "stand.home";
+inline constexpr const char* stand_move = "stand.move";
+inline constexpr const char* stand_stop = "stand.stop";
+inline constexpr const char* estop = "estop";
+inline constexpr const char* estop_reset = "estop.reset";
+inline constexpr const char* unit_read = "unit.read";
+inline constexpr const char* run_start = "run.start";
+inline constexpr const char* run_pause = "run.pause";
+inline constexpr const char* run_resume = "run.resume";
+inline constexpr const char* run_abort = "run.abort";
+inline constexpr const char* run_status = "run.status";
+inline constexpr const char* run_result = "run.result";
+inline constexpr const char* runs_list = "runs.list";
+inline constexpr const char* operator_confirm = "operator.confirm";
+inline constexpr const char* subscribe = "subscribe";
+}  // namespace method
+
+// Event notifications (method = the event name), sent to clients that subscribed.
+namespace event {
+inline constexpr const char* run_progress = "run.progress";          // position i/N, phase, ETA
+inline constexpr const char* position_reached = "run.position_reached";
+inline constexpr const char* position_averaged = "run.position_averaged";  // mean, sigma per axis
+inline constexpr const char* run_state = "run.state";                // state changes
+inline constexpr const char* fault = "fault";
+}  // namespace event
+
+namespace run_state {
+inline constexpr const char* running = "running";
+inline constexpr const char* paused = "paused";
+inline constexpr const char* waiting_operator = "waiting_operator";
+inline constexpr const char* done = "done";
+inline constexpr const char* aborted = "aborted";
+inline constexpr const char* faulted = "faulted";
+inline constexpr const char* interrupted = "interrupted";
+}  // namespace run_state
+
+}  // namespace standcal::protocol

@@ -1,0 +1,158 @@
+// Bad input from one client gets that client an error (or a closed connection) while the
+// daemon keeps serving everyone else: malformed JSON, wrong types, unknown methods, an
+// oversized line, a client that never reads, too many clients.
+#include <gtest/gtest.h>
+#include <poll.h>
+#include <sys/socket.h>
+
+#include "daemon_process.hpp"
+
+using namespace standcal;
+using namespace std::chrono_literals;
+using nlohmann::json;
+using protocol::Client;
+using protocol::RpcError;
+using test::DaemonProcess;
+using test::TempDir;
+
+namespace {
+
+std::string socket_of(const TempDir& d) { return d.path() + "/standcald.sock"; }
+
+json next_reply(Client& c) {
+  auto m = c.next_message(10s);
+  if (!m) throw std::runtime_error("no reply within 10 s");
+  return *m;
+}
+
+// True once the daemon has closed `c`'s connection (EOF or reset), within the timeout.
+bool closed_by_daemon(Client& c, std::chrono::seconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (std::chrono::steady_clock::now() < deadline) {
+    try {
+      while (c.next_message(100ms)) {
+      }
+    } catch (const std::runtime_error&) {
+      return true;  // "closed the connection" / "lost the connection"
+    }
+  }
+  return false;
+}
+
+}  // namespace
+
+TEST(DaemonBadInput, ErrorsGoToTheSenderAndOthersAreServed) {
+  TempDir dir;
+  auto daemon = DaemonProcess::sim(dir.path(), 100);
+  Client bad(socket_of(dir));
+  Client good(socket_of(dir));
+
+  bad.send_raw("{this is not json\n");
+  json r = next_reply(bad);
+  EXPECT_EQ(r["error"]["code"], -32700);
+  EXPECT_TRUE(r["id"].is_null());
+
+  bad.send_raw(R"({"jsonrpc":"2.0","id":1,"method":"no.such.method"})" "\n");
+  r = next_reply(bad);
+  EXPECT_EQ(r["error"]["code"], -32601);
+  EXPECT_EQ(r["id"], 1);
+
+  bad.send_raw(R"({"jsonrpc":"2.0","id":2,"method":"stand.move","params":{"alpha1_deg":"ninety","alpha2_deg":0}})" "\n");
+  r = next_reply(bad);
+  EXPECT_EQ(r["error"]["code"], -32602);
+  EXPECT_NE(r["error"]["message"].get<std::string>().find("alpha1_deg"), std::string::npos);
+
+  bad.send_raw(R"({"jsonrpc":"2.0","id":3,"method":"run.start","params":{"program":"paper9","unit_serial":42}})" "\n");
+  r = next_reply(bad);
+  EXPECT_EQ(r["error"]["code"], -32602);
+
+  bad.send_raw(R"({"id":4,"method":"status"})" "\n");
+  r = next_reply(bad);
+  EXPECT_EQ(r["error"]["code"], -32600);
+
+  bad.send_raw(R"({"jsonrpc":"2.0","id":5,"method":"status","params":{"verbose":true}})" "\n");
+  r = next_reply(bad);
+  EXPECT_EQ(r["error"]["code"], -32602);
+
+  // A notification (no id) gets no answer; the next request's answer comes next.
+  bad.send_raw(R"({"jsonrpc":"2.0","method":"status"})" "\n" R"({"jsonrpc":"2.0","id":6,"method":"status"})" "\n");
+  r = next_reply(bad);
+  EXPECT_EQ(r["id"], 6);
+
+  EXPECT_EQ(good.call("status")["daemon"]["protocol"], "1");
+  // The bad client is still connected and served too.
+  EXPECT_EQ(bad.call("status")["daemon"]["protocol"], "1");
+}
+
+TEST(DaemonBadInput, AnOversizedLineGetsAnErrorAndTheConnectionIsClosed) {
+  TempDir dir;
+  auto daemon = DaemonProcess::sim(dir.path(), 100);
+  Client good(socket_of(dir));
+  Client bad(socket_of(dir));
+  std::string huge = R"({"jsonrpc":"2.0","id":1,"method":"status","params":{"pad":")";
+  huge += std::string(70 * 1024, 'x');
+  huge += "\"}}\n";
+  bad.send_raw(huge);
+  auto r = bad.next_message(10s);
+  ASSERT_TRUE(r.has_value());
+  EXPECT_EQ((*r)["error"]["code"], -32600);
+  EXPECT_NE((*r)["error"]["message"].get<std::string>().find("65536"), std::string::npos);
+  EXPECT_TRUE(closed_by_daemon(bad, 10s));
+  EXPECT_EQ(good.call("status")["daemon"]["protocol"], "1");
+}
+
+TEST(DaemonBadInput, AClientThatNeverReadsIsDroppedWithoutStallingOthers) {
+  TempDir dir;
+  auto daemon = DaemonProcess::sim(dir.path(), 100);
+  Client good(socket_of(dir));
+  Client stuck(socket_of(dir));
+  // Many requests, never reading a single answer.
+  std::string burst;
+  for (int i = 0; i < 200; ++i) burst += R"({"jsonrpc":"2.0","id":1,"method":"status"})" "\n";
+  bool dropped = false;
+  for (int round = 0; round < 200 && !dropped; ++round) {
+    pollfd p{stuck.fd(), POLLOUT, 0};
+    if (::poll(&p, 1, 0) == 1 && (p.revents & (POLLERR | POLLHUP))) {
+      dropped = true;
+      break;
+    }
+    if ((p.revents & POLLOUT) != 0) {
+      const ssize_t n = ::send(stuck.fd(), burst.data(), burst.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+      if (n < 0 && errno != EAGAIN) dropped = true;
+    }
+    // Meanwhile the other client is answered promptly.
+    ASSERT_EQ(good.call("status", json::object(), 10s)["daemon"]["protocol"], "1");
+    if (good.call("status")["daemon"]["dropped_clients"].get<int>() >= 1) dropped = true;
+  }
+  EXPECT_TRUE(dropped);
+  EXPECT_GE(good.call("status")["daemon"]["dropped_clients"].get<int>(), 1);
+  EXPECT_EQ(good.call("status")["daemon"]["clients"].get<int>(), 1);
+}
+
+TEST(DaemonBadInput, PastTheClientLimitANewConnectionGetsAnErrorAndIsClosed) {
+  TempDir dir;
+  auto daemon = DaemonProcess::sim(dir.path(), 100);
+  std::vector<std::unique_ptr<Client>> clients;
+  for (int i = 0; i < 256; ++i) clients.push_back(std::make_unique<Client>(socket_of(dir)));
+  try {
+    Client extra(socket_of(dir));
+    FAIL() << "connection 257 was accepted";
+  } catch (const RpcError& e) {
+    EXPECT_EQ(e.code(), -32008);
+  }
+  // All 256 are served.
+  EXPECT_EQ(clients.front()->call("status")["daemon"]["clients"], 256);
+  EXPECT_EQ(clients.back()->call("status")["daemon"]["clients"], 256);
+  clients.pop_back();
+  // A slot is free again once one leaves.
+  const auto deadline = std::chrono::steady_clock::now() + 10s;
+  for (;;) {
+    try {
+      Client again(socket_of(dir));
+      break;
+    } catch (const RpcError&) {
+      ASSERT_LT(std::chrono::steady_clock::now(), deadline);
+      std::this_thread::sleep_for(20ms);
+    }
+  }
+}

@@ -1,0 +1,88 @@
+// standcald's configuration: defaults, the keys it reads, and errors that name the key.
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "daemon/standcald/config.hpp"
+#include "daemon_process.hpp"
+
+using namespace standcal::daemon;
+using nlohmann::json;
+
+namespace {
+
+std::string config_error(const json& doc) {
+  try {
+    parse_config(doc, "lab.json");
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST(DaemonConfig, ReadsEveryGroupOfKeys) {
+  const json doc = json::parse(R"({
+    "socket": {"path": "/tmp/x.sock", "group": "standcal"},
+    "tcp": {"enabled": true, "port": 7777},
+    "state_dir": "/tmp/state", "max_clients": 300, "log_level": "debug",
+    "stand": {"backend": "modbus", "id": "stand-3", "url": "tcp://127.0.0.1:1502?unit=1",
+              "outer": {"continuous": true}, "inner": {"min_deg": -170, "max_deg": 170},
+              "in_position": {"window_deg": 0.002, "dwell_s": 0.5, "timeout_s": 90}, "home_timeout_s": 100},
+    "unit": {"backend": "socketcan", "interface": "can1", "sample_rate_hz": 200},
+    "sim": {"time_scale": 10, "seed": 3},
+    "run": {"settle_s": 3, "dwell_s": 30, "g_local_mps2": 9.8105, "g_source": "PTB survey 2024",
+            "stability": {"sigma_limit_ug": 500, "remeasure_max": 1},
+            "thermal_wait": {"enabled": true, "rate_limit_c_per_min": 0.02}},
+    "programs": {"library_dir": "/etc/standcal/programs"}
+  })");
+  const DaemonConfig c = parse_config(doc, "lab.json");
+  EXPECT_EQ(c.socket_path, "/tmp/x.sock");
+  EXPECT_EQ(c.socket_group, "standcal");
+  EXPECT_TRUE(c.tcp_enabled);
+  EXPECT_EQ(c.tcp_port, 7777);
+  EXPECT_EQ(c.max_clients, 300);
+  EXPECT_EQ(c.stand_backend, "modbus");
+  EXPECT_TRUE(c.outer.continuous);
+  EXPECT_DOUBLE_EQ(c.inner.max_deg, 170);
+  EXPECT_DOUBLE_EQ(c.in_position.window_deg, 0.002);
+  EXPECT_EQ(c.can_interface, "can1");
+  EXPECT_DOUBLE_EQ(c.sample_rate_hz, 200);
+  EXPECT_DOUBLE_EQ(c.g_local_mps2, 9.8105);
+  EXPECT_EQ(c.stability.remeasure_max, 1);
+  EXPECT_TRUE(c.thermal.enabled);
+  EXPECT_EQ(c.program_library_dir, "/etc/standcal/programs");
+}
+
+TEST(DaemonConfig, ErrorsNameTheKeyAndTheReason) {
+  EXPECT_EQ(config_error(json{{"run", {{"dwell_s", "long"}}}}), "lab.json: run.dwell_s: must be a number");
+  EXPECT_NE(config_error(json{{"stand", {{"backend", "canopen"}}}}).find("stand.backend: must be one of"),
+            std::string::npos);
+  EXPECT_NE(config_error(json{{"stand", {{"inner", {{"max_dg", 10}}}}}}).find("stand.inner.max_dg: unknown key"),
+            std::string::npos);
+  EXPECT_NE(config_error(json{{"max_clients", 10}}).find("max_clients: must be between 256"), std::string::npos);
+  EXPECT_NE(config_error(json{{"stand", {{"backend", "modbus"}}}}).find("stand.url: is required"), std::string::npos);
+  EXPECT_NE(config_error(json{{"run", {{"g_local_mps2", 98.1}}}}).find("run.g_local_mps2"), std::string::npos);
+}
+
+TEST(DaemonConfig, TheConfigHashFollowsTheContent) {
+  const DaemonConfig a = parse_config(json{{"run", {{"dwell_s", 30}}}}, "a");
+  const DaemonConfig b = parse_config(json{{"run", {{"dwell_s", 31}}}}, "b");
+  EXPECT_EQ(config_hash(a), config_hash(parse_config(json{{"run", {{"dwell_s", 30}}}}, "c")));
+  EXPECT_NE(config_hash(a), config_hash(b));
+}
+
+TEST(DaemonProcessStart, ABadConfigFailsAtStartNamingTheKey) {
+  standcal::test::TempDir dir;
+  const std::string file = dir.path() + "/bad.json";
+  std::ofstream(file) << R"({"state_dir": ")" << dir.path() << R"(/state", "run": {"settle_s": -4}})";
+  standcal::test::DaemonProcess d(dir.path(), {"--config", file});
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (!d.exited() && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_TRUE(d.exited());
+  EXPECT_TRUE(WIFEXITED(d.wait_status()) && WEXITSTATUS(d.wait_status()) == 1);
+  EXPECT_NE(d.log().find("run.settle_s: must be between 0 and 3600"), std::string::npos) << d.log();
+}

@@ -1,0 +1,89 @@
+// The protocol library on its own: request validation, framing, typed parameters.
+#include <gtest/gtest.h>
+
+#include "protocol/jsonrpc/jsonrpc.hpp"
+#include "protocol/jsonrpc/line_buffer.hpp"
+
+using namespace standcal::protocol;
+using nlohmann::json;
+
+namespace {
+
+int error_code_of(std::string_view line) {
+  auto r = parse_request(line);
+  auto* bad = std::get_if<BadRequest>(&r);
+  return bad ? bad->error.code() : 0;
+}
+
+}  // namespace
+
+TEST(JsonRpc, ParsesARequestWithNamedParams) {
+  auto r = parse_request(R"({"jsonrpc":"2.0","id":7,"method":"stand.move","params":{"alpha1_deg":90}})");
+  ASSERT_TRUE(std::holds_alternative<Request>(r));
+  const Request& req = std::get<Request>(r);
+  EXPECT_EQ(req.id, 7);
+  EXPECT_FALSE(req.is_notification);
+  EXPECT_EQ(req.method, "stand.move");
+  EXPECT_EQ(req.params["alpha1_deg"], 90);
+}
+
+TEST(JsonRpc, ANotificationHasNoId) {
+  auto r = parse_request(R"({"jsonrpc":"2.0","method":"status"})");
+  ASSERT_TRUE(std::holds_alternative<Request>(r));
+  EXPECT_TRUE(std::get<Request>(r).is_notification);
+}
+
+TEST(JsonRpc, RejectsBadRequestsWithTheStandardCodes) {
+  EXPECT_EQ(error_code_of("{not json"), -32700);
+  EXPECT_EQ(error_code_of("[1,2]"), -32600);
+  EXPECT_EQ(error_code_of(R"({"id":1,"method":"status"})"), -32600);             // no jsonrpc
+  EXPECT_EQ(error_code_of(R"({"jsonrpc":"1.0","id":1,"method":"status"})"), -32600);
+  EXPECT_EQ(error_code_of(R"({"jsonrpc":"2.0","id":1,"method":5})"), -32600);
+  EXPECT_EQ(error_code_of(R"({"jsonrpc":"2.0","id":{"a":1},"method":"status"})"), -32600);
+  EXPECT_EQ(error_code_of(R"({"jsonrpc":"2.0","id":1,"method":"status","params":[1]})"), -32602);
+}
+
+TEST(JsonRpc, TheIdIsEchoedInErrorsWhenItCouldBeRead) {
+  auto r = parse_request(R"({"jsonrpc":"1.0","id":"abc","method":"status"})");
+  ASSERT_TRUE(std::holds_alternative<BadRequest>(r));
+  EXPECT_EQ(std::get<BadRequest>(r).id, "abc");
+  const json err = json::parse(make_error("abc", -32600, "bad"));
+  EXPECT_EQ(err["id"], "abc");
+  EXPECT_EQ(err["error"]["code"], -32600);
+  EXPECT_EQ(err["jsonrpc"], "2.0");
+}
+
+TEST(JsonRpc, ParamsNameTheWrongParameter) {
+  const json p{{"alpha1_deg", "ninety"}, {"wait", 1}};
+  Params params(p, "stand.move");
+  try {
+    params.number("alpha1_deg");
+    FAIL() << "accepted a string as a number";
+  } catch (const RpcError& e) {
+    EXPECT_EQ(e.code(), -32602);
+    EXPECT_NE(std::string(e.what()).find("alpha1_deg"), std::string::npos);
+  }
+  EXPECT_THROW(params.optional_bool("wait", true), RpcError);
+  EXPECT_THROW(params.number("alpha2_deg"), RpcError);  // missing
+  EXPECT_THROW(params.only({"alpha1_deg"}), RpcError);  // "wait" not allowed
+  EXPECT_NO_THROW(params.only({"alpha1_deg", "wait"}));
+}
+
+TEST(LineBuffer, JoinsPiecesIntoLines) {
+  LineBuffer b(100);
+  b.append("{\"a\":");
+  EXPECT_FALSE(b.next_line());
+  b.append("1}\r\n{\"b\":2}\n{\"c\"");
+  EXPECT_EQ(b.next_line().value(), "{\"a\":1}");
+  EXPECT_EQ(b.next_line().value(), "{\"b\":2}");
+  EXPECT_FALSE(b.next_line());
+  EXPECT_EQ(b.pending_bytes(), 4u);
+}
+
+TEST(LineBuffer, ReportsALineLongerThanTheLimit) {
+  LineBuffer b(10);
+  b.append("0123456789");
+  EXPECT_FALSE(b.overflowed());
+  b.append("X");
+  EXPECT_TRUE(b.overflowed());
+}

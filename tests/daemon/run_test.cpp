@@ -1,0 +1,346 @@
+// Full runs through the real standcald process on the simulated backend: the socket,
+// the sequencer, the stored recording and result, kill -9 and resume, pause, abort,
+// e-stop, SIGTERM, re-mount steps.
+#include <gtest/gtest.h>
+
+#include <map>
+#include <set>
+
+#include "calib/averaging.hpp"
+#include "calib/invariant_estimator.hpp"
+#include "calib/recording.hpp"
+#include "calib/report.hpp"
+#include "calib/simulator.hpp"
+#include "daemon_process.hpp"
+
+using namespace standcal;
+using namespace std::chrono_literals;
+using nlohmann::json;
+using protocol::Client;
+using protocol::RpcError;
+using test::DaemonProcess;
+using test::TempDir;
+
+namespace {
+
+std::string socket_of(const TempDir& d) { return d.path() + "/standcald.sock"; }
+
+// Polls run.status until `done(status)` or the timeout; returns the last status.
+json wait_run(Client& c, const std::string& run_id, const std::function<bool(const json&)>& done,
+              std::chrono::seconds timeout = 90s) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  json s;
+  while (std::chrono::steady_clock::now() < deadline) {
+    s = c.call("run.status", {{"run_id", run_id}});
+    if (done(s)) return s;
+    std::this_thread::sleep_for(20ms);
+  }
+  ADD_FAILURE() << "run " << run_id << " did not get there in time; last status " << s.dump();
+  return s;
+}
+
+bool finished(const json& s) {
+  const std::string st = s["state"];
+  return st == "done" || st == "faulted" || st == "aborted" || st == "interrupted";
+}
+
+// Samples per position block, in the order of the file; fails on a position seen twice.
+std::map<int, std::size_t> position_blocks(const Recording& rec) {
+  std::map<int, std::size_t> counts;
+  int last = -1;
+  for (const RecordingSample& s : rec.samples) {
+    if (s.pos != last) {
+      EXPECT_EQ(counts.count(s.pos), 0u) << "position " << s.pos << " appears twice";
+      last = s.pos;
+    }
+    ++counts[s.pos];
+  }
+  return counts;
+}
+
+int error_code_of(const std::function<void()>& call) {
+  try {
+    call();
+  } catch (const RpcError& e) {
+    return e.code();
+  }
+  return 0;
+}
+
+}  // namespace
+
+TEST(DaemonRun, FullPaper9RunOverTheSocket) {
+  TempDir dir;
+  auto daemon = DaemonProcess::sim(dir.path(), 300);
+  Client c(socket_of(dir));
+  EXPECT_EQ(c.hello()["protocol"], "1");
+  Client events(socket_of(dir));
+  events.call("subscribe", {{"events", "all"}});
+
+  const json started = c.call("run.start", {{"program", "paper9"}, {"unit_serial", "AU-0042"}, {"dwell_s", 30},
+                                            {"settle_s", 2}, {"operator", "test"}});
+  const std::string run_id = started["run_id"];
+  EXPECT_EQ(started["positions"], 9);
+  const json final_status = wait_run(c, run_id, finished);
+  ASSERT_EQ(final_status["state"], "done") << final_status.dump() << daemon->log();
+  EXPECT_EQ(final_status["positions_done"], 9);
+
+  // Events: nine averaged positions and a state change to done.
+  int averaged = 0;
+  bool saw_done = false;
+  while (auto n = events.next_notification(200ms)) {
+    if ((*n)["method"] == "run.position_averaged") {
+      ++averaged;
+      EXPECT_EQ((*n)["params"]["sigma_ug"].size(), 3u);
+    }
+    if ((*n)["method"] == "run.state" && (*n)["params"]["state"] == "done") saw_done = true;
+  }
+  EXPECT_EQ(averaged, 9);
+  EXPECT_TRUE(saw_done);
+
+  // The stored recording: every position once, with t_arrive_s and approach columns.
+  const json result = c.call("run.result", {{"run_id", run_id}});
+  const std::string path = result["recording_path"];
+  const Recording rec = read_recording(path);
+  EXPECT_EQ(rec.unit_serial, "AU-0042");
+  EXPECT_TRUE(rec.columns.t_arrive);
+  EXPECT_TRUE(rec.columns.approach);
+  const auto blocks = position_blocks(rec);
+  ASSERT_EQ(blocks.size(), 9u);
+  for (const auto& [pos, n] : blocks) {
+    EXPECT_NEAR(static_cast<double>(n), 30 * 100, 30) << "position " << pos;
+  }
+  for (const RecordingSample& s : rec.samples) {
+    ASSERT_TRUE(s.approach == 1 || s.approach == -1);
+    ASSERT_LE(s.t_arrive_s, s.t_s);
+  }
+
+  // The result is the fit of that recording, in `standcal fit --json`'s shape, plus traceability.
+  const json refit = fit_to_json(fit_invariant_joint(average_positions(rec)));
+  for (const auto& name : kUnitParameterNames) {
+    const std::string key(name);
+    ASSERT_TRUE(result["parameters"].contains(key)) << key;
+    EXPECT_EQ(result["parameters"][key], refit["parameters"][key]) << key;
+  }
+  EXPECT_EQ(result["estimator"], refit["estimator"]);
+  EXPECT_EQ(result["positions"], 9);
+  EXPECT_EQ(result["traceability"]["unit_serial"], "AU-0042");
+  EXPECT_EQ(result["traceability"]["operator"], "test");
+  EXPECT_EQ(result["traceability"]["stand_id"], "sim-stand");
+  EXPECT_FALSE(result["traceability"]["config_hash"].get<std::string>().empty());
+  EXPECT_FALSE(result["traceability"]["ended_utc"].get<std::string>().empty());
+
+  // The estimates find the simulator's truth (noise: about 1 µg per bias at this dwell).
+  const TruthModel truth = default_truth();
+  for (int i = 0; i < 3; ++i) {
+    const json& p = result["parameters"][std::string(kUnitParameterNames[static_cast<std::size_t>(i)])];
+    EXPECT_NEAR(p["value"].get<double>(), truth.unit.bias_g[i] / kUg, 8 * p["sigma"].get<double>() + 2) << i;
+  }
+
+  // The run index for the unit lists it.
+  const json runs = c.call("runs.list", {{"unit_serial", "AU-0042"}});
+  ASSERT_EQ(runs["runs"].size(), 1u);
+  EXPECT_EQ(runs["runs"][0]["run_id"], run_id);
+  std::ifstream index(dir.path() + "/state/units/AU-0042.json");
+  EXPECT_EQ(json::parse(index)["runs"][0], run_id);
+}
+
+TEST(DaemonRun, KillNineMidRunThenResumeRecordsEveryPositionOnce) {
+  TempDir dir;
+  std::string run_id;
+  {
+    auto daemon = DaemonProcess::sim(dir.path(), 100);
+    Client c(socket_of(dir));
+    run_id = c.call("run.start", {{"program", "paper9"}, {"unit_serial", "AU-7"}, {"dwell_s", 40}, {"settle_s", 1}})["run_id"];
+    wait_run(c, run_id, [](const json& s) { return s["positions_done"].get<int>() >= 3 || finished(s); });
+    daemon->kill_now(SIGKILL);  // mid-run: the socket file and the recording stay as they were
+  }
+  auto daemon = DaemonProcess::sim(dir.path(), 100);  // replaces the stale socket
+  Client c(socket_of(dir));
+  const json after = c.call("run.status", {{"run_id", run_id}});
+  ASSERT_EQ(after["state"], "interrupted") << after.dump();
+  const int done_before = after["positions_done"];
+  EXPECT_GE(done_before, 3);
+  EXPECT_LT(done_before, 9);
+
+  const json resumed = c.call("run.resume", json::object());  // the newest resumable run
+  EXPECT_EQ(resumed["run_id"], run_id);
+  EXPECT_EQ(resumed["position"], done_before + 1);
+  const json final_status = wait_run(c, run_id, finished);
+  ASSERT_EQ(final_status["state"], "done") << final_status.dump() << daemon->log();
+
+  const Recording rec = read_recording(dir.path() + "/state/runs/" + run_id + "/recording.csv");
+  EXPECT_TRUE(rec.warnings.empty());
+  const auto blocks = position_blocks(rec);
+  ASSERT_EQ(blocks.size(), 9u);
+  for (int pos = 0; pos < 9; ++pos) {
+    ASSERT_EQ(blocks.count(pos), 1u);
+    EXPECT_NEAR(static_cast<double>(blocks.at(pos)), 40 * 100, 40) << "position " << pos;
+  }
+  const json result = c.call("run.result", {{"run_id", run_id}});
+  EXPECT_EQ(result["positions"], 9);
+}
+
+TEST(DaemonRun, OneRunAtATimeAndTheStandIsBusyDuringIt) {
+  TempDir dir;
+  auto daemon = DaemonProcess::sim(dir.path(), 50);
+  Client c(socket_of(dir));
+  const std::string run_id = c.call("run.start", {{"program", "paper9"}, {"unit_serial", "AU-1"}, {"dwell_s", 60}})["run_id"];
+  Client other(socket_of(dir));
+  EXPECT_EQ(error_code_of([&] { other.call("run.start", {{"program", "paper9"}, {"unit_serial", "AU-2"}}); }), -32001);
+  EXPECT_EQ(error_code_of([&] { other.call("stand.move", {{"alpha1_deg", 10}, {"alpha2_deg", 0}}); }), -32001);
+  EXPECT_EQ(error_code_of([&] { other.call("unit.read", {{"seconds", 1}}); }), -32001);
+  const json status = other.call("status");
+  EXPECT_EQ(status["run"]["run_id"], run_id);
+  c.call("run.abort");
+  const json s = wait_run(c, run_id, finished);
+  EXPECT_EQ(s["state"], "aborted");
+}
+
+TEST(DaemonRun, PauseLeavesTheStandStoppedAndResumeCompletesTheRun) {
+  TempDir dir;
+  auto daemon = DaemonProcess::sim(dir.path(), 200);
+  Client c(socket_of(dir));
+  const std::string run_id =
+      c.call("run.start", {{"program", "paper9"}, {"unit_serial", "AU-3"}, {"dwell_s", 30}, {"settle_s", 1}})["run_id"];
+  wait_run(c, run_id, [](const json& s) { return s["positions_done"].get<int>() >= 2; });
+  c.call("run.pause");
+  const json paused = wait_run(c, run_id, [](const json& s) { return s["state"] == "paused"; });
+  const int done_at_pause = paused["positions_done"];
+  std::this_thread::sleep_for(300ms);
+  const json still = c.call("run.status", {{"run_id", run_id}});
+  EXPECT_EQ(still["state"], "paused");
+  EXPECT_EQ(still["positions_done"], done_at_pause);  // nothing measured while paused
+  const json stand_status = c.call("status");
+  for (const json& axis : stand_status["stand"]["axes"]) {
+    EXPECT_NE(axis["mode"], "moving") << axis.dump();
+  }
+  EXPECT_EQ(error_code_of([&] { c.call("run.pause"); }), -32007);
+  c.call("run.resume");
+  const json s = wait_run(c, run_id, finished);
+  ASSERT_EQ(s["state"], "done") << daemon->log();
+  const auto blocks = position_blocks(read_recording(s["recording_path"]));
+  EXPECT_EQ(blocks.size(), 9u);
+}
+
+TEST(DaemonRun, EstopFromAnyClientStopsTheRunAndLatches) {
+  TempDir dir;
+  auto daemon = DaemonProcess::sim(dir.path(), 50);
+  Client c(socket_of(dir));
+  const std::string run_id = c.call("run.start", {{"program", "paper9"}, {"unit_serial", "AU-4"}, {"dwell_s", 60}})["run_id"];
+  wait_run(c, run_id, [](const json& s) { return s["phase"] == "moving" || s["phase"] == "sampling"; });
+  Client other(socket_of(dir));
+  const json stopped = other.call("estop", json::object(), 5s);
+  EXPECT_EQ(stopped["estop"], true);
+  const json s = wait_run(c, run_id, finished);
+  EXPECT_EQ(s["state"], "faulted");
+  EXPECT_NE(s["reason"].get<std::string>().find("emergency stop"), std::string::npos);
+  EXPECT_EQ(c.call("status")["stand"]["estop_latched"], true);
+  EXPECT_EQ(error_code_of([&] { c.call("stand.move", {{"alpha1_deg", 1}, {"alpha2_deg", 1}}); }), -32004);
+  EXPECT_EQ(error_code_of([&] { c.call("run.resume"); }), -32004);
+  c.call("estop.reset");
+  c.call("stand.enable");
+  c.call("stand.home", json::object(), 60s);
+  const json moved = c.call("stand.move", {{"alpha1_deg", 90}, {"alpha2_deg", -45}}, 60s);
+  EXPECT_NEAR(moved["alpha1_deg"].get<double>(), 90, 0.01);
+  EXPECT_NEAR(moved["alpha2_deg"].get<double>(), -45, 0.01);
+}
+
+TEST(DaemonRun, SigtermStopsTheStandAndLeavesTheRunResumable) {
+  TempDir dir;
+  std::string run_id;
+  {
+    auto daemon = DaemonProcess::sim(dir.path(), 100);
+    Client c(socket_of(dir));
+    run_id = c.call("run.start", {{"program", "paper9"}, {"unit_serial", "AU-5"}, {"dwell_s", 30}})["run_id"];
+    wait_run(c, run_id, [](const json& s) { return s["positions_done"].get<int>() >= 1; });
+    const int status = daemon->kill_now(SIGTERM);
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << daemon->log();
+    EXPECT_NE(daemon->log().find("stopping and disabling the stand axes"), std::string::npos);
+    EXPECT_FALSE(std::filesystem::exists(socket_of(dir)));  // removed on a clean exit
+  }
+  auto daemon = DaemonProcess::sim(dir.path(), 300);
+  Client c(socket_of(dir));
+  EXPECT_EQ(c.call("run.status", {{"run_id", run_id}})["state"], "interrupted");
+  c.call("run.resume", {{"run_id", run_id}});
+  EXPECT_EQ(wait_run(c, run_id, finished)["state"], "done");
+}
+
+TEST(DaemonRun, Classic24WaitsForTheOperatorAtEachRemount) {
+  TempDir dir;
+  auto daemon = DaemonProcess::sim(dir.path(), 500);
+  Client c(socket_of(dir));
+  const std::string run_id =
+      c.call("run.start", {{"program", "classic24"}, {"unit_serial", "AU-6"}, {"dwell_s", 10}, {"settle_s", 1}})["run_id"];
+  int confirmations = 0;
+  for (;;) {
+    const json s = wait_run(c, run_id, [](const json& x) { return x["state"] == "waiting_operator" || finished(x); });
+    if (s["state"] != "waiting_operator") {
+      ASSERT_EQ(s["state"], "done") << s.dump() << daemon->log();
+      break;
+    }
+    c.call("operator.confirm");
+    ++confirmations;
+    ASSERT_LE(confirmations, 2);
+  }
+  EXPECT_EQ(confirmations, 2);  // x -> y -> z
+  const Recording rec = read_recording(dir.path() + "/state/runs/" + run_id + "/recording.csv");
+  EXPECT_TRUE(rec.columns.mount);
+  EXPECT_EQ(position_blocks(rec).size(), 24u);
+  EXPECT_EQ(c.call("run.result", {{"run_id", run_id}})["positions"], 24);
+}
+
+TEST(DaemonRun, UnknownRunsAndBadProgrammesAreClearErrors) {
+  TempDir dir;
+  auto daemon = DaemonProcess::sim(dir.path(), 100);
+  Client c(socket_of(dir));
+  EXPECT_EQ(error_code_of([&] { c.call("run.result", {{"run_id", "nope"}}); }), -32006);
+  EXPECT_EQ(error_code_of([&] { c.call("run.start", {{"program", "paper10"}, {"unit_serial", "AU"}}); }), -32006);
+  EXPECT_EQ(error_code_of([&] { c.call("run.start", {{"program", "../etc/passwd"}, {"unit_serial", "AU"}}); }), -32602);
+  EXPECT_EQ(error_code_of([&] { c.call("run.start", {{"program", "paper9"}}); }), -32602);
+  EXPECT_EQ(error_code_of([&] { c.call("run.resume"); }), -32006);
+  EXPECT_EQ(error_code_of([&] { c.call("run.pause"); }), -32007);
+  EXPECT_EQ(error_code_of([&] { c.call("stand.move", {{"alpha1_deg", 1}, {"alpha2_deg", 2}}); }), -32007);  // not enabled
+  c.call("stand.enable");
+  EXPECT_EQ(error_code_of([&] { c.call("stand.move", {{"alpha1_deg", 1}, {"alpha2_deg", 2}}); }), -32002);  // not homed
+  c.call("stand.home", json::object(), 60s);
+  EXPECT_EQ(error_code_of([&] { c.call("stand.move", {{"alpha1_deg", "ninety"}, {"alpha2_deg", 2}}); }), -32602);
+  EXPECT_EQ(error_code_of([&] { c.call("unit.read", {{"seconds", -1}}); }), -32602);
+  const json read = c.call("unit.read", {{"seconds", 2}});
+  EXPECT_NEAR(read["samples"].get<double>(), 200, 5);
+  EXPECT_NEAR(read["axes"]["y"]["mean_mps2"].get<double>(), 9.81, 0.05);  // y up at (0, 0)
+  // Inline positions run like a named programme.
+  const json inline_run = c.call("run.start", {{"program", json::array({{{"alpha1_deg", 0}, {"alpha2_deg", 0}},
+                                                                         {{"alpha1_deg", 90}, {"alpha2_deg", 0}}})},
+                                               {"unit_serial", "AU-8"}, {"dwell_s", 5}, {"settle_s", 0}});
+  const json s = wait_run(c, inline_run["run_id"], finished);
+  EXPECT_EQ(s["positions_done"], 2);
+}
+
+TEST(DaemonCli, RunStartWaitPrintsTheResultOfARunThroughTheDaemon) {
+  TempDir dir;
+  auto daemon = DaemonProcess::sim(dir.path(), 300);
+  const std::string cmd = std::string(STANDCAL_CLI_PATH) + " run start paper9 --unit AU-CLI --dwell 20 --settle 1 --wait --json --socket " +
+                          socket_of(dir) + " 2>&1";
+  std::FILE* out = ::popen(cmd.c_str(), "r");
+  ASSERT_NE(out, nullptr);
+  std::string text;
+  char buf[4096];
+  while (std::size_t n = std::fread(buf, 1, sizeof buf, out)) text.append(buf, n);
+  ASSERT_EQ(::pclose(out), 0) << text;
+  // --json --wait prints the events as they come, then the result (pretty-printed, last).
+  const auto start = text.rfind("\n{\n");
+  ASSERT_NE(start, std::string::npos) << text;
+  const json result = json::parse(text.substr(start + 1));
+  EXPECT_EQ(result["positions"], 9);
+  EXPECT_EQ(result["traceability"]["unit_serial"], "AU-CLI");
+  EXPECT_NE(text.find("run.position_averaged"), std::string::npos);
+
+  const std::string runs_cmd = std::string(STANDCAL_CLI_PATH) + " runs --socket " + socket_of(dir);
+  out = ::popen(runs_cmd.c_str(), "r");
+  text.clear();
+  while (std::size_t n = std::fread(buf, 1, sizeof buf, out)) text.append(buf, n);
+  EXPECT_EQ(::pclose(out), 0);
+  EXPECT_NE(text.find("AU-CLI"), std::string::npos) << text;
+  EXPECT_NE(text.find("done"), std::string::npos) << text;
+}

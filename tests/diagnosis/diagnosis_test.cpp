@@ -1,0 +1,242 @@
+// Blind tests of `diagnose_recording`: each recording is simulated with one concealed
+// effect of the catalog (or none); the diagnosis is told nothing about it.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <nlohmann/json.hpp>
+
+#include "calib/averaging.hpp"
+#include "calib/diagnosis.hpp"
+#include "calib/invariant_estimator.hpp"
+#include "calib/programs.hpp"
+#include "calib/simulator.hpp"
+#include "calib/units.hpp"
+
+namespace standcal {
+namespace {
+
+// The diagnostic programme (documented in docs/diagnosis.md): 16 distinct positions on
+// one mount, spread over the sphere with intermediate angles on every axis, visited
+// forward and then in reverse, so every position is seen twice, from both approach
+// directions and at two times. 32 positions; redundancy for every catalog candidate.
+Program diagnostic32() {
+  std::vector<std::pair<double, double>> a;
+  for (double a1 : {0.0, 60.0, 120.0, 180.0, 240.0, 300.0}) a.emplace_back(a1, 0.0);
+  for (double a2 : {45.0, 90.0, 135.0, 225.0, 270.0, 315.0}) a.emplace_back(0.0, a2);
+  a.emplace_back(45.0, 90.0);
+  a.emplace_back(45.0, 270.0);
+  a.emplace_back(30.0, 60.0);
+  a.emplace_back(330.0, 120.0);
+  Program p;
+  p.name = "diagnostic32";
+  for (int pass = 0; pass < 2; ++pass)
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      const auto& [a1, a2] = pass == 0 ? a[i] : a[a.size() - 1 - i];
+      ProgramPosition pos;
+      pos.alpha1_deg = a1;
+      pos.alpha2_deg = a2;
+      p.positions.push_back(pos);
+    }
+  return p;
+}
+
+Recording simulate(const Program& program, const TruthModel& truth, std::uint64_t seed, double dwell_s = 10) {
+  SimulationRequest req;
+  req.program = program;
+  req.truth = truth;
+  req.seed = seed;
+  req.timing.dwell_s = dwell_s;
+  req.timing.settle_s = 2;
+  return simulate_run(req);
+}
+
+TruthModel with_effect(const std::string& id, const std::string& axis, double value, double tau_s = 0) {
+  TruthModel t = default_truth();
+  t.extra_physics.push_back({id, axis, value, tau_s});
+  return t;
+}
+
+void print(const Diagnosis& d) {
+  std::printf("verdict %s, baseline chi2/dof %.2f, final %.2f\n", d.verdict.c_str(), d.baseline.chi2_dof, d.final_chi2_dof);
+  for (const auto& s : d.summary) std::printf("  %s\n", s.c_str());
+  for (std::size_t i = 0; i < d.candidates.size() && i < 5; ++i)
+    std::printf("  cand %s %s dchi2 %.1f bic %.1f press %.1f val %.2f +- %.2f\n", d.candidates[i].effect.c_str(),
+                d.candidates[i].axis.c_str(), d.candidates[i].delta_chi2, d.candidates[i].delta_bic,
+                d.candidates[i].press_gain, d.candidates[i].value, d.candidates[i].sigma);
+}
+
+struct Concealed {
+  std::string id, axis;
+  double value, tau_s;
+};
+
+void expect_found(const Concealed& c, std::uint64_t seed) {
+  TruthModel t = with_effect(c.id, c.axis, c.value, c.tau_s);
+  if (c.id == "bias_temperature" || c.id == "scale_temperature") t.temperature.rate_c_per_h = 20;
+  const Diagnosis d = diagnose_recording(simulate(diagnostic32(), t, seed));
+  print(d);
+  ASSERT_FALSE(d.findings.empty()) << c.id << " " << c.axis << " seed " << seed;
+  const Finding& f = d.findings.front();
+  EXPECT_EQ(f.effect, c.id);
+  EXPECT_EQ(f.axis, c.axis);
+  EXPECT_LT(std::abs(f.value - c.value), 3 * f.sigma) << f.value << " +- " << f.sigma << " truth " << c.value;
+  EXPECT_EQ(d.verdict, "explained");
+}
+
+TEST(DiagnosisBlind, K2OnZ) { expect_found({"scale_nonlinearity_k2", "z", -34, 0}, 11); }
+TEST(DiagnosisBlind, BiasDriftOnX) { expect_found({"bias_drift", "x", 150, 0}, 12); }
+// The simulator's temperature is a straight line in time, which makes a bias temperature
+// coefficient exactly collinear with a bias drift: the honest answer is `ambiguous`.
+TEST(DiagnosisBlind, TemperatureRampIsAmbiguousWithDrift) {
+  TruthModel t = with_effect("bias_temperature", "y", 25);
+  t.temperature.rate_c_per_h = 20;
+  const Diagnosis d = diagnose_recording(simulate(diagnostic32(), t, 13));
+  print(d);
+  EXPECT_EQ(d.verdict, "ambiguous");
+  bool names_both = false;
+  for (const auto& s : d.summary)
+    names_both = names_both || (s.find("bias drift of the y") != std::string::npos &&
+                                s.find("bias temperature coefficient of the y") != std::string::npos);
+  EXPECT_TRUE(names_both);
+}
+
+// A recording from a climatic chamber cycling the temperature (not a straight line in
+// time): the recording is simulated without the effect, then the chamber's temperature
+// and the unit's response to it are written into it, as a foreign bench would record it.
+TEST(DiagnosisBlind, BiasTemperatureOnYWithCyclingChamber) {
+  const double coeff_ug_per_c = 25;
+  Recording rec = simulate(diagnostic32(), default_truth(), 13);
+  rec.temp_ref_c = 23.0;
+  for (RecordingSample& s : rec.samples) {
+    const double temp_c = 23.0 + 2.0 * std::sin(2 * kPi * s.t_s / 500.0);
+    s.temp_c = temp_c;
+    s.f_mps2.y() += coeff_ug_per_c * kUg * (temp_c - 23.0) * rec.g_local_mps2;
+  }
+  const Diagnosis d = diagnose_recording(rec);
+  print(d);
+  ASSERT_FALSE(d.findings.empty());
+  EXPECT_EQ(d.findings.front().effect, "bias_temperature");
+  EXPECT_EQ(d.findings.front().axis, "y");
+  EXPECT_LT(std::abs(d.findings.front().value - coeff_ug_per_c), 3 * d.findings.front().sigma);
+  EXPECT_EQ(d.verdict, "explained");
+}
+TEST(DiagnosisBlind, HysteresisOnZ) { expect_found({"hysteresis", "z", 12, 0}, 14); }
+TEST(DiagnosisBlind, SettlingTransientOnY) { expect_found({"settling_transient", "y", 60, 4}, 15); }
+
+TEST(DiagnosisBlind, CleanRecordingsAreConsistent) {
+  for (std::uint64_t seed : {21, 22, 23, 24}) {
+    const Diagnosis d = diagnose_recording(simulate(diagnostic32(), default_truth(), seed));
+    print(d);
+    EXPECT_EQ(d.verdict, "consistent") << "seed " << seed;
+    EXPECT_TRUE(d.findings.empty()) << "seed " << seed;
+  }
+}
+
+TEST(DiagnosisBlind, Paper9HasInsufficientRedundancy) {
+  const Diagnosis d = diagnose_recording(simulate(paper9(), with_effect("scale_nonlinearity_k2", "z", -34), 5));
+  print(d);
+  EXPECT_EQ(d.verdict, "insufficient_redundancy");
+  EXPECT_FALSE(d.proposed_positions.empty());
+}
+
+TEST(DiagnosisBlind, K2OnZReportsAbsorptionAndJson) {
+  const Diagnosis d = diagnose_recording(simulate(diagnostic32(), with_effect("scale_nonlinearity_k2", "z", -34), 31));
+  const nlohmann::json j = diagnose_to_json(d);
+  EXPECT_EQ(j["verdict"], "explained");
+  EXPECT_EQ(j["method"], "full");
+  ASSERT_EQ(j["findings"].size(), 1u);
+  EXPECT_EQ(j["findings"][0]["effect"], "scale_nonlinearity_k2");
+  EXPECT_EQ(j["findings"][0]["axis"], "z");
+  EXPECT_EQ(j["findings"][0]["unit"], "ug/g2");
+  EXPECT_GT(j["baseline"]["chi2_dof"].get<double>(), 2.0);
+  EXPECT_LT(j["final"]["chi2_dof"].get<double>(), 1.6);
+  EXPECT_TRUE(j["final"]["parameters"].is_object());
+  EXPECT_NE(j["findings"][0]["explanation"].get<std::string>().find("It had been absorbed into"), std::string::npos);
+  EXPECT_EQ(j["model"]["extra_physics"][0]["id"], "scale_nonlinearity_k2");
+  const std::string html = diagnose_to_html(d);
+  EXPECT_NE(html.find("scale_nonlinearity_k2"), std::string::npos);
+  EXPECT_NE(html.find("class=\"hot\""), std::string::npos);  // the located mismatch is highlighted
+}
+
+// delta_J_L per position (stand errors cancel in it to first order): the recording and a
+// re-simulation of the augmented model must agree within noise; the baseline model must not.
+double projection_chi2_dof(const Recording& a, const Recording& b) {
+  const auto pa = average_positions(a), pb = average_positions(b);
+  double chi2 = 0;
+  for (std::size_t k = 0; k < pa.size(); ++k) {
+    const double da = delta_J_L(pa[k].up(), pa[k].mean_g), db = delta_J_L(pb[k].up(), pb[k].mean_g);
+    const double s2 = std::pow(invariant_sigma_g(pa[k]), 2) + std::pow(invariant_sigma_g(pb[k]), 2);
+    chi2 += (da - db) * (da - db) / s2;
+  }
+  return chi2 / static_cast<double>(pa.size());
+}
+
+TEST(DiagnosisBlind, AugmentedModelReproducesTheRecording) {
+  const Recording rec = simulate(diagnostic32(), with_effect("scale_nonlinearity_k2", "z", -34), 41);
+  const Diagnosis d = diagnose_recording(rec);
+  ASSERT_EQ(d.verdict, "explained");
+  TruthModel augmented = truth_from_json(truth_to_json(d.model), "augmented");
+  TruthModel without = augmented;
+  without.extra_physics.clear();
+  const double with_chi2 = projection_chi2_dof(rec, simulate(diagnostic32(), augmented, 42));
+  const double without_chi2 = projection_chi2_dof(rec, simulate(diagnostic32(), without, 42));
+  std::printf("recording vs re-simulation, delta_J_L chi2/position: augmented %.2f, without the finding %.2f\n",
+              with_chi2, without_chi2);
+  EXPECT_LT(with_chi2, 2.0);
+  EXPECT_GT(without_chi2, 2 * with_chi2);
+}
+
+std::string temp_dir() {
+  char tmpl[] = "/tmp/standcal-diag-XXXXXX";
+  const char* dir = mkdtemp(tmpl);
+  if (!dir) throw std::runtime_error("mkdtemp failed");
+  return dir;
+}
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+TEST(DiagnoseCli, SimulateWithModelThenDiagnoseJsonReportAndModelOut) {
+  const std::string dir = temp_dir();
+  {
+    std::ofstream prog(dir + "/prog.json");
+    prog << program_to_json(diagnostic32()).dump();
+    TruthModel t = with_effect("bias_drift", "z", 150);
+    save_truth(t, dir + "/model.json");
+  }
+  const std::string cli = STANDCAL_CLI;
+  const std::string sim = cli + " simulate --program " + dir + "/prog.json --model " + dir + "/model.json --seed 7 --dwell-s 10 --settle-s 2 -o " + dir + "/rec.csv 2>/dev/null";
+  ASSERT_EQ(std::system(sim.c_str()), 0);
+  const std::string diag = cli + " diagnose " + dir + "/rec.csv --json --report " + dir + "/report.html --model-out " + dir + "/aug.json > " + dir + "/out.json 2>/dev/null";
+  ASSERT_EQ(std::system(diag.c_str()), 0);
+  const nlohmann::json j = nlohmann::json::parse(slurp(dir + "/out.json"));
+  EXPECT_EQ(j["verdict"], "explained");
+  ASSERT_FALSE(j["findings"].empty());
+  EXPECT_EQ(j["findings"][0]["effect"], "bias_drift");
+  EXPECT_EQ(j["findings"][0]["axis"], "z");
+  EXPECT_NE(slurp(dir + "/report.html").find("bias_drift"), std::string::npos);
+  const TruthModel aug = load_truth(dir + "/aug.json");
+  ASSERT_EQ(aug.extra_physics.size(), 1u);
+  EXPECT_EQ(aug.extra_physics[0].id, "bias_drift");
+  // The augmented model is accepted by `standcal simulate --model`.
+  const std::string resim = cli + " simulate --program " + dir + "/prog.json --model " + dir + "/aug.json --dwell-s 1 -o " + dir + "/re.csv 2>/dev/null";
+  EXPECT_EQ(std::system(resim.c_str()), 0);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(DiagnoseCli, MissingRecordingFailsWithOneLineReason) {
+  const std::string cmd = std::string(STANDCAL_CLI) + " diagnose /nonexistent/rec.csv > /dev/null 2>&1";
+  EXPECT_NE(std::system(cmd.c_str()), 0);
+}
+
+}  // namespace
+}  // namespace standcal

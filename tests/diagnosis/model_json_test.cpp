@@ -1,0 +1,92 @@
+// The extra physics in standcal-model/1 and in the simulator (issue 6): round trip,
+// rejection of bad entries, and byte-identical JSON for models without extra physics.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+
+#include "calib/averaging.hpp"
+#include "calib/programs.hpp"
+#include "calib/simulator.hpp"
+#include "calib/units.hpp"
+
+namespace standcal {
+namespace {
+
+TEST(ExtraPhysicsJson, ModelsWithoutExtraPhysicsHaveNoKey) {
+  EXPECT_FALSE(truth_to_json(default_truth()).contains("extra_physics"));
+}
+
+TEST(ExtraPhysicsJson, RoundTrip) {
+  TruthModel t = default_truth();
+  t.extra_physics.push_back({"scale_nonlinearity_k2", "z", -34, 0});
+  t.extra_physics.push_back({"cross_coupling", "zx", 12, 0});
+  t.extra_physics.push_back({"settling_transient", "y", 60, 4});
+  const nlohmann::json j = truth_to_json(t);
+  EXPECT_EQ(j["extra_physics"][0]["unit"], "ug/g2");
+  EXPECT_EQ(j["extra_physics"][2]["tau_s"], 4.0);
+  const TruthModel back = truth_from_json(j, "model");
+  ASSERT_EQ(back.extra_physics.size(), 3u);
+  EXPECT_EQ(back.extra_physics[1].axis, "zx");
+  EXPECT_DOUBLE_EQ(back.extra_physics[0].value, -34);
+  EXPECT_EQ(truth_to_json(back)["extra_physics"], j["extra_physics"]);
+}
+
+TEST(ExtraPhysicsJson, RejectsBadEntries) {
+  nlohmann::json j = truth_to_json(default_truth());
+  j["extra_physics"] = {{{"id", "scale_nonlinearity_k2"}, {"axis", "z"}, {"value", 1}, {"colour", "red"}}};
+  EXPECT_THROW(truth_from_json(j, "m"), std::runtime_error);
+  j["extra_physics"] = {{{"id", "warp_drive"}, {"axis", "z"}, {"value", 1}}};
+  EXPECT_THROW(truth_from_json(j, "m"), std::runtime_error);
+  j["extra_physics"] = {{{"id", "cross_coupling"}, {"axis", "z"}, {"value", 1}}};
+  EXPECT_THROW(truth_from_json(j, "m"), std::runtime_error);
+  j["extra_physics"] = {{{"id", "bias_drift"}, {"axis", "x"}, {"value", 1}, {"unit", "ppm"}}};
+  EXPECT_THROW(truth_from_json(j, "m"), std::runtime_error);
+  j["extra_physics"] = {{{"id", "settling_transient"}, {"axis", "x"}, {"value", 1}}};
+  EXPECT_THROW(truth_from_json(j, "m"), std::runtime_error);
+}
+
+// The simulator applies each term as model.md parametrises it.
+TEST(ExtraPhysicsSimulator, TermsFollowTheCatalogParametrisation) {
+  TruthModel t = default_truth();
+  t.noise = NoiseModel{};
+  t.noise.density_ug_rthz = 0;
+  t.temperature.noise_c = 0;
+  TruthModel k2 = t;
+  k2.extra_physics.push_back({"scale_nonlinearity_k2", "z", -34, 0});
+  UnitSimulator plain(t, 1, 100), with(k2, 1, 100);
+  // alpha1 = 0, alpha2 = 90: z up, J_z ~ 1 g.
+  const Vec3 f0 = plain.specific_force_mps2(1.0, 0, 90, Mount::x);
+  const Vec3 f1 = with.specific_force_mps2(1.0, 0, 90, Mount::x);
+  const double jz = f0.z() / t.g_local_mps2;
+  EXPECT_NEAR((f1.z() - f0.z()) / t.g_local_mps2 / kUg, -34 * jz * jz, 1e-6);
+  EXPECT_NEAR(f1.x(), f0.x(), 1e-12);
+
+  TruthModel hyst = t;
+  hyst.extra_physics.push_back({"hysteresis", "x", 10, 0});
+  hyst.extra_physics.push_back({"bias_drift", "y", 36, 0});
+  UnitSimulator h(hyst, 1, 100), p2(t, 1, 100);
+  h.set_position_context(-1, 0.0);
+  const Vec3 g0 = p2.specific_force_mps2(3600.0, 0, 0, Mount::x);
+  const Vec3 g1 = h.specific_force_mps2(3600.0, 0, 0, Mount::x);
+  EXPECT_NEAR((g1.x() - g0.x()) / t.g_local_mps2 / kUg, -10, 1e-6);
+  EXPECT_NEAR((g1.y() - g0.y()) / t.g_local_mps2 / kUg, 36, 1e-6);
+}
+
+// Without extra physics a simulated run is exactly what it was before the extension.
+TEST(ExtraPhysicsSimulator, EmptyExtraPhysicsLeavesTheRunUnchanged) {
+  SimulationRequest req;
+  req.program = paper9();
+  req.truth = default_truth();
+  req.timing.dwell_s = 1;
+  const Recording a = simulate_run(req);
+  req.truth.extra_physics.push_back({"bias_drift", "x", 0.0, 0});
+  const Recording b = simulate_run(req);
+  ASSERT_EQ(a.samples.size(), b.samples.size());
+  for (std::size_t i = 0; i < a.samples.size(); ++i) ASSERT_EQ(a.samples[i].f_mps2, b.samples[i].f_mps2);
+  EXPECT_TRUE(a.header_value("temp_ref_c").empty());
+  EXPECT_FALSE(b.header_value("temp_ref_c").empty());
+}
+
+}  // namespace
+}  // namespace standcal

@@ -1,0 +1,71 @@
+// `standcal diagnose`: where a recording and the calibration model disagree, what physics
+// the model left out, how big it is, and whether adding it makes model and data agree.
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+
+#include "calib/diagnosis.hpp"
+#include "calib/recording.hpp"
+#include "calib/simulator.hpp"
+#include "tools/standcal/commands.hpp"
+
+namespace standcal::cli {
+
+namespace {
+
+struct DiagnoseCliOptions {
+  std::string recording;
+  bool json = false;
+  std::string report;
+  std::string model_out;
+};
+
+void write_file(const std::string& path, const std::string& text, const char* what) {
+  std::ofstream out(path);
+  out << text;
+  if (!out) throw std::runtime_error(path + ": could not write the " + what);
+}
+
+void run_diagnose(const DiagnoseCliOptions& o) {
+  const Recording rec = read_recording(o.recording);
+  for (const std::string& w : rec.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  const Diagnosis d = diagnose_recording(rec);
+  if (!o.report.empty()) {
+    write_file(o.report, diagnose_to_html(d), "report");
+    std::fprintf(stderr, "report written to %s\n", o.report.c_str());
+  }
+  if (!o.model_out.empty()) {
+    save_truth(d.model, o.model_out);
+    std::fprintf(stderr, "augmented model written to %s (standcal simulate --model %s)\n", o.model_out.c_str(),
+                 o.model_out.c_str());
+  }
+  if (o.json) {
+    std::cout << diagnose_to_json(d).dump(2) << "\n";
+    return;
+  }
+  std::cout << "verdict: " << d.verdict << "\n";
+  for (const std::string& s : d.summary) std::cout << "  " << s << "\n";
+  std::cout << "where:\n";
+  for (const std::string& s : d.located) std::cout << "  " << s << "\n";
+  for (const ProposedPosition& p : d.proposed_positions)
+    std::printf("proposed position: alpha1 %.0f deg, alpha2 %.0f deg (%s)\n", p.alpha1_deg, p.alpha2_deg, p.why.c_str());
+}
+
+void add_diagnose_commands(CLI::App& app) {
+  auto opts = std::make_shared<DiagnoseCliOptions>();
+  CLI::App* cmd = app.add_subcommand("diagnose", "find where a recording and the model disagree and what physics is missing");
+  cmd->add_option("recording", opts->recording, "recording (standcal-recording/1 CSV)")->required();
+  cmd->add_flag("--json", opts->json, "machine-readable output");
+  cmd->add_option("--report", opts->report, "write an HTML report to FILE");
+  cmd->add_option("--model-out", opts->model_out, "write the augmented model (standcal-model/1 JSON) to FILE");
+  cmd->callback([opts] { run_diagnose(*opts); });
+}
+
+const bool registered = register_command_group(add_diagnose_commands);
+
+}  // namespace
+
+}  // namespace standcal::cli

@@ -1,0 +1,373 @@
+// Operator commands of standcald (docs/protocol.md): status, run start/watch/result/
+// resume/pause/abort/confirm, estop, runs. Each talks to the daemon's socket with the
+// protocol library's client; `--json` prints the daemon's answer as it came.
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+#include <string>
+
+#include "calib/averaging.hpp"
+#include "calib/invariant_estimator.hpp"
+#include "calib/recording.hpp"
+#include "calib/report.hpp"
+#include "protocol/jsonrpc/client.hpp"
+#include "tools/standcal/commands.hpp"
+
+namespace standcal::cli {
+namespace {
+
+using nlohmann::json;
+using namespace std::chrono_literals;
+
+constexpr const char* kDefaultSocket = "/run/standcal/standcald.sock";
+
+struct DaemonOptions {
+  std::string socket;
+  std::string config;
+  bool json = false;
+};
+
+void add_daemon_options(CLI::App* cmd, DaemonOptions& o) {
+  cmd->add_option("--socket", o.socket, "standcald's socket (default: the config's, else /run/standcal/standcald.sock)");
+  cmd->add_option("--config", o.config, "read the socket path from this standcald config file");
+  cmd->add_flag("--json", o.json, "machine-readable output");
+}
+
+std::string socket_path(const DaemonOptions& o) {
+  if (!o.socket.empty()) return o.socket;
+  if (!o.config.empty()) {
+    std::ifstream in(o.config);
+    const json doc = json::parse(in, nullptr, false);
+    if (!in || doc.is_discarded()) throw std::runtime_error("cannot read the config " + o.config);
+    if (doc.contains("socket") && doc["socket"].contains("path")) return doc["socket"]["path"].get<std::string>();
+  }
+  if (const char* env = std::getenv("STANDCAL_SOCKET")) return env;
+  return kDefaultSocket;
+}
+
+// Calls a method; daemon errors become the one-line reason main() prints.
+json call(protocol::Client& c, const std::string& method, const json& params = json::object(),
+          std::chrono::milliseconds timeout = 30s) {
+  try {
+    return c.call(method, params, timeout);
+  } catch (const protocol::RpcError& e) {
+    throw std::runtime_error(method + ": " + e.what() + " (" + protocol::error_code_name(e.code()) + ")");
+  }
+}
+
+std::string duration_text(double s) {
+  if (!std::isfinite(s) || s < 0) return "?";
+  const long t = std::lround(s);
+  char buf[32];
+  if (t >= 3600) {
+    std::snprintf(buf, sizeof buf, "%ldh%02ldm", t / 3600, (t / 60) % 60);
+  } else {
+    std::snprintf(buf, sizeof buf, "%ldm%02lds", t / 60, t % 60);
+  }
+  return buf;
+}
+
+std::string progress_line(const json& p) {
+  const int pos = p.value("position", 0), n = p.value("positions", 0), done = p.value("positions_done", 0);
+  const int width = 20;
+  const int filled = n > 0 ? done * width / n : 0;
+  std::string bar = "[" + std::string(static_cast<std::size_t>(filled), '#') +
+                    std::string(static_cast<std::size_t>(width - filled), '.') + "]";
+  char buf[256];
+  const std::string phase = p.contains("phase") && p["phase"].is_string() ? p["phase"].get<std::string>()
+                            : p.contains("state") && p["state"].is_string() ? p["state"].get<std::string>()
+                                                                            : "";
+  std::snprintf(buf, sizeof buf, "%s position %d/%d  %-16s ETA %s", bar.c_str(), pos, n, phase.c_str(),
+                p["eta_s"].is_number() ? duration_text(p["eta_s"].get<double>()).c_str() : "?");
+  return buf;
+}
+
+bool terminal_state(const std::string& s) {
+  return s == "done" || s == "aborted" || s == "faulted" || s == "interrupted";
+}
+
+void print_status(const json& s) {
+  const json& d = s["daemon"];
+  std::printf("standcald %s (protocol %s), up %s, %d client(s)\n", d.value("version", "?").c_str(),
+              d.value("protocol", "?").c_str(), duration_text(d.value("uptime_s", 0.0)).c_str(), d.value("clients", 0));
+  const json& st = s["stand"];
+  std::printf("stand %s (%s): %s%s\n", st.value("id", "").c_str(), st.value("name", "").c_str(),
+              st.value("lifecycle", "?").c_str(), st.value("estop_latched", false) ? ", EMERGENCY STOP LATCHED" : "");
+  for (const json& a : st.value("axes", json::array())) {
+    if (a.contains("error")) {
+      std::printf("  %-6s %s\n", a.value("axis", "").c_str(), a["error"].get<std::string>().c_str());
+      continue;
+    }
+    std::printf("  %-6s %-11s %11.4f°  %s %s%s\n", a.value("axis", "").c_str(), a.value("mode", "").c_str(),
+                a.value("angle_deg", 0.0), a.value("enabled", false) ? "enabled" : "disabled",
+                a.value("homed", false) ? "homed" : "not homed",
+                a.value("fault_text", "").empty() ? "" : (" fault: " + a.value("fault_text", "")).c_str());
+  }
+  const json& u = st.value("unit", json::object());
+  std::printf("unit %s: %s, %llu samples, %llu incomplete\n", u.value("name", "").c_str(),
+              u.value("silent", false) ? "SILENT" : "talking",
+              static_cast<unsigned long long>(u.value("samples", 0ULL)),
+              static_cast<unsigned long long>(u.value("incomplete_samples", 0ULL)));
+  if (s["run"].is_object()) {
+    std::printf("run %s: %s  %s\n", s["run"].value("run_id", "").c_str(), s["run"].value("state", "").c_str(),
+                progress_line(s["run"]).c_str());
+  } else {
+    std::printf("no run in progress\n");
+  }
+}
+
+void print_result(const json& r) {
+  // The same report as `standcal fit`, when the recording is readable here.
+  const std::string path = r.value("recording_path", "");
+  bool printed = false;
+  try {
+    const Recording rec = read_recording(path);
+    std::vector<PositionAverage> averages = average_positions(rec);
+    const FitResult fit = fit_invariant_joint(averages);
+    std::cout << format_report(fit, report_context(rec, std::move(averages)));
+    printed = true;
+  } catch (const std::exception&) {
+  }
+  if (!printed) {
+    std::printf("estimator %s, %d positions, redundancy %d\n", r.value("estimator", "").c_str(),
+                r.value("positions", 0), r.value("redundancy", 0));
+    for (auto it = r["parameters"].begin(); it != r["parameters"].end(); ++it) {
+      const json& p = it.value();
+      if (p["value"].is_number()) {
+        std::printf("  %-8s %12.3f ± %8.3f %s\n", it.key().c_str(), p["value"].get<double>(),
+                    p["sigma"].is_number() ? p["sigma"].get<double>() : NAN, p.value("unit", "").c_str());
+      } else {
+        std::printf("  %-8s not observable\n", it.key().c_str());
+      }
+    }
+  }
+  const json& t = r.value("traceability", json::object());
+  std::printf("\nrun %s, unit %s, stand %s, operator %s\n", t.value("run_id", "").c_str(),
+              t.value("unit_serial", "").c_str(), t.value("stand_id", "").c_str(), t.value("operator", "").c_str());
+  std::printf("started %s, ended %s, standcal %s, config %s\n", t.value("started_utc", "").c_str(),
+              t.value("ended_utc", "").c_str(), t.value("software_version", "").c_str(),
+              t.value("config_hash", "").c_str());
+  std::printf("g = %.6f m/s² (%s)\nrecording: %s\n", t.value("g_local_mps2", 0.0), t.value("g_source", "").c_str(),
+              path.c_str());
+}
+
+// Follows a run's events until it ends; returns its final state.
+std::string watch(protocol::Client& c, const std::string& run_id, bool as_json) {
+  call(c, "subscribe", {{"events", "all"}});
+  const bool tty = ::isatty(STDOUT_FILENO) != 0 && !as_json;
+  json s = call(c, "run.status", {{"run_id", run_id}});
+  if (terminal_state(s["state"])) return s["state"];
+  std::string last_line;
+  for (;;) {
+    auto n = c.next_notification(2s);
+    if (!n) {
+      s = call(c, "run.status", {{"run_id", run_id}});  // a quiet phase: poll
+      if (terminal_state(s["state"])) break;
+      continue;
+    }
+    const json& p = (*n)["params"];
+    if (p.value("run_id", run_id) != run_id) continue;
+    const std::string event = (*n)["method"];
+    if (as_json) {
+      std::cout << n->dump() << std::endl;
+    } else if (event == "run.progress") {
+      const std::string line = progress_line(p);
+      if (tty) {
+        std::printf("\r%-78s", line.c_str());
+        std::fflush(stdout);
+      } else if (line != last_line && p.value("phase", "") == "sampling") {
+        std::printf("%s\n", line.c_str());
+      }
+      last_line = line;
+    } else if (event == "run.state") {
+      if (tty) std::printf("\n");
+      std::printf("run %s: %s%s\n", run_id.c_str(), p.value("state", "").c_str(),
+                  p.value("reason", "").empty() ? "" : (" — " + p.value("reason", "")).c_str());
+      if (terminal_state(p.value("state", ""))) return p["state"];
+    } else if (event == "fault") {
+      if (tty) std::printf("\n");
+      std::printf("fault: %s\n", p.value("message", "").c_str());
+    }
+  }
+  return s["state"];
+}
+
+void add_status(CLI::App& app) {
+  auto o = std::make_shared<DaemonOptions>();
+  auto* cmd = app.add_subcommand("status", "standcald, stand, unit and run at a glance");
+  add_daemon_options(cmd, *o);
+  cmd->callback([o] {
+    protocol::Client c(socket_path(*o));
+    const json s = call(c, "status");
+    if (o->json) {
+      std::cout << s.dump(2) << "\n";
+    } else {
+      print_status(s);
+    }
+  });
+}
+
+void add_estop(CLI::App& app) {
+  auto o = std::make_shared<DaemonOptions>();
+  auto* cmd = app.add_subcommand("estop", "EMERGENCY STOP: stop and disable both axes now");
+  add_daemon_options(cmd, *o);
+  auto reset_flag = std::make_shared<bool>(false);
+  cmd->add_flag("--reset", *reset_flag, "clear a latched emergency stop instead");
+  cmd->callback([o, reset_flag] {
+    protocol::Client c(socket_path(*o), 5s);
+    const json r = call(c, *reset_flag ? "estop.reset" : "estop", json::object(), 10s);
+    if (o->json) {
+      std::cout << r.dump(2) << "\n";
+    } else {
+      std::printf("%s\n", r.value("message", "done").c_str());
+    }
+  });
+}
+
+void add_runs(CLI::App& app) {
+  auto o = std::make_shared<DaemonOptions>();
+  auto unit = std::make_shared<std::string>();
+  auto* cmd = app.add_subcommand("runs", "the daemon's runs, newest first");
+  add_daemon_options(cmd, *o);
+  cmd->add_option("--unit", *unit, "only this unit serial's runs");
+  cmd->callback([o, unit] {
+    protocol::Client c(socket_path(*o));
+    const json r = call(c, "runs.list", unit->empty() ? json::object() : json{{"unit_serial", *unit}});
+    if (o->json) {
+      std::cout << r.dump(2) << "\n";
+      return;
+    }
+    if (r["runs"].empty()) std::printf("no runs\n");
+    for (const json& x : r["runs"]) {
+      std::printf("%-32s %-10s %-10s %-12s %2d/%-2d %s%s\n", x.value("run_id", "").c_str(),
+                  x.value("unit_serial", "").c_str(), x.value("program", "").c_str(), x.value("state", "").c_str(),
+                  x.value("positions_done", 0), x.value("positions", 0), x.value("started_utc", "").c_str(),
+                  x.value("has_result", false) ? "  result" : "");
+    }
+  });
+}
+
+void add_run(CLI::App& app) {
+  auto* run = app.add_subcommand("run", "calibration runs on standcald");
+  run->require_subcommand(1);
+
+  auto so = std::make_shared<DaemonOptions>();
+  struct StartArgs {
+    std::string program, unit, op;
+    double dwell_s = -1, settle_s = -1;
+    bool wait = false;
+  };
+  auto sa = std::make_shared<StartArgs>();
+  auto* start = run->add_subcommand("start", "start a run: PROGRAM is paper9, classic24 or a library name");
+  add_daemon_options(start, *so);
+  start->add_option("program", sa->program, "paper9 | classic24 | a library name")->required();
+  start->add_option("--unit", sa->unit, "serial number of the unit on the stand")->required();
+  start->add_option("--dwell", sa->dwell_s, "seconds of samples per position (default: the daemon's)");
+  start->add_option("--settle", sa->settle_s, "seconds to settle after in-position (default: the daemon's)");
+  start->add_option("--operator", sa->op, "who runs it, for traceability");
+  start->add_flag("--wait", sa->wait, "follow the run with a live progress line; print the report at the end");
+  start->callback([so, sa] {
+    protocol::Client c(socket_path(*so));
+    json params{{"program", sa->program}, {"unit_serial", sa->unit}};
+    if (sa->dwell_s > 0) params["dwell_s"] = sa->dwell_s;
+    if (sa->settle_s >= 0) params["settle_s"] = sa->settle_s;
+    if (!sa->op.empty()) params["operator"] = sa->op;
+    const json r = call(c, "run.start", params);
+    const std::string id = r["run_id"];
+    if (!sa->wait) {
+      if (so->json) {
+        std::cout << r.dump(2) << "\n";
+      } else {
+        std::printf("run %s started (%d positions); follow it with `standcal run watch`\n", id.c_str(),
+                    r.value("positions", 0));
+      }
+      return;
+    }
+    if (!so->json) std::printf("run %s started (%d positions)\n", id.c_str(), r.value("positions", 0));
+    const std::string state = watch(c, id, so->json);
+    if (state != "done") throw std::runtime_error("run " + id + " ended " + state);
+    const json result = call(c, "run.result", {{"run_id", id}});
+    if (so->json) {
+      std::cout << result.dump(2) << "\n";
+    } else {
+      print_result(result);
+    }
+  });
+
+  auto wo = std::make_shared<DaemonOptions>();
+  auto watch_id = std::make_shared<std::string>();
+  auto* watch_cmd = run->add_subcommand("watch", "follow the current (or given) run until it ends");
+  add_daemon_options(watch_cmd, *wo);
+  watch_cmd->add_option("run_id", *watch_id, "run id (default: the current or newest run)");
+  watch_cmd->callback([wo, watch_id] {
+    protocol::Client c(socket_path(*wo));
+    const json s = call(c, "run.status", watch_id->empty() ? json::object() : json{{"run_id", *watch_id}});
+    const std::string state = watch(c, s["run_id"], wo->json);
+    if (!wo->json) std::printf("run %s is %s\n", s["run_id"].get<std::string>().c_str(), state.c_str());
+  });
+
+  auto ro = std::make_shared<DaemonOptions>();
+  auto result_id = std::make_shared<std::string>();
+  auto* result = run->add_subcommand("result", "the calibration of a finished run");
+  add_daemon_options(result, *ro);
+  result->add_option("run_id", *result_id, "run id (see `standcal runs`)")->required();
+  result->callback([ro, result_id] {
+    protocol::Client c(socket_path(*ro));
+    const json r = call(c, "run.result", {{"run_id", *result_id}});
+    if (ro->json) {
+      std::cout << r.dump(2) << "\n";
+    } else {
+      print_result(r);
+    }
+  });
+
+  // Simple control commands: one call, print the answer.
+  struct Simple {
+    const char* name;
+    const char* method;
+    const char* help;
+  };
+  for (const Simple& s : {Simple{"resume", "run.resume", "resume a paused, interrupted or faulted run"},
+                          Simple{"pause", "run.pause", "pause the run; the stand stops"},
+                          Simple{"abort", "run.abort", "abort the run; recorded positions are kept"},
+                          Simple{"confirm", "operator.confirm", "confirm a re-mount step is done"},
+                          Simple{"status", "run.status", "state and progress of the current (or given) run"}}) {
+    auto o = std::make_shared<DaemonOptions>();
+    auto id = std::make_shared<std::string>();
+    auto* cmd = run->add_subcommand(s.name, s.help);
+    add_daemon_options(cmd, *o);
+    cmd->add_option("run_id", *id, "run id (default: the current or newest resumable run)");
+    const std::string method = s.method;
+    cmd->callback([o, id, method] {
+      protocol::Client c(socket_path(*o));
+      const json r = call(c, method, id->empty() ? json::object() : json{{"run_id", *id}});
+      if (o->json) {
+        std::cout << r.dump(2) << "\n";
+      } else if (method == "run.status") {
+        std::printf("run %s: %s  %s\n", r.value("run_id", "").c_str(), r.value("state", "").c_str(),
+                    progress_line(r).c_str());
+      } else {
+        std::printf("run %s: %s\n", r.value("run_id", "").c_str(), r.value("state", r.contains("confirmed") ? "confirmed" : "ok").c_str());
+      }
+    });
+  }
+}
+
+void add_daemon_commands(CLI::App& app) {
+  add_status(app);
+  add_run(app);
+  add_estop(app);
+  add_runs(app);
+}
+
+}  // namespace
+
+static const bool registered = register_command_group(add_daemon_commands);
+
+}  // namespace standcal::cli
