@@ -10,6 +10,8 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   socat
 )
+# scripts/fuzz.sh needs clang's libFuzzer; `setup.sh --fuzz` adds it (CI does not fuzz).
+if [ "${1:-}" = "--fuzz" ]; then packages+=(clang-14 libclang-rt-14-dev); fi
 
 missing=()
 for p in "${packages[@]}"; do

@@ -28,8 +28,18 @@ std::string unknown_key(const json& object, std::string_view where,
   return {};
 }
 
+// A register address must be a whole number 0..65535: a larger or fractional value
+// must not wrap into another register (found by fuzz/regressions/modbus_config).
 void read_address(const json& object, const char* key, std::uint16_t& out) {
-  if (object.contains(key)) out = object.at(key).get<std::uint16_t>();
+  if (!object.contains(key)) return;
+  const json& v = object.at(key);
+  if (!v.is_number_integer() || (v.is_number_unsigned() ? v.get<std::uint64_t>() > 65535
+                                                         : v.get<std::int64_t>() < 0 ||
+                                                               v.get<std::int64_t>() > 65535))
+    throw json::out_of_range::create(
+        406, std::string("register ") + key + " must be a whole number 0..65535, got " + v.dump(),
+        nullptr);
+  out = static_cast<std::uint16_t>(v.get<std::int64_t>());
 }
 
 template <class T>

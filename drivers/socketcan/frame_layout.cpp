@@ -14,6 +14,17 @@
 namespace standcal::drivers::can {
 namespace {
 
+// A layout number must be a whole number inside its field's range: converting a larger
+// or fractional JSON number would wrap or be undefined (fuzz/regressions/can_layout_json).
+long long whole_number(const nlohmann::json& v, const char* key, long long lo, long long hi) {
+  if (v.is_number_integer() && !(v.is_number_unsigned() && v.get<std::uint64_t>() > static_cast<std::uint64_t>(hi))) {
+    const long long n = v.get<long long>();
+    if (n >= lo && n <= hi) return n;
+  }
+  throw std::out_of_range(std::string(key) + " must be a whole number " + std::to_string(lo) +
+                          ".." + std::to_string(hi) + ", got " + v.dump());
+}
+
 constexpr double kStandardGravity_mps2 = 9.80665;  // "g" as a unit is standard gravity
 constexpr int kMaxPayloadBits = 64 * 8;
 
@@ -261,10 +272,10 @@ Result<FrameLayout> FrameLayout::from_json(const nlohmann::json& j) {
       const auto& id = js.at("can_id");
       s.can_id = id.is_string()
                      ? static_cast<std::uint32_t>(std::stoul(id.get<std::string>(), nullptr, 0))
-                     : id.get<std::uint32_t>();
+                     : static_cast<std::uint32_t>(whole_number(id, "can_id", 0, 0x1FFFFFFF));
       s.extended = js.value("extended", false);
-      s.start_bit = js.at("start_bit").get<int>();
-      s.length = js.at("length").get<int>();
+      s.start_bit = static_cast<int>(whole_number(js.at("start_bit"), "start_bit", 0, 511));
+      s.length = static_cast<int>(whole_number(js.at("length"), "length", 1, 64));
       const std::string order = js.value("byte_order", "intel");
       if (order != "intel" && order != "motorola")
         return invalid(where + ": byte_order must be intel or motorola");

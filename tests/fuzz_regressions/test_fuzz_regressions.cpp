@@ -23,16 +23,10 @@ using Entry = int (*)(const std::uint8_t*, std::size_t);
 [[noreturn]] void throw_finding(const std::string& what) { throw standcal::fuzz::Finding{what}; }
 
 // Findings saved under fuzz/regressions/ whose fix is still open with the owner: the bulk
-// replay skips them and a DISABLED_ test below replays each. When the owner fixes one,
-// delete its line here and enable (or delete) its DISABLED_ test.
-const std::set<std::string> kOpenFindings = {
-    "modbus_config/register_address_65536_wraps_to_0.json",
-    "modbus_config/register_address_minus1_wraps_to_65535.json",
-    "modbus_config/register_address_1e10_float_cast_overflow.json",
-    "can_layout_json/length_4294967320_wraps_to_24.json",
-    "can_layout_json/can_id_1e20_float_cast_overflow.json",
-    "can_layout_json/start_bit_3e9_float_cast_overflow.json",
-};
+// replay skips them and a  test below replays each. When the owner fixes one,
+// delete its line here and enable (or delete) its  test.
+// Saved findings not yet fixed (none: all three are fixed and replayed below).
+const std::set<std::string> kOpenFindings = {};
 
 std::vector<std::uint8_t> read_file(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
@@ -103,20 +97,20 @@ TEST_F(FuzzReplay, JsonRpcRequest) { replay_target("jsonrpc_request", standcal_f
 TEST_F(FuzzReplay, DaemonConfig) { replay_target("daemon_config", standcal_fuzz_daemon_config); }
 #endif
 
-// Open findings (2026-11-21), each disabled until its owner fixes it.
+// Findings of 2026-11-21, fixed the same day: each replays its reproducers.
 //
 // drivers/modbus register_map.cpp read_address() converts with json::get<std::uint16_t>(),
 // which wraps out-of-range integers: a config naming register 65536 silently addresses
 // register 0, -1 addresses 65535 (the driver then writes motion commands to the wrong
 // register). Fails with "register outer.angle given as 65536 was accepted as address 0".
-TEST_F(FuzzReplay, DISABLED_ModbusConfigRegisterAddressWraps) {
+TEST_F(FuzzReplay, ModbusConfigRegisterAddressWraps) {
   replay_open_finding("modbus_config/register_address_65536_wraps_to_0.json", standcal_fuzz_modbus_config);
   replay_open_finding("modbus_config/register_address_minus1_wraps_to_65535.json", standcal_fuzz_modbus_config);
 }
 // Same reader, a floating-point address out of range: undefined behaviour (float-cast-
 // overflow inside json::get<std::uint16_t>). clang's UBSan stops on it (the fuzz build);
 // g++ has no float-cast-overflow check, so here it shows as the accepted wrong address.
-TEST_F(FuzzReplay, DISABLED_ModbusConfigRegisterAddressFloatOverflow) {
+TEST_F(FuzzReplay, ModbusConfigRegisterAddressFloatOverflow) {
   replay_open_finding("modbus_config/register_address_1e10_float_cast_overflow.json", standcal_fuzz_modbus_config);
 }
 // drivers/socketcan frame_layout.cpp FrameLayout::from_json reads length/start_bit with
@@ -126,7 +120,7 @@ TEST_F(FuzzReplay, DISABLED_ModbusConfigRegisterAddressFloatOverflow) {
 // behaviour that clang's UBSan reports in the fuzz build
 // (build/fuzz/standcal_fuzz_can_layout_json FILE); under g++ those two replay without a
 // visible failure, so they pass here even while open.
-TEST_F(FuzzReplay, DISABLED_CanLayoutNumbersWrap) {
+TEST_F(FuzzReplay, CanLayoutNumbersWrap) {
   replay_open_finding("can_layout_json/length_4294967320_wraps_to_24.json", standcal_fuzz_can_layout_json);
   replay_open_finding("can_layout_json/can_id_1e20_float_cast_overflow.json", standcal_fuzz_can_layout_json);
   replay_open_finding("can_layout_json/start_bit_3e9_float_cast_overflow.json", standcal_fuzz_can_layout_json);
