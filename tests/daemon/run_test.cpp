@@ -203,17 +203,18 @@ TEST(DaemonRun, PauseLeavesTheStandStoppedAndResumeCompletesTheRun) {
   Client c(socket_of(dir));
   const std::string run_id =
       c.call("run.start", {{"program", "paper9"}, {"unit_serial", "AU-3"}, {"dwell_s", 30}, {"settle_s", 1}})["run_id"];
-  wait_run(c, run_id, [](const json& s) { return s["positions_done"].get<int>() >= 2; });
+  wait_run(c, run_id, [](const json& s) { return s.value("positions_done", 0) >= 2; });
   c.call("run.pause");
-  const json paused = wait_run(c, run_id, [](const json& s) { return s["state"] == "paused"; });
+  const json paused = wait_run(c, run_id, [](const json& s) { return s.value("state", "") == "paused"; });
   const int done_at_pause = paused["positions_done"];
   std::this_thread::sleep_for(300ms);
   const json still = c.call("run.status", {{"run_id", run_id}});
   EXPECT_EQ(still["state"], "paused");
   EXPECT_EQ(still["positions_done"], done_at_pause);  // nothing measured while paused
   const json stand_status = c.call("status");
-  for (const json& axis : stand_status["stand"]["axes"]) {
-    EXPECT_NE(axis["mode"], "moving") << axis.dump();
+  ASSERT_TRUE(stand_status.contains("stand")) << stand_status.dump();
+  for (const json& axis : stand_status["stand"].value("axes", json::array())) {
+    EXPECT_NE(axis.value("mode", ""), "moving") << axis.dump();
   }
   EXPECT_EQ(error_code_of([&] { c.call("run.pause"); }), -32007);
   c.call("run.resume");
