@@ -33,6 +33,8 @@ std::string fmt(const char* f, double v) {
 // What the diagnosis knows about one position besides its mean.
 struct PositionContext {
   Vec3 up = Vec3::Zero();
+  double alpha1_deg = 0, alpha2_deg = 0;  // commanded
+  Mount mount = Mount::x;
   double t_mid_h = 0;
   double temp_delta_c = 0;  // T - temp_ref
   int approach = 1;
@@ -55,10 +57,30 @@ struct LinearProblem {
 struct Candidate {
   std::string effect, axis, unit;
   int out_axis = 0, other_axis = -1;
+  int params = 1;  // angle_sensor_error: 2, the sine and cosine parts of the cyclic error
 };
 
-Vec3 candidate_effect_g(const Candidate& c, const PositionContext& p) {
-  Vec3 e = Vec3::Zero();
+// d u / d alpha_k (per rad) at a commanded pose, in instrument axes (model.md's u).
+Vec3 up_derivative(const PositionContext& p, bool outer) {
+  const double a1 = p.alpha1_deg * kDegToRad, a2 = p.alpha2_deg * kDegToRad;
+  const Vec3 d_table = outer ? Vec3(std::cos(a1), -std::sin(a1) * std::cos(a2), -std::sin(a1) * std::sin(a2))
+                             : Vec3(0, -std::cos(a1) * std::sin(a2), std::cos(a1) * std::cos(a2));
+  return mount_permutation(p.mount) * d_table;
+}
+
+// The candidate's contribution to J (g) per report unit of each of its parameters:
+// 3 x params. angle_sensor_error: the true angle is the reading + a sin(alpha) + b cos(alpha)
+// (arcsec), which turns the up vector by du/dalpha times that (first order).
+MatrixXd candidate_effect_g(const Candidate& c, const PositionContext& p) {
+  MatrixXd e = MatrixXd::Zero(3, c.params);
+  if (c.effect == "angle_sensor_error") {
+    const bool outer = c.axis == "alpha1";
+    const double alpha_rad = (outer ? p.alpha1_deg : p.alpha2_deg) * kDegToRad;
+    const Vec3 du = up_derivative(p, outer) * kArcsecToRad;
+    e.col(0) = du * std::sin(alpha_rad);
+    e.col(1) = du * std::cos(alpha_rad);
+    return e;
+  }
   const int i = c.out_axis;
   const double ui = p.up[i];
   double v = 0;
@@ -69,7 +91,7 @@ Vec3 candidate_effect_g(const Candidate& c, const PositionContext& p) {
   else if (c.effect == "scale_temperature") v = p.temp_delta_c * ui;
   else if (c.effect == "bias_drift") v = p.t_mid_h;
   else if (c.effect == "hysteresis") v = p.approach;
-  e[i] = v * 1e-6;
+  e(i, 0) = v * 1e-6;
   return e;
 }
 
@@ -88,19 +110,21 @@ std::vector<Candidate> catalog_candidates(bool have_temperature) {
     for (int j = 0; j < 3; ++j)
       if (j != i) out.push_back({"cross_coupling", a + kAxisNames[j], "ug/g2", i, j});
   }
+  for (const char* stand_axis : {"alpha1", "alpha2"}) out.push_back({"angle_sensor_error", stand_axis, "arcsec", 0, -1, 2});
   return out;
 }
 
-VectorXd candidate_column(const Candidate& c, const LinearProblem& lp, const std::vector<PositionContext>& ctx) {
-  VectorXd col(lp.y.size());
-  for (Eigen::Index r = 0; r < col.size(); ++r) {
+// The candidate's whitened columns (rows of lp x params).
+MatrixXd candidate_columns(const Candidate& c, const LinearProblem& lp, const std::vector<PositionContext>& ctx) {
+  MatrixXd cols(lp.y.size(), c.params);
+  for (Eigen::Index r = 0; r < cols.rows(); ++r) {
     const PositionContext& p = ctx[static_cast<std::size_t>(lp.row_position[static_cast<std::size_t>(r)])];
-    const Vec3 e = candidate_effect_g(c, p);
+    const MatrixXd e = candidate_effect_g(c, p);
     const int axis = lp.row_axis[static_cast<std::size_t>(r)];
-    const double value = axis >= 0 ? e[axis] : p.up.dot(e);
-    col[r] = value / lp.row_sigma_g[static_cast<std::size_t>(r)];
+    const Eigen::RowVectorXd value = axis >= 0 ? Eigen::RowVectorXd(e.row(axis)) : Eigen::RowVectorXd(p.up.transpose() * e);
+    cols.row(r) = value / lp.row_sigma_g[static_cast<std::size_t>(r)];
   }
-  return col;
+  return cols;
 }
 
 // Weighted least squares on whitened data with columns scaled to unit norm (the design
@@ -168,6 +192,9 @@ std::vector<PositionContext> position_contexts(const std::vector<PositionAverage
   for (const PositionAverage& p : avg) {
     PositionContext c;
     c.up = p.up();
+    c.alpha1_deg = p.alpha1_cmd_deg;
+    c.alpha2_deg = p.alpha2_cmd_deg;
+    c.mount = p.mount;
     c.t_mid_h = 0.5 * (p.t_start_s + p.t_end_s) / 3600.0;
     c.temp_delta_c = std::isfinite(p.temp_mean_c) ? p.temp_mean_c - temp_ref_c : 0.0;
     c.approach = p.approach;
@@ -273,12 +300,16 @@ MatrixXd with_columns(const MatrixXd& A, const std::vector<VectorXd>& cols) {
 struct SettlingResult {
   int axis = 0;
   double tau_s = 0, amplitude_ug = 0, sigma_ug = 0, delta_chi2 = 0, press_gain = 0;
+  // sigma of the amplitude when tau is estimated too (from the same samples): the
+  // amplitude and tau are correlated, and the reported sigma must carry that.
+  double sigma_free_tau_ug = 0;
   std::vector<double> mean_shape;  // per position: dwell mean of exp(-(t - t_arrive) / tau)
 };
 
 // Per axis and tau: within-dwell residuals (sample - position mean) regressed on the
 // de-meaned exp(-(t - t_arrive)/tau) together with a de-meaned linear trend (which a
-// bias drift leaves inside a dwell, and which must not count as a transient).
+// bias drift leaves inside a dwell, and which must not count as a transient). A third
+// column, the shape's derivative by tau, gives the amplitude's sigma with tau free.
 SettlingResult settling_search(const Recording& rec, const std::vector<PositionAverage>& avg, int axis, double tau_s) {
   SettlingResult res;
   res.axis = axis;
@@ -286,37 +317,47 @@ SettlingResult settling_search(const Recording& rec, const std::vector<PositionA
   std::map<int, std::size_t> index;
   for (std::size_t k = 0; k < avg.size(); ++k) index[avg[k].pos] = k;
   const std::size_t npos = avg.size();
-  std::vector<double> sum_e(npos, 0), sum_t(npos, 0), count(npos, 0);
+  std::vector<double> sum_e(npos, 0), sum_de(npos, 0), sum_t(npos, 0), count(npos, 0);
   const double g = rec.g_local_mps2;
   for (const RecordingSample& s : rec.samples) {
     const std::size_t k = index.at(s.pos);
-    sum_e[k] += std::exp(-(s.t_s - avg[k].t_arrive_s) / tau_s);
+    const double since = s.t_s - avg[k].t_arrive_s;
+    const double e = std::exp(-since / tau_s);
+    sum_e[k] += e;
+    sum_de[k] += e * since / (tau_s * tau_s);
     sum_t[k] += s.t_s;
     count[k] += 1;
   }
   res.mean_shape.resize(npos);
-  // Normal equations of [shape, trend] per position, accumulated (for leave-one-out).
-  std::vector<Eigen::Matrix2d> N(npos, Eigen::Matrix2d::Zero());
-  std::vector<Eigen::Vector2d> b(npos, Eigen::Vector2d::Zero());
+  // Normal equations of [shape, trend, d shape / d tau] per position, accumulated (for
+  // leave-one-out); the first two are the test, the third only widens the sigma.
+  using Mat3d = Eigen::Matrix3d;
+  std::vector<Mat3d> N(npos, Mat3d::Zero());
+  std::vector<Eigen::Vector3d> b(npos, Eigen::Vector3d::Zero());
   std::vector<double> rr(npos, 0);
   for (const RecordingSample& s : rec.samples) {
     const std::size_t k = index.at(s.pos);
     const double sig = std::max(avg[k].sigma_g[axis], 1e-9);
-    const double e = std::exp(-(s.t_s - avg[k].t_arrive_s) / tau_s) - sum_e[k] / count[k];
+    const double since = s.t_s - avg[k].t_arrive_s;
+    const double ex = std::exp(-since / tau_s);
+    const double e = ex - sum_e[k] / count[k];
+    const double de = ex * since / (tau_s * tau_s) - sum_de[k] / count[k];
     const double t = (s.t_s - sum_t[k] / count[k]) / 60.0;
     const double r = (s.f_mps2[axis] / g - avg[k].mean_g[axis]) / sig;
-    const Eigen::Vector2d x(e / sig, t / sig);
+    const Eigen::Vector3d x(e / sig, t / sig, de / sig);
     N[k] += x * x.transpose();
     b[k] += x * r;
     rr[k] += r * r;
   }
-  Eigen::Matrix2d Nt = Eigen::Matrix2d::Zero();
-  Eigen::Vector2d bt = Eigen::Vector2d::Zero();
+  Mat3d N3 = Mat3d::Zero();
+  Eigen::Vector3d b3 = Eigen::Vector3d::Zero();
   for (std::size_t k = 0; k < npos; ++k) {
-    Nt += N[k];
-    bt += b[k];
+    N3 += N[k];
+    b3 += b[k];
     res.mean_shape[k] = sum_e[k] / count[k];
   }
+  const Eigen::Matrix2d Nt = N3.topLeftCorner<2, 2>();
+  const Eigen::Vector2d bt = b3.head<2>();
   if (std::abs(Nt.determinant()) < 1e-30 || Nt(0, 0) <= 0) return res;
   // chi2 gain of the transient over the trend alone.
   const Eigen::Vector2d beta = Nt.ldlt().solve(bt);
@@ -326,17 +367,60 @@ SettlingResult settling_search(const Recording& rec, const std::vector<PositionA
   const Eigen::Matrix2d cov = Nt.inverse();
   res.amplitude_ug = beta[0] / kUg;
   res.sigma_ug = std::sqrt(cov(0, 0)) / kUg;
+  res.sigma_free_tau_ug = res.sigma_ug;
+  if (N3(2, 2) > 0) {
+    // Invert on the correlation scale, so the conditioning test means something.
+    const Eigen::Vector3d d = N3.diagonal().cwiseSqrt().cwiseInverse();
+    const Mat3d R = d.asDiagonal() * N3 * d.asDiagonal();
+    const Eigen::SelfAdjointEigenSolver<Mat3d> es(R);
+    if (es.eigenvalues().minCoeff() > 1e-10) {
+      const double v = R.inverse()(0, 0) * d[0] * d[0];
+      res.sigma_free_tau_ug = std::max(res.sigma_ug, std::sqrt(v) / kUg);
+    }
+  }
   // Leave one position out: predict its within-dwell residuals from the others.
   for (std::size_t k = 0; k < npos; ++k) {
-    const Eigen::Matrix2d Nk = Nt - N[k];
+    const Eigen::Matrix2d Nk = Nt - N[k].topLeftCorner<2, 2>();
+    const Eigen::Vector2d bk_sum = bt - b[k].head<2>();
     if (std::abs(Nk.determinant()) < 1e-30 || Nk(1, 1) <= 0) continue;
-    const Eigen::Vector2d bk = Nk.ldlt().solve(bt - b[k]);
-    const double trend_only = (bt[1] - b[k][1]) / Nk(1, 1);
-    const double with = rr[k] - 2 * bk.dot(b[k]) + bk.dot(N[k] * bk);
-    const double without = rr[k] - 2 * trend_only * b[k][1] + trend_only * trend_only * N[k](1, 1);
+    const Eigen::Vector2d bk = Nk.ldlt().solve(bk_sum);
+    const Eigen::Matrix2d Nkk = N[k].topLeftCorner<2, 2>();
+    const Eigen::Vector2d bkk = b[k].head<2>();
+    const double trend_only = bk_sum[1] / Nk(1, 1);
+    const double with = rr[k] - 2 * bk.dot(bkk) + bk.dot(Nkk * bk);
+    const double without = rr[k] - 2 * trend_only * bkk[1] + trend_only * trend_only * Nkk(1, 1);
     res.press_gain += without - with;
   }
   return res;
+}
+
+// The best settling transient of one axis: the tau grid, then a golden-section refinement
+// of log tau between the best grid point's neighbours (only when the grid found something
+// worth refining: the refinement costs passes over the raw samples).
+SettlingResult best_settling(const Recording& rec, const std::vector<PositionAverage>& avg, int axis,
+                             const std::vector<double>& tau_grid_s, double refine_above_chi2) {
+  SettlingResult best;
+  std::size_t best_i = 0;
+  for (std::size_t i = 0; i < tau_grid_s.size(); ++i) {
+    const SettlingResult r = settling_search(rec, avg, axis, tau_grid_s[i]);
+    if (r.delta_chi2 > best.delta_chi2) { best = r; best_i = i; }
+  }
+  if (best.delta_chi2 <= refine_above_chi2 || tau_grid_s.size() < 2) return best;
+  double lo = std::log(tau_grid_s[best_i > 0 ? best_i - 1 : 0]);
+  double hi = std::log(tau_grid_s[std::min(best_i + 1, tau_grid_s.size() - 1)]);
+  const double phi = 0.5 * (std::sqrt(5.0) - 1);
+  auto eval = [&](double log_tau) { return settling_search(rec, avg, axis, std::exp(log_tau)); };
+  double x1 = hi - phi * (hi - lo), x2 = lo + phi * (hi - lo);
+  SettlingResult r1 = eval(x1), r2 = eval(x2);
+  for (int it = 0; it < 12; ++it) {
+    if (r1.delta_chi2 > r2.delta_chi2) {
+      hi = x2; x2 = x1; r2 = r1; x1 = hi - phi * (hi - lo); r1 = eval(x1);
+    } else {
+      lo = x1; x1 = x2; r1 = r2; x2 = lo + phi * (hi - lo); r2 = eval(x2);
+    }
+  }
+  const SettlingResult& refined = r1.delta_chi2 > r2.delta_chi2 ? r1 : r2;
+  return refined.delta_chi2 > best.delta_chi2 ? refined : best;
 }
 
 // ---- words -------------------------------------------------------------------------------
@@ -353,6 +437,10 @@ std::string effect_words(const std::string& id, const std::string& axis) {
   if (id == "bias_drift") return "bias drift of " + ax;
   if (id == "hysteresis") return "approach-direction hysteresis of " + ax;
   if (id == "settling_transient") return "settling transient after each move on " + ax;
+  if (id == "angle_sensor_error")
+    return std::string("cyclic (once per revolution) error of the ") + (axis == "alpha1" ? "outer" : "inner") +
+           "-axis angle sensor";
+  if (id == "mounting_misalignment_large") return "large mounting misalignment about " + axis;
   return id;
 }
 
@@ -366,6 +454,7 @@ std::string signature_words(const std::string& id, const std::string& axis) {
   if (id == "bias_drift") return "grow with time since the start";
   if (id == "hysteresis") return "change sign with the approach direction";
   if (id == "settling_transient") return "decay inside each dwell after arrival";
+  if (id == "angle_sensor_error") return "follow harmonics of " + axis + " (turns of the up vector about that axis)";
   return "show structure";
 }
 
@@ -410,10 +499,32 @@ std::string parameters_words(const FitResult& fit) {
 
 struct Chosen {
   Candidate cand;
-  VectorXd column;
   double delta_chi2 = 0;
   double chi2_dof_before = 0, chi2_dof_after = 0;
 };
+
+// The chi2 gain a k-parameter term needs for the same false-finding probability as a
+// one-parameter term at chi2_1 (P(chi2_2 > t) = exp(-t/2) for two).
+double significance_for(double chi2_1, int params) {
+  if (params <= 1) return chi2_1;
+  return -2.0 * std::log(std::erfc(std::sqrt(chi2_1 / 2.0)));
+}
+
+// A term's value and sigma in its report unit; two-parameter terms (the cyclic angle
+// error a sin + b cos) are reported as amplitude and phase.
+struct TermEstimate {
+  double value = 0, sigma = 0, phase_deg = 0;
+};
+
+TermEstimate term_estimate(const Candidate& c, const VectorXd& beta, const MatrixXd& cov, Eigen::Index first, double scale) {
+  if (c.params == 1) return {beta[first], std::sqrt(cov(first, first)) * scale, 0};
+  const double a = beta[first], b = beta[first + 1];
+  const double amplitude = std::hypot(a, b);
+  const Eigen::Matrix2d C = cov.block(first, first, 2, 2) * scale * scale;
+  const double var = amplitude > 0 ? (a * a * C(0, 0) + 2 * a * b * C(0, 1) + b * b * C(1, 1)) / (amplitude * amplitude)
+                                   : 0.5 * (C(0, 0) + C(1, 1));
+  return {amplitude, std::sqrt(var), std::atan2(b, a) * kRadToDeg};
+}
 
 double bic_gain(double delta_chi2, int params, std::size_t n) {
   return delta_chi2 - params * std::log(static_cast<double>(n));
@@ -423,10 +534,29 @@ FitResult baseline_fit(const std::vector<PositionAverage>& avg, bool full) {
   return full ? fit_full_vector(avg) : fit_invariant_joint(avg);
 }
 
-std::vector<ProposedPosition> grid_poses() {
+// Angles of one stand axis worth proposing: every 30 deg the axis can reach (normalised to
+// its range), plus the ends of a limited range.
+std::vector<double> reachable_grid_deg(const AxisRange& range) {
+  std::vector<double> out;
+  auto add = [&out](double a) {
+    for (double b : out)
+      if (std::abs(a - b) < 1e-9) return;
+    out.push_back(a);
+  };
+  for (int a = 0; a < 360; a += 30)
+    if (const auto n = normalise_angle_deg(a, range)) add(*n);
+  if (!range.continuous) {
+    add(range.min_deg);
+    add(range.max_deg);
+  }
+  return out;
+}
+
+// Candidate poses for proposals: only where the stand can go.
+std::vector<ProposedPosition> grid_poses(const StandLimits& limits) {
   std::vector<ProposedPosition> out;
-  for (int a1 = 0; a1 < 360; a1 += 30)
-    for (int a2 = 0; a2 < 360; a2 += 30) out.push_back({static_cast<double>(a1), static_cast<double>(a2), 0, ""});
+  for (double a1 : reachable_grid_deg(limits.alpha1))
+    for (double a2 : reachable_grid_deg(limits.alpha2)) out.push_back({a1, a2, 0, ""});
   return out;
 }
 
@@ -438,23 +568,25 @@ MatrixXd pose_design_rows(const LinearProblem& lp, const FullDesign* fd, const S
     return rows;
   }
   const Eigen::Matrix<double, 1, 9> reg = invariant_regressor(up_vector(pose.alpha1_deg * kDegToRad, pose.alpha2_deg * kDegToRad, pose.mount));
-  MatrixXd row(1, lp.A.cols());
+  MatrixXd row = MatrixXd::Zero(1, lp.A.cols());
   for (int j = 0; j < kUnitParameterCount; ++j)
     if (lp.unit_column[static_cast<std::size_t>(j)] >= 0) row(0, lp.unit_column[static_cast<std::size_t>(j)]) = reg[j] / s;
   return row;
 }
 
-VectorXd pose_candidate_rows(const LinearProblem& lp, const Candidate& c, const PositionContext& p, double s) {
-  const Vec3 e = candidate_effect_g(c, p);
+// Rows (3 full, 1 invariant) x params a candidate would add at a new pose.
+MatrixXd pose_candidate_rows(const LinearProblem& lp, const Candidate& c, const PositionContext& p, double s) {
+  const MatrixXd e = candidate_effect_g(c, p);
   if (lp.full) return e / s;
-  VectorXd v(1);
-  v[0] = p.up.dot(e) / s;
-  return v;
+  return (p.up.transpose() * e) / s;
 }
 
 PositionContext future_context(const StandPose& pose, const std::vector<PositionContext>& ctx, int step) {
   PositionContext p;
   p.up = up_vector(pose.alpha1_deg * kDegToRad, pose.alpha2_deg * kDegToRad, pose.mount);
+  p.alpha1_deg = pose.alpha1_deg;
+  p.alpha2_deg = pose.alpha2_deg;
+  p.mount = pose.mount;
   p.t_mid_h = ctx.back().t_mid_h + (step + 1) * 70.0 / 3600.0;
   p.temp_delta_c = ctx.back().temp_delta_c;
   p.approach = step % 2 == 0 ? 1 : -1;
@@ -484,21 +616,39 @@ VectorXd unabsorbed_fractions(const MatrixXd& A, const MatrixXd& C) {
   return f;
 }
 
-// Greedy choice of six grid poses, each the one that most increases how far the catalog
-// candidates stand out from the calibration parameters (sum of unabsorbed fractions).
+Eigen::Index total_params(const std::vector<Candidate>& cands) {
+  Eigen::Index n = 0;
+  for (const Candidate& c : cands) n += c.params;
+  return n;
+}
+
+// Every candidate's columns side by side.
+MatrixXd all_candidate_columns(const std::vector<Candidate>& cands, const LinearProblem& lp,
+                               const std::vector<PositionContext>& ctx) {
+  MatrixXd C(lp.A.rows(), total_params(cands));
+  Eigen::Index j = 0;
+  for (const Candidate& c : cands) {
+    C.middleCols(j, c.params) = candidate_columns(c, lp, ctx);
+    j += c.params;
+  }
+  return C;
+}
+
+// Greedy choice of six reachable grid poses, each the one that most increases how far
+// the catalog candidates stand out from the calibration parameters (sum of unabsorbed fractions).
 std::vector<ProposedPosition> propose_for_redundancy(const LinearProblem& lp, const FullDesign* fd,
                                                      const std::vector<PositionContext>& ctx,
-                                                     const std::vector<Candidate>& cands, Mount mount) {
+                                                     const std::vector<Candidate>& cands, Mount mount,
+                                                     const StandLimits& limits) {
   const double s = median_sigma(lp);
   MatrixXd A = lp.A;
-  MatrixXd C(lp.A.rows(), static_cast<Eigen::Index>(cands.size()));
-  for (std::size_t i = 0; i < cands.size(); ++i) C.col(static_cast<Eigen::Index>(i)) = candidate_column(cands[i], lp, ctx);
+  MatrixXd C = all_candidate_columns(cands, lp, ctx);
   std::vector<ProposedPosition> chosen;
   for (int step = 0; step < 6; ++step) {
     double best_score = -1;
     ProposedPosition best;
     MatrixXd best_A, best_C;
-    for (const ProposedPosition& g : grid_poses()) {
+    for (const ProposedPosition& g : grid_poses(limits)) {
       const StandPose pose{g.alpha1_deg, g.alpha2_deg, mount};
       const MatrixXd rows = pose_design_rows(lp, fd, pose, s);
       const PositionContext pc = future_context(pose, ctx, step);
@@ -506,13 +656,17 @@ std::vector<ProposedPosition> propose_for_redundancy(const LinearProblem& lp, co
       A2 << A, rows;
       MatrixXd C2(C.rows() + rows.rows(), C.cols());
       C2.topRows(C.rows()) = C;
-      for (std::size_t i = 0; i < cands.size(); ++i)
-        C2.block(C.rows(), static_cast<Eigen::Index>(i), rows.rows(), 1) = pose_candidate_rows(lp, cands[i], pc, s);
+      Eigen::Index j = 0;
+      for (const Candidate& c : cands) {
+        C2.block(C.rows(), j, rows.rows(), c.params) = pose_candidate_rows(lp, c, pc, s);
+        j += c.params;
+      }
       const double score = unabsorbed_fractions(A2, C2).sum();
       if (score > best_score) { best_score = score; best = g; best_A = A2; best_C = C2; }
     }
+    if (best_score < 0) break;  // the stand can reach no grid pose at all
     best.why = "raises the candidates' mean separation from the calibration parameters to " +
-               fmt("%.0f", 100.0 * best_score / static_cast<double>(cands.size())) + " %";
+               fmt("%.0f", 100.0 * best_score / static_cast<double>(C.cols())) + " %";
     chosen.push_back(best);
     A = best_A;
     C = best_C;
@@ -525,24 +679,29 @@ std::vector<ProposedPosition> propose_discriminating(const LinearProblem& lp, co
                                                      const std::vector<PositionContext>& ctx,
                                                      const std::vector<VectorXd>& chosen_cols,
                                                      const std::vector<Candidate>& chosen_cands,
-                                                     const Candidate& c1, const Candidate& c2, Mount mount) {
+                                                     const Candidate& c1, const Candidate& c2, Mount mount,
+                                                     const StandLimits& limits) {
   const double s = median_sigma(lp);
   auto fit_with = [&](const Candidate& c) {
     std::vector<VectorXd> cols = chosen_cols;
-    cols.push_back(candidate_column(c, lp, ctx));
+    const MatrixXd extra = candidate_columns(c, lp, ctx);
+    for (Eigen::Index j = 0; j < extra.cols(); ++j) cols.push_back(extra.col(j));
     return solve_linear(with_columns(lp.A, cols), lp.y, lp.row_position, lp.positions).beta;
   };
   const VectorXd b1 = fit_with(c1), b2 = fit_with(c2);
   std::vector<ProposedPosition> scored;
-  for (ProposedPosition g : grid_poses()) {
+  for (ProposedPosition g : grid_poses(limits)) {
     const StandPose pose{g.alpha1_deg, g.alpha2_deg, mount};
     const PositionContext pc = future_context(pose, ctx, 0);
     const MatrixXd rows = pose_design_rows(lp, fd, pose, s);
     auto predict = [&](const VectorXd& beta, const Candidate& extra) {
       VectorXd pred = rows * beta.head(lp.A.cols());
-      for (std::size_t j = 0; j < chosen_cands.size(); ++j)
-        pred += pose_candidate_rows(lp, chosen_cands[j], pc, s) * beta[lp.A.cols() + static_cast<Eigen::Index>(j)];
-      pred += pose_candidate_rows(lp, extra, pc, s) * beta[beta.size() - 1];
+      Eigen::Index j = lp.A.cols();
+      for (const Candidate& c : chosen_cands) {
+        pred += pose_candidate_rows(lp, c, pc, s) * beta.segment(j, c.params);
+        j += c.params;
+      }
+      pred += pose_candidate_rows(lp, extra, pc, s) * beta.segment(j, extra.params);
       return pred;
     };
     g.predicted_difference_sigma = (predict(b1, c1) - predict(b2, c2)).norm();
@@ -620,57 +779,168 @@ void locate(Diagnosis& d, const LinearProblem& lp, const std::vector<PositionAve
 
 }  // namespace
 
+namespace {
+
+// Everything the diagnosis derives from a recording before it tests candidates.
+struct Prepared {
+  std::vector<PositionAverage> avg;
+  bool have_temp = true;
+  double temp_ref_c = 0;
+  std::vector<PositionContext> ctx;
+  bool full = false;
+  FullDesign fd;
+  FitResult baseline;
+  LinearProblem lp;
+  LinearFit base;
+  std::vector<Candidate> cands;
+  std::vector<bool> testable;
+  int n_testable = 0;
+};
+
+Prepared prepare(const Recording& rec, const DiagnoseOptions& options) {
+  Prepared P;
+  P.avg = average_positions(rec);
+  for (const auto& p : P.avg) P.have_temp = P.have_temp && std::isfinite(p.temp_mean_c);
+  if (rec.temp_ref_c) P.temp_ref_c = *rec.temp_ref_c;
+  else
+    for (const auto& s : rec.samples)
+      if (std::isfinite(s.temp_c)) { P.temp_ref_c = s.temp_c; break; }
+  P.ctx = position_contexts(P.avg, P.temp_ref_c);
+
+  // Baseline: the full vector when it has redundancy, the invariant projection otherwise.
+  try {
+    P.baseline = fit_full_vector(P.avg);
+    P.full = P.baseline.redundancy > 0;
+  } catch (const std::exception&) {
+    P.full = false;
+  }
+  if (P.full) P.fd = full_design(P.avg);
+  else P.baseline = fit_invariant_joint(P.avg);
+  P.lp = P.full ? full_problem(P.avg, P.baseline, P.fd) : invariant_problem(P.avg, P.baseline);
+  P.base = solve_linear(P.lp.A, P.lp.y, P.lp.row_position, P.lp.positions);
+
+  // Which candidates can this programme test at all? Every column of a candidate must
+  // keep some of its size after the baseline parameters have absorbed what they can.
+  P.cands = catalog_candidates(P.have_temp);
+  const VectorXd frac = unabsorbed_fractions(P.lp.A, all_candidate_columns(P.cands, P.lp, P.ctx));
+  Eigen::Index j = 0;
+  for (const Candidate& c : P.cands) {
+    const bool ok = P.base.dof > 0 && frac.segment(j, c.params).minCoeff() > options.min_unabsorbed_fraction;
+    P.testable.push_back(ok);
+    P.n_testable += ok ? 1 : 0;
+    j += c.params;
+  }
+  return P;
+}
+
+// The fitted mounting misalignment about each instrument axis (arcmin, with sigma) from
+// the full-vector fit's stand estimates; NaN where the fit has none.
+struct MountingEstimate {
+  double value_arcmin[3] = {kNaN, kNaN, kNaN};
+  double sigma_arcmin[3] = {kNaN, kNaN, kNaN};
+  std::string combination[3];
+};
+
+MountingEstimate mounting_estimate(const FitResult& fit) {
+  MountingEstimate m;
+  for (const StandEstimate& e : fit.stand)
+    for (int a = 0; a < 3; ++a)
+      if (e.name.rfind(std::string("mounting_psi_") + kAxisNames[a], 0) == 0 && e.unit == "arcsec") {
+        m.value_arcmin[a] = e.value / 60.0;
+        m.sigma_arcmin[a] = e.sigma / 60.0;
+        m.combination[a] = e.name;
+      }
+  return m;
+}
+
+// mounting_misalignment_large: the mounting angle about each axis against the fixture
+// tolerance. It is a parameter of the full-vector baseline (which models it exactly), so
+// this is a test of its size, not a new term: chi2 gain = ((|psi| - tolerance) / sigma)^2.
+std::vector<CandidateTest> mounting_tests(const FitResult& fit, double chi2_dof, std::size_t n_rows,
+                                          const DiagnoseOptions& options) {
+  const MountingEstimate m = mounting_estimate(fit);
+  const double scale = std::max(1.0, std::isfinite(chi2_dof) ? std::sqrt(chi2_dof) : 1.0);
+  std::vector<CandidateTest> out;
+  for (int a = 0; a < 3; ++a) {
+    CandidateTest t{"mounting_misalignment_large", kAxisNames[a], "arcmin", true, "", 0, 0, 0, 0, kNaN, 0};
+    if (!std::isfinite(m.value_arcmin[a])) {
+      t.testable = false;
+      t.reason = "the full-vector fit has no estimate of the mounting about this axis";
+    } else {
+      t.value = m.value_arcmin[a];
+      t.sigma = m.sigma_arcmin[a] * scale;
+      const double excess = std::abs(t.value) - options.mounting_tolerance_arcmin;
+      t.delta_chi2 = excess > 0 && t.sigma > 0 ? (excess / t.sigma) * (excess / t.sigma) : 0.0;
+      t.delta_bic = bic_gain(t.delta_chi2, 1, n_rows);
+    }
+    out.push_back(t);
+  }
+  return out;
+}
+
+// What the paper's invariant method would silently get wrong with this mounting
+// (model.md: delta k_i off by -(1 - cos phi)(1 - n_i^2), gamma_ij by 2(1 - cos phi) n_i n_j).
+std::string invariant_bias_words(const Vec3& psi_rad) {
+  const double phi = psi_rad.norm();
+  if (phi <= 0) return "";
+  const Vec3 n = psi_rad / phi;
+  const double c = 1 - std::cos(phi);
+  std::string s;
+  for (int i = 0; i < 3; ++i)
+    s += std::string(i ? ", " : "") + "dk" + kAxisNames[i] + " " + num(-c * (1 - n[i] * n[i]) / kPpm) + " ppm";
+  const int pairs[3][2] = {{0, 1}, {0, 2}, {1, 2}};
+  const char* names[3] = {"gamma12", "gamma13", "gamma23"};
+  for (int k = 0; k < 3; ++k)
+    s += std::string(", ") + names[k] + " " + num(2 * c * n[pairs[k][0]] * n[pairs[k][1]] * kRadToArcsec) + " arcsec";
+  return s;
+}
+
+Finding mounting_finding(const CandidateTest& t, const MountingEstimate& m, double chi2_dof, const DiagnoseOptions& options) {
+  Finding f{t.effect, t.axis, t.unit, t.value, t.sigma, 0, t.delta_chi2, chi2_dof, chi2_dof, "", "", 0};
+  Vec3 psi_rad = Vec3::Zero();
+  for (int a = 0; a < 3; ++a)
+    if (std::isfinite(m.value_arcmin[a])) psi_rad[a] = m.value_arcmin[a] * kArcminToRad;
+  f.explanation = "The horizontal components put the unit's mounting about its " + t.axis + " axis at " + num(t.value, 2) +
+                  " +- " + fmt("%.3f", t.sigma) + " arcmin, beyond the fixture tolerance of " +
+                  fmt("%.1f", options.mounting_tolerance_arcmin) +
+                  " arcmin. Missing physics: a large mounting misalignment. The full-vector fit models it exactly, "
+                  "but the invariant method absorbs it silently: with this mounting its results would shift by " +
+                  invariant_bias_words(psi_rad) + ". The estimate is the combination " + m.combination[std::string("xyz").find(t.axis[0])] +
+                  " (gravity cannot tell the mounting from the antisymmetric non-orthogonality" +
+                  std::string(t.axis == "x" ? ", nor, about the inner axis, from its angle zero" : "") + ").";
+  return f;
+}
+
+}  // namespace
+
 Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& options) {
   Diagnosis d;
   d.source = rec.source;
-  const std::vector<PositionAverage> avg = average_positions(rec);
-  bool have_temp = true;
-  for (const auto& p : avg) have_temp = have_temp && std::isfinite(p.temp_mean_c);
-  double temp_ref_c = 0;
-  if (rec.temp_ref_c) temp_ref_c = *rec.temp_ref_c;
-  else
-    for (const auto& s : rec.samples)
-      if (std::isfinite(s.temp_c)) { temp_ref_c = s.temp_c; break; }
-  const std::vector<PositionContext> ctx = position_contexts(avg, temp_ref_c);
-
-  // Baseline: the full vector when it has redundancy, the invariant projection otherwise.
-  FullDesign fd;
-  bool full = false;
-  try {
-    d.baseline = fit_full_vector(avg);
-    full = d.baseline.redundancy > 0;
-  } catch (const std::exception&) {
-    full = false;
-  }
-  if (full) fd = full_design(avg);
-  else d.baseline = fit_invariant_joint(avg);
+  const Prepared P = prepare(rec, options);
+  const std::vector<PositionAverage>& avg = P.avg;
+  const bool have_temp = P.have_temp;
+  const double temp_ref_c = P.temp_ref_c;
+  const std::vector<PositionContext>& ctx = P.ctx;
+  const bool full = P.full;
+  const FullDesign& fd = P.fd;
+  const LinearProblem& lp = P.lp;
+  const LinearFit& base = P.base;
+  const std::vector<Candidate>& cands = P.cands;
+  const std::vector<bool>& testable = P.testable;
+  const int n_testable = P.n_testable;
+  d.baseline = P.baseline;
   d.method = full ? "full" : "joint";
-  const LinearProblem lp = full ? full_problem(avg, d.baseline, fd) : invariant_problem(avg, d.baseline);
   const std::size_t n_rows = static_cast<std::size_t>(lp.y.size());
-  const LinearFit base = solve_linear(lp.A, lp.y, lp.row_position, lp.positions);
   d.baseline_p = consistency_p(base.chi2, base.dof);
   structure_tests(d, lp, ctx, have_temp);
   locate(d, lp, avg);
 
-  const std::vector<Candidate> cands = catalog_candidates(have_temp);
-  d.not_tested.push_back("mounting_misalignment_large: the baseline already fits the mounting misalignment with exact "
-                         "rotations (full vector); in the invariant projection it is invisible by construction");
-  d.not_tested.push_back("angle_sensor_error: not implemented in this version of the diagnosis");
+  if (!full)
+    d.not_tested.push_back("mounting_misalignment_large: the invariant projection cannot see a mounting misalignment "
+                           "(model.md), and this recording has no redundancy for the full-vector fit");
   if (!have_temp)
     d.not_tested.push_back("bias_temperature, scale_temperature: the recording has no temperature column");
 
-  // Which candidates can this programme test at all?
-  std::vector<bool> testable(cands.size(), false);
-  int n_testable = 0;
-  {
-    MatrixXd C(lp.A.rows(), static_cast<Eigen::Index>(cands.size()));
-    for (std::size_t i = 0; i < cands.size(); ++i) C.col(static_cast<Eigen::Index>(i)) = candidate_column(cands[i], lp, ctx);
-    const VectorXd frac = unabsorbed_fractions(lp.A, C);
-    for (std::size_t i = 0; i < cands.size(); ++i) {
-      testable[i] = base.dof > 0 && frac[static_cast<Eigen::Index>(i)] > options.min_unabsorbed_fraction;
-      n_testable += testable[i] ? 1 : 0;
-    }
-  }
   const Mount mount0 = avg.front().mount;
   // Positions the baseline cannot predict from the others (each alone fixes a parameter):
   // there the held-out check is impossible.
@@ -685,7 +955,7 @@ Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& option
     d.final_fit = d.baseline;
     d.final_p = d.baseline_p;
     d.final_chi2_dof = d.baseline.chi2_dof;
-    d.proposed_positions = propose_for_redundancy(lp, full ? &fd : nullptr, ctx, cands, mount0);
+    d.proposed_positions = propose_for_redundancy(lp, full ? &fd : nullptr, ctx, cands, mount0, options.limits);
     std::string why;
     if (base.dof <= 0) why = "the fit has no redundancy";
     else if (projection_redundancy <= 0)
@@ -701,6 +971,7 @@ Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& option
                         ". Add the proposed positions and run again.");
     for (std::size_t i = 0; i < cands.size(); ++i) {
       CandidateTest t{cands[i].effect, cands[i].axis, cands[i].unit, static_cast<bool>(testable[i]), "", 0, 0, 0, 0, 0, 0};
+      t.params = cands[i].params;
       if (!testable[i]) t.reason = "absorbed by the calibration parameters on this programme";
       d.candidates.push_back(t);
     }
@@ -718,7 +989,12 @@ Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& option
     return d;
   }
 
-  // Forward selection: each round tests every candidate against the current model.
+  // Forward selection: each round tests every candidate against the current model. Terms
+  // with more parameters need a larger chi2 gain for the same false-finding probability;
+  // candidates are ranked by their gain beyond that need ("excess").
+  auto excess = [&options](const CandidateTest& t) {
+    return t.testable ? t.delta_chi2 - significance_for(options.significance_chi2, t.params) : -1e300;
+  };
   std::vector<Chosen> chosen;
   std::vector<VectorXd> chosen_cols;
   std::vector<Candidate> chosen_cands;
@@ -728,42 +1004,45 @@ Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& option
     std::vector<std::pair<CandidateTest, std::size_t>> tests;
     for (std::size_t i = 0; i < cands.size(); ++i) {
       CandidateTest t{cands[i].effect, cands[i].axis, cands[i].unit, static_cast<bool>(testable[i]), "", 0, 0, 0, 0, 0, 0};
+      t.params = cands[i].params;
       bool already = false;
       for (const Candidate& c : chosen_cands) already = already || (c.effect == cands[i].effect && c.axis == cands[i].axis);
       if (!testable[i]) t.reason = "absorbed by the calibration parameters on this programme";
       if (testable[i] && !already) {
         std::vector<VectorXd> cols = chosen_cols;
-        cols.push_back(candidate_column(cands[i], lp, ctx));
+        const MatrixXd extra = candidate_columns(cands[i], lp, ctx);
+        for (Eigen::Index j = 0; j < extra.cols(); ++j) cols.push_back(extra.col(j));
         const LinearFit f = solve_linear(with_columns(lp.A, cols), lp.y, lp.row_position, lp.positions);
-        if (f.rank <= current.rank) {
+        if (f.rank < current.rank + cands[i].params) {
           t.testable = false;
           t.reason = "collinear with the terms already chosen";
         } else {
-          const Eigen::Index j = f.beta.size() - 1;
           const double scale = std::max(1.0, f.dof > 0 ? std::sqrt(f.chi2 / f.dof) : 1.0);
-          t.value = f.beta[j];
-          t.sigma = std::sqrt(f.cov(j, j)) * scale;
+          const TermEstimate te = term_estimate(cands[i], f.beta, f.cov, f.beta.size() - cands[i].params, scale);
+          t.value = te.value;
+          t.sigma = te.sigma;
+          t.phase_deg = te.phase_deg;
           t.delta_chi2 = current.chi2 - f.chi2;
-          t.delta_bic = bic_gain(t.delta_chi2, 1, n_rows);
+          t.delta_bic = bic_gain(t.delta_chi2, cands[i].params, n_rows);
           t.press_gain = press_gain(current, f);
         }
       }
       if (!already) tests.push_back({t, i});
     }
-    std::sort(tests.begin(), tests.end(), [](const auto& a, const auto& b) { return a.first.delta_chi2 > b.first.delta_chi2; });
+    std::stable_sort(tests.begin(), tests.end(), [&excess](const auto& a, const auto& b) { return excess(a.first) > excess(b.first); });
     if (round == 0)
       for (const auto& t : tests) d.candidates.push_back(t.first);
     if (tests.empty()) break;
     const CandidateTest& best = tests.front().first;
-    const bool significant = best.testable && best.delta_chi2 > options.significance_chi2 && best.delta_bic > 0 && best.press_gain > 0;
+    const bool significant = best.testable && excess(best) > 0 && best.delta_bic > 0 && best.press_gain > 0;
     if (!significant) break;
     if (tests.size() > 1) {
       const CandidateTest& rival = tests[1].first;
-      if (rival.testable && rival.delta_chi2 > options.significance_chi2 &&
-          best.delta_chi2 - rival.delta_chi2 < options.ambiguity_chi2) {
+      if (rival.testable && excess(rival) > 0 && excess(best) - excess(rival) < options.ambiguity_chi2) {
         ambiguous = true;
         d.proposed_positions = propose_discriminating(lp, full ? &fd : nullptr, ctx, chosen_cols, chosen_cands,
-                                                      cands[tests.front().second], cands[tests[1].second], mount0);
+                                                      cands[tests.front().second], cands[tests[1].second], mount0,
+                                                      options.limits);
         if (!d.proposed_positions.empty() &&
             d.proposed_positions.front().predicted_difference_sigma - d.proposed_positions.back().predicted_difference_sigma < 1) {
           // The rivals differ in time or temperature, not in angle: no pose tells them apart.
@@ -774,16 +1053,17 @@ Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& option
         d.summary.push_back("Two explanations fit about equally well: " + effect_words(best.effect, best.axis) + " (" +
                             num(best.value) + " " + best.unit + ", chi2 gain " + fmt("%.1f", best.delta_chi2) + ") and " +
                             effect_words(rival.effect, rival.axis) + " (" + num(rival.value) + " " + rival.unit +
-                            ", chi2 gain " + fmt("%.1f", rival.delta_chi2) + "). The proposed positions tell them apart.");
+                            ", chi2 gain " + fmt("%.1f", rival.delta_chi2) + ")." +
+                            (d.proposed_positions.empty() ? "" : " The proposed positions tell them apart."));
         break;
       }
     }
     Chosen c;
     c.cand = cands[tests.front().second];
-    c.column = candidate_column(c.cand, lp, ctx);
     c.delta_chi2 = best.delta_chi2;
     c.chi2_dof_before = current.dof > 0 ? current.chi2 / current.dof : kNaN;
-    chosen_cols.push_back(c.column);
+    const MatrixXd cols = candidate_columns(c.cand, lp, ctx);
+    for (Eigen::Index j = 0; j < cols.cols(); ++j) chosen_cols.push_back(cols.col(j));
     chosen_cands.push_back(c.cand);
     current = solve_linear(with_columns(lp.A, chosen_cols), lp.y, lp.row_position, lp.positions);
     c.chi2_dof_after = current.dof > 0 ? current.chi2 / current.dof : kNaN;
@@ -793,11 +1073,8 @@ Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& option
   // Settling transients: inside each dwell, on the raw samples.
   std::vector<SettlingResult> settling;
   for (int a = 0; a < 3; ++a) {
-    SettlingResult best;
-    for (double tau : options.settling_tau_grid_s) {
-      const SettlingResult r = settling_search(rec, avg, a, tau);
-      if (r.delta_chi2 > best.delta_chi2) best = r;
-    }
+    SettlingResult best = best_settling(rec, avg, a, options.settling_tau_grid_s, options.significance_chi2);
+    best.sigma_ug = best.sigma_free_tau_ug;  // tau was estimated from the same samples
     CandidateTest t{"settling_transient", kAxisNames[a], "ug", true, "", best.amplitude_ug, best.sigma_ug,
                     best.delta_chi2, bic_gain(best.delta_chi2, 2, rec.samples.size()), best.press_gain, best.tau_s};
     d.candidates.push_back(t);
@@ -807,21 +1084,23 @@ Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& option
   // Final fit: the averages corrected by the chosen terms, refitted by the same method.
   const int n_terms = static_cast<int>(chosen.size());
   std::vector<PositionAverage> corrected = avg;
-  VectorXd term_values(n_terms), term_sigmas(n_terms);
-  if (n_terms > 0) {
+  std::vector<TermEstimate> terms;
+  int n_term_params = 0;
+  {
     const double scale = std::max(1.0, current.dof > 0 ? std::sqrt(current.chi2 / current.dof) : 1.0);
-    for (int j = 0; j < n_terms; ++j) {
-      const Eigen::Index col = lp.A.cols() + j;
-      term_values[j] = current.beta[col];
-      term_sigmas[j] = std::sqrt(current.cov(col, col)) * scale;
-      for (std::size_t k = 0; k < corrected.size(); ++k)
-        corrected[k].mean_g -= candidate_effect_g(chosen[static_cast<std::size_t>(j)].cand, ctx[k]) * term_values[j];
+    Eigen::Index col = lp.A.cols();
+    for (const Chosen& c : chosen) {
+      terms.push_back(term_estimate(c.cand, current.beta, current.cov, col, scale));
+      const VectorXd beta = current.beta.segment(col, c.cand.params);
+      for (std::size_t k = 0; k < corrected.size(); ++k) corrected[k].mean_g -= candidate_effect_g(c.cand, ctx[k]) * beta;
+      col += c.cand.params;
+      n_term_params += c.cand.params;
     }
   }
   for (const SettlingResult& s : settling)
     for (std::size_t k = 0; k < corrected.size(); ++k) corrected[k].mean_g[s.axis] -= s.amplitude_ug * kUg * s.mean_shape[k];
   d.final_fit = baseline_fit(corrected, full);
-  const int final_dof = d.final_fit.redundancy - n_terms;
+  const int final_dof = d.final_fit.redundancy - n_term_params;
   d.final_chi2_dof = final_dof > 0 ? d.final_fit.chi2 / final_dof : kNaN;
   d.final_p = consistency_p(d.final_fit.chi2, final_dof);
   if (n_terms > 0) {
@@ -844,29 +1123,47 @@ Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& option
     bias.sigma = std::hypot(*bias.sigma, st.sigma_ug * kUg * shape);
   }
 
+  // Large mounting misalignment: the size of the final full-vector fit's mounting angles.
+  std::vector<CandidateTest> mounting;
+  if (full) mounting = mounting_tests(d.final_fit, d.final_chi2_dof, n_rows, options);
+  for (const CandidateTest& t : mounting) d.candidates.push_back(t);
+
   // Findings, in words.
   const std::string absorbed = absorbed_words(d.baseline, d.final_fit);
   for (int j = 0; j < n_terms; ++j) {
     const Chosen& c = chosen[static_cast<std::size_t>(j)];
-    Finding f{c.cand.effect, c.cand.axis, c.cand.unit, term_values[j], term_sigmas[j], 0, c.delta_chi2,
-              c.chi2_dof_before, c.chi2_dof_after, j == 0 ? absorbed : "", ""};
-    const std::string who = c.cand.axis.size() == 1 ? "the " + c.cand.axis + " accelerometer" : "the " + c.cand.axis.substr(0, 1) + " accelerometer";
+    const TermEstimate& te = terms[static_cast<std::size_t>(j)];
+    Finding f{c.cand.effect, c.cand.axis, c.cand.unit, te.value, te.sigma, 0, c.delta_chi2,
+              c.chi2_dof_before, c.chi2_dof_after, j == 0 ? absorbed : "", "", te.phase_deg};
+    const std::string who = c.cand.effect == "angle_sensor_error" ? "the horizontal components"
+                            : c.cand.axis.size() == 1            ? "the " + c.cand.axis + " accelerometer"
+                                                                 : "the " + c.cand.axis.substr(0, 1) + " accelerometer";
     f.explanation = "Residuals of " + who + " " + signature_words(f.effect, f.axis) + " (chi2/dof " +
                     fmt("%.2f", f.chi2_dof_before) + " -> " + fmt("%.2f", f.chi2_dof_after) + "). Missing physics: " +
-                    effect_words(f.effect, f.axis) + ", " + num(f.value) + " +- " + fmt("%.1f", f.sigma) + " " + f.unit + ".";
+                    effect_words(f.effect, f.axis) + ", " + num(f.value) + " +- " + fmt("%.1f", f.sigma) + " " + f.unit;
+    if (f.effect == "angle_sensor_error")
+      f.explanation += " amplitude (true angle = reading + amplitude * sin(" + f.axis + " " + num(f.phase_deg) + " deg))";
+    f.explanation += ".";
     if (!f.absorbed_into.empty()) f.explanation += " It had been absorbed into " + f.absorbed_into + ".";
     d.findings.push_back(f);
   }
   for (const SettlingResult& s : settling) {
     Finding f{"settling_transient", kAxisNames[s.axis], "ug", s.amplitude_ug, s.sigma_ug, s.tau_s, s.delta_chi2,
-              kNaN, kNaN, "", ""};
+              kNaN, kNaN, "", "", 0};
     f.explanation = std::string("Raw samples of the ") + kAxisNames[s.axis] + " accelerometer decay inside each dwell after " +
                     "arrival (chi2 gain " + fmt("%.0f", s.delta_chi2) + " on the samples). Missing physics: " +
                     effect_words(f.effect, f.axis) + ", " + num(s.amplitude_ug) + " +- " + fmt("%.1f", s.sigma_ug) +
-                    " ug at arrival, tau " + fmt("%.0f", s.tau_s) + " s (grid search). In the per-position means it " +
+                    " ug at arrival, tau " + fmt("%.1f", s.tau_s) + " s (grid search, refined). In the per-position means it " +
                     "looks like a bias, which is now corrected.";
     d.findings.push_back(f);
   }
+  const MountingEstimate m_est = mounting_estimate(d.final_fit);
+  bool large_mounting = false;
+  for (const CandidateTest& t : mounting)
+    if (t.testable && t.delta_chi2 > options.significance_chi2) {
+      d.findings.push_back(mounting_finding(t, m_est, d.final_chi2_dof, options));
+      large_mounting = true;
+    }
   std::stable_sort(d.findings.begin(), d.findings.end(), [](const Finding& a, const Finding& b) { return a.delta_chi2 > b.delta_chi2; });
 
   if (ambiguous) d.verdict = "ambiguous";
@@ -911,6 +1208,10 @@ Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& option
     else pair_sums[i - 6] = v;
   }
   m.unit.set_gamma_pair_sums_rad(pair_sums);
+  if (large_mounting)  // the one stand error that matters beyond first order: the fitted mounting
+    for (int a = 0; a < 3; ++a)
+      if (std::isfinite(m_est.value_arcmin[a]))
+        m.stand.mounting_rad[static_cast<std::size_t>(mount0)][a] = m_est.value_arcmin[a] * kArcminToRad;
   std::vector<double> sig;
   for (const auto& p : avg) sig.push_back(p.sigma_g.mean());
   std::nth_element(sig.begin(), sig.begin() + static_cast<std::ptrdiff_t>(sig.size() / 2), sig.end());
@@ -922,8 +1223,93 @@ Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& option
     const double dt_h = ctx.back().t_mid_h - ctx.front().t_mid_h;
     if (dt_h > 0) m.temperature.rate_c_per_h = (ctx.back().temp_delta_c - ctx.front().temp_delta_c) / dt_h;
   }
-  for (const Finding& f : d.findings) m.extra_physics.push_back({f.effect, f.axis, f.value, f.tau_s});
+  for (const Finding& f : d.findings)
+    if (f.effect != "mounting_misalignment_large") m.extra_physics.push_back({f.effect, f.axis, f.value, f.tau_s, f.phase_deg});
   return d;
+}
+
+std::vector<DiscriminationThreshold> discrimination_thresholds(const Recording& reference, const DiagnoseOptions& options) {
+  constexpr double kStandOut = 3;  // sigma
+  const Prepared P = prepare(reference, options);
+  std::vector<DiscriminationThreshold> out;
+  std::vector<MatrixXd> cols;
+  for (const Candidate& c : P.cands) cols.push_back(candidate_columns(c, P.lp, P.ctx));
+  // Smallest singular value of the part of C that [A, competitor] cannot explain.
+  auto unexplained_size = [&P](const MatrixXd& C, const MatrixXd* competitor) {
+    MatrixXd M(P.lp.A.rows(), P.lp.A.cols() + (competitor ? competitor->cols() : 0));
+    M.leftCols(P.lp.A.cols()) = P.lp.A;
+    if (competitor) M.rightCols(competitor->cols()) = *competitor;
+    VectorXd norms = M.colwise().norm().transpose();
+    for (Eigen::Index j = 0; j < norms.size(); ++j)
+      if (norms[j] <= 0) norms[j] = 1;
+    const MatrixXd Mn = M * norms.cwiseInverse().asDiagonal();
+    Eigen::CompleteOrthogonalDecomposition<MatrixXd> cod(Mn);
+    cod.setThreshold(1e-10);
+    const MatrixXd rest = C - Mn * cod.solve(C);
+    return Eigen::JacobiSVD<MatrixXd>(rest).singularValues().minCoeff();
+  };
+  for (std::size_t i = 0; i < P.cands.size(); ++i) {
+    if (!P.testable[i]) continue;
+    DiscriminationThreshold t{P.cands[i].effect, P.cands[i].axis, P.cands[i].unit, 0, 0, "noise"};
+    double smallest = unexplained_size(cols[i], nullptr);
+    for (std::size_t k = 0; k < P.cands.size(); ++k) {
+      if (k == i || !P.testable[k]) continue;
+      const double s = unexplained_size(cols[i], &cols[k]);
+      if (s < smallest) {
+        smallest = s;
+        t.nearest = P.cands[k].effect + " " + P.cands[k].axis;
+      }
+    }
+    t.threshold = smallest > 0 ? kStandOut / smallest : std::numeric_limits<double>::infinity();
+    out.push_back(t);
+  }
+  for (int a = 0; a < 3; ++a)
+    for (double tau : options.settling_tau_grid_s) {
+      const SettlingResult r = settling_search(reference, P.avg, a, tau);
+      // Standing out is a matter of the test at the best tau (sigma with tau known); the
+      // reported sigma of a finding is the wider one with tau free.
+      out.push_back({"settling_transient", kAxisNames[a], "ug", tau, kStandOut * r.sigma_ug, "noise"});
+    }
+  if (P.full) {
+    const MountingEstimate m = mounting_estimate(P.baseline);
+    for (int a = 0; a < 3; ++a)
+      if (std::isfinite(m.sigma_arcmin[a]))
+        out.push_back({"mounting_misalignment_large", kAxisNames[a], "arcmin", 0,
+                       options.mounting_tolerance_arcmin + kStandOut * m.sigma_arcmin[a], "fixture tolerance"});
+  }
+  return out;
+}
+
+Program diagnostic32() {
+  std::vector<std::pair<double, double>> a;
+  for (double a1 : {0.0, 60.0, 120.0, 180.0, 240.0, 300.0}) a.emplace_back(a1, 0.0);
+  for (double a2 : {45.0, 90.0, 135.0, 225.0, 270.0, 315.0}) a.emplace_back(0.0, a2);
+  a.emplace_back(45.0, 90.0);
+  a.emplace_back(45.0, 270.0);
+  a.emplace_back(30.0, 60.0);
+  a.emplace_back(330.0, 120.0);
+  Program p;
+  p.name = "diagnostic32";
+  for (int pass = 0; pass < 2; ++pass)
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      const auto& [a1, a2] = pass == 0 ? a[i] : a[a.size() - 1 - i];
+      ProgramPosition pos;
+      pos.alpha1_deg = a1;
+      pos.alpha2_deg = a2;
+      p.positions.push_back(pos);
+    }
+  return p;
+}
+
+Vec3 identifiable_mounting_rad(const TruthModel& truth) {
+  // The fit's mounting rotation R' = R(theta_a) R(psi) C2(d_alpha2): the antisymmetric part
+  // of Gamma acts as a rotation right after the mounting (I + Gamma_a = I - [theta_a x]),
+  // and the inner-axis zero is a rotation about x right before it (model.md's chain).
+  const Mat3& g = truth.unit.gamma_rad;
+  const Vec3 theta_a(0.5 * (g(1, 2) - g(2, 1)), -0.5 * (g(0, 2) - g(2, 0)), 0.5 * (g(0, 1) - g(1, 0)));
+  const Mat3 R = rotation_exp(theta_a) * rotation_exp(truth.stand.mounting_rad[0]) * C2(truth.stand.alpha2_offset_rad);
+  const Eigen::AngleAxisd aa(Mat3(R.transpose()));  // rotation_exp(psi) = exp(-[psi x])
+  return aa.angle() * aa.axis();
 }
 
 nlohmann::json diagnose_to_json(const Diagnosis& d) {
@@ -935,6 +1321,7 @@ nlohmann::json diagnose_to_json(const Diagnosis& d) {
               {"chi2_dof_after", number(f.chi2_dof_after)}, {"delta_chi2", f.delta_chi2},
               {"explanation", f.explanation}};
     if (f.effect == "settling_transient") j["tau_s"] = f.tau_s;
+    if (f.effect == "angle_sensor_error") j["phase_deg"] = f.phase_deg;
     if (!f.absorbed_into.empty()) j["absorbed_into"] = f.absorbed_into;
     findings.push_back(j);
   }
@@ -946,7 +1333,9 @@ nlohmann::json diagnose_to_json(const Diagnosis& d) {
       j["sigma"] = c.sigma;
       j["delta_chi2"] = c.delta_chi2;
       j["delta_bic"] = c.delta_bic;
-      j["heldout_gain"] = c.press_gain;
+      j["heldout_gain"] = number(c.press_gain);  // null where it does not apply (mounting size test)
+      if (c.params > 1) j["params"] = c.params;
+      if (c.effect == "angle_sensor_error") j["phase_deg"] = c.phase_deg;
     } else {
       j["reason"] = c.reason;
     }
@@ -974,82 +1363,6 @@ nlohmann::json diagnose_to_json(const Diagnosis& d) {
           {"not_tested", d.not_tested},
           {"summary", d.summary},
           {"model", truth_to_json(d.model)}};
-}
-
-namespace {
-
-std::string html_escape(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    if (c == '<') out += "&lt;";
-    else if (c == '>') out += "&gt;";
-    else if (c == '&') out += "&amp;";
-    else out += c;
-  }
-  return out;
-}
-
-std::string residual_cells(const std::vector<double>& v) {
-  std::string s;
-  for (double x : v) {
-    const bool hot = std::abs(x) > 3;
-    s += std::string("<td") + (hot ? " class=\"hot\"" : "") + ">" + fmt("%+.2f", x) + "</td>";
-  }
-  return s;
-}
-
-}  // namespace
-
-std::string diagnose_to_html(const Diagnosis& d) {
-  std::string h = "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>standcal diagnosis</title>"
-                  "<style>body{font-family:sans-serif}table{border-collapse:collapse}td,th{border:1px solid #999;"
-                  "padding:2px 6px;text-align:right}.hot{background:#f99}</style></head><body>\n";
-  h += "<h1>Model-mismatch diagnosis: " + html_escape(d.source) + "</h1>\n";
-  h += "<p><b>Verdict: " + html_escape(d.verdict) + "</b> (method: " + html_escape(d.method) + ")</p>\n<ul>";
-  for (const std::string& s : d.summary) h += "<li>" + html_escape(s) + "</li>";
-  h += "</ul>\n<h2>Where the mismatch is</h2><ul>";
-  for (const std::string& s : d.located) h += "<li>" + html_escape(s) + "</li>";
-  h += "</ul>\n<h2>Findings</h2><table><tr><th>effect</th><th>axis</th><th>value</th><th>sigma</th><th>unit</th>"
-       "<th>chi2 gain</th><th>chi2/dof after</th></tr>";
-  for (const Finding& f : d.findings)
-    h += "<tr><td>" + f.effect + "</td><td>" + f.axis + "</td><td>" + fmt("%+.2f", f.value) + "</td><td>" +
-         fmt("%.2f", f.sigma) + "</td><td>" + f.unit + "</td><td>" + fmt("%.1f", f.delta_chi2) + "</td><td>" +
-         fmt("%.2f", f.chi2_dof_after) + "</td></tr>";
-  h += "</table>\n<h2>Normalised residuals per position (residual / standard error), before and after</h2>"
-       "<p>Cells beyond 3 sigma are highlighted. No plotting library is installed on this system, so the residuals "
-       "against angle, time and temperature are given as this table (columns alpha, t, T, approach) instead of plots.</p>"
-       "<table><tr><th>pos</th><th>alpha1</th><th>alpha2</th><th>t_s</th><th>T_c</th><th>d</th><th colspan=3>before</th>"
-       "<th colspan=3>after</th></tr>";
-  for (const ResidualRow& r : d.residuals)
-    h += "<tr><td>" + std::to_string(r.pos) + "</td><td>" + fmt("%.1f", r.alpha1_deg) + "</td><td>" +
-         fmt("%.1f", r.alpha2_deg) + "</td><td>" + fmt("%.0f", r.t_mid_s) + "</td><td>" + fmt("%.2f", r.temp_c) +
-         "</td><td>" + std::to_string(r.approach) + "</td>" + residual_cells(r.before) + residual_cells(r.after) + "</tr>";
-  h += "</table>\n<h2>Structure tests (baseline residual trend, sigma units)</h2><table><tr><th>axis</th><th>against</th><th>z</th></tr>";
-  for (const StructureTest& s : d.structure)
-    h += "<tr><td>" + s.axis + "</td><td>" + s.against + "</td><td" + (std::abs(s.z) > 3 ? " class=\"hot\"" : "") + ">" +
-         fmt("%+.2f", s.z) + "</td></tr>";
-  h += "</table>\n<h2>Catalog candidates (first round, against the baseline)</h2><table><tr><th>effect</th><th>axis</th>"
-       "<th>value</th><th>sigma</th><th>unit</th><th>chi2 gain</th><th>BIC gain</th><th>held-out gain</th></tr>";
-  for (const CandidateTest& c : d.candidates) {
-    if (!c.testable) {
-      h += "<tr><td>" + c.effect + "</td><td>" + c.axis + "</td><td colspan=6>" + html_escape(c.reason) + "</td></tr>";
-      continue;
-    }
-    h += "<tr><td>" + c.effect + "</td><td>" + c.axis + "</td><td>" + fmt("%+.2f", c.value) + "</td><td>" +
-         fmt("%.2f", c.sigma) + "</td><td>" + c.unit + "</td><td>" + fmt("%.1f", c.delta_chi2) + "</td><td>" +
-         fmt("%.1f", c.delta_bic) + "</td><td>" + fmt("%.1f", c.press_gain) + "</td></tr>";
-  }
-  h += "</table>\n";
-  if (!d.proposed_positions.empty()) {
-    h += "<h2>Proposed positions</h2><table><tr><th>alpha1</th><th>alpha2</th><th>why</th></tr>";
-    for (const ProposedPosition& p : d.proposed_positions)
-      h += "<tr><td>" + fmt("%.0f", p.alpha1_deg) + "</td><td>" + fmt("%.0f", p.alpha2_deg) + "</td><td>" + html_escape(p.why) + "</td></tr>";
-    h += "</table>\n";
-  }
-  h += "<h2>Not tested</h2><ul>";
-  for (const std::string& s : d.not_tested) h += "<li>" + html_escape(s) + "</li>";
-  h += "</ul></body></html>\n";
-  return h;
 }
 
 }  // namespace standcal

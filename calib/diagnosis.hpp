@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "calib/fit_result.hpp"
+#include "calib/programs.hpp"
 #include "calib/recording.hpp"
 #include "calib/simulator.hpp"
 
@@ -28,6 +29,12 @@ struct DiagnoseOptions {
   int max_terms = 4;
   // Settling-transient time constants searched on the raw samples (s).
   std::vector<double> settling_tau_grid_s{1, 2, 4, 8, 15, 30};
+  // A mounting misalignment counts as large (mounting_misalignment_large) when it exceeds
+  // this by 4 sigma: at 5 arcmin the invariant method's silent scale-factor bias
+  // (1 - cos psi, model.md) reaches 1 ppm.
+  double mounting_tolerance_arcmin = 5;
+  // Where the stand can go: every proposed position lies inside these ranges.
+  StandLimits limits;
 };
 
 // A trend of the baseline's normalised residuals against one variable, per axis.
@@ -49,6 +56,8 @@ struct CandidateTest {
   double delta_bic = 0;     // BIC(before) - BIC(after): positive favours the term
   double press_gain = 0;    // held-out chi2 (leave-one-position-out) before - after
   double tau_s = 0;         // settling transient only
+  int params = 1;           // parameters of the term (angle_sensor_error: 2, amplitude and phase)
+  double phase_deg = 0;     // angle_sensor_error only: true - read = value * sin(alpha + phase)
 };
 
 struct Finding {
@@ -58,6 +67,7 @@ struct Finding {
   double chi2_dof_before = 0, chi2_dof_after = 0;
   std::string absorbed_into;  // e.g. "bias_z (+23.1 ug)"
   std::string explanation;
+  double phase_deg = 0;       // angle_sensor_error only
 };
 
 struct ProposedPosition {
@@ -94,8 +104,37 @@ struct Diagnosis {
 };
 
 Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& options = {});
+
+// The discrimination threshold of one candidate on a programme: the smallest size (report
+// unit) at which it stands out at 3 sigma both from the noise and from its nearest
+// competing candidate, i.e. 3 / s_min, where s_min is the smallest singular value of the
+// candidate's whitened columns after projecting out the baseline parameters AND the
+// competitor's columns (for one column: 3 / (|P c| sqrt(1 - rho^2))). Settling transients:
+// 3 sigma of the amplitude fitted on the raw samples at that tau. Large mounting: the
+// tolerance + 3 sigma of the fitted mounting angle. Infinite when a competitor is collinear.
+struct DiscriminationThreshold {
+  std::string effect, axis, unit;
+  double tau_s = 0;                 // settling_transient: the time constant it is for
+  double threshold = 0;             // report unit
+  std::string nearest;              // "effect axis" of the competitor that sets it, or "noise"
+};
+// Thresholds of every testable candidate for the programme, timing, noise and temperature
+// profile of `reference` (an effect-free recording of it; only its design and standard
+// errors are used, not its residuals).
+std::vector<DiscriminationThreshold> discrimination_thresholds(const Recording& reference,
+                                                               const DiagnoseOptions& options = {});
+
+// The diagnostic programme `diagnostic32` (docs/diagnosis.md) the blind tests and the
+// harness use: 16 distinct positions on mount x, spread over the sphere with intermediate
+// angles on every axis, visited forward and then in reverse (both approach directions, two
+// times each). 32 positions; redundancy for every catalog candidate.
+Program diagnostic32();
+
+// The mounting misalignment (rad, about instrument x, y, z) a full-vector fit of one mount-x
+// programme estimates for a simulated truth: psi composed with what it cannot be told apart
+// from, the unit's antisymmetric non-orthogonality and (about x, the inner axis) the
+// inner-axis angle zero (model.md). Test and bench helper to compare findings with truths.
+Vec3 identifiable_mounting_rad(const TruthModel& truth);
 nlohmann::json diagnose_to_json(const Diagnosis& d);
-// A self-contained HTML page generated from the diagnosis (tables, no plots).
-std::string diagnose_to_html(const Diagnosis& d);
 
 }  // namespace standcal

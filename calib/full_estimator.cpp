@@ -12,9 +12,6 @@
 namespace standcal {
 namespace {
 
-constexpr int kStandParameterCount = 8;
-constexpr int kAntisymmetricCount = 3;
-
 // Stand errors in the order they are kept when the programme cannot separate them:
 // the alpha1 zero offset stands for the whole rotation about the outer axis (model.md),
 // the alpha2 zero offset is the first to give way to the mounting about the inner axis.

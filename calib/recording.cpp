@@ -5,6 +5,7 @@
 #include <array>
 #include <charconv>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -428,6 +429,14 @@ void write_recording(const Recording& rec, const std::string& path) {
   std::string text = format_recording_header(rec);
   text.reserve(text.size() + rec.samples.size() * 110);
   append_recording_rows(text, rec.columns, rec.samples);
+  std::error_code ec;
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec)) {
+    // A device or pipe (-o /dev/null, -o /dev/stdout): write into it; renaming a temporary
+    // file over it would replace the device node with a plain file.
+    std::ofstream out(path, std::ios::binary);
+    if (!(out << text) || !out.flush()) throw std::runtime_error(path + ": could not write the recording");
+    return;
+  }
   const std::string tmp = path + ".tmp";
   std::FILE* f = std::fopen(tmp.c_str(), "wb");
   if (!f) throw std::runtime_error(path + ": cannot create recording file");

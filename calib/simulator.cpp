@@ -101,7 +101,7 @@ bool is_pair_axis(const std::string& a) {
 bool is_single_axis(const std::string& a) { return a == "x" || a == "y" || a == "z"; }
 
 ExtraEffect read_extra_effect(const json& item, const std::string& where) {
-  const Keys k(item, where, {"id", "axis", "value", "unit", "tau_s"});
+  const Keys k(item, where, {"id", "axis", "value", "unit", "tau_s", "phase_deg"});
   ExtraEffect e;
   if (!k.has("id") || !k.at("id").is_string()) throw std::runtime_error(k.path("id") + ": must be a catalog id string");
   e.id = k.at("id").get<std::string>();
@@ -111,15 +111,22 @@ ExtraEffect read_extra_effect(const json& item, const std::string& where) {
   if (!k.has("axis") || !k.at("axis").is_string()) throw std::runtime_error(k.path("axis") + ": must be a string");
   e.axis = k.at("axis").get<std::string>();
   const bool pair = e.id == "cross_coupling";
-  if (pair ? !is_pair_axis(e.axis) : !is_single_axis(e.axis))
+  const bool stand_axis = e.id == "angle_sensor_error";
+  if (stand_axis) {
+    if (e.axis != "alpha1" && e.axis != "alpha2")
+      throw std::runtime_error(k.path("axis") + ": '" + e.axis + "' is not a stand axis, \"alpha1\" or \"alpha2\"");
+  } else if (pair ? !is_pair_axis(e.axis) : !is_single_axis(e.axis)) {
     throw std::runtime_error(k.path("axis") + ": '" + e.axis + "' is not " +
                              (pair ? "an ordered axis pair such as \"zx\"" : "x, y or z"));
+  }
   if (!k.has("value")) throw std::runtime_error(k.path("value") + ": missing");
   k.number("value", e.value);
   if (k.has("unit") && (!k.at("unit").is_string() || k.at("unit").get<std::string>() != unit))
     throw std::runtime_error(k.path("unit") + ": must be \"" + unit + "\" for " + e.id);
   k.number("tau_s", e.tau_s);
   if (e.id == "settling_transient" && !(e.tau_s > 0)) throw std::runtime_error(k.path("tau_s") + ": must be > 0");
+  if (k.has("phase_deg") && !stand_axis) throw std::runtime_error(k.path("phase_deg") + ": only for angle_sensor_error");
+  k.number("phase_deg", e.phase_deg);
   return e;
 }
 
@@ -140,11 +147,28 @@ std::string extra_effect_unit(const std::string& id) {
   if (id == "scale_temperature") return "ppm/degC";
   if (id == "bias_drift") return "ug/h";
   if (id == "hysteresis" || id == "settling_transient") return "ug";
+  if (id == "angle_sensor_error") return "arcsec";
   return "";
 }
 
 int extra_effect_output_axis(const ExtraEffect& e) {
+  if (e.id == "angle_sensor_error") return -1;
   return static_cast<int>(std::string("xyz").find(e.axis.empty() ? 'x' : e.axis[0]));
+}
+
+double angle_sensor_error_deg(const std::vector<ExtraEffect>& extra, int stand_axis, double alpha_deg) {
+  const std::string name = stand_axis == 1 ? "alpha1" : "alpha2";
+  double error_deg = 0;
+  for (const ExtraEffect& e : extra)
+    if (e.id == "angle_sensor_error" && e.axis == name)
+      error_deg += e.value / 3600.0 * std::sin((alpha_deg + e.phase_deg) * kDegToRad);
+  return error_deg;
+}
+
+double TemperatureProfile::delta_c(double t_s) const {
+  double d = rate_c_per_h * t_s / 3600.0;
+  if (cycle_amplitude_c != 0 && cycle_period_s > 0) d += cycle_amplitude_c * std::sin(2 * kPi * t_s / cycle_period_s);
+  return d;
 }
 
 double extra_effect_output_g(const ExtraEffect& e, const Vec3& J, double t_s, double temp_delta_c,
@@ -227,9 +251,15 @@ json truth_to_json(const TruthModel& t) {
     for (const ExtraEffect& e : t.extra_physics) {
       json item = {{"id", e.id}, {"axis", e.axis}, {"value", e.value}, {"unit", extra_effect_unit(e.id)}};
       if (e.id == "settling_transient") item["tau_s"] = e.tau_s;
+      if (e.id == "angle_sensor_error") item["phase_deg"] = e.phase_deg;
       extra.push_back(item);
     }
     doc["extra_physics"] = extra;
+  }
+  // Likewise the chamber cycle: only profiles that have one carry its keys.
+  if (t.temperature.cycle_amplitude_c != 0) {
+    doc["temperature"]["cycle_amplitude_c"] = t.temperature.cycle_amplitude_c;
+    doc["temperature"]["cycle_period_s"] = t.temperature.cycle_period_s;
   }
   return doc;
 }
@@ -268,10 +298,14 @@ TruthModel truth_from_json(const json& doc, const std::string& source) {
       throw std::runtime_error(n.path("bias_instability_tau_s") + ": must be > 0");
   }
   if (top.has("temperature")) {
-    const Keys k(top.at("temperature"), top.path("temperature"), {"start_c", "rate_c_per_h", "noise_c"});
+    const Keys k(top.at("temperature"), top.path("temperature"),
+                 {"start_c", "rate_c_per_h", "noise_c", "cycle_amplitude_c", "cycle_period_s"});
     k.number("start_c", t.temperature.start_c);
     k.number("rate_c_per_h", t.temperature.rate_c_per_h);
     k.number("noise_c", t.temperature.noise_c);
+    k.number("cycle_amplitude_c", t.temperature.cycle_amplitude_c);
+    k.number("cycle_period_s", t.temperature.cycle_period_s);
+    if (!(t.temperature.cycle_period_s > 0)) throw std::runtime_error(k.path("cycle_period_s") + ": must be > 0");
   }
   if (top.has("extra_physics")) t.extra_physics = read_extra_physics(top.at("extra_physics"), top.path("extra_physics"));
   return t;
@@ -326,8 +360,10 @@ Vec3 UnitSimulator::specific_force_mps2(double t_s, double alpha1_cmd_deg, doubl
   // The stand holds still during a dwell: compute the noise-free output once per position.
   if (!cached_ || alpha1_cmd_deg != cached_alpha1_deg_ || alpha2_cmd_deg != cached_alpha2_deg_ ||
       m != cached_mount_) {
-    const Vec3 u_true =
-        true_up_vector(alpha1_cmd_deg * kDegToRad, alpha2_cmd_deg * kDegToRad, m, truth_.stand);
+    // A cyclic angle-sensor error moves the true angle away from the one the servo holds.
+    const double a1_deg = alpha1_cmd_deg + angle_sensor_error_deg(truth_.extra_physics, 1, alpha1_cmd_deg);
+    const double a2_deg = alpha2_cmd_deg + angle_sensor_error_deg(truth_.extra_physics, 2, alpha2_cmd_deg);
+    const Vec3 u_true = true_up_vector(a1_deg * kDegToRad, a2_deg * kDegToRad, m, truth_.stand);
     cached_J_g_ = unit_output_g(truth_.unit, u_true);
     cached_alpha1_deg_ = alpha1_cmd_deg;
     cached_alpha2_deg_ = alpha2_cmd_deg;
@@ -337,11 +373,11 @@ Vec3 UnitSimulator::specific_force_mps2(double t_s, double alpha1_cmd_deg, doubl
   Vec3 J = cached_J_g_ + bias_gauss_markov_g_ + bias_random_walk_g_;
   if (!truth_.extra_physics.empty()) {
     // Deterministic terms only: the noise sequence stays that of the same model without them.
-    const TemperatureProfile& p = truth_.temperature;
-    const double temp_delta_c = p.rate_c_per_h * t_s / 3600.0;  // noise-free T - start_c
-    for (const ExtraEffect& e : truth_.extra_physics)
-      J[extra_effect_output_axis(e)] +=
-          extra_effect_output_g(e, cached_J_g_, t_s, temp_delta_c, approach_, t_s - t_arrive_s_);
+    const double temp_delta_c = truth_.temperature.delta_c(t_s);  // noise-free T - start_c
+    for (const ExtraEffect& e : truth_.extra_physics) {
+      const int axis = extra_effect_output_axis(e);
+      if (axis >= 0) J[axis] += extra_effect_output_g(e, cached_J_g_, t_s, temp_delta_c, approach_, t_s - t_arrive_s_);
+    }
   }
   for (int a = 0; a < 3; ++a) J[a] += sample_sigma_g_ * gauss_(rng_);
   Vec3 f = J * truth_.g_local_mps2;
@@ -359,7 +395,7 @@ void UnitSimulator::set_position_context(int approach, double t_arrive_s) {
 
 double UnitSimulator::temperature_c(double t_s) {
   const TemperatureProfile& p = truth_.temperature;
-  return p.start_c + p.rate_c_per_h * t_s / 3600.0 + p.noise_c * gauss_(rng_);
+  return p.start_c + p.delta_c(t_s) + p.noise_c * gauss_(rng_);
 }
 
 double UnitSimulator::angle_reading_deg(double alpha_cmd_deg) {

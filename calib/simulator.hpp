@@ -27,20 +27,31 @@ struct TemperatureProfile {
   double start_c = 23;
   double rate_c_per_h = 0;
   double noise_c = 0.005;
+  // A climatic chamber cycling on top of the ramp: + amplitude * sin(2 pi t / period).
+  // Zero amplitude (the default) keeps the profile a straight line in time.
+  double cycle_amplitude_c = 0;
+  double cycle_period_s = 3600;
+
+  // Noise-free temperature minus start_c at time t_s.
+  double delta_c(double t_s) const;
 };
 
 // One effect of the catalog of physics the calibration model leaves out (model.md,
 // "Physics the model leaves out"), in its report unit. `axis` is "x", "y" or "z", or for
-// cross_coupling the output axis then the other axis ("zx": K_zx a_z a_x on the z output).
+// cross_coupling the output axis then the other axis ("zx": K_zx a_z a_x on the z output),
+// for angle_sensor_error the stand axis "alpha1" or "alpha2".
 // Temperature terms are referenced to the temperature profile's start_c (the simulator
 // then writes `temp_ref_c` into the recording), drift to t = 0, hysteresis is h * d.
+// angle_sensor_error is the once-per-revolution cyclic error of a stand axis's angle
+// sensor (encoder eccentricity): the true angle is the reading + value * sin(alpha + phase).
 struct ExtraEffect {
   std::string id;     // bias_temperature, bias_drift, hysteresis, settling_transient,
                       // scale_nonlinearity_k2, scale_nonlinearity_k3, cross_coupling,
-                      // scale_temperature
+                      // scale_temperature, angle_sensor_error
   std::string axis;
-  double value = 0;   // ug/g2, ug/g3, ug/g2, ug/degC, ppm/degC, ug/h, ug, ug (amplitude)
+  double value = 0;   // ug/g2, ug/g3, ug/g2, ug/degC, ppm/degC, ug/h, ug, ug (amplitude), arcsec
   double tau_s = 0;   // settling_transient only: time constant after arrival
+  double phase_deg = 0;  // angle_sensor_error only
 };
 
 // The report unit of a catalog id ("" when the id is unknown to the simulator).
@@ -49,8 +60,12 @@ std::string extra_effect_unit(const std::string& id);
 // noise-free output without extra physics; temp_delta_c = T - temp_ref; approach = +-1.
 double extra_effect_output_g(const ExtraEffect& e, const Vec3& J_nominal_g, double t_s,
                              double temp_delta_c, int approach, double time_since_arrival_s);
-// Index 0..2 of the output axis an effect acts on.
+// Index 0..2 of the output axis an effect acts on; -1 for an effect on a stand axis
+// (angle_sensor_error), which acts through the geometry instead.
 int extra_effect_output_axis(const ExtraEffect& e);
+// The true-minus-read angle (deg) of stand axis 1 or 2 at reading alpha_deg from the
+// angle_sensor_error effects among `extra` (0 when there are none).
+double angle_sensor_error_deg(const std::vector<ExtraEffect>& extra, int stand_axis, double alpha_deg);
 
 // Everything the simulator needs to know about the world: the `--truth` / `--model`
 // JSON (format standcal-model/1).

@@ -27,7 +27,7 @@ while (($#)); do
 done
 [[ "$seconds" =~ ^[0-9]+$ ]] || { echo "fuzz.sh: --seconds needs a whole number, got '$seconds'" >&2; exit 2; }
 
-"$root/scripts/setup.sh" --fuzz
+"$root/scripts/setup.sh"
 cc="$(command -v clang-14 || command -v clang || true)"
 cxx="$(command -v clang++-14 || command -v clang++ || true)"
 if [[ -z "$cc" || -z "$cxx" ]]; then

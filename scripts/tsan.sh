@@ -1,19 +1,21 @@
 #!/usr/bin/env bash
 # ThreadSanitizer pass over the tests that involve threads (not part of CI: slow).
 #
-#   scripts/tsan.sh [--build-dir DIR] [LABEL...]
+#   scripts/tsan.sh [--build-dir DIR] [--target T]... [LABEL...]
 #
 # Configures a g++ -fsanitize=thread build (default build/tsan, benchmarks off), builds
-# it, runs the ctest labels drivers_modbus, drivers_can, drivers_sim and daemon (those
+# it (or only the targets given: the test executables of the labels), runs the ctest labels drivers_modbus, drivers_can, drivers_sim and daemon (those
 # present; or the labels given) and prints a summary: tests run/failed and the data races
 # and other ThreadSanitizer reports, by location. Exits 1 on any failure or report.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 build="$root/build/tsan"
 labels=()
+targets=()
 while (($#)); do
   case "$1" in
     --build-dir) build="$2"; shift 2 ;;
+    --target) targets+=(--target "$2"); shift 2 ;;
     -h|--help) sed -n '2,9p' "$0"; exit 0 ;;
     -*) echo "tsan.sh: unknown option '$1'" >&2; exit 2 ;;
     *) labels+=("$1"); shift ;;
@@ -29,7 +31,7 @@ cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSTANDC
   -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=thread" -DCMAKE_SHARED_LINKER_FLAGS="-fsanitize=thread" \
   >"$build/configure.log" 2>&1 || { cat "$build/configure.log" >&2; exit 1; }
 echo "=== building (log: $build/build.log) ===" >&2
-cmake --build "$build" -j "$(nproc)" >"$build/build.log" 2>&1 || { tail -50 "$build/build.log" >&2; exit 1; }
+cmake --build "$build" -j "$(nproc)" "${targets[@]}" >"$build/build.log" 2>&1 || { tail -50 "$build/build.log" >&2; exit 1; }
 
 # Only the labels this tree has tests for.
 present=()

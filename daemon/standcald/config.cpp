@@ -1,6 +1,11 @@
 #include "daemon/standcald/config.hpp"
 
+#include <arpa/inet.h>
+#include <sys/stat.h>
+
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -105,21 +110,63 @@ void read_range(Section* s, drivers::AxisRange& r) {
   s->reject_unknown();
 }
 
+// socket.mode: an octal string such as "0660" (JSON has no octal numbers, and a decimal
+// 660 would silently mean something else).
+void read_mode(Section& s, unsigned& mode) {
+  std::string text;
+  s.text("mode", text);
+  if (text.empty()) return;
+  if (text.size() > 4 || text.find_first_not_of("01234567") != std::string::npos) {
+    s.fail("mode", "must be an octal string such as \"0660\" (got \"" + text + "\")");
+  }
+  mode = static_cast<unsigned>(std::stoul(text, nullptr, 8));
+  if (mode > 0777) s.fail("mode", "must be at most \"0777\" (got \"" + text + "\")");
+  if ((mode & 0600) != 0600) s.fail("mode", "must give the owner (the daemon's user) read and write (got \"" + text + "\")");
+}
+
+void read_tcp(Section& s, DaemonConfig& c) {
+  s.flag("enabled", c.tcp_enabled);
+  s.integer("port", c.tcp_port, 0, 65535);
+  s.text("bind", c.tcp_bind);
+  s.text("token_file", c.tcp_token_file);
+  in6_addr probe{};
+  if (::inet_pton(AF_INET, c.tcp_bind.c_str(), &probe) != 1 && ::inet_pton(AF_INET6, c.tcp_bind.c_str(), &probe) != 1) {
+    s.fail("bind", "must be a numeric IPv4 or IPv6 address such as \"127.0.0.1\" (got \"" + c.tcp_bind + "\")");
+  }
+  // Off loopback anyone on the network can connect: refuse to start without a token.
+  if (c.tcp_enabled && !is_loopback_address(c.tcp_bind) && c.tcp_token_file.empty()) {
+    s.fail("token_file", "is required when tcp.bind (" + c.tcp_bind +
+                             ") is not a loopback address (docs/security.md)");
+  }
+  s.reject_unknown();
+}
+
 void read_server(Section& top, DaemonConfig& c) {
   if (auto s = top.sub("socket")) {
     s->text("path", c.socket_path);
     if (c.socket_path.empty()) s->fail("path", "must not be empty");
     s->text("group", c.socket_group);
+    read_mode(*s, c.socket_mode);
     s->reject_unknown();
   }
-  if (auto s = top.sub("tcp")) {
-    s->flag("enabled", c.tcp_enabled);
-    s->integer("port", c.tcp_port, 0, 65535);
+  if (auto s = top.sub("tcp")) read_tcp(*s, c);
+  if (auto s = top.sub("access")) {
+    s->text("control_group", c.control_group);
     s->reject_unknown();
   }
   top.integer("max_clients", c.max_clients, 256, 65536);
+  double queue_bytes = static_cast<double>(c.client_queue_bytes);
+  top.number("client_queue_bytes", queue_bytes, 65536, 1 << 30);
+  c.client_queue_bytes = static_cast<std::size_t>(queue_bytes);
   top.text("state_dir", c.state_dir);
   if (c.state_dir.empty()) top.fail("state_dir", "must not be empty");
+  // Only the URL's form is checked here: a shared PostgreSQL server may be down while
+  // the daemon starts; the records sink retries (docs/records.md).
+  top.text("db", c.db_url);
+  if (!c.db_url.empty() && c.db_url.rfind("postgresql://", 0) != 0 && c.db_url.rfind("postgres://", 0) != 0 &&
+      c.db_url.rfind("sqlite://", 0) != 0 && c.db_url.front() != '/') {
+    top.fail("db", "must be postgresql://..., sqlite:///PATH or an absolute path of an SQLite file");
+  }
   top.choice("log_level", c.log_level, {"trace", "debug", "info", "warn", "error"});
 }
 
@@ -226,6 +273,33 @@ DaemonConfig sim_config(const std::string& socket_path, const std::string& state
   c.document = json{{"sim", {{"time_scale", time_scale}}}, {"socket", {{"path", socket_path}}},
                     {"state_dir", state_dir}};
   return c;
+}
+
+bool is_loopback_address(const std::string& address) {
+  in_addr v4{};
+  if (::inet_pton(AF_INET, address.c_str(), &v4) == 1) return (ntohl(v4.s_addr) >> 24) == 127;
+  in6_addr v6{};
+  if (::inet_pton(AF_INET6, address.c_str(), &v6) == 1) return IN6_IS_ADDR_LOOPBACK(&v6) != 0;
+  return false;
+}
+
+std::string load_tcp_token(const DaemonConfig& config) {
+  const std::string& path = config.tcp_token_file;
+  const std::string where = config.source + ": tcp.token_file: " + path;
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) throw ConfigError(where + ": cannot read it: " + std::strerror(errno));
+  if (!S_ISREG(st.st_mode)) throw ConfigError(where + ": is not a regular file");
+  // Like ssh with its keys: a secret every local user can read protects nothing.
+  if ((st.st_mode & S_IROTH) != 0) throw ConfigError(where + ": is readable by every user; chmod 0640 (or 0600) it");
+  std::ifstream in(path);
+  std::string token;
+  if (!in || !std::getline(in, token)) throw ConfigError(where + ": cannot read it or it is empty");
+  while (!token.empty() && (token.back() == '\r' || token.back() == ' ' || token.back() == '\t')) token.pop_back();
+  if (token.size() < 16) {
+    throw ConfigError(where + ": the token must be at least 16 characters (e.g. `openssl rand -hex 16`); got " +
+                      std::to_string(token.size()));
+  }
+  return token;
 }
 
 std::string config_hash(const DaemonConfig& config) {

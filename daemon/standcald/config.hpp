@@ -44,11 +44,17 @@ struct DaemonConfig {
   nlohmann::json document = nlohmann::json::object();  // as read, for the configuration hash
   // Server.
   std::string socket_path = "/run/standcal/standcald.sock";
-  std::string socket_group;  // empty: leave the group of the socket file alone
-  bool tcp_enabled = false;  // loopback TCP listener (127.0.0.1)
-  int tcp_port = 0;          // 0: any free port (logged)
+  std::string socket_group;          // empty: leave the group of the socket file alone
+  unsigned socket_mode = 0660;       // socket.mode, given as an octal string ("0660")
+  bool tcp_enabled = false;          // TCP listener
+  int tcp_port = 0;                  // 0: any free port (logged)
+  std::string tcp_bind = "127.0.0.1";  // numeric IPv4/IPv6 address; not loopback: needs tcp_token_file
+  std::string tcp_token_file;        // the shared secret TCP clients send with `auth` (docs/security.md)
+  std::string control_group;         // access.control_group: empty = every Unix-socket peer may command
   int max_clients = 256;
+  std::size_t client_queue_bytes = 1024 * 1024;  // unsent output per client before it is dropped
   std::string state_dir = "/var/lib/standcald";
+  std::string db_url;                // records database (docs/records.md); empty: STATE/records.sqlite
   std::string log_level = "info";
   // Hardware.
   std::string stand_backend = "sim";  // "sim" | "modbus"
@@ -80,6 +86,12 @@ DaemonConfig load_config(const std::string& path);
 DaemonConfig parse_config(const nlohmann::json& doc, const std::string& source);
 // Built-in defaults with the simulated backend (standcald --sim).
 DaemonConfig sim_config(const std::string& socket_path, const std::string& state_dir, double time_scale);
+// Whether `address` (numeric IPv4 or IPv6) is a loopback address (127.0.0.0/8, ::1).
+bool is_loopback_address(const std::string& address);
+// Reads the TCP token from config.tcp_token_file; throws ConfigError naming the file when
+// it is missing, too short (< 16 characters) or readable by every user.
+std::string load_tcp_token(const DaemonConfig& config);
+
 // A short stable hash of the effective configuration, for traceability.
 std::string config_hash(const DaemonConfig& config);
 

@@ -12,6 +12,7 @@
 
 #include "daemon/standcald/config.hpp"
 #include "daemon/standcald/hardware.hpp"
+#include "daemon/standcald/records_sink.hpp"
 #include "daemon/standcald/run_store.hpp"
 #include "daemon/standcald/sequencer.hpp"
 #include "daemon/standcald/server.hpp"
@@ -65,15 +66,24 @@ int run_daemon(const standcal::daemon::DaemonConfig& config) {
   sigaddset(&mask, SIGINT);
   pthread_sigmask(SIG_BLOCK, &mask, nullptr);
   ::signal(SIGPIPE, SIG_IGN);
+  // A file-size limit (systemd LimitFSIZE=) must make a recording write fail with EFBIG,
+  // which the run store reports, instead of killing the daemon mid-run.
+  ::signal(SIGXFSZ, SIG_IGN);
 
   RunStore store(config.state_dir);
   Hardware hardware = make_hardware(config);
   spdlog::info("standcald {} starting: backend {}, state in {}", standcal::kVersion, hardware.description,
                config.state_dir);
+  // The records sink outlives the sequencer that feeds it; the recording and result.json
+  // stay the source of truth, the database is filled from them (and retried).
+  RecordsSink records(config.state_dir, config.db_url);
+  records.start();
   Server* server_ptr = nullptr;
-  Sequencer sequencer(config, std::move(hardware), store, [&server_ptr](const std::string& event, const nlohmann::json& p) {
-    if (server_ptr != nullptr) server_ptr->publish(event, p);
-  });
+  Sequencer sequencer(config, std::move(hardware), store,
+                      [&server_ptr, &records](const std::string& event, const nlohmann::json& p) {
+                        records.on_event(event, p);
+                        if (server_ptr != nullptr) server_ptr->publish(event, p);
+                      });
   Server server(config, sequencer);
   server_ptr = &server;
   server.open_listeners();

@@ -92,6 +92,8 @@ json to_json(const RunRecord& r) {
               {"positions", r.positions},
               {"positions_done", r.positions_done},
               {"recording_bytes", r.recording_bytes},
+              {"header_bytes", r.header_bytes},
+              {"position_end_bytes", r.position_end_bytes},
               {"last_t_s", r.last_t_s},
               {"started_utc", r.started_utc},
               {"ended_utc", r.ended_utc},
@@ -118,6 +120,8 @@ RunRecord run_record_from_json(const json& j) {
   r.positions = j.value("positions", 0);
   r.positions_done = j.value("positions_done", 0);
   r.recording_bytes = j.value("recording_bytes", std::uint64_t{0});
+  r.header_bytes = j.value("header_bytes", std::uint64_t{0});
+  r.position_end_bytes = j.value("position_end_bytes", std::vector<std::uint64_t>{});
   r.last_t_s = j.value("last_t_s", 0.0);
   r.started_utc = j.value("started_utc", "");
   r.ended_utc = j.value("ended_utc", "");
@@ -178,7 +182,9 @@ std::string RunStore::run_dir(const std::string& run_id) const {
 
 void RunStore::save(const RunRecord& r) {
   std::lock_guard lock(mutex_);
-  write_file_atomically(run_dir(r.run_id) + "/run.json", to_json(r).dump(2) + "\n");
+  // Memory first: when the disk is full the file write throws, but run.status must still
+  // tell the truth about the run (the file keeps the last state that could be written,
+  // which a restart turns into `interrupted`).
   auto it = std::find_if(runs_.begin(), runs_.end(), [&](const RunRecord& x) { return x.run_id == r.run_id; });
   const bool is_new = it == runs_.end();
   if (is_new) {
@@ -186,6 +192,7 @@ void RunStore::save(const RunRecord& r) {
   } else {
     *it = r;
   }
+  write_file_atomically(run_dir(r.run_id) + "/run.json", to_json(r).dump(2) + "\n");
   if (is_new) write_unit_index(r.unit_serial);
 }
 
@@ -222,6 +229,36 @@ std::optional<RunRecord> RunStore::latest_resumable() const {
     if (it->state == st::interrupted || it->state == st::faulted || it->state == st::paused) return *it;
   }
   return std::nullopt;
+}
+
+std::string fit_record_to_recording(RunRecord& r) {
+  struct stat st {};
+  const std::uint64_t size =
+      ::stat(r.recording_path.c_str(), &st) == 0 ? static_cast<std::uint64_t>(st.st_size) : 0;
+  if (size >= r.recording_bytes) return {};
+  const int had = r.positions_done;
+  int kept = std::min<int>(had, static_cast<int>(r.position_end_bytes.size()));
+  while (kept > 0 && r.position_end_bytes[static_cast<std::size_t>(kept - 1)] > size) --kept;
+  r.position_end_bytes.resize(static_cast<std::size_t>(kept));
+  r.positions_done = kept;
+  if (kept > 0) {
+    r.recording_bytes = r.position_end_bytes.back();
+  } else if (r.header_bytes > 0 && r.header_bytes <= size) {
+    r.recording_bytes = r.header_bytes;
+  } else {
+    r.recording_bytes = 0;  // even the header is gone: the recording starts again
+    r.header_bytes = 0;
+  }
+  std::string note = "the recording " + r.recording_path + " was cut short (" + std::to_string(size) +
+         " bytes; power loss or a lost disk cache?): ";
+  if (kept == had) {
+    note += "no whole position lost";
+  } else if (kept + 1 == had) {
+    note += "position " + std::to_string(had) + " is measured again";
+  } else {
+    note += "positions " + std::to_string(kept + 1) + " to " + std::to_string(had) + " are measured again";
+  }
+  return note;
 }
 
 RecordingFile::RecordingFile(std::string path, int fd, std::uint64_t length)

@@ -29,6 +29,8 @@ struct RunRecord {
   int positions = 0;
   int positions_done = 0;       // positions durably in the recording
   std::uint64_t recording_bytes = 0;  // recording length covering positions_done
+  std::uint64_t header_bytes = 0;     // length of the header block alone
+  std::vector<std::uint64_t> position_end_bytes;  // recording length after each done position
   double last_t_s = 0;          // last t_s written (the run clock resumes after it)
   std::string started_utc;
   std::string ended_utc;
@@ -95,6 +97,13 @@ class RecordingFile {
   int fd_ = -1;
   std::uint64_t length_ = 0;
 };
+
+// Power loss on a disk whose cache drops fsync'ed writes, or a recording copied back
+// short, can leave the recording shorter than `r.recording_bytes`. This keeps every
+// position still whole in the file (by `position_end_bytes`), sets positions_done and
+// recording_bytes to them (0 bytes: the header is gone too, start the file again) and
+// returns what was dropped for the operator; empty when the file is as long as recorded.
+std::string fit_record_to_recording(RunRecord& r);
 
 // "2026-11-21T22:15:00Z"
 std::string utc_now_iso();

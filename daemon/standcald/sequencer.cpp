@@ -290,8 +290,7 @@ void Sequencer::handle(Command& cmd) {
       if (method == m::run_start || method == m::run_resume) {
         json r = method == m::run_start ? start_run(cmd.params) : resume_run(cmd.params);
         auto record = store_.get(r["run_id"].get<std::string>());
-        cmd.reply(Outcome{r, 0, {}});
-        run_loop(*record);
+        run_loop(*record, [&] { cmd.reply(Outcome{r, 0, {}}); });
         return;
       }
       busy_with_ = method;
@@ -396,7 +395,13 @@ drivers::AxisState Sequencer::read_axis(StandAxis axis) { return check(hw_.stand
 void Sequencer::prepare_stand(bool home_if_needed) {
   drivers::Stand& s = *hw_.stand;
   if (estop_latched_) throw RpcError(ErrorCode::estop_active, "emergency stop is latched: send estop.reset first");
-  if (s.lifecycle() == drivers::Lifecycle::error) check(s.recover());
+  if (s.lifecycle() == drivers::Lifecycle::error) {
+    check(s.recover());
+    // Let the driver's heartbeat run a few periods before the first move: a controller
+    // whose watchdog tripped during the link loss refuses motion (exception 4) until it
+    // has seen the heartbeat change again.
+    wait_real(0.5);
+  }
   if (s.lifecycle() == drivers::Lifecycle::unconfigured) check(s.configure());
   if (s.lifecycle() == drivers::Lifecycle::inactive) check(s.activate());
   for (StandAxis a : kAxes) {
@@ -500,7 +505,10 @@ std::pair<double, double> Sequencer::wait_in_position(double target1_deg, double
 }
 
 void Sequencer::stop_axes_quietly() {
-  if (hw_.stand->lifecycle() != drivers::Lifecycle::active) return;
+  // Also in `error` and `inactive`: after a link loss mid-move the driver's heartbeat
+  // keeps the controller alive once the link is back, so without this stop an axis would
+  // carry on to its last target while the run reports a fault.
+  if (hw_.stand->lifecycle() == drivers::Lifecycle::unconfigured) return;
   for (StandAxis a : kAxes) {
     const drivers::Status s = hw_.stand->stop(a);
     if (!s) spdlog::warn("stopping stand axis {}: {}", drivers::to_string(a), s.message);
@@ -787,7 +795,13 @@ void Sequencer::set_state(RunRecord& record, const std::string& state, const std
   if (state == st::done || state == st::aborted || state == st::faulted || state == st::interrupted) {
     record.ended_utc = utc_now_iso();
   }
-  store_.save(record);
+  try {
+    store_.save(record);  // the in-memory state is updated even when the file cannot be
+  } catch (const std::exception& e) {
+    // Disk full: run.status still answers from memory; after a restart the run is
+    // `interrupted` (the last state on disk was an active one) and resumable.
+    spdlog::error("run {}: cannot store the state {}: {}", record.run_id, state, e.what());
+  }
   {
     std::lock_guard lock(snapshot_mutex_);
     if (progress_.is_object()) progress_["state"] = state;
@@ -820,7 +834,7 @@ void Sequencer::set_progress(const RunRecord& record, int index, const std::stri
   events_(ev::run_progress, progress);
 }
 
-void Sequencer::run_loop(RunRecord record) {
+void Sequencer::run_loop(RunRecord record, const std::function<void()>& started) {
   mode_ = Mode::run_active;
   interrupt_ = Interrupt::none;
   {
@@ -828,6 +842,12 @@ void Sequencer::run_loop(RunRecord record) {
     active_run_id_ = record.run_id;
   }
   const Program program = program_from_json(record.program, record.run_id);
+  if (record.recording_bytes > 0) {
+    if (const std::string note = fit_record_to_recording(record); !note.empty()) {
+      spdlog::warn("run {}: {}", record.run_id, note);
+      events_(ev::fault, json{{"run_id", record.run_id}, {"message", note}});
+    }
+  }
   const bool fresh = record.recording_bytes == 0;
   run_clock_base_s_ = fresh ? 0.0 : record.last_t_s + 1.0;  // resumed: time continues after the last row
   run_clock_start_real_s_ = now_real_s();
@@ -838,6 +858,7 @@ void Sequencer::run_loop(RunRecord record) {
                                                       : std::optional<Mount>(program.positions.front().mount);
   if (fresh && hw_.simulated_remount) hw_.simulated_remount(program.positions.front().mount);
   set_state(record, st::running);
+  started();
 
   std::optional<RecordingFile> file;
   int index = record.positions_done;
@@ -862,6 +883,8 @@ void Sequencer::run_loop(RunRecord record) {
             header.columns = recording_columns(program);
             file.emplace(RecordingFile::create(record.recording_path, format_recording_header(header)));
             record.recording_bytes = file->length();
+            record.header_bytes = file->length();
+            record.position_end_bytes.clear();
             store_.save(record);
           } else {
             file.emplace(RecordingFile::reopen(record.recording_path, record.recording_bytes));
@@ -995,6 +1018,12 @@ void Sequencer::measure_position(RunRecord& record, const Program& program, int 
   if (!mounted_ || *mounted_ != pp.mount) wait_for_operator(record, program, index);
 
   set_progress(record, index, "moving");
+  if (hw_.stand->lifecycle() != drivers::Lifecycle::active) {
+    // The driver dropped to `error` (link lost after its retries) while the unit sampled.
+    throw RpcError(ErrorCode::hardware_fault, "lost the link to the stand " + hw_.stand->name() +
+                                                  " during the run (" + drivers::to_string(hw_.stand->lifecycle()) +
+                                                  "); run.resume reconnects and continues");
+  }
   const auto [a1, a2] = move_and_wait(pp.alpha1_deg, pp.alpha2_deg);
   const double t_arrive = std::max(run_clock_s(), last_t_s_);
   const int approach = approach_directions({last_cmd_deg_, {pp.alpha1_deg, pp.alpha2_deg}})[1];
@@ -1028,7 +1057,13 @@ void Sequencer::measure_position(RunRecord& record, const Program& program, int 
     std::string problem;
     const double expected = dwell * config_.sample_rate_hz;
     const std::uint64_t incomplete = hw_.unit->health().incomplete_samples - incomplete_before;
-    if (samples.size() < 2 || static_cast<double>(samples.size()) < config_.stability.min_sample_fraction * expected) {
+    if (samples.empty() && incomplete == 0) {
+      // A dwell shorter than the unit's silence timeout ends before the driver calls the
+      // unit silent: say what the operator should check.
+      problem = "no sample from the accelerometer unit " + hw_.unit->name() + " during the " + number_text(dwell) +
+                " s dwell (is it powered and on the bus?)";
+    } else if (samples.size() < 2 ||
+               static_cast<double>(samples.size()) < config_.stability.min_sample_fraction * expected) {
       problem = "only " + std::to_string(samples.size()) + " of " + std::to_string(static_cast<long>(expected)) +
                 " expected samples (" + std::to_string(incomplete) + " incomplete)";
     }
@@ -1076,6 +1111,8 @@ void Sequencer::measure_position(RunRecord& record, const Program& program, int 
   text.reserve(rows.size() * 120);
   append_recording_rows(text, columns, rows);
   record.recording_bytes = file.append_durably(text);
+  record.position_end_bytes.resize(static_cast<std::size_t>(index));
+  record.position_end_bytes.push_back(record.recording_bytes);
   record.positions_done = index + 1;
   record.last_t_s = rows.back().t_s;
   last_t_s_ = record.last_t_s;

@@ -103,7 +103,9 @@ class Sequencer {
   // Runs.
   nlohmann::json start_run(const nlohmann::json& params);
   nlohmann::json resume_run(const nlohmann::json& params);
-  void run_loop(RunRecord record);
+  // Runs (or continues) `record`; `started` is called once the run is `running`, so the
+  // run.start/run.resume answer never reaches a client before run.status says so.
+  void run_loop(RunRecord record, const std::function<void()>& started);
   void measure_position(RunRecord& record, const Program& program, int index, RecordingFile& file);
   void wait_for_operator(RunRecord& record, const Program& program, int index);
   void wait_thermal_stability(RunRecord& record);

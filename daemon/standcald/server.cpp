@@ -3,7 +3,9 @@
 #include <arpa/inet.h>
 #include <fcntl.h>
 #include <grp.h>
+#include <netdb.h>
 #include <netinet/in.h>
+#include <pwd.h>
 #include <signal.h>
 #include <spdlog/spdlog.h>
 #include <sys/epoll.h>
@@ -16,6 +18,7 @@
 #include <systemd/sd-daemon.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cstring>
@@ -72,7 +75,110 @@ const std::set<std::string>& known_events() {
   return names;
 }
 
+// The supplementary groups the kernel recorded for the peer at connect time (the same
+// groups that decide its file access); getgrouplist() from the user database when the
+// kernel cannot tell (SO_PEERGROUPS is Linux 4.13+).
+std::vector<gid_t> peer_groups(int fd, uid_t uid, gid_t gid) {
+  std::vector<gid_t> groups(64);
+  for (int attempt = 0; attempt < 4; ++attempt) {
+    socklen_t len = static_cast<socklen_t>(groups.size() * sizeof(gid_t));
+    if (::getsockopt(fd, SOL_SOCKET, SO_PEERGROUPS, groups.data(), &len) == 0) {
+      groups.resize(len / sizeof(gid_t));
+      return groups;
+    }
+    if (errno != ERANGE) break;
+    groups.resize(len / sizeof(gid_t) + 1);
+  }
+  groups.clear();
+  passwd pw{};
+  passwd* found = nullptr;
+  std::vector<char> buf(16384);
+  if (::getpwuid_r(uid, &pw, buf.data(), buf.size(), &found) != 0 || found == nullptr) return groups;
+  int n = 64;
+  groups.assign(static_cast<std::size_t>(n), 0);
+  if (::getgrouplist(pw.pw_name, gid, groups.data(), &n) < 0) {
+    groups.assign(static_cast<std::size_t>(std::max(n, 0)), 0);
+    if (::getgrouplist(pw.pw_name, gid, groups.data(), &n) < 0) n = 0;
+  }
+  groups.resize(static_cast<std::size_t>(std::max(n, 0)));
+  return groups;
+}
+
+Peer unix_peer(int fd) {
+  Peer p;
+  ucred cred{};
+  socklen_t len = sizeof cred;
+  if (::getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &cred, &len) == 0) {
+    p.credentials_known = true;
+    p.pid = cred.pid;
+    p.uid = cred.uid;
+    p.gid = cred.gid;
+    p.groups = peer_groups(fd, cred.uid, cred.gid);
+  }
+  return p;
+}
+
+Peer tcp_peer(int fd) {
+  Peer p;
+  p.tcp = true;
+  sockaddr_storage addr{};
+  socklen_t len = sizeof addr;
+  char host[NI_MAXHOST] = "?";
+  char port[NI_MAXSERV] = "?";
+  if (::getpeername(fd, reinterpret_cast<sockaddr*>(&addr), &len) == 0) {
+    ::getnameinfo(reinterpret_cast<sockaddr*>(&addr), len, host, sizeof host, port, sizeof port,
+                  NI_NUMERICHOST | NI_NUMERICSERV);
+  }
+  p.address = std::string(host) + ":" + port;
+  return p;
+}
+
 }  // namespace
+
+bool is_open_method(const std::string& method) {
+  static const std::set<std::string> open{m::hello,      m::status,   m::run_status, m::run_result,
+                                          m::runs_list,  m::subscribe, m::estop,     kAuthMethod,
+                                          "run.diagnose"};
+  return open.count(method) > 0;
+}
+
+std::optional<std::string> refuse_control(const std::string& method, const Peer& peer, const AccessPolicy& policy) {
+  if (is_open_method(method)) return std::nullopt;
+  const std::string refused = method + " not permitted: ";
+  if (peer.tcp) {
+    if (peer.token_accepted) return std::nullopt;
+    if (!policy.tcp_token_configured) {
+      return refused + "this daemon has no tcp.token_file, so TCP clients may only read and send estop; "
+                       "use the Unix socket";
+    }
+    return refused + "TCP clients get control only after {\"method\":\"auth\",\"params\":{\"token\":…}} "
+                     "with the daemon's token (tcp.token_file)";
+  }
+  if (policy.control_group.empty()) return std::nullopt;
+  if (!peer.credentials_known) return refused + "the daemon could not read the peer's credentials (SO_PEERCRED)";
+  if (peer.uid == 0 || peer.uid == policy.daemon_uid) return std::nullopt;
+  const bool member = peer.gid == policy.control_gid ||
+                      std::find(peer.groups.begin(), peer.groups.end(), policy.control_gid) != peer.groups.end();
+  if (member) return std::nullopt;
+  return refused + "stand and run commands need membership of group \"" + policy.control_group +
+         "\" (access.control_group); " + describe_peer(peer) +
+         " is not a member. Read-only methods and estop stay open";
+}
+
+bool tokens_equal(std::string_view supplied, std::string_view expected) {
+  if (expected.empty()) return false;
+  unsigned char diff = supplied.size() == expected.size() ? 0 : 1;
+  for (std::size_t i = 0; i < supplied.size(); ++i) {
+    diff |= static_cast<unsigned char>(supplied[i] ^ expected[i % expected.size()]);
+  }
+  return diff == 0;
+}
+
+std::string describe_peer(const Peer& peer) {
+  if (peer.tcp) return "tcp " + peer.address;
+  if (!peer.credentials_known) return "a peer of unknown credentials";
+  return "uid " + std::to_string(peer.uid) + " gid " + std::to_string(peer.gid) + " pid " + std::to_string(peer.pid);
+}
 
 Server::Server(const DaemonConfig& config, Sequencer& sequencer) : config_(config), sequencer_(sequencer) {
   started_s_ = now_s();
@@ -118,6 +224,50 @@ void Server::add_fd(int fd, std::uint32_t events) {
 }
 
 void Server::open_listeners() {
+  resolve_access_policy();
+  open_unix_listener();
+  if (config_.tcp_enabled) open_tcp_listener();
+}
+
+void Server::resolve_access_policy() {
+  policy_.daemon_uid = ::geteuid();
+  policy_.control_group = config_.control_group;
+  if (!config_.control_group.empty()) {
+    const group* g = ::getgrnam(config_.control_group.c_str());
+    if (g == nullptr) throw ConfigError(config_.source + ": access.control_group: no group named \"" + config_.control_group + "\"");
+    policy_.control_gid = g->gr_gid;
+    spdlog::info("stand and run commands on the Unix socket: members of group {} (gid {}) only",
+                 config_.control_group, policy_.control_gid);
+  }
+  // Checked here too (not only when the file is read): --tcp-port can enable TCP later.
+  if (config_.tcp_enabled && !is_loopback_address(config_.tcp_bind) && config_.tcp_token_file.empty()) {
+    throw ConfigError(config_.source + ": tcp.token_file: is required when tcp.bind (" + config_.tcp_bind +
+                      ") is not a loopback address (docs/security.md)");
+  }
+  if (config_.tcp_enabled && !config_.tcp_token_file.empty()) {
+    tcp_token_ = load_tcp_token(config_);
+    policy_.tcp_token_configured = true;
+  }
+}
+
+// Mode and group of the socket file, from the config, whether we bound it or systemd did:
+// they decide who can connect at all.
+static void apply_socket_file_access(const DaemonConfig& config, const std::string& path) {
+  if (::chmod(path.c_str(), config.socket_mode) != 0) {
+    throw std::runtime_error("cannot set mode " + fmt::format("{:04o}", config.socket_mode) + " on " + path + ": " + errno_text());
+  }
+  if (!config.socket_group.empty()) {
+    const group* g = ::getgrnam(config.socket_group.c_str());
+    if (g == nullptr) throw ConfigError(config.source + ": socket.group: no group named \"" + config.socket_group + "\"");
+    if (::chown(path.c_str(), static_cast<uid_t>(-1), g->gr_gid) != 0) {
+      throw std::runtime_error("cannot give " + path + " to group " + config.socket_group + ": " + errno_text());
+    }
+  }
+  spdlog::info("socket {}: mode {:04o}{}", path, config.socket_mode,
+               config.socket_group.empty() ? std::string() : ", group " + config.socket_group);
+}
+
+void Server::open_unix_listener() {
   const int n = sd_listen_fds(1);
   for (int i = 0; i < n; ++i) {
     const int fd = SD_LISTEN_FDS_START + i;
@@ -127,46 +277,59 @@ void Server::open_listeners() {
       ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) | O_NONBLOCK);
       ::fcntl(fd, F_SETFD, FD_CLOEXEC);
       spdlog::info("listening on the socket systemd passed (socket activation)");
+      sockaddr_un bound{};
+      socklen_t len = sizeof bound;
+      if (::getsockname(fd, reinterpret_cast<sockaddr*>(&bound), &len) == 0 && bound.sun_path[0] != '\0') {
+        apply_socket_file_access(config_, bound.sun_path);
+      }
     }
   }
   if (unix_fd_ < 0) {
     remove_stale_socket(config_.socket_path);
     const sockaddr_un addr = unix_address(config_.socket_path);
     unix_fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
-    if (unix_fd_ < 0 || ::bind(unix_fd_, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) != 0) {
-      throw std::runtime_error("cannot bind " + config_.socket_path + ": " + errno_text());
-    }
-    if (::chmod(config_.socket_path.c_str(), 0660) != 0) {
-      throw std::runtime_error("cannot set mode 0660 on " + config_.socket_path + ": " + errno_text());
-    }
-    if (!config_.socket_group.empty()) {
-      const group* g = ::getgrnam(config_.socket_group.c_str());
-      if (g == nullptr) throw std::runtime_error("socket.group: no group named " + config_.socket_group);
-      if (::chown(config_.socket_path.c_str(), static_cast<uid_t>(-1), g->gr_gid) != 0) {
-        throw std::runtime_error("cannot give " + config_.socket_path + " to group " + config_.socket_group + ": " + errno_text());
-      }
-    }
+    // Created owner-only, then opened up to the configured mode: nobody outside it can
+    // connect between bind() and chmod(). (No other thread runs yet.)
+    const mode_t old_umask = ::umask(0177);
+    const bool bound = unix_fd_ >= 0 && ::bind(unix_fd_, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) == 0;
+    ::umask(old_umask);
+    if (!bound) throw std::runtime_error("cannot bind " + config_.socket_path + ": " + errno_text());
+    apply_socket_file_access(config_, config_.socket_path);
     if (::listen(unix_fd_, 512) != 0) throw std::runtime_error("cannot listen on " + config_.socket_path + ": " + errno_text());
     spdlog::info("listening on {}", config_.socket_path);
   }
   add_fd(unix_fd_, EPOLLIN);
-  if (config_.tcp_enabled) {
-    tcp_fd_ = ::socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
-    const int one = 1;
-    ::setsockopt(tcp_fd_, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
-    sockaddr_in addr{};
-    addr.sin_family = AF_INET;
-    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);  // loopback only, by design
-    addr.sin_port = htons(static_cast<std::uint16_t>(config_.tcp_port));
-    socklen_t len = sizeof addr;
-    if (::bind(tcp_fd_, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0 || ::listen(tcp_fd_, 512) != 0 ||
-        ::getsockname(tcp_fd_, reinterpret_cast<sockaddr*>(&addr), &len) != 0) {
-      throw std::runtime_error("cannot listen on 127.0.0.1:" + std::to_string(config_.tcp_port) + ": " + errno_text());
-    }
-    tcp_port_ = ntohs(addr.sin_port);
-    add_fd(tcp_fd_, EPOLLIN);
-    spdlog::info("listening on tcp://127.0.0.1:{}", tcp_port_);
+}
+
+void Server::open_tcp_listener() {
+  const std::string where = "tcp " + config_.tcp_bind + " port " + std::to_string(config_.tcp_port);
+  addrinfo hints{};
+  hints.ai_flags = AI_NUMERICHOST | AI_NUMERICSERV | AI_PASSIVE;
+  hints.ai_socktype = SOCK_STREAM;
+  addrinfo* found = nullptr;
+  const std::string port = std::to_string(config_.tcp_port);
+  if (const int rc = ::getaddrinfo(config_.tcp_bind.c_str(), port.c_str(), &hints, &found); rc != 0 || found == nullptr) {
+    throw std::runtime_error("cannot listen on " + where + ": " + ::gai_strerror(rc));
   }
+  sockaddr_storage addr{};
+  std::memcpy(&addr, found->ai_addr, found->ai_addrlen);
+  socklen_t len = found->ai_addrlen;
+  const int family = found->ai_family;
+  ::freeaddrinfo(found);
+  tcp_fd_ = ::socket(family, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+  const int one = 1;
+  ::setsockopt(tcp_fd_, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
+  if (tcp_fd_ < 0 || ::bind(tcp_fd_, reinterpret_cast<const sockaddr*>(&addr), len) != 0 || ::listen(tcp_fd_, 512) != 0 ||
+      ::getsockname(tcp_fd_, reinterpret_cast<sockaddr*>(&addr), &len) != 0) {
+    throw std::runtime_error("cannot listen on " + where + ": " + errno_text());
+  }
+  tcp_port_ = ntohs(family == AF_INET6 ? reinterpret_cast<sockaddr_in6*>(&addr)->sin6_port
+                                       : reinterpret_cast<sockaddr_in*>(&addr)->sin_port);
+  add_fd(tcp_fd_, EPOLLIN);
+  const bool loopback = is_loopback_address(config_.tcp_bind);
+  spdlog::info("listening on tcp {}:{} ({}; control {})", config_.tcp_bind, tcp_port_,
+               loopback ? "loopback" : "NOT loopback: the token travels in clear text",
+               policy_.tcp_token_configured ? "after auth with the token" : "refused: no tcp.token_file");
 }
 
 void Server::post(std::function<void()> job) {
@@ -280,6 +443,7 @@ void Server::accept_clients(int listen_fd) {
     auto c = std::make_unique<Client>();
     c->fd = fd;
     c->serial = next_serial_++;
+    c->peer = listen_fd == tcp_fd_ ? tcp_peer(fd) : unix_peer(fd);
     add_fd(fd, EPOLLIN | EPOLLRDHUP);
     Client& ref = *c;
     clients_[fd] = std::move(c);
@@ -344,9 +508,13 @@ void Server::handle_line(Client& c, const std::string& line) {
   try {
     json result;
     protocol::Params p(req.params, req.method);
+    if (auto refusal = refuse_control(req.method, c.peer, policy_)) {
+      spdlog::info("refused {} from {}", req.method, describe_peer(c.peer));
+      throw RpcError(kNotPermitted, *refusal);
+    }
     if (req.method == m::status) {
       p.only({});
-      result = status();
+      result = status(c);
     } else if (req.method == m::run_status) {
       p.only({"run_id"});
       result = sequencer_.run_status(p.optional_string("run_id").value_or(""));
@@ -358,6 +526,18 @@ void Server::handle_line(Client& c, const std::string& line) {
       result = sequencer_.runs_list(p.optional_string("unit_serial").value_or(""));
     } else if (req.method == m::subscribe) {
       result = subscribe(c, req.params);
+    } else if (req.method == kAuthMethod) {
+      result = authenticate(c, req.params);
+    } else if (req.method == m::run_diagnose) {  // computed on a worker thread (diagnose_job.hpp)
+      const std::uint64_t serial = c.serial;
+      const int fd = c.fd;
+      const json id = req.id;
+      const bool notification = req.is_notification;
+      diagnose_jobs_.submit(sequencer_, req.params, [this, serial, fd, id, notification](Outcome o) {
+        if (notification) return;
+        post([this, serial, fd, id, o = std::move(o)] { reply_later(serial, fd, id, o); });
+      });
+      return;
     } else if (Sequencer::executes(req.method)) {
       const std::uint64_t serial = c.serial;
       const int fd = c.fd;
@@ -376,6 +556,10 @@ void Server::handle_line(Client& c, const std::string& line) {
     if (!req.is_notification) send_line(c, protocol::make_error(req.id, e.code(), e.what(), e.data()));
   } catch (const std::exception& e) {
     if (!req.is_notification) send_line(c, protocol::make_error(req.id, static_cast<int>(ErrorCode::internal_error), e.what()));
+  }
+  if (c.close_after_reply && c.fd >= 0) {
+    ::shutdown(c.fd, SHUT_WR);
+    c.fd = -1;
   }
 }
 
@@ -415,7 +599,31 @@ json Server::subscribe(Client& c, const json& params) {
   return json{{"events", names}};
 }
 
-json Server::status() const {
+// `auth {token}`: a TCP client asks for control. A wrong token closes the connection, so
+// every guess costs a new connection (and a log line naming the address).
+json Server::authenticate(Client& c, const json& params) {
+  protocol::Params p(params, kAuthMethod);
+  p.only({"token"});
+  const std::string token = p.string("token");
+  if (!c.peer.tcp) {
+    throw RpcError(ErrorCode::invalid_state,
+                   "auth: only TCP clients authenticate; on the Unix socket your user and groups decide");
+  }
+  if (!policy_.tcp_token_configured) {
+    throw RpcError(static_cast<ErrorCode>(kNotPermitted),
+                   "auth: this daemon has no tcp.token_file, so TCP clients may only read and send estop");
+  }
+  if (!tokens_equal(token, tcp_token_)) {
+    spdlog::warn("auth: wrong token from {}; connection closed", describe_peer(c.peer));
+    c.close_after_reply = true;  // handle_line closes it once the error line is sent
+    throw RpcError(kNotPermitted, "auth: wrong token; closing the connection");
+  }
+  c.peer.token_accepted = true;
+  spdlog::info("auth: {} may now command the stand and runs", describe_peer(c.peer));
+  return json{{"control", true}};
+}
+
+json Server::status(const Client& c) const {
   json s = sequencer_.status();
   s["daemon"] = json{{"version", kVersion},
                      {"protocol", protocol::kProtocolVersion},
@@ -427,6 +635,12 @@ json Server::status() const {
                      {"state_dir", config_.state_dir},
                      {"socket", config_.socket_path},
                      {"tcp_port", tcp_port_ > 0 ? json(tcp_port_) : json(nullptr)}};
+  // What this connection may do, so an operator can check their rights without moving anything.
+  const auto refusal = refuse_control(m::stand_move, c.peer, policy_);
+  s["daemon"]["access"] = json{{"control_group", policy_.control_group.empty() ? json(nullptr) : json(policy_.control_group)},
+                               {"tcp_token", policy_.tcp_token_configured},
+                               {"peer", describe_peer(c.peer)},
+                               {"control", !refusal.has_value()}};
   return s;
 }
 
@@ -435,8 +649,10 @@ void Server::send_line(Client& c, const std::string& line) {
   c.out += line;
   c.out += '\n';
   flush(c);
-  if (c.fd >= 0 && c.out.size() > kMaxUnsentBytes) {
-    spdlog::warn("a client stopped reading ({} bytes unsent); dropped", c.out.size());
+  if (c.fd >= 0 && c.out.size() > config_.client_queue_bytes) {
+    // Never wait for a slow reader: it loses its connection, nobody else waits.
+    spdlog::warn("dropped {}: it stopped reading ({} bytes unsent, limit client_queue_bytes {})",
+                 describe_peer(c.peer), c.out.size(), config_.client_queue_bytes);
     ++dropped_clients_;
     c.fd = -1;
   }

@@ -1,9 +1,9 @@
 #pragma once
 // The socket server: one epoll loop on one thread for every client (Unix socket, and the
-// optional loopback TCP listener), the signals (signalfd), the systemd watchdog tick
+// optional TCP listener), the signals (signalfd), the systemd watchdog tick
 // (timerfd) and the answers and events coming back from the sequencer (eventfd).
 // Nothing here blocks: a client that stops reading is dropped once its unsent output
-// passes a limit; a line longer than 64 KiB gets an error and the connection is closed;
+// passes client_queue_bytes; a line longer than 64 KiB gets an error and the connection is closed;
 // past max_clients a new connection gets a `too many clients` error and is closed.
 #include <cstdint>
 #include <functional>
@@ -11,21 +11,63 @@
 #include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <set>
 #include <string>
+#include <string_view>
+#include <sys/types.h>
 #include <vector>
 
 #include "daemon/standcald/config.hpp"
+#include "daemon/standcald/diagnose_job.hpp"
 #include "daemon/standcald/sequencer.hpp"
 #include "protocol/jsonrpc/jsonrpc.hpp"
 #include "protocol/jsonrpc/line_buffer.hpp"
 
 namespace standcal::daemon {
 
+// --- Access control (docs/security.md) ------------------------------------------------
+// Anyone who can connect may read (status, runs, results, events) and press `estop`.
+// Commanding the stand or a run ("control") needs, on the Unix socket, membership of
+// access.control_group when one is configured, and on TCP the token sent with `auth`.
+
+inline constexpr int kNotPermitted = -32009;          // JSON-RPC error: refused by access control
+inline constexpr const char* kAuthMethod = "auth";    // {token}: TCP clients ask for control
+
+// Who is on the other end of one connection.
+struct Peer {
+  bool tcp = false;
+  bool credentials_known = false;  // SO_PEERCRED answered (Unix socket only)
+  pid_t pid = 0;
+  uid_t uid = static_cast<uid_t>(-1);
+  gid_t gid = static_cast<gid_t>(-1);
+  std::vector<gid_t> groups;  // supplementary groups of the peer process
+  std::string address;        // TCP: "127.0.0.1:53412"
+  bool token_accepted = false;  // TCP: sent the right token with `auth`
+};
+
+struct AccessPolicy {
+  std::string control_group;          // empty: every Unix-socket peer may command
+  gid_t control_gid = 0;              // control_group resolved at start
+  uid_t daemon_uid = 0;               // the daemon's own user always may
+  bool tcp_token_configured = false;
+};
+
+// Methods open to every connected client: the read-only views, the session methods and
+// `estop` (anyone who sees the stand misbehave must be able to stop it). Everything
+// else is a control method, including any method added later until it is listed here.
+bool is_open_method(const std::string& method);
+// Why `peer` may not call `method`, or nothing when it may. A pure function of its
+// arguments, so the tests can check every case without sockets.
+std::optional<std::string> refuse_control(const std::string& method, const Peer& peer, const AccessPolicy& policy);
+// Compares a supplied token with the expected one in time that depends only on the
+// supplied length (no early exit on the first differing byte).
+bool tokens_equal(std::string_view supplied, std::string_view expected);
+// "uid 1000 gid 1000 pid 4242" or "tcp 127.0.0.1:53412", for logs and messages.
+std::string describe_peer(const Peer& peer);
+
 class Server {
  public:
-  static constexpr std::size_t kMaxUnsentBytes = 1024 * 1024;  // per client
-
   Server(const DaemonConfig& config, Sequencer& sequencer);
   ~Server();
   Server(const Server&) = delete;
@@ -51,8 +93,13 @@ class Server {
     std::string out;
     bool want_write = false;
     std::set<std::string> events;
+    Peer peer;
+    bool close_after_reply = false;  // e.g. after a wrong token
   };
 
+  void open_unix_listener();
+  void open_tcp_listener();
+  void resolve_access_policy();
   void add_fd(int fd, std::uint32_t events);
   void accept_clients(int listen_fd);
   void read_client(Client& c);
@@ -60,7 +107,8 @@ class Server {
   void send_line(Client& c, const std::string& line);
   void flush(Client& c);
   void reply_later(std::uint64_t serial, int fd, const nlohmann::json& id, Outcome outcome);
-  nlohmann::json status() const;
+  nlohmann::json status(const Client& c) const;
+  nlohmann::json authenticate(Client& c, const nlohmann::json& params);
   nlohmann::json subscribe(Client& c, const nlohmann::json& params);
   void run_posted();
   void watchdog_tick();
@@ -72,6 +120,8 @@ class Server {
   bool unix_from_systemd_ = false;
   int tcp_fd_ = -1;
   int tcp_port_ = 0;
+  AccessPolicy policy_;
+  std::string tcp_token_;
   int signal_fd_ = -1;
   int wake_fd_ = -1;
   int timer_fd_ = -1;
@@ -84,6 +134,8 @@ class Server {
   std::uint64_t requests_ = 0;
   std::uint64_t dropped_clients_ = 0;
   bool running_ = true;
+  // Last, so it is destroyed first: its worker must stop before the members it posts to.
+  DiagnoseJobs diagnose_jobs_;
 };
 
 }  // namespace standcal::daemon

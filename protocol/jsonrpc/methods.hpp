@@ -19,6 +19,7 @@ inline constexpr const char* run_resume = "run.resume";
 inline constexpr const char* run_abort = "run.abort";
 inline constexpr const char* run_status = "run.status";
 inline constexpr const char* run_result = "run.result";
+inline constexpr const char* run_diagnose = "run.diagnose";  // answered from a worker thread
 inline constexpr const char* runs_list = "runs.list";
 inline constexpr const char* operator_confirm = "operator.confirm";
 inline constexpr const char* subscribe = "subscribe";

@@ -4,6 +4,11 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <thread>
+
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include "calib/recording.hpp"
 #include "calib/simulator.hpp"
@@ -182,4 +187,26 @@ TEST(RecordingWriter, LeavesNoFileWhenTheDirectoryCannotBeWritten) {
   Recording rec;
   EXPECT_THROW(write_recording(rec, "/nonexistent-dir/rec.csv"), std::runtime_error);
   EXPECT_FALSE(std::filesystem::exists("/nonexistent-dir/rec.csv"));
+}
+
+// `standcal simulate -o /dev/null` once replaced the machine's /dev/null with a plain file
+// (a temporary file renamed over it). A pipe stands in for the device here.
+TEST(RecordingWriter, WritesIntoAPipeInsteadOfReplacingIt) {
+  SimulationRequest req;
+  req.program = paper9();
+  req.timing.dwell_s = 0.2;
+  const Recording rec = simulate_run(req);
+  const auto fifo = std::filesystem::temp_directory_path() / ("standcal_fifo_" + std::to_string(::getpid()));
+  std::filesystem::remove(fifo);
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  std::string received;
+  std::thread reader([&] {
+    std::ifstream in(fifo, std::ios::binary);
+    received.assign(std::istreambuf_iterator<char>(in), {});
+  });
+  write_recording(rec, fifo.string());
+  reader.join();
+  EXPECT_TRUE(std::filesystem::is_fifo(fifo));
+  EXPECT_EQ(parse_recording(received, "pipe").samples.size(), rec.samples.size());
+  std::filesystem::remove(fifo);
 }

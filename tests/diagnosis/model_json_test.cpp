@@ -46,6 +46,61 @@ TEST(ExtraPhysicsJson, RejectsBadEntries) {
   EXPECT_THROW(truth_from_json(j, "m"), std::runtime_error);
 }
 
+TEST(ExtraPhysicsJson, AngleSensorErrorRoundTripAndRejections) {
+  TruthModel t = default_truth();
+  t.extra_physics.push_back({"angle_sensor_error", "alpha2", 6, 0, 45});
+  const nlohmann::json j = truth_to_json(t);
+  EXPECT_EQ(j["extra_physics"][0]["unit"], "arcsec");
+  EXPECT_EQ(j["extra_physics"][0]["phase_deg"], 45.0);
+  const TruthModel back = truth_from_json(j, "model");
+  ASSERT_EQ(back.extra_physics.size(), 1u);
+  EXPECT_EQ(back.extra_physics[0].axis, "alpha2");
+  EXPECT_DOUBLE_EQ(back.extra_physics[0].phase_deg, 45);
+  nlohmann::json bad = j;
+  bad["extra_physics"][0]["axis"] = "z";  // a stand axis, not an accelerometer
+  EXPECT_THROW(truth_from_json(bad, "m"), std::runtime_error);
+  bad = j;
+  bad["extra_physics"] = {{{"id", "bias_drift"}, {"axis", "x"}, {"value", 1}, {"phase_deg", 3}}};
+  EXPECT_THROW(truth_from_json(bad, "m"), std::runtime_error);
+}
+
+TEST(TemperatureProfileJson, CycleKeysOnlyWhenThereIsACycle) {
+  TruthModel t = default_truth();
+  EXPECT_FALSE(truth_to_json(t)["temperature"].contains("cycle_amplitude_c"));
+  t.temperature.cycle_amplitude_c = 2;
+  t.temperature.cycle_period_s = 600;
+  const nlohmann::json j = truth_to_json(t);
+  const TruthModel back = truth_from_json(j, "model");
+  EXPECT_DOUBLE_EQ(back.temperature.cycle_amplitude_c, 2);
+  EXPECT_DOUBLE_EQ(back.temperature.cycle_period_s, 600);
+  nlohmann::json bad = j;
+  bad["temperature"]["cycle_period_s"] = 0;
+  EXPECT_THROW(truth_from_json(bad, "m"), std::runtime_error);
+  // The simulated temperature follows ramp + cycle.
+  t.temperature.noise_c = 0;
+  t.temperature.rate_c_per_h = 3.6;
+  UnitSimulator u(t, 1, 100);
+  EXPECT_NEAR(u.temperature_c(150.0), 23 + 0.15 + 2.0, 1e-9);
+}
+
+// The cyclic angle-sensor error turns the true up vector: at alpha2 = 90 deg (z up) an
+// inner-axis error of e arcsec moves gravity e * 4.85 ug from z into y.
+TEST(ExtraPhysicsSimulator, AngleSensorErrorTurnsTheUpVector) {
+  TruthModel t = default_truth();
+  t.unit = UnitErrors{};
+  t.stand = StandErrors{};
+  t.noise = NoiseModel{};
+  t.noise.density_ug_rthz = 0;
+  TruthModel e = t;
+  e.extra_physics.push_back({"angle_sensor_error", "alpha2", 10, 0, 0});  // 10 * sin(90 deg) at alpha2 = 90
+  UnitSimulator plain(t, 1, 100), with(e, 1, 100);
+  const Vec3 f0 = plain.specific_force_mps2(1.0, 0, 90, Mount::x) / t.g_local_mps2;
+  const Vec3 f1 = with.specific_force_mps2(1.0, 0, 90, Mount::x) / t.g_local_mps2;
+  // u = [0, cos a2, sin a2]: d u / d a2 at 90 deg = [0, -1, 0].
+  EXPECT_NEAR((f1.y() - f0.y()) / kUg, -10 * kArcsecToRad / kUg, 1e-3);
+  EXPECT_NEAR(f1.x(), f0.x(), 1e-12);
+}
+
 // The simulator applies each term as model.md parametrises it.
 TEST(ExtraPhysicsSimulator, TermsFollowTheCatalogParametrisation) {
   TruthModel t = default_truth();

@@ -1,7 +1,10 @@
 // standcal-can-emu: a simulated accelerometer unit on a CAN bus. Emits the frames of
 // the configured layout (docs/unit-can.md) at a fixed rate to a CAN interface or an
 // inherited fd, with the physics of calib/model.hpp plus white noise, and with
-// injectable loss, duplication, reordering and silence for testing the driver.
+// injectable loss, duplication, reordering, silence and bus-off for testing the driver
+// and the daemon (a control file changes the faults while it runs).
+#include <linux/can.h>
+#include <linux/can/error.h>
 #include <poll.h>
 #include <signal.h>
 #include <time.h>
@@ -11,7 +14,9 @@
 #include <atomic>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <optional>
+#include <sstream>
 #include <random>
 #include <string>
 #include <vector>
@@ -45,6 +50,60 @@ struct EmuOptions {
   std::uint64_t samples = 0;  // 0 = until stopped
   double loss = 0, duplicate = 0, reorder = 0;
   double silence_after_s = -1, silence_for_s = 0;
+  std::string control_file;  // fault lines, re-read when changed (see ControlFile)
+};
+
+// Faults switched while the emulator runs (tests start a fault at a chosen point of a
+// run). One per line; the file's content replaces the previous one:
+//   silence          no frame at all while the line is there
+//   loss P           each frame lost with probability P (replaces --loss)
+//   duplicate P      each frame sent twice with probability P (replaces --duplicate)
+//   bus_off [MS]     once per change of the file: an error frame "bus-off", MS ms
+//                    (default 300) without frames, then an error frame "restarted"
+class ControlFile {
+ public:
+  explicit ControlFile(std::string path) : path_(std::move(path)) {}
+
+  struct State {
+    bool silence = false;
+    std::optional<double> loss, duplicate;
+    int bus_off_ms = -1;  // >= 0: a bus-off to play now
+  };
+
+  // Re-reads the file at most every 50 ms; true when its content changed.
+  bool poll(double now_s, State& state) {
+    if (path_.empty() || now_s < next_poll_s_) return false;
+    next_poll_s_ = now_s + 0.05;
+    std::ifstream in(path_);
+    std::stringstream text;
+    text << in.rdbuf();
+    if (text.str() == content_) return false;
+    content_ = text.str();
+    state = State{};
+    for (std::string line; std::getline(text, line);) {
+      std::istringstream words(line);
+      std::string word;
+      if (!(words >> word) || word[0] == '#') continue;
+      double value = 0;
+      if (word == "silence") {
+        state.silence = true;
+      } else if (word == "loss" && words >> value) {
+        state.loss = value;
+      } else if (word == "duplicate" && words >> value) {
+        state.duplicate = value;
+      } else if (word == "bus_off") {
+        state.bus_off_ms = words >> value ? static_cast<int>(value) : 300;
+      } else {
+        std::fprintf(stderr, "standcal-can-emu: bad control line '%s' (ignored)\n", line.c_str());
+      }
+    }
+    return true;
+  }
+
+ private:
+  std::string path_;
+  std::string content_;
+  double next_poll_s_ = 0;
 };
 
 struct EmuCounters {
@@ -101,6 +160,14 @@ bool send_frame(CanLink& link, const EncodedFrame& f, EmuCounters& c) {
   return true;
 }
 
+// An error frame as the kernel reports controller events (linux/can/error.h).
+bool send_error_frame(CanLink& link, std::uint32_t error_class, EmuCounters& c) {
+  EncodedFrame f;
+  f.can_id = CAN_ERR_FLAG | error_class;
+  f.len = CAN_ERR_DLC;
+  return send_frame(link, f, c);
+}
+
 int run(const EmuOptions& o, const FrameLayout& layout, CanLink& link) {
   const standcal::Vec3 f0 = true_force_mps2(o);
   const double sigma_mps2 =
@@ -110,18 +177,37 @@ int run(const EmuOptions& o, const FrameLayout& layout, CanLink& link) {
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
   std::optional<EncodedFrame> held;  // a frame held back to be sent after the next one
   EmuCounters c;
+  ControlFile control(o.control_file);
+  ControlFile::State live;
+  double loss = o.loss, duplicate = o.duplicate;
+  double quiet_until_s = -1;  // bus-off: no frames before this (emulator time)
+  bool restart_pending = false;
   const double t0 = monotonic_s();
   for (std::uint64_t k = 0; !g_stop && (o.samples == 0 || k < o.samples); ++k) {
     const double t = static_cast<double>(k) / o.rate_hz;
     sleep_until(t0 + t);
     ++c.samples;
-    const bool silent = o.silence_after_s >= 0 && t >= o.silence_after_s &&
-                        (o.silence_for_s <= 0 || t < o.silence_after_s + o.silence_for_s);
+    if (control.poll(t, live)) {
+      loss = live.loss.value_or(o.loss);
+      duplicate = live.duplicate.value_or(o.duplicate);
+      if (live.bus_off_ms >= 0) {
+        if (!send_error_frame(link, CAN_ERR_BUSOFF, c)) return 0;
+        quiet_until_s = t + live.bus_off_ms / 1000.0;
+        restart_pending = true;
+      }
+    }
+    if (restart_pending && t >= quiet_until_s) {
+      if (!send_error_frame(link, CAN_ERR_RESTARTED, c)) return 0;
+      restart_pending = false;
+    }
+    const bool silent = (o.silence_after_s >= 0 && t >= o.silence_after_s &&
+                         (o.silence_for_s <= 0 || t < o.silence_after_s + o.silence_for_s)) ||
+                        live.silence || restart_pending;
     std::array<double, 3> f{};
     for (int i = 0; i < 3; ++i) f[static_cast<std::size_t>(i)] = f0[i] + sigma_mps2 * gauss(rng);
     if (silent) continue;  // noise still advances: the sequence does not depend on silence
     for (const auto& frame : layout.encode(f, o.temperature_c, o.counter_start + k)) {
-      if (uniform(rng) < o.loss) {
+      if (uniform(rng) < loss) {
         ++c.lost;
         continue;
       }
@@ -130,7 +216,7 @@ int run(const EmuOptions& o, const FrameLayout& layout, CanLink& link) {
         ++c.reordered;
         continue;
       }
-      const int copies = uniform(rng) < o.duplicate ? 2 : 1;
+      const int copies = uniform(rng) < duplicate ? 2 : 1;
       c.duplicated += static_cast<std::uint64_t>(copies - 1);
       for (int n = 0; n < copies; ++n)
         if (!send_frame(link, frame, c)) return 0;
@@ -192,6 +278,9 @@ int main(int argc, char** argv) {
   app.add_option("--silence-after-s", o.silence_after_s,
                  "fall silent this many seconds after start");
   app.add_option("--silence-for-s", o.silence_for_s, "stay silent this long (0: for good)");
+  app.add_option("--control", o.control_file,
+                 "file of fault lines re-read while running: 'silence', 'loss P', 'duplicate P', "
+                 "'bus_off [MS]'");
   CLI11_PARSE(app, argc, argv);
 
   if (o.can_iface.empty() && o.fd < 0) {

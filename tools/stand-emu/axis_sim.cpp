@@ -37,6 +37,7 @@ void AxisSim::command(AxisCommand command, double target_deg, double speed_dps) 
       fault_ = 0;
       enabled_ = true;
       p_ = x_, pv_ = 0.0;
+      offset_deg_ = 0.0;  // hold where it is
       break;
     case AxisCommand::disable:
       enabled_ = false;
@@ -46,6 +47,7 @@ void AxisSim::command(AxisCommand command, double target_deg, double speed_dps) 
     case AxisCommand::home:
       motion_ = Motion::home;
       goal_ = 0.0;  // the reference mark sits at true zero
+      offset_deg_ = 0.0;
       speed_dps_ = model_.home_speed_dps;
       at_target_ = false;
       stopped_by_heartbeat_ = false;
@@ -53,6 +55,7 @@ void AxisSim::command(AxisCommand command, double target_deg, double speed_dps) 
     case AxisCommand::move:
       motion_ = Motion::move;
       goal_ = to_true(target_deg);
+      offset_deg_ = goal_ == x_ ? 0.0 : std::copysign(overshoot_deg_, goal_ - x_);
       speed_dps_ = speed_dps > 0 ? std::min(speed_dps, model_.max_speed_dps) : model_.max_speed_dps;
       at_target_ = false;
       stopped_by_heartbeat_ = false;
@@ -118,14 +121,16 @@ void AxisSim::drive_step(double h) {
     return;
   }
   const double w = model_.natural_freq_radps;
-  const double xdd = w * w * (p_ - x_) - 2.0 * model_.damping * w * xd_;
+  const double xdd = w * w * (p_ + offset_deg_ - x_) - 2.0 * model_.damping * w * xd_;
   xd_ += xdd * h;
   x_ += xd_ * h;
 }
 
 void AxisSim::finish_if_settled() {
   if (motion_ == Motion::none || p_ != goal_ || pv_ != 0.0) return;
-  if (std::abs(x_ - goal_) > model_.settle_window_deg || std::abs(xd_) > 0.01) return;
+  // The controller judges "settled" against its own (offset) set-point: an overshooting
+  // drive still reports in position.
+  if (std::abs(x_ - offset_deg_ - goal_) > model_.settle_window_deg || std::abs(xd_) > 0.01) return;
   if (motion_ == Motion::home) {
     homed_ = true;
     reference_deg_ = 0.0;

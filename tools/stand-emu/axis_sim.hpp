@@ -45,6 +45,8 @@ class AxisSim {
 
   void set_stuck(bool stuck) { stuck_ = stuck; }
   void set_slow(double factor) { slow_ = factor < 1.0 ? 1.0 : factor; }
+  // A mis-tuned drive: from the next move on it settles `deg` past the target.
+  void set_overshoot(double deg) { overshoot_deg_ = deg; }
 
   StateCode state() const;
   std::uint16_t flags() const;
@@ -72,6 +74,8 @@ class AxisSim {
   bool enabled_ = false, homed_ = false, at_target_ = false;
   bool estop_ = false, stopped_by_heartbeat_ = false, stuck_ = false;
   double slow_ = 1.0;
+  double overshoot_deg_ = 0.0;     // the fault's size
+  double offset_deg_ = 0.0;        // signed offset the drive adds to the profile in this move
   int fault_ = 0;
   std::uint16_t command_count_ = 0;
 };

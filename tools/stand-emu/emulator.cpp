@@ -82,6 +82,7 @@ void Emulator::run(const volatile std::sig_atomic_t& stop_requested) {
   while (!stop_requested) {
     poll_control_file();
     advance();
+    write_status_file();
     fd_set readable;
     FD_ZERO(&readable);
     int top = -1;
@@ -130,6 +131,7 @@ void Emulator::advance() {
   for (std::size_t i = 0; i < 2; ++i) {
     sims_[i].set_stuck(faults_.stuck[i]);
     sims_[i].set_slow(faults_.slow[i]);
+    sims_[i].set_overshoot(faults_.overshoot_deg[i]);
     if (faults_.drive_fault[i]) {
       sims_[i].inject_drive_fault();
       faults_.drive_fault[i] = false;
@@ -186,6 +188,30 @@ void Emulator::poll_control_file() {
   for (std::string line; std::getline(text, line);) lines.push_back(line);
   std::string error;
   if (!parse_faults(lines, faults_, error)) std::fprintf(stderr, "standcal-stand-emu: %s\n", error.c_str());
+}
+
+// What a test asks the controller without being a Modbus master itself (an RTU line has
+// room for one): per axis a line "NAME STATE FLAGS ANGLE_COUNTS FAULT" from the input
+// registers, replaced atomically.
+void Emulator::write_status_file() {
+  if (options_.status_file.empty() || Clock::now() < next_status_write_) return;
+  next_status_write_ = Clock::now() + std::chrono::milliseconds(50);
+  publish();
+  const auto& map = options_.map;
+  std::ostringstream text;
+  for (int i = 0; i < 2; ++i) {
+    const AxisRegisters& r = map.axes[static_cast<std::size_t>(i)];
+    const std::uint16_t* in = mapping_->tab_input_registers;
+    text << (i == 0 ? "outer" : "inner") << ' ' << in[r.state] << ' ' << in[r.flags] << ' '
+         << drivers::modbus::get_i32(&in[r.angle], map.word_order) << ' ' << in[r.fault] << '\n';
+  }
+  const std::string tmp = options_.status_file + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::trunc);
+    out << text.str();
+    if (!out) return;
+  }
+  std::rename(tmp.c_str(), options_.status_file.c_str());
 }
 
 bool Emulator::serve_one(int fd) {

@@ -27,6 +27,7 @@ struct EmulatorOptions {
   int heartbeat_timeout_ms = 1000;    // initial value of the watchdog register
   Faults faults;
   std::string control_file;           // re-read when it changes; empty: none
+  std::string status_file;            // the axes' registers, rewritten every 50 ms; empty: none
   unsigned seed = 1;
 };
 
@@ -49,6 +50,7 @@ class Emulator {
   void watch_heartbeat();
   void publish();
   void poll_control_file();
+  void write_status_file();
   bool serve_one(int fd);                       // false: close this connection
   int refusal_exception(const std::uint8_t* query, int length);
   void act_on_commands();
@@ -67,6 +69,7 @@ class Emulator {
   std::uint16_t last_heartbeat_ = 0;
   bool heartbeat_lost_ = false;
   Clock::time_point next_control_poll_;
+  Clock::time_point next_status_write_;
   std::string control_text_;
 };
 

@@ -27,6 +27,10 @@ bool parse_line(const std::string& line, Faults& f) {
     double factor = 0;
     if (!(in >> axis_name >> factor) || !axis_index(axis_name, axis) || factor < 1.0) return false;
     f.slow[static_cast<std::size_t>(axis)] = factor;
+  } else if (word == "overshoot") {
+    double deg = 0;
+    if (!(in >> axis_name >> deg) || !axis_index(axis_name, axis) || !(deg >= 0.0 && deg <= 4.0)) return false;
+    f.overshoot_deg[static_cast<std::size_t>(axis)] = deg;
   } else if (word == "delay_ms") {
     if (!(in >> f.delay_ms) || f.delay_ms < 0) return false;
   } else if (word == "exception") {

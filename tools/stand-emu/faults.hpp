@@ -3,6 +3,8 @@
 // changes. One fault per line (docs/stand-modbus.md "Emulator"):
 //   stuck outer|inner          the axis does not follow its command (→ following error)
 //   slow outer|inner FACTOR    rate and acceleration limits divided by FACTOR
+//   overshoot outer|inner DEG  the drive settles DEG past every move target (in the
+//                              direction of motion) and still reports "in position"
 //   drive_fault outer|inner    trips the drive once (fault code 3)
 //   delay_ms N                 every reply is sent N ms late
 //   exception CODE [COUNT]     the next COUNT requests (default: all) get exception CODE
@@ -18,6 +20,7 @@ namespace standcal::emu {
 struct Faults {
   std::array<bool, 2> stuck{false, false};
   std::array<double, 2> slow{1.0, 1.0};
+  std::array<double, 2> overshoot_deg{0.0, 0.0};
   std::array<bool, 2> drive_fault{false, false};  // one-shot, consumed by the server
   int delay_ms = 0;
   int exception_code = 0;

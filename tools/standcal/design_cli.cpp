@@ -16,6 +16,7 @@
 #include "calib/programs.hpp"
 #include "calib/recording.hpp"
 #include "calib/units.hpp"
+#include "report/noise/allan_figure.hpp"
 #include "tools/standcal/commands.hpp"
 
 namespace standcal::cli {
@@ -57,6 +58,7 @@ struct NoiseOptions {
   std::string recording;
   bool json = false;
   std::string curve_out;
+  std::string plot_out;
 };
 
 void add_design_flags(CLI::App* cmd, DesignFlags& f) {
@@ -419,6 +421,12 @@ void run_noise(const NoiseOptions& o) {
           << curves[2][i].deviation << "\n";
     if (!out) throw std::runtime_error(o.curve_out + ": could not write the Allan curve");
   }
+  if (!o.plot_out.empty()) {
+    std::vector<report::AxisAllan> axes;
+    for (int a = 0; a < 3; ++a) axes.push_back({axis_names[a], curves[a], figures[a]});
+    plot::write_svg(report::allan_figure(axes, rec.source), o.plot_out);
+    std::fprintf(stderr, "Allan deviation plot written to %s\n", o.plot_out.c_str());
+  }
   auto opt = [](const std::optional<double>& v) { return v ? json(*v) : json(nullptr); };
   if (o.json) {
     json j = {{"recording", o.recording}, {"sample_period_s", tau0}, {"segments", segments[0].size()}};
@@ -489,6 +497,7 @@ void add_design_commands(CLI::App& app) {
   noise->add_option("recording", no->recording, "recording CSV (standcal-recording/1)")->required();
   noise->add_flag("--json", no->json, "machine-readable output");
   noise->add_option("--curve", no->curve_out, "write the Allan deviation curve as CSV (tau_s, adev per axis in ug)");
+  noise->add_option("--plot", no->plot_out, "draw the Allan deviation of each axis (log-log, SVG) to FILE");
   noise->callback([no] { run_noise(*no); });
 }
 

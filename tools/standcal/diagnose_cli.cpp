@@ -10,6 +10,7 @@
 #include "calib/diagnosis.hpp"
 #include "calib/recording.hpp"
 #include "calib/simulator.hpp"
+#include "report/diagnosis/diagnosis_report.hpp"
 #include "tools/standcal/commands.hpp"
 
 namespace standcal::cli {
@@ -34,7 +35,7 @@ void run_diagnose(const DiagnoseCliOptions& o) {
   for (const std::string& w : rec.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
   const Diagnosis d = diagnose_recording(rec);
   if (!o.report.empty()) {
-    write_file(o.report, diagnose_to_html(d), "report");
+    write_file(o.report, report::diagnosis_html(d, rec), "report");
     std::fprintf(stderr, "report written to %s\n", o.report.c_str());
   }
   if (!o.model_out.empty()) {
@@ -59,7 +60,7 @@ void add_diagnose_commands(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand("diagnose", "find where a recording and the model disagree and what physics is missing");
   cmd->add_option("recording", opts->recording, "recording (standcal-recording/1 CSV)")->required();
   cmd->add_flag("--json", opts->json, "machine-readable output");
-  cmd->add_option("--report", opts->report, "write an HTML report to FILE");
+  cmd->add_option("--report", opts->report, "write an HTML report with plots (residuals before/after, located mismatch) to FILE");
   cmd->add_option("--model-out", opts->model_out, "write the augmented model (standcal-model/1 JSON) to FILE");
   cmd->callback([opts] { run_diagnose(*opts); });
 }

@@ -1,4 +1,4 @@
-// Operator commands of standcald (docs/protocol.md): status, run start/watch/result/
+// Operator commands of standcald (docs/protocol.md): status, run start/watch/result/diagnose/
 // resume/pause/abort/confirm, estop, runs. Each talks to the daemon's socket with the
 // protocol library's client; `--json` prints the daemon's answer as it came.
 #include <unistd.h>
@@ -198,6 +198,69 @@ std::string watch(protocol::Client& c, const std::string& run_id, bool as_json) 
   return s["state"];
 }
 
+struct DiagnoseArgs {
+  std::string run_id, report, op;
+  bool run_proposed = false;
+  double dwell_s = -1, settle_s = -1;
+};
+
+void print_diagnosis(const json& d) {
+  std::printf("run %s: verdict %s\n", d.value("run_id", "").c_str(), d.value("verdict", "?").c_str());
+  for (const json& s : d.value("summary", json::array())) std::printf("  %s\n", s.get<std::string>().c_str());
+  std::printf("where:\n");
+  for (const json& s : d.value("located", json::array())) std::printf("  %s\n", s.get<std::string>().c_str());
+  for (const json& p : d.value("proposed_positions", json::array()))
+    std::printf("proposed position: alpha1 %.0f deg, alpha2 %.0f deg (%s)\n", p.value("alpha1_deg", 0.0),
+                p.value("alpha2_deg", 0.0), p.value("why", "").c_str());
+}
+
+// "The daemon can run those positions on request": the proposed positions as an inline
+// programme on the same unit and mount, named after the run they follow.
+json follow_up_run(protocol::Client& c, const json& d, const DiagnoseArgs& a) {
+  const json& proposed = d["proposed_positions"];
+  if (!proposed.is_array() || proposed.empty()) {
+    throw std::runtime_error("run " + a.run_id + ": the diagnosis (verdict " + d.value("verdict", "?") +
+                             ") proposes no positions, so there is no follow-up run to start");
+  }
+  json positions = json::array();
+  for (const json& p : proposed)
+    positions.push_back({{"alpha1_deg", p["alpha1_deg"]}, {"alpha2_deg", p["alpha2_deg"]}, {"mount", d.value("mount", "x")}});
+  json params{{"program", {{"name", "follow-up of " + a.run_id}, {"positions", positions}}},
+              {"unit_serial", d.value("unit_serial", "")}};
+  if (a.dwell_s > 0) params["dwell_s"] = a.dwell_s;
+  if (a.settle_s >= 0) params["settle_s"] = a.settle_s;
+  if (!a.op.empty()) params["operator"] = a.op;
+  return call(c, "run.start", params);
+}
+
+void run_diagnose(const DaemonOptions& o, const DiagnoseArgs& a) {
+  protocol::Client c(socket_path(o));
+  json params{{"run_id", a.run_id}};
+  if (!a.report.empty()) params["report"] = true;
+  // A diagnosis takes seconds (a long recording, a busy bench PC): wait generously.
+  json d = call(c, "run.diagnose", params, std::chrono::minutes(5));
+  if (!a.report.empty()) {
+    if (!d["report_html"].is_string()) throw std::runtime_error("run " + a.run_id + ": " + d.value("report_note", "no report"));
+    std::ofstream out(a.report);
+    out << d["report_html"].get<std::string>();
+    if (!out) throw std::runtime_error(a.report + ": could not write the report");
+    std::fprintf(stderr, "report written to %s\n", a.report.c_str());
+  }
+  d.erase("report_html");
+  json follow_up;
+  if (a.run_proposed) follow_up = follow_up_run(c, d, a);
+  if (o.json) {
+    if (a.run_proposed) d["follow_up_run"] = follow_up;
+    std::cout << d.dump(2) << "\n";
+    return;
+  }
+  print_diagnosis(d);
+  if (a.run_proposed)
+    std::printf("follow-up run %s started (%d positions); follow it with `standcal run watch %s`\n",
+                follow_up.value("run_id", "").c_str(), follow_up.value("positions", 0),
+                follow_up.value("run_id", "").c_str());
+}
+
 void add_status(CLI::App& app) {
   auto o = std::make_shared<DaemonOptions>();
   auto* cmd = app.add_subcommand("status", "standcald, stand, unit and run at a glance");
@@ -326,6 +389,19 @@ void add_run(CLI::App& app) {
       print_result(r);
     }
   });
+
+  auto dgo = std::make_shared<DaemonOptions>();
+  auto da = std::make_shared<DiagnoseArgs>();
+  auto* diagnose = run->add_subcommand("diagnose", "where a run's recording and the model disagree (docs/diagnosis.md)");
+  add_daemon_options(diagnose, *dgo);
+  diagnose->add_option("run_id", da->run_id, "run id (see `standcal runs`)")->required();
+  diagnose->add_option("--report", da->report, "write the HTML report with plots to FILE (docs/report.md)");
+  diagnose->add_flag("--run-proposed", da->run_proposed,
+                     "start a follow-up run of the proposed positions on the same unit");
+  diagnose->add_option("--dwell", da->dwell_s, "follow-up run: seconds per position (default: the daemon's)");
+  diagnose->add_option("--settle", da->settle_s, "follow-up run: settle seconds (default: the daemon's)");
+  diagnose->add_option("--operator", da->op, "follow-up run: who runs it, for traceability");
+  diagnose->callback([dgo, da] { run_diagnose(*dgo, *da); });
 
   // Simple control commands: one call, print the answer.
   struct Simple {

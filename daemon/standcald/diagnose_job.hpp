@@ -1,0 +1,55 @@
+#pragma once
+// `run.diagnose` {run_id, report?}: the model-mismatch diagnosis (calib/diagnosis.hpp) of a
+// run's recording, in the shape of `standcal diagnose --json`. A diagnosis takes seconds,
+// so it never runs on the socket thread: requests are checked there (a bad one is answered
+// at once), then one worker thread computes them in turn and hands each answer to the
+// reply function, which posts it back to the socket thread (as the sequencer's replies do).
+#include <condition_variable>
+#include <deque>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "daemon/standcald/sequencer.hpp"
+
+namespace standcal::daemon {
+
+// Past this many waiting diagnoses a request gets `busy` (the bench PC has few cores).
+inline constexpr std::size_t kMaxQueuedDiagnoses = 4;
+// A report larger than this is not sent over the socket (a client's queue holds 1 MiB).
+inline constexpr std::size_t kMaxReportBytes = 768 * 1024;
+
+// The answer for one run: `run_status` is the run's `run.status` (its recording_path,
+// unit_serial, run_id). Throws protocol::RpcError with the code the protocol gives
+// (-32603 unreadable recording, -32007 a recording that cannot be diagnosed).
+nlohmann::json diagnose_run(const nlohmann::json& run_status, bool with_report);
+
+class DiagnoseJobs {
+ public:
+  DiagnoseJobs();
+  // Waits for the diagnosis in progress (its answer is dropped); queued ones are dropped.
+  ~DiagnoseJobs();
+  DiagnoseJobs(const DiagnoseJobs&) = delete;
+  DiagnoseJobs& operator=(const DiagnoseJobs&) = delete;
+
+  // Checks `params` and the run now (throws protocol::RpcError: -32602 bad params, -32006
+  // no such run, -32007 run still in progress or nothing recorded, -32001 too many
+  // waiting); then queues the diagnosis. `reply` is called once, on the worker thread.
+  void submit(const Sequencer& sequencer, const nlohmann::json& params, ReplyFn reply);
+
+ private:
+  struct Job {
+    nlohmann::json run_status;
+    bool with_report = false;
+    ReplyFn reply;
+  };
+  void worker_main();
+
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  std::deque<Job> queue_;
+  bool stopping_ = false;
+  std::thread worker_;
+};
+
+}  // namespace standcal::daemon

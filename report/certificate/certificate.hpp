@@ -1,0 +1,79 @@
+#pragma once
+// The calibration certificate (issue 8): one self-contained HTML page (inline SVG plots,
+// no external files) that a newcomer can read without knowing the software — who, what,
+// where, with what traceability; each parameter as value ± U (k = 2) with its pass/fail
+// and margin under the stated decision rule; the compensation to load; residual plots per
+// position and axis; and the diagnosis verdict when one was run. Contents: docs/certificate.md.
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "calib/fit_result.hpp"
+#include "calib/position_average.hpp"
+#include "calib/report.hpp"
+#include "records/limits/limits.hpp"
+
+namespace standcal::report {
+
+struct CertificateTraceability {
+  std::string run_id;
+  std::string unit_serial;
+  std::string unit_type;
+  std::string stand_id;
+  std::string operator_name;
+  std::string started_utc;
+  std::string ended_utc;
+  std::string software_version;  // of the software that recorded the run
+  std::string config_hash;       // of the daemon configuration that ran it
+  std::string g_source;          // where the local gravity value came from
+  double g_local_mps2 = kStandardGravity_mps2;
+  std::string recording_path;
+  std::string origin;            // "standcald run record" or "imported recording"
+};
+
+// A model-mismatch diagnosis (calib/diagnosis.hpp), reduced to what a certificate shows.
+struct CertificateDiagnosis {
+  std::string verdict;  // consistent | explained | unexplained | insufficient_redundancy | ambiguous
+  std::vector<std::string> summary;
+  std::vector<std::string> located;
+  std::string origin;   // "run for this certificate" or the diagnosis.json path
+};
+
+struct CertificateInput {
+  CertificateTraceability trace;
+  std::string program_name;
+  std::vector<PositionAverage> positions;
+  FitResult fit;                       // the certified parameters
+  std::optional<FitResult> invariant;  // invariant residuals per position (one per position)
+  std::optional<FitResult> full;       // full-vector residuals per position and axis
+  Compensation compensation;
+  std::optional<records::ConformityReport> conformity;
+  std::optional<CertificateDiagnosis> diagnosis;
+  std::vector<std::string> warnings;   // recording warnings, missing traceability, ...
+  double coverage_factor = records::kDefaultCoverageFactor;
+  std::string issued_utc;              // when the certificate was made
+  std::string issuing_software_version;
+};
+
+// What `standcal certificate` was asked for.
+struct CertificateRequest {
+  std::string state_dir;       // with run_id: STATE/runs/RUN_ID/{run.json,recording.csv,result.json}
+  std::string run_id;
+  std::string recording_path;  // instead: an imported / offline recording
+  std::string limits_path;     // optional standcal-limits/1 file
+  std::string unit_type;       // which limits apply (default: run.json's unit_type or the only one)
+  std::string method = "joint";  // certified estimator: joint | full
+  bool diagnose = false;       // run the diagnosis now (else use RUN_DIR/diagnosis.json if present)
+};
+
+// Loads the run (or recording), refits it, applies the limits and the diagnosis. Throws
+// std::runtime_error with a one-line reason naming the file or key that was wrong.
+CertificateInput prepare_certificate(const CertificateRequest& request);
+
+// Reduces a diagnose_to_json() document (e.g. RUN_DIR/diagnosis.json).
+CertificateDiagnosis certificate_diagnosis_from_json(const nlohmann::json& doc, const std::string& origin);
+
+// The certificate page.
+std::string render_certificate_html(const CertificateInput& input);
+
+}  // namespace standcal::report

@@ -1,0 +1,193 @@
+// prepare_certificate(): from a run folder (or a recording) to everything the page shows.
+#include <cmath>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <stdexcept>
+
+#include "calib/averaging.hpp"
+#include "calib/diagnosis.hpp"
+#include "calib/full_estimator.hpp"
+#include "calib/invariant_estimator.hpp"
+#include "calib/recording.hpp"
+#include "report/certificate/certificate.hpp"
+#include "standcal/version.hpp"
+
+namespace standcal::report {
+
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+json read_json_file(const fs::path& path, const char* what) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error(path.string() + ": cannot open the " + what);
+  std::stringstream text;
+  text << in.rdbuf();
+  try {
+    return json::parse(text.str());
+  } catch (const json::parse_error& e) {
+    throw std::runtime_error(path.string() + ": the " + what + " is not valid JSON (" + e.what() + ")");
+  }
+}
+
+std::string string_key(const json& j, const char* key) {
+  return j.contains(key) && j[key].is_string() ? j[key].get<std::string>() : std::string();
+}
+
+std::string utc_now() {
+  const std::time_t t = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
+}
+
+struct LoadedRun {
+  CertificateTraceability trace;
+  Recording recording;
+  fs::path run_dir;  // empty for an offline recording
+  std::string unit_type_hint;
+};
+
+// The daemon's run record (docs/daemon.md): traceability, then the recording beside it.
+LoadedRun load_state_run(const CertificateRequest& req) {
+  LoadedRun run;
+  run.run_dir = fs::path(req.state_dir) / "runs" / req.run_id;
+  const fs::path record_path = run.run_dir / "run.json";
+  if (!fs::exists(record_path))
+    throw std::runtime_error("no run " + req.run_id + " in " + req.state_dir + " (" + record_path.string() +
+                             " does not exist; `standcal run list` shows the runs)");
+  const json record = read_json_file(record_path, "run record");
+  const std::string state = string_key(record, "state");
+  if (state != "done")
+    throw std::runtime_error("run " + req.run_id + " is '" + state + "', not done: only a finished run gets a " +
+                             "certificate (certify its recording with --recording to override)");
+  CertificateTraceability& t = run.trace;
+  t.origin = "standcald run record (" + record_path.string() + ")";
+  t.run_id = req.run_id;
+  t.unit_serial = string_key(record, "unit_serial");
+  t.stand_id = string_key(record, "stand_id");
+  t.operator_name = string_key(record, "operator");
+  t.started_utc = string_key(record, "started_utc");
+  t.ended_utc = string_key(record, "ended_utc");
+  t.software_version = string_key(record, "software_version");
+  t.config_hash = string_key(record, "config_hash");
+  t.g_source = string_key(record, "g_source");
+  run.unit_type_hint = string_key(record, "unit_type");
+  // The folder may have been moved since the run: prefer the recording beside run.json.
+  fs::path recording = run.run_dir / "recording.csv";
+  if (!fs::exists(recording) && !string_key(record, "recording_path").empty())
+    recording = string_key(record, "recording_path");
+  t.recording_path = recording.string();
+  run.recording = read_recording(t.recording_path);
+  t.g_local_mps2 = run.recording.g_local_mps2;
+  if (record.contains("g_local_mps2") && record["g_local_mps2"].is_number() &&
+      std::abs(record["g_local_mps2"].get<double>() - t.g_local_mps2) > 1e-9)
+    run.recording.warnings.push_back("run.json says g = " + record["g_local_mps2"].dump() +
+                                     " m/s^2 but the recording header says " + std::to_string(t.g_local_mps2) +
+                                     "; the recording's value was used");
+  return run;
+}
+
+// An imported or offline recording: what its header says is all the traceability there is.
+LoadedRun load_recording_only(const CertificateRequest& req) {
+  LoadedRun run;
+  run.recording = read_recording(req.recording_path);
+  const Recording& rec = run.recording;
+  CertificateTraceability& t = run.trace;
+  t.origin = "imported recording (no run record)";
+  t.recording_path = req.recording_path;
+  t.run_id = rec.header_value("run_id");
+  t.unit_serial = rec.unit_serial;
+  t.stand_id = rec.header_value("stand_id");
+  t.operator_name = rec.header_value("operator");
+  t.started_utc = rec.header_value("started_utc");
+  t.software_version = rec.header_value("software_version");
+  t.config_hash = rec.header_value("config_hash");
+  t.g_source = rec.header_value("g_source");
+  t.g_local_mps2 = rec.g_local_mps2;
+  run.unit_type_hint = rec.header_value("unit_type");
+  return run;
+}
+
+void note_missing_traceability(CertificateInput& in) {
+  const CertificateTraceability& t = in.trace;
+  const std::pair<const char*, const std::string*> fields[] = {
+      {"unit serial", &t.unit_serial},           {"stand id", &t.stand_id},
+      {"operator", &t.operator_name},            {"date", &t.started_utc},
+      {"software version", &t.software_version}, {"configuration hash", &t.config_hash},
+      {"source of g", &t.g_source}};
+  for (const auto& [name, value] : fields)
+    if (value->empty()) in.warnings.push_back(std::string("the ") + name + " is not recorded for this calibration");
+}
+
+}  // namespace
+
+CertificateDiagnosis certificate_diagnosis_from_json(const json& doc, const std::string& origin) {
+  if (!doc.is_object() || !doc.contains("verdict") || !doc["verdict"].is_string())
+    throw std::runtime_error(origin + ": verdict: missing (not a `standcal diagnose --json` document)");
+  CertificateDiagnosis d;
+  d.origin = origin;
+  d.verdict = doc["verdict"].get<std::string>();
+  for (const char* key : {"summary", "located"}) {
+    if (!doc.contains(key)) continue;
+    if (!doc[key].is_array()) throw std::runtime_error(origin + ": " + key + ": must be a list of sentences");
+    auto& into = std::string(key) == "summary" ? d.summary : d.located;
+    for (const json& s : doc[key])
+      if (s.is_string()) into.push_back(s.get<std::string>());
+  }
+  return d;
+}
+
+CertificateInput prepare_certificate(const CertificateRequest& req) {
+  if (req.run_id.empty() == req.recording_path.empty())
+    throw std::runtime_error("give either a RUN_ID (with --state-dir) or --recording FILE, not both or neither");
+  if (req.method != "joint" && req.method != "full")
+    throw std::runtime_error("unknown method '" + req.method + "' (joint, full)");
+  LoadedRun run = req.run_id.empty() ? load_recording_only(req) : load_state_run(req);
+
+  CertificateInput in;
+  in.trace = run.trace;
+  in.trace.unit_type = req.unit_type.empty() ? run.unit_type_hint : req.unit_type;
+  in.program_name = run.recording.program;
+  in.warnings = run.recording.warnings;
+  in.positions = average_positions(run.recording);
+  in.issued_utc = utc_now();
+  in.issuing_software_version = kVersion;
+
+  in.invariant = fit_invariant_joint(in.positions);
+  try {
+    in.full = fit_full_vector(in.positions);
+  } catch (const std::exception& e) {
+    in.warnings.push_back(std::string("no per-axis residuals: the full-vector fit failed (") + e.what() + ")");
+  }
+  if (req.method == "full" && !in.full) throw std::runtime_error("--method full: the full-vector fit failed");
+  in.fit = req.method == "full" ? *in.full : *in.invariant;
+  in.compensation = make_compensation(in.fit, in.trace.g_local_mps2);
+
+  if (!req.limits_path.empty()) {
+    const records::LimitsConfig limits = records::load_limits(req.limits_path);
+    const records::UnitTypeLimits& type = limits.for_unit_type(in.trace.unit_type);
+    in.trace.unit_type = type.unit_type;
+    in.coverage_factor = limits.coverage_factor;
+    in.conformity = records::assess_conformity(in.fit, type, limits.coverage_factor, req.limits_path);
+  }
+
+  const fs::path stored_diagnosis = run.run_dir.empty() ? fs::path() : run.run_dir / "diagnosis.json";
+  if (req.diagnose) {
+    const Diagnosis d = diagnose_recording(run.recording);
+    in.diagnosis = CertificateDiagnosis{d.verdict, d.summary, d.located, "run for this certificate"};
+  } else if (!stored_diagnosis.empty() && fs::exists(stored_diagnosis)) {
+    in.diagnosis = certificate_diagnosis_from_json(read_json_file(stored_diagnosis, "diagnosis"),
+                                                   stored_diagnosis.string());
+  }
+  note_missing_traceability(in);
+  return in;
+}
+
+}  // namespace standcal::report

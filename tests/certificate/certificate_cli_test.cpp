@@ -1,0 +1,98 @@
+// `standcal certificate` as an operator runs it: from a state directory, from an imported
+// recording, and with the one-line errors of a wrong request.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "tests/certificate/certificate_support.hpp"
+#include "tests/certificate/html_query.hpp"
+
+namespace standcal::test {
+namespace {
+
+struct CommandResult {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr
+};
+
+CommandResult run_cli(const std::string& args) {
+  const std::string command = std::string(STANDCAL_CLI) + " " + args + " 2>&1";
+  CommandResult r;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (!pipe) return r;
+  char buf[4096];
+  for (std::size_t n; (n = std::fread(buf, 1, sizeof buf, pipe)) > 0;) r.output.append(buf, n);
+  const int status = pclose(pipe);
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+std::string read_text(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+class CertificateCli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    run_dir_ = write_done_run(state_.path, "20261121T223638Z-AU-0042",
+                              simulated_recording("AU-0042", default_truth(), 11, "paper9", 4));
+    write_text(state_.path / "limits.json", R"({"format": "standcal-limits/1", "unit_types": {"QA-2000": {
+        "parameters": {"bias": {"max_abs": 100}, "scale": {"max_abs": 300}, "gamma": {"max_abs": 60}}}}})");
+  }
+  TempDir state_;
+  std::filesystem::path run_dir_;
+};
+
+TEST_F(CertificateCli, WritesTheCertificateOfARunInTheStateDirectory) {
+  const std::filesystem::path out = state_.path / "cert.html";
+  const CommandResult r = run_cli("certificate 20261121T223638Z-AU-0042 --state-dir " + state_.path.string() +
+                                  " --limits " + (state_.path / "limits.json").string() + " -o " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("certificate for AU-0042 written to"), std::string::npos) << r.output;
+  const HtmlDocument page(read_text(out));
+  EXPECT_EQ(page.text("//dl[@id='traceability']/dd[@data-field='unit_type']"), "QA-2000")
+      << "the only unit type in the limits applies";
+  // default_truth's scale_z is 310 ppm against a 300 ppm limit: outside by more than U?
+  // Either fail or indeterminate, never pass; and the verdict follows the worst.
+  EXPECT_NE(page.text("//tr[@data-parameter='scale_z']/@data-outcome"), "pass");
+  EXPECT_NE(page.text("//*[@id='verdict']/@data-outcome"), "pass");
+  EXPECT_EQ(page.text("//tr[@data-parameter='bias_x']/@data-outcome"), "pass") << "45 ug against 100 ug";
+}
+
+TEST_F(CertificateCli, CertifiesAnImportedRecording) {
+  const std::filesystem::path out = state_.path / "imported.html";
+  const CommandResult r =
+      run_cli("certificate --recording " + (run_dir_ / "recording.csv").string() + " -o " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const HtmlDocument page(read_text(out));
+  EXPECT_EQ(page.text("//dl[@id='traceability']/dd[@data-field='unit_serial']"), "AU-0042");
+  EXPECT_EQ(page.count("//figure//svg"), 2u);
+}
+
+TEST_F(CertificateCli, ExplainsAWrongRequestInOneLine) {
+  const std::string out = (state_.path / "x.html").string();
+  CommandResult r = run_cli("certificate NO-SUCH-RUN --state-dir " + state_.path.string() + " -o " + out);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.output.find("no run NO-SUCH-RUN in"), std::string::npos) << r.output;
+
+  r = run_cli("certificate 20261121T223638Z-AU-0042 --state-dir " + state_.path.string() + " --limits " +
+              (state_.path / "limits.json").string() + " --unit-type QA-9 -o " + out);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.output.find("no limits for unit type 'QA-9' (known: QA-2000)"), std::string::npos) << r.output;
+
+  r = run_cli("certificate 20261121T223638Z-AU-0042 --state-dir " + state_.path.string() + " -o " +
+              (state_.path / "cert.pdf").string());
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.output.find("PDF is not produced"), std::string::npos) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(out)) << "nothing written on error";
+}
+
+}  // namespace
+}  // namespace standcal::test

@@ -1,0 +1,228 @@
+// A certificate rendered from a simulated, finished run and read back by an HTML parser:
+// traceability, each parameter's value ± U against an independent fit, the pass /
+// indeterminate / fail marks from limits chosen around the measured values, the rule,
+// the plots and the diagnosis.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "calib/averaging.hpp"
+#include "calib/invariant_estimator.hpp"
+#include "report/certificate/certificate.hpp"
+#include "tests/certificate/certificate_support.hpp"
+#include "tests/certificate/html_query.hpp"
+
+namespace standcal::test {
+namespace {
+
+using nlohmann::json;
+using report::CertificateRequest;
+
+constexpr const char* kRunId = "20261121T223638Z-AU-0042";
+
+std::string row(const std::string& parameter) { return "//table[@id='parameters']//tr[@data-parameter='" + parameter + "']"; }
+
+double number_in(std::string text) {
+  for (const char* junk : {"±", " "}) {
+    for (std::size_t at; (at = text.find(junk)) != std::string::npos;) text.erase(at, std::string(junk).size());
+  }
+  return std::stod(text);
+}
+
+class CertificateOfSimulatedRun : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    rec_ = simulated_recording("AU-0042", default_truth(), 7);
+    run_dir_ = write_done_run(state_.path, kRunId, rec_);
+    reference_ = fit_invariant_joint(average_positions(rec_));
+  }
+
+  // Report-unit value and sigma of the independent fit.
+  double value(int p) const { return *reference_.unit[static_cast<std::size_t>(p)].value * report_scale(p); }
+  double sigma(int p) const { return *reference_.unit[static_cast<std::size_t>(p)].sigma * report_scale(p); }
+
+  // Limits placed around the measured values so that each outcome must appear:
+  // bias_x well inside (pass), bias_y at |value| (inside, but within U: indeterminate),
+  // bias_z below |value| - U (fail), scale_x sigma limit at half its sigma (fail).
+  std::string write_limits() const {
+    const json limits{
+        {"format", "standcal-limits/1"},
+        {"unit_types",
+         {{"QA-2000",
+           {{"description", "test unit"},
+            {"parameters",
+             {{"bias_x", {{"max_abs", std::abs(value(kBiasX)) + 2 * sigma(kBiasX) + 5}}},
+              {"bias_y", {{"max_abs", std::abs(value(kBiasY)) + 0.5 * sigma(kBiasY)}}},
+              {"bias_z", {{"max_abs", std::abs(value(kBiasZ)) - 2 * sigma(kBiasZ) - 5}}},
+              {"scale_x", {{"max_abs", 1000}, {"max_sigma", sigma(kScaleX) / 2}}},
+              {"gamma", {{"max_abs", 60}}}}}}}}}};
+    const std::filesystem::path path = state_.path / "limits.json";
+    write_text(path, limits.dump(2));
+    return path.string();
+  }
+
+  CertificateRequest request() const {
+    CertificateRequest r;
+    r.state_dir = state_.path.string();
+    r.run_id = kRunId;
+    return r;
+  }
+
+  TempDir state_;
+  Recording rec_;
+  std::filesystem::path run_dir_;
+  FitResult reference_;
+};
+
+TEST_F(CertificateOfSimulatedRun, CarriesTheTraceability) {
+  const HtmlDocument page(report::render_certificate_html(report::prepare_certificate(request())));
+  auto field = [&](const std::string& id) { return page.text("//dl[@id='traceability']/dd[@data-field='" + id + "']"); };
+  EXPECT_EQ(field("unit_serial"), "AU-0042");
+  EXPECT_EQ(field("stand_id"), "stand-B2");
+  EXPECT_EQ(field("operator"), "I. Petrova");
+  EXPECT_EQ(field("config_hash"), "sha256:5f2c9a");
+  EXPECT_EQ(field("software_version"), "0.1.0");
+  EXPECT_EQ(field("g_source"), "gravimetric survey 2024, pillar 3");
+  EXPECT_EQ(field("run_id"), kRunId);
+  EXPECT_NE(field("date").find("2026-11-21T22:36:38Z"), std::string::npos);
+  EXPECT_NE(field("g_local").find("9.81625"), std::string::npos);
+  EXPECT_EQ(page.count("//table[@id='positions']//tr[td]"), 9u) << "one row per programme position";
+  EXPECT_NE(page.text("//h1").find("AU-0042"), std::string::npos);
+  EXPECT_EQ(page.count("//div[@class='howto']"), 1u) << "the newcomer's reading guide";
+}
+
+TEST_F(CertificateOfSimulatedRun, ShowsEveryParameterAsValuePlusMinusExpandedUncertainty) {
+  const HtmlDocument page(report::render_certificate_html(report::prepare_certificate(request())));
+  ASSERT_EQ(page.count("//table[@id='parameters']//tr[@data-parameter]"), 9u);
+  for (int p = 0; p < kUnitParameterCount; ++p) {
+    const std::string name(kUnitParameterNames[static_cast<std::size_t>(p)]);
+    SCOPED_TRACE(name);
+    // Printed with 2 decimals: equal to the independent fit within rounding.
+    EXPECT_NEAR(number_in(page.text(row(name) + "/td[contains(@class,'value')]")), value(p), 0.006);
+    EXPECT_NEAR(number_in(page.text(row(name) + "/td[contains(@class,'U')]")), 2 * sigma(p), 0.006);
+  }
+  // Without limits: no verdict, every row "no limit".
+  EXPECT_EQ(page.text("//*[@id='verdict']/@data-outcome"), "no_limit");
+  EXPECT_EQ(page.count("//table[@id='parameters']//tr[@data-outcome='no_limit']"), 9u);
+}
+
+TEST_F(CertificateOfSimulatedRun, MarksEachOutcomeByTheStatedRule) {
+  CertificateRequest r = request();
+  r.limits_path = write_limits();
+  const HtmlDocument page(report::render_certificate_html(report::prepare_certificate(r)));
+  EXPECT_EQ(page.text(row("bias_x") + "/@data-outcome"), "pass");
+  EXPECT_EQ(page.text(row("bias_y") + "/@data-outcome"), "indeterminate");
+  EXPECT_EQ(page.text(row("bias_z") + "/@data-outcome"), "fail");
+  EXPECT_EQ(page.text(row("scale_x") + "/@data-outcome"), "fail") << "sigma above its limit";
+  EXPECT_EQ(page.text(row("scale_y") + "/@data-outcome"), "no_limit");
+  EXPECT_EQ(page.text(row("gamma12") + "/@data-outcome"), "pass");
+  EXPECT_EQ(page.text(row("bias_x") + "/td[contains(@class,'outcome')]"), "PASS");
+  EXPECT_EQ(page.text(row("bias_y") + "/td[contains(@class,'outcome')]"), "INDETERMINATE");
+  // Margin = limit - |value| - U: bias_x was given 5 µg of room beyond U.
+  EXPECT_NEAR(number_in(page.text(row("bias_x") + "/td[contains(@class,'margin')]")), 5.0, 0.006);
+  EXPECT_LT(number_in(page.text(row("bias_z") + "/td[contains(@class,'margin')]")), 0);
+
+  EXPECT_EQ(page.text("//*[@id='verdict']/@data-outcome"), "fail");
+  const std::string rule = page.text("//p[@id='rule']");
+  EXPECT_NE(rule.find("ILAC-G8"), std::string::npos);
+  EXPECT_NE(rule.find("k = 2"), std::string::npos);
+  EXPECT_NE(rule.find("PASSES when |value| + U is at most the limit"), std::string::npos);
+  EXPECT_NE(rule.find("INDETERMINATE"), std::string::npos);
+}
+
+TEST_F(CertificateOfSimulatedRun, DrawsResidualPlotsPerPositionAndAxis) {
+  const HtmlDocument page(report::render_certificate_html(report::prepare_certificate(request())));
+  EXPECT_EQ(page.count("//figure[@id='residuals-invariant']//svg"), 1u);
+  EXPECT_EQ(page.count("//figure[@id='residuals-axes']//svg"), 1u);
+  const std::string axes = page.text("//figure[@id='residuals-axes']//svg");
+  for (const char* axis : {"x accelerometer", "y accelerometer", "z accelerometer"})
+    EXPECT_NE(axes.find(axis), std::string::npos) << axis << " panel title in the SVG";
+  EXPECT_EQ(page.count("//table[@id='compensation']//tr"), 5u) << "header, b and three rows of M";
+}
+
+TEST_F(CertificateOfSimulatedRun, ReportsTheStoredDiagnosisWhenOneWasRun) {
+  {
+    const HtmlDocument page(report::render_certificate_html(report::prepare_certificate(request())));
+    EXPECT_EQ(page.text("//*[@id='diagnosis']/@data-verdict"), "not_run");
+  }
+  write_text(run_dir_ / "diagnosis.json",
+             json{{"verdict", "explained"}, {"summary", {"bias_drift on z: +12.0 ug/h"}}, {"located", json::array()}}.dump());
+  const HtmlDocument page(report::render_certificate_html(report::prepare_certificate(request())));
+  EXPECT_EQ(page.text("//*[@id='diagnosis']/@data-verdict"), "explained");
+  EXPECT_NE(page.text("//*[@id='diagnosis']").find("bias_drift on z"), std::string::npos);
+}
+
+TEST_F(CertificateOfSimulatedRun, RunsTheDiagnosisOnRequest) {
+  CertificateRequest r = request();
+  r.diagnose = true;
+  const HtmlDocument page(report::render_certificate_html(report::prepare_certificate(r)));
+  // paper9 has no redundant positions, which the diagnosis must say rather than guess.
+  EXPECT_EQ(page.text("//*[@id='diagnosis']/@data-verdict"), "insufficient_redundancy");
+}
+
+TEST_F(CertificateOfSimulatedRun, ImportedRecordingNamesWhatIsNotRecorded) {
+  CertificateRequest r;
+  r.recording_path = (run_dir_ / "recording.csv").string();
+  const report::CertificateInput in = report::prepare_certificate(r);
+  EXPECT_EQ(in.trace.unit_serial, "AU-0042");
+  EXPECT_EQ(in.trace.stand_id, "stand-B2") << "from the recording header";
+  const HtmlDocument page(report::render_certificate_html(in));
+  EXPECT_EQ(page.text("//dl[@id='traceability']/dd[@data-field='operator']"), "(not recorded)");
+  EXPECT_NE(page.text("//ul[@id='remarks']").find("the operator is not recorded"), std::string::npos);
+}
+
+TEST_F(CertificateOfSimulatedRun, RefusesAnUnfinishedRunOrAMissingOne) {
+  write_done_run(state_.path, "20261122T010000Z-AU-0042", rec_, "faulted");
+  CertificateRequest r = request();
+  r.run_id = "20261122T010000Z-AU-0042";
+  try {
+    report::prepare_certificate(r);
+    FAIL() << "a faulted run must not be certified";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("is 'faulted', not done"), std::string::npos) << e.what();
+  }
+  r.run_id = "no-such-run";
+  EXPECT_THROW(report::prepare_certificate(r), std::runtime_error);
+}
+
+TEST(CertificateOfClassic24, LimitedParametersTheProgrammeCannotMeasureMakeItIndeterminate) {
+  // classic24 with the invariant estimator sees no non-orthogonality (u = ±e_i everywhere).
+  TempDir state;
+  // One rigid fixture for the three mountings: what the full-vector fit assumes by default.
+  TruthModel truth = default_truth();
+  truth.stand.mounting_rad[1] = truth.stand.mounting_rad[2] = truth.stand.mounting_rad[0];
+  const Recording rec = simulated_recording("AU-0043", truth, 3, "classic24", 2);
+  write_done_run(state.path, "20261121T230000Z-AU-0043", rec);
+  write_text(state.path / "limits.json", R"({"format": "standcal-limits/1", "unit_types": {"QA-2000": {
+      "parameters": {"bias": {"max_abs": 500}, "scale": {"max_abs": 2000}, "gamma": {"max_abs": 60}}}}})");
+  CertificateRequest r;
+  r.state_dir = state.path.string();
+  r.run_id = "20261121T230000Z-AU-0043";
+  r.limits_path = (state.path / "limits.json").string();
+  const HtmlDocument page(report::render_certificate_html(report::prepare_certificate(r)));
+  EXPECT_EQ(page.text(row("scale_z") + "/@data-outcome"), "pass");
+  EXPECT_EQ(page.text(row("gamma13") + "/@data-outcome"), "not_evaluated");
+  EXPECT_EQ(page.text(row("gamma13") + "/td[contains(@class,'value')]"), "not measured");
+  EXPECT_EQ(page.text("//*[@id='verdict']/@data-outcome"), "indeterminate");
+
+  r.method = "full";  // the full-vector fit sees them through the horizontal components
+  const HtmlDocument full(report::render_certificate_html(report::prepare_certificate(r)));
+  EXPECT_EQ(full.text(row("gamma13") + "/@data-outcome"), "pass");
+  EXPECT_EQ(full.text("//*[@id='verdict']/@data-outcome"), "pass");
+}
+
+TEST_F(CertificateOfSimulatedRun, EscapesTextFromTheRecords) {
+  Recording rec = rec_;
+  rec.unit_serial = "AU<script>";
+  write_done_run(state_.path, "20261122T020000Z-AU-X", rec);
+  CertificateRequest r = request();
+  r.run_id = "20261122T020000Z-AU-X";
+  const std::string html = report::render_certificate_html(report::prepare_certificate(r));
+  EXPECT_EQ(html.find("<script>"), std::string::npos);
+  EXPECT_EQ(HtmlDocument(html).text("//dl[@id='traceability']/dd[@data-field='unit_serial']"), "AU<script>");
+}
+
+}  // namespace
+}  // namespace standcal::test

@@ -1,0 +1,202 @@
+// `run.diagnose` through the real standcald process on the simulated backend: errors for
+// runs that cannot be diagnosed, the diagnosis of finished runs (same shape as
+// `standcal diagnose --json`), the socket thread staying responsive while a diagnosis is
+// computed, and `standcal run diagnose --report / --run-proposed`.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "calib/diagnosis.hpp"
+#include "calib/recording.hpp"
+#include "daemon_process.hpp"
+
+using namespace standcal;
+using namespace std::chrono_literals;
+using nlohmann::json;
+using protocol::Client;
+using protocol::RpcError;
+using test::DaemonProcess;
+using test::TempDir;
+
+namespace {
+
+std::string socket_of(const TempDir& d) { return d.path() + "/standcald.sock"; }
+
+json wait_finished(Client& c, const std::string& run_id) {
+  const auto deadline = std::chrono::steady_clock::now() + 120s;
+  json s;
+  while (std::chrono::steady_clock::now() < deadline) {
+    s = c.call("run.status", {{"run_id", run_id}});
+    const std::string st = s["state"];
+    if (st == "done" || st == "faulted" || st == "aborted" || st == "interrupted") return s;
+    std::this_thread::sleep_for(20ms);
+  }
+  ADD_FAILURE() << "run " << run_id << " did not finish; last status " << s.dump();
+  return s;
+}
+
+std::pair<int, std::string> error_of(const std::function<void()>& call) {
+  try {
+    call();
+  } catch (const RpcError& e) {
+    return {e.code(), e.what()};
+  }
+  return {0, ""};
+}
+
+// Sixteen distinct poses on one mount (docs/diagnosis.md's diagnostic programme, one pass):
+// enough redundancy for the full-vector baseline and the catalog.
+json diagnostic_positions() {
+  json p = json::array();
+  for (double a1 : {0.0, 60.0, 120.0, 180.0, 240.0, 300.0})
+    p.push_back({{"alpha1_deg", a1}, {"alpha2_deg", 0.0}});
+  for (double a2 : {45.0, 90.0, 135.0, 225.0, 270.0, 315.0})
+    p.push_back({{"alpha1_deg", 0.0}, {"alpha2_deg", a2}});
+  for (auto [a1, a2] : {std::pair{45.0, 90.0}, {45.0, 270.0}, {30.0, 60.0}, {330.0, 120.0}})
+    p.push_back({{"alpha1_deg", a1}, {"alpha2_deg", a2}});
+  return p;
+}
+
+std::string run_to_end(Client& c, const json& program, const std::string& unit, double dwell_s) {
+  const std::string id = c.call("run.start", {{"program", program},
+                                              {"unit_serial", unit},
+                                              {"dwell_s", dwell_s},
+                                              {"settle_s", 1}})["run_id"];
+  const json s = wait_finished(c, id);
+  EXPECT_EQ(s["state"], "done") << s.dump();
+  return id;
+}
+
+std::string run_cli(const std::string& args) {
+  const std::string cmd = std::string(STANDCAL_CLI_PATH) + " " + args + " 2>&1";
+  std::FILE* out = ::popen(cmd.c_str(), "r");
+  std::string text;
+  char buf[4096];
+  while (std::size_t n = std::fread(buf, 1, sizeof buf, out)) text.append(buf, n);
+  const int rc = ::pclose(out);
+  if (rc != 0) throw std::runtime_error("`" + cmd + "` failed:\n" + text);
+  return text;
+}
+
+const std::set<std::string> kVerdicts{"consistent", "explained", "unexplained",
+                                      "insufficient_redundancy", "ambiguous"};
+
+}  // namespace
+
+TEST(DaemonDiagnose, RunsThatCannotBeDiagnosedAreClearErrors) {
+  TempDir dir;
+  auto daemon = DaemonProcess::sim(dir.path(), 300);
+  Client c(socket_of(dir));
+  const auto [code, message] = error_of([&] {
+    c.call("run.diagnose", {{"run_id", "20990101T000000Z-NOPE"}});
+  });
+  EXPECT_EQ(code, -32006);
+  EXPECT_NE(message.find("20990101T000000Z-NOPE"), std::string::npos) << message;
+  EXPECT_EQ(error_of([&] { c.call("run.diagnose"); }).first, -32602);  // run_id is required
+  EXPECT_EQ(error_of([&] {
+              c.call("run.diagnose", {{"run_id", "x"}, {"reprot", true}});
+            }).first,
+            -32602);
+  EXPECT_EQ(error_of([&] { c.call("run.diagnose", {{"run_id", 7}}); }).first, -32602);
+  // A run in progress: its recording is still growing.
+  const std::string id = c.call(
+      "run.start", {{"program", "paper9"}, {"unit_serial", "AU-D0"}, {"dwell_s", 600}})["run_id"];
+  const auto [busy_code, busy_message] = error_of([&] {
+    c.call("run.diagnose", {{"run_id", id}});
+  });
+  EXPECT_EQ(busy_code, -32007);
+  EXPECT_NE(busy_message.find(id), std::string::npos) << busy_message;
+  c.call("run.abort", {{"run_id", id}});
+}
+
+TEST(DaemonDiagnose, FinishedRunHasAVerdictInTheShapeOfTheCli) {
+  TempDir dir;
+  auto daemon = DaemonProcess::sim(dir.path(), 300);
+  Client c(socket_of(dir));
+  const std::string id = run_to_end(c, diagnostic_positions(), "AU-D1", 10);
+  const json d = c.call("run.diagnose", {{"run_id", id}}, 300s);
+  ASSERT_TRUE(d["verdict"].is_string()) << d.dump();
+  EXPECT_TRUE(kVerdicts.count(d["verdict"].get<std::string>())) << d["verdict"];
+  EXPECT_EQ(d["method"], "full");  // 16 distinct positions: the full-vector baseline has redundancy
+  EXPECT_TRUE(d["baseline"]["chi2_dof"].is_number());
+  EXPECT_TRUE(d["final"]["parameters"].is_object());
+  EXPECT_TRUE(d["findings"].is_array());
+  EXPECT_EQ(d["run_id"], id);
+  EXPECT_EQ(d["unit_serial"], "AU-D1");
+  EXPECT_FALSE(d.contains("report_html"));
+  // The same answer as the library on the stored recording (what `standcal diagnose --json`
+  // prints).
+  const json local = diagnose_to_json(diagnose_recording(read_recording(d["recording_path"])));
+  EXPECT_EQ(d["verdict"], local["verdict"]);
+  EXPECT_EQ(d["baseline"], local["baseline"]);
+  EXPECT_EQ(d["findings"], local["findings"]);
+  // With the report: a self-contained page with the figures.
+  const json r = c.call("run.diagnose", {{"run_id", id}, {"report", true}}, 300s);
+  ASSERT_TRUE(r["report_html"].is_string()) << r.value("report_note", "");
+  EXPECT_NE(r["report_html"].get<std::string>().find("<svg"), std::string::npos);
+}
+
+TEST(DaemonDiagnose, TheSocketAnswersWhileADiagnosisIsComputed) {
+  TempDir dir;
+  auto daemon = DaemonProcess::sim(dir.path(), 300);
+  Client c(socket_of(dir));
+  const std::string id = run_to_end(c, "paper9", "AU-D2", 30);
+  // Both requests in one write: `status` is answered on the socket thread at once, the
+  // diagnosis when the worker is done, so the status answer comes first.
+  c.send_raw(
+      json{
+          {"jsonrpc", "2.0"}, {"id", 101}, {"method", "run.diagnose"}, {"params", {{"run_id", id}}}}
+          .dump() +
+      "\n" + json{{"jsonrpc", "2.0"}, {"id", 102}, {"method", "status"}}.dump() + "\n");
+  std::vector<json> answers;
+  const auto deadline = std::chrono::steady_clock::now() + 300s;
+  while (answers.size() < 2 && std::chrono::steady_clock::now() < deadline) {
+    auto m = c.next_message(1s);
+    if (m && m->contains("id")) answers.push_back(*m);
+  }
+  ASSERT_EQ(answers.size(), 2u);
+  EXPECT_EQ(answers[0]["id"], 102);
+  EXPECT_EQ(answers[1]["id"], 101);
+  EXPECT_EQ(answers[1]["result"]["verdict"], "insufficient_redundancy") << answers[1].dump();
+}
+
+TEST(DaemonDiagnose, CliWritesTheReportAndRunsTheProposedPositions) {
+  TempDir dir;
+  auto daemon = DaemonProcess::sim(dir.path(), 300);
+  Client c(socket_of(dir));
+  // paper9 has no redundancy: the diagnosis proposes positions to add.
+  const std::string id = run_to_end(c, "paper9", "AU-D3", 20);
+  const std::string report = dir.path() + "/report.html";
+  const std::string text = run_cli("run diagnose " + id + " --json --report " + report +
+                                   " --run-proposed --dwell 5 --socket " + socket_of(dir));
+  const json d = json::parse(text.substr(text.find('{')));
+  EXPECT_EQ(d["verdict"], "insufficient_redundancy");
+  ASSERT_FALSE(d["proposed_positions"].empty());
+  std::ifstream in(report);
+  std::stringstream html;
+  html << in.rdbuf();
+  EXPECT_NE(html.str().find("<svg"), std::string::npos);
+  EXPECT_NE(html.str().find("Proposed positions"), std::string::npos);
+  // The follow-up run: the proposed positions, same unit, named after the run it follows.
+  const std::string follow = d["follow_up_run"]["run_id"];
+  EXPECT_EQ(d["follow_up_run"]["positions"], d["proposed_positions"].size());
+  const json s = wait_finished(c, follow);
+  EXPECT_EQ(s["state"], "done") << s.dump();
+  EXPECT_EQ(s["unit_serial"], "AU-D3");
+  EXPECT_EQ(s["program"], "follow-up of " + id);
+  const Recording rec = read_recording(s["recording_path"]);
+  ASSERT_FALSE(rec.samples.empty());
+  // (the stand may write 270 deg as -90 deg: compare modulo a turn)
+  EXPECT_NEAR(std::remainder(rec.samples.front().alpha1_cmd_deg -
+                                 d["proposed_positions"][0]["alpha1_deg"].get<double>(),
+                             360.0),
+              0, 1e-9);
+  EXPECT_NEAR(std::remainder(rec.samples.front().alpha2_cmd_deg -
+                                 d["proposed_positions"][0]["alpha2_deg"].get<double>(),
+                             360.0),
+              0, 1e-9);
+}

@@ -1,0 +1,154 @@
+// `standcal import`, `history` and `records` as an operator runs them: simulated
+// recordings written to files, imported by the real CLI into a database, listed back.
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <fstream>
+#include <iterator>
+
+#include "calib/recording.hpp"
+#include "tests/records/records_test_support.hpp"
+
+namespace standcal::records {
+namespace {
+
+struct CliResult {
+  int exit_code = -1;
+  std::string out;  // stdout and stderr
+};
+
+CliResult standcal_cli(const std::string& args) {
+  CliResult r;
+  FILE* p = ::popen((std::string(STANDCAL_CLI_PATH) + " " + args + " 2>&1").c_str(), "r");
+  if (p == nullptr) return r;
+  std::array<char, 4096> buf{};
+  for (std::size_t n; (n = std::fread(buf.data(), 1, buf.size(), p)) > 0;) r.out.append(buf.data(), n);
+  const int status = ::pclose(p);
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+class ImportTest : public ::testing::Test {
+ protected:
+  // A recording of unit `serial` on disk; `bias_x_shift_ug` ages the unit.
+  std::string recording(const std::string& name, const std::string& serial, std::uint64_t seed,
+                        double bias_x_shift_ug = 0) {
+    TruthModel truth = default_truth();
+    truth.unit.bias_g.x() += bias_x_shift_ug * kUg;
+    const std::string path = dir_.path() + "/" + name;
+    write_recording(test::simulate_calibration(truth, serial, seed), path);
+    return path;
+  }
+  test::TempDir dir_;
+  std::string db_ = "sqlite://" + dir_.path() + "/lab.sqlite";
+};
+
+TEST_F(ImportTest, ImportReFitsStoresTraceabilityAndIsIdempotent) {
+  const std::string a = recording("a.csv", "AU-0100", 1);
+  const std::string b = recording("b.csv", "AU-0101", 2);
+  CliResult r = standcal_cli("import " + a + " " + b + " --db " + db_ +
+                             " --unit-type NAV-3 --stand-id old-bench --started 2025-06-01T10:00:00Z");
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  EXPECT_NE(r.out.find("2 of 2 recordings imported"), std::string::npos) << r.out;
+
+  auto db = open_and_migrate(db_);
+  const auto all = db->list({});
+  ASSERT_EQ(all.size(), 2u);
+  const CalibrationRecord rec = db->history("AU-0100").at(0);
+  EXPECT_EQ(rec.unit_type, "NAV-3");
+  EXPECT_EQ(rec.stand_id, "old-bench");
+  EXPECT_EQ(rec.origin, "import");
+  EXPECT_EQ(rec.started_utc, "2025-06-01T10:00:00Z");
+  EXPECT_EQ(rec.method, "joint");
+  EXPECT_EQ(rec.program_name, "paper9");
+  EXPECT_EQ(rec.recording_path, a);
+  EXPECT_EQ(rec.g_source, "recording header (g_local_mps2)");
+  EXPECT_NEAR(rec.g_local_mps2, default_truth().g_local_mps2, 1e-9);
+  // The stored result is the fit `standcal fit --json` gives for the same file.
+  const nlohmann::json fit = fit_to_json(fit_invariant_joint(average_positions(read_recording(a))));
+  EXPECT_EQ(rec.result["parameters"], fit["parameters"]);
+  EXPECT_EQ(rec.result["chi2"], fit["chi2"]);
+
+  r = standcal_cli("import " + a + " " + b + " --db " + db_ + " --started 2025-06-01T10:00:00Z");
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  EXPECT_NE(r.out.find("0 of 2 recordings imported"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("already in the database"), std::string::npos) << r.out;
+  EXPECT_EQ(db->list({}).size(), 2u);
+}
+
+TEST_F(ImportTest, ADaemonRecordingKeepsItsRunIdStartAndStand) {
+  Recording rec = test::simulate_calibration(default_truth(), "AU-0200", 3);
+  rec.set_header("run_id", "20261121T223638Z-AU-0200");
+  rec.set_header("started_utc", "2026-11-21T22:36:38Z");
+  rec.set_header("stand_id", "bench-7");
+  const std::string path = dir_.path() + "/recording.csv";
+  write_recording(rec, path);
+  const CliResult r = standcal_cli("import " + path + " --db " + db_);
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  const auto stored = open_and_migrate(db_)->get("20261121T223638Z-AU-0200");
+  ASSERT_TRUE(stored.has_value()) << r.out;
+  EXPECT_EQ(stored->started_utc, "2026-11-21T22:36:38Z");
+  EXPECT_EQ(stored->stand_id, "bench-7");
+}
+
+TEST_F(ImportTest, HistoryAndRecordsShowAnAgeingUnitAndFilterByDate) {
+  const double shifts_ug[] = {0, 0, 60};
+  for (int i = 0; i < 3; ++i) {
+    const std::string path = recording("cal" + std::to_string(i) + ".csv", "AU-0300",
+                                       static_cast<std::uint64_t>(10 + i), shifts_ug[i]);
+    const CliResult r = standcal_cli("import " + path + " --db " + db_ + " --started 2026-0" +
+                                     std::to_string(i + 1) + "-10");
+    ASSERT_EQ(r.exit_code, 0) << r.out;
+  }
+  CliResult h = standcal_cli("history AU-0300 --db " + db_);
+  ASSERT_EQ(h.exit_code, 0) << h.out;
+  EXPECT_NE(h.out.find("unit AU-0300: 3 calibrations"), std::string::npos) << h.out;
+  EXPECT_NE(h.out.find("AGEING"), std::string::npos) << h.out;
+
+  h = standcal_cli("history AU-0300 --json --db " + db_);
+  ASSERT_EQ(h.exit_code, 0) << h.out;
+  const nlohmann::json j = nlohmann::json::parse(h.out);
+  EXPECT_EQ(j["calibrations"].size(), 3u);
+  const nlohmann::json& bias_x_changes = j["parameters"][0]["changes"];
+  ASSERT_EQ(bias_x_changes.size(), 2u);
+  EXPECT_FALSE(bias_x_changes[0]["ageing"].get<bool>());
+  EXPECT_TRUE(bias_x_changes[1]["ageing"].get<bool>());
+  EXPECT_NEAR(bias_x_changes[1]["delta"].get<double>(), 60, 10);
+
+  // --plot: the page plots every parameter and names the drifted one.
+  const std::string page = dir_.path() + "/history.html";
+  ASSERT_EQ(standcal_cli("history AU-0300 --db " + db_ + " --plot " + page).exit_code, 0);
+  std::ifstream in(page);
+  const std::string html((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::size_t svgs = 0;
+  for (auto at = html.find("<svg"); at != std::string::npos; at = html.find("<svg", at + 1)) ++svgs;
+  EXPECT_EQ(svgs, 9u);
+  EXPECT_NE(html.find("AU-0300"), std::string::npos);
+  EXPECT_NE(html.find("bias_x"), std::string::npos);
+
+  const CliResult list = standcal_cli("records --db " + db_ + " --since 2026-02-01 --until 2026-03-10");
+  ASSERT_EQ(list.exit_code, 0) << list.out;
+  EXPECT_NE(list.out.find("2026-02-10T00:00:00Z"), std::string::npos) << list.out;
+  EXPECT_NE(list.out.find("2026-03-10T00:00:00Z"), std::string::npos) << list.out;
+  EXPECT_EQ(list.out.find("2026-01-10"), std::string::npos) << list.out;
+  EXPECT_NE(list.out.find("2 calibrations"), std::string::npos) << list.out;
+
+  const CliResult none = standcal_cli("history AU-9999 --db " + db_);
+  EXPECT_EQ(none.exit_code, 1);
+  EXPECT_NE(none.out.find("no calibrations of unit AU-9999"), std::string::npos) << none.out;
+}
+
+TEST_F(ImportTest, ABadRecordingIsNamedAndNothingIsHalfStored) {
+  const std::string bad = dir_.path() + "/bad.csv";
+  std::FILE* f = std::fopen(bad.c_str(), "w");
+  std::fputs("# format: standcal-recording/1\nnot,a,recording\n1,2\n", f);
+  std::fclose(f);
+  const CliResult r = standcal_cli("import " + bad + " --db " + db_);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.out.find("bad.csv"), std::string::npos) << r.out;
+  EXPECT_TRUE(open_and_migrate(db_)->list({}).empty());
+}
+
+}  // namespace
+}  // namespace standcal::records

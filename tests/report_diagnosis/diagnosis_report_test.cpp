@@ -1,0 +1,302 @@
+// The diagnosis report (report/diagnosis): the per-position view it draws, the figures,
+// the page, and `standcal diagnose --report`. Recordings come from the project's
+// simulator with one effect of the catalog (docs/diagnosis.md's diagnostic programme).
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "calib/averaging.hpp"
+#include "calib/diagnosis.hpp"
+#include "calib/invariant_estimator.hpp"
+#include "calib/programs.hpp"
+#include "calib/simulator.hpp"
+#include "report/diagnosis/diagnosis_report.hpp"
+#include "report/diagnosis/svg_compact.hpp"
+
+namespace standcal {
+namespace {
+
+// docs/diagnosis.md's diagnostic32: 16 distinct positions, forward then in reverse.
+Program diagnostic32() {
+  std::vector<std::pair<double, double>> a;
+  for (double a1 : {0.0, 60.0, 120.0, 180.0, 240.0, 300.0}) a.emplace_back(a1, 0.0);
+  for (double a2 : {45.0, 90.0, 135.0, 225.0, 270.0, 315.0}) a.emplace_back(0.0, a2);
+  a.insert(a.end(), {{45.0, 90.0}, {45.0, 270.0}, {30.0, 60.0}, {330.0, 120.0}});
+  Program p;
+  p.name = "diagnostic32";
+  for (int pass = 0; pass < 2; ++pass)
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      const auto& [a1, a2] = pass == 0 ? a[i] : a[a.size() - 1 - i];
+      ProgramPosition pos;
+      pos.alpha1_deg = a1;
+      pos.alpha2_deg = a2;
+      p.positions.push_back(pos);
+    }
+  return p;
+}
+
+Recording simulate(const Program& program, const std::string& effect, const std::string& axis,
+                   double value, std::uint64_t seed, double tau_s = 0,
+                   double temp_rate_c_per_h = 0) {
+  SimulationRequest req;
+  req.program = program;
+  req.truth = default_truth();
+  req.truth.temperature.rate_c_per_h = temp_rate_c_per_h;
+  if (!effect.empty()) req.truth.extra_physics.push_back({effect, axis, value, tau_s});
+  req.seed = seed;
+  req.timing.dwell_s = 10;
+  req.timing.settle_s = 2;
+  return simulate_run(req);
+}
+
+std::size_t count(const std::string& text, const std::string& what) {
+  std::size_t n = 0;
+  for (std::size_t at = text.find(what); at != std::string::npos;
+       at = text.find(what, at + what.size()))
+    ++n;
+  return n;
+}
+
+double rms(const std::vector<double>& v) {
+  double s = 0;
+  for (double x : v) s += x * x;
+  return std::sqrt(s / static_cast<double>(v.size()));
+}
+
+TEST(DiagnosisReport, K2OnZPredictedSignatureMatchesTheDiagnosisRefit) {
+  const Recording rec = simulate(diagnostic32(), "scale_nonlinearity_k2", "z", -34, 31);
+  const Diagnosis d = diagnose_recording(rec);
+  ASSERT_EQ(d.verdict, "explained");
+  const std::vector<report::ResidualPoint> points = report::residual_points(d, rec);
+  ASSERT_EQ(points.size(), 32u);
+  // The report rebuilds the finding's effect from its value and model.md's
+  // parametrisation; the part the baseline cannot absorb must be what the diagnosis's
+  // own refit removed from the residuals (before - after), position by position.
+  std::vector<double> predicted_z, predicted_x;
+  for (const report::ResidualPoint& p : points) {
+    ASSERT_EQ(p.before_ug.size(), 3u);
+    for (std::size_t c = 0; c < 3; ++c)
+      EXPECT_NEAR(p.predicted_ug[c], p.before_ug[c] - p.after_ug[c], 0.1 * p.before_sigma_ug[c])
+          << "position " << p.pos << " component " << c;
+    predicted_z.push_back(p.predicted_ug[2]);
+    predicted_x.push_back(p.predicted_ug[0]);
+  }
+  // K2 acts on the z output: its signature is there, several standard errors big.
+  EXPECT_GT(rms(predicted_z), 2 * points.front().before_sigma_ug[2]);
+  EXPECT_LT(rms(predicted_x), 0.2 * rms(predicted_z));
+}
+
+// A stand effect acts through the geometry (the unit sits at the true angle, the model
+// assumes the reading): the report's prediction must still match the diagnosis's refit.
+TEST(DiagnosisReport, AngleSensorErrorPredictionMatchesTheDiagnosisRefit) {
+  SimulationRequest req;
+  req.program = diagnostic32();
+  req.truth = default_truth();
+  req.truth.extra_physics.push_back({"angle_sensor_error", "alpha1", 8, 0, 30});
+  req.seed = 51;
+  req.timing.dwell_s = 10;
+  req.timing.settle_s = 2;
+  const Recording rec = simulate_run(req);
+  const Diagnosis d = diagnose_recording(rec);
+  ASSERT_FALSE(d.findings.empty());
+  ASSERT_EQ(d.findings.front().effect, "angle_sensor_error");
+  double largest = 0;
+  for (const report::ResidualPoint& p : report::residual_points(d, rec))
+    for (std::size_t c = 0; c < 3; ++c) {
+      EXPECT_NEAR(p.predicted_ug[c], p.before_ug[c] - p.after_ug[c], 0.2 * p.before_sigma_ug[c])
+          << "position " << p.pos << " component " << c;
+      largest = std::max(largest, std::abs(p.predicted_ug[c]) / p.before_sigma_ug[c]);
+    }
+  EXPECT_GT(largest, 2.0);  // there is a signature to draw
+}
+
+TEST(DiagnosisReport, PageHasThePlotsTheTablesAndNoExternalFiles) {
+  // The unit warms by 2 degC over the run: the page has panels against temperature.
+  const Recording rec = simulate(diagnostic32(), "scale_nonlinearity_k2", "z", -34, 31, 0, 10);
+  const Diagnosis d = diagnose_recording(rec);
+  ASSERT_EQ(d.verdict, "explained");
+  const std::string html = report::diagnosis_html(d, rec);
+  EXPECT_EQ(count(html, "<svg"), 3u);  // one figure per output axis
+  for (const char* title : {"z output: residuals vs alpha1", "z output: residuals vs alpha2",
+                            "z output: residuals vs u_z", "z output: residuals vs time",
+                            "z output: residuals vs temperature", "x output: residuals vs time"})
+    EXPECT_EQ(count(html, title), 1u) << title;
+  EXPECT_EQ(count(html, "before (baseline model)"), 15u);  // the legend of every panel
+  EXPECT_EQ(count(html, "predicted by the findings"), 15u);
+  // Small enough to travel over the daemon's socket (run.diagnose with report: true).
+  EXPECT_LT(html.size(), 768u * 1024u);
+  EXPECT_NE(html.find("scale_nonlinearity_k2"), std::string::npos);
+  EXPECT_NE(html.find("Verdict: explained"), std::string::npos);
+  EXPECT_NE(html.find("class=\"hot\""), std::string::npos);  // located positions in the table
+  EXPECT_EQ(html.find("<?xml"), std::string::npos);          // SVG inlined, not a document
+  EXPECT_EQ(html.find("src="), std::string::npos);           // self-contained
+  EXPECT_EQ(html.find("href="), std::string::npos);
+}
+
+TEST(DiagnosisReport, LocatedPositionsAreTheOnesBeyondThreeSigma) {
+  const Recording rec = simulate(diagnostic32(), "scale_nonlinearity_k2", "z", -34, 31);
+  const Diagnosis d = diagnose_recording(rec);
+  const auto points = report::residual_points(d, rec);
+  const auto figures = report::residual_figures(d, points);
+  ASSERT_EQ(figures.size(), 3u);
+  const plot::Panel& z_time = figures[2].panels[3];
+  ASSERT_EQ(z_time.title.rfind("z output: residuals vs time", 0), 0u);
+  std::size_t beyond = 0;
+  for (const auto& p : points)
+    beyond += std::abs(p.before_ug[2]) > 3 * p.before_sigma_ug[2] ? 1 : 0;
+  ASSERT_GT(beyond, 0u) << "this recording's z residuals carry the mismatch";
+  ASSERT_EQ(z_time.highlight.size(), beyond);
+  for (const plot::Span& s : z_time.highlight) {  // each span covers a located position's dwell
+    bool covers = false;
+    for (const auto& p : points)
+      covers = covers || (std::abs(p.before_ug[2]) > 3 * p.before_sigma_ug[2] &&
+                          s.x_from <= p.t_start_s && s.x_to >= p.t_end_s);
+    EXPECT_TRUE(covers) << s.x_from << " .. " << s.x_to;
+  }
+}
+
+TEST(DiagnosisReport, CleanRecordingDrawsNoPrediction) {
+  const Recording rec = simulate(diagnostic32(), "", "", 0, 21);
+  const Diagnosis d = diagnose_recording(rec);
+  ASSERT_EQ(d.verdict, "consistent");
+  const auto figures = report::residual_figures(d, report::residual_points(d, rec));
+  ASSERT_EQ(figures.size(), 3u);
+  ASSERT_EQ(figures[0].panels.size(), 4u);  // alpha1, alpha2, u_x, time: the temperature stayed put
+  for (const plot::Panel& p : figures[0].panels)
+    EXPECT_EQ(p.series.size(), 2u) << p.title;  // before, after
+  const std::string html = report::diagnosis_html(d, rec);
+  EXPECT_EQ(html.find("predicted by the findings"), std::string::npos);
+  EXPECT_NE(html.find("No finding."), std::string::npos);
+  EXPECT_NE(html.find("no panel against temperature"), std::string::npos);
+}
+
+TEST(DiagnosisReport, Paper9ProposesPositions) {
+  const Recording rec = simulate(paper9(), "scale_nonlinearity_k2", "z", -34, 5);
+  const Diagnosis d = diagnose_recording(rec);
+  ASSERT_EQ(d.verdict, "insufficient_redundancy");
+  const std::string html = report::diagnosis_html(d, rec);
+  EXPECT_NE(html.find("Proposed positions"), std::string::npos);
+  EXPECT_EQ(count(html, "<svg"), 3u);
+}
+
+// A diagnosis whose baseline is the invariant joint fit (one residual per position, the
+// projection L) is drawn per projection, without a gravity-component panel.
+TEST(DiagnosisReport, InvariantBaselineIsDrawnInTheProjection) {
+  const Recording rec = simulate(paper9(), "", "", 0, 6);
+  Diagnosis d;
+  d.verdict = "insufficient_redundancy";
+  d.method = "joint";
+  d.source = rec.source;
+  d.baseline = fit_invariant_joint(average_positions(rec));
+  d.final_fit = d.baseline;
+  EXPECT_EQ(report::component_names(d), std::vector<std::string>{"L"});
+  const auto figures = report::residual_figures(d, report::residual_points(d, rec));
+  ASSERT_EQ(figures.size(), 1u);
+  ASSERT_EQ(figures[0].panels.size(), 3u);  // alpha1, alpha2, time
+  EXPECT_EQ(figures[0].panels[0].title.rfind("invariant projection L: residuals vs alpha1", 0), 0u);
+  EXPECT_EQ(count(report::diagnosis_html(d, rec), "<svg"), 1u);
+}
+
+TEST(DiagnosisReport, SettlingTransientFigureFollowsTheRawSamples) {
+  const Recording rec = simulate(diagnostic32(), "settling_transient", "y", 60, 15, 4);
+  const Diagnosis d = diagnose_recording(rec);
+  const auto figures = report::settling_figures(d, rec);
+  ASSERT_EQ(figures.size(), 1u);
+  const plot::Panel& panel = figures[0].panels.at(0);
+  ASSERT_EQ(panel.series.size(), 2u);
+  const plot::Series& data = panel.series[0];
+  const plot::Series& predicted = panel.series[1];
+  ASSERT_EQ(data.y.size(), predicted.y.size());
+  ASSERT_GT(data.y.size(), 10u);
+  // The binned samples follow the predicted decay: correlation near one.
+  double mx = 0, my = 0;
+  for (std::size_t i = 0; i < data.y.size(); ++i) {
+    mx += data.y[i];
+    my += predicted.y[i];
+  }
+  mx /= static_cast<double>(data.y.size());
+  my /= static_cast<double>(data.y.size());
+  double sxy = 0, sxx = 0, syy = 0;
+  for (std::size_t i = 0; i < data.y.size(); ++i) {
+    sxy += (data.y[i] - mx) * (predicted.y[i] - my);
+    sxx += (data.y[i] - mx) * (data.y[i] - mx);
+    syy += (predicted.y[i] - my) * (predicted.y[i] - my);
+  }
+  EXPECT_GT(sxy / std::sqrt(sxx * syy), 0.9);
+  EXPECT_GT(data.y.front(), 10.0);  // right after arrival the samples sit well above their mean
+}
+
+TEST(DiagnosisReport, ADiagnosisOfAnotherRecordingIsRejected) {
+  const Diagnosis d = diagnose_recording(simulate(diagnostic32(), "", "", 0, 22));
+  const Recording other = simulate(paper9(), "", "", 0, 22);
+  EXPECT_THROW(report::residual_points(d, other), std::runtime_error);
+}
+
+TEST(DiagnosisReport, CliWritesTheReport) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
+                                    ("standcal-report-test-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::string rec_path = (dir / "k2.csv").string(), html_path = (dir / "k2.html").string();
+  write_recording(simulate(diagnostic32(), "scale_nonlinearity_k2", "z", -34, 31), rec_path);
+  const std::string cmd = std::string(STANDCAL_CLI) + " diagnose " + rec_path + " --report " +
+                          html_path + " > " + (dir / "out.txt").string() + " 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0);
+  std::ifstream in(html_path);
+  std::stringstream html;
+  html << in.rdbuf();
+  EXPECT_EQ(count(html.str(), "<svg"), 3u);
+  EXPECT_NE(html.str().find("Verdict: explained"), std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
+// Everything a reader sees in the text of a drawing, in order.
+std::vector<std::string> text_contents(const std::string& svg) {
+  std::vector<std::string> out;
+  for (std::size_t at = svg.find("<tspan"); at != std::string::npos;
+       at = svg.find("<tspan", at + 1)) {
+    const std::size_t from = svg.find('>', at) + 1;
+    out.push_back(svg.substr(from, svg.find('<', from) - from));
+  }
+  return out;
+}
+
+TEST(SvgCompact, SameTextAndStrokesInAThirdOfTheBytes) {
+  const Recording rec = simulate(diagnostic32(), "scale_nonlinearity_k2", "z", -34, 31);
+  const Diagnosis d = diagnose_recording(rec);
+  const auto figures = report::residual_figures(d, report::residual_points(d, rec));
+  const std::string svg = plot::render_svg(figures[2]);
+  const std::string small = report::compact_svg(svg);
+  EXPECT_LT(small.size() * 3, svg.size());
+  EXPECT_EQ(text_contents(small), text_contents(svg));
+  EXPECT_EQ(small.substr(0, small.find("<svg")),
+            svg.substr(0, svg.find("<svg")));  // prologue untouched
+  // Every stroked segment survives: as many sub-path starts as stroked polylines before.
+  std::size_t polylines = 0, moves = 0;
+  for (std::size_t at = svg.find("<polyline"); at != std::string::npos;
+       at = svg.find("<polyline", at + 1)) {
+    const std::string tag = svg.substr(at, svg.find('>', at) - at);
+    polylines += tag.find("fill=\"none\"") != std::string::npos ? 1 : 0;
+  }
+  for (std::size_t at = small.find(" d=\""); at != std::string::npos;
+       at = small.find(" d=\"", at + 1))
+    for (std::size_t i = at + 4; small[i] != '"'; ++i) moves += small[i] == 'M' ? 1 : 0;
+  EXPECT_EQ(moves, polylines);
+  for (std::size_t at = small.find("<polyline"); at != std::string::npos;
+       at = small.find("<polyline", at + 1))
+    EXPECT_EQ(small.substr(at, small.find('>', at) - at).find("fill=\"none\""),
+              std::string::npos);  // all merged
+  EXPECT_EQ(report::compact_svg("<svg><text>a  1.000000 b</text></svg>"),
+            "<svg><text>a  1.000000 b</text></svg>");
+  EXPECT_EQ(
+      report::compact_svg("<svg>\n  <rect\n    x=\"1.504000\"\n    y=\"2.000000\"\n  />\n</svg>"),
+      "<svg><rect x=\"1.5\" y=\"2\"/></svg>");
+}
+
+}  // namespace
+}  // namespace standcal

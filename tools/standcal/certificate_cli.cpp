@@ -1,0 +1,76 @@
+// `standcal certificate`: the calibration certificate of a finished run (or of an imported
+// recording) as one self-contained HTML page (docs/certificate.md).
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+#include "report/certificate/certificate.hpp"
+#include "tools/standcal/commands.hpp"
+
+namespace standcal::cli {
+
+namespace {
+
+struct CertificateCliOptions {
+  report::CertificateRequest request;
+  std::string output;
+};
+
+bool ends_with(const std::string& s, const std::string& tail) {
+  return s.size() >= tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
+}
+
+void write_certificate(const std::string& path, const std::string& html) {
+  const std::string partial = path + ".partial";
+  {
+    std::ofstream out(partial, std::ios::binary);
+    out << html;
+    if (!out.flush()) throw std::runtime_error(path + ": could not write the certificate");
+  }
+  std::error_code ec;
+  std::filesystem::rename(partial, path, ec);
+  if (ec) throw std::runtime_error(path + ": could not write the certificate (" + ec.message() + ")");
+}
+
+void run_certificate(const CertificateCliOptions& o) {
+  if (ends_with(o.output, ".pdf"))
+    throw std::runtime_error(o.output + ": PDF is not produced; write .html and print it to PDF from a browser");
+  const report::CertificateInput input = report::prepare_certificate(o.request);
+  write_certificate(o.output, report::render_certificate_html(input));
+  const std::string verdict =
+      input.conformity ? records::outcome_name(input.conformity->overall) : std::string("no limits applied");
+  std::fprintf(stderr, "certificate for %s written to %s (%s)\n",
+               input.trace.unit_serial.empty() ? "(no serial)" : input.trace.unit_serial.c_str(), o.output.c_str(),
+               verdict.c_str());
+}
+
+void add_certificate_commands(CLI::App& app) {
+  auto opts = std::make_shared<CertificateCliOptions>();
+  opts->request.state_dir = "/var/lib/standcald";  // the daemon's default (docs/daemon.md)
+  CLI::App* cmd = app.add_subcommand("certificate", "write the calibration certificate of a run (HTML)");
+  cmd->add_option("run_id", opts->request.run_id, "run id (STATE/runs/RUN_ID); or use --recording");
+  cmd->add_option("--state-dir", opts->request.state_dir, "the daemon's state directory")
+      ->capture_default_str();
+  cmd->add_option("--recording", opts->request.recording_path,
+                  "certify an imported / offline recording (standcal-recording/1 CSV) instead of a run")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("-o,--output", opts->output, "certificate to write (.html)")->required();
+  cmd->add_option("--limits", opts->request.limits_path, "acceptance limits (standcal-limits/1 JSON)")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--unit-type", opts->request.unit_type, "which unit type's limits apply");
+  cmd->add_option("--method", opts->request.method, "certified estimator: joint (invariant) | full")
+      ->check(CLI::IsMember({"joint", "full"}))
+      ->capture_default_str();
+  cmd->add_flag("--diagnose", opts->request.diagnose,
+                "run the model-mismatch diagnosis now (else RUN_DIR/diagnosis.json is used if present)");
+  cmd->callback([opts] { run_certificate(*opts); });
+}
+
+const bool registered = register_command_group(add_certificate_commands);
+
+}  // namespace
+
+}  // namespace standcal::cli
