@@ -14,10 +14,9 @@ using protocol::Client;
 using protocol::RpcError;
 using test::DaemonProcess;
 using test::TempDir;
+using test::socket_of;
 
 namespace {
-
-std::string socket_of(const TempDir& d) { return d.path() + "/standcald.sock"; }
 
 json next_reply(Client& c) {
   auto m = c.next_message(10s);

@@ -10,12 +10,17 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <memory>
 #include <sstream>
 #include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
+
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
 
 #include "protocol/jsonrpc/client.hpp"
 
@@ -136,5 +141,29 @@ class DaemonProcess {
   pid_t pid_ = -1;
   int status_ = 0;
 };
+
+// The daemon's socket inside a test's state directory.
+inline std::string socket_of(const TempDir& d) { return d.path() + "/standcald.sock"; }
+
+// Polls run.status until `done(status)` or the timeout; returns the last status.
+inline nlohmann::json wait_run(protocol::Client& c, const std::string& run_id,
+                               const std::function<bool(const nlohmann::json&)>& done,
+                               std::chrono::seconds timeout = std::chrono::seconds(90)) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  nlohmann::json s;
+  while (std::chrono::steady_clock::now() < deadline) {
+    s = c.call("run.status", {{"run_id", run_id}});
+    if (done(s)) return s;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ADD_FAILURE() << "run " << run_id << " did not get there in time; last status " << s.dump();
+  return s;
+}
+
+// A run that will not change state any more by itself.
+inline bool finished(const nlohmann::json& s) {
+  const std::string st = s["state"];
+  return st == "done" || st == "faulted" || st == "aborted" || st == "interrupted";
+}
 
 }  // namespace standcal::test

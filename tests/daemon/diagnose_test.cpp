@@ -21,23 +21,9 @@ using protocol::Client;
 using protocol::RpcError;
 using test::DaemonProcess;
 using test::TempDir;
+using test::socket_of;
 
 namespace {
-
-std::string socket_of(const TempDir& d) { return d.path() + "/standcald.sock"; }
-
-json wait_finished(Client& c, const std::string& run_id) {
-  const auto deadline = std::chrono::steady_clock::now() + 120s;
-  json s;
-  while (std::chrono::steady_clock::now() < deadline) {
-    s = c.call("run.status", {{"run_id", run_id}});
-    const std::string st = s["state"];
-    if (st == "done" || st == "faulted" || st == "aborted" || st == "interrupted") return s;
-    std::this_thread::sleep_for(20ms);
-  }
-  ADD_FAILURE() << "run " << run_id << " did not finish; last status " << s.dump();
-  return s;
-}
 
 std::pair<int, std::string> error_of(const std::function<void()>& call) {
   try {
@@ -66,7 +52,7 @@ std::string run_to_end(Client& c, const json& program, const std::string& unit, 
                                               {"unit_serial", unit},
                                               {"dwell_s", dwell_s},
                                               {"settle_s", 1}})["run_id"];
-  const json s = wait_finished(c, id);
+  const json s = test::wait_run(c, id, test::finished, 120s);
   EXPECT_EQ(s["state"], "done") << s.dump();
   return id;
 }
@@ -184,7 +170,7 @@ TEST(DaemonDiagnose, CliWritesTheReportAndRunsTheProposedPositions) {
   // The follow-up run: the proposed positions, same unit, named after the run it follows.
   const std::string follow = d["follow_up_run"]["run_id"];
   EXPECT_EQ(d["follow_up_run"]["positions"], d["proposed_positions"].size());
-  const json s = wait_finished(c, follow);
+  const json s = test::wait_run(c, follow, test::finished, 120s);
   EXPECT_EQ(s["state"], "done") << s.dump();
   EXPECT_EQ(s["unit_serial"], "AU-D3");
   EXPECT_EQ(s["program"], "follow-up of " + id);

@@ -20,29 +20,11 @@ using protocol::Client;
 using protocol::RpcError;
 using test::DaemonProcess;
 using test::TempDir;
+using test::socket_of;
+using test::finished;
+using test::wait_run;
 
 namespace {
-
-std::string socket_of(const TempDir& d) { return d.path() + "/standcald.sock"; }
-
-// Polls run.status until `done(status)` or the timeout; returns the last status.
-json wait_run(Client& c, const std::string& run_id, const std::function<bool(const json&)>& done,
-              std::chrono::seconds timeout = 90s) {
-  const auto deadline = std::chrono::steady_clock::now() + timeout;
-  json s;
-  while (std::chrono::steady_clock::now() < deadline) {
-    s = c.call("run.status", {{"run_id", run_id}});
-    if (done(s)) return s;
-    std::this_thread::sleep_for(20ms);
-  }
-  ADD_FAILURE() << "run " << run_id << " did not get there in time; last status " << s.dump();
-  return s;
-}
-
-bool finished(const json& s) {
-  const std::string st = s["state"];
-  return st == "done" || st == "faulted" || st == "aborted" || st == "interrupted";
-}
 
 // Samples per position block, in the order of the file; fails on a position seen twice.
 std::map<int, std::size_t> position_blocks(const Recording& rec) {
