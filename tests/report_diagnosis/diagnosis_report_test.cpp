@@ -22,25 +22,6 @@
 namespace standcal {
 namespace {
 
-// docs/diagnosis.md's diagnostic32: 16 distinct positions, forward then in reverse.
-Program diagnostic32() {
-  std::vector<std::pair<double, double>> a;
-  for (double a1 : {0.0, 60.0, 120.0, 180.0, 240.0, 300.0}) a.emplace_back(a1, 0.0);
-  for (double a2 : {45.0, 90.0, 135.0, 225.0, 270.0, 315.0}) a.emplace_back(0.0, a2);
-  a.insert(a.end(), {{45.0, 90.0}, {45.0, 270.0}, {30.0, 60.0}, {330.0, 120.0}});
-  Program p;
-  p.name = "diagnostic32";
-  for (int pass = 0; pass < 2; ++pass)
-    for (std::size_t i = 0; i < a.size(); ++i) {
-      const auto& [a1, a2] = pass == 0 ? a[i] : a[a.size() - 1 - i];
-      ProgramPosition pos;
-      pos.alpha1_deg = a1;
-      pos.alpha2_deg = a2;
-      p.positions.push_back(pos);
-    }
-  return p;
-}
-
 Recording simulate(const Program& program, const std::string& effect, const std::string& axis,
                    double value, std::uint64_t seed, double tau_s = 0,
                    double temp_rate_c_per_h = 0) {
