@@ -275,6 +275,24 @@ std::string first_unobservable(const DesignBasis& basis) {
   return {};
 }
 
+// Every pose's rows in one matrix, so an iteration of minimax_weights is two matrix
+// products rather than one small product per pose (continuous_lower_bound_s: thousands).
+struct StackedRows {
+  Eigen::MatrixXd rows;
+  std::vector<Eigen::Index> first_row;  // pose k owns rows first_row[k] .. first_row[k+1]-1
+  Eigen::Index count(int k) const { return first_row[k + 1] - first_row[k]; }
+};
+
+StackedRows stack_rows(const DesignBasis& basis) {
+  StackedRows s;
+  s.first_row.push_back(0);
+  for (const auto& block : basis.blocks) s.first_row.push_back(s.first_row.back() + block.rows());
+  s.rows.resize(s.first_row.back(), basis.columns());
+  for (std::size_t k = 0; k < basis.blocks.size(); ++k)
+    s.rows.middleRows(s.first_row[k], basis.blocks[k].rows()) = basis.blocks[k];
+  return s;
+}
+
 // Weights (sum 1) minimising max_j cov_jj(w) / target_j^2. By the minimax theorem this is
 // max over lambda (simplex) of min over w of sum_j lambda_j c_j(w): the inner problem is an
 // L-optimal design (multiplicative algorithm, optimum where every used pose has phi = 1),
@@ -282,14 +300,20 @@ std::string first_unobservable(const DesignBasis& basis) {
 std::vector<double> minimax_weights(const DesignBasis& basis, const std::array<double, kUnitParameterCount>& target,
                                     int iterations) {
   const int n = static_cast<int>(basis.blocks.size());
+  const StackedRows stacked = stack_rows(basis);
   std::vector<double> w(n, 1.0 / n), best = w;
   Eigen::VectorXd lam = Eigen::VectorXd::Constant(kUnitParameterCount, 1.0 / kUnitParameterCount);
   double best_load = std::numeric_limits<double>::infinity();
   std::array<double, kUnitParameterCount> t2{};
   for (int j = 0; j < kUnitParameterCount; ++j) t2[j] = target[j] * target[j];
   Eigen::VectorXd c(kUnitParameterCount);
+  Eigen::VectorXd row_weight(stacked.rows.rows());
   for (int it = 0; it < iterations; ++it) {
-    const Eigen::MatrixXd cov = inverse_of(information_of(basis, w));
+    for (int k = 0; k < n; ++k)
+      row_weight.segment(stacked.first_row[k], stacked.count(k)).setConstant(w[k]);
+    // The information matrix sum_k w_k B_k^T B_k (information_of) as one product.
+    const Eigen::MatrixXd info = stacked.rows.transpose() * row_weight.asDiagonal() * stacked.rows;
+    const Eigen::MatrixXd cov = inverse_of(info);
     for (int j = 0; j < kUnitParameterCount; ++j) c[j] = cov(basis.unit_column[j], basis.unit_column[j]) / t2[j];
     double worst = 0;
     for (int j = 0; j < kUnitParameterCount; ++j) worst = std::max(worst, c[j]);
@@ -298,13 +322,14 @@ std::vector<double> minimax_weights(const DesignBasis& basis, const std::array<d
       best = w;
     }
     const double weighted = lam.dot(c);
-    // Inner step (L-optimality for the current lambda).
+    // Inner step (L-optimality for the current lambda): phi_k = |B_k cov_cols|^2.
     Eigen::MatrixXd cov_cols(cov.rows(), kUnitParameterCount);
     for (int j = 0; j < kUnitParameterCount; ++j)
       cov_cols.col(j) = cov.col(basis.unit_column[j]) * std::sqrt(lam[j] / (t2[j] * weighted));
+    const Eigen::VectorXd row_phi = (stacked.rows * cov_cols).rowwise().squaredNorm();
     double sum = 0;
     for (int k = 0; k < n; ++k) {
-      const double phi = (basis.blocks[k] * cov_cols).squaredNorm();
+      const double phi = row_phi.segment(stacked.first_row[k], stacked.count(k)).sum();
       w[k] *= std::sqrt(std::max(phi, 0.0));
       sum += w[k];
     }

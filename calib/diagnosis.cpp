@@ -14,6 +14,7 @@
 #include "calib/full_estimator.hpp"
 #include "calib/invariant_estimator.hpp"
 #include "calib/report.hpp"
+#include "calib/units.hpp"
 
 namespace standcal {
 
@@ -21,7 +22,6 @@ namespace {
 
 using Eigen::MatrixXd;
 using Eigen::VectorXd;
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 const char* const kAxisNames[3] = {"x", "y", "z"};
 
 std::string fmt(const char* f, double v) {

@@ -5,14 +5,14 @@
 #include <stdexcept>
 #include <string>
 
+#include "calib/units.hpp"
+
 namespace standcal {
 
 namespace {
 
 using Eigen::MatrixXd;
 using Eigen::VectorXd;
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // What multiplies each parameter in delta_J_L, for plain-language reasons.
 constexpr const char* kRegressorText[kUnitParameterCount] = {

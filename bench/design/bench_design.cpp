@@ -1,5 +1,6 @@
 // Prints how long `design optimize` takes for N = 9 and N = 24 (target < 5 s each) and a
-// full-vector fit of a simulated 24-position recording (target < 0.2 s: read + average + fit).
+// full-vector fit of a simulated 24-position recording (target < 0.2 s: read + average + fit),
+// and the dwell plan `design compare` prints (allocated dwells and the continuous-design limit).
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -56,11 +57,26 @@ void time_full_fit() {
               "[target < 0.2 s]\n", samples, fit_only, whole);
 }
 
+void time_dwell_plan() {
+  const standcal::DesignSettings settings;
+  const standcal::AccuracyTarget target;
+  const auto t0 = Clock::now();
+  const auto basis = standcal::design_basis(standcal::poses_of(standcal::paper9()), standcal::DesignModel::invariant);
+  const auto plan = standcal::allocated_dwell_for_target(basis, target, settings);
+  const double allocated_s = seconds_since(t0);
+  const auto t1 = Clock::now();
+  const double limit_s = standcal::continuous_lower_bound_s(standcal::DesignModel::invariant, target, settings);
+  const double limit_time_s = seconds_since(t1);
+  std::printf("dwell plan for paper9: allocated %.0f s of dwell in %.3f s; continuous-design limit %.0f s in %.3f s\n",
+              plan.total_dwell_s, allocated_s, limit_s, limit_time_s);
+}
+
 }  // namespace
 
 int main() {
   time_optimize(9);
   time_optimize(24);
   time_full_fit();
+  time_dwell_plan();
   return 0;
 }

@@ -1,10 +1,20 @@
 // standcal-bench-soak [--minutes M] [--time-scale K] [--dwell-s D] [--sample-s S]
+//                     [--max-rss-kb-per-run R] [--max-fds-per-run F] [--daemon PATH]
+//                     [--daemon-wrapper CMD] [--trim-at-end] [--no-runs-list]
 // Starts a real standcald on the simulated backend in a temporary directory and runs
 // paper9 back to back for M minutes (default 30). Each run is followed by a fresh
 // subscriber connection, a few requesters and the run's result, so every connection
 // path opens and closes. Every S seconds it prints the daemon's RSS (/proc/PID/status)
 // and open fd count (/proc/PID/fd); at the end the first, last and peak values and the
-// RSS trend over the second half (a leak shows as a steady slope; flat is the target).
+// least-squares slope of RSS (kB/run) and fds (fds/run) over the second half of the
+// samples, the first half being warm-up (caches, arenas, the first runs' allocations).
+// The verdict is "flat" when both slopes are at most the thresholds; exit status 2 when
+// not. --daemon-wrapper runs the daemon under a tool (e.g. "valgrind --tool=massif") for
+// heap profiling; its RSS is then the tool's too. --trim-at-end asks glibc, through gdb,
+// to return free heap pages (malloc_trim(0)) after the last sample and prints the RSS
+// before and after: what is only freed-but-kept memory drops, live memory stays.
+// --daemon runs a copy of standcald (so rebuilding the tree meanwhile leaves the soak
+// and gdb's view of the binary alone).
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -14,6 +24,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <mutex>
@@ -34,17 +45,22 @@ struct Sample {
   double t_min = 0;
   int runs = 0;
   long rss_kb = 0;
+  long anon_kb = 0;  // RssAnon: heap, arenas, stacks — what a leak grows
+  long file_kb = 0;  // RssFile: pages of the binary, libraries and mapped files
   long fds = 0;
 };
 
-long rss_kb_of(pid_t pid) {
+// A "Name:   123 kB" line of /proc/PID/status; -1 when missing.
+long status_kb(pid_t pid, const std::string& name) {
   std::ifstream status("/proc/" + std::to_string(pid) + "/status");
   std::string line;
   while (std::getline(status, line)) {
-    if (line.rfind("VmRSS:", 0) == 0) return std::stol(line.substr(6));
+    if (line.rfind(name + ":", 0) == 0) return std::stol(line.substr(name.size() + 1));
   }
   return -1;
 }
+
+long rss_kb_of(pid_t pid) { return status_kb(pid, "VmRSS"); }
 
 long open_fds_of(pid_t pid) {
   std::error_code ec;
@@ -56,22 +72,29 @@ long open_fds_of(pid_t pid) {
   return ec ? -1 : n;
 }
 
-// Least-squares slope of RSS (kB per minute) over the samples given.
-double rss_slope_kb_per_min(const std::vector<Sample>& s) {
+// Least-squares slope of y over x across the samples given (0 when x does not vary).
+template <typename X, typename Y>
+double slope(const std::vector<Sample>& s, X x_of, Y y_of) {
   if (s.size() < 2) return 0;
-  double mt = 0, mr = 0;
-  for (const auto& x : s) mt += x.t_min, mr += static_cast<double>(x.rss_kb);
-  mt /= static_cast<double>(s.size());
-  mr /= static_cast<double>(s.size());
+  double mx = 0, my = 0;
+  for (const auto& v : s) mx += x_of(v), my += y_of(v);
+  mx /= static_cast<double>(s.size());
+  my /= static_cast<double>(s.size());
   double num = 0, den = 0;
-  for (const auto& x : s) {
-    num += (x.t_min - mt) * (static_cast<double>(x.rss_kb) - mr);
-    den += (x.t_min - mt) * (x.t_min - mt);
+  for (const auto& v : s) {
+    num += (x_of(v) - mx) * (y_of(v) - my);
+    den += (x_of(v) - mx) * (x_of(v) - mx);
   }
   return den > 0 ? num / den : 0;
 }
 
-pid_t start_daemon(const std::string& dir, double time_scale) {
+double runs_of(const Sample& s) { return s.runs; }
+double rss_of(const Sample& s) { return static_cast<double>(s.rss_kb); }
+double anon_of(const Sample& s) { return static_cast<double>(s.anon_kb); }
+double file_of(const Sample& s) { return static_cast<double>(s.file_kb); }
+double fds_of(const Sample& s) { return static_cast<double>(s.fds); }
+
+pid_t start_daemon(const std::string& dir, double time_scale, const std::string& daemon, const std::string& wrapper) {
   const pid_t pid = ::fork();
   if (pid == 0) {
     const std::string log = dir + "/standcald.log";
@@ -79,7 +102,14 @@ pid_t start_daemon(const std::string& dir, double time_scale) {
     const std::string ts = std::to_string(time_scale);
     const std::string socket = dir + "/standcald.sock";
     const std::string state = dir + "/state";
-    ::execl(STANDCALD_PATH, STANDCALD_PATH, "--sim", "--socket", socket.c_str(), "--state-dir", state.c_str(),
+    if (!wrapper.empty()) {
+      // The shell execs the tool in this process, so the pid sampled is the tool's.
+      const std::string cmd = "exec " + wrapper + " '" + daemon + "' --sim --socket '" + socket + "' --state-dir '" +
+                              state + "' --time-scale " + ts + " --log-level warn";
+      ::execl("/bin/sh", "sh", "-c", cmd.c_str(), static_cast<char*>(nullptr));
+      ::_exit(127);
+    }
+    ::execl(daemon.c_str(), daemon.c_str(), "--sim", "--socket", socket.c_str(), "--state-dir", state.c_str(),
             "--time-scale", ts.c_str(), "--log-level", "warn", static_cast<char*>(nullptr));
     ::_exit(127);
   }
@@ -87,7 +117,7 @@ pid_t start_daemon(const std::string& dir, double time_scale) {
 }
 
 // One run with a subscriber following it and requesters asking meanwhile; closes them all.
-std::string one_run(const std::string& socket, int index, double dwell_s) {
+std::string one_run(const std::string& socket, int index, double dwell_s, bool list_runs) {
   Client control(socket);
   Client subscriber(socket);
   subscriber.call("subscribe", {{"events", "all"}});
@@ -108,8 +138,44 @@ std::string one_run(const std::string& socket, int index, double dwell_s) {
     requester.call("run.status", {{"run_id", run_id}});
   }
   if (state == "done") control.call("run.result", {{"run_id", run_id}});
-  control.call("runs.list");
+  if (list_runs) control.call("runs.list");
   return state;
+}
+
+// "1.52 1.31 0.90" (1, 5, 15 min): the soak shares the machine, the figures say how much.
+std::string load_average() {
+  std::ifstream in("/proc/loadavg");
+  std::string one, five, fifteen;
+  in >> one >> five >> fifteen;
+  return one + " " + five + " " + fifteen;
+}
+
+// Free heap pages glibc keeps (freed chunks, arena tops) count in RSS until trimmed.
+// The gap between RSS before and after malloc_trim(0) is memory the allocator holds,
+// not memory the daemon holds.
+// malloc_stats() goes to the daemon's stderr (its log): its totals say how much the
+// arenas hold from the system against how much is in use, before and after the trim.
+void trim_and_report(pid_t pid, const std::string& daemon_log) {
+  const long before_kb = rss_kb_of(pid), before_anon_kb = status_kb(pid, "RssAnon");
+  const std::string cmd = "gdb -p " + std::to_string(pid) +
+                          " -batch -ex 'call (void)malloc_stats()' -ex 'call (int)malloc_trim(0)'"
+                          " -ex 'call (void)malloc_stats()' >/dev/null 2>&1";
+  const int status = std::system(cmd.c_str());
+  std::this_thread::sleep_for(200ms);
+  const long after_kb = rss_kb_of(pid), after_anon_kb = status_kb(pid, "RssAnon");
+  std::printf("soak: malloc_trim(0) through gdb (exit %d): RSS %ld kB -> %ld kB (%+ld kB), anon %ld kB -> %ld kB\n",
+              status, before_kb, after_kb, after_kb - before_kb, before_anon_kb, after_anon_kb);
+  std::ifstream log(daemon_log);
+  int totals = 0, lines_left = 0;  // the two lines after each "Total (incl. mmap):"
+  for (std::string line; std::getline(log, line);) {
+    if (line.rfind("Total (incl. mmap):", 0) == 0) {
+      ++totals;
+      lines_left = 2;
+    } else if (lines_left > 0) {
+      --lines_left;
+      std::printf("soak: malloc_stats, all arenas, %s trim: %s\n", totals == 1 ? "before" : "after", line.c_str());
+    }
+  }
 }
 
 }  // namespace
@@ -122,12 +188,25 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1.0, 10000.0));
   app.add_option("--dwell-s", dwell_s, "dwell per position, simulated seconds (default 10)")->check(CLI::Range(0.5, 600.0));
   app.add_option("--sample-s", sample_s, "seconds between samples (default 10)")->check(CLI::Range(0.5, 600.0));
+  // 1 kB/run is 1 MB per thousand runs, about a year of a busy bench; the per-run state
+  // the daemon must keep (a run's index entry) is far below it.
+  double max_rss_kb_per_run = 1.0, max_fds_per_run = 0.01;
+  app.add_option("--max-rss-kb-per-run", max_rss_kb_per_run, "RSS slope still called flat (default 1.0 kB/run)");
+  app.add_option("--max-fds-per-run", max_fds_per_run, "fd slope still called flat (default 0.01 fd/run)");
+  std::string daemon = STANDCALD_PATH, wrapper;
+  bool trim_at_end = false, no_runs_list = false;
+  // runs.list answers with every run in the state directory, so its transient memory
+  // grows with the run count; without it the soak shows what the rest costs per run.
+  app.add_flag("--no-runs-list", no_runs_list, "do not call runs.list after each run");
+  app.add_option("--daemon", daemon, "the standcald binary (default: this build's)");
+  app.add_flag("--trim-at-end", trim_at_end, "call malloc_trim(0) in the daemon through gdb at the end, print RSS");
+  app.add_option("--daemon-wrapper", wrapper, "run standcald under this command, e.g. \"heaptrack -o /tmp/soak\"");
   CLI11_PARSE(app, argc, argv);
 
   std::string dir = (std::filesystem::temp_directory_path() / "standcal-soak-XXXXXX").string();
   if (::mkdtemp(dir.data()) == nullptr) return 1;
   const std::string socket = dir + "/standcald.sock";
-  const pid_t pid = start_daemon(dir, time_scale);
+  const pid_t pid = start_daemon(dir, time_scale, daemon, wrapper);
   int rc = 0;
   std::vector<Sample> samples;
   try {
@@ -136,13 +215,14 @@ int main(int argc, char** argv) {
         Client probe(socket);
         break;
       } catch (const std::exception&) {
-        if (i > 500) throw;
+        if (i > 3000) throw;  // a profiler-wrapped daemon starts slowly
         std::this_thread::sleep_for(20ms);
       }
     }
-    std::printf("soak: standcald pid %d, paper9 dwell %.1f s at time x%.0f, %.1f min, sample every %.1f s\n", pid,
-                dwell_s, time_scale, minutes, sample_s);
-    std::printf("%8s %6s %10s %6s\n", "t_min", "runs", "rss_kb", "fds");
+    std::printf("soak: standcald pid %d, paper9 dwell %.1f s at time x%.0f, %.1f min, sample every %.1f s; "
+                "load average %s\n",
+                pid, dwell_s, time_scale, minutes, sample_s, load_average().c_str());
+    std::printf("%8s %6s %10s %10s %10s %6s\n", "t_min", "runs", "rss_kb", "anon_kb", "file_kb", "fds");
     const auto t0 = Clock::now();
     const auto end = t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double, std::ratio<60>>(minutes));
     const auto sample_period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(sample_s));
@@ -150,9 +230,9 @@ int main(int argc, char** argv) {
     int runs = 0, not_done = 0;
     auto sample = [&] {
       Sample s{std::chrono::duration<double, std::ratio<60>>(Clock::now() - t0).count(), runs, rss_kb_of(pid),
-               open_fds_of(pid)};
+               status_kb(pid, "RssAnon"), status_kb(pid, "RssFile"), open_fds_of(pid)};
       samples.push_back(s);
-      std::printf("%8.2f %6d %10ld %6ld\n", s.t_min, s.runs, s.rss_kb, s.fds);
+      std::printf("%8.2f %6d %10ld %10ld %10ld %6ld\n", s.t_min, s.runs, s.rss_kb, s.anon_kb, s.file_kb, s.fds);
       std::fflush(stdout);
     };
     sample();
@@ -173,7 +253,7 @@ int main(int argc, char** argv) {
     });
     try {
       while (Clock::now() < end) {
-        const std::string state = one_run(socket, runs, dwell_s);
+        const std::string state = one_run(socket, runs, dwell_s, !no_runs_list);
         std::lock_guard lock(sample_mutex);
         ++runs;
         if (state != "done") {
@@ -194,12 +274,25 @@ int main(int argc, char** argv) {
     const auto fds_max = std::max_element(samples.begin(), samples.end(),
                                           [](const Sample& a, const Sample& b) { return a.fds < b.fds; });
     const std::vector<Sample> second_half(samples.begin() + static_cast<long>(samples.size() / 2), samples.end());
-    std::printf("soak: %d runs in %.2f min (%d not done)\n", runs, samples.back().t_min, not_done);
-    std::printf("soak: RSS first %ld kB, last %ld kB, min %ld kB, peak %ld kB; trend over the second half %+.1f kB/min\n",
-                samples.front().rss_kb, samples.back().rss_kb, rss_min->rss_kb, rss_max->rss_kb,
-                rss_slope_kb_per_min(second_half));
+    const double rss_kb_per_run = slope(second_half, runs_of, rss_of);
+    const double fds_per_run = slope(second_half, runs_of, fds_of);
+    const bool rss_flat = rss_kb_per_run <= max_rss_kb_per_run;
+    const bool fds_flat = fds_per_run <= max_fds_per_run;
+    std::printf("soak: %d runs in %.2f min (%d not done); load average at the end %s\n", runs, samples.back().t_min,
+                not_done, load_average().c_str());
+    std::printf("soak: RSS first %ld kB, last %ld kB, min %ld kB, peak %ld kB\n", samples.front().rss_kb,
+                samples.back().rss_kb, rss_min->rss_kb, rss_max->rss_kb);
     std::printf("soak: open fds first %ld, last %ld, peak %ld\n", samples.front().fds, samples.back().fds, fds_max->fds);
+    std::printf("soak: second half (runs %d to %d, %zu samples): RSS %+.3f kB/run (anon %+.3f, file %+.3f), "
+                "fds %+.4f fds/run\n",
+                second_half.front().runs, second_half.back().runs, second_half.size(), rss_kb_per_run,
+                slope(second_half, runs_of, anon_of), slope(second_half, runs_of, file_of), fds_per_run);
+    std::printf("soak: verdict: RSS %s (%+.3f kB/run, threshold %.3f), fds %s (%+.4f fds/run, threshold %.4f)\n",
+                rss_flat ? "FLAT" : "NOT FLAT", rss_kb_per_run, max_rss_kb_per_run, fds_flat ? "FLAT" : "NOT FLAT",
+                fds_per_run, max_fds_per_run);
+    if (trim_at_end) trim_and_report(pid, dir + "/standcald.log");
     if (not_done > 0) rc = 1;
+    if (rc == 0 && !(rss_flat && fds_flat)) rc = 2;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "standcal-bench-soak: %s\n", e.what());
     rc = 1;

@@ -14,6 +14,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "daemon/standcald/errno_text.hpp"
 #include "protocol/jsonrpc/methods.hpp"
 
 namespace standcal::daemon {
@@ -22,8 +23,6 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 namespace {
-
-std::string errno_text() { return std::strerror(errno); }
 
 void fsync_dir(const std::string& dir) {
   const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
@@ -44,6 +43,9 @@ void write_all(int fd, const std::string& text, const std::string& path) {
     off += static_cast<std::size_t>(n);
   }
 }
+
+const std::string& id_of(const RunSummary& r) { return r.run_id; }
+const std::string& id_of(const std::string& id) { return id; }
 
 // Filenames from unit serials: keep what is safe, replace the rest.
 std::string safe_name(const std::string& s) {
@@ -106,6 +108,12 @@ json to_json(const RunRecord& r) {
               {"g_local_mps2", r.g_local_mps2}};
 }
 
+RunSummary summary_of(const RunRecord& r) {
+  return RunSummary{r.run_id,         r.unit_serial,     r.program_name, r.state,
+                    r.positions,      r.positions_done,  r.started_utc,  r.ended_utc,
+                    !r.result_path.empty()};
+}
+
 RunRecord run_record_from_json(const json& j) {
   RunRecord r;
   r.run_id = j.at("run_id").get<std::string>();
@@ -142,24 +150,23 @@ RunStore::RunStore(std::string state_dir) : state_dir_(std::move(state_dir)) {
   if (!fs::is_directory(fs::path(state_dir_) / "runs")) {
     throw std::runtime_error("cannot create the state directory " + state_dir_ + ": " + ec.message());
   }
+  namespace st = protocol::run_state;
   for (const auto& entry : fs::directory_iterator(fs::path(state_dir_) / "runs")) {
     const fs::path file = entry.path() / "run.json";
     std::ifstream in(file);
     if (!in) continue;
     json j = json::parse(in, nullptr, false);
     if (j.is_discarded() || !j.contains("run_id")) continue;  // never written completely: ignore
-    runs_.push_back(run_record_from_json(j));
-  }
-  std::sort(runs_.begin(), runs_.end(),
-            [](const RunRecord& a, const RunRecord& b) { return a.run_id < b.run_id; });
-  namespace st = protocol::run_state;
-  for (RunRecord& r : runs_) {
+    RunRecord r = run_record_from_json(j);
     if (r.state == st::running || r.state == st::paused || r.state == st::waiting_operator) {
       r.state = st::interrupted;
       r.reason = "standcald stopped during the run (crash, kill or power loss); run.resume continues it";
       write_file_atomically(run_dir(r.run_id) + "/run.json", to_json(r).dump(2) + "\n");
     }
+    runs_.push_back(summary_of(r));
   }
+  std::sort(runs_.begin(), runs_.end(),
+            [](const RunSummary& a, const RunSummary& b) { return a.run_id < b.run_id; });
 }
 
 std::string RunStore::new_run_id(const std::string& unit_serial) {
@@ -185,20 +192,28 @@ void RunStore::save(const RunRecord& r) {
   // Memory first: when the disk is full the file write throws, but run.status must still
   // tell the truth about the run (the file keeps the last state that could be written,
   // which a restart turns into `interrupted`).
-  auto it = std::find_if(runs_.begin(), runs_.end(), [&](const RunRecord& x) { return x.run_id == r.run_id; });
+  auto it = std::find_if(runs_.begin(), runs_.end(), [&](const RunSummary& x) { return x.run_id == r.run_id; });
   const bool is_new = it == runs_.end();
   if (is_new) {
-    runs_.push_back(r);
+    // Kept in run_id order (ids start with their UTC second), the order a restart
+    // loads them in, so newest-first means the same before and after a restart.
+    auto pos = std::upper_bound(runs_.begin(), runs_.end(), r.run_id,
+                                [](const std::string& id, const RunSummary& x) { return id < x.run_id; });
+    runs_.insert(pos, summary_of(r));
   } else {
-    *it = r;
+    *it = summary_of(r);
   }
+  // Held in full: this run, and runs whose newest state only memory has.
+  std::erase_if(held_, [&](const HeldRecord& h) { return h.on_disk || h.record.run_id == r.run_id; });
+  held_.push_back(HeldRecord{r, false});
   write_file_atomically(run_dir(r.run_id) + "/run.json", to_json(r).dump(2) + "\n");
+  held_.back().on_disk = true;
   if (is_new) write_unit_index(r.unit_serial);
 }
 
 void RunStore::write_unit_index(const std::string& unit_serial) const {
   json ids = json::array();
-  for (const RunRecord& r : runs_) {
+  for (const RunSummary& r : runs_) {
     if (r.unit_serial == unit_serial) ids.push_back(r.run_id);
   }
   const std::string path = (fs::path(state_dir_) / "units" / (safe_name(unit_serial) + ".json")).string();
@@ -207,15 +222,26 @@ void RunStore::write_unit_index(const std::string& unit_serial) const {
 
 std::optional<RunRecord> RunStore::get(const std::string& run_id) const {
   std::lock_guard lock(mutex_);
-  for (const RunRecord& r : runs_) {
-    if (r.run_id == run_id) return r;
-  }
-  return std::nullopt;
+  return get_locked(run_id);
 }
 
-std::vector<RunRecord> RunStore::list(const std::string& unit_serial) const {
+std::optional<RunRecord> RunStore::get_locked(const std::string& run_id) const {
+  for (const HeldRecord& h : held_) {
+    if (h.record.run_id == run_id) return h.record;
+  }
+  // Only ids this store knows: a request's run_id must not name an arbitrary path.
+  const bool known = std::binary_search(runs_.begin(), runs_.end(), run_id,
+                                        [](const auto& a, const auto& b) { return id_of(a) < id_of(b); });
+  if (!known) return std::nullopt;
+  std::ifstream in(run_dir(run_id) + "/run.json");
+  const json j = json::parse(in, nullptr, false);
+  if (!in || j.is_discarded() || !j.contains("run_id")) return std::nullopt;
+  return run_record_from_json(j);
+}
+
+std::vector<RunSummary> RunStore::list(const std::string& unit_serial) const {
   std::lock_guard lock(mutex_);
-  std::vector<RunRecord> out;
+  std::vector<RunSummary> out;
   for (auto it = runs_.rbegin(); it != runs_.rend(); ++it) {
     if (unit_serial.empty() || it->unit_serial == unit_serial) out.push_back(*it);
   }
@@ -226,7 +252,9 @@ std::optional<RunRecord> RunStore::latest_resumable() const {
   namespace st = protocol::run_state;
   std::lock_guard lock(mutex_);
   for (auto it = runs_.rbegin(); it != runs_.rend(); ++it) {
-    if (it->state == st::interrupted || it->state == st::faulted || it->state == st::paused) return *it;
+    if (it->state == st::interrupted || it->state == st::faulted || it->state == st::paused) {
+      return get_locked(it->run_id);
+    }
   }
   return std::nullopt;
 }

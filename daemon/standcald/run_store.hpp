@@ -43,6 +43,23 @@ struct RunRecord {
   double g_local_mps2 = 0;
 };
 
+// What runs.list, the unit index and resume need of a run: kept in memory for every run
+// in the state directory (about 0.3 kB each), while the full record (the programme, the
+// per-position byte offsets, a few kB) stays on disk and is read when asked for.
+struct RunSummary {
+  std::string run_id;
+  std::string unit_serial;
+  std::string program_name;
+  std::string state;
+  int positions = 0;
+  int positions_done = 0;
+  std::string started_utc;
+  std::string ended_utc;
+  bool has_result = false;
+};
+
+RunSummary summary_of(const RunRecord& r);
+
 nlohmann::json to_json(const RunRecord& r);
 RunRecord run_record_from_json(const nlohmann::json& j);
 
@@ -50,6 +67,10 @@ RunRecord run_record_from_json(const nlohmann::json& j);
 void write_file_atomically(const std::string& path, const std::string& text);
 
 // Thread-safe: the sequencer writes, the server's readers read.
+// Memory per run is its RunSummary only; full records are read from run.json on demand,
+// except the run saved last (the one the sequencer is working on, asked for on every
+// run.status) and any run whose last save could not reach the disk (memory keeps the
+// truth until a later save of that run succeeds).
 class RunStore {
  public:
   // Opens (creating) the state directory and loads every run; runs a crash left
@@ -59,21 +80,30 @@ class RunStore {
   // A new id ("20261121T221500Z-AU-0042"), unique in this store.
   std::string new_run_id(const std::string& unit_serial);
   std::string run_dir(const std::string& run_id) const;
-  // Stores (creates or replaces) a run's record and updates its unit's index.
+  // Stores (creates or replaces) a run's record and updates its unit's index. Memory is
+  // updated first, so when the write throws (disk full) get() still tells the truth.
   void save(const RunRecord& r);
+  // The full record: from memory for the run saved last, else read from its run.json.
+  // Nothing when there is no such run or its run.json can no longer be read.
   std::optional<RunRecord> get(const std::string& run_id) const;
   // Newest first; only `unit_serial`'s when not empty.
-  std::vector<RunRecord> list(const std::string& unit_serial = {}) const;
+  std::vector<RunSummary> list(const std::string& unit_serial = {}) const;
   // The newest run that can be resumed (interrupted, faulted or paused).
   std::optional<RunRecord> latest_resumable() const;
   const std::string& state_dir() const { return state_dir_; }
 
  private:
+  struct HeldRecord {
+    RunRecord record;
+    bool on_disk = false;  // false: the last write failed, memory is the only truth
+  };
   void write_unit_index(const std::string& unit_serial) const;
+  std::optional<RunRecord> get_locked(const std::string& run_id) const;
 
   std::string state_dir_;
   mutable std::mutex mutex_;
-  std::vector<RunRecord> runs_;  // in creation order
+  std::vector<RunSummary> runs_;  // every run, in run_id order
+  std::vector<HeldRecord> held_;  // the run saved last, and runs not on disk
 };
 
 // Appends rows to a recording and makes them durable (write, fflush, fsync).

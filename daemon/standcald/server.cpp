@@ -24,6 +24,7 @@
 #include <cstring>
 #include <stdexcept>
 
+#include "daemon/standcald/errno_text.hpp"
 #include "protocol/jsonrpc/jsonrpc.hpp"
 #include "protocol/jsonrpc/methods.hpp"
 #include "standcal/version.hpp"
@@ -36,8 +37,6 @@ using protocol::RpcError;
 namespace m = protocol::method;
 
 namespace {
-
-std::string errno_text() { return std::strerror(errno); }
 
 double now_s() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
@@ -137,7 +136,7 @@ Peer tcp_peer(int fd) {
 
 bool is_open_method(const std::string& method) {
   static const std::set<std::string> open{m::hello,      m::status,   m::run_status, m::run_result,
-                                          m::runs_list,  m::subscribe, m::estop,     kAuthMethod,
+                                          m::runs_list,  m::subscribe, m::estop,     m::auth,
                                           "run.diagnose"};
   return open.count(method) > 0;
 }
@@ -510,7 +509,7 @@ void Server::handle_line(Client& c, const std::string& line) {
     protocol::Params p(req.params, req.method);
     if (auto refusal = refuse_control(req.method, c.peer, policy_)) {
       spdlog::info("refused {} from {}", req.method, describe_peer(c.peer));
-      throw RpcError(kNotPermitted, *refusal);
+      throw RpcError(ErrorCode::not_permitted, *refusal);
     }
     if (req.method == m::status) {
       p.only({});
@@ -526,7 +525,7 @@ void Server::handle_line(Client& c, const std::string& line) {
       result = sequencer_.runs_list(p.optional_string("unit_serial").value_or(""));
     } else if (req.method == m::subscribe) {
       result = subscribe(c, req.params);
-    } else if (req.method == kAuthMethod) {
+    } else if (req.method == m::auth) {
       result = authenticate(c, req.params);
     } else if (req.method == m::run_diagnose) {  // computed on a worker thread (diagnose_job.hpp)
       const std::uint64_t serial = c.serial;
@@ -602,7 +601,7 @@ json Server::subscribe(Client& c, const json& params) {
 // `auth {token}`: a TCP client asks for control. A wrong token closes the connection, so
 // every guess costs a new connection (and a log line naming the address).
 json Server::authenticate(Client& c, const json& params) {
-  protocol::Params p(params, kAuthMethod);
+  protocol::Params p(params, m::auth);
   p.only({"token"});
   const std::string token = p.string("token");
   if (!c.peer.tcp) {
@@ -610,13 +609,13 @@ json Server::authenticate(Client& c, const json& params) {
                    "auth: only TCP clients authenticate; on the Unix socket your user and groups decide");
   }
   if (!policy_.tcp_token_configured) {
-    throw RpcError(static_cast<ErrorCode>(kNotPermitted),
+    throw RpcError(ErrorCode::not_permitted,
                    "auth: this daemon has no tcp.token_file, so TCP clients may only read and send estop");
   }
   if (!tokens_equal(token, tcp_token_)) {
     spdlog::warn("auth: wrong token from {}; connection closed", describe_peer(c.peer));
     c.close_after_reply = true;  // handle_line closes it once the error line is sent
-    throw RpcError(kNotPermitted, "auth: wrong token; closing the connection");
+    throw RpcError(ErrorCode::not_permitted, "auth: wrong token; closing the connection");
   }
   c.peer.token_accepted = true;
   spdlog::info("auth: {} may now command the stand and runs", describe_peer(c.peer));

@@ -29,10 +29,8 @@ namespace standcal::daemon {
 // --- Access control (docs/security.md) ------------------------------------------------
 // Anyone who can connect may read (status, runs, results, events) and press `estop`.
 // Commanding the stand or a run ("control") needs, on the Unix socket, membership of
-// access.control_group when one is configured, and on TCP the token sent with `auth`.
-
-inline constexpr int kNotPermitted = -32009;          // JSON-RPC error: refused by access control
-inline constexpr const char* kAuthMethod = "auth";    // {token}: TCP clients ask for control
+// access.control_group when one is configured, and on TCP the token sent with `auth`
+// (protocol::method::auth); a refusal is protocol::ErrorCode::not_permitted (-32009).
 
 // Who is on the other end of one connection.
 struct Peer {

@@ -138,7 +138,13 @@ Status ModbusLink::call(const std::string& what, Op op) {
       return Status::error(ErrorKind::protocol, exception + " from " + name_ + " while " + what);
     last_reason = modbus_strerror(e);
     last_kind = ErrorKind::timeout;
-    if (recoverable_on_same_connection(e)) {
+    if (e == EMBBADDATA && url_.transport == ModbusUrl::Transport::tcp) {
+      // Most often the reply to an earlier try that came after its timeout. More may still
+      // be on the way, which a flush now would miss and every later try would read: only
+      // a new connection is sure to carry none of them.
+      close();
+      next_open_ = Clock::now();
+    } else if (recoverable_on_same_connection(e)) {
       modbus_flush(ctx_);  // a late reply must not answer the next request
     } else {
       close();  // reset, broken pipe: the next attempt re-opens at once

@@ -20,12 +20,6 @@ namespace {
 
 std::string errno_text() { return std::strerror(errno); }
 
-double realtime_now_s() {
-  timespec ts{};
-  clock_gettime(CLOCK_REALTIME, &ts);
-  return static_cast<double>(ts.tv_sec) + static_cast<double>(ts.tv_nsec) * 1e-9;
-}
-
 Status set_nonblocking(int fd, const std::string& name) {
   const int flags = fcntl(fd, F_GETFL);
   if (flags < 0 || fcntl(fd, F_SETFL, flags | O_NONBLOCK) < 0)
@@ -34,6 +28,12 @@ Status set_nonblocking(int fd, const std::string& name) {
 }
 
 }  // namespace
+
+double realtime_now_s() {
+  timespec ts{};
+  clock_gettime(CLOCK_REALTIME, &ts);
+  return static_cast<double>(ts.tv_sec) + static_cast<double>(ts.tv_nsec) * 1e-9;
+}
 
 BusEvent classify_error_frame(std::uint32_t can_id, const std::uint8_t* data, std::size_t len) {
   BusEvent e;

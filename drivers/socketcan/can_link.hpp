@@ -23,6 +23,10 @@ struct ReceivedFrame {
   bool kernel_time = false;  // t_s came from SO_TIMESTAMPNS, not clock_gettime
 };
 
+// Now on the clock ReceivedFrame::t_s is on (CLOCK_REALTIME, seconds), so callers can
+// tell frames received before a moment from those after it.
+double realtime_now_s();
+
 // What a CAN error frame says about the controller (linux/can/error.h).
 struct BusEvent {
   bool bus_off = false;

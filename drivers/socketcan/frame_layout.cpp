@@ -25,7 +25,6 @@ long long whole_number(const nlohmann::json& v, const char* key, long long lo, l
                           ".." + std::to_string(hi) + ", got " + v.dump());
 }
 
-constexpr double kStandardGravity_mps2 = 9.80665;  // "g" as a unit is standard gravity
 constexpr int kMaxPayloadBits = 64 * 8;
 
 std::uint64_t low_mask(int bits) { return bits >= 64 ? ~0ULL : ((1ULL << bits) - 1); }

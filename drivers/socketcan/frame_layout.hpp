@@ -13,6 +13,9 @@
 
 namespace standcal::drivers::can {
 
+// Force signals in "g" count standard gravity; the driver reports m/s^2.
+inline constexpr double kStandardGravity_mps2 = 9.80665;
+
 enum class ByteOrder { intel, motorola };  // little-endian / big-endian (DBC @1 / @0)
 
 // What a signal means to the unit driver.

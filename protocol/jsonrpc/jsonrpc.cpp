@@ -19,6 +19,7 @@ const char* error_code_name(int code) {
     case ErrorCode::not_found: return "not found";
     case ErrorCode::invalid_state: return "invalid state";
     case ErrorCode::too_many_clients: return "too many clients";
+    case ErrorCode::not_permitted: return "not permitted";
   }
   return "error";
 }

@@ -29,6 +29,7 @@ enum class ErrorCode : int {
   not_found = -32006,       // no such run / programme
   invalid_state = -32007,   // not possible now (pause with no run, resume a finished run)
   too_many_clients = -32008,
+  not_permitted = -32009,   // refused by access control (docs/security.md): control needs group or `auth`
 };
 
 // Short name of a code ("busy", "parse error"), for CLI output and logs.

@@ -23,6 +23,7 @@ inline constexpr const char* run_diagnose = "run.diagnose";  // answered from a 
 inline constexpr const char* runs_list = "runs.list";
 inline constexpr const char* operator_confirm = "operator.confirm";
 inline constexpr const char* subscribe = "subscribe";
+inline constexpr const char* auth = "auth";  // {token}: a TCP client asks for control (docs/security.md)
 }  // namespace method
 
 // Event notifications (method = the event name), sent to clients that subscribed.

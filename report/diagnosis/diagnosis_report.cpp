@@ -12,13 +12,13 @@
 #include "calib/full_estimator.hpp"
 #include "calib/invariant_estimator.hpp"
 #include "calib/simulator.hpp"
+#include "calib/units.hpp"
 #include "report/diagnosis/svg_compact.hpp"
 
 namespace standcal::report {
 
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // A baseline residual beyond this many standard errors marks its position as carrying the
 // mismatch (the same 3-sigma rule as calib's `located`).
 constexpr double kLocatedSigma = 3.0;

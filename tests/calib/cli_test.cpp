@@ -41,8 +41,6 @@ class Cli : public ::testing::Test {
   fs::path dir_;
 };
 
-}  // namespace
-
 TEST_F(Cli, SimulateThenFitJsonHasTheStableShape) {
   ASSERT_EQ(run_cli("simulate --program paper9 --seed 5 --dwell-s 10 -o " + path("r.csv") + " --truth " +
                 path("t.json")).exit_code, 0);
@@ -125,3 +123,5 @@ TEST_F(Cli, FullVectorFitAddsStandHealth) {
   ASSERT_TRUE(j.contains("stand"));
   EXPECT_FALSE(j["stand"].empty());
 }
+
+}  // namespace

@@ -16,6 +16,7 @@
 
 #include "daemon/standcald/config.hpp"
 #include "daemon/standcald/server.hpp"
+#include "config_support.hpp"
 #include "daemon_process.hpp"
 
 using namespace standcal;
@@ -24,6 +25,7 @@ using namespace std::chrono_literals;
 using nlohmann::json;
 using protocol::Client;
 using protocol::RpcError;
+using test::config_error;
 using test::DaemonProcess;
 using test::TempDir;
 
@@ -148,17 +150,6 @@ TEST(AccessDecision, TokensCompareWhole) {
 }
 
 // --- The config keys --------------------------------------------------------------------
-
-namespace {
-std::string config_error(const json& doc) {
-  try {
-    parse_config(doc, "lab.json");
-  } catch (const ConfigError& e) {
-    return e.what();
-  }
-  return "";
-}
-}  // namespace
 
 TEST(AccessConfig, ReadsTheAccessKeys) {
   const DaemonConfig c = parse_config(json::parse(R"({
@@ -399,7 +390,7 @@ TEST(DaemonAccess, AControlGroupRefusesOthersMotionButLeavesReadingAndEstopOpen)
   EXPECT_TRUE(outsider["runs.list"].contains("result")) << outsider.dump();
   EXPECT_TRUE(outsider["subscribe"].contains("result")) << outsider.dump();
   for (const char* refused : {"stand.enable", "run.start", "estop.reset"}) {
-    EXPECT_EQ(outsider[refused]["code"], kNotPermitted) << outsider.dump();
+    EXPECT_EQ(outsider[refused]["code"], static_cast<int>(protocol::ErrorCode::not_permitted)) << outsider.dump();
     const std::string message = outsider[refused].value("message", "");
     EXPECT_NE(message.find(std::string(refused) + " not permitted"), std::string::npos) << message;
     EXPECT_NE(message.find(std::string("\"") + kTestGroup + "\""), std::string::npos) << message;
@@ -440,13 +431,13 @@ TEST(DaemonAccess, TcpOffLoopbackNeedsTheTokenForControlAndAWrongTokenClosesTheC
   Client reader(endpoint);
   EXPECT_EQ(reader.call("status")["daemon"]["access"]["control"], false);
   const json refused = outcome(reader, "stand.enable");
-  EXPECT_EQ(refused["code"], kNotPermitted) << refused.dump();
+  EXPECT_EQ(refused["code"], static_cast<int>(protocol::ErrorCode::not_permitted)) << refused.dump();
   EXPECT_NE(refused.value("message", "").find("auth"), std::string::npos) << refused.dump();
   EXPECT_EQ(outcome(reader, "estop")["result"]["estop"], true);  // never restricted
 
   Client guesser(endpoint);
   const json wrong = outcome(guesser, "auth", {{"token", token.substr(0, 31) + "0"}});
-  EXPECT_EQ(wrong["code"], kNotPermitted) << wrong.dump();
+  EXPECT_EQ(wrong["code"], static_cast<int>(protocol::ErrorCode::not_permitted)) << wrong.dump();
   EXPECT_NE(wrong.value("message", "").find("wrong token"), std::string::npos) << wrong.dump();
   EXPECT_THROW(guesser.call("status", json::object(), 10s), std::exception) << "the connection stays open";
 
@@ -456,7 +447,7 @@ TEST(DaemonAccess, TcpOffLoopbackNeedsTheTokenForControlAndAWrongTokenClosesTheC
   EXPECT_EQ(operator_client.call("stand.enable")["enabled"], true);
   EXPECT_EQ(operator_client.call("status")["daemon"]["access"]["control"], true);
   // The token belongs to that connection only.
-  EXPECT_EQ(outcome(reader, "stand.disable")["code"], kNotPermitted);
+  EXPECT_EQ(outcome(reader, "stand.disable")["code"], static_cast<int>(protocol::ErrorCode::not_permitted));
   EXPECT_NE(daemon->log().find("auth: wrong token from tcp 127.0.0.1:"), std::string::npos) << daemon->log();
 }
 
@@ -468,9 +459,9 @@ TEST(DaemonAccess, LoopbackTcpWithoutATokenIsReadOnlyPlusEstop) {
   Client c("tcp://127.0.0.1:" + std::to_string(port));
   EXPECT_EQ(c.call("runs.list")["runs"].size(), 0u);
   const json refused = outcome(c, "run.start", {{"program", "paper9"}, {"unit_serial", "AU-T"}});
-  EXPECT_EQ(refused["code"], kNotPermitted) << refused.dump();
+  EXPECT_EQ(refused["code"], static_cast<int>(protocol::ErrorCode::not_permitted)) << refused.dump();
   EXPECT_NE(refused.value("message", "").find("no tcp.token_file"), std::string::npos) << refused.dump();
-  EXPECT_EQ(outcome(c, "auth", {{"token", "0123456789abcdef"}})["code"], kNotPermitted);
+  EXPECT_EQ(outcome(c, "auth", {{"token", "0123456789abcdef"}})["code"], static_cast<int>(protocol::ErrorCode::not_permitted));
   EXPECT_EQ(outcome(c, "estop")["result"]["estop"], true);
   // The Unix socket (root here, no control group) still commands.
   Client local(dir.path() + "/standcald.sock");

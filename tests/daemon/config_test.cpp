@@ -4,23 +4,12 @@
 #include <fstream>
 
 #include "daemon/standcald/config.hpp"
+#include "config_support.hpp"
 #include "daemon_process.hpp"
 
 using namespace standcal::daemon;
 using nlohmann::json;
-
-namespace {
-
-std::string config_error(const json& doc) {
-  try {
-    parse_config(doc, "lab.json");
-  } catch (const ConfigError& e) {
-    return e.what();
-  }
-  return "";
-}
-
-}  // namespace
+using standcal::test::config_error;
 
 TEST(DaemonConfig, ReadsEveryGroupOfKeys) {
   const json doc = json::parse(R"({

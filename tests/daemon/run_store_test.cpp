@@ -80,3 +80,76 @@ TEST(RecordingFile, ReopenCutsOffWhatACrashLeftAfterTheLastDurablePosition) {
   // A recording shorter than its record says was tampered with or lost: refuse.
   EXPECT_THROW(RecordingFile::reopen(path, 100000), std::runtime_error);
 }
+
+// Memory holds a summary per run; the full record (programme, byte offsets) is read back
+// from run.json when asked for, and is the same as what was saved.
+TEST(RunStore, FullRecordsOfEarlierRunsAreReadBackFromDisk) {
+  TempDir dir;
+  RunStore store(dir.path());
+  RunRecord first;
+  first.run_id = store.new_run_id("AU-7");
+  first.unit_serial = "AU-7";
+  first.program_name = "paper9";
+  first.program = {{"name", "paper9"}, {"positions", {{{"alpha1_deg", 0}, {"alpha2_deg", 90}}}}};
+  first.state = "done";
+  first.positions = 9;
+  first.positions_done = 9;
+  first.position_end_bytes = {120, 240, 360};
+  first.result_path = store.run_dir(first.run_id) + "/result.json";
+  store.save(first);
+  RunRecord second = first;
+  second.run_id = store.new_run_id("AU-8");
+  second.unit_serial = "AU-8";
+  second.result_path.clear();
+  store.save(second);  // `first` is no longer the run saved last
+
+  const auto back = store.get(first.run_id);
+  ASSERT_TRUE(back.has_value());
+  EXPECT_EQ(to_json(*back), to_json(first));
+  const auto listed = store.list("AU-7");
+  ASSERT_EQ(listed.size(), 1u);
+  EXPECT_EQ(listed[0].run_id, first.run_id);
+  EXPECT_EQ(listed[0].program_name, "paper9");
+  EXPECT_EQ(listed[0].positions_done, 9);
+  EXPECT_TRUE(listed[0].has_result);
+  EXPECT_FALSE(store.list("AU-8")[0].has_result);
+  EXPECT_FALSE(store.get("no-such-run").has_value());
+  EXPECT_FALSE(store.get("../../etc").has_value());  // only ids the store made are looked up
+}
+
+// A save whose file write fails (disk full; here run.json.tmp is a directory, so the
+// write fails even as root) keeps the new state in memory, also after another run is
+// saved, until a save of that run reaches the disk.
+TEST(RunStore, AStateTheDiskRefusedIsStillReportedFromMemory) {
+  TempDir dir;
+  RunStore store(dir.path());
+  RunRecord r;
+  r.run_id = store.new_run_id("AU-5");
+  r.unit_serial = "AU-5";
+  r.state = "running";
+  store.save(r);
+  const std::string blocker = store.run_dir(r.run_id) + "/run.json.tmp";
+  std::filesystem::create_directory(blocker);
+  r.state = "faulted";
+  r.reason = "stand axis 2 did not reach 57.470°";
+  EXPECT_THROW(store.save(r), std::runtime_error);
+  RunRecord other;
+  other.run_id = store.new_run_id("AU-6");
+  other.unit_serial = "AU-6";
+  other.state = "running";
+  store.save(other);
+  ASSERT_TRUE(store.get(r.run_id).has_value());
+  EXPECT_EQ(store.get(r.run_id)->state, "faulted");
+  EXPECT_EQ(store.get(r.run_id)->reason, r.reason);
+  EXPECT_EQ(store.list("AU-5")[0].state, "faulted");
+  ASSERT_TRUE(store.latest_resumable().has_value());
+  EXPECT_EQ(store.latest_resumable()->run_id, r.run_id);
+  EXPECT_NE(read_all(store.run_dir(r.run_id) + "/run.json").find("\"running\""), std::string::npos);
+
+  std::filesystem::remove(blocker);  // the disk has room again
+  store.save(other);
+  EXPECT_EQ(store.get(r.run_id)->state, "faulted");  // still held: its file is stale
+  store.save(r);
+  EXPECT_NE(read_all(store.run_dir(r.run_id) + "/run.json").find("\"faulted\""), std::string::npos);
+  EXPECT_EQ(store.get(r.run_id)->state, "faulted");
+}

@@ -7,6 +7,7 @@
 #include <random>
 #include <string>
 
+#include "calib/design.hpp"
 #include "calib/full_estimator.hpp"
 #include "calib/invariant_estimator.hpp"
 #include "calib/parameters.hpp"
@@ -15,7 +16,6 @@
 namespace standcal {
 namespace {
 
-using testing::poses_of;
 using testing::synthetic_averages;
 using testing::typical_unit;
 
@@ -158,7 +158,7 @@ namespace standcal {
 namespace {
 
 TEST(FullEstimator, TooFewPositionsGiveReasonsNotNumbers) {
-  auto poses = testing::poses_of(paper9());
+  auto poses = poses_of(paper9());
   poses.resize(3);
   const FitResult fit = fit_full_vector(testing::synthetic_averages(poses, testing::typical_unit(), StandErrors{}, 1e-6));
   int reported = 0;

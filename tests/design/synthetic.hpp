@@ -12,12 +12,6 @@
 
 namespace standcal::testing {
 
-inline std::vector<StandPose> poses_of(const Program& program) {
-  std::vector<StandPose> poses;
-  for (const auto& p : program.positions) poses.push_back({p.alpha1_deg, p.alpha2_deg, p.mount});
-  return poses;
-}
-
 // One average per pose: J = model + N(0, sigma_g) per axis (sigma_g = 0: noise-free).
 inline std::vector<PositionAverage> synthetic_averages(const std::vector<StandPose>& poses, const UnitErrors& unit,
                                                        const StandErrors& stand, double sigma_g,

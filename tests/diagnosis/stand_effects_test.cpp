@@ -12,24 +12,13 @@
 #include "calib/programs.hpp"
 #include "calib/simulator.hpp"
 #include "calib/units.hpp"
+#include "tests/diagnosis/blind_support.hpp"
 
 namespace standcal {
 namespace {
 
-Recording simulate(const Program& program, const TruthModel& truth, std::uint64_t seed) {
-  SimulationRequest req;
-  req.program = program;
-  req.truth = truth;
-  req.seed = seed;
-  req.timing.dwell_s = 10;
-  req.timing.settle_s = 2;
-  return simulate_run(req);
-}
-
-void print(const Diagnosis& d) {
-  std::printf("verdict %s\n", d.verdict.c_str());
-  for (const auto& s : d.summary) std::printf("  %s\n", s.c_str());
-}
+using blind::print;
+using blind::simulate;
 
 // Cyclic (once per revolution) angle-sensor error: the true angle is the reading +
 // value * sin(alpha + phase). Sizes are 4-5x the discrimination thresholds that

@@ -16,7 +16,6 @@ namespace {
 using testing::CanPair;
 using testing::DelayedWriter;
 
-constexpr double kG = 9.80665;
 constexpr double kWriterDelay_s = 0.15;  // the writer starts once collect() is waiting
 
 double realtime_s() {
@@ -26,7 +25,7 @@ double realtime_s() {
 }
 
 std::array<double, 3> force_of(std::uint64_t n) {
-  return {1e-3 * kG * static_cast<double>(n), -0.5 * kG, kG};
+  return {1e-3 * kStandardGravity_mps2 * static_cast<double>(n), -0.5 * kStandardGravity_mps2, kStandardGravity_mps2};
 }
 
 class CanTransport : public ::testing::Test {
@@ -325,7 +324,7 @@ TEST(CanTransportFd, CanFdFramesCarryAllThreeAxes) {
   {
     DelayedWriter w(kWriterDelay_s, [&] {
       for (std::uint64_t n = 0; n < 3; ++n) {
-        const auto f = layout.value().encode({0.1 * kG, 0.2 * kG, -0.3 * kG}, 30.0, n);
+        const auto f = layout.value().encode({0.1 * kStandardGravity_mps2, 0.2 * kStandardGravity_mps2, -0.3 * kStandardGravity_mps2}, 30.0, n);
         ASSERT_EQ(f.size(), 1U);
         ASSERT_EQ(f[0].len, 16);  // 16 bytes: only CAN FD carries it
         pair.send_fd(f[0].can_id, f[0].data.data(), f[0].len);
@@ -335,7 +334,7 @@ TEST(CanTransportFd, CanFdFramesCarryAllThreeAxes) {
   }
   ASSERT_TRUE(r.ok()) << r.status().message;
   ASSERT_EQ(r.value().size(), 3U);
-  EXPECT_NEAR(r.value()[2].force_mps2[2], -0.3 * kG, 1e-6);
+  EXPECT_NEAR(r.value()[2].force_mps2[2], -0.3 * kStandardGravity_mps2, 1e-6);
   EXPECT_NEAR(r.value()[2].temperature_c, 30.0, 1e-9);
 }
 

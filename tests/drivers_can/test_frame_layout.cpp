@@ -12,8 +12,6 @@
 namespace standcal::drivers::can {
 namespace {
 
-constexpr double kG = 9.80665;
-
 TEST(CanBits, IntelReadsLittleEndianFromTheLsb) {
   const std::uint8_t d[8] = {0x78, 0x56, 0x34, 0x12, 0, 0, 0, 0};
   EXPECT_EQ(extract_raw(d, 0, 32, ByteOrder::intel), 0x12345678U);
@@ -107,8 +105,8 @@ TEST(FrameLayout, ForceUnitsConvertToMetresPerSecondSquared) {
   FrameValues v;
   ASSERT_TRUE(layout.value().decode(0x10, d, 8, v));
   EXPECT_EQ(v.force_mask, 0x7);
-  EXPECT_NEAR(v.force_mps2[0], 1000 * 1e-3 * kG, 1e-12);
-  EXPECT_NEAR(v.force_mps2[1], -500 * 1e-6 * kG, 1e-12);
+  EXPECT_NEAR(v.force_mps2[0], 1000 * 1e-3 * kStandardGravity_mps2, 1e-12);
+  EXPECT_NEAR(v.force_mps2[1], -500 * 1e-6 * kStandardGravity_mps2, 1e-12);
   EXPECT_NEAR(v.force_mps2[2], 1.5, 1e-12);
   EXPECT_EQ(v.counter, 7U);
 }
@@ -118,7 +116,8 @@ TEST(FrameLayout, DefaultLayoutHasTheDocumentedBytes) {
   EXPECT_EQ(layout.counter_modulus(), 65536U);
   EXPECT_EQ(layout.can_ids(), (std::vector<std::uint32_t>{0x101, 0x102, 0x103, 0x104}));
   // +1 g on x is 10 000 000 in 1e-7 g = 0x00989680, little-endian; counter 0x1234.
-  const auto frames = layout.encode({kG, -0.5 * kG, 0.0}, 25.5, 0x1234);
+  const auto frames =
+      layout.encode({kStandardGravity_mps2, -0.5 * kStandardGravity_mps2, 0.0}, 25.5, 0x1234);
   ASSERT_EQ(frames.size(), 4U);
   EXPECT_EQ(frames[0].can_id, 0x101U);
   EXPECT_EQ(frames[0].len, 6);
@@ -133,7 +132,7 @@ TEST(FrameLayout, DefaultLayoutHasTheDocumentedBytes) {
   FrameValues v;
   ASSERT_TRUE(layout.decode(0x101, frames[0].data.data(), frames[0].len, v));
   EXPECT_EQ(v.force_mask, 0x1);
-  EXPECT_NEAR(v.force_mps2[0], kG, 1e-12);
+  EXPECT_NEAR(v.force_mps2[0], kStandardGravity_mps2, 1e-12);
   EXPECT_EQ(v.counter, 0x1234U);
   ASSERT_TRUE(layout.decode(0x104, frames[3].data.data(), frames[3].len, v));
   EXPECT_NEAR(v.temperature_c, 25.5, 1e-9);
@@ -153,9 +152,9 @@ TEST(FrameLayout, EncodeClampsOutOfRangeValues) {
   const auto frames = layout.encode({1e9, -1e9, 0}, std::nan(""), 0);
   FrameValues v;
   ASSERT_TRUE(layout.decode(0x101, frames[0].data.data(), frames[0].len, v));
-  EXPECT_NEAR(v.force_mps2[0], 2147483647 * 1e-7 * kG, 1e-9);
+  EXPECT_NEAR(v.force_mps2[0], 2147483647 * 1e-7 * kStandardGravity_mps2, 1e-9);
   ASSERT_TRUE(layout.decode(0x102, frames[1].data.data(), frames[1].len, v));
-  EXPECT_NEAR(v.force_mps2[1], -2147483648.0 * 1e-7 * kG, 1e-9);
+  EXPECT_NEAR(v.force_mps2[1], -2147483648.0 * 1e-7 * kStandardGravity_mps2, 1e-9);
 }
 
 const char* kDocExample = R"({
@@ -181,7 +180,9 @@ TEST(FrameLayoutJson, ParsesTheDocumentedExampleAndRoundTrips) {
   const auto& layout = r.value();
   EXPECT_EQ(layout.counter_modulus(), 256U);
   EXPECT_EQ(layout.can_ids(), (std::vector<std::uint32_t>{0x181, 0x182}));
-  const auto frames = layout.encode({0.25 * kG, -0.125 * kG, kG}, -12.34, 300);
+  const auto frames = layout.encode(
+      {0.25 * kStandardGravity_mps2, -0.125 * kStandardGravity_mps2, kStandardGravity_mps2}, -12.34,
+      300);
   ASSERT_EQ(frames.size(), 2U);
   // force_x = 250 000 = 0x03D090, big-endian in bytes 0..2; counter 300 mod 256 = 44 in byte 6.
   EXPECT_EQ(frames[0].data[0], 0x03);
@@ -191,8 +192,8 @@ TEST(FrameLayoutJson, ParsesTheDocumentedExampleAndRoundTrips) {
   FrameValues v;
   ASSERT_TRUE(layout.decode(0x181, frames[0].data.data(), frames[0].len, v));
   EXPECT_EQ(v.force_mask, 0x3);
-  EXPECT_NEAR(v.force_mps2[0], 0.25 * kG, 1e-9);
-  EXPECT_NEAR(v.force_mps2[1], -0.125 * kG, 1e-9);
+  EXPECT_NEAR(v.force_mps2[0], 0.25 * kStandardGravity_mps2, 1e-9);
+  EXPECT_NEAR(v.force_mps2[1], -0.125 * kStandardGravity_mps2, 1e-9);
   ASSERT_TRUE(layout.decode(0x182, frames[1].data.data(), frames[1].len, v));
   EXPECT_EQ(v.force_mask, 0x4);
   EXPECT_TRUE(v.has_temperature);

@@ -264,6 +264,23 @@ TEST_F(StandOverTcp, RepliesLaterThanTheTimeoutGiveNoReplyAfterTriesThenRecover)
   EXPECT_TRUE(stand->read_state(StandAxis::inner));
 }
 
+// A controller that answers one request after the timeout (a busy PLC, a loaded bench PC)
+// must cost one retry, not the link: its late reply must never be read as the answer to
+// a later request, which on TCP would put every following try one reply behind.
+TEST_F(StandOverTcp, OneLateReplyCostsARetryAndTheLinkStaysInStep) {
+  start();
+  ASSERT_TRUE(stand->configure());
+  for (int i = 0; i < 5; ++i) {
+    // 1.5x the 0.3 s timeout; the comment makes each control file differ, so it is re-read.
+    inject("delay_ms 450 1\n# late reply " + std::to_string(i) + "\n");
+    auto state = stand->read_state(StandAxis::outer);
+    ASSERT_TRUE(state) << "late reply " << i << ": " << state.status().message;
+    auto next = stand->read_state(StandAxis::inner);
+    ASSERT_TRUE(next) << "the request after late reply " << i << ": " << next.status().message;
+  }
+  EXPECT_NE(stand->lifecycle(), Lifecycle::error);
+}
+
 TEST_F(StandOverTcp, ExceptionRepliesAreReportedWithCodeAndMeaning) {
   start();
   ASSERT_TRUE(stand->configure());

@@ -228,7 +228,10 @@ bool Emulator::serve_one(int fd) {
     --faults_.drop_count;
     return !tcp;  // TCP: the connection closes; RTU: this request gets no reply
   }
-  if (faults_.delay_ms > 0) std::this_thread::sleep_for(std::chrono::milliseconds(faults_.delay_ms));
+  if (faults_.delay_ms > 0 && faults_.delay_count != 0) {
+    if (faults_.delay_count > 0) --faults_.delay_count;
+    std::this_thread::sleep_for(std::chrono::milliseconds(faults_.delay_ms));
+  }
   if (faults_.exception_count != 0) {
     if (faults_.exception_count > 0) --faults_.exception_count;
     modbus_reply_exception(ctx_, query, static_cast<unsigned>(faults_.exception_code));

@@ -33,6 +33,11 @@ bool parse_line(const std::string& line, Faults& f) {
     f.overshoot_deg[static_cast<std::size_t>(axis)] = deg;
   } else if (word == "delay_ms") {
     if (!(in >> f.delay_ms) || f.delay_ms < 0) return false;
+    if (!(in >> f.delay_count)) {
+      f.delay_count = -1;  // no count: every reply
+    } else if (f.delay_count < 1) {
+      return false;
+    }
   } else if (word == "exception") {
     if (!(in >> f.exception_code) || f.exception_code < 1 || f.exception_code > 11) return false;
     if (!(in >> f.exception_count)) f.exception_count = -1;

@@ -6,7 +6,7 @@
 //   overshoot outer|inner DEG  the drive settles DEG past every move target (in the
 //                              direction of motion) and still reports "in position"
 //   drive_fault outer|inner    trips the drive once (fault code 3)
-//   delay_ms N                 every reply is sent N ms late
+//   delay_ms N [COUNT]         the next COUNT replies (default: all) are sent N ms late
 //   exception CODE [COUNT]     the next COUNT requests (default: all) get exception CODE
 //   drop [COUNT]               the next COUNT requests close the TCP connection (RTU: no reply)
 //   corrupt [COUNT]            the next COUNT replies have a damaged byte (bad CRC on RTU)
@@ -23,6 +23,7 @@ struct Faults {
   std::array<double, 2> overshoot_deg{0.0, 0.0};
   std::array<bool, 2> drive_fault{false, false};  // one-shot, consumed by the server
   int delay_ms = 0;
+  int delay_count = 0;  // < 0: every reply
   int exception_code = 0;
   int exception_count = 0;  // < 0: every request
   int drop_count = 0;

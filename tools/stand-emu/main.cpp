@@ -55,7 +55,7 @@ int main(int argc, char** argv) {
   app.add_option("--heartbeat-timeout-ms", options.heartbeat_timeout_ms, "initial watchdog timeout (0: off)")
       ->check(CLI::Range(0, 65535));
   app.add_option("--fault", fault_lines,
-                 "inject a fault: 'stuck AXIS', 'slow AXIS F', 'overshoot AXIS DEG', 'drive_fault AXIS', 'delay_ms N', "
+                 "inject a fault: 'stuck AXIS', 'slow AXIS F', 'overshoot AXIS DEG', 'drive_fault AXIS', 'delay_ms N [N]', "
                  "'exception CODE [N]', 'drop [N]', 'corrupt [N]'");
   app.add_option("--control", control, "control file of fault lines, re-read when it changes (replaces --fault)");
   app.add_option("--status-file", options.status_file,

@@ -129,7 +129,7 @@ void add_calibrate_commands(CLI::App& app) {
   fit->callback([fit_opts] { run_fit(*fit_opts); });
 }
 
-const bool registered = register_command_group(add_calibrate_commands);
+const bool calibrate_commands_registered = register_command_group(add_calibrate_commands);
 
 }  // namespace
 

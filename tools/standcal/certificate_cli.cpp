@@ -69,7 +69,7 @@ void add_certificate_commands(CLI::App& app) {
   cmd->callback([opts] { run_certificate(*opts); });
 }
 
-const bool registered = register_command_group(add_certificate_commands);
+const bool certificate_commands_registered = register_command_group(add_certificate_commands);
 
 }  // namespace
 

@@ -9,8 +9,9 @@ namespace standcal::cli {
 // Adds a command group's sub-commands to the application. Called once, at start-up.
 using CommandGroup = std::function<void(CLI::App& app)>;
 
-// Registers a group; use from a namespace-scope initialiser:
-//   static const bool registered = register_command_group(add_my_commands);
+// Registers a group; use from a namespace-scope initialiser, with a name unique to the
+// file (scripts/build.sh compiles several files as one in a unity build):
+//   static const bool my_commands_registered = register_command_group(add_my_commands);
 bool register_command_group(CommandGroup group);
 
 }  // namespace standcal::cli

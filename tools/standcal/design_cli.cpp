@@ -503,6 +503,6 @@ void add_design_commands(CLI::App& app) {
 
 }  // namespace
 
-static const bool registered = register_command_group(add_design_commands);
+static const bool design_commands_registered = register_command_group(add_design_commands);
 
 }  // namespace standcal::cli

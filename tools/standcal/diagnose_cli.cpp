@@ -65,7 +65,7 @@ void add_diagnose_commands(CLI::App& app) {
   cmd->callback([opts] { run_diagnose(*opts); });
 }
 
-const bool registered = register_command_group(add_diagnose_commands);
+const bool diagnose_commands_registered = register_command_group(add_diagnose_commands);
 
 }  // namespace
 

@@ -324,6 +324,6 @@ void add_records_commands(CLI::App& app) {
 
 }  // namespace
 
-static const bool registered = register_command_group(add_records_commands);
+static const bool records_commands_registered = register_command_group(add_records_commands);
 
 }  // namespace standcal::cli

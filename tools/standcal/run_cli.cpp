@@ -18,6 +18,7 @@
 #include "calib/report.hpp"
 #include "protocol/jsonrpc/client.hpp"
 #include "tools/standcal/commands.hpp"
+#include "tools/standcal/daemon_connection.hpp"
 
 namespace standcal::cli {
 namespace {
@@ -25,31 +26,6 @@ namespace {
 using nlohmann::json;
 using namespace std::chrono_literals;
 
-constexpr const char* kDefaultSocket = "/run/standcal/standcald.sock";
-
-struct DaemonOptions {
-  std::string socket;
-  std::string config;
-  bool json = false;
-};
-
-void add_daemon_options(CLI::App* cmd, DaemonOptions& o) {
-  cmd->add_option("--socket", o.socket, "standcald's socket (default: the config's, else /run/standcal/standcald.sock)");
-  cmd->add_option("--config", o.config, "read the socket path from this standcald config file");
-  cmd->add_flag("--json", o.json, "machine-readable output");
-}
-
-std::string socket_path(const DaemonOptions& o) {
-  if (!o.socket.empty()) return o.socket;
-  if (!o.config.empty()) {
-    std::ifstream in(o.config);
-    const json doc = json::parse(in, nullptr, false);
-    if (!in || doc.is_discarded()) throw std::runtime_error("cannot read the config " + o.config);
-    if (doc.contains("socket") && doc["socket"].contains("path")) return doc["socket"]["path"].get<std::string>();
-  }
-  if (const char* env = std::getenv("STANDCAL_SOCKET")) return env;
-  return kDefaultSocket;
-}
 
 // Calls a method; daemon errors become the one-line reason main() prints.
 json call(protocol::Client& c, const std::string& method, const json& params = json::object(),
@@ -234,7 +210,8 @@ json follow_up_run(protocol::Client& c, const json& d, const DiagnoseArgs& a) {
 }
 
 void run_diagnose(const DaemonOptions& o, const DiagnoseArgs& a) {
-  protocol::Client c(socket_path(o));
+  const auto connection = connect_daemon(o);
+  protocol::Client& c = *connection;
   json params{{"run_id", a.run_id}};
   if (!a.report.empty()) params["report"] = true;
   // A diagnosis takes seconds (a long recording, a busy bench PC): wait generously.
@@ -266,7 +243,8 @@ void add_status(CLI::App& app) {
   auto* cmd = app.add_subcommand("status", "standcald, stand, unit and run at a glance");
   add_daemon_options(cmd, *o);
   cmd->callback([o] {
-    protocol::Client c(socket_path(*o));
+    const auto connection = connect_daemon(*o);
+    protocol::Client& c = *connection;
     const json s = call(c, "status");
     if (o->json) {
       std::cout << s.dump(2) << "\n";
@@ -283,7 +261,8 @@ void add_estop(CLI::App& app) {
   auto reset_flag = std::make_shared<bool>(false);
   cmd->add_flag("--reset", *reset_flag, "clear a latched emergency stop instead");
   cmd->callback([o, reset_flag] {
-    protocol::Client c(socket_path(*o), 5s);
+    const auto connection = connect_daemon(*o, 5s);
+    protocol::Client& c = *connection;
     const json r = call(c, *reset_flag ? "estop.reset" : "estop", json::object(), 10s);
     if (o->json) {
       std::cout << r.dump(2) << "\n";
@@ -300,7 +279,8 @@ void add_runs(CLI::App& app) {
   add_daemon_options(cmd, *o);
   cmd->add_option("--unit", *unit, "only this unit serial's runs");
   cmd->callback([o, unit] {
-    protocol::Client c(socket_path(*o));
+    const auto connection = connect_daemon(*o);
+    protocol::Client& c = *connection;
     const json r = call(c, "runs.list", unit->empty() ? json::object() : json{{"unit_serial", *unit}});
     if (o->json) {
       std::cout << r.dump(2) << "\n";
@@ -336,7 +316,8 @@ void add_run(CLI::App& app) {
   start->add_option("--operator", sa->op, "who runs it, for traceability");
   start->add_flag("--wait", sa->wait, "follow the run with a live progress line; print the report at the end");
   start->callback([so, sa] {
-    protocol::Client c(socket_path(*so));
+    const auto connection = connect_daemon(*so);
+    protocol::Client& c = *connection;
     json params{{"program", sa->program}, {"unit_serial", sa->unit}};
     if (sa->dwell_s > 0) params["dwell_s"] = sa->dwell_s;
     if (sa->settle_s >= 0) params["settle_s"] = sa->settle_s;
@@ -369,7 +350,8 @@ void add_run(CLI::App& app) {
   add_daemon_options(watch_cmd, *wo);
   watch_cmd->add_option("run_id", *watch_id, "run id (default: the current or newest run)");
   watch_cmd->callback([wo, watch_id] {
-    protocol::Client c(socket_path(*wo));
+    const auto connection = connect_daemon(*wo);
+    protocol::Client& c = *connection;
     const json s = call(c, "run.status", watch_id->empty() ? json::object() : json{{"run_id", *watch_id}});
     const std::string state = watch(c, s["run_id"], wo->json);
     if (!wo->json) std::printf("run %s is %s\n", s["run_id"].get<std::string>().c_str(), state.c_str());
@@ -381,7 +363,8 @@ void add_run(CLI::App& app) {
   add_daemon_options(result, *ro);
   result->add_option("run_id", *result_id, "run id (see `standcal runs`)")->required();
   result->callback([ro, result_id] {
-    protocol::Client c(socket_path(*ro));
+    const auto connection = connect_daemon(*ro);
+    protocol::Client& c = *connection;
     const json r = call(c, "run.result", {{"run_id", *result_id}});
     if (ro->json) {
       std::cout << r.dump(2) << "\n";
@@ -421,7 +404,8 @@ void add_run(CLI::App& app) {
     cmd->add_option("run_id", *id, "run id (default: the current or newest resumable run)");
     const std::string method = s.method;
     cmd->callback([o, id, method] {
-      protocol::Client c(socket_path(*o));
+      const auto connection = connect_daemon(*o);
+      protocol::Client& c = *connection;
       const json r = call(c, method, id->empty() ? json::object() : json{{"run_id", *id}});
       if (o->json) {
         std::cout << r.dump(2) << "\n";
@@ -444,6 +428,6 @@ void add_daemon_commands(CLI::App& app) {
 
 }  // namespace
 
-static const bool registered = register_command_group(add_daemon_commands);
+static const bool run_commands_registered = register_command_group(add_daemon_commands);
 
 }  // namespace standcal::cli

@@ -166,6 +166,6 @@ void add_stand_commands(CLI::App& app) {
 
 }  // namespace
 
-static const bool registered = register_command_group(add_stand_commands);
+static const bool stand_commands_registered = register_command_group(add_stand_commands);
 
 }  // namespace standcal::cli

@@ -14,8 +14,6 @@ namespace {
 
 namespace can = standcal::drivers::can;
 
-constexpr double kStandardGravity_mps2 = 9.80665;
-
 struct UnitOptions {
   std::string can_iface;
   int fd = -1;
@@ -70,7 +68,8 @@ void read_unit(const UnitOptions& o) {
                 a == 0   ? "x"
                 : a == 1 ? "y"
                          : "z",
-                mean, sigma, mean / kStandardGravity_mps2, sigma / kStandardGravity_mps2 * 1e6);
+                mean, sigma, mean / can::kStandardGravity_mps2,
+                sigma / can::kStandardGravity_mps2 * 1e6);
   }
   const double t_c = samples.back().temperature_c;
   if (std::isnan(t_c))
@@ -99,6 +98,6 @@ void add_unit_commands(CLI::App& app) {
 
 }  // namespace
 
-static const bool registered = register_command_group(add_unit_commands);
+static const bool unit_commands_registered = register_command_group(add_unit_commands);
 
 }  // namespace standcal::cli

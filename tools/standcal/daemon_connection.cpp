@@ -1,0 +1,123 @@
+#include "tools/standcal/daemon_connection.hpp"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+
+#include "protocol/jsonrpc/jsonrpc.hpp"
+#include "protocol/jsonrpc/methods.hpp"
+
+namespace standcal::cli {
+
+using nlohmann::json;
+
+namespace {
+
+constexpr const char* kDefaultDaemonSocket = "/run/standcal/standcald.sock";
+
+std::string octal_mode(mode_t mode) {
+  char buf[8];
+  std::snprintf(buf, sizeof buf, "%04o", static_cast<unsigned>(mode & 07777));
+  return buf;
+}
+
+// The whole file through one descriptor, so the checked file is the one read.
+std::string read_checked_token_file(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0)
+    throw std::runtime_error("cannot open the token file " + path + ": " + std::strerror(errno));
+  struct stat st {};
+  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+    ::close(fd);
+    throw std::runtime_error("the token file " + path + " is not a regular file");
+  }
+  if ((st.st_mode & 077) != 0) {
+    ::close(fd);
+    throw std::runtime_error(
+        "the token file " + path + " has mode " + octal_mode(st.st_mode) +
+        ": group or others may access it, and it holds the daemon's control secret; "
+        "`chmod 600 " +
+        path + "` (and ask whether someone else has read it)");
+  }
+  std::string text;
+  char buf[4096];
+  ssize_t n = 0;
+  while ((n = ::read(fd, buf, sizeof buf)) > 0) text.append(buf, static_cast<std::size_t>(n));
+  const int read_errno = errno;
+  ::close(fd);
+  if (n < 0)
+    throw std::runtime_error("cannot read the token file " + path + ": " +
+                             std::strerror(read_errno));
+  return text;
+}
+
+}  // namespace
+
+void add_daemon_options(CLI::App* cmd, DaemonOptions& o) {
+  auto* socket = cmd->add_option(
+      "--socket", o.socket,
+      "standcald's socket (default: the config's, else /run/standcal/standcald.sock)");
+  auto* tcp = cmd->add_option("--tcp", o.tcp,
+                              "reach standcald over TCP at HOST:PORT (IPv4) instead of its socket");
+  cmd->add_option("--token-file", o.token_file,
+                  "with --tcp: send the token in FILE (mode 0600) with `auth` first, to command "
+                  "the stand and runs")
+      ->needs(tcp);
+  tcp->excludes(socket);
+  cmd->add_option("--config", o.config, "read the socket path from this standcald config file");
+  cmd->add_flag("--json", o.json, "machine-readable output");
+}
+
+std::string daemon_endpoint(const DaemonOptions& o) {
+  if (!o.tcp.empty()) return o.tcp.rfind("tcp://", 0) == 0 ? o.tcp : "tcp://" + o.tcp;
+  if (!o.socket.empty()) return o.socket;
+  if (!o.config.empty()) {
+    std::ifstream in(o.config);
+    const json doc = json::parse(in, nullptr, false);
+    if (!in || doc.is_discarded()) throw std::runtime_error("cannot read the config " + o.config);
+    if (doc.contains("socket") && doc["socket"].contains("path"))
+      return doc["socket"]["path"].get<std::string>();
+  }
+  if (const char* env = std::getenv("STANDCAL_SOCKET")) return env;
+  return kDefaultDaemonSocket;
+}
+
+std::string read_token_file(const std::string& path) {
+  const std::string text = read_checked_token_file(path);
+  // The first line, trimmed at the end as standcald trims it (config.cpp load_tcp_token).
+  std::string token = text.substr(0, text.find('\n'));
+  while (!token.empty() && (token.back() == '\r' || token.back() == ' ' || token.back() == '\t'))
+    token.pop_back();
+  if (token.empty())
+    throw std::runtime_error("the token file " + path +
+                             " is empty: its first line must be the token");
+  return token;
+}
+
+std::unique_ptr<protocol::Client> connect_daemon(const DaemonOptions& o,
+                                                 std::chrono::milliseconds timeout) {
+  // Read the token before connecting: a bad file must not cost a connection.
+  const std::string token = o.token_file.empty() ? std::string() : read_token_file(o.token_file);
+  const std::string endpoint = daemon_endpoint(o);
+  auto client = std::make_unique<protocol::Client>(endpoint, timeout);
+  if (token.empty()) return client;
+  try {
+    client->call(protocol::method::auth, {{"token", token}}, timeout);
+  } catch (const protocol::RpcError& e) {
+    throw std::runtime_error("standcald at " + endpoint + " refused the token from " +
+                             o.token_file + ": " + e.what() + " (" +
+                             protocol::error_code_name(e.code()) +
+                             "); the file must hold the daemon's tcp.token_file token");
+  }
+  return client;
+}
+
+}  // namespace standcal::cli
