@@ -135,7 +135,4 @@ class RecordingFile {
 // returns what was dropped for the operator; empty when the file is as long as recorded.
 std::string fit_record_to_recording(RunRecord& r);
 
-// "2026-11-21T22:15:00Z"
-std::string utc_now_iso();
-
 }  // namespace standcal::daemon

@@ -13,6 +13,7 @@
 #include "calib/invariant_estimator.hpp"
 #include "calib/recording.hpp"
 #include "calib/report.hpp"
+#include "calib/utc_time.hpp"
 #include "protocol/jsonrpc/jsonrpc.hpp"
 #include "protocol/jsonrpc/methods.hpp"
 #include "standcal/version.hpp"

@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "calib/parameters.hpp"
+#include "calib/utc_time.hpp"
 #include "records/db/sql_session.hpp"
 
 namespace standcal::records {
@@ -93,15 +94,6 @@ SqlValue optional_number(const json& v) {
   return number_text(v.get<double>());
 }
 
-std::string utc_now() {
-  const std::time_t t = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&t, &tm);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return buf;
-}
-
 std::vector<SqlValue> record_params(const CalibrationRecord& r) {
   return {r.run_id,
           r.unit_serial,
@@ -120,7 +112,7 @@ std::vector<SqlValue> record_params(const CalibrationRecord& r) {
           r.result.dump(),
           r.verdict,
           r.origin,
-          r.recorded_utc.empty() ? utc_now() : r.recorded_utc,
+          r.recorded_utc.empty() ? utc_now_iso() : r.recorded_utc,
           r.assessment.is_null() ? SqlValue() : SqlValue(r.assessment.dump()),
           r.diagnosis_verdict};
 }
@@ -224,7 +216,7 @@ class SqlRecordsDb final : public RecordsDb {
         s_->exec_script(m.sql);
         if (m.data_step != nullptr) m.data_step(*s_);
         s_->exec("INSERT INTO schema_version (version, description, applied_utc) VALUES ($1, $2, $3)",
-                 {std::to_string(m.version), std::string(m.description), utc_now()});
+                 {std::to_string(m.version), std::string(m.description), utc_now_iso()});
         return true;
       });
       if (!more) break;
@@ -443,12 +435,7 @@ std::string canonical_utc(const std::string& text, bool end_of_day) {
   tm.tm_hour = hour;
   tm.tm_min = minute;
   tm.tm_sec = second;
-  const std::time_t t = timegm(&tm) - *offset;
-  std::tm out{};
-  gmtime_r(&t, &out);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &out);
-  return buf;
+  return utc_iso(timegm(&tm) - *offset);
 }
 
 CalibrationRecord record_from_daemon_result(const json& result) {

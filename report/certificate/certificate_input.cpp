@@ -1,6 +1,5 @@
 // prepare_certificate(): from a run folder (or a recording) to everything the page shows.
 #include <cmath>
-#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -12,6 +11,7 @@
 #include "calib/full_estimator.hpp"
 #include "calib/invariant_estimator.hpp"
 #include "calib/recording.hpp"
+#include "calib/utc_time.hpp"
 #include "report/certificate/certificate.hpp"
 #include "standcal/version.hpp"
 
@@ -36,15 +36,6 @@ json read_json_file(const fs::path& path, const char* what) {
 
 std::string string_key(const json& j, const char* key) {
   return j.contains(key) && j[key].is_string() ? j[key].get<std::string>() : std::string();
-}
-
-std::string utc_now() {
-  const std::time_t t = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&t, &tm);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return buf;
 }
 
 struct LoadedRun {
@@ -157,7 +148,7 @@ CertificateInput prepare_certificate(const CertificateRequest& req) {
   in.program_name = run.recording.program;
   in.warnings = run.recording.warnings;
   in.positions = average_positions(run.recording);
-  in.issued_utc = utc_now();
+  in.issued_utc = utc_now_iso();
   in.issuing_software_version = kVersion;
 
   in.invariant = fit_invariant_joint(in.positions);

@@ -18,6 +18,7 @@
 #include "calib/invariant_estimator.hpp"
 #include "calib/recording.hpp"
 #include "calib/report.hpp"
+#include "calib/utc_time.hpp"
 #include "records/db/records_db.hpp"
 #include "records/db/unit_history.hpp"
 #include "report/history/history.hpp"
@@ -74,11 +75,7 @@ std::string fingerprint(const std::string& text) {
 std::string file_time_utc(const std::string& path) {
   struct stat st {};
   if (::stat(path.c_str(), &st) != 0) return "";
-  std::tm tm{};
-  gmtime_r(&st.st_mtime, &tm);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return buf;
+  return utc_iso(st.st_mtime);
 }
 
 FitResult fit_by_method(const std::string& method, const std::vector<PositionAverage>& averages) {
