@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs every Debian package standcal builds, tests or runs with. Idempotent:
 # packages already present are skipped, so a second run is fast and offline-safe.
+#   scripts/setup.sh [EXTRA_PACKAGE...]   also installs tools one script needs (soak: gdb)
 set -euo pipefail
 
 packages=(
@@ -15,6 +16,7 @@ packages=(
   clang-14 libclang-rt-14-dev
   # The PostgreSQL records tests start a throw-away server on a loopback port.
   postgresql
+  "$@"
 )
 
 missing=()

@@ -195,8 +195,8 @@ int main(int argc, char** argv) {
   app.add_option("--max-fds-per-run", max_fds_per_run, "fd slope still called flat (default 0.01 fd/run)");
   std::string daemon = STANDCALD_PATH, wrapper;
   bool trim_at_end = false, no_runs_list = false;
-  // runs.list answers with every run in the state directory, so its transient memory
-  // grows with the run count; without it the soak shows what the rest costs per run.
+  // runs.list answers with one page (100 runs by default); without it the soak shows what
+  // the rest costs per run.
   app.add_flag("--no-runs-list", no_runs_list, "do not call runs.list after each run");
   app.add_option("--daemon", daemon, "the standcald binary (default: this build's)");
   app.add_flag("--trim-at-end", trim_at_end, "call malloc_trim(0) in the daemon through gdb at the end, print RSS");

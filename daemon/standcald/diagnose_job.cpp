@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include <chrono>
+#include <filesystem>
 #include <string>
 
 #include "calib/diagnosis.hpp"
@@ -31,9 +32,23 @@ std::string first_mount(const Recording& rec) {
   return mount_name(rec.default_mount.value_or(Mount::x));
 }
 
+// The diagnosis is kept with the run (runs/<id>/diagnosis.json) so the lab has it after the
+// answer is gone; a full disk costs the copy, not the answer.
+void save_beside_recording(json& out, const std::string& recording_path) {
+  const std::string saved = (std::filesystem::path(recording_path).parent_path() / "diagnosis.json").string();
+  try {
+    out["saved_path"] = saved;
+    write_file_atomically(saved, out.dump(2) + "\n");
+  } catch (const std::exception& e) {
+    out["saved_path"] = nullptr;
+    out["save_error"] = e.what();
+    spdlog::warn("run.diagnose: {}", e.what());
+  }
+}
+
 }  // namespace
 
-json diagnose_run(const json& run_status, bool with_report) {
+json diagnose_run(const json& run_status, const StandLimits& limits, bool with_report) {
   const std::string run_id = run_status.value("run_id", "");
   const std::string path = run_status.value("recording_path", "");
   Recording rec;
@@ -45,7 +60,9 @@ json diagnose_run(const json& run_status, bool with_report) {
   }
   Diagnosis d;
   try {
-    d = diagnose_recording(rec);
+    DiagnoseOptions options;
+    options.limits = limits;
+    d = diagnose_recording(rec, options);
   } catch (const std::exception& e) {
     throw RpcError(ErrorCode::invalid_state,
                    "run " + run_id + ": its recording cannot be diagnosed: " + e.what());
@@ -56,6 +73,7 @@ json diagnose_run(const json& run_status, bool with_report) {
   out["recording_path"] = path;
   out["mount"] = first_mount(rec);
   out["recording_warnings"] = rec.warnings;
+  save_beside_recording(out, path);
   if (with_report) {
     std::string html = report::diagnosis_html(d, rec);
     if (html.size() > kMaxReportBytes) {
@@ -73,10 +91,10 @@ json diagnose_run(const json& run_status, bool with_report) {
 
 namespace {
 
-Outcome outcome_of(const json& run_status, bool with_report) {
+Outcome outcome_of(const json& run_status, const StandLimits& limits, bool with_report) {
   Outcome o;
   try {
-    o.result = diagnose_run(run_status, with_report);
+    o.result = diagnose_run(run_status, limits, with_report);
   } catch (const RpcError& e) {
     o.error_code = e.code();
     o.error_message = e.what();
@@ -121,7 +139,7 @@ void DiagnoseJobs::submit(const Sequencer& sequencer, const json& params, ReplyF
     throw RpcError(ErrorCode::busy,
                    std::to_string(queue_.size()) + " diagnoses are waiting; try again shortly");
   }
-  queue_.push_back({std::move(status), with_report, std::move(reply)});
+  queue_.push_back({std::move(status), sequencer.stand_limits(), with_report, std::move(reply)});
   wake_.notify_one();
 }
 
@@ -134,7 +152,7 @@ void DiagnoseJobs::worker_main() {
     queue_.pop_front();
     lock.unlock();
     const auto started = std::chrono::steady_clock::now();
-    Outcome o = outcome_of(job.run_status, job.with_report);
+    Outcome o = outcome_of(job.run_status, job.limits, job.with_report);
     spdlog::info("run.diagnose {}: {} in {:.1f} s", job.run_status.value("run_id", ""),
                  o.error_code == 0 ? o.result.value("verdict", "?") : o.error_message,
                  std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());

@@ -20,9 +20,12 @@ inline constexpr std::size_t kMaxQueuedDiagnoses = 4;
 inline constexpr std::size_t kMaxReportBytes = 768 * 1024;
 
 // The answer for one run: `run_status` is the run's `run.status` (its recording_path,
-// unit_serial, run_id). Throws protocol::RpcError with the code the protocol gives
-// (-32603 unreadable recording, -32007 a recording that cannot be diagnosed).
-nlohmann::json diagnose_run(const nlohmann::json& run_status, bool with_report);
+// unit_serial, run_id); proposed positions lie inside `limits` (the configured stand's).
+// Throws protocol::RpcError with the code the protocol gives (-32603 unreadable
+// recording, -32007 a recording that cannot be diagnosed). The answer without the report
+// is also kept as diagnosis.json beside the recording (`saved_path`; null with
+// `save_error` when the disk refused it: the answer is still given).
+nlohmann::json diagnose_run(const nlohmann::json& run_status, const StandLimits& limits, bool with_report);
 
 class DiagnoseJobs {
  public:
@@ -40,6 +43,7 @@ class DiagnoseJobs {
  private:
   struct Job {
     nlohmann::json run_status;
+    StandLimits limits;
     bool with_report = false;
     ReplyFn reply;
   };

@@ -11,6 +11,7 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 #include <stdexcept>
 
@@ -75,6 +76,7 @@ void write_file_atomically(const std::string& path, const std::string& text) {
 json to_json(const RunRecord& r) {
   return json{{"run_id", r.run_id},
               {"unit_serial", r.unit_serial},
+              {"unit_type", r.unit_type},
               {"program_name", r.program_name},
               {"program", r.program},
               {"dwell_s", r.dwell_s},
@@ -109,6 +111,7 @@ RunRecord run_record_from_json(const json& j) {
   RunRecord r;
   r.run_id = j.at("run_id").get<std::string>();
   r.unit_serial = j.value("unit_serial", "");
+  r.unit_type = j.value("unit_type", "");
   r.program_name = j.value("program_name", "");
   r.program = j.value("program", json::object());
   r.dwell_s = j.value("dwell_s", 60.0);
@@ -231,12 +234,32 @@ std::optional<RunRecord> RunStore::get_locked(const std::string& run_id) const {
 }
 
 std::vector<RunSummary> RunStore::list(const std::string& unit_serial) const {
+  return page(RunPageQuery{unit_serial, {}, SIZE_MAX}).runs;
+}
+
+RunPage RunStore::page(const RunPageQuery& q) const {
   std::lock_guard lock(mutex_);
-  std::vector<RunSummary> out;
-  for (auto it = runs_.rbegin(); it != runs_.rend(); ++it) {
-    if (unit_serial.empty() || it->unit_serial == unit_serial) out.push_back(*it);
+  auto end = runs_.end();
+  if (!q.before_run_id.empty()) {
+    end = std::lower_bound(runs_.begin(), runs_.end(), q.before_run_id,
+                           [](const RunSummary& r, const std::string& id) { return r.run_id < id; });
+  }
+  RunPage out;
+  for (auto it = std::make_reverse_iterator(end); it != runs_.rend(); ++it) {
+    if (!q.unit_serial.empty() && it->unit_serial != q.unit_serial) continue;
+    if (out.runs.size() == q.limit) {
+      out.more = true;
+      break;
+    }
+    out.runs.push_back(*it);
   }
   return out;
+}
+
+std::optional<RunSummary> RunStore::newest() const {
+  std::lock_guard lock(mutex_);
+  if (runs_.empty()) return std::nullopt;
+  return runs_.back();
 }
 
 std::optional<RunRecord> RunStore::latest_resumable() const {

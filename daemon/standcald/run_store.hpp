@@ -19,6 +19,7 @@ namespace standcal::daemon {
 struct RunRecord {
   std::string run_id;
   std::string unit_serial;
+  std::string unit_type;        // which acceptance limits apply (certificate); may be empty
   std::string program_name;
   nlohmann::json program;       // the normalised programme (calib's programme JSON)
   double dwell_s = 60;
@@ -60,6 +61,20 @@ struct RunSummary {
 
 RunSummary summary_of(const RunRecord& r);
 
+// Which runs one runs.list page holds: newest first, only `unit_serial`'s when not empty,
+// only those older than `before_run_id` (run ids sort by start time) when not empty, at
+// most `limit`. Paging keeps an answer's size (and the memory it takes to build and send)
+// bounded however many runs the state directory holds.
+struct RunPageQuery {
+  std::string unit_serial;
+  std::string before_run_id;
+  std::size_t limit = SIZE_MAX;
+};
+struct RunPage {
+  std::vector<RunSummary> runs;
+  bool more = false;  // older runs match the query beyond this page
+};
+
 nlohmann::json to_json(const RunRecord& r);
 RunRecord run_record_from_json(const nlohmann::json& j);
 
@@ -88,6 +103,8 @@ class RunStore {
   std::optional<RunRecord> get(const std::string& run_id) const;
   // Newest first; only `unit_serial`'s when not empty.
   std::vector<RunSummary> list(const std::string& unit_serial = {}) const;
+  RunPage page(const RunPageQuery& q) const;
+  std::optional<RunSummary> newest() const;
   // The newest run that can be resumed (interrupted, faulted or paused).
   std::optional<RunRecord> latest_resumable() const;
   const std::string& state_dir() const { return state_dir_; }

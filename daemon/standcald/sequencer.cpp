@@ -603,9 +603,9 @@ json Sequencer::run_status(const std::string& run_id) const {
     if (id.empty()) id = active_run_id_;
   }
   if (id.empty()) {
-    auto all = store_.list();
-    if (all.empty()) throw RpcError(ErrorCode::not_found, "no run has been started yet");
-    id = all.front().run_id;
+    const auto newest = store_.newest();
+    if (!newest) throw RpcError(ErrorCode::not_found, "no run has been started yet");
+    id = newest->run_id;
   }
   auto rec = store_.get(id);
   if (!rec) throw RpcError(ErrorCode::not_found, "no run " + id + " (see runs.list)");
@@ -613,6 +613,7 @@ json Sequencer::run_status(const std::string& run_id) const {
            {"state", rec->state},
            {"reason", rec->reason},
            {"unit_serial", rec->unit_serial},
+           {"unit_type", rec->unit_type},
            {"program", rec->program_name},
            {"position", rec->positions_done},
            {"positions", rec->positions},
@@ -644,32 +645,42 @@ json Sequencer::run_result(const std::string& run_id) const {
   return doc;
 }
 
-json Sequencer::runs_list(const std::string& unit_serial) const {
-  json out = json::array();
-  for (const RunSummary& r : store_.list(unit_serial)) {
-    out.push_back(json{{"run_id", r.run_id},
-                       {"unit_serial", r.unit_serial},
-                       {"program", r.program_name},
-                       {"state", r.state},
-                       {"positions", r.positions},
-                       {"positions_done", r.positions_done},
-                       {"started_utc", r.started_utc},
-                       {"ended_utc", r.ended_utc},
-                       {"has_result", r.has_result}});
+json Sequencer::runs_list(const RunPageQuery& query) const {
+  const RunPage page = store_.page(query);
+  json runs = json::array();
+  for (const RunSummary& r : page.runs) {
+    runs.push_back(json{{"run_id", r.run_id},
+                        {"unit_serial", r.unit_serial},
+                        {"program", r.program_name},
+                        {"state", r.state},
+                        {"positions", r.positions},
+                        {"positions_done", r.positions_done},
+                        {"started_utc", r.started_utc},
+                        {"ended_utc", r.ended_utc},
+                        {"has_result", r.has_result}});
   }
-  return json{{"runs", out}};
+  json out = json::object();
+  out["runs"] = std::move(runs);
+  out["more"] = page.more;
+  return out;
 }
 
 // --------------------------------------------------------------------------- runs
 
 namespace {
 
-StandLimits stand_limits(const DaemonConfig& c) {
+StandLimits limits_of(const DaemonConfig& c) {
   StandLimits l;
   l.alpha1 = AxisRange{c.outer.continuous, c.outer.min_deg, c.outer.max_deg};
   l.alpha2 = AxisRange{c.inner.continuous, c.inner.min_deg, c.inner.max_deg};
   return l;
 }
+
+}  // namespace
+
+StandLimits Sequencer::stand_limits() const { return limits_of(config_); }
+
+namespace {
 
 bool uses_several_mounts(const Program& p) {
   for (const auto& pos : p.positions) {
@@ -729,16 +740,18 @@ Program program_from_params(const json& spec, const DaemonConfig& config) {
 
 json Sequencer::start_run(const json& params) {
   protocol::Params p(params, m::run_start);
-  p.only({"program", "dwell_s", "settle_s", "unit_serial", "operator"});
+  p.only({"program", "dwell_s", "settle_s", "unit_serial", "unit_type", "operator"});
   const std::string serial = p.string("unit_serial");
   if (serial.empty() || serial.size() > 64) {
     throw RpcError(ErrorCode::invalid_params, "run.start: \"unit_serial\" must be 1 to 64 characters");
   }
+  const std::string unit_type = p.optional_string("unit_type").value_or("");
+  if (unit_type.size() > 64) throw RpcError(ErrorCode::invalid_params, "run.start: \"unit_type\" must be at most 64 characters");
   const json* spec = p.find("program");
   if (spec == nullptr) throw RpcError(ErrorCode::invalid_params, "run.start: parameter \"program\" is required");
   Program program = program_from_params(*spec, config_);
   try {
-    program = normalise_program(program, stand_limits(config_));
+    program = normalise_program(program, limits_of(config_));
   } catch (const ProgramError& e) {
     throw RpcError(ErrorCode::limit, e.what());
   }
@@ -751,6 +764,7 @@ json Sequencer::start_run(const json& params) {
   RunRecord r;
   r.run_id = store_.new_run_id(serial);
   r.unit_serial = serial;
+  r.unit_type = unit_type;
   r.program_name = program.name;
   r.program = program_to_json(program);
   r.dwell_s = dwell;
@@ -880,6 +894,7 @@ void Sequencer::run_loop(RunRecord record, const std::function<void()>& started)
             header.set_header("settle_s", number_text(record.settle_s));
             header.set_header("sample_rate_hz", number_text(config_.sample_rate_hz));
             header.set_header("unit_serial", record.unit_serial);
+            if (!record.unit_type.empty()) header.set_header("unit_type", record.unit_type);
             header.set_header("program", record.program_name);
             header.set_header("started_utc", record.started_utc);
             header.set_header("run_id", record.run_id);
@@ -1153,6 +1168,7 @@ void Sequencer::finish_with_fit(RunRecord& record) {
   result["recording_path"] = record.recording_path;
   result["traceability"] = json{{"run_id", record.run_id},
                                 {"unit_serial", record.unit_serial},
+                                {"unit_type", record.unit_type},
                                 {"stand_id", record.stand_id},
                                 {"program", record.program_name},
                                 {"g_local_mps2", record.g_local_mps2},

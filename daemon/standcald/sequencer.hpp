@@ -60,7 +60,9 @@ class Sequencer {
   nlohmann::json status() const;
   nlohmann::json run_status(const std::string& run_id) const;  // empty id: current or newest
   nlohmann::json run_result(const std::string& run_id) const;
-  nlohmann::json runs_list(const std::string& unit_serial) const;
+  nlohmann::json runs_list(const RunPageQuery& query) const;
+  // Where the configured stand can go (config stand.outer / stand.inner).
+  StandLimits stand_limits() const;
 
   // Whether `method` is one this class executes (the server answers unknown ones).
   static bool executes(const std::string& method);

@@ -38,6 +38,16 @@ namespace m = protocol::method;
 
 namespace {
 
+RunPageQuery runs_list_query(const protocol::Params& p) {
+  p.only({"unit_serial", "before", "limit"});
+  RunPageQuery q;
+  q.unit_serial = p.optional_string("unit_serial").value_or("");
+  q.before_run_id = p.optional_string("before").value_or("");
+  q.limit = static_cast<std::size_t>(
+      p.optional_integer("limit", 1, protocol::runs_list_max_limit).value_or(protocol::runs_list_default_limit));
+  return q;
+}
+
 double now_s() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
@@ -521,8 +531,7 @@ void Server::handle_line(Client& c, const std::string& line) {
       p.only({"run_id"});
       result = sequencer_.run_result(p.string("run_id"));
     } else if (req.method == m::runs_list) {
-      p.only({"unit_serial"});
-      result = sequencer_.runs_list(p.optional_string("unit_serial").value_or(""));
+      result = sequencer_.runs_list(runs_list_query(p));
     } else if (req.method == m::subscribe) {
       result = subscribe(c, req.params);
     } else if (req.method == m::auth) {

@@ -32,9 +32,10 @@ void check_answer(const std::string& line, const json& id) {
 // Typed parameter access as the daemon's methods do it; RpcError is the documented rejection.
 void access_params(const rpc::Request& req) {
   const rpc::Params p(req.params, req.method);
-  const char* keys[] = {"axis", "angle_deg", "program", "run_id", "events", "dwell_s", "follow"};
+  const char* keys[] = {"axis", "angle_deg", "program", "run_id", "events", "dwell_s", "follow", "limit"};
   for (const char* key : keys) {
     try { (void)p.optional_number(key); } catch (const rpc::RpcError&) {}
+    try { (void)p.optional_integer(key, 1, 1000); } catch (const rpc::RpcError&) {}
     try { (void)p.optional_string(key); } catch (const rpc::RpcError&) {}
     try { (void)p.optional_bool(key, false); } catch (const rpc::RpcError&) {}
   }

@@ -1,5 +1,7 @@
 #include "protocol/jsonrpc/jsonrpc.hpp"
 
+#include <cmath>
+
 namespace standcal::protocol {
 
 using nlohmann::json;
@@ -75,7 +77,11 @@ std::string make_request(const json& id, const std::string& method, const json& 
 }
 
 std::string make_result(const json& id, const json& result) {
-  return json{{"jsonrpc", "2.0"}, {"id", id}, {"result", result}}.dump(-1, ' ', false, json::error_handler_t::replace);
+  // Serialised piecewise rather than as one json{...}: that would deep-copy the result,
+  // and a large answer (a runs.list page, a diagnosis) would then sit in memory twice.
+  constexpr auto replace = json::error_handler_t::replace;
+  return R"({"id":)" + id.dump(-1, ' ', false, replace) + R"(,"jsonrpc":"2.0","result":)" +
+         result.dump(-1, ' ', false, replace) + "}";
 }
 
 std::string make_error(const json& id, int code, const std::string& message, const json& data) {
@@ -112,6 +118,19 @@ double Params::number(const char* key) const {
 std::optional<double> Params::optional_number(const char* key) const {
   if (find(key) == nullptr) return std::nullopt;
   return number(key);
+}
+
+std::optional<std::int64_t> Params::optional_integer(const char* key, std::int64_t min, std::int64_t max) const {
+  const json* v = find(key);
+  if (v == nullptr) return std::nullopt;
+  const std::string range = "a whole number from " + std::to_string(min) + " to " + std::to_string(max);
+  if (!v->is_number()) wrong(key, range.c_str());
+  const double x = v->get<double>();
+  if (!(x >= static_cast<double>(min) && x <= static_cast<double>(max)) || x != std::floor(x)) {
+    throw RpcError(ErrorCode::invalid_params, method_ + ": parameter \"" + key + "\" must be " + range + ", not " +
+                                                  v->dump());
+  }
+  return static_cast<std::int64_t>(x);
 }
 
 std::string Params::string(const char* key) const {

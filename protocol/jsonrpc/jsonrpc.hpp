@@ -3,6 +3,7 @@
 // `id` echoed back, error objects with the standard codes plus the application codes
 // below, and notifications (no `id`) for the greeting and events.
 #include <nlohmann/json.hpp>
+#include <cstdint>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -79,6 +80,8 @@ class Params {
   Params(const nlohmann::json& params, std::string method) : p_(params), method_(std::move(method)) {}
   double number(const char* key) const;
   std::optional<double> optional_number(const char* key) const;
+  // A whole number (5 or 5.0, not 5.5) within [min, max]; the error names the range.
+  std::optional<std::int64_t> optional_integer(const char* key, std::int64_t min, std::int64_t max) const;
   std::string string(const char* key) const;
   std::optional<std::string> optional_string(const char* key) const;
   bool optional_bool(const char* key, bool fallback) const;

@@ -26,6 +26,10 @@ inline constexpr const char* subscribe = "subscribe";
 inline constexpr const char* auth = "auth";  // {token}: a TCP client asks for control (docs/security.md)
 }  // namespace method
 
+// runs.list pages: how many runs an answer holds when `limit` is not given, and at most.
+inline constexpr int runs_list_default_limit = 100;
+inline constexpr int runs_list_max_limit = 1000;
+
 // Event notifications (method = the event name), sent to clients that subscribed.
 namespace event {
 inline constexpr const char* run_progress = "run.progress";          // position i/N, phase, ETA

@@ -1,7 +1,6 @@
 // `standcal certificate` as an operator runs it: from a state directory, from an imported
 // recording, and with the one-line errors of a wrong request.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
 #include <cstdio>
 #include <fstream>
@@ -9,27 +8,15 @@
 #include <string>
 
 #include "tests/certificate/certificate_support.hpp"
+#include "tests/support/command.hpp"
 #include "tests/certificate/html_query.hpp"
 
 namespace standcal::test {
 namespace {
 
-struct CommandResult {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr
-};
+using CommandResult = test::CommandOutcome;
 
-CommandResult run_cli(const std::string& args) {
-  const std::string command = std::string(STANDCAL_CLI) + " " + args + " 2>&1";
-  CommandResult r;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (!pipe) return r;
-  char buf[4096];
-  for (std::size_t n; (n = std::fread(buf, 1, sizeof buf, pipe)) > 0;) r.output.append(buf, n);
-  const int status = pclose(pipe);
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
+CommandResult run_cli(const std::string& args) { return test::standcal_cli(args); }
 
 std::string read_text(const std::filesystem::path& path) {
   std::ifstream in(path);
@@ -41,9 +28,9 @@ std::string read_text(const std::filesystem::path& path) {
 class CertificateCli : public ::testing::Test {
  protected:
   void SetUp() override {
-    run_dir_ = write_done_run(state_.path, "20261121T223638Z-AU-0042",
+    run_dir_ = write_done_run(state_.path(), "20261121T223638Z-AU-0042",
                               simulated_recording("AU-0042", default_truth(), 11, "paper9", 4));
-    write_text(state_.path / "limits.json", R"({"format": "standcal-limits/1", "unit_types": {"QA-2000": {
+    write_text(state_.file("limits.json"), R"({"format": "standcal-limits/1", "unit_types": {"QA-2000": {
         "parameters": {"bias": {"max_abs": 100}, "scale": {"max_abs": 300}, "gamma": {"max_abs": 60}}}}})");
   }
   TempDir state_;
@@ -51,9 +38,9 @@ class CertificateCli : public ::testing::Test {
 };
 
 TEST_F(CertificateCli, WritesTheCertificateOfARunInTheStateDirectory) {
-  const std::filesystem::path out = state_.path / "cert.html";
-  const CommandResult r = run_cli("certificate 20261121T223638Z-AU-0042 --state-dir " + state_.path.string() +
-                                  " --limits " + (state_.path / "limits.json").string() + " -o " + out.string());
+  const std::filesystem::path out = state_.file("cert.html");
+  const CommandResult r = run_cli("certificate 20261121T223638Z-AU-0042 --state-dir " + state_.path() +
+                                  " --limits " + state_.file("limits.json") + " -o " + out.string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("certificate for AU-0042 written to"), std::string::npos) << r.output;
   const HtmlDocument page(read_text(out));
@@ -67,7 +54,7 @@ TEST_F(CertificateCli, WritesTheCertificateOfARunInTheStateDirectory) {
 }
 
 TEST_F(CertificateCli, CertifiesAnImportedRecording) {
-  const std::filesystem::path out = state_.path / "imported.html";
+  const std::filesystem::path out = state_.file("imported.html");
   const CommandResult r =
       run_cli("certificate --recording " + (run_dir_ / "recording.csv").string() + " -o " + out.string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
@@ -77,18 +64,18 @@ TEST_F(CertificateCli, CertifiesAnImportedRecording) {
 }
 
 TEST_F(CertificateCli, ExplainsAWrongRequestInOneLine) {
-  const std::string out = (state_.path / "x.html").string();
-  CommandResult r = run_cli("certificate NO-SUCH-RUN --state-dir " + state_.path.string() + " -o " + out);
+  const std::string out = state_.file("x.html");
+  CommandResult r = run_cli("certificate NO-SUCH-RUN --state-dir " + state_.path() + " -o " + out);
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.output.find("no run NO-SUCH-RUN in"), std::string::npos) << r.output;
 
-  r = run_cli("certificate 20261121T223638Z-AU-0042 --state-dir " + state_.path.string() + " --limits " +
-              (state_.path / "limits.json").string() + " --unit-type QA-9 -o " + out);
+  r = run_cli("certificate 20261121T223638Z-AU-0042 --state-dir " + state_.path() + " --limits " +
+              state_.file("limits.json") + " --unit-type QA-9 -o " + out);
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.output.find("no limits for unit type 'QA-9' (known: QA-2000)"), std::string::npos) << r.output;
 
-  r = run_cli("certificate 20261121T223638Z-AU-0042 --state-dir " + state_.path.string() + " -o " +
-              (state_.path / "cert.pdf").string());
+  r = run_cli("certificate 20261121T223638Z-AU-0042 --state-dir " + state_.path() + " -o " +
+              state_.file("cert.pdf"));
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.output.find("PDF is not produced"), std::string::npos) << r.output;
   EXPECT_FALSE(std::filesystem::exists(out)) << "nothing written on error";

@@ -11,23 +11,9 @@
 #include "calib/programs.hpp"
 #include "calib/recording.hpp"
 #include "calib/simulator.hpp"
+#include "tests/support/temp_dir.hpp"
 
 namespace standcal::test {
-
-struct TempDir {
-  std::filesystem::path path;
-  TempDir() {
-    std::string pattern = (std::filesystem::temp_directory_path() / "standcal-cert-XXXXXX").string();
-    if (!mkdtemp(pattern.data())) throw std::runtime_error("mkdtemp failed");
-    path = pattern;
-  }
-  ~TempDir() {
-    std::error_code ignored;
-    std::filesystem::remove_all(path, ignored);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-};
 
 inline Recording simulated_recording(const std::string& serial, const TruthModel& truth, std::uint64_t seed,
                                      const std::string& program = "paper9", double dwell_s = 10) {

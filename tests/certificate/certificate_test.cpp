@@ -35,7 +35,7 @@ class CertificateOfSimulatedRun : public ::testing::Test {
  protected:
   void SetUp() override {
     rec_ = simulated_recording("AU-0042", default_truth(), 7);
-    run_dir_ = write_done_run(state_.path, kRunId, rec_);
+    run_dir_ = write_done_run(state_.path(), kRunId, rec_);
     reference_ = fit_invariant_joint(average_positions(rec_));
   }
 
@@ -58,14 +58,14 @@ class CertificateOfSimulatedRun : public ::testing::Test {
               {"bias_z", {{"max_abs", std::abs(value(kBiasZ)) - 2 * sigma(kBiasZ) - 5}}},
               {"scale_x", {{"max_abs", 1000}, {"max_sigma", sigma(kScaleX) / 2}}},
               {"gamma", {{"max_abs", 60}}}}}}}}}};
-    const std::filesystem::path path = state_.path / "limits.json";
+    const std::filesystem::path path = state_.file("limits.json");
     write_text(path, limits.dump(2));
     return path.string();
   }
 
   CertificateRequest request() const {
     CertificateRequest r;
-    r.state_dir = state_.path.string();
+    r.state_dir = state_.path();
     r.run_id = kRunId;
     return r;
   }
@@ -174,7 +174,7 @@ TEST_F(CertificateOfSimulatedRun, ImportedRecordingNamesWhatIsNotRecorded) {
 }
 
 TEST_F(CertificateOfSimulatedRun, RefusesAnUnfinishedRunOrAMissingOne) {
-  write_done_run(state_.path, "20261122T010000Z-AU-0042", rec_, "faulted");
+  write_done_run(state_.path(), "20261122T010000Z-AU-0042", rec_, "faulted");
   CertificateRequest r = request();
   r.run_id = "20261122T010000Z-AU-0042";
   try {
@@ -194,13 +194,13 @@ TEST(CertificateOfClassic24, LimitedParametersTheProgrammeCannotMeasureMakeItInd
   TruthModel truth = default_truth();
   truth.stand.mounting_rad[1] = truth.stand.mounting_rad[2] = truth.stand.mounting_rad[0];
   const Recording rec = simulated_recording("AU-0043", truth, 3, "classic24", 2);
-  write_done_run(state.path, "20261121T230000Z-AU-0043", rec);
-  write_text(state.path / "limits.json", R"({"format": "standcal-limits/1", "unit_types": {"QA-2000": {
+  write_done_run(state.path(), "20261121T230000Z-AU-0043", rec);
+  write_text(state.file("limits.json"), R"({"format": "standcal-limits/1", "unit_types": {"QA-2000": {
       "parameters": {"bias": {"max_abs": 500}, "scale": {"max_abs": 2000}, "gamma": {"max_abs": 60}}}}})");
   CertificateRequest r;
-  r.state_dir = state.path.string();
+  r.state_dir = state.path();
   r.run_id = "20261121T230000Z-AU-0043";
-  r.limits_path = (state.path / "limits.json").string();
+  r.limits_path = state.file("limits.json");
   const HtmlDocument page(report::render_certificate_html(report::prepare_certificate(r)));
   EXPECT_EQ(page.text(row("scale_z") + "/@data-outcome"), "pass");
   EXPECT_EQ(page.text(row("gamma13") + "/@data-outcome"), "not_evaluated");
@@ -216,7 +216,7 @@ TEST(CertificateOfClassic24, LimitedParametersTheProgrammeCannotMeasureMakeItInd
 TEST_F(CertificateOfSimulatedRun, EscapesTextFromTheRecords) {
   Recording rec = rec_;
   rec.unit_serial = "AU<script>";
-  write_done_run(state_.path, "20261122T020000Z-AU-X", rec);
+  write_done_run(state_.path(), "20261122T020000Z-AU-X", rec);
   CertificateRequest r = request();
   r.run_id = "20261122T020000Z-AU-X";
   const std::string html = report::render_certificate_html(report::prepare_certificate(r));

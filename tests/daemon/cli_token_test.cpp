@@ -2,38 +2,23 @@
 // is bound off loopback and so needs the token (docs/security.md): the token is sent with
 // `auth` first, a wrong token and a file others may read are clear one-line errors.
 #include <sys/stat.h>
-#include <sys/wait.h>
 
 #include <cstdio>
 #include <fstream>
 
 #include "daemon_process.hpp"
+#include "tests/support/command.hpp"
 
 using namespace std::chrono_literals;
 using nlohmann::json;
+using standcal::test::CommandOutcome;
 using standcal::test::DaemonProcess;
+using standcal::test::standcal_cli;
 using standcal::test::TempDir;
 
 namespace {
 
 constexpr const char* kToken = "5be1c0de9a7f4e2d8c3b6a1f0e9d8c7b";
-
-struct CliOutcome {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr
-};
-
-CliOutcome standcal_cli(const std::string& args) {
-  const std::string cmd = std::string(STANDCAL_CLI_PATH) + " " + args + " 2>&1";
-  std::FILE* out = ::popen(cmd.c_str(), "r");
-  if (out == nullptr) return {};
-  CliOutcome r;
-  char buf[4096];
-  while (std::size_t n = std::fread(buf, 1, sizeof buf, out)) r.output.append(buf, n);
-  const int status = ::pclose(out);
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
 
 std::string write_token_file(const TempDir& dir, const std::string& name, const std::string& text, mode_t mode) {
   const std::string path = dir.path() + "/" + name;
@@ -78,15 +63,15 @@ TEST(CliTokenFile, TheRightTokenGivesControlOverTcp) {
   // Written by an editor on Windows: the CRLF line end is not part of the token.
   const std::string token = write_token_file(dir, "op.token", std::string(kToken) + "\r\n", 0600);
 
-  const CliOutcome status = standcal_cli("status --json " + daemon.tcp() + " --token-file " + token);
+  const CommandOutcome status = standcal_cli("status --json " + daemon.tcp() + " --token-file " + token);
   ASSERT_EQ(status.exit_code, 0) << status.output;
   EXPECT_EQ(json::parse(status.output)["daemon"]["access"]["control"], true) << status.output;
 
   // estop.reset is a control method: refused without the token, done with it.
-  const CliOutcome without = standcal_cli("estop --reset " + daemon.tcp());
+  const CommandOutcome without = standcal_cli("estop --reset " + daemon.tcp());
   EXPECT_EQ(without.exit_code, 1) << without.output;
   EXPECT_NE(without.output.find("not permitted"), std::string::npos) << without.output;
-  const CliOutcome with = standcal_cli("estop --reset --json " + daemon.tcp() + " --token-file " + token);
+  const CommandOutcome with = standcal_cli("estop --reset --json " + daemon.tcp() + " --token-file " + token);
   ASSERT_EQ(with.exit_code, 0) << with.output;
   EXPECT_EQ(json::parse(with.output)["estop"], false) << with.output;
 }
@@ -96,7 +81,7 @@ TEST(CliTokenFile, AWrongTokenIsReportedAsARefusedToken) {
   TokenDaemon daemon(dir);
   ASSERT_GT(daemon.port(), 0) << daemon.log();
   const std::string wrong = write_token_file(dir, "old.token", "0000000000000000000000000000dead\n", 0600);
-  const CliOutcome r = standcal_cli("status " + daemon.tcp() + " --token-file " + wrong);
+  const CommandOutcome r = standcal_cli("status " + daemon.tcp() + " --token-file " + wrong);
   EXPECT_EQ(r.exit_code, 1) << r.output;
   EXPECT_NE(r.output.find("refused the token from " + wrong), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("wrong token"), std::string::npos) << r.output;
@@ -110,7 +95,7 @@ TEST(CliTokenFile, AFileOthersMayReadIsRefusedBeforeConnecting) {
   ASSERT_GT(daemon.port(), 0) << daemon.log();
   for (const mode_t mode : {0640, 0604, 0620}) {
     const std::string file = write_token_file(dir, "shared.token", std::string(kToken) + "\n", mode);
-    const CliOutcome r = standcal_cli("status " + daemon.tcp() + " --token-file " + file);
+    const CommandOutcome r = standcal_cli("status " + daemon.tcp() + " --token-file " + file);
     EXPECT_EQ(r.exit_code, 1) << r.output;
     char expected[64];
     std::snprintf(expected, sizeof expected, "has mode %04o", static_cast<unsigned>(mode));
@@ -123,17 +108,17 @@ TEST(CliTokenFile, AFileOthersMayReadIsRefusedBeforeConnecting) {
 TEST(CliTokenFile, UnusableTokenFilesAndOptionsAreClearErrors) {
   TempDir dir;
   const std::string empty = write_token_file(dir, "empty.token", "\n", 0600);
-  const CliOutcome r1 = standcal_cli("status --tcp 127.0.0.1:9 --token-file " + empty);
+  const CommandOutcome r1 = standcal_cli("status --tcp 127.0.0.1:9 --token-file " + empty);
   EXPECT_EQ(r1.exit_code, 1) << r1.output;
   EXPECT_NE(r1.output.find("the token file " + empty + " is empty"), std::string::npos) << r1.output;
 
-  const CliOutcome r2 = standcal_cli("status --tcp 127.0.0.1:9 --token-file " + dir.path() + "/missing.token");
+  const CommandOutcome r2 = standcal_cli("status --tcp 127.0.0.1:9 --token-file " + dir.path() + "/missing.token");
   EXPECT_EQ(r2.exit_code, 1) << r2.output;
   EXPECT_NE(r2.output.find("cannot open the token file"), std::string::npos) << r2.output;
 
   // The token goes with `auth`, which only TCP clients send.
   const std::string token = write_token_file(dir, "op.token", std::string(kToken) + "\n", 0600);
-  const CliOutcome r3 = standcal_cli("status --socket " + dir.path() + "/s.sock --token-file " + token);
+  const CommandOutcome r3 = standcal_cli("status --socket " + dir.path() + "/s.sock --token-file " + token);
   EXPECT_NE(r3.exit_code, 0) << r3.output;
   EXPECT_NE(r3.output.find("--token-file requires --tcp"), std::string::npos) << r3.output;
 }

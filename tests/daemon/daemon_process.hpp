@@ -23,27 +23,11 @@
 #include <nlohmann/json.hpp>
 
 #include "protocol/jsonrpc/client.hpp"
+#include "tests/support/temp_dir.hpp"
 
 namespace standcal::test {
 
 // A unique temporary directory, removed at the end.
-class TempDir {
- public:
-  TempDir() {
-    std::string tmpl = (std::filesystem::temp_directory_path() / "standcald-test-XXXXXX").string();
-    if (::mkdtemp(tmpl.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
-    path_ = tmpl;
-  }
-  ~TempDir() {
-    std::error_code ec;
-    std::filesystem::remove_all(path_, ec);
-  }
-  const std::string& path() const { return path_; }
-
- private:
-  std::string path_;
-};
-
 class DaemonProcess {
  public:
   // Starts `standcald ARGS...` with stderr going to DIR/standcald.log; waits until the

@@ -5,7 +5,6 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <cstdio>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -13,6 +12,7 @@
 #include "calib/diagnosis.hpp"
 #include "calib/recording.hpp"
 #include "daemon_process.hpp"
+#include "tests/support/command.hpp"
 
 using namespace standcal;
 using namespace std::chrono_literals;
@@ -58,14 +58,18 @@ std::string run_to_end(Client& c, const json& program, const std::string& unit, 
 }
 
 std::string run_cli(const std::string& args) {
-  const std::string cmd = std::string(STANDCAL_CLI_PATH) + " " + args + " 2>&1";
-  std::FILE* out = ::popen(cmd.c_str(), "r");
-  std::string text;
-  char buf[4096];
-  while (std::size_t n = std::fread(buf, 1, sizeof buf, out)) text.append(buf, n);
-  const int rc = ::pclose(out);
-  if (rc != 0) throw std::runtime_error("`" + cmd + "` failed:\n" + text);
-  return text;
+  const test::CommandOutcome r = test::standcal_cli(args);
+  if (r.exit_code != 0) throw std::runtime_error("`standcal " + args + "` failed:\n" + r.output);
+  return r.output;
+}
+
+// Whether the stand reaches `deg` on an axis limited to [min_deg, max_deg] (any turn).
+bool reachable(double deg, double min_deg, double max_deg) {
+  for (int turn = -2; turn <= 2; ++turn) {
+    const double a = deg + 360.0 * turn;
+    if (a >= min_deg - 1e-9 && a <= max_deg + 1e-9) return true;
+  }
+  return false;
 }
 
 const std::set<std::string> kVerdicts{"consistent", "explained", "unexplained",
@@ -114,6 +118,12 @@ TEST(DaemonDiagnose, FinishedRunHasAVerdictInTheShapeOfTheCli) {
   EXPECT_EQ(d["run_id"], id);
   EXPECT_EQ(d["unit_serial"], "AU-D1");
   EXPECT_FALSE(d.contains("report_html"));
+  // Kept with the run.
+  std::ifstream saved(d["saved_path"].get<std::string>());
+  ASSERT_TRUE(saved.good()) << d["saved_path"];
+  const json kept = json::parse(saved);
+  EXPECT_EQ(kept["verdict"], d["verdict"]);
+  EXPECT_EQ(kept["findings"], d["findings"]);
   // The same answer as the library on the stored recording (what `standcal diagnose --json`
   // prints).
   const json local = diagnose_to_json(diagnose_recording(read_recording(d["recording_path"])));
@@ -185,4 +195,43 @@ TEST(DaemonDiagnose, CliWritesTheReportAndRunsTheProposedPositions) {
                                  d["proposed_positions"][0]["alpha2_deg"].get<double>(),
                              360.0),
               0, 1e-9);
+}
+
+// A stand whose outer axis only turns -100..100 deg (config stand.outer): the positions the
+// diagnosis proposes are ones it can reach, and the follow-up run could be started.
+TEST(DaemonDiagnose, ProposedPositionsLieInsideTheConfiguredStandRanges) {
+  TempDir dir;
+  const std::string config = dir.path() + "/standcald.json";
+  std::ofstream(config) << json{{"stand", {{"outer", {{"min_deg", -100}, {"max_deg", 100}}}}}}.dump(2);
+  auto daemon = DaemonProcess::sim(dir.path(), 300, {"--config", config});
+  Client c(socket_of(dir));
+  json program = json::array();
+  for (auto [a1, a2] : {std::pair{0.0, 0.0}, {72.0, 0.0}, {-72.0, 0.0}, {0.0, 57.5}, {0.0, 122.5}, {0.0, 270.0},
+                        {45.0, 90.0}, {-45.0, 90.0}})
+    program.push_back({{"alpha1_deg", a1}, {"alpha2_deg", a2}});
+  const std::string id = run_to_end(c, json{{"name", "limited"}, {"positions", program}}, "AU-D4", 20);
+  const json d = c.call("run.diagnose", {{"run_id", id}}, 300s);
+  ASSERT_FALSE(d["proposed_positions"].empty()) << d.dump();
+  for (const json& p : d["proposed_positions"]) {
+    const double a1 = p["alpha1_deg"];
+    EXPECT_GE(a1, -100.0) << p.dump();
+    EXPECT_LE(a1, 100.0) << p.dump();
+  }
+  // Without the stand's ranges the same recording gets proposals the stand cannot reach,
+  // so the check above is one the configured ranges must pass.
+  const Diagnosis unlimited = diagnose_recording(read_recording(d["recording_path"]));
+  bool some_unreachable = false;
+  for (const ProposedPosition& p : unlimited.proposed_positions)
+    some_unreachable = some_unreachable || !reachable(p.alpha1_deg, -100, 100);
+  EXPECT_TRUE(some_unreachable) << diagnose_to_json(unlimited)["proposed_positions"].dump();
+  // The follow-up run of those positions starts and finishes on this stand.
+  json follow_up = json::array();
+  for (const json& p : d["proposed_positions"])
+    follow_up.push_back({{"alpha1_deg", p["alpha1_deg"]}, {"alpha2_deg", p["alpha2_deg"]}});
+  const std::string follow =
+      c.call("run.start", {{"program", {{"name", "follow-up of " + id}, {"positions", follow_up}}},
+                           {"unit_serial", "AU-D4"},
+                           {"dwell_s", 5},
+                           {"settle_s", 1}})["run_id"];
+  EXPECT_EQ(test::wait_run(c, follow, test::finished, 120s)["state"], "done");
 }

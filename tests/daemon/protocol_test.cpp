@@ -69,6 +69,25 @@ TEST(JsonRpc, ParamsNameTheWrongParameter) {
   EXPECT_NO_THROW(params.only({"alpha1_deg", "wait"}));
 }
 
+TEST(JsonRpc, AnIntegerParameterMustBeWholeAndInRange) {
+  const json p{{"a", 7}, {"b", 7.0}, {"c", 7.5}, {"d", 0}, {"e", "7"}};
+  Params params(p, "runs.list");
+  EXPECT_EQ(params.optional_integer("a", 1, 10), 7);
+  EXPECT_EQ(params.optional_integer("b", 1, 10), 7);
+  EXPECT_FALSE(params.optional_integer("missing", 1, 10).has_value());
+  for (const char* key : {"c", "d", "e"}) {
+    try {
+      params.optional_integer(key, 1, 10);
+      ADD_FAILURE() << key << " accepted";
+    } catch (const RpcError& e) {
+      EXPECT_EQ(e.code(), -32602);
+      EXPECT_NE(std::string(e.what()).find(std::string("\"") + key + "\" must be a whole number from 1 to 10"),
+                std::string::npos)
+          << e.what();
+    }
+  }
+}
+
 TEST(LineBuffer, JoinsPiecesIntoLines) {
   LineBuffer b(100);
   b.append("{\"a\":");

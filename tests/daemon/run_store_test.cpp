@@ -61,6 +61,51 @@ TEST(RunStore, RunIdsAreUniqueAndListedNewestFirstPerUnit) {
   EXPECT_FALSE(store.latest_resumable().has_value());
 }
 
+TEST(RunStore, PagesAreNewestFirstBoundedAndContinueFromTheLastRunId) {
+  TempDir dir;
+  RunStore store(dir.path());
+  // Seven runs a minute apart, alternating units: ids sort by start time.
+  std::vector<std::string> ids;
+  for (int i = 0; i < 7; ++i) {
+    RunRecord r;
+    r.unit_serial = i % 2 == 0 ? "AU-1" : "AU-2";
+    r.run_id = "20261201T10" + std::to_string(10 + i) + "00Z-" + r.unit_serial;
+    std::filesystem::create_directories(store.run_dir(r.run_id));
+    r.state = "done";
+    store.save(r);
+    ids.push_back(r.run_id);
+  }
+  const RunPage first = store.page(RunPageQuery{"", "", 3});
+  ASSERT_EQ(first.runs.size(), 3u);
+  EXPECT_TRUE(first.more);
+  EXPECT_EQ(first.runs[0].run_id, ids[6]);
+  EXPECT_EQ(first.runs[2].run_id, ids[4]);
+
+  const RunPage second = store.page(RunPageQuery{"", first.runs.back().run_id, 3});
+  ASSERT_EQ(second.runs.size(), 3u);
+  EXPECT_EQ(second.runs[0].run_id, ids[3]);
+  EXPECT_TRUE(second.more);
+  const RunPage last = store.page(RunPageQuery{"", second.runs.back().run_id, 3});
+  ASSERT_EQ(last.runs.size(), 1u);
+  EXPECT_EQ(last.runs[0].run_id, ids[0]);
+  EXPECT_FALSE(last.more);
+
+  // A unit's pages skip the other unit's runs; a page that ends exactly at the last
+  // matching run says there is no more.
+  const RunPage au2 = store.page(RunPageQuery{"AU-2", "", 3});
+  ASSERT_EQ(au2.runs.size(), 3u);
+  EXPECT_EQ(au2.runs[0].run_id, ids[5]);
+  EXPECT_EQ(au2.runs[2].run_id, ids[1]);
+  EXPECT_FALSE(au2.more);
+
+  // `before` need not name a stored run: it is a position in time.
+  const RunPage older = store.page(RunPageQuery{"AU-1", "20261201T101330Z", 10});
+  ASSERT_EQ(older.runs.size(), 2u);
+  EXPECT_EQ(older.runs[0].run_id, ids[2]);
+  ASSERT_TRUE(store.newest().has_value());
+  EXPECT_EQ(store.newest()->run_id, ids[6]);
+}
+
 TEST(RecordingFile, ReopenCutsOffWhatACrashLeftAfterTheLastDurablePosition) {
   TempDir dir;
   const std::string path = dir.path() + "/recording.csv";

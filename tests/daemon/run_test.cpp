@@ -3,6 +3,7 @@
 // e-stop, SIGTERM, re-mount steps.
 #include <gtest/gtest.h>
 
+#include <fstream>
 #include <map>
 #include <set>
 
@@ -12,6 +13,7 @@
 #include "calib/report.hpp"
 #include "calib/simulator.hpp"
 #include "daemon_process.hpp"
+#include "tests/support/command.hpp"
 
 using namespace standcal;
 using namespace std::chrono_literals;
@@ -303,27 +305,39 @@ TEST(DaemonRun, UnknownRunsAndBadProgrammesAreClearErrors) {
 TEST(DaemonCli, RunStartWaitPrintsTheResultOfARunThroughTheDaemon) {
   TempDir dir;
   auto daemon = DaemonProcess::sim(dir.path(), 300);
-  const std::string cmd = std::string(STANDCAL_CLI_PATH) + " run start paper9 --unit AU-CLI --dwell 20 --settle 1 --wait --json --socket " +
-                          socket_of(dir) + " 2>&1";
-  std::FILE* out = ::popen(cmd.c_str(), "r");
-  ASSERT_NE(out, nullptr);
-  std::string text;
-  char buf[4096];
-  while (std::size_t n = std::fread(buf, 1, sizeof buf, out)) text.append(buf, n);
-  ASSERT_EQ(::pclose(out), 0) << text;
+  const test::CommandOutcome run = test::standcal_cli("run start paper9 --unit AU-CLI --unit-type QA-7 --dwell 20 "
+                                                  "--settle 1 --wait --json --socket " + socket_of(dir));
+  ASSERT_EQ(run.exit_code, 0) << run.output;
   // --json --wait prints the events as they come, then the result (pretty-printed, last).
-  const auto start = text.rfind("\n{\n");
-  ASSERT_NE(start, std::string::npos) << text;
-  const json result = json::parse(text.substr(start + 1));
+  const auto start = run.output.rfind("\n{\n");
+  ASSERT_NE(start, std::string::npos) << run.output;
+  const json result = json::parse(run.output.substr(start + 1));
   EXPECT_EQ(result["positions"], 9);
   EXPECT_EQ(result["traceability"]["unit_serial"], "AU-CLI");
-  EXPECT_NE(text.find("run.position_averaged"), std::string::npos);
+  EXPECT_EQ(result["traceability"]["unit_type"], "QA-7");
+  EXPECT_NE(run.output.find("run.position_averaged"), std::string::npos);
 
-  const std::string runs_cmd = std::string(STANDCAL_CLI_PATH) + " runs --socket " + socket_of(dir);
-  out = ::popen(runs_cmd.c_str(), "r");
-  text.clear();
-  while (std::size_t n = std::fread(buf, 1, sizeof buf, out)) text.append(buf, n);
-  EXPECT_EQ(::pclose(out), 0);
-  EXPECT_NE(text.find("AU-CLI"), std::string::npos) << text;
-  EXPECT_NE(text.find("done"), std::string::npos) << text;
+  const test::CommandOutcome runs = test::standcal_cli("runs --socket " + socket_of(dir));
+  EXPECT_EQ(runs.exit_code, 0);
+  EXPECT_NE(runs.output.find("AU-CLI"), std::string::npos) << runs.output;
+  EXPECT_NE(runs.output.find("done"), std::string::npos) << runs.output;
+
+  // The unit type travels with the run: run.status, the recording header, and the
+  // certificate, which picks that type's limits from a file that has two.
+  Client c(socket_of(dir));
+  const json status = c.call("run.status");
+  EXPECT_EQ(status["unit_type"], "QA-7");
+  EXPECT_EQ(read_recording(status["recording_path"]).header_value("unit_type"), "QA-7");
+  const std::string limits = dir.path() + "/limits.json";
+  std::ofstream(limits) << R"({"format": "standcal-limits/1", "unit_types": {
+      "QA-7": {"parameters": {"bias": {"max_abs": 1000}}},
+      "QA-8": {"parameters": {"bias": {"max_abs": 1}}}}})";
+  const std::string cert = dir.path() + "/cert.html";
+  const test::CommandOutcome certificate = test::standcal_cli("certificate " + status["run_id"].get<std::string>() +
+                                                          " --state-dir " + dir.path() + "/state --limits " + limits +
+                                                          " -o " + cert);
+  ASSERT_EQ(certificate.exit_code, 0) << certificate.output;
+  std::ifstream in(cert);
+  const std::string html(std::istreambuf_iterator<char>(in), {});
+  EXPECT_NE(html.find(">QA-7<"), std::string::npos) << "the run's unit type names the limits";
 }

@@ -208,7 +208,7 @@ TEST(DiagnoseCli, SimulateWithModelThenDiagnoseJsonReportAndModelOut) {
     TruthModel t = with_effect("bias_drift", "z", 150);
     save_truth(t, dir + "/model.json");
   }
-  const std::string cli = STANDCAL_CLI;
+  const std::string cli = STANDCAL_CLI_PATH;
   const std::string sim = cli + " simulate --program " + dir + "/prog.json --model " + dir + "/model.json --seed 7 --dwell-s 10 --settle-s 2 -o " + dir + "/rec.csv 2>/dev/null";
   ASSERT_EQ(std::system(sim.c_str()), 0);
   const std::string diag = cli + " diagnose " + dir + "/rec.csv --json --report " + dir + "/report.html --model-out " + dir + "/aug.json > " + dir + "/out.json 2>/dev/null";
@@ -229,7 +229,7 @@ TEST(DiagnoseCli, SimulateWithModelThenDiagnoseJsonReportAndModelOut) {
 }
 
 TEST(DiagnoseCli, MissingRecordingFailsWithOneLineReason) {
-  const std::string cmd = std::string(STANDCAL_CLI) + " diagnose /nonexistent/rec.csv > /dev/null 2>&1";
+  const std::string cmd = std::string(STANDCAL_CLI_PATH) + " diagnose /nonexistent/rec.csv > /dev/null 2>&1";
   EXPECT_NE(std::system(cmd.c_str()), 0);
 }
 

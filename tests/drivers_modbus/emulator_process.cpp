@@ -88,21 +88,4 @@ PtyPair::PtyPair(const std::string& directory)
   }
 }
 
-TempDir::TempDir() {
-  std::string pattern = (std::filesystem::temp_directory_path() / "standcal-modbus-XXXXXX").string();
-  if (mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
-  path_ = pattern;
-}
-
-TempDir::~TempDir() {
-  std::error_code ignored;
-  std::filesystem::remove_all(path_, ignored);
-}
-
-void TempDir::write(const std::string& name, const std::string& text) const {
-  const std::string temporary = file(name + ".tmp");
-  std::ofstream(temporary) << text;
-  std::filesystem::rename(temporary, file(name));
-}
-
 }  // namespace standcal::test

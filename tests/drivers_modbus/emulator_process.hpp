@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "tests/support/temp_dir.hpp"
+
 namespace standcal::test {
 
 // A child process; SIGTERM (then SIGKILL) and reaped on destruction.
@@ -48,20 +50,6 @@ class PtyPair {
   std::string a_, b_;
   ChildProcess socat_;
   bool ready_ = false;
-};
-
-// A fresh temporary directory, removed with its files on destruction.
-class TempDir {
- public:
-  TempDir();
-  ~TempDir();
-  const std::string& path() const { return path_; }
-  std::string file(const std::string& name) const { return path_ + "/" + name; }
-  // Writes `text` to `name` atomically (the emulator never sees half a file).
-  void write(const std::string& name, const std::string& text) const;
-
- private:
-  std::string path_;
 };
 
 }  // namespace standcal::test

@@ -1,7 +1,6 @@
 // `standcal stand ...` bring-up commands against the emulator process: what an engineer
 // types and reads.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
 #include <cstdio>
 #include <string>
@@ -9,26 +8,14 @@
 #include <nlohmann/json.hpp>
 
 #include "emulator_process.hpp"
+#include "tests/support/command.hpp"
 
 namespace standcal::test {
 namespace {
 
-struct CliRun {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr together
-};
+using CliRun = test::CommandOutcome;
 
-CliRun standcal_stand(const std::string& arguments) {
-  CliRun run;
-  const std::string command = std::string(STANDCAL_CLI_PATH) + " stand " + arguments + " 2>&1";
-  FILE* pipe = popen(command.c_str(), "r");
-  if (pipe == nullptr) return run;
-  char buffer[512];
-  while (std::fgets(buffer, sizeof buffer, pipe) != nullptr) run.output += buffer;
-  const int status = pclose(pipe);
-  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return run;
-}
+CliRun standcal_stand(const std::string& arguments) { return test::standcal_cli("stand " + arguments); }
 
 TEST(StandCli, EnableMoveAndStatusAgainstTheEmulator) {
   EmulatorProcess emulator("tcp://127.0.0.1:0", {"--time-scale", "10"});

@@ -1,33 +1,18 @@
 // `standcal import`, `history` and `records` as an operator runs them: simulated
 // recordings written to files, imported by the real CLI into a database, listed back.
-#include <sys/wait.h>
 
-#include <array>
 #include <cstdio>
 #include <fstream>
 #include <iterator>
 
 #include "calib/recording.hpp"
 #include "tests/records/records_test_support.hpp"
+#include "tests/support/command.hpp"
 
 namespace standcal::records {
 namespace {
 
-struct CliResult {
-  int exit_code = -1;
-  std::string out;  // stdout and stderr
-};
-
-CliResult standcal_cli(const std::string& args) {
-  CliResult r;
-  FILE* p = ::popen((std::string(STANDCAL_CLI_PATH) + " " + args + " 2>&1").c_str(), "r");
-  if (p == nullptr) return r;
-  std::array<char, 4096> buf{};
-  for (std::size_t n; (n = std::fread(buf.data(), 1, buf.size(), p)) > 0;) r.out.append(buf.data(), n);
-  const int status = ::pclose(p);
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
+using test::standcal_cli;
 
 class ImportTest : public ::testing::Test {
  protected:
@@ -47,10 +32,10 @@ class ImportTest : public ::testing::Test {
 TEST_F(ImportTest, ImportReFitsStoresTraceabilityAndIsIdempotent) {
   const std::string a = recording("a.csv", "AU-0100", 1);
   const std::string b = recording("b.csv", "AU-0101", 2);
-  CliResult r = standcal_cli("import " + a + " " + b + " --db " + db_ +
+  test::CommandOutcome r = standcal_cli("import " + a + " " + b + " --db " + db_ +
                              " --unit-type NAV-3 --stand-id old-bench --started 2025-06-01T10:00:00Z");
-  ASSERT_EQ(r.exit_code, 0) << r.out;
-  EXPECT_NE(r.out.find("2 of 2 recordings imported"), std::string::npos) << r.out;
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("2 of 2 recordings imported"), std::string::npos) << r.output;
 
   auto db = open_and_migrate(db_);
   const auto all = db->list({});
@@ -71,9 +56,9 @@ TEST_F(ImportTest, ImportReFitsStoresTraceabilityAndIsIdempotent) {
   EXPECT_EQ(rec.result["chi2"], fit["chi2"]);
 
   r = standcal_cli("import " + a + " " + b + " --db " + db_ + " --started 2025-06-01T10:00:00Z");
-  ASSERT_EQ(r.exit_code, 0) << r.out;
-  EXPECT_NE(r.out.find("0 of 2 recordings imported"), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("already in the database"), std::string::npos) << r.out;
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("0 of 2 recordings imported"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("already in the database"), std::string::npos) << r.output;
   EXPECT_EQ(db->list({}).size(), 2u);
 }
 
@@ -84,10 +69,10 @@ TEST_F(ImportTest, ADaemonRecordingKeepsItsRunIdStartAndStand) {
   rec.set_header("stand_id", "bench-7");
   const std::string path = dir_.path() + "/recording.csv";
   write_recording(rec, path);
-  const CliResult r = standcal_cli("import " + path + " --db " + db_);
-  ASSERT_EQ(r.exit_code, 0) << r.out;
+  const test::CommandOutcome r = standcal_cli("import " + path + " --db " + db_);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
   const auto stored = open_and_migrate(db_)->get("20261121T223638Z-AU-0200");
-  ASSERT_TRUE(stored.has_value()) << r.out;
+  ASSERT_TRUE(stored.has_value()) << r.output;
   EXPECT_EQ(stored->started_utc, "2026-11-21T22:36:38Z");
   EXPECT_EQ(stored->stand_id, "bench-7");
 }
@@ -97,18 +82,18 @@ TEST_F(ImportTest, HistoryAndRecordsShowAnAgeingUnitAndFilterByDate) {
   for (int i = 0; i < 3; ++i) {
     const std::string path = recording("cal" + std::to_string(i) + ".csv", "AU-0300",
                                        static_cast<std::uint64_t>(10 + i), shifts_ug[i]);
-    const CliResult r = standcal_cli("import " + path + " --db " + db_ + " --started 2026-0" +
+    const test::CommandOutcome r = standcal_cli("import " + path + " --db " + db_ + " --started 2026-0" +
                                      std::to_string(i + 1) + "-10");
-    ASSERT_EQ(r.exit_code, 0) << r.out;
+    ASSERT_EQ(r.exit_code, 0) << r.output;
   }
-  CliResult h = standcal_cli("history AU-0300 --db " + db_);
-  ASSERT_EQ(h.exit_code, 0) << h.out;
-  EXPECT_NE(h.out.find("unit AU-0300: 3 calibrations"), std::string::npos) << h.out;
-  EXPECT_NE(h.out.find("AGEING"), std::string::npos) << h.out;
+  test::CommandOutcome h = standcal_cli("history AU-0300 --db " + db_);
+  ASSERT_EQ(h.exit_code, 0) << h.output;
+  EXPECT_NE(h.output.find("unit AU-0300: 3 calibrations"), std::string::npos) << h.output;
+  EXPECT_NE(h.output.find("AGEING"), std::string::npos) << h.output;
 
   h = standcal_cli("history AU-0300 --json --db " + db_);
-  ASSERT_EQ(h.exit_code, 0) << h.out;
-  const nlohmann::json j = nlohmann::json::parse(h.out);
+  ASSERT_EQ(h.exit_code, 0) << h.output;
+  const nlohmann::json j = nlohmann::json::parse(h.output);
   EXPECT_EQ(j["calibrations"].size(), 3u);
   const nlohmann::json& bias_x_changes = j["parameters"][0]["changes"];
   ASSERT_EQ(bias_x_changes.size(), 2u);
@@ -127,16 +112,16 @@ TEST_F(ImportTest, HistoryAndRecordsShowAnAgeingUnitAndFilterByDate) {
   EXPECT_NE(html.find("AU-0300"), std::string::npos);
   EXPECT_NE(html.find("bias_x"), std::string::npos);
 
-  const CliResult list = standcal_cli("records --db " + db_ + " --since 2026-02-01 --until 2026-03-10");
-  ASSERT_EQ(list.exit_code, 0) << list.out;
-  EXPECT_NE(list.out.find("2026-02-10T00:00:00Z"), std::string::npos) << list.out;
-  EXPECT_NE(list.out.find("2026-03-10T00:00:00Z"), std::string::npos) << list.out;
-  EXPECT_EQ(list.out.find("2026-01-10"), std::string::npos) << list.out;
-  EXPECT_NE(list.out.find("2 calibrations"), std::string::npos) << list.out;
+  const test::CommandOutcome list = standcal_cli("records --db " + db_ + " --since 2026-02-01 --until 2026-03-10");
+  ASSERT_EQ(list.exit_code, 0) << list.output;
+  EXPECT_NE(list.output.find("2026-02-10T00:00:00Z"), std::string::npos) << list.output;
+  EXPECT_NE(list.output.find("2026-03-10T00:00:00Z"), std::string::npos) << list.output;
+  EXPECT_EQ(list.output.find("2026-01-10"), std::string::npos) << list.output;
+  EXPECT_NE(list.output.find("2 calibrations"), std::string::npos) << list.output;
 
-  const CliResult none = standcal_cli("history AU-9999 --db " + db_);
+  const test::CommandOutcome none = standcal_cli("history AU-9999 --db " + db_);
   EXPECT_EQ(none.exit_code, 1);
-  EXPECT_NE(none.out.find("no calibrations of unit AU-9999"), std::string::npos) << none.out;
+  EXPECT_NE(none.output.find("no calibrations of unit AU-9999"), std::string::npos) << none.output;
 }
 
 TEST_F(ImportTest, ABadRecordingIsNamedAndNothingIsHalfStored) {
@@ -144,9 +129,9 @@ TEST_F(ImportTest, ABadRecordingIsNamedAndNothingIsHalfStored) {
   std::FILE* f = std::fopen(bad.c_str(), "w");
   std::fputs("# format: standcal-recording/1\nnot,a,recording\n1,2\n", f);
   std::fclose(f);
-  const CliResult r = standcal_cli("import " + bad + " --db " + db_);
+  const test::CommandOutcome r = standcal_cli("import " + bad + " --db " + db_);
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_NE(r.out.find("bad.csv"), std::string::npos) << r.out;
+  EXPECT_NE(r.output.find("bad.csv"), std::string::npos) << r.output;
   EXPECT_TRUE(open_and_migrate(db_)->list({}).empty());
 }
 

@@ -15,25 +15,9 @@
 #include "calib/simulator.hpp"
 #include "records/db/records_db.hpp"
 #include "tests/records/postgres_server.hpp"
+#include "tests/support/temp_dir.hpp"
 
 namespace standcal::test {
-
-class TempDir {
- public:
-  TempDir() {
-    std::string tmpl = (std::filesystem::temp_directory_path() / "standcal-records-XXXXXX").string();
-    if (::mkdtemp(tmpl.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
-    path_ = tmpl;
-  }
-  ~TempDir() {
-    std::error_code ec;
-    std::filesystem::remove_all(path_, ec);
-  }
-  const std::string& path() const { return path_; }
-
- private:
-  std::string path_;
-};
 
 // Started on first use, stopped when the test process exits.
 inline PostgresServer& postgres() {

@@ -225,7 +225,7 @@ TEST(DiagnosisReport, CliWritesTheReport) {
   std::filesystem::create_directories(dir);
   const std::string rec_path = (dir / "k2.csv").string(), html_path = (dir / "k2.html").string();
   write_recording(simulate(diagnostic32(), "scale_nonlinearity_k2", "z", -34, 31), rec_path);
-  const std::string cmd = std::string(STANDCAL_CLI) + " diagnose " + rec_path + " --report " +
+  const std::string cmd = std::string(STANDCAL_CLI_PATH) + " diagnose " + rec_path + " --report " +
                           html_path + " > " + (dir / "out.txt").string() + " 2>&1";
   ASSERT_EQ(std::system(cmd.c_str()), 0);
   std::ifstream in(html_path);

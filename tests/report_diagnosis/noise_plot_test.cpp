@@ -79,7 +79,7 @@ TEST(NoisePlot, CliDrawsEveryAxisWithItsReadings) {
                                     ("standcal-noise-plot-" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   write_recording(static_recording(), (dir / "static.csv").string());
-  const std::string cmd = std::string(STANDCAL_CLI) + " noise " + (dir / "static.csv").string() +
+  const std::string cmd = std::string(STANDCAL_CLI_PATH) + " noise " + (dir / "static.csv").string() +
                           " --json --plot " + (dir / "allan.svg").string() + " > " +
                           (dir / "noise.json").string();
   ASSERT_EQ(std::system(cmd.c_str()), 0);

@@ -17,6 +17,7 @@
 #include "calib/recording.hpp"
 #include "calib/report.hpp"
 #include "protocol/jsonrpc/client.hpp"
+#include "protocol/jsonrpc/methods.hpp"
 #include "tools/standcal/commands.hpp"
 #include "tools/standcal/daemon_connection.hpp"
 
@@ -206,6 +207,9 @@ json follow_up_run(protocol::Client& c, const json& d, const DiagnoseArgs& a) {
   if (a.dwell_s > 0) params["dwell_s"] = a.dwell_s;
   if (a.settle_s >= 0) params["settle_s"] = a.settle_s;
   if (!a.op.empty()) params["operator"] = a.op;
+  // Same unit, same type: the follow-up's certificate applies the same limits.
+  const std::string unit_type = call(c, "run.status", {{"run_id", a.run_id}}).value("unit_type", "");
+  if (!unit_type.empty()) params["unit_type"] = unit_type;
   return call(c, "run.start", params);
 }
 
@@ -272,26 +276,67 @@ void add_estop(CLI::App& app) {
   });
 }
 
+struct RunsArgs {
+  std::string unit, before;
+  int limit = 0;  // 0: the daemon's default page size
+  bool all = false;
+};
+
+json runs_list_params(const RunsArgs& a, const std::string& before) {
+  json p = json::object();
+  if (!a.unit.empty()) p["unit_serial"] = a.unit;
+  if (!before.empty()) p["before"] = before;
+  if (a.limit > 0) {
+    p["limit"] = a.limit;
+  } else if (a.all) {
+    p["limit"] = protocol::runs_list_max_limit;
+  }
+  return p;
+}
+
+// One page, or with --all every page (each answer stays bounded; the CLI joins them).
+json list_runs(protocol::Client& c, const RunsArgs& a) {
+  json page = call(c, "runs.list", runs_list_params(a, a.before));
+  if (!a.all) return page;
+  json runs = std::move(page["runs"]);
+  while (page.value("more", false) && !runs.empty()) {
+    page = call(c, "runs.list", runs_list_params(a, runs.back().value("run_id", "")));
+    for (json& r : page["runs"]) runs.push_back(std::move(r));
+  }
+  return json{{"runs", std::move(runs)}, {"more", false}};
+}
+
+void print_runs(const json& r) {
+  if (r["runs"].empty()) std::printf("no runs\n");
+  for (const json& x : r["runs"]) {
+    std::printf("%-32s %-10s %-10s %-12s %2d/%-2d %s%s\n", x.value("run_id", "").c_str(),
+                x.value("unit_serial", "").c_str(), x.value("program", "").c_str(), x.value("state", "").c_str(),
+                x.value("positions_done", 0), x.value("positions", 0), x.value("started_utc", "").c_str(),
+                x.value("has_result", false) ? "  result" : "");
+  }
+  if (r.value("more", false) && !r["runs"].empty()) {
+    std::printf("(older runs: standcal runs --before %s, or --all)\n",
+                r["runs"].back().value("run_id", "").c_str());
+  }
+}
+
 void add_runs(CLI::App& app) {
   auto o = std::make_shared<DaemonOptions>();
-  auto unit = std::make_shared<std::string>();
-  auto* cmd = app.add_subcommand("runs", "the daemon's runs, newest first");
+  auto a = std::make_shared<RunsArgs>();
+  auto* cmd = app.add_subcommand("runs", "the daemon's runs, newest first, one page at a time");
   add_daemon_options(cmd, *o);
-  cmd->add_option("--unit", *unit, "only this unit serial's runs");
-  cmd->callback([o, unit] {
+  cmd->add_option("--unit", a->unit, "only this unit serial's runs");
+  cmd->add_option("--before", a->before, "only runs older than this run id (the next page)");
+  cmd->add_option("--limit", a->limit, "runs per page (default: the daemon's, 100; with --all, 1000)")
+      ->check(CLI::Range(1, protocol::runs_list_max_limit));
+  cmd->add_flag("--all", a->all, "every run, fetched page by page");
+  cmd->callback([o, a] {
     const auto connection = connect_daemon(*o);
-    protocol::Client& c = *connection;
-    const json r = call(c, "runs.list", unit->empty() ? json::object() : json{{"unit_serial", *unit}});
+    const json r = list_runs(*connection, *a);
     if (o->json) {
       std::cout << r.dump(2) << "\n";
-      return;
-    }
-    if (r["runs"].empty()) std::printf("no runs\n");
-    for (const json& x : r["runs"]) {
-      std::printf("%-32s %-10s %-10s %-12s %2d/%-2d %s%s\n", x.value("run_id", "").c_str(),
-                  x.value("unit_serial", "").c_str(), x.value("program", "").c_str(), x.value("state", "").c_str(),
-                  x.value("positions_done", 0), x.value("positions", 0), x.value("started_utc", "").c_str(),
-                  x.value("has_result", false) ? "  result" : "");
+    } else {
+      print_runs(r);
     }
   });
 }
@@ -302,7 +347,7 @@ void add_run(CLI::App& app) {
 
   auto so = std::make_shared<DaemonOptions>();
   struct StartArgs {
-    std::string program, unit, op;
+    std::string program, unit, unit_type, op;
     double dwell_s = -1, settle_s = -1;
     bool wait = false;
   };
@@ -311,6 +356,7 @@ void add_run(CLI::App& app) {
   add_daemon_options(start, *so);
   start->add_option("program", sa->program, "paper9 | classic24 | a library name")->required();
   start->add_option("--unit", sa->unit, "serial number of the unit on the stand")->required();
+  start->add_option("--unit-type", sa->unit_type, "the unit's type: which acceptance limits its certificate uses");
   start->add_option("--dwell", sa->dwell_s, "seconds of samples per position (default: the daemon's)");
   start->add_option("--settle", sa->settle_s, "seconds to settle after in-position (default: the daemon's)");
   start->add_option("--operator", sa->op, "who runs it, for traceability");
@@ -319,6 +365,7 @@ void add_run(CLI::App& app) {
     const auto connection = connect_daemon(*so);
     protocol::Client& c = *connection;
     json params{{"program", sa->program}, {"unit_serial", sa->unit}};
+    if (!sa->unit_type.empty()) params["unit_type"] = sa->unit_type;
     if (sa->dwell_s > 0) params["dwell_s"] = sa->dwell_s;
     if (sa->settle_s >= 0) params["settle_s"] = sa->settle_s;
     if (!sa->op.empty()) params["operator"] = sa->op;
