@@ -1,6 +1,7 @@
 // `standcal certificate` as an operator runs it: from a state directory, from an imported
 // recording, and with the one-line errors of a wrong request.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <cstdio>
 #include <fstream>
@@ -79,6 +80,30 @@ TEST_F(CertificateCli, ExplainsAWrongRequestInOneLine) {
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.output.find("PDF is not produced"), std::string::npos) << r.output;
   EXPECT_FALSE(std::filesystem::exists(out)) << "nothing written on error";
+
+  r = run_cli("certificate 20261121T223638Z-AU-0042 --state-dir " + state_.path() + " -o " + state_.path());
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.output.find(state_.path() + ": is a directory"), std::string::npos) << r.output;
+}
+
+// "-" and a device or pipe get the page written into them; a rename over /dev/stdout
+// would have replaced the device node instead (and failed without root).
+TEST_F(CertificateCli, WritesToStandardOutputAndIntoAPipe) {
+  const std::string run = "certificate 20261121T223638Z-AU-0042 --state-dir " + state_.path();
+  for (const char* target : {"-", "/dev/stdout"}) {
+    const CommandResult r = run_cli(run + " -o " + target);
+    ASSERT_EQ(r.exit_code, 0) << target << ": " << r.output;
+    EXPECT_NE(r.output.find("<html"), std::string::npos) << target;
+    EXPECT_NE(r.output.find("certificate for AU-0042 written to"), std::string::npos) << target;
+  }
+  const std::string fifo = state_.file("cert.fifo");
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const CommandResult r = run_cli(run + " -o " + fifo + " & cat " + fifo + "; wait $!");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("<html"), std::string::npos) << r.output.substr(0, 300);
+  struct stat st {};
+  ASSERT_EQ(::stat(fifo.c_str(), &st), 0);
+  EXPECT_TRUE(S_ISFIFO(st.st_mode)) << "the pipe is still a pipe";
 }
 
 }  // namespace

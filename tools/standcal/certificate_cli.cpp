@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -23,16 +24,35 @@ bool ends_with(const std::string& s, const std::string& tail) {
   return s.size() >= tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
 }
 
+void write_in_place(std::ostream& out, const std::string& path, const std::string& html) {
+  out << html;
+  if (!out.flush()) throw std::runtime_error(path + ": could not write the certificate");
+}
+
+// A file is written whole or not at all (written aside, then renamed over the old one);
+// "-", a device or a pipe (/dev/stdout, a FIFO) is written in place, since a rename would
+// replace the device node rather than write to it.
 void write_certificate(const std::string& path, const std::string& html) {
+  if (path == "-") return write_in_place(std::cout, "standard output", html);
+  std::error_code ec;
+  const auto status = std::filesystem::status(path, ec);
+  if (std::filesystem::is_directory(status))
+    throw std::runtime_error(path + ": is a directory; name the certificate file (.html)");
+  if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status)) {
+    std::ofstream out(path, std::ios::binary);
+    return write_in_place(out, path, html);
+  }
   const std::string partial = path + ".partial";
   {
     std::ofstream out(partial, std::ios::binary);
-    out << html;
-    if (!out.flush()) throw std::runtime_error(path + ": could not write the certificate");
+    write_in_place(out, path, html);
   }
-  std::error_code ec;
   std::filesystem::rename(partial, path, ec);
-  if (ec) throw std::runtime_error(path + ": could not write the certificate (" + ec.message() + ")");
+  if (ec) {
+    const std::string why = ec.message();
+    std::filesystem::remove(partial, ec);
+    throw std::runtime_error(path + ": could not write the certificate (" + why + ")");
+  }
 }
 
 void run_certificate(const CertificateCliOptions& o) {
@@ -57,7 +77,7 @@ void add_certificate_commands(CLI::App& app) {
   cmd->add_option("--recording", opts->request.recording_path,
                   "certify an imported / offline recording (standcal-recording/1 CSV) instead of a run")
       ->check(CLI::ExistingFile);
-  cmd->add_option("-o,--output", opts->output, "certificate to write (.html)")->required();
+  cmd->add_option("-o,--output", opts->output, "certificate to write (.html; - for standard output)")->required();
   cmd->add_option("--limits", opts->request.limits_path, "acceptance limits (standcal-limits/1 JSON)")
       ->check(CLI::ExistingFile);
   cmd->add_option("--unit-type", opts->request.unit_type, "which unit type's limits apply");
