@@ -91,9 +91,14 @@ Result<std::vector<AccelSample>> SocketCanUnit::collect(double seconds) {
     return Status::error(ErrorKind::invalid_argument, "sampling time must be positive");
   std::vector<AccelSample> samples;
   if (auto s = read_queued(samples); !s) return s;  // frames queued before this call
+  // A bus-off since the last call with no restart after it: nothing can arrive.
+  if (health_.bus_state == BusState::bus_off)
+    return Status::error(ErrorKind::link, "CAN controller of " + link_.name() +
+                                              " is bus-off (no restart since); the accelerometer "
+                                              "unit cannot be sampled");
   const double start_real_s = realtime_now_s();     // samples before it are not ours
   const double deadline_s = monotonic_now_s() + seconds;
-  bus_off_seen_ = false;
+  bus_off_seen_ = false;  // from here a bus-off fails the call, restarted or not
   for (;;) {
     const double now = monotonic_now_s();
     if (now - last_unit_frame_mono_s_ >= config_.silence_timeout_s) {
@@ -111,13 +116,15 @@ Result<std::vector<AccelSample>> SocketCanUnit::collect(double seconds) {
                                                 " failed: " + std::strerror(errno));
     if (n > 0)
       if (auto s = read_queued(samples); !s) return s;
-    if (bus_off_seen_)
-      return Status::error(ErrorKind::link,
-                           "CAN controller of " + link_.name() +
-                               " went bus-off while sampling the accelerometer unit");
+    if (bus_off_seen_) return bus_off_error();
   }
   std::erase_if(samples, [&](const AccelSample& a) { return a.t_s < start_real_s; });
   return samples;
+}
+
+Status SocketCanUnit::bus_off_error() const {
+  return Status::error(ErrorKind::link, "CAN controller of " + link_.name() +
+                                            " went bus-off while sampling the accelerometer unit");
 }
 
 Status SocketCanUnit::read_queued(std::vector<AccelSample>& out) {
@@ -147,6 +154,9 @@ Status SocketCanUnit::handle(const ReceivedFrame& f, std::vector<AccelSample>& o
   }
   ++health_.frames;
   health_.silent = false;
+  // A frame received is a controller back on the bus, whether or not its driver sent a
+  // restart notice (not all do): a bus-off state left behind must not block sampling.
+  if (health_.bus_state == BusState::bus_off) health_.bus_state = BusState::error_active;
   last_unit_frame_mono_s_ = monotonic_now_s();
   if (running_) joiner_.add(v, f.t_s, out);
   return Status::ok();

@@ -42,6 +42,7 @@ class SocketCanUnit final : public AccelUnit {
   Status read_queued(std::vector<AccelSample>& out);
   Status handle(const ReceivedFrame& f, std::vector<AccelSample>& out);
   Status silence_error() const;
+  Status bus_off_error() const;
 
   CanLink link_;
   FrameLayout layout_;

@@ -213,6 +213,38 @@ TEST_F(CanTransport, BusOffFailsSamplingWithAClearError) {
   EXPECT_EQ(unit_->health().bus_state, BusState::bus_off);
 }
 
+// A bus-off between two collects (queued before this one starts) with no restart after it
+// fails the call at once with a clear error (it used to be read, then forgotten, and the
+// call waited out its silence timeout); one followed by a restart does not.
+TEST_F(CanTransport, ABusOffBeforeSamplingFailsItUnlessTheControllerRestarted) {
+  open_unit();
+  pair_.send_error(CAN_ERR_BUSOFF);
+  Result<std::vector<AccelSample>> r = Status::ok();
+  {
+    DelayedWriter w(kWriterDelay_s, [&] {
+      for (std::uint64_t n = 0; n < 5; ++n) send_sample(n);
+    });
+    r = unit_->collect(0.5);
+  }
+  ASSERT_FALSE(r.ok()) << r.value().size() << " samples accepted from a bus-off controller";
+  EXPECT_EQ(r.status().kind, ErrorKind::link);
+  EXPECT_EQ(r.status().message, "CAN controller of fd " + std::to_string(unit_fd_) +
+                                    " is bus-off (no restart since); the accelerometer unit "
+                                    "cannot be sampled");
+
+  pair_.send_error(CAN_ERR_BUSOFF);
+  pair_.send_error(CAN_ERR_RESTARTED);
+  {
+    DelayedWriter w(kWriterDelay_s, [&] {
+      for (std::uint64_t n = 5; n < 10; ++n) send_sample(n);
+    });
+    r = unit_->collect(0.5);
+  }
+  ASSERT_TRUE(r.ok()) << r.status().message;
+  EXPECT_EQ(r.value().size(), 5U);
+  EXPECT_EQ(unit_->health().bus_state, BusState::error_active);
+}
+
 TEST_F(CanTransport, SilenceFailsSamplingInProgress) {
   open_unit({0.3, 4});
   const auto t0 = std::chrono::steady_clock::now();
