@@ -102,7 +102,7 @@ void ModbusStand::beat(ModbusLink& link) {
   // A lost link is re-opened here in the background, one attempt per back-off, so the
   // heartbeat never holds the I/O thread for long while the controller is away.
   if (!link.reopen_if_due()) return;
-  const auto counter = static_cast<std::uint16_t>(heartbeats_.load() + 1);
+  const std::uint16_t counter = ++heartbeat_value_;
   if (auto written = link.write(config_.map.heartbeat, 1, &counter, "writing the heartbeat"); !written) {
     if (is_link_loss(written) && (lifecycle_ == Lifecycle::inactive || lifecycle_ == Lifecycle::active))
       lifecycle_ = Lifecycle::error;
@@ -132,7 +132,7 @@ Status ModbusStand::on_link(std::function<Status(ModbusLink&)> job) {
 Status ModbusStand::open_and_arm(ModbusLink& link) {
   if (auto opened = link.open_with_retries(); !opened) return opened;
   const auto timeout_ms = static_cast<std::uint16_t>(std::lround(config_.timing.heartbeat_timeout_s * 1000));
-  const auto counter = static_cast<std::uint16_t>(heartbeats_.load() + 1);
+  const std::uint16_t counter = ++heartbeat_value_;
   if (auto w = link.write(config_.map.heartbeat_timeout_ms, 1, &timeout_ms, "writing the heartbeat timeout"); !w)
     return w;
   if (auto w = link.write(config_.map.heartbeat, 1, &counter, "writing the heartbeat"); !w) return w;

@@ -71,7 +71,11 @@ class ModbusStand final : public Stand {
   std::string name_;
   std::atomic<Lifecycle> lifecycle_{Lifecycle::unconfigured};
   std::atomic<bool> heartbeat_on_{false};
-  std::atomic<std::uint64_t> heartbeats_{0};
+  std::atomic<std::uint64_t> heartbeats_{0};  // writes that were answered
+  // The value of the next heartbeat write. Advanced on every attempt, answered or not: a
+  // write whose reply timed out may still have landed, and writing the same value again
+  // would look to the controller's watchdog like no heartbeat at all.
+  std::atomic<std::uint16_t> heartbeat_value_{0};
   std::atomic<int> link_opens_{0};
   std::mutex mutex_;
   std::condition_variable wake_;
