@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <ctime>
 #include <filesystem>
@@ -172,7 +173,13 @@ std::string RunStore::new_run_id(const std::string& unit_serial) {
   std::strftime(stamp, sizeof stamp, "%Y%m%dT%H%M%SZ", &tm);
   const std::string base = std::string(stamp) + "-" + safe_name(unit_serial);
   std::string id = base;
-  for (int n = 2; fs::exists(fs::path(state_dir_) / "runs" / id); ++n) id = base + "-" + std::to_string(n);
+  // A second run of this unit within the same UTC second gets "-002", "-003", …: zero
+  // padded, so ids keep sorting in the order the runs started (runs.list pages by id).
+  for (int n = 2; fs::exists(fs::path(state_dir_) / "runs" / id); ++n) {
+    char suffix[16];
+    std::snprintf(suffix, sizeof suffix, "-%03d", n);
+    id = base + suffix;
+  }
   fs::create_directories(fs::path(state_dir_) / "runs" / id);
   return id;
 }

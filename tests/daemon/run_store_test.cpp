@@ -61,6 +61,23 @@ TEST(RunStore, RunIdsAreUniqueAndListedNewestFirstPerUnit) {
   EXPECT_FALSE(store.latest_resumable().has_value());
 }
 
+TEST(RunStore, RunsOfOneUnitStartedInTheSameSecondListInTheOrderTheyStarted) {
+  TempDir dir;
+  RunStore store(dir.path());
+  std::vector<std::string> started;
+  for (int i = 0; i < 12; ++i) {
+    RunRecord r;
+    r.run_id = store.new_run_id("AU-5");
+    r.unit_serial = "AU-5";
+    r.state = "done";
+    store.save(r);
+    started.push_back(r.run_id);
+  }
+  std::vector<std::string> listed;
+  for (const RunSummary& r : store.list("AU-5")) listed.push_back(r.run_id);
+  EXPECT_EQ(listed, std::vector<std::string>(started.rbegin(), started.rend()));
+}
+
 TEST(RunStore, PagesAreNewestFirstBoundedAndContinueFromTheLastRunId) {
   TempDir dir;
   RunStore store(dir.path());
