@@ -306,7 +306,7 @@ json list_runs(protocol::Client& c, const RunsArgs& a) {
   return json{{"runs", std::move(runs)}, {"more", false}};
 }
 
-void print_runs(const json& r) {
+void print_runs(const json& r, const RunsArgs& a) {
   if (r["runs"].empty()) std::printf("no runs\n");
   for (const json& x : r["runs"]) {
     std::printf("%-32s %-10s %-10s %-12s %2d/%-2d %s%s\n", x.value("run_id", "").c_str(),
@@ -315,7 +315,8 @@ void print_runs(const json& r) {
                 x.value("has_result", false) ? "  result" : "");
   }
   if (r.value("more", false) && !r["runs"].empty()) {
-    std::printf("(older runs: standcal runs --before %s, or --all)\n",
+    const std::string unit = a.unit.empty() ? "" : " --unit " + a.unit;
+    std::printf("(older runs: standcal runs%s --before %s, or --all)\n", unit.c_str(),
                 r["runs"].back().value("run_id", "").c_str());
   }
 }
@@ -336,7 +337,7 @@ void add_runs(CLI::App& app) {
     if (o->json) {
       std::cout << r.dump(2) << "\n";
     } else {
-      print_runs(r);
+      print_runs(r, *a);
     }
   });
 }
