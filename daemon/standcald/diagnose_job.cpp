@@ -70,6 +70,7 @@ json diagnose_run(const json& run_status, const StandLimits& limits, bool with_r
   json out = diagnose_to_json(d);
   out["run_id"] = run_id;
   out["unit_serial"] = run_status.value("unit_serial", "");
+  out["unit_type"] = run_status.value("unit_type", "");
   out["recording_path"] = path;
   out["mount"] = first_mount(rec);
   out["recording_warnings"] = rec.warnings;

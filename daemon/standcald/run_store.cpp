@@ -240,10 +240,6 @@ std::optional<RunRecord> RunStore::get_locked(const std::string& run_id) const {
   return run_record_from_json(j);
 }
 
-std::vector<RunSummary> RunStore::list(const std::string& unit_serial) const {
-  return page(RunPageQuery{unit_serial, {}, SIZE_MAX}).runs;
-}
-
 RunPage RunStore::page(const RunPageQuery& q) const {
   std::lock_guard lock(mutex_);
   auto end = runs_.end();

@@ -101,8 +101,7 @@ class RunStore {
   // The full record: from memory for the run saved last, else read from its run.json.
   // Nothing when there is no such run or its run.json can no longer be read.
   std::optional<RunRecord> get(const std::string& run_id) const;
-  // Newest first; only `unit_serial`'s when not empty.
-  std::vector<RunSummary> list(const std::string& unit_serial = {}) const;
+  // One page of runs, newest first (RunPageQuery; the default query is every run).
   RunPage page(const RunPageQuery& q) const;
   std::optional<RunSummary> newest() const;
   // The newest run that can be resumed (interrupted, faulted or paused).

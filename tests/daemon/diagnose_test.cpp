@@ -47,11 +47,11 @@ json diagnostic_positions() {
   return p;
 }
 
-std::string run_to_end(Client& c, const json& program, const std::string& unit, double dwell_s) {
-  const std::string id = c.call("run.start", {{"program", program},
-                                              {"unit_serial", unit},
-                                              {"dwell_s", dwell_s},
-                                              {"settle_s", 1}})["run_id"];
+std::string run_to_end(Client& c, const json& program, const std::string& unit, double dwell_s,
+                       const std::string& unit_type = "") {
+  json params{{"program", program}, {"unit_serial", unit}, {"dwell_s", dwell_s}, {"settle_s", 1}};
+  if (!unit_type.empty()) params["unit_type"] = unit_type;
+  const std::string id = c.call("run.start", params)["run_id"];
   const json s = test::wait_run(c, id, test::finished, 120s);
   EXPECT_EQ(s["state"], "done") << s.dump();
   return id;
@@ -165,7 +165,7 @@ TEST(DaemonDiagnose, CliWritesTheReportAndRunsTheProposedPositions) {
   auto daemon = DaemonProcess::sim(dir.path(), 300);
   Client c(socket_of(dir));
   // paper9 has no redundancy: the diagnosis proposes positions to add.
-  const std::string id = run_to_end(c, "paper9", "AU-D3", 20);
+  const std::string id = run_to_end(c, "paper9", "AU-D3", 20, "QA-7");
   const std::string report = dir.path() + "/report.html";
   const std::string text = run_cli("run diagnose " + id + " --json --report " + report +
                                    " --run-proposed --dwell 5 --socket " + socket_of(dir));
@@ -183,6 +183,7 @@ TEST(DaemonDiagnose, CliWritesTheReportAndRunsTheProposedPositions) {
   const json s = test::wait_run(c, follow, test::finished, 120s);
   EXPECT_EQ(s["state"], "done") << s.dump();
   EXPECT_EQ(s["unit_serial"], "AU-D3");
+  EXPECT_EQ(s["unit_type"], "QA-7") << "the follow-up inherits the unit type";
   EXPECT_EQ(s["program"], "follow-up of " + id);
   const Recording rec = read_recording(s["recording_path"]);
   ASSERT_FALSE(rec.samples.empty());

@@ -208,8 +208,7 @@ json follow_up_run(protocol::Client& c, const json& d, const DiagnoseArgs& a) {
   if (a.settle_s >= 0) params["settle_s"] = a.settle_s;
   if (!a.op.empty()) params["operator"] = a.op;
   // Same unit, same type: the follow-up's certificate applies the same limits.
-  const std::string unit_type = call(c, "run.status", {{"run_id", a.run_id}}).value("unit_type", "");
-  if (!unit_type.empty()) params["unit_type"] = unit_type;
+  if (const std::string unit_type = d.value("unit_type", ""); !unit_type.empty()) params["unit_type"] = unit_type;
   return call(c, "run.start", params);
 }
 
