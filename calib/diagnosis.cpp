@@ -12,6 +12,7 @@
 
 #include "calib/averaging.hpp"
 #include "calib/full_estimator.hpp"
+#include "calib/identifiability.hpp"
 #include "calib/invariant_estimator.hpp"
 #include "calib/report.hpp"
 #include "calib/units.hpp"
@@ -139,7 +140,21 @@ struct LinearFit {
   VectorXd press;     // per position, NaN where the position cannot be predicted without itself
 };
 
+// No column (nothing fitted) or no row: the residual is the data itself. Eigen's
+// decompositions must never see an empty matrix (a zero-column QR segfaulted; issue 14).
+LinearFit empty_linear_fit(const MatrixXd& X, const VectorXd& y, int positions) {
+  LinearFit f;
+  f.beta = VectorXd::Zero(X.cols());
+  f.cov = MatrixXd::Zero(X.cols(), X.cols());
+  f.residual = y;
+  f.chi2 = y.squaredNorm();
+  f.dof = static_cast<int>(y.size());
+  f.press = VectorXd::Constant(positions, kNaN);
+  return f;
+}
+
 LinearFit solve_linear(const MatrixXd& X, const VectorXd& y, const std::vector<int>& row_position, int positions) {
+  if (X.cols() == 0 || X.rows() == 0) return empty_linear_fit(X, y, positions);
   LinearFit f;
   VectorXd norms = X.colwise().norm().transpose();
   for (Eigen::Index j = 0; j < norms.size(); ++j)
@@ -797,9 +812,39 @@ struct Prepared {
   int n_testable = 0;
 };
 
+// Degenerate recordings are refused before any fit: no position, a number that is not
+// finite, or a dwell whose samples do not vary (its noise, which the check compares
+// against, is then unknown).
+// Identical samples still give a sample deviation of ~1e-17 g from rounding in the mean;
+// no accelerometer's noise comes within nine orders of magnitude of this.
+constexpr double kStuckReadingSigma_g = 1e-12;
+
+void require_checkable(const std::vector<PositionAverage>& avg) {
+  if (avg.empty()) throw CannotFit("cannot check the model: the recording has no position");
+  require_finite_positions(avg, "cannot check the model");
+  for (const PositionAverage& p : avg)
+    for (int a = 0; a < 3; ++a)
+      if (!(p.sigma_g[a] > kStuckReadingSigma_g))
+        throw CannotFit("cannot check the model: the " + std::to_string(p.samples) + " samples of position " +
+                        std::to_string(p.pos) + " do not vary on axis " + kAxisNames[a] +
+                        " (zero variance), so their noise is unknown; are the readings stuck, or quantised "
+                        "coarser than the noise?");
+}
+
+// The invariant baseline, or why there is none.
+FitResult invariant_baseline(const std::vector<PositionAverage>& avg) {
+  try {
+    return fit_invariant_joint(avg);
+  } catch (const CannotFit& e) {
+    throw CannotFit("cannot check the model: " + positions_for_unknowns(avg, kUnitParameterCount) +
+                    ", and not even the calibration can be fitted (" + e.what() + ")");
+  }
+}
+
 Prepared prepare(const Recording& rec, const DiagnoseOptions& options) {
   Prepared P;
   P.avg = average_positions(rec);
+  require_checkable(P.avg);
   for (const auto& p : P.avg) P.have_temp = P.have_temp && std::isfinite(p.temp_mean_c);
   if (rec.temp_ref_c) P.temp_ref_c = *rec.temp_ref_c;
   else
@@ -815,7 +860,7 @@ Prepared prepare(const Recording& rec, const DiagnoseOptions& options) {
     P.full = false;
   }
   if (P.full) P.fd = full_design(P.avg);
-  else P.baseline = fit_invariant_joint(P.avg);
+  else P.baseline = invariant_baseline(P.avg);
   P.lp = P.full ? full_problem(P.avg, P.baseline, P.fd) : invariant_problem(P.avg, P.baseline);
   P.base = solve_linear(P.lp.A, P.lp.y, P.lp.row_position, P.lp.positions);
 
@@ -948,7 +993,8 @@ Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& option
   for (Eigen::Index k = 0; k < base.press.size(); ++k) unpredictable += std::isfinite(base.press[k]) ? 0 : 1;
   // The unit's nine parameters come from the gravity projections; with no more positions
   // than that they are fitted exactly and the model cannot be checked (model.md, paper9).
-  const int projection_redundancy = static_cast<int>(avg.size()) - kUnitParameterCount;
+  // A repeated orientation checks repeatability, not the model: count distinct ones.
+  const int projection_redundancy = distinct_orientations(avg) - kUnitParameterCount;
   if (base.dof <= 0 || projection_redundancy <= 0 || 2 * unpredictable > lp.positions ||
       2 * n_testable < static_cast<int>(cands.size())) {
     d.verdict = "insufficient_redundancy";
@@ -959,8 +1005,9 @@ Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& option
     std::string why;
     if (base.dof <= 0) why = "the fit has no redundancy";
     else if (projection_redundancy <= 0)
-      why = "the nine unit parameters rest on only " + std::to_string(avg.size()) +
-            " gravity projections, so they absorb any missing physics exactly";
+      why = positions_for_unknowns(avg, kUnitParameterCount) +
+            ": the nine unit parameters rest on only " + std::to_string(distinct_orientations(avg)) +
+            " distinct gravity projections, so they absorb any missing physics exactly";
     else if (2 * unpredictable > lp.positions)
       why = std::to_string(unpredictable) + " of " + std::to_string(lp.positions) +
             " positions cannot be predicted from the others (no held-out check)";

@@ -6,6 +6,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "calib/identifiability.hpp"
 #include "calib/parameters.hpp"
 #include "calib/units.hpp"
 
@@ -384,8 +385,23 @@ std::string unit_unobservable_reason(const FullModelLayout& layout, const Observ
   return {};
 }
 
+namespace {
+
+// A fit that would report nothing of the unit is no fit: refused with the counts.
+void require_some_unit_parameter(const FullModelLayout& layout, const Observability& obs,
+                                 const std::vector<PositionAverage>& positions) {
+  for (int i = 0; i < kUnitParameterCount; ++i)
+    if (unit_unobservable_reason(layout, obs, i).empty()) return;
+  throw CannotFit("cannot fit (full vector): " + positions_for_unknowns(positions, static_cast<int>(layout.size())) +
+                  "; this programme cannot separate any of the unit's parameters from the stand's");
+}
+
+}  // namespace
+
 FitResult fit_full_vector(const std::vector<PositionAverage>& positions, const FullFitOptions& options) {
-  if (positions.empty()) throw std::invalid_argument("full-vector fit: the recording has no positions");
+  if (positions.empty())
+    throw CannotFit("cannot fit (full vector): " + positions_for_unknowns(positions, kUnitParameterCount));
+  require_finite_positions(positions, "cannot fit (full vector)");
   std::vector<StandPose> poses;
   std::vector<Vec3> measured, sigmas;
   std::vector<double> weights;
@@ -398,6 +414,7 @@ FitResult fit_full_vector(const std::vector<PositionAverage>& positions, const F
   }
   const FullModelLayout layout = full_model_layout(poses, options.mounting);
   const Observability obs = analyse_observability(layout, poses, weights, options.observability_tolerance);
+  require_some_unit_parameter(layout, obs, positions);
   const WeightedProblem problem{layout, obs, poses, measured, sigmas};
 
   const Eigen::VectorXd q = solve_levenberg_marquardt(problem, options.max_iterations);

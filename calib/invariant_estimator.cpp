@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "calib/identifiability.hpp"
 #include "calib/units.hpp"
 
 namespace standcal {
@@ -128,6 +129,14 @@ MatrixXd weighted_ls_map(const InvariantData& d, const std::vector<Eigen::Index>
   return Aw.colPivHouseholderQr().solve(MatrixXd(w.asDiagonal()));
 }
 
+// No position, or a number that is not finite, cannot be fitted: refused before any
+// decomposition sees it.
+void require_fittable(const std::vector<PositionAverage>& positions, const std::string& estimator) {
+  if (positions.empty())
+    throw CannotFit("cannot fit (" + estimator + "): " + positions_for_unknowns(positions, kUnitParameterCount));
+  require_finite_positions(positions, "cannot fit (" + estimator + ")");
+}
+
 }  // namespace
 
 double invariant_sigma_g(const PositionAverage& p) {
@@ -137,7 +146,7 @@ double invariant_sigma_g(const PositionAverage& p) {
 }
 
 FitResult fit_invariant_joint(const std::vector<PositionAverage>& positions) {
-  if (positions.empty()) throw std::runtime_error("no positions to fit");
+  require_fittable(positions, "joint");
   const InvariantData d = invariant_data(positions);
   FitResult r;
   r.estimator = "joint";
@@ -147,6 +156,10 @@ FitResult fit_invariant_joint(const std::vector<PositionAverage>& positions) {
     if (reasons[static_cast<std::size_t>(j)].empty()) fitted.push_back(j);
     else r.unit[static_cast<std::size_t>(j)].unobservable_reason = reasons[static_cast<std::size_t>(j)];
   }
+  if (fitted.empty())
+    throw CannotFit("cannot fit: " + positions_for_unknowns(positions, kUnitParameterCount) +
+                    "; this programme separates none of the unit's parameters (each is unobservable or "
+                    "only part of a combination)");
   std::vector<Eigen::Index> rows(positions.size());
   for (std::size_t k = 0; k < rows.size(); ++k) rows[k] = static_cast<Eigen::Index>(k);
   const MatrixXd L = fitted.empty() ? MatrixXd(0, d.y.size()) : weighted_ls_map(d, rows, fitted);
@@ -155,7 +168,7 @@ FitResult fit_invariant_joint(const std::vector<PositionAverage>& positions) {
 }
 
 FitResult fit_paper_sequential(const std::vector<PositionAverage>& positions) {
-  if (positions.empty()) throw std::runtime_error("no positions to fit");
+  require_fittable(positions, "paper-sequential");
   const InvariantData d = invariant_data(positions);
   const auto near_zero = [](double a_deg) {
     return std::abs(std::remainder(a_deg, 360.0)) < 1e-6;

@@ -1,5 +1,6 @@
 #include "daemon/standcald/diagnose_job.hpp"
 
+#include <signal.h>
 #include <spdlog/spdlog.h>
 
 #include <chrono>
@@ -8,6 +9,7 @@
 
 #include "calib/diagnosis.hpp"
 #include "calib/recording.hpp"
+#include "daemon/standcald/diagnose_worker.hpp"
 #include "protocol/jsonrpc/jsonrpc.hpp"
 #include "protocol/jsonrpc/methods.hpp"
 #include "report/diagnosis/diagnosis_report.hpp"
@@ -92,23 +94,24 @@ json diagnose_run(const json& run_status, const StandLimits& limits, bool with_r
 
 namespace {
 
-Outcome outcome_of(const json& run_status, const StandLimits& limits, bool with_report) {
+Outcome outcome_of(const DiagnoseJob& job, const std::string& worker_exe, std::atomic<pid_t>& child_pid) {
   Outcome o;
   try {
-    o.result = diagnose_run(run_status, limits, with_report);
+    o.result = diagnose_in_child(job, worker_exe, kDiagnoseWorkerTimeout_s, child_pid);
   } catch (const RpcError& e) {
     o.error_code = e.code();
     o.error_message = e.what();
   } catch (const std::exception& e) {
     o.error_code = static_cast<int>(ErrorCode::internal_error);
-    o.error_message = "run " + run_status.value("run_id", "") + ": diagnosis failed: " + e.what();
+    o.error_message = "run " + job.run_status.value("run_id", "") + ": diagnosis failed: " + e.what();
   }
   return o;
 }
 
 }  // namespace
 
-DiagnoseJobs::DiagnoseJobs() : worker_([this] { worker_main(); }) {}
+DiagnoseJobs::DiagnoseJobs(std::string worker_exe)
+    : worker_exe_(std::move(worker_exe)), worker_([this] { worker_main(); }) {}
 
 DiagnoseJobs::~DiagnoseJobs() {
   {
@@ -116,6 +119,8 @@ DiagnoseJobs::~DiagnoseJobs() {
     stopping_ = true;
     queue_.clear();
   }
+  // A shutdown does not wait for a diagnosis: its child goes (the answer had nobody to go to).
+  if (const pid_t pid = child_pid_.load(); pid > 0) ::kill(pid, SIGKILL);
   wake_.notify_all();
   worker_.join();
 }
@@ -140,7 +145,7 @@ void DiagnoseJobs::submit(const Sequencer& sequencer, const json& params, ReplyF
     throw RpcError(ErrorCode::busy,
                    std::to_string(queue_.size()) + " diagnoses are waiting; try again shortly");
   }
-  queue_.push_back({std::move(status), sequencer.stand_limits(), with_report, std::move(reply)});
+  queue_.push_back({{std::move(status), sequencer.stand_limits(), with_report}, std::move(reply)});
   wake_.notify_one();
 }
 
@@ -153,8 +158,8 @@ void DiagnoseJobs::worker_main() {
     queue_.pop_front();
     lock.unlock();
     const auto started = std::chrono::steady_clock::now();
-    Outcome o = outcome_of(job.run_status, job.limits, job.with_report);
-    spdlog::info("run.diagnose {}: {} in {:.1f} s", job.run_status.value("run_id", ""),
+    Outcome o = outcome_of(job.job, worker_exe_, child_pid_);
+    spdlog::info("run.diagnose {}: {} in {:.1f} s", job.job.run_status.value("run_id", ""),
                  o.error_code == 0 ? o.result.value("verdict", "?") : o.error_message,
                  std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
     lock.lock();

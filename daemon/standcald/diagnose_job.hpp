@@ -2,14 +2,18 @@
 // `run.diagnose` {run_id, report?}: the model-mismatch diagnosis (calib/diagnosis.hpp) of a
 // run's recording, in the shape of `standcal diagnose --json`. A diagnosis takes seconds,
 // so it never runs on the socket thread: requests are checked there (a bad one is answered
-// at once), then one worker thread computes them in turn and hands each answer to the
-// reply function, which posts it back to the socket thread (as the sequencer's replies do).
+// at once), then one worker thread hands them in turn to a child process
+// (diagnose_worker.hpp: a crash in the maths never takes the daemon down) and passes each
+// answer to the reply function, which posts it back to the socket thread (as the
+// sequencer's replies do).
+#include <atomic>
 #include <condition_variable>
 #include <deque>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "daemon/standcald/diagnose_worker.hpp"
 #include "daemon/standcald/sequencer.hpp"
 
 namespace standcal::daemon {
@@ -29,8 +33,10 @@ nlohmann::json diagnose_run(const nlohmann::json& run_status, const StandLimits&
 
 class DiagnoseJobs {
  public:
-  DiagnoseJobs();
-  // Waits for the diagnosis in progress (its answer is dropped); queued ones are dropped.
+  // `worker_exe` is the program run as `worker_exe --diagnose-worker`: standcald itself.
+  explicit DiagnoseJobs(std::string worker_exe = "/proc/self/exe");
+  // Stops the diagnosis in progress (its child is killed, its answer dropped); queued
+  // ones are dropped.
   ~DiagnoseJobs();
   DiagnoseJobs(const DiagnoseJobs&) = delete;
   DiagnoseJobs& operator=(const DiagnoseJobs&) = delete;
@@ -42,13 +48,13 @@ class DiagnoseJobs {
 
  private:
   struct Job {
-    nlohmann::json run_status;
-    StandLimits limits;
-    bool with_report = false;
+    DiagnoseJob job;
     ReplyFn reply;
   };
   void worker_main();
 
+  std::string worker_exe_;
+  std::atomic<pid_t> child_pid_{0};
   std::mutex mutex_;
   std::condition_variable wake_;
   std::deque<Job> queue_;

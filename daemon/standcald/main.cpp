@@ -11,6 +11,7 @@
 #include <memory>
 
 #include "daemon/standcald/config.hpp"
+#include "daemon/standcald/diagnose_worker.hpp"
 #include "daemon/standcald/hardware.hpp"
 #include "daemon/standcald/records_sink.hpp"
 #include "daemon/standcald/run_store.hpp"
@@ -102,6 +103,9 @@ int run_daemon(const standcal::daemon::DaemonConfig& config) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // The child that computes one run.diagnose (diagnose_worker.hpp), not a daemon.
+  if (argc == 2 && std::string(argv[1]) == standcal::daemon::kDiagnoseWorkerFlag)
+    return standcal::daemon::diagnose_worker_main();
   spdlog::set_default_logger(spdlog::stderr_color_mt("standcald"));
   spdlog::set_pattern("%Y-%m-%d %H:%M:%S.%e [%l] %v");
   CLI::App app{"standcald: the standcal calibration service (JSON-RPC 2.0 over a Unix socket)"};

@@ -10,6 +10,7 @@
 
 #include "calib/averaging.hpp"
 #include "calib/full_estimator.hpp"
+#include "calib/identifiability.hpp"
 #include "calib/invariant_estimator.hpp"
 #include "calib/recording.hpp"
 #include "calib/report.hpp"
@@ -1153,12 +1154,29 @@ void Sequencer::measure_position(RunRecord& record, const Program& program, int 
   set_progress(record, index + 1, "moving");
 }
 
+namespace {
+
+// The paper's joint fit of a finished run. A programme that cannot determine the unit by
+// itself (a follow-up of proposed positions, a user programme of a few poses) still ends
+// `done`: its recording is whole, and the result says why there are no parameters.
+json joint_fit_result(const std::vector<PositionAverage>& averages) {
+  try {
+    return fit_to_json(fit_invariant_joint(averages));
+  } catch (const CannotFit& e) {
+    return json{{"estimator", "joint"},
+                {"positions", averages.size()},
+                {"parameters", json::object()},
+                {"fit_error", e.what()}};
+  }
+}
+
+}  // namespace
+
 void Sequencer::finish_with_fit(RunRecord& record) {
   set_progress(record, record.positions, "fitting");
   const Recording rec = read_recording(record.recording_path);
   const std::vector<PositionAverage> averages = average_positions(rec);
-  const FitResult joint = fit_invariant_joint(averages);
-  json result = fit_to_json(joint);
+  json result = joint_fit_result(averages);
   try {
     result["full_vector"] = fit_to_json(fit_full_vector(averages));
   } catch (const std::exception& e) {

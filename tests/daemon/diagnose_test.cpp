@@ -236,3 +236,47 @@ TEST(DaemonDiagnose, ProposedPositionsLieInsideTheConfiguredStandRanges) {
                            {"settle_s", 1}})["run_id"];
   EXPECT_EQ(test::wait_run(c, follow, test::finished, 120s)["state"], "done");
 }
+
+// Issue 14: run.diagnose of a run with 1-3 recorded positions segfaulted the daemon (an
+// empty QR in the diagnosis) while it drove the stand. Now the answer is the clear
+// "cannot check the model: N positions for 9 unknowns", and the daemon serves on.
+TEST(DaemonDiagnose, ARunWithFewPositionsIsAClearAnswerNotACrash) {
+  TempDir dir;
+  auto daemon = DaemonProcess::sim(dir.path(), 300);
+  Client c(socket_of(dir));
+  const std::string id = c.call(
+      "run.start", {{"program", "paper9"}, {"unit_serial", "AU-D5"}, {"dwell_s", 20}, {"settle_s", 1}})["run_id"];
+  test::wait_run(c, id, [](const json& s) { return s.value("positions_done", 0) >= 2; }, 120s);
+  c.call("run.abort", {{"run_id", id}});
+  const json s = test::wait_run(c, id, test::finished, 60s);
+  const int done = s["positions_done"];
+  ASSERT_GE(done, 2) << s.dump();
+  const auto [code, message] = error_of([&] { c.call("run.diagnose", {{"run_id", id}}, 120s); });
+  EXPECT_EQ(code, -32007) << message;
+  EXPECT_NE(message.find("cannot check the model: " + std::to_string(done) + " positions for 9 unknowns"),
+            std::string::npos)
+      << message;
+  EXPECT_FALSE(daemon->exited()) << daemon->log();
+  EXPECT_EQ(c.call("run.status", {{"run_id", id}})["run_id"], id);
+}
+
+// Whatever happens inside a diagnosis, the process that drives the stand lives on: a
+// diagnosis child that dies (fault injection: it aborts, as a crash in the maths would)
+// is an error answer naming the signal, and the daemon keeps serving the stand.
+TEST(DaemonDiagnose, ADiagnosisThatCrashesDoesNotTakeTheDaemonDown) {
+  TempDir dir;
+  std::vector<std::string> args{"--sim", "--socket", socket_of(dir), "--state-dir", dir.path() + "/state",
+                                "--time-scale", "300"};
+  DaemonProcess daemon(dir.path(), args, {"STANDCALD_FAULT_DIAGNOSE_WORKER=abort"});
+  daemon.wait_ready(socket_of(dir));
+  Client c(socket_of(dir));
+  const std::string id = run_to_end(c, "paper9", "AU-D6", 5);
+  const auto [code, message] = error_of([&] { c.call("run.diagnose", {{"run_id", id}}, 120s); });
+  EXPECT_EQ(code, -32603) << message;
+  EXPECT_NE(message.find("died of signal " + std::to_string(SIGABRT)), std::string::npos) << message;
+  EXPECT_NE(message.find("the daemon, the stand and the run are unaffected"), std::string::npos) << message;
+  EXPECT_FALSE(daemon.exited()) << daemon.log();
+  EXPECT_EQ(c.call("run.status", {{"run_id", id}})["state"], "done");
+  // The stand still obeys an emergency stop.
+  EXPECT_EQ(c.call("estop", json::object(), 5s)["estop"], true);
+}

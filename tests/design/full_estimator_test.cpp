@@ -9,6 +9,7 @@
 
 #include "calib/design.hpp"
 #include "calib/full_estimator.hpp"
+#include "calib/identifiability.hpp"
 #include "calib/invariant_estimator.hpp"
 #include "calib/parameters.hpp"
 #include "tests/design/synthetic.hpp"
@@ -159,7 +160,7 @@ namespace {
 
 TEST(FullEstimator, TooFewPositionsGiveReasonsNotNumbers) {
   auto poses = poses_of(paper9());
-  poses.resize(3);
+  poses.resize(6);
   const FitResult fit = fit_full_vector(testing::synthetic_averages(poses, testing::typical_unit(), StandErrors{}, 1e-6));
   int reported = 0;
   for (int i = 0; i < kUnitParameterCount; ++i) {
@@ -171,7 +172,20 @@ TEST(FullEstimator, TooFewPositionsGiveReasonsNotNumbers) {
     }
   }
   EXPECT_LT(reported, kUnitParameterCount);
-  EXPECT_THROW(fit_full_vector({}), std::invalid_argument);
+  EXPECT_GT(reported, 0);
+}
+
+// Degenerate input is refused before any decomposition, with the counts (issue 14).
+TEST(FullEstimator, NothingToFitIsRefusedWithTheCounts) {
+  auto poses = poses_of(paper9());
+  poses.resize(3);
+  try {
+    (void)fit_full_vector(testing::synthetic_averages(poses, testing::typical_unit(), StandErrors{}, 1e-6));
+    FAIL() << "three positions along one circle were fitted";
+  } catch (const CannotFit& e) {
+    EXPECT_NE(std::string(e.what()).find("cannot fit (full vector): 3 positions for"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(fit_full_vector({}), CannotFit);
 }
 
 }  // namespace

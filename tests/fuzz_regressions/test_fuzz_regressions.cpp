@@ -85,6 +85,7 @@ class FuzzReplay : public ::testing::Test {
 TEST_F(FuzzReplay, Recording) { replay_target("recording", standcal_fuzz_recording); }
 TEST_F(FuzzReplay, ProgramJson) { replay_target("program_json", standcal_fuzz_program_json); }
 TEST_F(FuzzReplay, ModelJson) { replay_target("model_json", standcal_fuzz_model_json); }
+TEST_F(FuzzReplay, Diagnosis) { replay_target("diagnosis", standcal_fuzz_diagnosis); }
 TEST_F(FuzzReplay, CanLayoutJson) { replay_target("can_layout_json", standcal_fuzz_can_layout_json); }
 TEST_F(FuzzReplay, CanFrames) { replay_target("can_frames", standcal_fuzz_can_frames); }
 TEST_F(FuzzReplay, ModbusUrl) { replay_target("modbus_url", standcal_fuzz_modbus_url); }

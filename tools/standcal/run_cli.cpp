@@ -111,7 +111,9 @@ void print_result(const json& r) {
     printed = true;
   } catch (const std::exception&) {
   }
-  if (!printed) {
+  if (!printed && r.contains("fit_error")) {
+    std::printf("no calibration from this run alone: %s\n", r.value("fit_error", "").c_str());
+  } else if (!printed) {
     std::printf("estimator %s, %d positions, redundancy %d\n", r.value("estimator", "").c_str(),
                 r.value("positions", 0), r.value("redundancy", 0));
     for (auto it = r["parameters"].begin(); it != r["parameters"].end(); ++it) {
