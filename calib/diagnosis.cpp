@@ -614,15 +614,22 @@ double median_sigma(const LinearProblem& lp) {
   return s[s.size() / 2];
 }
 
-// Fractions of each column (of C) the baseline design A cannot absorb.
-VectorXd unabsorbed_fractions(const MatrixXd& A, const MatrixXd& C) {
+// The part of C's columns that the columns of A cannot explain (least squares on A with
+// unit-norm columns). With no column in A nothing is explained: an empty QR must never run.
+MatrixXd unexplained_part(const MatrixXd& A, const MatrixXd& C) {
+  if (A.cols() == 0 || A.rows() == 0) return C;
   VectorXd norms = A.colwise().norm().transpose();
   for (Eigen::Index j = 0; j < norms.size(); ++j)
     if (norms[j] <= 0) norms[j] = 1;
   const MatrixXd An = A * norms.cwiseInverse().asDiagonal();
   Eigen::CompleteOrthogonalDecomposition<MatrixXd> cod(An);
   cod.setThreshold(1e-10);
-  const MatrixXd rest = C - An * cod.solve(C);
+  return C - An * cod.solve(C);
+}
+
+// Fractions of each column (of C) the baseline design A cannot absorb.
+VectorXd unabsorbed_fractions(const MatrixXd& A, const MatrixXd& C) {
+  const MatrixXd rest = unexplained_part(A, C);
   VectorXd f(C.cols());
   for (Eigen::Index j = 0; j < C.cols(); ++j) {
     const double n = C.col(j).norm();
@@ -1286,14 +1293,8 @@ std::vector<DiscriminationThreshold> discrimination_thresholds(const Recording& 
     MatrixXd M(P.lp.A.rows(), P.lp.A.cols() + (competitor ? competitor->cols() : 0));
     M.leftCols(P.lp.A.cols()) = P.lp.A;
     if (competitor) M.rightCols(competitor->cols()) = *competitor;
-    VectorXd norms = M.colwise().norm().transpose();
-    for (Eigen::Index j = 0; j < norms.size(); ++j)
-      if (norms[j] <= 0) norms[j] = 1;
-    const MatrixXd Mn = M * norms.cwiseInverse().asDiagonal();
-    Eigen::CompleteOrthogonalDecomposition<MatrixXd> cod(Mn);
-    cod.setThreshold(1e-10);
-    const MatrixXd rest = C - Mn * cod.solve(C);
-    return Eigen::JacobiSVD<MatrixXd>(rest).singularValues().minCoeff();
+    const MatrixXd rest = unexplained_part(M, C);
+    return rest.size() == 0 ? 0.0 : Eigen::JacobiSVD<MatrixXd>(rest).singularValues().minCoeff();
   };
   for (std::size_t i = 0; i < P.cands.size(); ++i) {
     if (!P.testable[i]) continue;
