@@ -18,6 +18,7 @@
 
 #include "daemon/standcald/errno_text.hpp"
 #include "protocol/jsonrpc/methods.hpp"
+#include "protocol/jsonrpc/run_id.hpp"
 
 namespace standcal::daemon {
 
@@ -230,7 +231,9 @@ std::optional<RunRecord> RunStore::get_locked(const std::string& run_id) const {
   for (const HeldRecord& h : held_) {
     if (h.record.run_id == run_id) return h.record;
   }
-  // Only ids this store knows: a request's run_id must not name an arbitrary path.
+  // Only ids of run id form that this store knows: a request's run_id must not name an
+  // arbitrary path.
+  if (!protocol::is_run_id(run_id)) return std::nullopt;
   const bool known = std::binary_search(runs_.begin(), runs_.end(), run_id,
                                         [](const auto& a, const auto& b) { return id_of(a) < id_of(b); });
   if (!known) return std::nullopt;
