@@ -50,7 +50,8 @@ void write_all(int fd, const std::string& text, const std::string& path) {
 const std::string& id_of(const RunSummary& r) { return r.run_id; }
 const std::string& id_of(const std::string& id) { return id; }
 
-// Filenames from unit serials: keep what is safe, replace the rest.
+// Run ids from unit serials: keep what is safe, replace the rest (an id need not be
+// reversible: a clash gets a -002 suffix).
 std::string safe_name(const std::string& s) {
   std::string out;
   for (char ch : s) out += (std::isalnum(static_cast<unsigned char>(ch)) || ch == '-' || ch == '_' || ch == '.') ? ch : '_';
@@ -59,6 +60,23 @@ std::string safe_name(const std::string& s) {
 }
 
 }  // namespace
+
+std::string unit_index_file_name(const std::string& unit_serial) {
+  static constexpr char kHex[] = "0123456789ABCDEF";
+  std::string out;
+  for (std::size_t i = 0; i < unit_serial.size(); ++i) {
+    const auto byte = static_cast<unsigned char>(unit_serial[i]);
+    const bool plain = std::isalnum(byte) || byte == '-' || byte == '_' || (byte == '.' && i > 0);
+    if (plain) {
+      out += static_cast<char>(byte);
+    } else {  // also '%' itself, and a leading '.' (no hidden file, no "." or "..")
+      out += '%';
+      out += kHex[byte >> 4];
+      out += kHex[byte & 0xF];
+    }
+  }
+  return out + ".json";
+}
 
 void write_file_atomically(const std::string& path, const std::string& text) {
   const std::string tmp = path + ".tmp";
@@ -218,7 +236,8 @@ void RunStore::write_unit_index(const std::string& unit_serial) const {
   for (const RunSummary& r : runs_) {
     if (r.unit_serial == unit_serial) ids.push_back(r.run_id);
   }
-  const std::string path = (fs::path(state_dir_) / "units" / (safe_name(unit_serial) + ".json")).string();
+  const std::string path =
+      (fs::path(state_dir_) / "units" / unit_index_file_name(unit_serial)).string();
   write_file_atomically(path, json{{"unit_serial", unit_serial}, {"runs", ids}}.dump(2) + "\n");
 }
 

@@ -78,6 +78,11 @@ struct RunPage {
 nlohmann::json to_json(const RunRecord& r);
 RunRecord run_record_from_json(const nlohmann::json& j);
 
+// STATE/units/ file name of a serial's index: every byte outside [A-Za-z0-9._-] (and '%'
+// and a leading '.') percent-encoded, so two serials never share a file ("a/b", "a_b",
+// "AU,1" and "AU\t1" used to) and a plain serial keeps its old name ("AU-0042.json").
+std::string unit_index_file_name(const std::string& unit_serial);
+
 // Writes `text` to `path` atomically: temporary file, fsync, rename, fsync of the folder.
 void write_file_atomically(const std::string& path, const std::string& text);
 
