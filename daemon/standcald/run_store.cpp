@@ -1,6 +1,7 @@
 #include "daemon/standcald/run_store.hpp"
 
 #include <fcntl.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -91,6 +92,38 @@ void write_file_atomically(const std::string& path, const std::string& text) {
   if (::fsync(fd) != 0 || ::close(fd) != 0) throw std::runtime_error("cannot flush " + tmp + ": " + errno_text());
   if (::rename(tmp.c_str(), path.c_str()) != 0) throw std::runtime_error("cannot rename " + tmp + ": " + errno_text());
   fsync_dir(fs::path(path).parent_path().string());
+}
+
+StateDirLock::StateDirLock(const std::string& state_dir) {
+  std::error_code ec;
+  fs::create_directories(state_dir, ec);
+  const std::string path = (fs::path(state_dir) / "standcald.lock").string();
+  fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0640);
+  if (fd_ < 0) throw std::runtime_error("cannot open the lock file " + path + ": " + errno_text());
+  if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+    const std::string why = errno == EWOULDBLOCK ? std::string() : ": " + errno_text();
+    std::string holder;
+    char buf[32] = {};
+    if (::pread(fd_, buf, sizeof buf - 1, 0) > 0)
+      holder = std::string(buf).substr(0, std::string(buf).find('\n'));
+    ::close(fd_);
+    fd_ = -1;
+    if (!why.empty()) throw std::runtime_error("cannot lock " + path + why);
+    throw std::runtime_error(
+        "the state directory " + state_dir + " is in use by another standcald" +
+        (holder.empty() ? std::string() : " (pid " + holder + ")") + ", which holds " + path +
+        "; stop it first, or give this daemon its own state directory");
+  }
+  // For the message above, and for an operator wondering who holds it.
+  const std::string pid = std::to_string(::getpid()) + "\n";
+  if (::ftruncate(fd_, 0) != 0 || ::pwrite(fd_, pid.data(), pid.size(), 0) < 0) {
+    ::close(fd_);
+    throw std::runtime_error("cannot write " + path + ": " + errno_text());
+  }
+}
+
+StateDirLock::~StateDirLock() {
+  if (fd_ >= 0) ::close(fd_);  // releases the lock; the file stays (removing it would race)
 }
 
 json to_json(const RunRecord& r) {

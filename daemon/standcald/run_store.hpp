@@ -86,6 +86,23 @@ std::string unit_index_file_name(const std::string& unit_serial);
 // Writes `text` to `path` atomically: temporary file, fsync, rename, fsync of the folder.
 void write_file_atomically(const std::string& path, const std::string& text);
 
+// One standcald per state directory: an exclusive flock on STATE/standcald.lock, held
+// until the process ends (the kernel drops it even after SIGKILL, so a crash leaves no
+// stale lock). A second daemon on the same directory would mark the first one's active run
+// `interrupted` and serve the same runs.
+class StateDirLock {
+ public:
+  // Creates the directory if needed; throws naming the directory and, when the lock file
+  // says, the pid of the daemon holding it.
+  explicit StateDirLock(const std::string& state_dir);
+  ~StateDirLock();
+  StateDirLock(const StateDirLock&) = delete;
+  StateDirLock& operator=(const StateDirLock&) = delete;
+
+ private:
+  int fd_ = -1;
+};
+
 // Thread-safe: the sequencer writes, the server's readers read.
 // Memory per run is its RunSummary only; full records are read from run.json on demand,
 // except the run saved last (the one the sequencer is working on, asked for on every

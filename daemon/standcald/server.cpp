@@ -69,10 +69,19 @@ void remove_stale_socket(const std::string& path) {
   if (::lstat(path.c_str(), &st) != 0) return;
   if (!S_ISSOCK(st.st_mode)) throw std::runtime_error(path + " exists and is not a socket; not replacing it");
   const sockaddr_un addr = unix_address(path);
-  const int probe = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  const bool live = probe >= 0 && ::connect(probe, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) == 0;
-  if (probe >= 0) ::close(probe);
-  if (live) throw std::runtime_error("another standcald is already listening on " + path);
+  const int probe = ::socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+  if (probe < 0) throw std::runtime_error("cannot check the socket " + path + ": " + errno_text());
+  const bool connected =
+      ::connect(probe, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) == 0;
+  const int connect_errno = errno;
+  ::close(probe);
+  if (connected) throw std::runtime_error("another standcald is already listening on " + path);
+  // Only "refused" proves nobody listens; a full backlog (EAGAIN) or no permission
+  // (EACCES) may hide a live daemon whose socket must not be taken away.
+  if (connect_errno != ECONNREFUSED) {
+    throw std::runtime_error("cannot tell whether a daemon listens on " + path + " (" +
+                             std::strerror(connect_errno) + "); not replacing it");
+  }
   spdlog::info("replacing the stale socket {} (left by a daemon that did not exit cleanly)", path);
   ::unlink(path.c_str());
 }
@@ -222,7 +231,25 @@ Server::~Server() {
   for (int fd : {unix_fd_, tcp_fd_, signal_fd_, wake_fd_, timer_fd_, epoll_fd_}) {
     if (fd >= 0) ::close(fd);
   }
-  if (unix_fd_ >= 0 && !unix_from_systemd_) ::unlink(config_.socket_path.c_str());
+  unlink_socket_file_if_ours();
+}
+
+void Server::remember_bound_socket_file() {
+  struct stat st {};
+  if (::lstat(config_.socket_path.c_str(), &st) != 0) return;
+  unix_file_ours_ = true;
+  unix_file_dev_ = st.st_dev;
+  unix_file_ino_ = st.st_ino;
+}
+
+// Only the file this daemon bound, and only while it is still that file: a daemon that
+// failed to start must leave the running one reachable.
+void Server::unlink_socket_file_if_ours() const {
+  if (!unix_file_ours_ || unix_from_systemd_) return;
+  struct stat st {};
+  if (::lstat(config_.socket_path.c_str(), &st) != 0) return;
+  if (st.st_dev == unix_file_dev_ && st.st_ino == unix_file_ino_)
+    ::unlink(config_.socket_path.c_str());
 }
 
 void Server::add_fd(int fd, std::uint32_t events) {
@@ -303,6 +330,7 @@ void Server::open_unix_listener() {
     const bool bound = unix_fd_ >= 0 && ::bind(unix_fd_, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) == 0;
     ::umask(old_umask);
     if (!bound) throw std::runtime_error("cannot bind " + config_.socket_path + ": " + errno_text());
+    remember_bound_socket_file();
     apply_socket_file_access(config_, config_.socket_path);
     if (::listen(unix_fd_, 512) != 0) throw std::runtime_error("cannot listen on " + config_.socket_path + ": " + errno_text());
     spdlog::info("listening on {}", config_.socket_path);

@@ -96,6 +96,8 @@ class Server {
   };
 
   void open_unix_listener();
+  void remember_bound_socket_file();
+  void unlink_socket_file_if_ours() const;
   void open_tcp_listener();
   void resolve_access_policy();
   void add_fd(int fd, std::uint32_t events);
@@ -116,6 +118,11 @@ class Server {
   int epoll_fd_ = -1;
   int unix_fd_ = -1;
   bool unix_from_systemd_ = false;
+  // The socket file this daemon bound (device and inode), the only one it may unlink:
+  // never one another daemon bound, nor one systemd passed.
+  bool unix_file_ours_ = false;
+  dev_t unix_file_dev_ = 0;
+  ino_t unix_file_ino_ = 0;
   int tcp_fd_ = -1;
   int tcp_port_ = 0;
   AccessPolicy policy_;

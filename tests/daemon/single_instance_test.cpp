@@ -1,0 +1,78 @@
+// One standcald per state directory and per socket (docs/daemon.md "Crash safety"): a
+// second daemon refuses to start, names what is taken and by whom, and leaves the first
+// one as it was: reachable, with its runs its own.
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+
+#include <filesystem>
+
+#include "daemon_process.hpp"
+
+using namespace standcal;
+using namespace std::chrono_literals;
+using nlohmann::json;
+using protocol::Client;
+using test::DaemonProcess;
+using test::socket_of;
+using test::TempDir;
+
+namespace {
+
+// Waits for `d` to exit; true when it exited 1 with `message` in its log.
+bool exits_with_message(DaemonProcess& d, const std::string& message) {
+  const auto deadline = std::chrono::steady_clock::now() + 20s;
+  while (!d.exited() && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(10ms);
+  return d.exited() && WIFEXITED(d.wait_status()) && WEXITSTATUS(d.wait_status()) == 1 &&
+         d.log().find(message) != std::string::npos;
+}
+
+}  // namespace
+
+// A second daemon on the same state directory used to start, mark the first one's running
+// run `interrupted` and serve the same runs.
+TEST(DaemonSingleInstance, ASecondDaemonOnTheSameStateDirectoryRefusesNamingItAndThePid) {
+  TempDir dir;
+  auto first = DaemonProcess::sim(dir.path(), 50);
+  Client c(socket_of(dir));
+  const std::string run_id = c.call(
+      "run.start", {{"program", "paper9"}, {"unit_serial", "AU-1"}, {"dwell_s", 60}})["run_id"];
+  TempDir other;
+  DaemonProcess second(other.path(), {"--sim", "--socket", other.path() + "/standcald.sock",
+                                      "--state-dir", dir.path() + "/state", "--time-scale", "50"});
+  const std::string expected = "the state directory " + dir.path() +
+                               "/state is in use by another standcald (pid " +
+                               std::to_string(first->pid()) + ")";
+  EXPECT_TRUE(exits_with_message(second, expected)) << second.log();
+  EXPECT_EQ(c.call("run.status", {{"run_id", run_id}})["state"], "running");
+  c.call("run.abort");
+}
+
+// The lock is the kernel's: a killed daemon leaves none behind.
+TEST(DaemonSingleInstance, AKilledDaemonsStateDirectoryCanBeTakenAtOnce) {
+  TempDir dir;
+  auto first = DaemonProcess::sim(dir.path(), 50);
+  first->kill_now(SIGKILL);
+  EXPECT_NO_THROW(DaemonProcess::sim(dir.path(), 50));
+}
+
+// A second daemon on the same socket path (another state directory) used to leave the
+// first one without a socket file: no client, not even estop, could reach it.
+TEST(DaemonSingleInstance, ASecondDaemonOnTheSameSocketLeavesTheFirstReachable) {
+  TempDir dir;
+  auto first = DaemonProcess::sim(dir.path(), 50);
+  struct stat before {};
+  ASSERT_EQ(::stat(socket_of(dir).c_str(), &before), 0);
+  TempDir other;
+  DaemonProcess second(other.path(), {"--sim", "--socket", socket_of(dir), "--state-dir",
+                                      other.path() + "/state", "--time-scale", "50"});
+  EXPECT_TRUE(
+      exits_with_message(second, "another standcald is already listening on " + socket_of(dir)))
+      << second.log();
+  struct stat after {};
+  ASSERT_EQ(::stat(socket_of(dir).c_str(), &after), 0) << "the socket file is gone";
+  EXPECT_EQ(after.st_ino, before.st_ino);
+  Client c(socket_of(dir));
+  EXPECT_EQ(c.call("estop", json::object(), 5s)["estop"], true);
+}
