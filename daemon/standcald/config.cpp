@@ -168,6 +168,8 @@ void read_server(Section& top, DaemonConfig& c) {
   double queue_bytes = static_cast<double>(c.client_queue_bytes);
   top.number("client_queue_bytes", queue_bytes, 65536, 1 << 30);
   c.client_queue_bytes = static_cast<std::size_t>(queue_bytes);
+  top.number("client_request_timeout_s", c.client_request_timeout_s, 0.1, 3600);
+  top.number("client_idle_timeout_s", c.client_idle_timeout_s, 0.1, 7 * 86400);
   top.text("state_dir", c.state_dir);
   if (c.state_dir.empty()) top.fail("state_dir", "must not be empty");
   // Only the URL's form is checked here: a shared PostgreSQL server may be down while

@@ -136,10 +136,11 @@ void Sequencer::join() {
   if (thread_.joinable()) thread_.join();
 }
 
-void Sequencer::submit(std::string method, json params, ReplyFn reply) {
+void Sequencer::submit(std::string method, json params, ReplyFn reply, std::string requested_by) {
   {
     std::lock_guard lock(queue_mutex_);
-    queue_.push_back(Command{std::move(method), std::move(params), std::move(reply)});
+    queue_.push_back(
+        Command{std::move(method), std::move(params), std::move(reply), std::move(requested_by)});
   }
   queue_cv_.notify_one();
 }
@@ -241,7 +242,7 @@ void Sequencer::handle(Command& cmd) {
   try {
     json result;
     if (method == m::estop) {
-      emergency_stop();
+      emergency_stop(cmd.requested_by);
       if (mode_ != Mode::idle) raise_interrupt(Interrupt::estop);
       result = json{{"estop", true}, {"message", "emergency stop: both axes stopped and disabled"}};
     } else if (method == m::stand_stop) {
@@ -519,10 +520,11 @@ void Sequencer::stop_axes_quietly() {
   }
 }
 
-void Sequencer::emergency_stop() {
+void Sequencer::emergency_stop(const std::string& requested_by) {
   estop_latched_ = true;
   const drivers::Status s = hw_.stand->emergency_stop();
-  spdlog::warn("EMERGENCY STOP requested by a client");
+  // Who pressed it is the first question afterwards.
+  spdlog::warn("EMERGENCY STOP requested by {}", requested_by.empty() ? "a client" : requested_by);
   refresh_stand_snapshot();
   events_(ev::fault, json{{"source", "estop"}, {"message", "emergency stop: both axes stopped and disabled"}});
   if (!s) throw RpcError(ErrorCode::hardware_fault, "emergency stop could not be confirmed by the stand: " + s.message);
