@@ -713,7 +713,9 @@ Program program_from_params(const json& spec, const DaemonConfig& config) {
     if (spec.is_string()) {
       const std::string name = spec.get<std::string>();
       if (name == "paper9" || name == "classic24") return load_program(name);
-      if (name.empty() || name.find('/') != std::string::npos || name[0] == '.') {
+      // A NUL would end the file name early at the system call.
+      if (name.empty() || name.find_first_of(std::string("/\0", 2)) != std::string::npos ||
+          name[0] == '.') {
         throw RpcError(ErrorCode::invalid_params, "run.start: programme name \"" + name +
                                                       "\" is not a library name (no paths; inline positions are allowed)");
       }
@@ -782,7 +784,8 @@ json Sequencer::start_run(const json& params) {
   r.g_source = config_.g_source;
   r.g_local_mps2 = config_.g_local_mps2;
   store_.save(r);
-  spdlog::info("run {} started: programme {} ({} positions), unit {}", r.run_id, r.program_name, r.positions, serial);
+  spdlog::info("run {} started: programme {} ({} positions), unit {}", r.run_id,
+               protocol::printable(r.program_name), r.positions, protocol::printable(serial));
   return json{{"run_id", r.run_id}, {"positions", r.positions}, {"recording_path", r.recording_path}};
 }
 

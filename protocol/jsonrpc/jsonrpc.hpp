@@ -46,9 +46,11 @@ std::string printable(std::string_view text);
 class RpcError : public std::runtime_error {
  public:
   RpcError(ErrorCode code, const std::string& message, nlohmann::json data = nullptr)
-      : std::runtime_error(message), code_(static_cast<int>(code)), data_(std::move(data)) {}
+      : std::runtime_error(printable(message)),
+        code_(static_cast<int>(code)),
+        data_(std::move(data)) {}
   RpcError(int code, const std::string& message, nlohmann::json data = nullptr)
-      : std::runtime_error(message), code_(code), data_(std::move(data)) {}
+      : std::runtime_error(printable(message)), code_(code), data_(std::move(data)) {}
   int code() const { return code_; }
   const nlohmann::json& data() const { return data_; }
 
