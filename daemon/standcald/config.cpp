@@ -6,6 +6,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -269,8 +270,14 @@ DaemonConfig parse_config(const json& doc, const std::string& source) {
 }
 
 DaemonConfig load_config(const std::string& path) {
+  // Reading a directory through a stream throws "basic_filebuf::underflow", naming nothing.
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    throw ConfigError(path + ": is a directory, not a config file (give the JSON file, e.g. " +
+                      path + "/standcald.json)");
+  }
   std::ifstream in(path);
-  if (!in) throw ConfigError(path + ": cannot open the config file");
+  if (!in) throw ConfigError(path + ": cannot open the config file: " + std::strerror(errno));
   json doc = json::parse(in, nullptr, /*allow_exceptions=*/false);
   if (doc.is_discarded()) throw ConfigError(path + ": not valid JSON");
   return parse_config(doc, path);
