@@ -236,6 +236,13 @@ void Sequencer::wait_real(double real_s, const std::function<bool()>& until) {
   }
 }
 
+// Whether a run.resume names a run other than the active one.
+bool Sequencer::names_another_run(const json& params) const {
+  const auto id = params.is_object() ? params.find("run_id") : params.end();
+  return params.is_object() && id != params.end() && id->is_string() &&
+         id->get<std::string>() != active_run_id_;
+}
+
 // Commands that act at any time are handled first; the rest need an idle sequencer.
 void Sequencer::handle(Command& cmd) {
   const std::string& method = cmd.method;
@@ -278,10 +285,19 @@ void Sequencer::handle(Command& cmd) {
         if (progress_.is_object()) progress_["state"] = st::running;
       }
       result = json{{"run_id", active_run_id_}, {"confirmed", true}};
+    } else if (method == m::run_resume && mode_ != Mode::idle && mode_ != Mode::command &&
+               names_another_run(cmd.params)) {
+      // docs/protocol.md: -32007 is for the run itself (already running), -32001 for
+      // another run holding the stand.
+      throw RpcError(ErrorCode::busy,
+                     "run " + active_run_id_ + " is " +
+                         (mode_ == Mode::run_paused ? "paused" : "in progress") +
+                         "; abort it (or let it finish) before resuming another run");
     } else if (method == m::run_resume && mode_ == Mode::run_paused) {
       resume_requested_ = true;
       result = json{{"run_id", active_run_id_}, {"state", st::running}};
-    } else if (method == m::run_resume && (mode_ == Mode::run_active || mode_ == Mode::run_waiting_operator)) {
+    } else if (method == m::run_resume &&
+               (mode_ == Mode::run_active || mode_ == Mode::run_waiting_operator)) {
       throw RpcError(ErrorCode::invalid_state, "run " + active_run_id_ + " is already running");
     } else if (mode_ != Mode::idle) {
       throw RpcError(ErrorCode::busy, mode_ == Mode::command
@@ -379,8 +395,15 @@ json Sequencer::execute_idle(const Command& cmd) {
   if (method == m::unit_read) {
     p.only({"seconds"});
     const double seconds = p.number("seconds");
-    if (!(seconds > 0 && seconds <= 3600)) {
-      throw RpcError(ErrorCode::invalid_params, "unit.read: \"seconds\" must be between 0 and 3600");
+    // Shorter than one sample period reads nothing, and a mean of nothing is not 0.
+    const double min_s = 1.0 / config_.sample_rate_hz;
+    if (!(seconds >= min_s && seconds <= 3600)) {
+      throw RpcError(
+          ErrorCode::invalid_params,
+          fmt::format(
+              "unit.read: \"seconds\" must be between {:g} (one sample at unit.sample_rate_hz "
+              "{:g} Hz) and 3600 (got {:g})",
+              min_s, config_.sample_rate_hz, seconds));
     }
     return unit_read(seconds);
   }
@@ -577,6 +600,14 @@ json Sequencer::unit_read(double seconds) {
     throw;
   }
   (void)hw_.unit->stop();
+  if (samples.empty()) {
+    throw RpcError(
+        ErrorCode::hardware_fault,
+        fmt::format(
+            "unit.read: no sample from the accelerometer unit during {:g} s (is it powered and "
+            "on the bus?)",
+            seconds));
+  }
   const SampleStats s = sample_stats(samples);
   json axes = json::object();
   for (int a = 0; a < 3; ++a) {
