@@ -1,7 +1,6 @@
 #include "daemon/standcald/run_store.hpp"
 
 #include <fcntl.h>
-#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -94,37 +93,24 @@ void write_file_atomically(const std::string& path, const std::string& text) {
   fsync_dir(fs::path(path).parent_path().string());
 }
 
-StateDirLock::StateDirLock(const std::string& state_dir) {
-  std::error_code ec;
-  fs::create_directories(state_dir, ec);
-  const std::string path = (fs::path(state_dir) / "standcald.lock").string();
-  fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0640);
-  if (fd_ < 0) throw std::runtime_error("cannot open the lock file " + path + ": " + errno_text());
-  if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
-    const std::string why = errno == EWOULDBLOCK ? std::string() : ": " + errno_text();
-    std::string holder;
-    char buf[32] = {};
-    if (::pread(fd_, buf, sizeof buf - 1, 0) > 0)
-      holder = std::string(buf).substr(0, std::string(buf).find('\n'));
-    ::close(fd_);
-    fd_ = -1;
-    if (!why.empty()) throw std::runtime_error("cannot lock " + path + why);
-    throw std::runtime_error(
-        "the state directory " + state_dir + " is in use by another standcald" +
-        (holder.empty() ? std::string() : " (pid " + holder + ")") + ", which holds " + path +
-        "; stop it first, or give this daemon its own state directory");
-  }
-  // For the message above, and for an operator wondering who holds it.
-  const std::string pid = std::to_string(::getpid()) + "\n";
-  if (::ftruncate(fd_, 0) != 0 || ::pwrite(fd_, pid.data(), pid.size(), 0) < 0) {
-    ::close(fd_);
-    throw std::runtime_error("cannot write " + path + ": " + errno_text());
-  }
+namespace {
+
+// STATE/standcald.lock, creating the directory on a first start.
+std::string state_lock_path(const std::string& state_dir) {
+  std::error_code ignored;  // a failure shows when the lock file is opened
+  fs::create_directories(state_dir, ignored);
+  return (fs::path(state_dir) / "standcald.lock").string();
 }
 
-StateDirLock::~StateDirLock() {
-  if (fd_ >= 0) ::close(fd_);  // releases the lock; the file stays (removing it would race)
-}
+}  // namespace
+
+StateDirLock::StateDirLock(const std::string& state_dir)
+    : lock_(state_lock_path(state_dir), [&state_dir](const std::string& holder) {
+        return "the state directory " + state_dir + " is in use by another standcald" +
+               (holder.empty() ? std::string() : " (pid " + holder + ")") + ", which holds " +
+               state_dir +
+               "/standcald.lock; stop it first, or give this daemon its own state directory";
+      }) {}
 
 json to_json(const RunRecord& r) {
   return json{{"run_id", r.run_id},

@@ -14,6 +14,8 @@
 #include <string>
 #include <vector>
 
+#include "daemon/standcald/pid_lock.hpp"
+
 namespace standcal::daemon {
 
 struct RunRecord {
@@ -95,12 +97,9 @@ class StateDirLock {
   // Creates the directory if needed; throws naming the directory and, when the lock file
   // says, the pid of the daemon holding it.
   explicit StateDirLock(const std::string& state_dir);
-  ~StateDirLock();
-  StateDirLock(const StateDirLock&) = delete;
-  StateDirLock& operator=(const StateDirLock&) = delete;
 
  private:
-  int fd_ = -1;
+  PidLock lock_;
 };
 
 // Thread-safe: the sequencer writes, the server's readers read.

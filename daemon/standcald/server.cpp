@@ -352,6 +352,11 @@ void Server::open_unix_listener() {
     }
   }
   if (unix_fd_ < 0) {
+    const std::string& socket = config_.socket_path;
+    socket_lock_.emplace(socket + ".lock", [&socket](const std::string& holder) {
+      return "another standcald" + (holder.empty() ? std::string() : " (pid " + holder + ")") +
+             " owns the socket " + socket + " (it holds " + socket + ".lock)";
+    });
     remove_stale_socket(config_.socket_path);
     const sockaddr_un addr = unix_address(config_.socket_path);
     unix_fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);

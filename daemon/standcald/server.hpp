@@ -25,6 +25,7 @@
 
 #include "daemon/standcald/config.hpp"
 #include "daemon/standcald/diagnose_job.hpp"
+#include "daemon/standcald/pid_lock.hpp"
 #include "daemon/standcald/sequencer.hpp"
 #include "protocol/jsonrpc/jsonrpc.hpp"
 #include "protocol/jsonrpc/line_buffer.hpp"
@@ -165,6 +166,9 @@ class Server {
   bool unix_file_ours_ = false;
   dev_t unix_file_dev_ = 0;
   ino_t unix_file_ino_ = 0;
+  // SOCKET.lock, held while this daemon owns the socket path: a second daemon never
+  // replaces the socket of one still starting (bound, not yet listening).
+  std::optional<PidLock> socket_lock_;
   int tcp_fd_ = -1;
   int tcp_port_ = 0;
   AccessPolicy policy_;
