@@ -625,7 +625,7 @@ void Server::handle_line(Client& c, const std::string& line) {
     json result;
     protocol::Params p(req.params, req.method);
     if (auto refusal = refuse_control(req.method, c.peer, policy_)) {
-      spdlog::info("refused {} from {}", req.method, describe_peer(c.peer));
+      spdlog::info("refused {} from {}", protocol::printable(req.method), describe_peer(c.peer));
       throw RpcError(ErrorCode::not_permitted, *refusal);
     }
     if (req.method == m::status) {
