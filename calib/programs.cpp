@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -106,6 +107,9 @@ Program program_from_json(const nlohmann::json& doc, const std::string& source) 
 Program load_program(const std::string& name_or_path, double paper9_alpha1_start_deg) {
   if (name_or_path == "paper9") return paper9(paper9_alpha1_start_deg);
   if (name_or_path == "classic24") return classic24();
+  std::error_code ec;  // a directory reads as "basic_filebuf::underflow", naming nothing
+  if (std::filesystem::is_directory(name_or_path, ec))
+    throw ProgramError(name_or_path + ": is a directory, not a programme file");
   std::ifstream in(name_or_path);
   if (!in)
     throw ProgramError(name_or_path +

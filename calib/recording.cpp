@@ -75,6 +75,9 @@ class Parser {
  public:
   Parser(std::string_view text, const std::string& source) : text_(text) {
     rec_.source = source;
+    // Spreadsheet tools save CSV with a UTF-8 byte order mark; it is not part of the
+    // first line (it used to turn "# format" or the column line into a missing column).
+    if (text_.starts_with("\xEF\xBB\xBF")) offset_ = 3;
   }
 
   Recording run() {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -312,6 +313,9 @@ TruthModel truth_from_json(const json& doc, const std::string& source) {
 }
 
 TruthModel load_truth(const std::string& path) {
+  std::error_code ec;  // a directory reads as "basic_filebuf::underflow", naming nothing
+  if (std::filesystem::is_directory(path, ec))
+    throw std::runtime_error(path + ": is a directory, not a model file");
   std::ifstream in(path);
   if (!in) throw std::runtime_error(path + ": cannot open model file");
   json doc;

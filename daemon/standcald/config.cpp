@@ -6,6 +6,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -58,6 +59,14 @@ class Section {
     if (v == nullptr) return;
     if (!v->is_string()) fail(key, "must be a string");
     out = v->get<std::string>();
+  }
+  // A key whose empty value would silently mean "none" (no group, no token): absent is
+  // the way to say none, so a present but empty value is an error.
+  void non_empty_text(const std::string& key, std::string& out, const std::string& omit_means) {
+    const json* v = find(key);
+    if (v == nullptr) return;
+    text(key, out);
+    if (out.empty()) fail(key, "must not be empty (leave the key out for " + omit_means + ")");
   }
   void choice(const std::string& key, std::string& out, std::initializer_list<const char*> allowed) {
     text(key, out);
@@ -128,7 +137,8 @@ void read_tcp(Section& s, DaemonConfig& c) {
   s.flag("enabled", c.tcp_enabled);
   s.integer("port", c.tcp_port, 0, 65535);
   s.text("bind", c.tcp_bind);
-  s.text("token_file", c.tcp_token_file);
+  s.non_empty_text("token_file", c.tcp_token_file,
+                   "no token: TCP clients may only read and send estop");
   in6_addr probe{};
   if (::inet_pton(AF_INET, c.tcp_bind.c_str(), &probe) != 1 && ::inet_pton(AF_INET6, c.tcp_bind.c_str(), &probe) != 1) {
     s.fail("bind", "must be a numeric IPv4 or IPv6 address such as \"127.0.0.1\" (got \"" + c.tcp_bind + "\")");
@@ -145,19 +155,22 @@ void read_server(Section& top, DaemonConfig& c) {
   if (auto s = top.sub("socket")) {
     s->text("path", c.socket_path);
     if (c.socket_path.empty()) s->fail("path", "must not be empty");
-    s->text("group", c.socket_group);
+    s->non_empty_text("group", c.socket_group, "leaving the socket file's group alone");
     read_mode(*s, c.socket_mode);
     s->reject_unknown();
   }
   if (auto s = top.sub("tcp")) read_tcp(*s, c);
   if (auto s = top.sub("access")) {
-    s->text("control_group", c.control_group);
+    s->non_empty_text("control_group", c.control_group,
+                      "no control group: every Unix-socket peer may command");
     s->reject_unknown();
   }
   top.integer("max_clients", c.max_clients, 256, 65536);
   double queue_bytes = static_cast<double>(c.client_queue_bytes);
   top.number("client_queue_bytes", queue_bytes, 65536, 1 << 30);
   c.client_queue_bytes = static_cast<std::size_t>(queue_bytes);
+  top.number("client_request_timeout_s", c.client_request_timeout_s, 0.1, 3600);
+  top.number("client_idle_timeout_s", c.client_idle_timeout_s, 0.1, 7 * 86400);
   top.text("state_dir", c.state_dir);
   if (c.state_dir.empty()) top.fail("state_dir", "must not be empty");
   // Only the URL's form is checked here: a shared PostgreSQL server may be down while
@@ -257,8 +270,14 @@ DaemonConfig parse_config(const json& doc, const std::string& source) {
 }
 
 DaemonConfig load_config(const std::string& path) {
+  // Reading a directory through a stream throws "basic_filebuf::underflow", naming nothing.
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    throw ConfigError(path + ": is a directory, not a config file (give the JSON file, e.g. " +
+                      path + "/standcald.json)");
+  }
   std::ifstream in(path);
-  if (!in) throw ConfigError(path + ": cannot open the config file");
+  if (!in) throw ConfigError(path + ": cannot open the config file: " + std::strerror(errno));
   json doc = json::parse(in, nullptr, /*allow_exceptions=*/false);
   if (doc.is_discarded()) throw ConfigError(path + ": not valid JSON");
   return parse_config(doc, path);

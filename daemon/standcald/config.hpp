@@ -53,6 +53,12 @@ struct DaemonConfig {
   std::string control_group;         // access.control_group: empty = every Unix-socket peer may command
   int max_clients = 256;
   std::size_t client_queue_bytes = 1024 * 1024;  // unsent output per client before it is dropped
+  // A request line begun but not ended within this is dropped with its connection, so a
+  // client trickling bytes cannot hold a slot (docs/security.md).
+  double client_request_timeout_s = 10;
+  // A connection with no request, no answer pending and no event subscription for this
+  // long is closed.
+  double client_idle_timeout_s = 600;
   std::string state_dir = "/var/lib/standcald";
   std::string db_url;                // records database (docs/records.md); empty: STATE/records.sqlite
   std::string log_level = "info";

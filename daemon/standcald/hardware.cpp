@@ -1,6 +1,9 @@
 #include "daemon/standcald/hardware.hpp"
 
+#include <charconv>
+#include <filesystem>
 #include <fstream>
+#include <string_view>
 
 #include "calib/simulator.hpp"
 #ifdef STANDCAL_HAVE_SIM
@@ -38,9 +41,27 @@ std::shared_ptr<drivers::Stand> make_modbus_stand(const DaemonConfig& c) {
 #endif
 
 #ifdef STANDCAL_HAVE_SOCKETCAN
+// unit.interface "fd:N": N whole, a descriptor number (std::stoi took "fd:3x" and said
+// only "stoi" for "fd:x").
+int inherited_fd(const DaemonConfig& c) {
+  const std::string_view digits = std::string_view(c.can_interface).substr(3);
+  int fd = -1;
+  const auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), fd);
+  if (digits.empty() || ec != std::errc{} || end != digits.data() + digits.size() || fd < 0) {
+    throw ConfigError(
+        c.source + ": unit.interface: \"" + c.can_interface +
+        "\" must be a CAN interface name or fd:N with N an inherited descriptor number");
+  }
+  return fd;
+}
+
 std::shared_ptr<drivers::AccelUnit> make_can_unit(const DaemonConfig& c) {
   auto layout = drivers::can::FrameLayout::default_layout();
   if (!c.can_layout_file.empty()) {
+    std::error_code ec;
+    if (std::filesystem::is_directory(c.can_layout_file, ec))
+      throw ConfigError(c.source + ": unit.layout: " + c.can_layout_file +
+                        " is a directory, not a layout file");
     std::ifstream in(c.can_layout_file);
     nlohmann::json doc = nlohmann::json::parse(in, nullptr, false);
     if (!in || doc.is_discarded()) throw ConfigError(c.source + ": unit.layout: cannot read " + c.can_layout_file);
@@ -48,9 +69,9 @@ std::shared_ptr<drivers::AccelUnit> make_can_unit(const DaemonConfig& c) {
     if (!parsed) throw ConfigError(c.source + ": unit.layout: " + parsed.status().message);
     layout = parsed.value();
   }
-  std::string iface = c.can_interface;
+  const std::string& iface = c.can_interface;
   auto unit = iface.rfind("fd:", 0) == 0
-                  ? drivers::can::SocketCanUnit::adopt_fd(std::stoi(iface.substr(3)), layout)
+                  ? drivers::can::SocketCanUnit::adopt_fd(inherited_fd(c), layout)
                   : drivers::can::SocketCanUnit::open(iface, layout);
   if (!unit) throw ConfigError(c.source + ": unit.interface: " + unit.status().message);
   return std::shared_ptr<drivers::AccelUnit>(std::move(unit.value()));

@@ -71,6 +71,7 @@ int run_daemon(const standcal::daemon::DaemonConfig& config) {
   // which the run store reports, instead of killing the daemon mid-run.
   ::signal(SIGXFSZ, SIG_IGN);
 
+  const StateDirLock state_lock(config.state_dir);  // before the store marks runs interrupted
   RunStore store(config.state_dir);
   Hardware hardware = make_hardware(config);
   spdlog::info("standcald {} starting: backend {}, state in {}", standcal::kVersion, hardware.description,

@@ -18,6 +18,7 @@
 
 #include "daemon/standcald/errno_text.hpp"
 #include "protocol/jsonrpc/methods.hpp"
+#include "protocol/jsonrpc/run_id.hpp"
 
 namespace standcal::daemon {
 
@@ -49,7 +50,8 @@ void write_all(int fd, const std::string& text, const std::string& path) {
 const std::string& id_of(const RunSummary& r) { return r.run_id; }
 const std::string& id_of(const std::string& id) { return id; }
 
-// Filenames from unit serials: keep what is safe, replace the rest.
+// Run ids from unit serials: keep what is safe, replace the rest (an id need not be
+// reversible: a clash gets a -002 suffix).
 std::string safe_name(const std::string& s) {
   std::string out;
   for (char ch : s) out += (std::isalnum(static_cast<unsigned char>(ch)) || ch == '-' || ch == '_' || ch == '.') ? ch : '_';
@@ -58,6 +60,23 @@ std::string safe_name(const std::string& s) {
 }
 
 }  // namespace
+
+std::string unit_index_file_name(const std::string& unit_serial) {
+  static constexpr char kHex[] = "0123456789ABCDEF";
+  std::string out;
+  for (std::size_t i = 0; i < unit_serial.size(); ++i) {
+    const auto byte = static_cast<unsigned char>(unit_serial[i]);
+    const bool plain = std::isalnum(byte) || byte == '-' || byte == '_' || (byte == '.' && i > 0);
+    if (plain) {
+      out += static_cast<char>(byte);
+    } else {  // also '%' itself, and a leading '.' (no hidden file, no "." or "..")
+      out += '%';
+      out += kHex[byte >> 4];
+      out += kHex[byte & 0xF];
+    }
+  }
+  return out + ".json";
+}
 
 void write_file_atomically(const std::string& path, const std::string& text) {
   const std::string tmp = path + ".tmp";
@@ -73,6 +92,25 @@ void write_file_atomically(const std::string& path, const std::string& text) {
   if (::rename(tmp.c_str(), path.c_str()) != 0) throw std::runtime_error("cannot rename " + tmp + ": " + errno_text());
   fsync_dir(fs::path(path).parent_path().string());
 }
+
+namespace {
+
+// STATE/standcald.lock, creating the directory on a first start.
+std::string state_lock_path(const std::string& state_dir) {
+  std::error_code ignored;  // a failure shows when the lock file is opened
+  fs::create_directories(state_dir, ignored);
+  return (fs::path(state_dir) / "standcald.lock").string();
+}
+
+}  // namespace
+
+StateDirLock::StateDirLock(const std::string& state_dir)
+    : lock_(state_lock_path(state_dir), [&state_dir](const std::string& holder) {
+        return "the state directory " + state_dir + " is in use by another standcald" +
+               (holder.empty() ? std::string() : " (pid " + holder + ")") + ", which holds " +
+               state_dir +
+               "/standcald.lock; stop it first, or give this daemon its own state directory";
+      }) {}
 
 json to_json(const RunRecord& r) {
   return json{{"run_id", r.run_id},
@@ -217,7 +255,8 @@ void RunStore::write_unit_index(const std::string& unit_serial) const {
   for (const RunSummary& r : runs_) {
     if (r.unit_serial == unit_serial) ids.push_back(r.run_id);
   }
-  const std::string path = (fs::path(state_dir_) / "units" / (safe_name(unit_serial) + ".json")).string();
+  const std::string path =
+      (fs::path(state_dir_) / "units" / unit_index_file_name(unit_serial)).string();
   write_file_atomically(path, json{{"unit_serial", unit_serial}, {"runs", ids}}.dump(2) + "\n");
 }
 
@@ -230,7 +269,9 @@ std::optional<RunRecord> RunStore::get_locked(const std::string& run_id) const {
   for (const HeldRecord& h : held_) {
     if (h.record.run_id == run_id) return h.record;
   }
-  // Only ids this store knows: a request's run_id must not name an arbitrary path.
+  // Only ids of run id form that this store knows: a request's run_id must not name an
+  // arbitrary path.
+  if (!protocol::is_run_id(run_id)) return std::nullopt;
   const bool known = std::binary_search(runs_.begin(), runs_.end(), run_id,
                                         [](const auto& a, const auto& b) { return id_of(a) < id_of(b); });
   if (!known) return std::nullopt;

@@ -14,6 +14,8 @@
 #include <string>
 #include <vector>
 
+#include "daemon/standcald/pid_lock.hpp"
+
 namespace standcal::daemon {
 
 struct RunRecord {
@@ -78,8 +80,27 @@ struct RunPage {
 nlohmann::json to_json(const RunRecord& r);
 RunRecord run_record_from_json(const nlohmann::json& j);
 
+// STATE/units/ file name of a serial's index: every byte outside [A-Za-z0-9._-] (and '%'
+// and a leading '.') percent-encoded, so two serials never share a file ("a/b", "a_b",
+// "AU,1" and "AU\t1" used to) and a plain serial keeps its old name ("AU-0042.json").
+std::string unit_index_file_name(const std::string& unit_serial);
+
 // Writes `text` to `path` atomically: temporary file, fsync, rename, fsync of the folder.
 void write_file_atomically(const std::string& path, const std::string& text);
+
+// One standcald per state directory: an exclusive flock on STATE/standcald.lock, held
+// until the process ends (the kernel drops it even after SIGKILL, so a crash leaves no
+// stale lock). A second daemon on the same directory would mark the first one's active run
+// `interrupted` and serve the same runs.
+class StateDirLock {
+ public:
+  // Creates the directory if needed; throws naming the directory and, when the lock file
+  // says, the pid of the daemon holding it.
+  explicit StateDirLock(const std::string& state_dir);
+
+ private:
+  PidLock lock_;
+};
 
 // Thread-safe: the sequencer writes, the server's readers read.
 // Memory per run is its RunSummary only; full records are read from run.json on demand,

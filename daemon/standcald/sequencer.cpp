@@ -137,10 +137,11 @@ void Sequencer::join() {
   if (thread_.joinable()) thread_.join();
 }
 
-void Sequencer::submit(std::string method, json params, ReplyFn reply) {
+void Sequencer::submit(std::string method, json params, ReplyFn reply, std::string requested_by) {
   {
     std::lock_guard lock(queue_mutex_);
-    queue_.push_back(Command{std::move(method), std::move(params), std::move(reply)});
+    queue_.push_back(
+        Command{std::move(method), std::move(params), std::move(reply), std::move(requested_by)});
   }
   queue_cv_.notify_one();
 }
@@ -236,13 +237,20 @@ void Sequencer::wait_real(double real_s, const std::function<bool()>& until) {
   }
 }
 
+// Whether a run.resume names a run other than the active one.
+bool Sequencer::names_another_run(const json& params) const {
+  const auto id = params.is_object() ? params.find("run_id") : params.end();
+  return params.is_object() && id != params.end() && id->is_string() &&
+         id->get<std::string>() != active_run_id_;
+}
+
 // Commands that act at any time are handled first; the rest need an idle sequencer.
 void Sequencer::handle(Command& cmd) {
   const std::string& method = cmd.method;
   try {
     json result;
     if (method == m::estop) {
-      emergency_stop();
+      emergency_stop(cmd.requested_by);
       if (mode_ != Mode::idle) raise_interrupt(Interrupt::estop);
       result = json{{"estop", true}, {"message", "emergency stop: both axes stopped and disabled"}};
     } else if (method == m::stand_stop) {
@@ -278,10 +286,19 @@ void Sequencer::handle(Command& cmd) {
         if (progress_.is_object()) progress_["state"] = st::running;
       }
       result = json{{"run_id", active_run_id_}, {"confirmed", true}};
+    } else if (method == m::run_resume && mode_ != Mode::idle && mode_ != Mode::command &&
+               names_another_run(cmd.params)) {
+      // docs/protocol.md: -32007 is for the run itself (already running), -32001 for
+      // another run holding the stand.
+      throw RpcError(ErrorCode::busy,
+                     "run " + active_run_id_ + " is " +
+                         (mode_ == Mode::run_paused ? "paused" : "in progress") +
+                         "; abort it (or let it finish) before resuming another run");
     } else if (method == m::run_resume && mode_ == Mode::run_paused) {
       resume_requested_ = true;
       result = json{{"run_id", active_run_id_}, {"state", st::running}};
-    } else if (method == m::run_resume && (mode_ == Mode::run_active || mode_ == Mode::run_waiting_operator)) {
+    } else if (method == m::run_resume &&
+               (mode_ == Mode::run_active || mode_ == Mode::run_waiting_operator)) {
       throw RpcError(ErrorCode::invalid_state, "run " + active_run_id_ + " is already running");
     } else if (mode_ != Mode::idle) {
       throw RpcError(ErrorCode::busy, mode_ == Mode::command
@@ -379,8 +396,15 @@ json Sequencer::execute_idle(const Command& cmd) {
   if (method == m::unit_read) {
     p.only({"seconds"});
     const double seconds = p.number("seconds");
-    if (!(seconds > 0 && seconds <= 3600)) {
-      throw RpcError(ErrorCode::invalid_params, "unit.read: \"seconds\" must be between 0 and 3600");
+    // Shorter than one sample period reads nothing, and a mean of nothing is not 0.
+    const double min_s = 1.0 / config_.sample_rate_hz;
+    if (!(seconds >= min_s && seconds <= 3600)) {
+      throw RpcError(
+          ErrorCode::invalid_params,
+          fmt::format(
+              "unit.read: \"seconds\" must be between {:g} (one sample at unit.sample_rate_hz "
+              "{:g} Hz) and 3600 (got {:g})",
+              min_s, config_.sample_rate_hz, seconds));
     }
     return unit_read(seconds);
   }
@@ -520,10 +544,11 @@ void Sequencer::stop_axes_quietly() {
   }
 }
 
-void Sequencer::emergency_stop() {
+void Sequencer::emergency_stop(const std::string& requested_by) {
   estop_latched_ = true;
   const drivers::Status s = hw_.stand->emergency_stop();
-  spdlog::warn("EMERGENCY STOP requested by a client");
+  // Who pressed it is the first question afterwards.
+  spdlog::warn("EMERGENCY STOP requested by {}", requested_by.empty() ? "a client" : requested_by);
   refresh_stand_snapshot();
   events_(ev::fault, json{{"source", "estop"}, {"message", "emergency stop: both axes stopped and disabled"}});
   if (!s) throw RpcError(ErrorCode::hardware_fault, "emergency stop could not be confirmed by the stand: " + s.message);
@@ -576,6 +601,14 @@ json Sequencer::unit_read(double seconds) {
     throw;
   }
   (void)hw_.unit->stop();
+  if (samples.empty()) {
+    throw RpcError(
+        ErrorCode::hardware_fault,
+        fmt::format(
+            "unit.read: no sample from the accelerometer unit during {:g} s (is it powered and "
+            "on the bus?)",
+            seconds));
+  }
   const SampleStats s = sample_stats(samples);
   json axes = json::object();
   for (int a = 0; a < 3; ++a) {
@@ -712,7 +745,9 @@ Program program_from_params(const json& spec, const DaemonConfig& config) {
     if (spec.is_string()) {
       const std::string name = spec.get<std::string>();
       if (name == "paper9" || name == "classic24") return load_program(name);
-      if (name.empty() || name.find('/') != std::string::npos || name[0] == '.') {
+      // A NUL would end the file name early at the system call.
+      if (name.empty() || name.find_first_of(std::string("/\0", 2)) != std::string::npos ||
+          name[0] == '.') {
         throw RpcError(ErrorCode::invalid_params, "run.start: programme name \"" + name +
                                                       "\" is not a library name (no paths; inline positions are allowed)");
       }
@@ -781,7 +816,8 @@ json Sequencer::start_run(const json& params) {
   r.g_source = config_.g_source;
   r.g_local_mps2 = config_.g_local_mps2;
   store_.save(r);
-  spdlog::info("run {} started: programme {} ({} positions), unit {}", r.run_id, r.program_name, r.positions, serial);
+  spdlog::info("run {} started: programme {} ({} positions), unit {}", r.run_id,
+               protocol::printable(r.program_name), r.positions, protocol::printable(serial));
   return json{{"run_id", r.run_id}, {"positions", r.positions}, {"recording_path", r.recording_path}};
 }
 

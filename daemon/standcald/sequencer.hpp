@@ -46,7 +46,9 @@ class Sequencer {
 
   void start();
   // Queues a command (any thread); `reply` is called exactly once, on the sequencer thread.
-  void submit(std::string method, nlohmann::json params, ReplyFn reply);
+  // `requested_by` names the caller in the log lines that must say who did it (estop).
+  void submit(std::string method, nlohmann::json params, ReplyFn reply,
+              std::string requested_by = {});
   // SIGTERM: interrupt any run (it becomes `interrupted`), stop and disable the axes,
   // then end the thread. join() waits for that.
   void request_shutdown();
@@ -72,6 +74,7 @@ class Sequencer {
     std::string method;
     nlohmann::json params;
     ReplyFn reply;
+    std::string requested_by;
   };
   enum class Mode { idle, command, run_active, run_paused, run_waiting_operator };
   enum class Interrupt { none = 0, pause = 1, abort = 2, shutdown = 3, estop = 4 };
@@ -96,7 +99,8 @@ class Sequencer {
   void start_move(double alpha1_deg, double alpha2_deg);
   std::pair<double, double> wait_in_position(double target1_deg, double target2_deg);
   void stop_axes_quietly();
-  void emergency_stop();
+  void emergency_stop(const std::string& requested_by);
+  bool names_another_run(const nlohmann::json& params) const;
   drivers::AxisState read_axis(drivers::StandAxis axis);
   nlohmann::json unit_read(double seconds);
   std::vector<drivers::AccelSample> collect(double seconds);

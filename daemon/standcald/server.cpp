@@ -22,6 +22,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cstring>
+#include <fstream>
 #include <stdexcept>
 
 #include "daemon/standcald/errno_text.hpp"
@@ -69,10 +70,19 @@ void remove_stale_socket(const std::string& path) {
   if (::lstat(path.c_str(), &st) != 0) return;
   if (!S_ISSOCK(st.st_mode)) throw std::runtime_error(path + " exists and is not a socket; not replacing it");
   const sockaddr_un addr = unix_address(path);
-  const int probe = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  const bool live = probe >= 0 && ::connect(probe, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) == 0;
-  if (probe >= 0) ::close(probe);
-  if (live) throw std::runtime_error("another standcald is already listening on " + path);
+  const int probe = ::socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+  if (probe < 0) throw std::runtime_error("cannot check the socket " + path + ": " + errno_text());
+  const bool connected =
+      ::connect(probe, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) == 0;
+  const int connect_errno = errno;
+  ::close(probe);
+  if (connected) throw std::runtime_error("another standcald is already listening on " + path);
+  // Only "refused" proves nobody listens; a full backlog (EAGAIN) or no permission
+  // (EACCES) may hide a live daemon whose socket must not be taken away.
+  if (connect_errno != ECONNREFUSED) {
+    throw std::runtime_error("cannot tell whether a daemon listens on " + path + " (" +
+                             std::strerror(connect_errno) + "); not replacing it");
+  }
   spdlog::info("replacing the stale socket {} (left by a daemon that did not exit cleanly)", path);
   ::unlink(path.c_str());
 }
@@ -113,6 +123,14 @@ std::vector<gid_t> peer_groups(int fd, uid_t uid, gid_t gid) {
   return groups;
 }
 
+// The peer's process name, read at accept: the process may be gone when it is logged.
+std::string process_name(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/comm");
+  std::string name;
+  std::getline(in, name);
+  return name;
+}
+
 Peer unix_peer(int fd) {
   Peer p;
   ucred cred{};
@@ -123,6 +141,7 @@ Peer unix_peer(int fd) {
     p.uid = cred.uid;
     p.gid = cred.gid;
     p.groups = peer_groups(fd, cred.uid, cred.gid);
+    p.process = process_name(cred.pid);
   }
   return p;
 }
@@ -189,6 +208,27 @@ std::string describe_peer(const Peer& peer) {
   return "uid " + std::to_string(peer.uid) + " gid " + std::to_string(peer.gid) + " pid " + std::to_string(peer.pid);
 }
 
+std::string describe_peer_process(const Peer& peer) {
+  if (peer.process.empty()) return describe_peer(peer);
+  return describe_peer(peer) + " (" + protocol::printable(peer.process) + ")";
+}
+
+bool may_use_reserved_slot(const Peer& peer, const AccessPolicy& policy) {
+  if (peer.tcp || !peer.credentials_known) return false;
+  if (peer.uid == 0 || peer.uid == policy.daemon_uid) return true;
+  if (policy.control_group.empty()) return false;  // then nobody but root and the daemon is special
+  return peer.gid == policy.control_gid ||
+         std::find(peer.groups.begin(), peer.groups.end(), policy.control_gid) != peer.groups.end();
+}
+
+std::optional<ClientSlot> slot_for_new_client(const SlotsTaken& taken, int max_clients,
+                                              bool may_use_reserved) {
+  if (taken.regular < max_clients - kReservedControlSlots) return ClientSlot::ordinary;
+  if (may_use_reserved && taken.regular < max_clients) return ClientSlot::reserved;
+  if (taken.estop_only < kEstopOnlySlots) return ClientSlot::estop_only;
+  return std::nullopt;
+}
+
 Server::Server(const DaemonConfig& config, Sequencer& sequencer) : config_(config), sequencer_(sequencer) {
   started_s_ = now_s();
   epoll_fd_ = ::epoll_create1(EPOLL_CLOEXEC);
@@ -222,7 +262,25 @@ Server::~Server() {
   for (int fd : {unix_fd_, tcp_fd_, signal_fd_, wake_fd_, timer_fd_, epoll_fd_}) {
     if (fd >= 0) ::close(fd);
   }
-  if (unix_fd_ >= 0 && !unix_from_systemd_) ::unlink(config_.socket_path.c_str());
+  unlink_socket_file_if_ours();
+}
+
+void Server::remember_bound_socket_file() {
+  struct stat st {};
+  if (::lstat(config_.socket_path.c_str(), &st) != 0) return;
+  unix_file_ours_ = true;
+  unix_file_dev_ = st.st_dev;
+  unix_file_ino_ = st.st_ino;
+}
+
+// Only the file this daemon bound, and only while it is still that file: a daemon that
+// failed to start must leave the running one reachable.
+void Server::unlink_socket_file_if_ours() const {
+  if (!unix_file_ours_ || unix_from_systemd_) return;
+  struct stat st {};
+  if (::lstat(config_.socket_path.c_str(), &st) != 0) return;
+  if (st.st_dev == unix_file_dev_ && st.st_ino == unix_file_ino_)
+    ::unlink(config_.socket_path.c_str());
 }
 
 void Server::add_fd(int fd, std::uint32_t events) {
@@ -294,6 +352,11 @@ void Server::open_unix_listener() {
     }
   }
   if (unix_fd_ < 0) {
+    const std::string& socket = config_.socket_path;
+    socket_lock_.emplace(socket + ".lock", [&socket](const std::string& holder) {
+      return "another standcald" + (holder.empty() ? std::string() : " (pid " + holder + ")") +
+             " owns the socket " + socket + " (it holds " + socket + ".lock)";
+    });
     remove_stale_socket(config_.socket_path);
     const sockaddr_un addr = unix_address(config_.socket_path);
     unix_fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
@@ -303,6 +366,7 @@ void Server::open_unix_listener() {
     const bool bound = unix_fd_ >= 0 && ::bind(unix_fd_, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) == 0;
     ::umask(old_umask);
     if (!bound) throw std::runtime_error("cannot bind " + config_.socket_path + ": " + errno_text());
+    remember_bound_socket_file();
     apply_socket_file_access(config_, config_.socket_path);
     if (::listen(unix_fd_, 512) != 0) throw std::runtime_error("cannot listen on " + config_.socket_path + ": " + errno_text());
     spdlog::info("listening on {}", config_.socket_path);
@@ -389,7 +453,13 @@ void Server::run() {
   std::vector<epoll_event> events(64);
   std::vector<int> dead;
   while (running_) {
-    const int n = ::epoll_wait(epoll_fd_, events.data(), static_cast<int>(events.size()), -1);
+    // Asleep until an event, or until the next client timeout falls due (no polling).
+    const double deadline_s = next_client_deadline_s();
+    const int wait_ms =
+        deadline_s < 0
+            ? -1
+            : static_cast<int>(std::clamp((deadline_s - now_s()) * 1000 + 1, 0.0, 3600e3));
+    const int n = ::epoll_wait(epoll_fd_, events.data(), static_cast<int>(events.size()), wait_ms);
     if (n < 0) {
       if (errno == EINTR) continue;
       throw std::runtime_error("epoll_wait: " + errno_text());
@@ -418,6 +488,7 @@ void Server::run() {
         if ((what & (EPOLLHUP | EPOLLERR)) && !(what & EPOLLIN) && c.fd >= 0) c.fd = -1;
       }
     }
+    close_expired_clients();
     // Close the clients marked dead (fd = -1) during this round.
     for (auto it = clients_.begin(); it != clients_.end();) {
       if (it->second->fd < 0) {
@@ -438,30 +509,63 @@ void Server::accept_clients(int listen_fd) {
       if (errno != EAGAIN && errno != EWOULDBLOCK) spdlog::warn("accept: {}", errno_text());
       return;
     }
-    if (clients_.size() >= static_cast<std::size_t>(config_.max_clients)) {
-      // Answer and close at once: never leave a connection hanging.
-      const std::string line =
-          protocol::make_error(nullptr, static_cast<int>(ErrorCode::too_many_clients),
-                               "standcald already serves " + std::to_string(config_.max_clients) +
-                                   " clients (the limit); try again later") + "\n";
-      [[maybe_unused]] const ssize_t n = ::send(fd, line.data(), line.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
-      ::close(fd);
-      ++dropped_clients_;
+    Peer peer = listen_fd == tcp_fd_ ? tcp_peer(fd) : unix_peer(fd);
+    const auto slot = slot_for_new_client(slots_taken(), config_.max_clients,
+                                          may_use_reserved_slot(peer, policy_));
+    if (!slot) {
+      refuse_connection(fd);
       continue;
     }
     auto c = std::make_unique<Client>();
     c->fd = fd;
     c->serial = next_serial_++;
-    c->peer = listen_fd == tcp_fd_ ? tcp_peer(fd) : unix_peer(fd);
+    c->peer = std::move(peer);
+    c->slot = *slot;
+    c->connected_s = c->last_activity_s = now_s();
     add_fd(fd, EPOLLIN | EPOLLRDHUP);
     Client& ref = *c;
     clients_[fd] = std::move(c);
-    send_line(ref, protocol::make_notification(
-                       m::hello, json{{"daemon", "standcald"},
-                                      {"version", kVersion},
-                                      {"protocol", protocol::kProtocolVersion},
-                                      {"max_request_bytes", protocol::kMaxRequestBytes}}));
+    greet(ref);
   }
+}
+
+SlotsTaken Server::slots_taken() const {
+  SlotsTaken taken;
+  for (const auto& [fd, c] : clients_) {
+    if (c->fd < 0) continue;  // closing this round
+    (c->slot == ClientSlot::estop_only ? taken.estop_only : taken.regular) += 1;
+  }
+  return taken;
+}
+
+// Answer and close at once: never leave a connection hanging.
+void Server::refuse_connection(int fd) {
+  const std::string line =
+      protocol::make_error(
+          nullptr, static_cast<int>(ErrorCode::too_many_clients),
+          "standcald already serves " + std::to_string(config_.max_clients) +
+              " clients (the limit) and its estop-only slots are taken; try again later") +
+      "\n";
+  [[maybe_unused]] const ssize_t n =
+      ::send(fd, line.data(), line.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+  ::close(fd);
+  ++dropped_clients_;
+}
+
+void Server::greet(Client& c) {
+  json hello{{"daemon", "standcald"},
+             {"version", kVersion},
+             {"protocol", protocol::kProtocolVersion},
+             {"max_request_bytes", protocol::kMaxRequestBytes}};
+  if (c.slot == ClientSlot::estop_only) {
+    hello["estop_only"] = true;
+    hello["message"] = "standcald serves " + std::to_string(config_.max_clients) +
+                       " clients (the limit): this connection may send one estop, nothing else";
+    spdlog::warn("connection limit reached: {} got an estop-only slot", describe_peer(c.peer));
+  } else if (c.slot == ClientSlot::reserved) {
+    spdlog::info("connection limit nearly reached: {} got a reserved slot", describe_peer(c.peer));
+  }
+  send_line(c, protocol::make_notification(m::hello, hello));
 }
 
 void Server::read_client(Client& c) {
@@ -489,6 +593,7 @@ void Server::read_client(Client& c) {
       }
       handle_line(c, *line);
     }
+    track_partial_request(c);
     if (c.fd >= 0 && (oversized || c.in.overflowed())) {
       send_line(c, protocol::make_error(nullptr, static_cast<int>(ErrorCode::invalid_request),
                                         "request longer than " + std::to_string(protocol::kMaxRequestBytes) +
@@ -514,11 +619,13 @@ void Server::handle_line(Client& c, const std::string& line) {
     return;
   }
   protocol::Request& req = std::get<protocol::Request>(parsed);
+  c.last_activity_s = now_s();
+  if (refuse_on_estop_only_slot(c, req)) return;
   try {
     json result;
     protocol::Params p(req.params, req.method);
     if (auto refusal = refuse_control(req.method, c.peer, policy_)) {
-      spdlog::info("refused {} from {}", req.method, describe_peer(c.peer));
+      spdlog::info("refused {} from {}", protocol::printable(req.method), describe_peer(c.peer));
       throw RpcError(ErrorCode::not_permitted, *refusal);
     }
     if (req.method == m::status) {
@@ -541,6 +648,7 @@ void Server::handle_line(Client& c, const std::string& line) {
       const int fd = c.fd;
       const json id = req.id;
       const bool notification = req.is_notification;
+      if (!notification) ++c.pending_replies;
       diagnose_jobs_.submit(sequencer_, req.params, [this, serial, fd, id, notification](Outcome o) {
         if (notification) return;
         post([this, serial, fd, id, o = std::move(o)] { reply_later(serial, fd, id, o); });
@@ -551,10 +659,14 @@ void Server::handle_line(Client& c, const std::string& line) {
       const int fd = c.fd;
       const json id = req.id;
       const bool notification = req.is_notification;
-      sequencer_.submit(req.method, req.params, [this, serial, fd, id, notification](Outcome o) {
-        if (notification) return;
-        post([this, serial, fd, id, o = std::move(o)] { reply_later(serial, fd, id, o); });
-      });
+      if (!notification) ++c.pending_replies;
+      sequencer_.submit(
+          req.method, req.params,
+          [this, serial, fd, id, notification](Outcome o) {
+            if (notification) return;
+            post([this, serial, fd, id, o = std::move(o)] { reply_later(serial, fd, id, o); });
+          },
+          describe_peer_process(c.peer));
       return;
     } else {
       throw RpcError(ErrorCode::method_not_found, "unknown method \"" + req.method + "\" (see docs/protocol.md)");
@@ -574,8 +686,86 @@ void Server::handle_line(Client& c, const std::string& line) {
 void Server::reply_later(std::uint64_t serial, int fd, const json& id, Outcome o) {
   auto it = clients_.find(fd);
   if (it == clients_.end() || it->second->serial != serial || it->second->fd < 0) return;  // client gone
-  send_line(*it->second, o.error_code == 0 ? protocol::make_result(id, o.result)
-                                           : protocol::make_error(id, o.error_code, o.error_message));
+  Client& c = *it->second;
+  send_line(c, o.error_code == 0 ? protocol::make_result(id, o.result)
+                                 : protocol::make_error(id, o.error_code, o.error_message));
+  c.pending_replies = std::max(0, c.pending_replies - 1);
+  c.last_activity_s = now_s();
+  if (c.slot == ClientSlot::estop_only && c.fd >= 0) {
+    ::shutdown(c.fd, SHUT_WR);  // its one estop is answered: the slot is free again
+    c.fd = -1;
+  }
+}
+
+// A connection past max_clients may send `estop` and nothing else.
+bool Server::refuse_on_estop_only_slot(Client& c, const protocol::Request& req) {
+  if (c.slot != ClientSlot::estop_only || req.method == m::estop) return false;
+  close_with_error(c, static_cast<int>(ErrorCode::too_many_clients),
+                   "standcald serves " + std::to_string(config_.max_clients) +
+                       " clients (the limit): this connection may only send estop; try again later",
+                   req.id);
+  return true;
+}
+
+void Server::track_partial_request(Client& c) {
+  if (c.in.pending_bytes() == 0) {
+    c.partial_since_s = -1;
+  } else if (c.partial_since_s < 0) {
+    c.partial_since_s = now_s();
+  }
+}
+
+double Server::client_deadline_s(const Client& c) const {
+  double due = -1;
+  auto earliest = [&due](double t) { due = due < 0 ? t : std::min(due, t); };
+  // An estop-only connection lives one request timeout at most.
+  if (c.slot == ClientSlot::estop_only) earliest(c.connected_s + config_.client_request_timeout_s);
+  if (c.partial_since_s >= 0) earliest(c.partial_since_s + config_.client_request_timeout_s);
+  // Waiting for an answer or for events is not idleness.
+  if (c.pending_replies == 0 && c.events.empty())
+    earliest(c.last_activity_s + config_.client_idle_timeout_s);
+  return due;
+}
+
+double Server::next_client_deadline_s() const {
+  double due = -1;
+  for (const auto& [fd, c] : clients_) {
+    if (c->fd < 0) continue;
+    const double t = client_deadline_s(*c);
+    if (t >= 0 && (due < 0 || t < due)) due = t;
+  }
+  return due;
+}
+
+void Server::close_expired_clients() {
+  const double now = now_s();
+  for (auto& [fd, c] : clients_) {
+    if (c->fd < 0) continue;
+    const double due = client_deadline_s(*c);
+    if (due < 0 || due > now) continue;
+    const bool partial =
+        c->partial_since_s >= 0 && c->partial_since_s + config_.client_request_timeout_s <= now;
+    const std::string why =
+        partial || c->slot == ClientSlot::estop_only
+            ? fmt::format("request not completed within {} s (client_request_timeout_s)",
+                          config_.client_request_timeout_s)
+            : fmt::format(
+                  "idle for {} s (client_idle_timeout_s) with no request, answer pending or "
+                  "subscription",
+                  config_.client_idle_timeout_s);
+    spdlog::info("closed {}: {}", describe_peer(c->peer), why);
+    close_with_error(*c, static_cast<int>(ErrorCode::invalid_request),
+                     why + "; closing the connection");
+  }
+}
+
+void Server::close_with_error(Client& c, int code, const std::string& message, const json& id) {
+  send_line(c, protocol::make_error(id, code, message));
+  if (c.fd >= 0) {
+    ::shutdown(c.fd, SHUT_WR);
+    c.fd = -1;
+  }
+  ++dropped_clients_;
 }
 
 json Server::subscribe(Client& c, const json& params) {

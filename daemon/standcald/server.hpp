@@ -4,7 +4,12 @@
 // (timerfd) and the answers and events coming back from the sequencer (eventfd).
 // Nothing here blocks: a client that stops reading is dropped once its unsent output
 // passes client_queue_bytes; a line longer than 64 KiB gets an error and the connection is closed;
-// past max_clients a new connection gets a `too many clients` error and is closed.
+// a request line not ended within client_request_timeout_s, and a connection idle (no
+// request, no answer pending, no subscription) for client_idle_timeout_s, are closed.
+// Slots: the last kReservedControlSlots of max_clients only go to peers that hold the right
+// to them (root, the daemon's user, the control group; known at accept from SO_PEERCRED),
+// and past max_clients up to kEstopOnlySlots more connections may send one `estop` and
+// nothing else, so a flood of idle clients never blocks an emergency stop.
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -20,6 +25,7 @@
 
 #include "daemon/standcald/config.hpp"
 #include "daemon/standcald/diagnose_job.hpp"
+#include "daemon/standcald/pid_lock.hpp"
 #include "daemon/standcald/sequencer.hpp"
 #include "protocol/jsonrpc/jsonrpc.hpp"
 #include "protocol/jsonrpc/line_buffer.hpp"
@@ -41,6 +47,7 @@ struct Peer {
   gid_t gid = static_cast<gid_t>(-1);
   std::vector<gid_t> groups;  // supplementary groups of the peer process
   std::string address;        // TCP: "127.0.0.1:53412"
+  std::string process;        // Unix socket: the peer's process name (/proc/PID/comm) at accept
   bool token_accepted = false;  // TCP: sent the right token with `auth`
 };
 
@@ -63,6 +70,26 @@ std::optional<std::string> refuse_control(const std::string& method, const Peer&
 bool tokens_equal(std::string_view supplied, std::string_view expected);
 // "uid 1000 gid 1000 pid 4242" or "tcp 127.0.0.1:53412", for logs and messages.
 std::string describe_peer(const Peer& peer);
+// describe_peer plus the process name when known: "uid 0 gid 0 pid 4242 (standcal)".
+std::string describe_peer_process(const Peer& peer);
+
+// Connection slots kept back from everyone else (docs/security.md "Connection slots").
+inline constexpr int kReservedControlSlots = 8;  // inside max_clients
+inline constexpr int kEstopOnlySlots = 16;       // beyond max_clients, estop only
+// Whether `peer` may take one of the reserved slots: a Unix-socket peer that is root, the
+// daemon's user or a member of the control group. Not TCP: who holds the token is known
+// only after `auth`, too late for the slot.
+bool may_use_reserved_slot(const Peer& peer, const AccessPolicy& policy);
+
+// Which slot a new connection gets, from the slots taken and the peer's right to a
+// reserved one; nothing: refuse it (too many clients).
+enum class ClientSlot { ordinary, reserved, estop_only };
+struct SlotsTaken {
+  int regular = 0;  // ordinary and reserved
+  int estop_only = 0;
+};
+std::optional<ClientSlot> slot_for_new_client(const SlotsTaken& taken, int max_clients,
+                                              bool may_use_reserved);
 
 class Server {
  public:
@@ -93,9 +120,16 @@ class Server {
     std::set<std::string> events;
     Peer peer;
     bool close_after_reply = false;  // e.g. after a wrong token
+    ClientSlot slot = ClientSlot::ordinary;
+    double connected_s = 0;
+    double last_activity_s = 0;   // connect, last request or last answer to a pending call
+    double partial_since_s = -1;  // when the unfinished request line began; < 0: none
+    int pending_replies = 0;      // calls handed to the sequencer or a worker, unanswered
   };
 
   void open_unix_listener();
+  void remember_bound_socket_file();
+  void unlink_socket_file_if_ours() const;
   void open_tcp_listener();
   void resolve_access_policy();
   void add_fd(int fd, std::uint32_t events);
@@ -109,6 +143,17 @@ class Server {
   nlohmann::json authenticate(Client& c, const nlohmann::json& params);
   nlohmann::json subscribe(Client& c, const nlohmann::json& params);
   void run_posted();
+  SlotsTaken slots_taken() const;
+  void refuse_connection(int fd);
+  void greet(Client& c);
+  bool refuse_on_estop_only_slot(Client& c, const protocol::Request& req);
+  void track_partial_request(Client& c);
+  // The earliest moment some client's request or idle timeout falls due; < 0: none.
+  double next_client_deadline_s() const;
+  double client_deadline_s(const Client& c) const;
+  void close_expired_clients();
+  void close_with_error(Client& c, int code, const std::string& message,
+                        const nlohmann::json& id = nullptr);
   void watchdog_tick();
 
   const DaemonConfig& config_;
@@ -116,6 +161,14 @@ class Server {
   int epoll_fd_ = -1;
   int unix_fd_ = -1;
   bool unix_from_systemd_ = false;
+  // The socket file this daemon bound (device and inode), the only one it may unlink:
+  // never one another daemon bound, nor one systemd passed.
+  bool unix_file_ours_ = false;
+  dev_t unix_file_dev_ = 0;
+  ino_t unix_file_ino_ = 0;
+  // SOCKET.lock, held while this daemon owns the socket path: a second daemon never
+  // replaces the socket of one still starting (bound, not yet listening).
+  std::optional<PidLock> socket_lock_;
   int tcp_fd_ = -1;
   int tcp_port_ = 0;
   AccessPolicy policy_;

@@ -4,12 +4,14 @@
 
 #include <algorithm>
 #include <bitset>
+#include <charconv>
 #include <cmath>
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
+#include <string_view>
 
 namespace standcal::drivers::can {
 namespace {
@@ -23,6 +25,20 @@ long long whole_number(const nlohmann::json& v, const char* key, long long lo, l
   }
   throw std::out_of_range(std::string(key) + " must be a whole number " + std::to_string(lo) +
                           ".." + std::to_string(hi) + ", got " + v.dump());
+}
+
+// A can_id given as text: "0x181" (hex) or "385" (decimal), wholly a number (std::stoul
+// took "0x181zz" as 0x181 and said only "stoul" for "x").
+std::uint32_t can_id_text(const std::string& text) {
+  const bool hex = text.size() > 2 && text[0] == '0' && (text[1] == 'x' || text[1] == 'X');
+  const std::string_view digits = std::string_view(text).substr(hex ? 2 : 0);
+  std::uint32_t id = 0;
+  const auto [end, ec] =
+      std::from_chars(digits.data(), digits.data() + digits.size(), id, hex ? 16 : 10);
+  if (digits.empty() || ec != std::errc{} || end != digits.data() + digits.size())
+    throw std::invalid_argument("can_id \"" + text +
+                                "\" must be a number such as \"0x181\" or 385");
+  return id;
 }
 
 constexpr int kMaxPayloadBits = 64 * 8;
@@ -270,7 +286,7 @@ Result<FrameLayout> FrameLayout::from_json(const nlohmann::json& j) {
       s.role = role->second;
       const auto& id = js.at("can_id");
       s.can_id = id.is_string()
-                     ? static_cast<std::uint32_t>(std::stoul(id.get<std::string>(), nullptr, 0))
+                     ? can_id_text(id.get<std::string>())
                      : static_cast<std::uint32_t>(whole_number(id, "can_id", 0, 0x1FFFFFFF));
       s.extended = js.value("extended", false);
       s.start_bit = static_cast<int>(whole_number(js.at("start_bit"), "start_bit", 0, 511));

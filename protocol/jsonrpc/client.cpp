@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <charconv>
 #include <cstring>
 #include <stdexcept>
 
@@ -41,9 +42,13 @@ int connect_unix(const std::string& path) {
 int connect_tcp(const std::string& host_port) {
   const auto colon = host_port.rfind(':');
   if (colon == std::string::npos) throw std::runtime_error("TCP endpoint needs HOST:PORT: " + host_port);
+  const auto port = parse_tcp_port(std::string_view(host_port).substr(colon + 1));
+  if (!port)
+    throw std::runtime_error("TCP endpoint " + host_port +
+                             ": the port must be a number from 1 to 65535");
   sockaddr_in addr{};
   addr.sin_family = AF_INET;
-  addr.sin_port = htons(static_cast<std::uint16_t>(std::stoi(host_port.substr(colon + 1))));
+  addr.sin_port = htons(*port);
   if (::inet_pton(AF_INET, host_port.substr(0, colon).c_str(), &addr.sin_addr) != 1) {
     throw std::runtime_error("not an IPv4 address: " + host_port);
   }
@@ -58,6 +63,14 @@ int connect_tcp(const std::string& host_port) {
 }
 
 }  // namespace
+
+std::optional<std::uint16_t> parse_tcp_port(std::string_view text) {
+  unsigned value = 0;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (text.empty() || ec != std::errc{} || end != text.data() + text.size()) return std::nullopt;
+  if (value < 1 || value > 65535) return std::nullopt;
+  return static_cast<std::uint16_t>(value);
+}
 
 Client::Client(const std::string& endpoint, milliseconds timeout) : endpoint_(endpoint) {
   const std::string tcp_prefix = "tcp://";

@@ -4,15 +4,21 @@
 // that arrive meanwhile are queued for next_notification(). Used by the `standcal` CLI,
 // the tests and the benchmark. Not thread-safe: one client per thread.
 #include <chrono>
+#include <cstdint>
 #include <deque>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <string_view>
 
 #include "protocol/jsonrpc/jsonrpc.hpp"
 #include "protocol/jsonrpc/line_buffer.hpp"
 
 namespace standcal::protocol {
+
+// The PORT of a "HOST:PORT" endpoint: the whole text a decimal number from 1 to 65535,
+// else nothing (no "4871x", no 99999 wrapping to 34463).
+std::optional<std::uint16_t> parse_tcp_port(std::string_view text);
 
 class Client {
  public:

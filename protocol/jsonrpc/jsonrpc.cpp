@@ -84,6 +84,25 @@ std::string make_result(const json& id, const json& result) {
          result.dump(-1, ' ', false, replace) + "}";
 }
 
+std::string printable(std::string_view text) {
+  static constexpr char kHex[] = "0123456789abcdef";
+  std::string out;
+  out.reserve(text.size());
+  for (const char ch : text) {
+    const auto byte = static_cast<unsigned char>(ch);
+    if (byte == 0) {
+      out += "\\0";
+    } else if (byte < 0x20 || byte == 0x7f) {
+      out += "\\x";
+      out += kHex[byte >> 4];
+      out += kHex[byte & 0xf];
+    } else {
+      out += ch;
+    }
+  }
+  return out;
+}
+
 std::string make_error(const json& id, int code, const std::string& message, const json& data) {
   json err{{"code", code}, {"message", message}};
   if (!data.is_null()) err["data"] = data;

@@ -36,13 +36,21 @@ enum class ErrorCode : int {
 // Short name of a code ("busy", "parse error"), for CLI output and logs.
 const char* error_code_name(int code);
 
-// An error to send back: code, operator-readable message, optional data.
+// `text` with its control bytes escaped: NUL as \0, the others as \xNN. A client's value
+// quoted in a message keeps all of itself (a NUL used to end the message at what()) and
+// cannot start a new line in the journal.
+std::string printable(std::string_view text);
+
+// An error to send back: code, operator-readable message (control bytes escaped, see
+// printable), optional data.
 class RpcError : public std::runtime_error {
  public:
   RpcError(ErrorCode code, const std::string& message, nlohmann::json data = nullptr)
-      : std::runtime_error(message), code_(static_cast<int>(code)), data_(std::move(data)) {}
+      : std::runtime_error(printable(message)),
+        code_(static_cast<int>(code)),
+        data_(std::move(data)) {}
   RpcError(int code, const std::string& message, nlohmann::json data = nullptr)
-      : std::runtime_error(message), code_(code), data_(std::move(data)) {}
+      : std::runtime_error(printable(message)), code_(code), data_(std::move(data)) {}
   int code() const { return code_; }
   const nlohmann::json& data() const { return data_; }
 

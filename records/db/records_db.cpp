@@ -343,7 +343,7 @@ bool has_url_scheme(const std::string& s) {
 
 }  // namespace
 
-std::unique_ptr<RecordsDb> open_records_db(const std::string& url) {
+std::unique_ptr<RecordsDb> open_records_db(const std::string& url, OpenMode mode) {
   if (url.empty()) throw std::runtime_error("no records database given (a path, sqlite:///PATH or postgresql://…)");
   if (starts_with(url, "postgresql://") || starts_with(url, "postgres://")) {
     return std::make_unique<SqlRecordsDb>(detail::open_postgres_session(url));
@@ -357,11 +357,12 @@ std::unique_ptr<RecordsDb> open_records_db(const std::string& url) {
     throw std::runtime_error("records database " + url + ": unknown kind (use a path, sqlite:///PATH or postgresql://…)");
   }
   if (path.empty()) throw std::runtime_error("records database " + url + ": no file path");
-  return std::make_unique<SqlRecordsDb>(detail::open_sqlite_session(path));
+  return std::make_unique<SqlRecordsDb>(
+      detail::open_sqlite_session(path, mode == OpenMode::create));
 }
 
-std::unique_ptr<RecordsDb> open_and_migrate(const std::string& url) {
-  auto db = open_records_db(url);
+std::unique_ptr<RecordsDb> open_and_migrate(const std::string& url, OpenMode mode) {
+  auto db = open_records_db(url, mode);
   db->migrate();
   return db;
 }

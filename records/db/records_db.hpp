@@ -91,11 +91,16 @@ class RecordsDb {
   }
 };
 
-// Opens (and for SQLite creates) the database at `url`; does NOT migrate. Throws
-// std::runtime_error naming the URL and the reason when it cannot be reached.
-std::unique_ptr<RecordsDb> open_records_db(const std::string& url);
+// Whether opening may create an SQLite file: commands that only read open `existing`, so a
+// mistyped path is "no such database", not a new empty file.
+enum class OpenMode { create, existing };
+// Opens (with OpenMode::create, for SQLite, creating) the database at `url`; does NOT
+// migrate. Throws std::runtime_error naming the URL and the reason when it cannot be reached.
+std::unique_ptr<RecordsDb> open_records_db(const std::string& url,
+                                           OpenMode mode = OpenMode::create);
 // open_records_db + migrate().
-std::unique_ptr<RecordsDb> open_and_migrate(const std::string& url);
+std::unique_ptr<RecordsDb> open_and_migrate(const std::string& url,
+                                            OpenMode mode = OpenMode::create);
 
 // The default database of a daemon: SQLite in its state directory.
 std::string default_db_url(const std::string& state_dir);

@@ -32,7 +32,8 @@ class SqlSession {
   virtual void begin_exclusive() = 0;
 };
 
-std::unique_ptr<SqlSession> open_sqlite_session(const std::string& path);
+// `create`: make the file when it is missing; else a missing file is "no such database".
+std::unique_ptr<SqlSession> open_sqlite_session(const std::string& path, bool create);
 std::unique_ptr<SqlSession> open_postgres_session(const std::string& url);
 
 }  // namespace standcal::records::detail

@@ -1,5 +1,6 @@
 // The SQLite backend: the embedded default, one file in the daemon's state directory.
 #include <sqlite3.h>
+#include <unistd.h>
 
 #include <stdexcept>
 
@@ -20,8 +21,13 @@ std::string numbered_parameters(const std::string& sql) {
 
 class SqliteSession final : public SqlSession {
  public:
-  explicit SqliteSession(std::string path) : path_(std::move(path)) {
-    const int rc = sqlite3_open_v2(path_.c_str(), &db_, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr);
+  SqliteSession(std::string path, bool create) : path_(std::move(path)) {
+    // A command that only reads must not leave an empty database behind a mistyped path.
+    if (!create && ::access(path_.c_str(), F_OK) != 0)
+      throw std::runtime_error("no such database: " + path_ +
+                               " (no file there; the daemon or `standcal import` creates one)");
+    const int flags = SQLITE_OPEN_READWRITE | (create ? SQLITE_OPEN_CREATE : 0);
+    const int rc = sqlite3_open_v2(path_.c_str(), &db_, flags, nullptr);
     if (rc != SQLITE_OK) {
       const std::string why = db_ != nullptr ? sqlite3_errmsg(db_) : sqlite3_errstr(rc);
       sqlite3_close(db_);
@@ -113,8 +119,8 @@ class SqliteSession final : public SqlSession {
 
 }  // namespace
 
-std::unique_ptr<SqlSession> open_sqlite_session(const std::string& path) {
-  return std::make_unique<SqliteSession>(path);
+std::unique_ptr<SqlSession> open_sqlite_session(const std::string& path, bool create) {
+  return std::make_unique<SqliteSession>(path, create);
 }
 
 }  // namespace standcal::records::detail

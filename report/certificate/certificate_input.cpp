@@ -48,6 +48,11 @@ struct LoadedRun {
 // The daemon's run record (docs/daemon.md): traceability, then the recording beside it.
 LoadedRun load_state_run(const CertificateRequest& req) {
   LoadedRun run;
+  // One plain name under STATE/runs: a run id never leads out of the state directory.
+  const fs::path id(req.run_id);
+  if (req.run_id.find('/') != std::string::npos || id == "." || id == "..")
+    throw std::runtime_error("'" + req.run_id + "' is not a run id: a run id names a folder in " +
+                             req.state_dir + "/runs, it is not a path");
   run.run_dir = fs::path(req.state_dir) / "runs" / req.run_id;
   const fs::path record_path = run.run_dir / "run.json";
   if (!fs::exists(record_path))

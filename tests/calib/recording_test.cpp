@@ -54,6 +54,17 @@ TEST(RecordingReader, ReadsTheExampleOfTheFormatDocument) {
   EXPECT_TRUE(r.warnings.empty());
 }
 
+// A spreadsheet's "CSV UTF-8" starts with a byte order mark; it used to hide the first
+// header line and surface as "required column ... is missing".
+TEST(RecordingReader, ALeadingUtf8ByteOrderMarkIsSkipped) {
+  const Recording r =
+      parse_recording("\xEF\xBB\xBF" + kHeader + kColumns + kRow0 + kRow1, "rec.csv");
+  ASSERT_EQ(r.samples.size(), 2u);
+  EXPECT_EQ(r.unit_serial, "AU-0042");
+  EXPECT_DOUBLE_EQ(r.g_local_mps2, 9.81625);
+  EXPECT_TRUE(r.warnings.empty());
+}
+
 TEST(RecordingReader, FindsColumnsByNameInAnyOrder) {
   const std::string text = kHeader + "fz_mps2,fy_mps2,fx_mps2,pos,t_s,alpha2_cmd_deg,alpha1_cmd_deg\n" +
                            "3,2,1,0,0.5,20,10\n";

@@ -66,9 +66,12 @@ TEST_F(CertificateCli, CertifiesAnImportedRecording) {
 
 TEST_F(CertificateCli, ExplainsAWrongRequestInOneLine) {
   const std::string out = state_.file("x.html");
-  CommandResult r = run_cli("certificate NO-SUCH-RUN --state-dir " + state_.path() + " -o " + out);
+  CommandResult r = run_cli("certificate 20990101T000000Z-NO-SUCH-RUN --state-dir " + state_.path() + " -o " + out);
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_NE(r.output.find("no run NO-SUCH-RUN in"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("no run 20990101T000000Z-NO-SUCH-RUN in"), std::string::npos) << r.output;
+  r = run_cli("certificate NO-SUCH-RUN --state-dir " + state_.path() + " -o " + out);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.output.find("'NO-SUCH-RUN' is not a run id"), std::string::npos) << r.output;
 
   r = run_cli("certificate 20261121T223638Z-AU-0042 --state-dir " + state_.path() + " --limits " +
               state_.file("limits.json") + " --unit-type QA-9 -o " + out);
@@ -104,6 +107,23 @@ TEST_F(CertificateCli, WritesToStandardOutputAndIntoAPipe) {
   struct stat st {};
   ASSERT_EQ(::stat(fifo.c_str(), &st), 0);
   EXPECT_TRUE(S_ISFIFO(st.st_mode)) << "the pipe is still a pipe";
+}
+
+// A run id used to be joined to STATE/runs as given, so "../../runs/ID" certified a run of
+// another state directory (any folder holding a run.json). A run id is a name, never a path.
+TEST_F(CertificateCli, ARunIdThatIsAPathIsRefusedAndNothingOutsideTheStateDirIsRead) {
+  const std::filesystem::path lab = state_.path() / std::filesystem::path("lab/state");
+  std::filesystem::create_directories(lab / "runs");
+  const std::filesystem::path out = state_.file("outside.html");
+  const CommandResult r =
+      run_cli("certificate ../../../runs/20261121T223638Z-AU-0042 --state-dir " + lab.string() +
+              " -o " + out.string());
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("'../../../runs/20261121T223638Z-AU-0042' is not a run id"),
+            std::string::npos)
+      << r.output;
+  EXPECT_FALSE(std::filesystem::exists(out))
+      << "a certificate was written from outside the state directory";
 }
 
 }  // namespace

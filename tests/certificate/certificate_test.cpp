@@ -187,6 +187,22 @@ TEST_F(CertificateOfSimulatedRun, RefusesAnUnfinishedRunOrAMissingOne) {
   EXPECT_THROW(report::prepare_certificate(r), std::runtime_error);
 }
 
+// The library itself never follows a run id out of STATE/runs (the CLI checks the form too).
+TEST_F(CertificateOfSimulatedRun, ARunIdIsNeverResolvedOutsideTheStateDirectory) {
+  const std::filesystem::path other = std::filesystem::path(state_.path()) / "other-state";
+  write_done_run(other, "20261122T010000Z-AU-0042", rec_);
+  CertificateRequest r = request();
+  for (const std::string id : {"../other-state/runs/20261122T010000Z-AU-0042", "..", "."}) {
+    r.run_id = id;
+    try {
+      report::prepare_certificate(r);
+      ADD_FAILURE() << id << " was accepted";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find("is not a run id"), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(CertificateOfClassic24, LimitedParametersTheProgrammeCannotMeasureMakeItIndeterminate) {
   // classic24 with the invariant estimator sees no non-orthogonality (u = ±e_i everywhere).
   TempDir state;

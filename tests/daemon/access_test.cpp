@@ -190,6 +190,22 @@ TEST(AccessConfig, BadAccessKeysAreErrorsNamingTheKey) {
             std::string::npos);
 }
 
+// An empty group used to mean "no group": with socket mode 0666 every local user could
+// then move the stand. A present but empty key is a mistake, not a choice.
+TEST(AccessConfig, AnEmptyControlGroupIsAnErrorNamingTheKey) {
+  const std::string error = config_error(json::parse(R"({"access": {"control_group": ""}})"));
+  EXPECT_NE(error.find("lab.json: access.control_group: must not be empty"), std::string::npos)
+      << error;
+  EXPECT_EQ(config_error(json::parse(R"({"access": {}})")), "");
+  // The other keys whose empty value would silently mean "none".
+  EXPECT_NE(config_error(json::parse(R"({"socket": {"group": ""}})"))
+                .find("socket.group: must not be empty"),
+            std::string::npos);
+  EXPECT_NE(config_error(json::parse(R"({"tcp": {"token_file": ""}})"))
+                .find("tcp.token_file: must not be empty"),
+            std::string::npos);
+}
+
 TEST(AccessConfig, TheExampleConfigIsValid) {
   const auto example = std::filesystem::path(STANDCAL_SOURCE_DIR) / "systemd/standcald.example.json";
   const DaemonConfig c = load_config(example.string());

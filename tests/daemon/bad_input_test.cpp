@@ -128,30 +128,118 @@ TEST(DaemonBadInput, AClientThatNeverReadsIsDroppedWithoutStallingOthers) {
   EXPECT_EQ(good.call("status")["daemon"]["clients"].get<int>(), 1);
 }
 
-TEST(DaemonBadInput, PastTheClientLimitANewConnectionGetsAnErrorAndIsClosed) {
+// Past max_clients a connection gets an estop-only slot (kEstopOnlySlots of them, 16):
+// `estop` works there, anything else is refused and closes it; past those too a new
+// connection gets -32008 at once.
+TEST(DaemonBadInput, PastTheClientLimitOnlyEstopIsServedThenNewConnectionsGetAnError) {
   TempDir dir;
   auto daemon = DaemonProcess::sim(dir.path(), 100);
   std::vector<std::unique_ptr<Client>> clients;
   for (int i = 0; i < 256; ++i) clients.push_back(std::make_unique<Client>(socket_of(dir)));
+  Client estop_only(socket_of(dir));
+  EXPECT_EQ(estop_only.hello().value("estop_only", false), true) << estop_only.hello().dump();
+  try {
+    estop_only.call("status");
+    ADD_FAILURE() << "status was answered on an estop-only slot";
+  } catch (const RpcError& e) {
+    EXPECT_EQ(e.code(), -32008) << e.what();
+  }
+  Client presses(socket_of(dir));
+  EXPECT_EQ(presses.call("estop", json::object(), 5s)["estop"], true);
+  std::vector<std::unique_ptr<Client>> estop_slots;
+  for (int i = 0; i < 16; ++i) estop_slots.push_back(std::make_unique<Client>(socket_of(dir)));
   try {
     Client extra(socket_of(dir));
-    FAIL() << "connection 257 was accepted";
+    FAIL() << "connection 256 + 16 + 1 was accepted";
   } catch (const RpcError& e) {
     EXPECT_EQ(e.code(), -32008);
   }
   // All 256 are served.
-  EXPECT_EQ(clients.front()->call("status")["daemon"]["clients"], 256);
-  EXPECT_EQ(clients.back()->call("status")["daemon"]["clients"], 256);
+  EXPECT_EQ(clients.front()->call("status")["daemon"]["clients"], 256 + 16);
   clients.pop_back();
+  estop_slots.clear();
   // A slot is free again once one leaves.
   const auto deadline = std::chrono::steady_clock::now() + 10s;
   for (;;) {
     try {
       Client again(socket_of(dir));
-      break;
+      if (!again.hello().contains("estop_only")) break;
     } catch (const RpcError&) {
-      ASSERT_LT(std::chrono::steady_clock::now(), deadline);
-      std::this_thread::sleep_for(20ms);
+    }
+    ASSERT_LT(std::chrono::steady_clock::now(), deadline);
+    std::this_thread::sleep_for(20ms);
+  }
+}
+
+// A daemon from a config file with short client timeouts (seconds).
+static std::unique_ptr<DaemonProcess> daemon_with_timeouts(const TempDir& dir, double request_s,
+                                                           double idle_s) {
+  const std::string config = dir.path() + "/standcald.json";
+  std::ofstream(config) << json{
+      {"socket", {{"path", socket_of(dir)}}},
+      {"state_dir", dir.path() + "/state"},
+      {"client_request_timeout_s", request_s},
+      {"client_idle_timeout_s",
+       idle_s}}.dump();
+  auto d = std::make_unique<DaemonProcess>(
+      dir.path(), std::vector<std::string>{"--config", config, "--sim", "--time-scale", "100"});
+  d->wait_ready(socket_of(dir));
+  return d;
+}
+
+// A request sent a byte every 2 s used to hold its connection for as long as it went on.
+TEST(DaemonBadInput, ARequestLineNotEndedWithinTheRequestTimeoutIsClosed) {
+  TempDir dir;
+  auto daemon = daemon_with_timeouts(dir, 1, 600);
+  Client slow(socket_of(dir));
+  Client good(socket_of(dir));
+  const std::string request = R"({"jsonrpc":"2.0","id":1,"method":"status"})";
+  bool closed = false;
+  json error;
+  // Trickle the request a byte every 0.3 s: it would take 12 s to finish.
+  for (std::size_t i = 0; i < request.size() && !closed; ++i) {
+    if (::send(slow.fd(), &request[i], 1, MSG_NOSIGNAL) != 1) break;
+    try {
+      if (auto m = slow.next_message(300ms)) error = *m;
+    } catch (const std::runtime_error&) {
+      closed = true;
     }
   }
+  EXPECT_TRUE(closed || closed_by_daemon(slow, 10s)) << "the trickling client is still connected";
+  EXPECT_EQ(error["error"]["code"], -32600) << error.dump();
+  EXPECT_NE(error["error"]["message"].get<std::string>().find("client_request_timeout_s"),
+            std::string::npos)
+      << error.dump();
+  EXPECT_EQ(good.call("status")["daemon"]["clients"], 1);
+}
+
+TEST(DaemonBadInput, AnIdleClientIsClosedButASubscriberIsKept) {
+  TempDir dir;
+  auto daemon = daemon_with_timeouts(dir, 10, 1);
+  Client idle(socket_of(dir));
+  Client subscriber(socket_of(dir));
+  subscriber.call("subscribe", {{"events", "all"}});
+  EXPECT_TRUE(closed_by_daemon(idle, 20s)) << "the idle client is still connected";
+  // The subscriber waited as long without a request, and stays.
+  EXPECT_EQ(subscriber.call("status")["daemon"]["clients"], 1);
+  EXPECT_NE(daemon->log().find("client_idle_timeout_s"), std::string::npos) << daemon->log();
+}
+
+// A NUL in a client's value used to end the error message there ("no run ab").
+TEST(DaemonBadInput, ANulInAValueIsKeptEscapedInTheErrorMessage) {
+  TempDir dir;
+  auto daemon = DaemonProcess::sim(dir.path(), 100);
+  Client c(socket_of(dir));
+  c.send_raw(R"({"jsonrpc":"2.0","id":1,"method":"run.status","params":{"run_id":"ab\u0000cd"}})"
+             "\n");
+  json r = next_reply(c);
+  EXPECT_EQ(r["error"]["code"], -32006) << r.dump();
+  EXPECT_NE(r["error"]["message"].get<std::string>().find("ab\\0cd"), std::string::npos)
+      << r.dump();
+  c.send_raw(R"({"jsonrpc":"2.0","id":2,"method":"no\u0000such"})"
+             "\n");
+  r = next_reply(c);
+  EXPECT_EQ(r["error"]["code"], -32601) << r.dump();
+  EXPECT_NE(r["error"]["message"].get<std::string>().find("no\\0such"), std::string::npos)
+      << r.dump();
 }

@@ -122,3 +122,36 @@ TEST(CliTokenFile, UnusableTokenFilesAndOptionsAreClearErrors) {
   EXPECT_NE(r3.exit_code, 0) << r3.output;
   EXPECT_NE(r3.output.find("--token-file requires --tcp"), std::string::npos) << r3.output;
 }
+
+// --tcp used to go through std::stoi: 99999 wrapped to 34463 (so port + 65536 reached the
+// daemon with the token), "abc" printed just "stoi" and "4871x" was taken as 4871.
+TEST(CliTcpOption, APortOutOfRangeOrNotWhollyANumberIsRefusedNamingTheOption) {
+  TempDir dir;
+  TokenDaemon daemon(dir);
+  ASSERT_GT(daemon.port(), 0) << daemon.log();
+  const std::string token = write_token_file(dir, "op.token", std::string(kToken) + "\n", 0600);
+  const std::string wrapped = "127.0.0.1:" + std::to_string(daemon.port() + 65536);
+  const std::vector<std::pair<std::string, std::string>> cases{
+      {wrapped, "the port '" + std::to_string(daemon.port() + 65536) +
+                    "' is not a whole number from 1 to 65535"},
+      {"127.0.0.1:abc", "the port 'abc' is not a whole number from 1 to 65535"},
+      {"127.0.0.1:" + std::to_string(daemon.port()) + "x",
+       "the port '" + std::to_string(daemon.port()) + "x' is not a whole number from 1 to 65535"},
+      {"127.0.0.1:0", "the port '0' is not a whole number from 1 to 65535"},
+      {"127.0.0.1:", "the port '' is not a whole number"},
+      {"127.0.0.1", "no port"},
+      {"localhost:4871", "'localhost' is not a numeric IPv4 address"}};
+  for (const auto& [value, why] : cases) {
+    const CommandOutcome r = standcal_cli("status --tcp " + value + " --token-file " + token);
+    EXPECT_EQ(r.exit_code, 1) << value << ": " << r.output;
+    EXPECT_NE(r.output.find("--tcp '" + value + "': " + why), std::string::npos)
+        << value << ": " << r.output;
+    EXPECT_EQ(r.output.find("stoi"), std::string::npos) << r.output;
+  }
+  EXPECT_EQ(daemon.log().find("auth:"), std::string::npos) << "the token reached the daemon:\n"
+                                                           << daemon.log();
+  // The same port written plainly still works.
+  const CommandOutcome ok =
+      standcal_cli("status --json " + daemon.tcp() + " --token-file " + token);
+  EXPECT_EQ(ok.exit_code, 0) << ok.output;
+}

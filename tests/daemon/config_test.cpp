@@ -3,9 +3,10 @@
 
 #include <fstream>
 
-#include "daemon/standcald/config.hpp"
 #include "config_support.hpp"
+#include "daemon/standcald/config.hpp"
 #include "daemon_process.hpp"
+#include "tests/support/command.hpp"
 
 using namespace standcal::daemon;
 using nlohmann::json;
@@ -74,4 +75,38 @@ TEST(DaemonProcessStart, ABadConfigFailsAtStartNamingTheKey) {
   ASSERT_TRUE(d.exited());
   EXPECT_TRUE(WIFEXITED(d.wait_status()) && WEXITSTATUS(d.wait_status()) == 1);
   EXPECT_NE(d.log().find("run.settle_s: must be between 0 and 3600"), std::string::npos) << d.log();
+}
+
+// `--config DIR` used to say only "basic_filebuf::underflow", naming no file.
+TEST(DaemonProcessStart, AConfigThatIsADirectoryIsNamedAsOne) {
+  standcal::test::TempDir dir;
+  standcal::test::DaemonProcess d(dir.path(), {"--config", dir.path()});
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (!d.exited() && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_TRUE(d.exited());
+  EXPECT_TRUE(WIFEXITED(d.wait_status()) && WEXITSTATUS(d.wait_status()) == 1);
+  EXPECT_NE(d.log().find("standcald: " + dir.path() + ": is a directory, not a config file"),
+            std::string::npos)
+      << d.log();
+  EXPECT_EQ(d.log().find("underflow"), std::string::npos) << d.log();
+  // The CLI reads the socket path from the same file.
+  const auto cli = standcal::test::standcal_cli("status --config " + dir.path());
+  EXPECT_EQ(cli.exit_code, 1) << cli.output;
+  EXPECT_NE(cli.output.find("--config " + dir.path() + ": is a directory"), std::string::npos)
+      << cli.output;
+}
+
+TEST(DaemonConfig, ClientTimeoutsAreReadAndChecked) {
+  const DaemonConfig c = parse_config(
+      json{{"client_request_timeout_s", 2.5}, {"client_idle_timeout_s", 60}}, "lab.json");
+  EXPECT_DOUBLE_EQ(c.client_request_timeout_s, 2.5);
+  EXPECT_DOUBLE_EQ(c.client_idle_timeout_s, 60);
+  const DaemonConfig d = parse_config(json::object(), "lab.json");
+  EXPECT_DOUBLE_EQ(d.client_request_timeout_s, 10);
+  EXPECT_DOUBLE_EQ(d.client_idle_timeout_s, 600);
+  EXPECT_NE(standcal::test::config_error(json{{"client_request_timeout_s", 0}})
+                .find("client_request_timeout_s: must be between"),
+            std::string::npos);
 }

@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <map>
 
 #include "daemon/standcald/run_store.hpp"
 #include "daemon_process.hpp"
@@ -48,6 +49,37 @@ TEST(RunStore, ARunLeftRunningByACrashIsInterruptedOnTheNextStart) {
   ASSERT_TRUE(again.latest_resumable().has_value());
   EXPECT_EQ(again.latest_resumable()->run_id, id);
   EXPECT_NE(read_all(dir.path() + "/units/AU-9.json").find(id), std::string::npos);
+}
+
+// Serials differing only in bytes outside [A-Za-z0-9._-] used to share one units/*.json
+// (all became "_") and overwrite each other's run list.
+TEST(RunStore, EverySerialHasItsOwnUnitIndexAndPlainSerialsKeepTheirFileNames) {
+  TempDir dir;
+  const std::vector<std::string> serials{
+      "a/b",    std::string("a\0b", 3), "a_b", "AU,1", "AU\t1", "AU_1", "AU%2C1", ".hidden",
+      "AU-0042"};
+  {
+    RunStore store(dir.path());
+    for (const std::string& serial : serials) {
+      RunRecord r;
+      r.run_id = store.new_run_id(serial);
+      r.unit_serial = serial;
+      r.state = "done";
+      store.save(r);
+    }
+  }
+  std::map<std::string, nlohmann::json> index_by_serial;
+  for (const auto& entry : std::filesystem::directory_iterator(dir.path() + "/units")) {
+    const std::string name = entry.path().filename().string();
+    EXPECT_NE(name.front(), '.') << name;
+    const nlohmann::json index = nlohmann::json::parse(read_all(entry.path().string()));
+    index_by_serial[index["unit_serial"].get<std::string>()] = index;
+  }
+  ASSERT_EQ(index_by_serial.size(), serials.size()) << "two serials share an index file";
+  for (const std::string& serial : serials) EXPECT_EQ(index_by_serial[serial]["runs"].size(), 1u);
+  // Existing state directories still read: a plain serial's file name is unchanged.
+  EXPECT_TRUE(std::filesystem::exists(dir.path() + "/units/AU-0042.json"));
+  EXPECT_TRUE(std::filesystem::exists(dir.path() + "/units/a_b.json"));
 }
 
 TEST(RunStore, RunIdsAreUniqueAndListedNewestFirstPerUnit) {

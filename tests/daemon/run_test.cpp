@@ -231,6 +231,82 @@ TEST(DaemonRun, EstopFromAnyClientStopsTheRunAndLatches) {
   EXPECT_NEAR(moved["alpha2_deg"].get<double>(), -45, 0.01);
 }
 
+// docs/protocol.md: -32007 when the run itself is already running, -32001 when another
+// run holds the stand. Resuming a faulted run while another was active answered -32007.
+TEST(DaemonRun, ResumingAnotherRunWhileOneIsActiveIsBusy) {
+  TempDir dir;
+  auto daemon = DaemonProcess::sim(dir.path(), 50);
+  Client c(socket_of(dir));
+  const std::string faulted = c.call(
+      "run.start", {{"program", "paper9"}, {"unit_serial", "AU-6"}, {"dwell_s", 60}})["run_id"];
+  wait_run(c, faulted,
+           [](const json& s) { return s["phase"] == "moving" || s["phase"] == "sampling"; });
+  c.call("estop", json::object(), 5s);
+  ASSERT_EQ(wait_run(c, faulted, finished)["state"], "faulted");
+  c.call("estop.reset");
+  const std::string active = c.call(
+      "run.start", {{"program", "paper9"}, {"unit_serial", "AU-7"}, {"dwell_s", 60}})["run_id"];
+  wait_run(c, active, [](const json& s) { return s["state"] == "running"; });
+  try {
+    c.call("run.resume", {{"run_id", faulted}});
+    ADD_FAILURE() << "resuming " << faulted << " while " << active << " runs was accepted";
+  } catch (const RpcError& e) {
+    EXPECT_EQ(e.code(), -32001) << e.what();
+    EXPECT_NE(std::string(e.what()).find(active), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(error_code_of([&] {
+              c.call("run.resume", {{"run_id", active}});
+            }),
+            -32007)
+      << "the run itself";
+  // The same while the active run is paused: resume must not wake the paused one instead.
+  c.call("run.pause");
+  wait_run(c, active, [](const json& s) { return s["state"] == "paused"; });
+  EXPECT_EQ(error_code_of([&] { c.call("run.resume", {{"run_id", faulted}}); }), -32001);
+  EXPECT_EQ(c.call("run.status", {{"run_id", active}})["state"], "paused");
+  c.call("run.abort");
+}
+
+// The journal must say who pressed the emergency stop (it used to say "a client").
+TEST(DaemonRun, TheEstopLogLineNamesThePeer) {
+  TempDir dir;
+  auto daemon = DaemonProcess::sim(dir.path(), 50, {"--tcp-port", "0"});
+  Client c(socket_of(dir));
+  c.call("estop", json::object(), 5s);
+  const std::string unix_peer = "EMERGENCY STOP requested by uid " + std::to_string(::geteuid()) +
+                                " gid " + std::to_string(::getegid()) + " pid " +
+                                std::to_string(::getpid()) + " (";
+  EXPECT_NE(daemon->log().find(unix_peer), std::string::npos) << daemon->log();
+  const std::string log = daemon->log();
+  const auto at = log.find("standcald: tcp port ");
+  ASSERT_NE(at, std::string::npos) << log;
+  const int port = std::atoi(log.c_str() + at + 20);
+  Client tcp("tcp://127.0.0.1:" + std::to_string(port));
+  tcp.call("estop", json::object(), 5s);
+  EXPECT_NE(daemon->log().find("EMERGENCY STOP requested by tcp 127.0.0.1:"), std::string::npos)
+      << daemon->log();
+}
+
+// A duration shorter than one sample period read nothing and answered a mean of 0.
+TEST(DaemonRun, UnitReadRefusesADurationThatHoldsNoSample) {
+  TempDir dir;
+  auto daemon = DaemonProcess::sim(dir.path(), 50);
+  Client c(socket_of(dir));
+  for (const double seconds : {1e-300, 0.005}) {
+    try {
+      const json r = c.call("unit.read", {{"seconds", seconds}});
+      ADD_FAILURE() << seconds << " s answered " << r.dump();
+    } catch (const RpcError& e) {
+      EXPECT_EQ(e.code(), -32602) << e.what();
+      EXPECT_NE(std::string(e.what()).find(
+                    "must be between 0.01 (one sample at unit.sample_rate_hz 100 Hz)"),
+                std::string::npos)
+          << e.what();
+    }
+  }
+  EXPECT_GE(c.call("unit.read", {{"seconds", 0.05}})["samples"].get<int>(), 1);
+}
+
 TEST(DaemonRun, SigtermStopsTheStandAndLeavesTheRunResumable) {
   TempDir dir;
   std::string run_id;

@@ -228,6 +228,15 @@ TEST(FrameLayoutJson, MistakesAreNamed) {
             std::string::npos);
   EXPECT_NE(with([](auto& j) { j["signals"][0]["can_id"] = "0x800"; }).find("id too large"),
             std::string::npos);
+  // Wholly a number: std::stoul took "0x181zz" as 0x181 and said only "stoul" for "x".
+  for (const char* bad : {"0x181zz", "x", "0x", "18 1"}) {
+    EXPECT_NE(with([bad](auto& j) {
+                j["signals"][0]["can_id"] = bad;
+              }).find(std::string("signals[0]: can_id \"") + bad + "\" must be a number"),
+              std::string::npos)
+        << bad;
+  }
+  EXPECT_EQ(with([](auto& j) { j["signals"][0]["can_id"] = "385"; }), "") << "0x181 in decimal";
   EXPECT_NE(with([](auto& j) { j["signals"][0]["byte_order"] = "big"; }).find("intel or motorola"),
             std::string::npos);
   EXPECT_NE(with([](auto& j) { j["signals"][0]["length"] = "24"; }).find("signals[0]"),

@@ -2,6 +2,7 @@
 // recordings written to files, imported by the real CLI into a database, listed back.
 
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 
@@ -133,6 +134,24 @@ TEST_F(ImportTest, ABadRecordingIsNamedAndNothingIsHalfStored) {
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.output.find("bad.csv"), std::string::npos) << r.output;
   EXPECT_TRUE(open_and_migrate(db_)->list({}).empty());
+}
+
+// Reading commands used to open with SQLITE_OPEN_CREATE: a mistyped --db left a new empty
+// database behind and answered "no calibrations" as if the lab had none.
+TEST_F(ImportTest, ReadingCommandsDoNotCreateAMissingDatabase) {
+  const std::string missing = dir_.path() + "/missing.sqlite";
+  for (const std::string& command : {"records --db " + missing, "history AU-0100 --db " + missing,
+                                    "records --db sqlite://" + missing}) {
+    const test::CommandOutcome r = standcal_cli(command);
+    EXPECT_EQ(r.exit_code, 1) << command << ": " << r.output;
+    EXPECT_NE(r.output.find("no such database: " + missing), std::string::npos)
+        << command << ": " << r.output;
+    EXPECT_FALSE(std::filesystem::exists(missing)) << command << " created " << missing;
+  }
+  // Importing still creates the database it is told to.
+  const std::string a = recording("a.csv", "AU-0100", 1);
+  EXPECT_EQ(standcal_cli("import " + a + " --db " + missing).exit_code, 0);
+  EXPECT_EQ(standcal_cli("records --db " + missing).exit_code, 0);
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "protocol/jsonrpc/run_id.hpp"
 #include "report/certificate/certificate.hpp"
 #include "tools/standcal/commands.hpp"
 
@@ -56,6 +57,12 @@ void write_certificate(const std::string& path, const std::string& html) {
 }
 
 void run_certificate(const CertificateCliOptions& o) {
+  // A run id is a name under STATE/runs, never a path ("../../elsewhere/fake").
+  if (!o.request.run_id.empty() && !protocol::is_run_id(o.request.run_id))
+    throw std::runtime_error(
+        "'" + o.request.run_id +
+        "' is not a run id (like 20261121T223638Z-AU-0042; `standcal runs` lists "
+        "them; certify a recording elsewhere with --recording FILE)");
   if (ends_with(o.output, ".pdf"))
     throw std::runtime_error(o.output + ": PDF is not produced; write .html and print it to PDF from a browser");
   const report::CertificateInput input = report::prepare_certificate(o.request);

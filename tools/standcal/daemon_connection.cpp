@@ -1,5 +1,6 @@
 #include "tools/standcal/daemon_connection.hpp"
 
+#include <arpa/inet.h>
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -8,10 +9,12 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
+#include "protocol/jsonrpc/client.hpp"
 #include "protocol/jsonrpc/jsonrpc.hpp"
 #include "protocol/jsonrpc/methods.hpp"
 
@@ -76,10 +79,35 @@ void add_daemon_options(CLI::App* cmd, DaemonOptions& o) {
   cmd->add_flag("--json", o.json, "machine-readable output");
 }
 
+// --tcp HOST:PORT, checked whole before anything connects: a numeric IPv4 address and a
+// port from 1 to 65535 (the token must never go to a port the operator did not name).
+std::string tcp_endpoint(const std::string& option_value) {
+  const std::string host_port =
+      option_value.rfind("tcp://", 0) == 0 ? option_value.substr(6) : option_value;
+  const auto bad = [&](const std::string& why) {
+    return std::runtime_error("--tcp '" + option_value + "': " + why +
+                              " (expected HOST:PORT, e.g. 127.0.0.1:4871)");
+  };
+  const auto colon = host_port.rfind(':');
+  if (colon == std::string::npos) throw bad("no port");
+  in_addr ignored{};
+  const std::string host = host_port.substr(0, colon);
+  if (::inet_pton(AF_INET, host.c_str(), &ignored) != 1)
+    throw bad("'" + host + "' is not a numeric IPv4 address");
+  const std::string port = host_port.substr(colon + 1);
+  if (!protocol::parse_tcp_port(port))
+    throw bad("the port '" + port + "' is not a whole number from 1 to 65535");
+  return "tcp://" + host_port;
+}
+
 std::string daemon_endpoint(const DaemonOptions& o) {
-  if (!o.tcp.empty()) return o.tcp.rfind("tcp://", 0) == 0 ? o.tcp : "tcp://" + o.tcp;
+  if (!o.tcp.empty()) return tcp_endpoint(o.tcp);
   if (!o.socket.empty()) return o.socket;
   if (!o.config.empty()) {
+    std::error_code ec;
+    if (std::filesystem::is_directory(o.config, ec))
+      throw std::runtime_error("--config " + o.config +
+                               ": is a directory, not a standcald config file");
     std::ifstream in(o.config);
     const json doc = json::parse(in, nullptr, false);
     if (!in || doc.is_discarded()) throw std::runtime_error("cannot read the config " + o.config);
@@ -104,9 +132,10 @@ std::string read_token_file(const std::string& path) {
 
 std::unique_ptr<protocol::Client> connect_daemon(const DaemonOptions& o,
                                                  std::chrono::milliseconds timeout) {
-  // Read the token before connecting: a bad file must not cost a connection.
-  const std::string token = o.token_file.empty() ? std::string() : read_token_file(o.token_file);
+  // Check the endpoint and read the token before connecting: a bad file must not cost a
+  // connection, and a bad --tcp must not send the token anywhere.
   const std::string endpoint = daemon_endpoint(o);
+  const std::string token = o.token_file.empty() ? std::string() : read_token_file(o.token_file);
   auto client = std::make_unique<protocol::Client>(endpoint, timeout);
   if (token.empty()) return client;
   try {

@@ -1,6 +1,7 @@
 // `standcal design evaluate|optimize|compare` (experiment design) and `standcal noise`
 // (Allan deviation of a recording), issue 3.
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -85,13 +86,16 @@ AxisRange parse_axis_range(const std::string& item, const std::string& text) {
     return r;
   }
   const auto colon = text.find(':');
-  try {
-    if (colon == std::string::npos) throw std::invalid_argument("no colon");
-    r.min_deg = std::stod(text.substr(0, colon));
-    r.max_deg = std::stod(text.substr(colon + 1));
-  } catch (const std::exception&) {
-    throw std::runtime_error("--limits '" + item + "': expected MIN:MAX in degrees or 'continuous'");
-  }
+  // Each bound wholly a number: std::stod took "-90x" as -90.
+  const auto whole_number = [](std::string_view s, double& out) {
+    const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), out);
+    return !s.empty() && ec == std::errc{} && end == s.data() + s.size();
+  };
+  if (colon == std::string::npos ||
+      !whole_number(std::string_view(text).substr(0, colon), r.min_deg) ||
+      !whole_number(std::string_view(text).substr(colon + 1), r.max_deg))
+    throw std::runtime_error("--limits '" + item +
+                             "': expected MIN:MAX in degrees or 'continuous'");
   if (!(r.max_deg > r.min_deg)) throw std::runtime_error("--limits '" + item + "': MAX must exceed MIN");
   return r;
 }

@@ -274,9 +274,11 @@ void add_history_command(CLI::App& app) {
   cmd->add_flag("--json", *as_json, "machine-readable output");
   cmd->add_option("--plot", *plot, "also write an HTML page plotting each parameter over time (±k·σ)");
   cmd->callback([=] {
-    auto d = records::open_and_migrate(db->empty() ? default_db() : *db);
+    auto d =
+        records::open_and_migrate(db->empty() ? default_db() : *db, records::OpenMode::existing);
     const records::UnitHistory h = records::unit_history(*serial, d->history(*serial), *k);
-    if (h.calibrations.empty()) throw std::runtime_error("no calibrations of unit " + *serial + " in " + d->location());
+    if (h.calibrations.empty())
+      throw std::runtime_error("no calibrations of unit " + *serial + " in " + d->location());
     if (!plot->empty()) write_history_page(h, *plot);
     if (*as_json) {
       std::cout << history_to_json(h).dump(2) << "\n";
@@ -301,7 +303,8 @@ void add_records_command(CLI::App& app) {
   cmd->add_option("--limit", f->limit, "at most this many")->check(CLI::NonNegativeNumber);
   cmd->add_flag("--json", *as_json, "machine-readable output (whole records)");
   cmd->callback([=] {
-    auto d = records::open_and_migrate(db->empty() ? default_db() : *db);
+    auto d =
+        records::open_and_migrate(db->empty() ? default_db() : *db, records::OpenMode::existing);
     const auto list = d->list(*f);
     if (*as_json) {
       json out = json::array();
