@@ -757,8 +757,10 @@ json Sequencer::start_run(const json& params) {
   }
   const double dwell = p.optional_number("dwell_s").value_or(config_.dwell_s);
   const double settle = p.optional_number("settle_s").value_or(config_.settle_s);
-  if (!(dwell > 0 && dwell <= 36000)) throw RpcError(ErrorCode::invalid_params, "run.start: \"dwell_s\" must be in (0, 36000]");
-  if (!(settle >= 0 && settle <= 3600)) throw RpcError(ErrorCode::invalid_params, "run.start: \"settle_s\" must be in [0, 3600]");
+  if (!(dwell > 0 && dwell <= kMaxDwell_s))
+    throw RpcError(ErrorCode::invalid_params, "run.start: \"dwell_s\" must be in (0, 36000]");
+  if (!(settle >= 0 && settle <= kMaxSettle_s))
+    throw RpcError(ErrorCode::invalid_params, "run.start: \"settle_s\" must be in [0, 3600]");
   if (estop_latched_) throw RpcError(ErrorCode::estop_active, "emergency stop is latched: send estop.reset first");
 
   RunRecord r;
@@ -799,6 +801,14 @@ json Sequencer::resume_run(const json& params) {
     throw RpcError(ErrorCode::invalid_state, "run " + rec->run_id + " is " + rec->state + " and cannot be resumed");
   }
   if (estop_latched_) throw RpcError(ErrorCode::estop_active, "emergency stop is latched: send estop.reset first");
+  try {
+    // A run stored before the programme rules tightened (e.g. a dwell past the run limit)
+    // is refused here, not by run_loop, which has already taken the stand.
+    (void)program_from_json(rec->program, rec->run_id);
+  } catch (const ProgramError& e) {
+    throw RpcError(ErrorCode::invalid_state,
+                   "run " + rec->run_id + " cannot be resumed: " + e.what());
+  }
   spdlog::info("run {} resumed at position {}/{}", rec->run_id, rec->positions_done + 1, rec->positions);
   return json{{"run_id", rec->run_id}, {"position", rec->positions_done + 1}, {"positions", rec->positions}};
 }
