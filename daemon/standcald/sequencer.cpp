@@ -16,6 +16,7 @@
 #include "calib/utc_time.hpp"
 #include "protocol/jsonrpc/jsonrpc.hpp"
 #include "protocol/jsonrpc/methods.hpp"
+#include "protocol/jsonrpc/text.hpp"
 #include "standcal/version.hpp"
 
 namespace standcal::daemon {
@@ -710,6 +711,8 @@ Program program_from_params(const json& spec, const DaemonConfig& config) {
   try {
     if (spec.is_string()) {
       const std::string name = spec.get<std::string>();
+      protocol::require_text_field("run.start: parameter \"program\"", name,
+                                   protocol::text_limit::program_name);
       if (name == "paper9" || name == "classic24") return load_program(name);
       if (name.empty() || name.find('/') != std::string::npos || name[0] == '.') {
         throw RpcError(ErrorCode::invalid_params, "run.start: programme name \"" + name +
@@ -741,15 +744,21 @@ Program program_from_params(const json& spec, const DaemonConfig& config) {
 json Sequencer::start_run(const json& params) {
   protocol::Params p(params, m::run_start);
   p.only({"program", "dwell_s", "settle_s", "unit_serial", "unit_type", "operator"});
-  const std::string serial = p.string("unit_serial");
-  if (serial.empty() || serial.size() > 64) {
-    throw RpcError(ErrorCode::invalid_params, "run.start: \"unit_serial\" must be 1 to 64 characters");
+  // Text fields go into the recording header, run.json and the records database: each
+  // one line of printable text, counted in characters (protocol/jsonrpc/text.hpp).
+  namespace limit = protocol::text_limit;
+  const std::string serial = p.optional_text("unit_serial", limit::unit_serial).value_or("");
+  if (serial.empty()) {
+    throw RpcError(ErrorCode::invalid_params,
+                   "run.start: parameter \"unit_serial\" is required (1 to 64 characters)");
   }
-  const std::string unit_type = p.optional_string("unit_type").value_or("");
-  if (unit_type.size() > 64) throw RpcError(ErrorCode::invalid_params, "run.start: \"unit_type\" must be at most 64 characters");
+  const std::string unit_type = p.optional_text("unit_type", limit::unit_type).value_or("");
+  const std::string operator_name = p.optional_text("operator", limit::operator_name).value_or("");
   const json* spec = p.find("program");
   if (spec == nullptr) throw RpcError(ErrorCode::invalid_params, "run.start: parameter \"program\" is required");
   Program program = program_from_params(*spec, config_);
+  protocol::require_text_field("run.start: the programme's \"name\"", program.name,
+                               limit::program_name);
   try {
     program = normalise_program(program, limits_of(config_));
   } catch (const ProgramError& e) {
@@ -771,7 +780,7 @@ json Sequencer::start_run(const json& params) {
   r.program = program_to_json(program);
   r.dwell_s = dwell;
   r.settle_s = settle;
-  r.operator_name = p.optional_string("operator").value_or("");
+  r.operator_name = operator_name;
   r.state = st::running;
   r.positions = static_cast<int>(program.positions.size());
   r.started_utc = utc_now_iso();
@@ -790,7 +799,7 @@ json Sequencer::resume_run(const json& params) {
   protocol::Params p(params, m::run_resume);
   p.only({"run_id"});
   std::optional<RunRecord> rec;
-  if (auto id = p.optional_string("run_id")) {
+  if (auto id = p.optional_text("run_id", protocol::text_limit::run_id)) {
     rec = store_.get(*id);
     if (!rec) throw RpcError(ErrorCode::not_found, "no run " + *id + " (see runs.list)");
   } else {

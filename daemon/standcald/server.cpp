@@ -41,8 +41,8 @@ namespace {
 RunPageQuery runs_list_query(const protocol::Params& p) {
   p.only({"unit_serial", "before", "limit"});
   RunPageQuery q;
-  q.unit_serial = p.optional_string("unit_serial").value_or("");
-  q.before_run_id = p.optional_string("before").value_or("");
+  q.unit_serial = p.optional_text("unit_serial", protocol::text_limit::unit_serial).value_or("");
+  q.before_run_id = p.optional_text("before", protocol::text_limit::run_id).value_or("");
   q.limit = static_cast<std::size_t>(
       p.optional_integer("limit", 1, protocol::runs_list_max_limit).value_or(protocol::runs_list_default_limit));
   return q;
@@ -526,7 +526,8 @@ void Server::handle_line(Client& c, const std::string& line) {
       result = status(c);
     } else if (req.method == m::run_status) {
       p.only({"run_id"});
-      result = sequencer_.run_status(p.optional_string("run_id").value_or(""));
+      result = sequencer_.run_status(
+          p.optional_text("run_id", protocol::text_limit::run_id).value_or(""));
     } else if (req.method == m::run_result) {
       p.only({"run_id"});
       result = sequencer_.run_result(p.string("run_id"));

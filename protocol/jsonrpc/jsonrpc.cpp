@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "protocol/jsonrpc/text.hpp"
+
 namespace standcal::protocol {
 
 using nlohmann::json;
@@ -145,6 +147,12 @@ std::string Params::string(const char* key) const {
 std::optional<std::string> Params::optional_string(const char* key) const {
   if (find(key) == nullptr) return std::nullopt;
   return string(key);
+}
+
+std::optional<std::string> Params::optional_text(const char* key, std::size_t max_chars) const {
+  std::optional<std::string> text = optional_string(key);
+  if (text) require_text_field(method_ + ": parameter \"" + key + "\"", *text, max_chars);
+  return text;
 }
 
 bool Params::optional_bool(const char* key, bool fallback) const {
