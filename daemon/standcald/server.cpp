@@ -517,6 +517,12 @@ void Server::handle_line(Client& c, const std::string& line) {
   try {
     json result;
     protocol::Params p(req.params, req.method);
+    if (req.positional_params) {
+      throw RpcError(ErrorCode::invalid_params,
+                     req.method +
+                         ": \"params\" must be an object of named parameters "
+                         "(no standcald method takes positional ones)");
+    }
     if (auto refusal = refuse_control(req.method, c.peer, policy_)) {
       spdlog::info("refused {} from {}", req.method, describe_peer(c.peer));
       throw RpcError(ErrorCode::not_permitted, *refusal);

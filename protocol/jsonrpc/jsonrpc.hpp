@@ -53,8 +53,10 @@ class RpcError : public std::runtime_error {
 
 // A valid request or notification from a client.
 struct Request {
-  nlohmann::json id;  // null for a notification (no reply is sent)
+  // As sent (string, number or null); null for a notification (no reply is sent).
+  nlohmann::json id;
   bool is_notification = false;
+  bool positional_params = false;  // `params` was an array: valid JSON-RPC, but no method takes it
   std::string method;
   nlohmann::json params = nlohmann::json::object();
 };

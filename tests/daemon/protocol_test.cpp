@@ -41,7 +41,37 @@ TEST(JsonRpc, RejectsBadRequestsWithTheStandardCodes) {
   EXPECT_EQ(error_code_of(R"({"jsonrpc":"1.0","id":1,"method":"status"})"), -32600);
   EXPECT_EQ(error_code_of(R"({"jsonrpc":"2.0","id":1,"method":5})"), -32600);
   EXPECT_EQ(error_code_of(R"({"jsonrpc":"2.0","id":{"a":1},"method":"status"})"), -32600);
-  EXPECT_EQ(error_code_of(R"({"jsonrpc":"2.0","id":1,"method":"status","params":[1]})"), -32602);
+  // Positional params make a valid request (or notification) that no method takes: the
+  // server answers it -32602, unless it is a notification.
+  auto positional = parse_request(R"({"jsonrpc":"2.0","id":1,"method":"status","params":[1]})");
+  ASSERT_TRUE(std::holds_alternative<Request>(positional));
+  EXPECT_TRUE(std::get<Request>(positional).positional_params);
+}
+
+TEST(JsonRpc, FollowsTheSpecificationsIdRules) {
+  // id null: a request (discouraged by the specification, but not a notification).
+  auto r = parse_request(R"({"jsonrpc":"2.0","id":null,"method":"status"})");
+  ASSERT_TRUE(std::holds_alternative<Request>(r));
+  EXPECT_FALSE(std::get<Request>(r).is_notification);
+  EXPECT_TRUE(std::get<Request>(r).id.is_null());
+  // Any number is an id (fractions are discouraged, not forbidden).
+  r = parse_request(R"({"jsonrpc":"2.0","id":1.5,"method":"status"})");
+  ASSERT_TRUE(std::holds_alternative<Request>(r));
+  EXPECT_EQ(std::get<Request>(r).id, 1.5);
+  // params, when present, is a structured value: anything else is not a request object.
+  EXPECT_EQ(error_code_of(R"({"jsonrpc":"2.0","id":1,"method":"status","params":5})"), -32600);
+  EXPECT_EQ(error_code_of(R"({"jsonrpc":"2.0","id":1,"method":"status","params":"x"})"), -32600);
+}
+
+TEST(JsonRpc, ABatchIsRefusedAsOneInvalidRequestNamingBatches) {
+  for (const char* line : {"[]", R"([{"jsonrpc":"2.0","id":1,"method":"status"}])"}) {
+    auto r = parse_request(line);
+    ASSERT_TRUE(std::holds_alternative<BadRequest>(r)) << line;
+    const BadRequest& bad = std::get<BadRequest>(r);
+    EXPECT_EQ(bad.error.code(), -32600) << line;
+    EXPECT_TRUE(bad.id.is_null()) << line;
+    EXPECT_NE(std::string(bad.error.what()).find("batch"), std::string::npos) << bad.error.what();
+  }
 }
 
 TEST(JsonRpc, TheIdIsEchoedInErrorsWhenItCouldBeRead) {
