@@ -7,6 +7,8 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
+#include "calib/text.hpp"
+
 namespace standcal {
 
 namespace {
@@ -22,15 +24,21 @@ ProgramPosition at(double alpha1_deg, double alpha2_deg, Mount mount = Mount::x)
   return p;
 }
 
-// An angle as an operator writes it: 122.5, not 122.500000.
-std::string deg_text(double deg) {
+// A number as an operator writes it: 122.5, not 122.500000.
+std::string number_text(double value) {
   char buf[32];
-  std::snprintf(buf, sizeof buf, "%.6g", deg);
+  std::snprintf(buf, sizeof buf, "%.6g", value);
   return buf;
 }
 
 std::string position_label(const std::string& source, std::size_t index, std::size_t count) {
   return source + ": position " + std::to_string(index + 1) + " of " + std::to_string(count);
+}
+
+void require_at_most(double value, double limit, const char* key, const std::string& where) {
+  if (value > limit)
+    throw ProgramError(where + ": '" + key + "' must be at most " + number_text(limit) +
+                       " s (the run limit), not " + number_text(value));
 }
 
 double require_number(const nlohmann::json& p, const char* key, const std::string& where) {
@@ -59,12 +67,32 @@ ProgramPosition position_from_json(const nlohmann::json& p, const std::string& w
   if (p.contains("dwell_s")) {
     pos.dwell_s = require_number(p, "dwell_s", where);
     if (*pos.dwell_s <= 0) throw ProgramError(where + ": 'dwell_s' must be > 0");
+    require_at_most(*pos.dwell_s, kMaxDwell_s, "dwell_s", where);
   }
   if (p.contains("settle_s")) {
     pos.settle_s = require_number(p, "settle_s", where);
     if (*pos.settle_s < 0) throw ProgramError(where + ": 'settle_s' must be >= 0");
+    require_at_most(*pos.settle_s, kMaxSettle_s, "settle_s", where);
   }
   return pos;
+}
+
+// The programme object's own keys: a misspelt one ("dwel_s") must not be ignored.
+void require_known_programme_keys(const nlohmann::json& doc, const std::string& source) {
+  for (const auto& item : doc.items())
+    if (item.key() != "name" && item.key() != "positions")
+      throw ProgramError(source + ": unknown key '" + item.key() + "' (known: name, positions)");
+}
+
+// The name goes into the recording header, run.json and reports: one printable line.
+std::string programme_name(const nlohmann::json& doc, const std::string& source) {
+  if (!doc.contains("name")) return "custom";
+  if (!doc["name"].is_string()) throw ProgramError(source + ": 'name' must be a string");
+  const std::string name = doc["name"].get<std::string>();
+  if (const auto c = find_control_character(name))
+    throw ProgramError(source + ": 'name' must be printable text on one line: it contains " +
+                       describe(*c));
+  return name;
 }
 
 }  // namespace
@@ -95,8 +123,9 @@ Program classic24() {
 Program program_from_json(const nlohmann::json& doc, const std::string& source) {
   if (!doc.is_object() || !doc.contains("positions") || !doc["positions"].is_array())
     throw ProgramError(source + ": a programme is an object with a 'positions' array");
+  require_known_programme_keys(doc, source);
   Program p;
-  p.name = doc.value("name", std::string("custom"));
+  p.name = programme_name(doc, source);
   const auto& list = doc["positions"];
   if (list.empty()) throw ProgramError(source + ": 'positions' is empty");
   for (std::size_t i = 0; i < list.size(); ++i)
@@ -136,15 +165,12 @@ nlohmann::json program_to_json(const Program& program) {
 }
 
 std::optional<double> normalise_angle_deg(double angle_deg, const AxisRange& range) {
-  if (range.continuous) {
-    double a = std::fmod(angle_deg, 360.0);
-    if (a <= -180.0) a += 360.0;
-    if (a > 180.0) a -= 360.0;
-    return a;
-  }
+  // std::remainder is exact: 1e308 - 360 * round(1e308 / 360) is not (it gives 0, not -64).
+  const double a = std::remainder(angle_deg, 360.0);  // [-180, 180]
+  if (range.continuous) return a == -180.0 ? 180.0 : a;
   if (angle_deg >= range.min_deg && angle_deg <= range.max_deg) return angle_deg;
   const double middle = 0.5 * (range.min_deg + range.max_deg);
-  const double nearest = angle_deg + 360.0 * std::round((middle - angle_deg) / 360.0);
+  const double nearest = a + 360.0 * std::round((middle - a) / 360.0);
   std::optional<double> best;
   for (double candidate : {nearest - 360.0, nearest, nearest + 360.0}) {
     if (candidate < range.min_deg - 1e-9 || candidate > range.max_deg + 1e-9) continue;
@@ -161,16 +187,20 @@ Program normalise_program(const Program& program, const StandLimits& limits) {
     const auto a1 = normalise_angle_deg(p.alpha1_deg, limits.alpha1);
     const auto a2 = normalise_angle_deg(p.alpha2_deg, limits.alpha2);
     const auto range_text = [](const AxisRange& r) {
-      return "[" + deg_text(r.min_deg) + ", " + deg_text(r.max_deg) + "] deg";
+      return "[" + number_text(r.min_deg) + ", " + number_text(r.max_deg) + "] deg";
     };
     if (!a1)
-      throw ProgramError(position_label(program.name, i, n) + ": alpha1 = " +
-                         deg_text(p.alpha1_deg) + " deg has no equivalent angle in the "
-                         "outer axis range " + range_text(limits.alpha1));
+      throw ProgramError(position_label(program.name, i, n) +
+                         ": alpha1 = " + number_text(p.alpha1_deg) +
+                         " deg has no equivalent angle in the "
+                         "outer axis range " +
+                         range_text(limits.alpha1));
     if (!a2)
-      throw ProgramError(position_label(program.name, i, n) + ": alpha2 = " +
-                         deg_text(p.alpha2_deg) + " deg has no equivalent angle in the "
-                         "inner axis range " + range_text(limits.alpha2));
+      throw ProgramError(position_label(program.name, i, n) +
+                         ": alpha2 = " + number_text(p.alpha2_deg) +
+                         " deg has no equivalent angle in the "
+                         "inner axis range " +
+                         range_text(limits.alpha2));
     p.alpha1_deg = *a1;
     p.alpha2_deg = *a2;
   }

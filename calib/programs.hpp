@@ -11,6 +11,11 @@
 
 namespace standcal {
 
+// A run's limits on a position's dwell and settle time (docs/protocol.md, run.start): a
+// position may not ask for more than a whole run may.
+inline constexpr double kMaxDwell_s = 36000;
+inline constexpr double kMaxSettle_s = 3600;
+
 struct ProgramPosition {
   double alpha1_deg = 0;
   double alpha2_deg = 0;
@@ -52,7 +57,9 @@ Program paper9(double alpha1_start_deg = 0, int position9_n = 0);
 // Three mountings x, y, z; alpha1 = 90, 270 x alpha2 = 0, 90, 180, 270 (model.md).
 Program classic24();
 // A user programme from JSON {"name": ..., "positions": [{"alpha1_deg", "alpha2_deg",
-// "mount"?, "dwell_s"?, "settle_s"?}, ...]}; `source` names it in errors.
+// "mount"?, "dwell_s"?, "settle_s"?}, ...]}; `source` names it in errors. Unknown keys,
+// a name that is not one line of printable text, and a dwell or settle time past the
+// run limits (kMaxDwell_s, kMaxSettle_s) are errors.
 Program program_from_json(const nlohmann::json& doc, const std::string& source);
 // "paper9", "classic24", or a path to a JSON programme file.
 Program load_program(const std::string& name_or_path, double paper9_alpha1_start_deg = 0);
@@ -61,7 +68,8 @@ nlohmann::json program_to_json(const Program& program);
 
 // The angle equivalent to angle_deg (mod 360) inside the axis range: continuous axes
 // give (-180, 180]; limited axes keep the angle if inside, else the equivalent nearest
-// the middle of the range. Empty when no equivalent angle lies inside.
+// the middle of the range. Empty when no equivalent angle lies inside. Exact for every
+// finite angle (1e308 gives -64).
 std::optional<double> normalise_angle_deg(double angle_deg, const AxisRange& range);
 // Every position normalised to the stand's ranges; throws ProgramError naming the first
 // position and axis that cannot be reached.

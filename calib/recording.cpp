@@ -8,8 +8,12 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
+#include <stdexcept>
 #include <unordered_set>
+
+#include "calib/text.hpp"
 
 namespace standcal {
 
@@ -135,6 +139,10 @@ class Parser {
     const std::size_t colon = body.find(':');
     if (colon == std::string_view::npos || colon == 0)
       fail(2, "header line must look like '# key: value' (no ':' found)");
+    // What the writer refuses, the reader refuses too: every recording read can be written.
+    if (const auto c = find_control_character(line))
+      fail(static_cast<int>(c->character),
+           "header line contains " + describe(*c) + "; header lines are printable text");
     std::string key(trim(body.substr(0, colon)));
     std::string value(trim(body.substr(colon + 1)));
     if (seen_keys_.count(key)) fail(3, "header key '" + key + "' appears twice");
@@ -373,10 +381,35 @@ Recording read_recording(const std::string& path) {
   return parse_recording(text, path);
 }
 
+namespace {
+
+// A header entry is one "# key: value" line: a control character in a field's text would
+// inject a header key ("AU\n# mount: y") or repeat one, and the reader refuses a recording
+// with a repeated key only at the fit, after the whole run.
+void check_header_entry(const std::string& key, const std::string& value) {
+  if (const auto c = find_control_character(key))
+    throw std::invalid_argument("recording header key '" + key + "' contains " + describe(*c));
+  if (key.empty() || key.find(':') != std::string::npos || trim(key) != key)
+    throw std::invalid_argument("recording header key '" + key +
+                                "' must be a name without ':' or surrounding spaces");
+  if (const auto c = find_control_character(value))
+    throw std::invalid_argument("recording header '" + key + "': the value contains " +
+                                describe(*c) +
+                                "; header values must be printable text on one line");
+}
+
+}  // namespace
+
 std::string format_recording_header(const Recording& rec) {
   std::string out = "# format: " + std::string(kRecordingFormat) + "\n";
-  for (const auto& [key, value] : rec.header)
-    if (key != "format") out += "# " + key + ": " + value + "\n";
+  std::set<std::string> keys;
+  for (const auto& [key, value] : rec.header) {
+    if (key == "format") continue;
+    check_header_entry(key, value);
+    if (!keys.insert(key).second)
+      throw std::invalid_argument("recording header key '" + key + "' appears twice");
+    out += "# " + key + ": " + value + "\n";
+  }
   out += "t_s,pos,alpha1_cmd_deg,alpha2_cmd_deg";
   if (rec.columns.alpha_measured) out += ",alpha1_deg,alpha2_deg";
   out += ",fx_mps2,fy_mps2,fz_mps2";

@@ -11,6 +11,8 @@
 #include <set>
 #include <sstream>
 
+#include "calib/text.hpp"
+
 namespace standcal::daemon {
 
 using nlohmann::json;
@@ -58,6 +60,10 @@ class Section {
     const json* v = find(key);
     if (v == nullptr) return;
     if (!v->is_string()) fail(key, "must be a string");
+    // Config texts reach one-line places: the recording header (stand.id), paths, logs.
+    if (const auto c = find_control_character(v->get_ref<const std::string&>())) {
+      fail(key, "must be printable text on one line: it contains " + describe(*c));
+    }
     out = v->get<std::string>();
   }
   // A key whose empty value would silently mean "none" (no group, no token): absent is

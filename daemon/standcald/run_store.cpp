@@ -51,10 +51,17 @@ const std::string& id_of(const RunSummary& r) { return r.run_id; }
 const std::string& id_of(const std::string& id) { return id; }
 
 // Run ids from unit serials: keep what is safe, replace the rest (an id need not be
-// reversible: a clash gets a -002 suffix).
+// reversible: a clash gets a -002 suffix). One character of the name per character (UTF-8
+// code point) of `s`, so a 64-character serial gives at most 64 here however many bytes it
+// has (a file name has 255 at most).
 std::string safe_name(const std::string& s) {
   std::string out;
-  for (char ch : s) out += (std::isalnum(static_cast<unsigned char>(ch)) || ch == '-' || ch == '_' || ch == '.') ? ch : '_';
+  for (char ch : s) {
+    if ((static_cast<unsigned char>(ch) & 0xC0) == 0x80) continue;  // inside a multi-byte character
+    out += (std::isalnum(static_cast<unsigned char>(ch)) || ch == '-' || ch == '_' || ch == '.')
+               ? ch
+               : '_';
+  }
   if (out.empty() || out[0] == '.') out = "_" + out;
   return out;
 }

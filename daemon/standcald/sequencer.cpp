@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <thread>
 
 #include "calib/averaging.hpp"
 #include "calib/full_estimator.hpp"
@@ -17,6 +18,7 @@
 #include "calib/utc_time.hpp"
 #include "protocol/jsonrpc/jsonrpc.hpp"
 #include "protocol/jsonrpc/methods.hpp"
+#include "protocol/jsonrpc/text.hpp"
 #include "standcal/version.hpp"
 
 namespace standcal::daemon {
@@ -237,99 +239,30 @@ void Sequencer::wait_real(double real_s, const std::function<bool()>& until) {
   }
 }
 
-// Whether a run.resume names a run other than the active one.
-bool Sequencer::names_another_run(const json& params) const {
-  const auto id = params.is_object() ? params.find("run_id") : params.end();
-  return params.is_object() && id != params.end() && id->is_string() &&
-         id->get<std::string>() != active_run_id_;
-}
-
 // Commands that act at any time are handled first; the rest need an idle sequencer.
 void Sequencer::handle(Command& cmd) {
   const std::string& method = cmd.method;
   try {
-    json result;
-    if (method == m::estop) {
-      emergency_stop(cmd.requested_by);
-      if (mode_ != Mode::idle) raise_interrupt(Interrupt::estop);
-      result = json{{"estop", true}, {"message", "emergency stop: both axes stopped and disabled"}};
-    } else if (method == m::stand_stop) {
-      stop_axes_quietly();
-      if (mode_ == Mode::command || mode_ == Mode::run_active || mode_ == Mode::run_waiting_operator) {
-        raise_interrupt(Interrupt::pause);
-      }
-      result = json{{"stopped", true}};
-    } else if (method == m::run_pause) {
-      protocol::Params(cmd.params, method).only({"run_id"});
-      if (mode_ != Mode::run_active && mode_ != Mode::run_waiting_operator) {
-        throw RpcError(ErrorCode::invalid_state, mode_ == Mode::run_paused ? "the run is already paused"
-                                                                            : "no run is in progress");
-      }
-      raise_interrupt(Interrupt::pause);
-      result = json{{"run_id", active_run_id_}, {"state", st::paused}};
-    } else if (method == m::run_abort) {
-      protocol::Params(cmd.params, method).only({"run_id"});
-      if (mode_ != Mode::run_active && mode_ != Mode::run_paused && mode_ != Mode::run_waiting_operator) {
-        throw RpcError(ErrorCode::invalid_state, "no run is in progress");
-      }
-      raise_interrupt(Interrupt::abort);
-      result = json{{"run_id", active_run_id_}, {"state", st::aborted}};
-    } else if (method == m::operator_confirm) {
-      protocol::Params(cmd.params, method).only({"run_id"});
-      if (mode_ != Mode::run_waiting_operator) {
-        throw RpcError(ErrorCode::invalid_state, "no re-mount step is waiting for the operator");
-      }
-      operator_confirmed_ = true;
-      {
-        // Visible at once to run.status, before the run thread moves on.
-        std::lock_guard lock(snapshot_mutex_);
-        if (progress_.is_object()) progress_["state"] = st::running;
-      }
-      result = json{{"run_id", active_run_id_}, {"confirmed", true}};
-    } else if (method == m::run_resume && mode_ != Mode::idle && mode_ != Mode::command &&
-               names_another_run(cmd.params)) {
-      // docs/protocol.md: -32007 is for the run itself (already running), -32001 for
-      // another run holding the stand.
+    if (handle_at_any_time(cmd)) return;
+    if (mode_ != Mode::idle) {
       throw RpcError(ErrorCode::busy,
-                     "run " + active_run_id_ + " is " +
-                         (mode_ == Mode::run_paused ? "paused" : "in progress") +
-                         "; abort it (or let it finish) before resuming another run");
-    } else if (method == m::run_resume && mode_ == Mode::run_paused) {
-      resume_requested_ = true;
-      result = json{{"run_id", active_run_id_}, {"state", st::running}};
-    } else if (method == m::run_resume &&
-               (mode_ == Mode::run_active || mode_ == Mode::run_waiting_operator)) {
-      throw RpcError(ErrorCode::invalid_state, "run " + active_run_id_ + " is already running");
-    } else if (mode_ != Mode::idle) {
-      throw RpcError(ErrorCode::busy, mode_ == Mode::command
-                                          ? "the stand is busy with " + busy_with_ + "; try again when it is done"
-                                          : "run " + active_run_id_ + " is in progress; pause or abort it first");
-    } else {
-      // Run commands answer at once and then keep the thread for the whole run.
-      if (method == m::run_start || method == m::run_resume) {
-        json r = method == m::run_start ? start_run(cmd.params) : resume_run(cmd.params);
-        auto record = store_.get(r["run_id"].get<std::string>());
-        run_loop(*record, [&] { cmd.reply(Outcome{r, 0, {}}); });
-        return;
-      }
-      busy_with_ = method;
-      mode_ = Mode::command;
-      try {
-        result = execute_idle(cmd);
-      } catch (...) {
-        mode_ = Mode::idle;
-        refresh_stand_snapshot();
-        throw;
-      }
-      mode_ = Mode::idle;
-      refresh_stand_snapshot();
+                     mode_ == Mode::command
+                         ? "the stand is busy with " + busy_with_ + "; try again when it is done"
+                         : "run " + active_run_id_ + " is in progress; pause or abort it first");
     }
-    cmd.reply(Outcome{std::move(result), 0, {}});
+    // Run commands answer once the run is running and then keep the thread for the whole run.
+    if (method == m::run_start || method == m::run_resume) {
+      json r = method == m::run_start ? start_run(cmd.params) : resume_run(cmd.params);
+      auto record = store_.get(r["run_id"].get<std::string>());
+      run_loop(*record, [&] { cmd.reply(Outcome{r, 0, {}}); });
+      return;
+    }
+    cmd.reply(Outcome{execute_command(cmd), 0, {}});
   } catch (const RpcError& e) {
     cmd.reply(Outcome{nullptr, e.code(), e.what()});
   } catch (const Interrupted& in) {
     // A stand command cut short by estop / stand.stop / shutdown.
-    stop_axes_quietly();
+    stop_axes_and_wait();
     mode_ = Mode::idle;
     refresh_stand_snapshot();
     const bool estop = in.kind == Interrupt::estop;
@@ -337,9 +270,139 @@ void Sequencer::handle(Command& cmd) {
                       method + " interrupted by " + (estop ? "an emergency stop" : in.kind == Interrupt::shutdown
                                                                                         ? "daemon shutdown"
                                                                                         : "stand.stop")});
+    answer_deferred();
   } catch (const std::exception& e) {
     mode_ = Mode::idle;
     cmd.reply(Outcome{nullptr, static_cast<int>(ErrorCode::internal_error), e.what()});
+  }
+}
+
+// A stand command (not a run): holds the hardware until it answers.
+json Sequencer::execute_command(const Command& cmd) {
+  busy_with_ = cmd.method;
+  mode_ = Mode::command;
+  json result;
+  try {
+    result = execute_idle(cmd);
+  } catch (...) {
+    mode_ = Mode::idle;
+    refresh_stand_snapshot();
+    throw;
+  }
+  mode_ = Mode::idle;
+  refresh_stand_snapshot();
+  return result;
+}
+
+bool Sequencer::handle_at_any_time(Command& cmd) {
+  const std::string& method = cmd.method;
+  const bool run_held =
+      mode_ == Mode::run_active || mode_ == Mode::run_paused || mode_ == Mode::run_waiting_operator;
+  if (method == m::estop) {
+    emergency_stop(cmd.requested_by);  // at once, whatever else happens; only the answer may wait
+    const json result{{"estop", true},
+                      {"message", "emergency stop: both axes stopped and disabled"}};
+    if (mode_ == Mode::idle) {
+      cmd.reply(Outcome{result, 0, {}});
+    } else {
+      // Answered once the interrupted run is `faulted` (or the command has given up).
+      raise_interrupt(Interrupt::estop);
+      defer_answer(cmd, result);
+    }
+  } else if (method == m::stand_stop) {
+    stand_stop(cmd);
+  } else if (method == m::run_pause || method == m::run_abort || method == m::operator_confirm) {
+    if (const auto other = named_other_run(cmd)) {
+      throw RpcError(ErrorCode::invalid_state,
+                     method + ": run " + *other + " is not the active run" +
+                         (active_run_id_.empty() ? " (no run is in progress)"
+                                                 : " (" + active_run_id_ + " is)") +
+                         "; nothing was changed");
+    }
+    if (!run_held) throw RpcError(ErrorCode::invalid_state, "no run is in progress");
+    act_on_active_run(cmd);
+  } else if (method == m::run_resume && run_held) {
+    resume_active_run(cmd);
+  } else {
+    return false;
+  }
+  return true;
+}
+
+std::optional<std::string> Sequencer::named_other_run(const Command& cmd) const {
+  protocol::Params p(cmd.params, cmd.method);
+  p.only({"run_id"});
+  const auto id = p.optional_text("run_id", protocol::text_limit::run_id);
+  if (!id || (!active_run_id_.empty() && *id == active_run_id_)) return std::nullopt;
+  if (!store_.get(*id))
+    throw RpcError(ErrorCode::not_found, cmd.method + ": no run " + *id + " (see runs.list)");
+  return id;
+}
+
+void Sequencer::act_on_active_run(Command& cmd) {
+  if (cmd.method == m::run_pause) {
+    if (mode_ == Mode::run_paused)
+      throw RpcError(ErrorCode::invalid_state, "the run is already paused");
+    raise_interrupt(Interrupt::pause);
+    defer_answer(cmd, json{{"run_id", active_run_id_}, {"state", st::paused}});
+  } else if (cmd.method == m::run_abort) {
+    raise_interrupt(Interrupt::abort);
+    defer_answer(cmd, json{{"run_id", active_run_id_}, {"state", st::aborted}});
+  } else {
+    if (mode_ != Mode::run_waiting_operator) {
+      throw RpcError(ErrorCode::invalid_state, "no re-mount step is waiting for the operator");
+    }
+    operator_confirmed_ = true;
+    {
+      // Visible at once to run.status, before the run thread moves on.
+      std::lock_guard lock(snapshot_mutex_);
+      if (progress_.is_object()) progress_["state"] = st::running;
+    }
+    cmd.reply(Outcome{json{{"run_id", active_run_id_}, {"confirmed", true}}, 0, {}});
+  }
+}
+
+void Sequencer::resume_active_run(Command& cmd) {
+  if (const auto other = named_other_run(cmd)) {
+    throw RpcError(ErrorCode::busy, "run.resume: run " + active_run_id_ +
+                                        " holds the stand; abort it before resuming " + *other +
+                                        " (nothing was changed)");
+  }
+  if (mode_ != Mode::run_paused) {
+    throw RpcError(ErrorCode::invalid_state, "run " + active_run_id_ + " is already running");
+  }
+  resume_requested_ = true;
+  defer_answer(cmd, json{{"run_id", active_run_id_}, {"state", st::running}});
+}
+
+// A command or run in progress is interrupted (a run pauses) and the answer waits until
+// it has stopped; otherwise the axes are stopped here and the answer waits until they are
+// still.
+void Sequencer::stand_stop(Command& cmd) {
+  protocol::Params(cmd.params, cmd.method).only({});
+  if (mode_ == Mode::command || mode_ == Mode::run_active || mode_ == Mode::run_waiting_operator) {
+    raise_interrupt(Interrupt::pause);
+    defer_answer(cmd, json{{"stopped", true}});
+    return;
+  }
+  if (!stop_axes_and_wait()) {
+    throw RpcError(ErrorCode::hardware_fault,
+                   "the stand axes were still moving " +
+                       std::to_string(int(config_.in_position.timeout_s)) + " s after stand.stop");
+  }
+  cmd.reply(Outcome{json{{"stopped", true}}, 0, {}});
+}
+
+void Sequencer::defer_answer(Command& cmd, json result) {
+  deferred_answers_.push_back(DeferredAnswer{std::move(cmd.reply), std::move(result)});
+}
+
+void Sequencer::answer_deferred(const std::string& run_state) {
+  std::vector<DeferredAnswer> answers;
+  answers.swap(deferred_answers_);
+  for (DeferredAnswer& a : answers) {
+    if (!run_state.empty() && a.result.contains("state")) a.result["state"] = run_state;
+    a.reply(Outcome{std::move(a.result), 0, {}});
   }
 }
 
@@ -407,9 +470,6 @@ json Sequencer::execute_idle(const Command& cmd) {
               min_s, config_.sample_rate_hz, seconds));
     }
     return unit_read(seconds);
-  }
-  if (method == m::run_pause || method == m::run_abort || method == m::operator_confirm) {
-    throw RpcError(ErrorCode::invalid_state, "no run is in progress");
   }
   throw RpcError(ErrorCode::method_not_found, "unknown method " + method);
 }
@@ -542,6 +602,36 @@ void Sequencer::stop_axes_quietly() {
     const drivers::Status s = hw_.stand->stop(a);
     if (!s) spdlog::warn("stopping stand axis {}: {}", drivers::to_string(a), s.message);
   }
+}
+
+bool Sequencer::stop_axes_and_wait() {
+  stop_axes_quietly();
+  const double start = now_real_s();
+  const double poll_real = std::clamp(real_time_s(config_.in_position.poll_s), 0.002, 0.05);
+  while (!axes_still()) {
+    if (stand_time_s(now_real_s() - start) > config_.in_position.timeout_s) {
+      spdlog::warn("the stand axes were still moving {} s after the stop command",
+                   int(config_.in_position.timeout_s));
+      refresh_stand_snapshot();
+      return false;
+    }
+    heartbeat_++;
+    std::this_thread::sleep_for(std::chrono::duration<double>(poll_real));
+  }
+  refresh_stand_snapshot();
+  return true;
+}
+
+bool Sequencer::axes_still() {
+  if (hw_.stand->lifecycle() == drivers::Lifecycle::unconfigured) return true;
+  for (StandAxis a : kAxes) {
+    const auto state = hw_.stand->read_state(a);
+    if (!state)
+      return true;  // unreadable: the link fault is reported by whoever needs the stand next
+    const drivers::AxisMode mode = state.value().mode;
+    if (mode == drivers::AxisMode::moving || mode == drivers::AxisMode::homing) return false;
+  }
+  return true;
 }
 
 void Sequencer::emergency_stop(const std::string& requested_by) {
@@ -744,6 +834,8 @@ Program program_from_params(const json& spec, const DaemonConfig& config) {
   try {
     if (spec.is_string()) {
       const std::string name = spec.get<std::string>();
+      protocol::require_text_field("run.start: parameter \"program\"", name,
+                                   protocol::text_limit::program_name);
       if (name == "paper9" || name == "classic24") return load_program(name);
       // A NUL would end the file name early at the system call.
       if (name.empty() || name.find_first_of(std::string("/\0", 2)) != std::string::npos ||
@@ -777,15 +869,21 @@ Program program_from_params(const json& spec, const DaemonConfig& config) {
 json Sequencer::start_run(const json& params) {
   protocol::Params p(params, m::run_start);
   p.only({"program", "dwell_s", "settle_s", "unit_serial", "unit_type", "operator"});
-  const std::string serial = p.string("unit_serial");
-  if (serial.empty() || serial.size() > 64) {
-    throw RpcError(ErrorCode::invalid_params, "run.start: \"unit_serial\" must be 1 to 64 characters");
+  // Text fields go into the recording header, run.json and the records database: each
+  // one line of printable text, counted in characters (protocol/jsonrpc/text.hpp).
+  namespace limit = protocol::text_limit;
+  const std::string serial = p.optional_text("unit_serial", limit::unit_serial).value_or("");
+  if (serial.empty()) {
+    throw RpcError(ErrorCode::invalid_params,
+                   "run.start: parameter \"unit_serial\" is required (1 to 64 characters)");
   }
-  const std::string unit_type = p.optional_string("unit_type").value_or("");
-  if (unit_type.size() > 64) throw RpcError(ErrorCode::invalid_params, "run.start: \"unit_type\" must be at most 64 characters");
+  const std::string unit_type = p.optional_text("unit_type", limit::unit_type).value_or("");
+  const std::string operator_name = p.optional_text("operator", limit::operator_name).value_or("");
   const json* spec = p.find("program");
   if (spec == nullptr) throw RpcError(ErrorCode::invalid_params, "run.start: parameter \"program\" is required");
   Program program = program_from_params(*spec, config_);
+  protocol::require_text_field("run.start: the programme's \"name\"", program.name,
+                               limit::program_name);
   try {
     program = normalise_program(program, limits_of(config_));
   } catch (const ProgramError& e) {
@@ -793,8 +891,10 @@ json Sequencer::start_run(const json& params) {
   }
   const double dwell = p.optional_number("dwell_s").value_or(config_.dwell_s);
   const double settle = p.optional_number("settle_s").value_or(config_.settle_s);
-  if (!(dwell > 0 && dwell <= 36000)) throw RpcError(ErrorCode::invalid_params, "run.start: \"dwell_s\" must be in (0, 36000]");
-  if (!(settle >= 0 && settle <= 3600)) throw RpcError(ErrorCode::invalid_params, "run.start: \"settle_s\" must be in [0, 3600]");
+  if (!(dwell > 0 && dwell <= kMaxDwell_s))
+    throw RpcError(ErrorCode::invalid_params, "run.start: \"dwell_s\" must be in (0, 36000]");
+  if (!(settle >= 0 && settle <= kMaxSettle_s))
+    throw RpcError(ErrorCode::invalid_params, "run.start: \"settle_s\" must be in [0, 3600]");
   if (estop_latched_) throw RpcError(ErrorCode::estop_active, "emergency stop is latched: send estop.reset first");
 
   RunRecord r;
@@ -805,7 +905,7 @@ json Sequencer::start_run(const json& params) {
   r.program = program_to_json(program);
   r.dwell_s = dwell;
   r.settle_s = settle;
-  r.operator_name = p.optional_string("operator").value_or("");
+  r.operator_name = operator_name;
   r.state = st::running;
   r.positions = static_cast<int>(program.positions.size());
   r.started_utc = utc_now_iso();
@@ -825,7 +925,7 @@ json Sequencer::resume_run(const json& params) {
   protocol::Params p(params, m::run_resume);
   p.only({"run_id"});
   std::optional<RunRecord> rec;
-  if (auto id = p.optional_string("run_id")) {
+  if (auto id = p.optional_text("run_id", protocol::text_limit::run_id)) {
     rec = store_.get(*id);
     if (!rec) throw RpcError(ErrorCode::not_found, "no run " + *id + " (see runs.list)");
   } else {
@@ -836,6 +936,14 @@ json Sequencer::resume_run(const json& params) {
     throw RpcError(ErrorCode::invalid_state, "run " + rec->run_id + " is " + rec->state + " and cannot be resumed");
   }
   if (estop_latched_) throw RpcError(ErrorCode::estop_active, "emergency stop is latched: send estop.reset first");
+  try {
+    // A run stored before the programme rules tightened (e.g. a dwell past the run limit)
+    // is refused here, not by run_loop, which has already taken the stand.
+    (void)program_from_json(rec->program, rec->run_id);
+  } catch (const ProgramError& e) {
+    throw RpcError(ErrorCode::invalid_state,
+                   "run " + rec->run_id + " cannot be resumed: " + e.what());
+  }
   spdlog::info("run {} resumed at position {}/{}", rec->run_id, rec->positions_done + 1, rec->positions);
   return json{{"run_id", rec->run_id}, {"position", rec->positions_done + 1}, {"positions", rec->positions}};
 }
@@ -951,7 +1059,7 @@ void Sequencer::run_loop(RunRecord record, const std::function<void()>& started)
         measure_position(record, program, index, *file);
         ++index;
       } catch (const Interrupted& in) {
-        stop_axes_quietly();
+        stop_axes_and_wait();  // before the state changes: its answer says the stand stopped
         if (in.kind == Interrupt::pause) {
           if (wait_while_paused(record)) continue;
         } else {
@@ -976,6 +1084,9 @@ void Sequencer::run_loop(RunRecord record, const std::function<void()>& started)
     progress_ = nullptr;
   }
   refresh_stand_snapshot();
+  // Once status shows no active run: an abort's answer, or a pause that came while the
+  // run was fitting (the answer then says `done`).
+  answer_deferred(record.state);
 }
 
 bool Sequencer::wait_while_paused(RunRecord& record) {
@@ -983,6 +1094,7 @@ bool Sequencer::wait_while_paused(RunRecord& record) {
   resume_requested_ = false;
   set_state(record, st::paused, "paused by the operator; run.resume continues with the current position");
   set_progress(record, record.positions_done, "paused");
+  answer_deferred(st::paused);
   for (;;) {
     try {
       wait_real(1.0, [this] { return resume_requested_; });
@@ -995,6 +1107,7 @@ bool Sequencer::wait_while_paused(RunRecord& record) {
     if (resume_requested_) {
       mode_ = Mode::run_active;
       set_state(record, st::running);
+      answer_deferred(st::running);
       return true;
     }
   }

@@ -82,8 +82,29 @@ class Sequencer {
     Interrupt kind;
   };
 
+  // An answer that waits until what it reports is true: a pause, abort or resume until
+  // the run is in that state, a stand.stop until the axes are still. A "state" in the
+  // result becomes the state the run reached (an abort may overtake a pause).
+  struct DeferredAnswer {
+    ReplyFn reply;
+    nlohmann::json result;
+  };
+
   void thread_main();
   void handle(Command& cmd);
+  // estop, stand.stop and the run-targeted methods while a run holds the stand; false
+  // for every other command.
+  bool handle_at_any_time(Command& cmd);
+  // The run a run-targeted command names when it is not the active run (the caller
+  // refuses it: acting on the active run instead would pause, abort or confirm a run the
+  // operator did not mean); -32006 when no such run exists.
+  std::optional<std::string> named_other_run(const Command& cmd) const;
+  void act_on_active_run(Command& cmd);  // run.pause, run.abort, operator.confirm
+  void resume_active_run(Command& cmd);  // run.resume of the paused run
+  void stand_stop(Command& cmd);
+  void defer_answer(Command& cmd, nlohmann::json result);
+  void answer_deferred(const std::string& run_state = {});
+  nlohmann::json execute_command(const Command& cmd);
   nlohmann::json execute_idle(const Command& cmd);
   void raise_interrupt(Interrupt kind);
   // Takes pending commands; throws Interrupted when one asked to interrupt.
@@ -99,8 +120,11 @@ class Sequencer {
   void start_move(double alpha1_deg, double alpha2_deg);
   std::pair<double, double> wait_in_position(double target1_deg, double target2_deg);
   void stop_axes_quietly();
+  // Stops both axes and waits (serving no command) until neither moves nor homes, at
+  // most in_position.timeout_s: a real drive decelerates. False when they still move.
+  bool stop_axes_and_wait();
+  bool axes_still();
   void emergency_stop(const std::string& requested_by);
-  bool names_another_run(const nlohmann::json& params) const;
   drivers::AxisState read_axis(drivers::StandAxis axis);
   nlohmann::json unit_read(double seconds);
   std::vector<drivers::AccelSample> collect(double seconds);
@@ -140,6 +164,7 @@ class Sequencer {
   Mode mode_ = Mode::idle;
   std::string busy_with_;          // what holds the hardware, for `busy` messages
   Interrupt interrupt_ = Interrupt::none;
+  std::vector<DeferredAnswer> deferred_answers_;
   bool resume_requested_ = false;
   bool operator_confirmed_ = false;
   bool estop_latched_ = false;

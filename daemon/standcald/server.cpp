@@ -42,8 +42,8 @@ namespace {
 RunPageQuery runs_list_query(const protocol::Params& p) {
   p.only({"unit_serial", "before", "limit"});
   RunPageQuery q;
-  q.unit_serial = p.optional_string("unit_serial").value_or("");
-  q.before_run_id = p.optional_string("before").value_or("");
+  q.unit_serial = p.optional_text("unit_serial", protocol::text_limit::unit_serial).value_or("");
+  q.before_run_id = p.optional_text("before", protocol::text_limit::run_id).value_or("");
   q.limit = static_cast<std::size_t>(
       p.optional_integer("limit", 1, protocol::runs_list_max_limit).value_or(protocol::runs_list_default_limit));
   return q;
@@ -624,6 +624,12 @@ void Server::handle_line(Client& c, const std::string& line) {
   try {
     json result;
     protocol::Params p(req.params, req.method);
+    if (req.positional_params) {
+      throw RpcError(ErrorCode::invalid_params,
+                     req.method +
+                         ": \"params\" must be an object of named parameters "
+                         "(no standcald method takes positional ones)");
+    }
     if (auto refusal = refuse_control(req.method, c.peer, policy_)) {
       spdlog::info("refused {} from {}", protocol::printable(req.method), describe_peer(c.peer));
       throw RpcError(ErrorCode::not_permitted, *refusal);
@@ -633,7 +639,8 @@ void Server::handle_line(Client& c, const std::string& line) {
       result = status(c);
     } else if (req.method == m::run_status) {
       p.only({"run_id"});
-      result = sequencer_.run_status(p.optional_string("run_id").value_or(""));
+      result = sequencer_.run_status(
+          p.optional_text("run_id", protocol::text_limit::run_id).value_or(""));
     } else if (req.method == m::run_result) {
       p.only({"run_id"});
       result = sequencer_.run_result(p.string("run_id"));

@@ -13,8 +13,12 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// Wraps into [-180, 180).
-double wrap_deg(double a_deg) { return a_deg - 360.0 * std::floor((a_deg + 180.0) / 360.0); }
+// Wraps into [-180, 180), exactly: std::remainder is exact for every finite angle, where
+// a - 360 * floor(...) loses it all for a huge one (1e308 gave 0 instead of -64).
+double wrap_deg(double a_deg) {
+  const double r = std::remainder(a_deg, 360.0);  // [-180, 180]
+  return r >= 180.0 ? r - 360.0 : r;
+}
 
 std::string format_deg(double a_deg) {
   char text[32];
@@ -81,10 +85,12 @@ const char* to_string(Lifecycle lifecycle) {
 Result<double> normalise_target_deg(const AxisRange& range, double angle_deg, double current_deg) {
   if (!std::isfinite(angle_deg))
     return Status::error(ErrorKind::invalid_argument, "commanded angle is not a number");
-  if (range.continuous) return wrap_deg(angle_deg);
+  const double wrapped_deg = wrap_deg(angle_deg);  // exact, so every candidate below is too
+  if (range.continuous) return wrapped_deg;
   // Tolerance so that a range edge given as 180 still takes a command of -180.
   constexpr double kEdge_deg = 1e-9;
-  const double lowest = angle_deg + 360.0 * std::ceil((range.min_deg - kEdge_deg - angle_deg) / 360.0);
+  const double lowest =
+      wrapped_deg + 360.0 * std::ceil((range.min_deg - kEdge_deg - wrapped_deg) / 360.0);
   const double reference =
       range.cable_wrap == CableWrap::nearest ? current_deg : 0.5 * (range.min_deg + range.max_deg);
   double best = std::numeric_limits<double>::quiet_NaN();

@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "protocol/jsonrpc/text.hpp"
+
 namespace standcal::protocol {
 
 using nlohmann::json;
@@ -28,7 +30,9 @@ const char* error_code_name(int code) {
 
 namespace {
 
-bool valid_id(const json& id) { return id.is_string() || id.is_number_integer() || id.is_null(); }
+// JSON-RPC 2.0: "a String, Number, or NULL value" (fractions and null are discouraged,
+// not forbidden).
+bool valid_id(const json& id) { return id.is_string() || id.is_number() || id.is_null(); }
 
 BadRequest invalid(json id, const std::string& why) {
   return BadRequest{std::move(id), RpcError(ErrorCode::invalid_request, why)};
@@ -41,11 +45,17 @@ std::variant<Request, BadRequest> parse_request(std::string_view line) {
   if (doc.is_discarded()) {
     return BadRequest{nullptr, RpcError(ErrorCode::parse_error, "request is not valid JSON")};
   }
+  if (doc.is_array()) {
+    // One answer for the whole array, as the specification gives for an empty one.
+    return invalid(
+        nullptr,
+        "batches (JSON arrays of requests) are not supported: send one request object per line");
+  }
   if (!doc.is_object()) return invalid(nullptr, "request must be a JSON object");
   json id = nullptr;
   const bool has_id = doc.contains("id");
   if (has_id) {
-    if (!valid_id(doc["id"])) return invalid(nullptr, "\"id\" must be a string, an integer or null");
+    if (!valid_id(doc["id"])) return invalid(nullptr, "\"id\" must be a string, a number or null");
     id = doc["id"];
   }
   if (!doc.contains("jsonrpc") || doc["jsonrpc"] != "2.0") {
@@ -60,13 +70,14 @@ std::variant<Request, BadRequest> parse_request(std::string_view line) {
   r.method = doc["method"].get<std::string>();
   if (doc.contains("params")) {
     const json& p = doc["params"];
-    if (p.is_null()) {
-      r.params = json::object();
-    } else if (p.is_object()) {
+    if (p.is_object()) {
       r.params = p;
+    } else if (p.is_array()) {
+      // A valid request (possibly a notification) that no standcald method can take: the
+      // server answers it -32602 unless it is a notification.
+      r.positional_params = true;
     } else {
-      // Positional parameters are allowed by JSON-RPC but no standcald method takes them.
-      return BadRequest{id, RpcError(ErrorCode::invalid_params, "\"params\" must be an object of named parameters")};
+      return invalid(id, "\"params\" must be an object of named parameters (or left out)");
     }
   }
   return r;
@@ -164,6 +175,12 @@ std::string Params::string(const char* key) const {
 std::optional<std::string> Params::optional_string(const char* key) const {
   if (find(key) == nullptr) return std::nullopt;
   return string(key);
+}
+
+std::optional<std::string> Params::optional_text(const char* key, std::size_t max_chars) const {
+  std::optional<std::string> text = optional_string(key);
+  if (text) require_text_field(method_ + ": parameter \"" + key + "\"", *text, max_chars);
+  return text;
 }
 
 bool Params::optional_bool(const char* key, bool fallback) const {

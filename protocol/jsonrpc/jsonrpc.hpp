@@ -61,8 +61,10 @@ class RpcError : public std::runtime_error {
 
 // A valid request or notification from a client.
 struct Request {
-  nlohmann::json id;  // null for a notification (no reply is sent)
+  // As sent (string, number or null); null for a notification (no reply is sent).
+  nlohmann::json id;
   bool is_notification = false;
+  bool positional_params = false;  // `params` was an array: valid JSON-RPC, but no method takes it
   std::string method;
   nlohmann::json params = nlohmann::json::object();
 };
@@ -92,6 +94,9 @@ class Params {
   std::optional<std::int64_t> optional_integer(const char* key, std::int64_t min, std::int64_t max) const;
   std::string string(const char* key) const;
   std::optional<std::string> optional_string(const char* key) const;
+  // A text field: one line of printable text of at most `max_chars` characters (UTF-8
+  // code points); the error names the parameter and says why (protocol/jsonrpc/text.hpp).
+  std::optional<std::string> optional_text(const char* key, std::size_t max_chars) const;
   bool optional_bool(const char* key, bool fallback) const;
   const nlohmann::json* find(const char* key) const;  // nullptr when absent or null
   // Rejects any key not in `allowed` (a misspelt parameter must not be silently ignored).

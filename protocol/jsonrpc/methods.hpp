@@ -1,5 +1,7 @@
 #pragma once
 // The names fixed by the protocol (docs/protocol.md): methods, events, run states.
+#include <cstddef>
+
 namespace standcal::protocol {
 
 namespace method {
@@ -29,6 +31,17 @@ inline constexpr const char* auth = "auth";  // {token}: a TCP client asks for c
 // runs.list pages: how many runs an answer holds when `limit` is not given, and at most.
 inline constexpr int runs_list_default_limit = 100;
 inline constexpr int runs_list_max_limit = 1000;
+
+// Longest text fields, in characters (UTF-8 code points): run.start's unit_serial (at
+// least 1), unit_type, operator and programme name, and any run id a request names.
+namespace text_limit {
+inline constexpr std::size_t unit_serial = 64;
+inline constexpr std::size_t unit_type = 64;
+inline constexpr std::size_t operator_name = 128;
+inline constexpr std::size_t program_name = 128;  // "follow-up of RUN_ID" must fit
+inline constexpr std::size_t run_id =
+    128;  // ids are at most 85: stamp, serial made file-safe, suffix
+}  // namespace text_limit
 
 // Event notifications (method = the event name), sent to clients that subscribed.
 namespace event {

@@ -113,4 +113,27 @@ TEST_F(Cli, FullVectorFitAddsStandHealth) {
   EXPECT_FALSE(j["stand"].empty());
 }
 
+
+// A unit serial with a newline would inject a header line ("# mount: y") into the
+// recording: the recording writer refuses it, naming the key, and nothing is written.
+TEST_F(Cli, SimulateRefusesAUnitSerialThatWouldInjectAHeaderLine) {
+  const CliRun run = run_cli(
+      "simulate --program paper9 --dwell-s 1 --unit-serial \"$(printf 'AU\\n# mount: y')\" -o " +
+      path("r.csv"));
+  EXPECT_NE(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("recording header 'unit_serial'"), std::string::npos) << run.output;
+  EXPECT_FALSE(fs::exists(path("r.csv")));
+}
+
+// Dwell and settle times past the daemon's run limits are refused before simulating.
+TEST_F(Cli, SimulateRefusesDwellAndSettleTimesPastTheRunLimits) {
+  CliRun run = run_cli("simulate --program paper9 --dwell-s 1e9 -o " + path("r.csv"));
+  EXPECT_NE(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("36000"), std::string::npos) << run.output;
+  run = run_cli("simulate --program paper9 --settle-s 1e9 -o " + path("r.csv"));
+  EXPECT_NE(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("3600"), std::string::npos) << run.output;
+  EXPECT_FALSE(fs::exists(path("r.csv")));
+}
+
 }  // namespace

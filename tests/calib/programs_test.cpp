@@ -1,6 +1,7 @@
 // Programmes: the paper's Table 2, the classic 24, user JSON, and the axis ranges.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <nlohmann/json.hpp>
 
 #include "calib/programs.hpp"
@@ -101,4 +102,56 @@ TEST(AxisRange, WideRangeKeepsAnAngleAlreadyInside) {
   const AxisRange wide{false, -270, 270};
   EXPECT_DOUBLE_EQ(*normalise_angle_deg(200, wide), 200);
   EXPECT_DOUBLE_EQ(*normalise_angle_deg(300, wide), -60);
+}
+
+TEST(AxisRange, AHugeAngleTakesItsExactEquivalent) {
+  // 1e308 ≡ -64 (mod 360) exactly; std::remainder is exact, 1e308 - 360·k is not.
+  const double equivalent = std::remainder(1e308, 360.0);
+  ASSERT_NEAR(equivalent, -64.0, 1e-9);
+  EXPECT_DOUBLE_EQ(*normalise_angle_deg(1e308, AxisRange{}), equivalent);
+  EXPECT_DOUBLE_EQ(*normalise_angle_deg(-1e308, AxisRange{}), -equivalent);
+  EXPECT_DOUBLE_EQ(*normalise_angle_deg(1e308, AxisRange{false, 0, 540}), equivalent + 360.0);
+  EXPECT_DOUBLE_EQ(*normalise_angle_deg(1e308, AxisRange{true, 0, 0}), equivalent);
+}
+
+TEST(UserProgramme, DwellAndSettleBeyondTheRunLimitsAreRefusedNamingPositionAndLimit) {
+  const auto message = [](const char* text) {
+    try {
+      program_from_json(nlohmann::json::parse(text), "p.json");
+    } catch (const ProgramError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(
+      message(R"({"positions": [{"alpha1_deg": 0, "alpha2_deg": 0},
+                                      {"alpha1_deg": 0, "alpha2_deg": 90, "dwell_s": 1e9}]})"),
+      "p.json: position 2 of 2: 'dwell_s' must be at most 36000 s (the run limit), not 1e+09");
+  EXPECT_EQ(message(R"({"positions": [{"alpha1_deg": 0, "alpha2_deg": 0, "settle_s": 3601}]})"),
+            "p.json: position 1 of 1: 'settle_s' must be at most 3600 s (the run limit), not 3601");
+  EXPECT_EQ(
+      message(
+          R"({"positions": [{"alpha1_deg": 0, "alpha2_deg": 0, "dwell_s": 36000, "settle_s": 3600}]})"),
+      "");
+}
+
+TEST(UserProgramme, UnknownKeysAndAWrongNameAreRefusedNamingThem) {
+  const auto message = [](const char* text) {
+    try {
+      program_from_json(nlohmann::json::parse(text), "p.json");
+    } catch (const ProgramError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(
+      message(R"({"name": "a", "positions": [{"alpha1_deg": 0, "alpha2_deg": 0}], "dwel_s": 5})"),
+      "p.json: unknown key 'dwel_s' (known: name, positions)");
+  EXPECT_EQ(message(R"({"name": 5, "positions": [{"alpha1_deg": 0, "alpha2_deg": 0}]})"),
+            "p.json: 'name' must be a string");
+  EXPECT_EQ(message("{\"name\": \"a\\n# mount: y\", \"positions\": [{\"alpha1_deg\": 0, "
+                    "\"alpha2_deg\": 0}]}"),
+            "p.json: 'name' must be printable text on one line: it contains the control character "
+            "U+000A at "
+            "character 2");
 }

@@ -221,3 +221,34 @@ TEST(RecordingWriter, WritesIntoAPipeInsteadOfReplacingIt) {
   EXPECT_EQ(parse_recording(received, "pipe").samples.size(), rec.samples.size());
   std::filesystem::remove(fifo);
 }
+
+// A header value is one line of text: a newline would inject a header key ("# mount: y")
+// or repeat one (the reader then refuses the whole recording), a NUL ends C strings early.
+// The writer refuses them whoever calls it, naming the key.
+TEST(RecordingWriter, RefusesControlCharactersInTheHeaderNamingTheKey) {
+  const auto error_of_header = [](const std::string& key, const std::string& value) {
+    Recording rec;
+    rec.set_header(key, value);
+    try {
+      (void)format_recording_header(rec);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(error_of_header("unit_serial", "AU\n# mount: y"),
+            "recording header 'unit_serial': the value contains the control character U+000A at "
+            "character 3; "
+            "header values must be printable text on one line");
+  EXPECT_NE(error_of_header("program", std::string("p\0q", 3)).find("'program'"),
+            std::string::npos);
+  EXPECT_NE(error_of_header("unit_type", "QA\r7").find("U+000D"), std::string::npos);
+  EXPECT_NE(error_of_header("unit_type",
+                            "QA\xC2\x85"
+                            "7")
+                .find("U+0085"),
+            std::string::npos);
+  EXPECT_NE(error_of_header("bad\nkey", "v").find("key"), std::string::npos);
+  EXPECT_NE(error_of_header("a: b", "v").find("':'"), std::string::npos);
+  EXPECT_EQ(error_of_header("unit_type", "QA-7 \xC3\xA9"), "");  // printable UTF-8 is fine
+}

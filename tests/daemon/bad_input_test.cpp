@@ -243,3 +243,75 @@ TEST(DaemonBadInput, ANulInAValueIsKeptEscapedInTheErrorMessage) {
   EXPECT_NE(r["error"]["message"].get<std::string>().find("no\\0such"), std::string::npos)
       << r.dump();
 }
+
+// JSON-RPC 2.0 batches (a JSON array) are not supported: one Invalid Request error with a
+// null id answers the whole array (the specification's answer to an empty array too),
+// nothing in it is executed, and the connection stays usable.
+TEST(DaemonJsonRpc, ABatchGetsOneInvalidRequestErrorSayingBatchesAreNotSupported) {
+  TempDir dir;
+  auto daemon = DaemonProcess::sim(dir.path(), 100);
+  Client c(socket_of(dir));
+  const json lifecycle_before = c.call("status")["stand"]["lifecycle"];
+  ASSERT_NE(lifecycle_before, "active");
+  for (const char* batch :
+       {R"([{"jsonrpc":"2.0","id":1,"method":"stand.enable"}])", "[]", "[1,2]"}) {
+    c.send_raw(std::string(batch) + "\n");
+    const json r = next_reply(c);
+    ASSERT_TRUE(r.is_object()) << batch << " -> " << r.dump();
+    EXPECT_EQ(r["error"]["code"], -32600) << batch;
+    EXPECT_TRUE(r["id"].is_null()) << batch;
+    EXPECT_NE(r["error"]["message"].get<std::string>().find("batch"), std::string::npos)
+        << r.dump();
+  }
+  EXPECT_EQ(c.call("status")["stand"]["lifecycle"],
+            lifecycle_before);  // the batched stand.enable did not run
+}
+
+// The id rules of JSON-RPC 2.0: a request carries an id that is a string, a number or
+// null, and its answer carries the same id; a request without an id is a notification
+// and gets no answer, not even an error.
+TEST(DaemonJsonRpc, EveryIdIsEchoedAndNotificationsAreNeverAnswered) {
+  TempDir dir;
+  auto daemon = DaemonProcess::sim(dir.path(), 100);
+  Client c(socket_of(dir));
+  c.send_raw(R"({"jsonrpc":"2.0","id":null,"method":"status"})"
+             "\n");
+  json r = next_reply(c);
+  EXPECT_TRUE(r.contains("id") && r["id"].is_null()) << r.dump();
+  EXPECT_TRUE(r.contains("result")) << r.dump();
+
+  c.send_raw(R"({"jsonrpc":"2.0","id":1.5,"method":"status"})"
+             "\n");
+  r = next_reply(c);
+  EXPECT_EQ(r["id"], 1.5) << r.dump();
+  EXPECT_TRUE(r.contains("result")) << r.dump();
+
+  c.send_raw(R"({"jsonrpc":"2.0","method":"no.such.method"})"
+             "\n"
+             R"({"jsonrpc":"2.0","method":"status","params":[1]})"
+             "\n"
+             R"({"jsonrpc":"2.0","method":"status","params":{"verbose":true}})"
+             "\n"
+             R"({"jsonrpc":"2.0","id":7,"method":"status"})"
+             "\n");
+  r = next_reply(c);
+  EXPECT_EQ(r["id"], 7) << "a notification was answered: " << r.dump();
+  c.send_raw(R"({"jsonrpc":"2.0","id":9,"method":"status","params":[1]})"
+             "\n");
+  r = next_reply(c);
+  EXPECT_EQ(r["error"]["code"], -32602) << r.dump();
+  EXPECT_EQ(r["id"], 9);
+
+  // Not a request object at all (params must be an object or an array): an error, id null
+  // when none was sent.
+  c.send_raw(R"({"jsonrpc":"2.0","id":8,"method":"status","params":5})"
+             "\n");
+  r = next_reply(c);
+  EXPECT_EQ(r["error"]["code"], -32600) << r.dump();
+  EXPECT_EQ(r["id"], 8);
+  c.send_raw(R"({"jsonrpc":"2.0","method":5})"
+             "\n");
+  r = next_reply(c);
+  EXPECT_EQ(r["error"]["code"], -32600) << r.dump();
+  EXPECT_TRUE(r["id"].is_null());
+}

@@ -54,6 +54,11 @@ TEST(DaemonConfig, ErrorsNameTheKeyAndTheReason) {
   EXPECT_NE(config_error(json{{"max_clients", 10}}).find("max_clients: must be between 256"), std::string::npos);
   EXPECT_NE(config_error(json{{"stand", {{"backend", "modbus"}}}}).find("stand.url: is required"), std::string::npos);
   EXPECT_NE(config_error(json{{"run", {{"g_local_mps2", 98.1}}}}).find("run.g_local_mps2"), std::string::npos);
+  // stand.id goes into every recording header: one printable line.
+  EXPECT_EQ(config_error(json{{"stand", {{"id", "bench-1\n# mount: y"}}}}),
+            "lab.json: stand.id: must be printable text on one line: it contains the control "
+            "character U+000A at "
+            "character 8");
 }
 
 TEST(DaemonConfig, TheConfigHashFollowsTheContent) {

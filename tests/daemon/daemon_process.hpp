@@ -144,6 +144,11 @@ inline nlohmann::json wait_run(protocol::Client& c, const std::string& run_id,
   return s;
 }
 
+// The state run.status reports for `run_id` now.
+inline std::string run_state_of(protocol::Client& c, const std::string& run_id) {
+  return c.call("run.status", {{"run_id", run_id}})["state"];
+}
+
 // A run that will not change state any more by itself.
 inline bool finished(const nlohmann::json& s) {
   const std::string st = s["state"];

@@ -9,7 +9,10 @@
 #include <gtest/gtest.h>
 #include <sys/socket.h>
 
+#include <filesystem>
+#include <fstream>
 #include <map>
+#include <thread>
 
 #include "calib/recording.hpp"
 #include "daemon_process.hpp"
@@ -83,4 +86,54 @@ TEST(DaemonEmulators, Paper9RunOnTheModbusStandAndCanUnitEmulators) {
   const json result = c.call("run.result", {{"run_id", run_id}});
   EXPECT_EQ(result["positions"], 9);
   EXPECT_EQ(result["traceability"]["stand_id"], "emu-stand");
+}
+
+// The emulator's drives decelerate at their acceleration limit, so a stop takes time:
+// stand.stop answers once the controller itself (its own registers, written to the
+// status file) says neither axis moves any more.
+TEST(DaemonEmulators, StandStopAnswersOnceTheEmulatorsAxesHaveStopped) {
+  TempDir dir;
+  DaemonProcess stand_emu(dir.path(),
+                          {"--listen", "tcp://127.0.0.1:0", "--accel-dps2", "10", "--status-file",
+                           dir.path() + "/stand-status"},
+                          {}, STANDCAL_STAND_EMU_PATH, "stand-emu.log", "stand-emu.out");
+  const std::string url = wait_for_line(dir.path() + "/stand-emu.out", 20s);
+  ASSERT_FALSE(url.empty()) << stand_emu.log();
+  const json config{{"socket", {{"path", dir.path() + "/standcald.sock"}}},
+                    {"state_dir", dir.path() + "/state"},
+                    {"stand", {{"backend", "modbus"}, {"url", url}}},
+                    {"unit", {{"backend", "sim"}}}};
+  std::ofstream(dir.path() + "/standcald.json") << config.dump(2);
+  DaemonProcess daemon(dir.path(), {"--config", dir.path() + "/standcald.json"});
+  daemon.wait_ready(dir.path() + "/standcald.sock");
+
+  Client c(dir.path() + "/standcald.sock");
+  c.call("stand.enable");
+  c.call("stand.home", json::object(), 60s);
+  c.call("stand.move", {{"alpha1_deg", 170}, {"alpha2_deg", 0}, {"wait", false}});
+  // Up to speed (10 °/s² for 2 s: 20 °/s, 2 s to stop again) before the stop.
+  const auto deadline = std::chrono::steady_clock::now() + 30s;
+  while (c.call("status")["stand"]["axes"][0].value("angle_deg", 0.0) < 20.0) {
+    ASSERT_LT(std::chrono::steady_clock::now(), deadline) << daemon.log();
+    std::this_thread::sleep_for(50ms);
+  }
+  EXPECT_EQ(c.call("stand.stop")["stopped"], true);
+  // The first status file the emulator writes after the answer: "NAME STATE FLAGS ANGLE FAULT".
+  const auto answered = std::filesystem::file_time_type::clock::now();
+  for (int wait = 0;
+       wait < 500 && std::filesystem::last_write_time(dir.path() + "/stand-status") <= answered;
+       ++wait) {
+    std::this_thread::sleep_for(10ms);  // rewritten every 50 ms
+  }
+  std::ifstream status(dir.path() + "/stand-status");
+  std::string name;
+  int state = -1;
+  std::string rest;
+  int axes = 0;
+  while (status >> name >> state && std::getline(status, rest)) {
+    ++axes;
+    EXPECT_TRUE(state != 2 && state != 3)
+        << name << " axis still homing (2) or moving (3): " << state;
+  }
+  EXPECT_EQ(axes, 2);
 }

@@ -3,6 +3,7 @@
 
 #include "protocol/jsonrpc/jsonrpc.hpp"
 #include "protocol/jsonrpc/line_buffer.hpp"
+#include "protocol/jsonrpc/text.hpp"
 
 using namespace standcal::protocol;
 using nlohmann::json;
@@ -40,7 +41,37 @@ TEST(JsonRpc, RejectsBadRequestsWithTheStandardCodes) {
   EXPECT_EQ(error_code_of(R"({"jsonrpc":"1.0","id":1,"method":"status"})"), -32600);
   EXPECT_EQ(error_code_of(R"({"jsonrpc":"2.0","id":1,"method":5})"), -32600);
   EXPECT_EQ(error_code_of(R"({"jsonrpc":"2.0","id":{"a":1},"method":"status"})"), -32600);
-  EXPECT_EQ(error_code_of(R"({"jsonrpc":"2.0","id":1,"method":"status","params":[1]})"), -32602);
+  // Positional params make a valid request (or notification) that no method takes: the
+  // server answers it -32602, unless it is a notification.
+  auto positional = parse_request(R"({"jsonrpc":"2.0","id":1,"method":"status","params":[1]})");
+  ASSERT_TRUE(std::holds_alternative<Request>(positional));
+  EXPECT_TRUE(std::get<Request>(positional).positional_params);
+}
+
+TEST(JsonRpc, FollowsTheSpecificationsIdRules) {
+  // id null: a request (discouraged by the specification, but not a notification).
+  auto r = parse_request(R"({"jsonrpc":"2.0","id":null,"method":"status"})");
+  ASSERT_TRUE(std::holds_alternative<Request>(r));
+  EXPECT_FALSE(std::get<Request>(r).is_notification);
+  EXPECT_TRUE(std::get<Request>(r).id.is_null());
+  // Any number is an id (fractions are discouraged, not forbidden).
+  r = parse_request(R"({"jsonrpc":"2.0","id":1.5,"method":"status"})");
+  ASSERT_TRUE(std::holds_alternative<Request>(r));
+  EXPECT_EQ(std::get<Request>(r).id, 1.5);
+  // params, when present, is a structured value: anything else is not a request object.
+  EXPECT_EQ(error_code_of(R"({"jsonrpc":"2.0","id":1,"method":"status","params":5})"), -32600);
+  EXPECT_EQ(error_code_of(R"({"jsonrpc":"2.0","id":1,"method":"status","params":"x"})"), -32600);
+}
+
+TEST(JsonRpc, ABatchIsRefusedAsOneInvalidRequestNamingBatches) {
+  for (const char* line : {"[]", R"([{"jsonrpc":"2.0","id":1,"method":"status"}])"}) {
+    auto r = parse_request(line);
+    ASSERT_TRUE(std::holds_alternative<BadRequest>(r)) << line;
+    const BadRequest& bad = std::get<BadRequest>(r);
+    EXPECT_EQ(bad.error.code(), -32600) << line;
+    EXPECT_TRUE(bad.id.is_null()) << line;
+    EXPECT_NE(std::string(bad.error.what()).find("batch"), std::string::npos) << bad.error.what();
+  }
 }
 
 TEST(JsonRpc, TheIdIsEchoedInErrorsWhenItCouldBeRead) {
@@ -105,4 +136,48 @@ TEST(LineBuffer, ReportsALineLongerThanTheLimit) {
   EXPECT_FALSE(b.overflowed());
   b.append("X");
   EXPECT_TRUE(b.overflowed());
+}
+
+TEST(TextFields, PrintableOneLineTextIsCountedInCharacters) {
+  EXPECT_FALSE(text_field_problem("AU-0042", 64));
+  EXPECT_FALSE(text_field_problem("", 64));
+  EXPECT_FALSE(text_field_problem("Prüfstand 3 \xE2\x80\x94 Müller", 64));  // ü, em dash
+  std::string e64;
+  for (int i = 0; i < 64; ++i) e64 += "\xC3\xA9";  // é: 64 characters, 128 bytes
+  EXPECT_FALSE(text_field_problem(e64, 64));
+  EXPECT_EQ(text_field_problem(e64 + "x", 64),
+            "be at most 64 characters (UTF-8 code points), not 65");
+}
+
+TEST(TextFields, ControlCharactersSeparatorsAndBrokenUtf8AreNamed) {
+  EXPECT_EQ(
+      text_field_problem("AU\n# mount: y", 64),
+      "be printable text on one line: it contains the control character U+000A at character 3");
+  EXPECT_EQ(
+      text_field_problem(std::string("AU\0", 3), 64),
+      "be printable text on one line: it contains the control character U+0000 at character 3");
+  EXPECT_EQ(
+      text_field_problem("\xC3\xA9\t", 64),
+      "be printable text on one line: it contains the control character U+0009 at character 2");
+  EXPECT_EQ(
+      text_field_problem("a\x7F", 64),
+      "be printable text on one line: it contains the control character U+007F at character 2");
+  EXPECT_EQ(
+      text_field_problem("a\xC2\x85", 64),
+      "be printable text on one line: it contains the control character U+0085 at character 2");
+  EXPECT_EQ(text_field_problem("a\xE2\x80\xA8", 64),
+            "be printable text on one line: it contains the line separator U+2028 at character 2");
+  EXPECT_EQ(text_field_problem("AU-\xC3", 64), "be UTF-8 text: byte 4 is not");   // cut short
+  EXPECT_EQ(text_field_problem("\xC0\xAF", 64), "be UTF-8 text: byte 1 is not");  // overlong '/'
+  EXPECT_EQ(text_field_problem("\xED\xA0\x80", 64), "be UTF-8 text: byte 1 is not");  // a surrogate
+  try {
+    require_text_field("run.start: parameter \"unit_type\"", "QA\r7", 64);
+    FAIL() << "a carriage return was accepted";
+  } catch (const RpcError& e) {
+    EXPECT_EQ(e.code(), -32602);
+    EXPECT_EQ(std::string(e.what()),
+              "run.start: parameter \"unit_type\" must be printable text on one line: it contains "
+              "the control "
+              "character U+000D at character 3");
+  }
 }

@@ -1,6 +1,8 @@
 // Axis ranges: how a commanded angle is normalised and which way the axis turns.
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "drivers/stand.hpp"
 
 namespace standcal::drivers {
@@ -49,6 +51,17 @@ TEST(AxisRangeNormalisation, AngleWithNoEquivalentInsideIsALimitError) {
   auto nan = normalise_target_deg(AxisRange{}, std::numeric_limits<double>::quiet_NaN(), 0.0);
   ASSERT_FALSE(nan);
   EXPECT_EQ(nan.status().kind, ErrorKind::invalid_argument);
+}
+
+TEST(AxisRangeNormalisation, AHugeAngleTakesItsExactEquivalent) {
+  // 1e308 ≡ -64 (mod 360); std::remainder is exact where 1e308 - 360·floor(...) is not.
+  const double equivalent = std::remainder(1e308, 360.0);
+  ASSERT_NEAR(equivalent, -64.0, 1e-9);
+  EXPECT_DOUBLE_EQ(normalised(AxisRange{}, 1e308), equivalent);
+  EXPECT_DOUBLE_EQ(normalised(AxisRange{}, -1e308), -equivalent);
+  EXPECT_DOUBLE_EQ(normalised(limited(-180.0, 180.0), 1e308), equivalent);
+  EXPECT_DOUBLE_EQ(normalised(limited(0.0, 540.0, CableWrap::centred), 1e308), equivalent + 360.0);
+  EXPECT_DOUBLE_EQ(path_target_deg(AxisRange{}, 1e308, 10.0).value(), equivalent);
 }
 
 TEST(AxisRangePath, ContinuousAxisTakesTheShorterWayFromItsCountedTurns) {

@@ -106,8 +106,13 @@ void add_calibrate_commands(CLI::App& app) {
   sim->add_option("--unit-serial", sim_opts->unit_serial)->capture_default_str();
   sim->add_option("--alpha1-start-deg", sim_opts->alpha1_start_deg, "paper9's alpha1(1)")
       ->capture_default_str();
-  sim->add_option("--dwell-s", sim_opts->timing.dwell_s)->capture_default_str()->check(CLI::PositiveNumber);
-  sim->add_option("--settle-s", sim_opts->timing.settle_s)->capture_default_str()->check(CLI::NonNegativeNumber);
+  // The daemon's run limits: past them a simulated run only exhausts the memory.
+  sim->add_option("--dwell-s", sim_opts->timing.dwell_s)
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber & CLI::Range(0.0, kMaxDwell_s));
+  sim->add_option("--settle-s", sim_opts->timing.settle_s)
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, kMaxSettle_s));
   sim->add_option("--rate-hz", sim_opts->timing.sample_rate_hz)->capture_default_str()->check(CLI::PositiveNumber);
   sim->add_option("--move-rate-deg-s", sim_opts->timing.move_rate_deg_s)->capture_default_str()->check(CLI::PositiveNumber);
   sim->add_option("--remount-s", sim_opts->timing.remount_s)->capture_default_str()->check(CLI::NonNegativeNumber);

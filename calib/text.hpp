@@ -1,0 +1,24 @@
+#pragma once
+// One-line text fields of the file formats (recording header values, programme names):
+// they must hold no control character, because a newline would start a new header line
+// ("# mount: y" injected through a unit serial) and a NUL ends C strings early.
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <string_view>
+
+namespace standcal {
+
+// A control character found in a text: C0 (U+0000–U+001F), DEL (U+007F) or C1
+// (U+0080–U+009F, as UTF-8), with its 1-based position counted in characters (UTF-8
+// code points).
+struct ControlCharacter {
+  char32_t code_point = 0;
+  std::size_t character = 0;
+};
+std::optional<ControlCharacter> find_control_character(std::string_view text);
+
+// "the control character U+000A at character 3", for error messages.
+std::string describe(const ControlCharacter& c);
+
+}  // namespace standcal

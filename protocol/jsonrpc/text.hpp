@@ -1,0 +1,24 @@
+#pragma once
+// Operator text fields (unit serial, unit type, operator, programme name, run ids): one
+// line of printable UTF-8 text, its length counted in characters (UTF-8 code points),
+// because they end up in line-based files (the recording header), in the records
+// database and in front of people (reports, certificates).
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <string_view>
+
+namespace standcal::protocol {
+
+// Why `text` is not one line of printable text of at most `max_chars` characters, as the
+// rest of a sentence after "must " ("be printable text on one line: it contains the
+// control character U+000A at character 3"), or empty when it is. Refused: bytes that are not
+// UTF-8, control characters (C0 U+0000–U+001F, DEL, C1 U+0080–U+009F), the line and paragraph
+// separators U+2028/U+2029.
+std::optional<std::string> text_field_problem(std::string_view text, std::size_t max_chars);
+
+// Throws RpcError(invalid_params) "WHAT must be …" when text_field_problem finds one;
+// `what` names the method and the field ("run.start: parameter \"unit_serial\"").
+void require_text_field(const std::string& what, std::string_view text, std::size_t max_chars);
+
+}  // namespace standcal::protocol
