@@ -66,6 +66,30 @@ std::string safe_name(const std::string& s) {
   return out;
 }
 
+// FNV-1a, 64 bits: a stable name for a serial too long to spell out in a file name.
+std::uint64_t fnv1a_64(const std::string& s) {
+  std::uint64_t h = 14695981039346656037ull;
+  for (const char ch : s) {
+    h ^= static_cast<unsigned char>(ch);
+    h *= 1099511628211ull;
+  }
+  return h;
+}
+
+// A file name has at most 255 bytes; ".json.tmp" and room to spare leave 200 for the stem.
+constexpr std::size_t kMaxIndexStemBytes = 200;
+
+// Past that (a 64-character serial of 4-byte characters is 768 bytes encoded), the stem is
+// the encoding's start (whole %XX triples only) and '~' with the hash of the whole serial:
+// no longer reversible, still one file per serial, and the file itself names its serial.
+std::string shortened_stem(const std::string& encoded, const std::string& unit_serial) {
+  std::size_t keep = kMaxIndexStemBytes - 17;
+  while (keep > 0 && (encoded[keep - 1] == '%' || (keep > 1 && encoded[keep - 2] == '%'))) --keep;
+  char hash[17];
+  std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(fnv1a_64(unit_serial)));
+  return encoded.substr(0, keep) + "~" + hash;
+}
+
 }  // namespace
 
 std::string unit_index_file_name(const std::string& unit_serial) {
@@ -82,6 +106,7 @@ std::string unit_index_file_name(const std::string& unit_serial) {
       out += kHex[byte & 0xF];
     }
   }
+  if (out.size() > kMaxIndexStemBytes) out = shortened_stem(out, unit_serial);
   return out + ".json";
 }
 

@@ -53,11 +53,20 @@ TEST(RunStore, ARunLeftRunningByACrashIsInterruptedOnTheNextStart) {
 
 // Serials differing only in bytes outside [A-Za-z0-9._-] used to share one units/*.json
 // (all became "_") and overwrite each other's run list.
+std::string long_serial(const std::string& character, const std::string& last) {
+  std::string s;
+  for (int i = 0; i < 63; ++i) s += character;
+  return s + last;
+}
+
 TEST(RunStore, EverySerialHasItsOwnUnitIndexAndPlainSerialsKeepTheirFileNames) {
   TempDir dir;
   const std::vector<std::string> serials{
       "a/b",    std::string("a\0b", 3), "a_b", "AU,1", "AU\t1", "AU_1", "AU%2C1", ".hidden",
-      "AU-0042"};
+      "AU-0042",
+      // 64 characters of 4 bytes each (the longest serial the protocol takes): encoded
+      // whole they would pass a file name's 255 bytes; two that differ only at the end.
+      long_serial("\xF0\x90\x8D\x88", "A"), long_serial("\xF0\x90\x8D\x88", "B")};
   {
     RunStore store(dir.path());
     for (const std::string& serial : serials) {
@@ -72,6 +81,7 @@ TEST(RunStore, EverySerialHasItsOwnUnitIndexAndPlainSerialsKeepTheirFileNames) {
   for (const auto& entry : std::filesystem::directory_iterator(dir.path() + "/units")) {
     const std::string name = entry.path().filename().string();
     EXPECT_NE(name.front(), '.') << name;
+    EXPECT_LE(name.size() + 4, 255u) << name;  // with the writer's ".tmp"
     const nlohmann::json index = nlohmann::json::parse(read_all(entry.path().string()));
     index_by_serial[index["unit_serial"].get<std::string>()] = index;
   }
