@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -616,10 +617,28 @@ bool Sequencer::stop_axes_and_wait() {
       return false;
     }
     heartbeat_++;
+    handle_emergency_stops();
     std::this_thread::sleep_for(std::chrono::duration<double>(poll_real));
   }
   refresh_stand_snapshot();
   return true;
+}
+
+// While the axes decelerate no other command runs, but an emergency stop never waits for
+// them: a stuck or runaway axis is when it is needed (the wait lasts up to
+// in_position.timeout_s).
+void Sequencer::handle_emergency_stops() {
+  for (;;) {
+    std::optional<Command> estop;
+    {
+      std::lock_guard lock(queue_mutex_);
+      const auto it = std::find_if(queue_.begin(), queue_.end(), [](const Command& c) { return c.method == m::estop; });
+      if (it == queue_.end()) return;
+      estop = std::move(*it);
+      queue_.erase(it);
+    }
+    handle(*estop);
+  }
 }
 
 bool Sequencer::axes_still() {

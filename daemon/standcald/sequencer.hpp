@@ -123,6 +123,7 @@ class Sequencer {
   // Stops both axes and waits (serving no command) until neither moves nor homes, at
   // most in_position.timeout_s: a real drive decelerates. False when they still move.
   bool stop_axes_and_wait();
+  void handle_emergency_stops();
   bool axes_still();
   void emergency_stop(const std::string& requested_by);
   drivers::AxisState read_axis(drivers::StandAxis axis);

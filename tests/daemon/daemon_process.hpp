@@ -129,6 +129,18 @@ class DaemonProcess {
 // The daemon's socket inside a test's state directory.
 inline std::string socket_of(const TempDir& d) { return d.path() + "/standcald.sock"; }
 
+// The error of a call that must fail; the test fails when it succeeds (code 0 then).
+inline protocol::RpcError refusal_of(protocol::Client& c, const std::string& method,
+                                     const nlohmann::json& params) {
+  try {
+    const nlohmann::json r = c.call(method, params);
+    ADD_FAILURE() << method << " accepted " << params.dump() << ": " << r.dump();
+  } catch (const protocol::RpcError& e) {
+    return e;
+  }
+  return protocol::RpcError(0, "accepted");
+}
+
 // Polls run.status until `done(status)` or the timeout; returns the last status.
 inline nlohmann::json wait_run(protocol::Client& c, const std::string& run_id,
                                const std::function<bool(const nlohmann::json&)>& done,

@@ -137,3 +137,44 @@ TEST(DaemonEmulators, StandStopAnswersOnceTheEmulatorsAxesHaveStopped) {
   }
   EXPECT_EQ(axes, 2);
 }
+
+// While stand.stop waits for the drives to decelerate (up to in_position.timeout_s, 120 s
+// by default: a stuck axis keeps it waiting), an emergency stop sent after it is served at
+// once, not after the wait: both in one write, the estop's answer comes first.
+TEST(DaemonEmulators, AnEstopIsNotHeldBackByAStandStopWaitingForTheAxes) {
+  TempDir dir;
+  DaemonProcess stand_emu(dir.path(), {"--listen", "tcp://127.0.0.1:0", "--accel-dps2", "2"}, {},
+                          STANDCAL_STAND_EMU_PATH, "stand-emu.log", "stand-emu.out");
+  const std::string url = wait_for_line(dir.path() + "/stand-emu.out", 20s);
+  ASSERT_FALSE(url.empty()) << stand_emu.log();
+  const json config{{"socket", {{"path", dir.path() + "/standcald.sock"}}},
+                    {"state_dir", dir.path() + "/state"},
+                    {"stand", {{"backend", "modbus"}, {"url", url}}},
+                    {"unit", {{"backend", "sim"}}}};
+  std::ofstream(dir.path() + "/standcald.json") << config.dump(2);
+  DaemonProcess daemon(dir.path(), {"--config", dir.path() + "/standcald.json"});
+  daemon.wait_ready(dir.path() + "/standcald.sock");
+
+  Client c(dir.path() + "/standcald.sock");
+  c.call("stand.enable");
+  c.call("stand.home", json::object(), 60s);
+  c.call("stand.move", {{"alpha1_deg", 170}, {"alpha2_deg", 0}, {"wait", false}});
+  // At 2 deg/s^2, 16 deg is reached at 8 deg/s, and stopping from there takes 4 s.
+  const auto deadline = std::chrono::steady_clock::now() + 30s;
+  while (c.call("status")["stand"]["axes"][0].value("angle_deg", 0.0) < 16.0) {
+    ASSERT_LT(std::chrono::steady_clock::now(), deadline) << daemon.log();
+    std::this_thread::sleep_for(50ms);
+  }
+  c.send_raw(json{{"jsonrpc", "2.0"}, {"id", 1}, {"method", "stand.stop"}}.dump() + "\n" +
+             json{{"jsonrpc", "2.0"}, {"id", 2}, {"method", "estop"}}.dump() + "\n");
+  std::vector<json> answers;
+  const auto answer_deadline = std::chrono::steady_clock::now() + 60s;
+  while (answers.size() < 2 && std::chrono::steady_clock::now() < answer_deadline) {
+    auto m = c.next_message(1s);
+    if (m && m->contains("id")) answers.push_back(*m);
+  }
+  ASSERT_EQ(answers.size(), 2u) << daemon.log();
+  EXPECT_EQ(answers[0]["id"], 2) << "the estop waited for stand.stop: " << answers[0].dump();
+  EXPECT_EQ(answers[0]["result"]["estop"], true) << answers[0].dump();
+  EXPECT_EQ(answers[1]["id"], 1) << answers[1].dump();
+}

@@ -19,13 +19,7 @@ using test::wait_run;
 namespace {
 
 int error_code_of(Client& c, const std::string& method, const json& params) {
-  try {
-    const json r = c.call(method, params);
-    ADD_FAILURE() << method << " " << params.dump() << " was accepted: " << r.dump();
-  } catch (const RpcError& e) {
-    return e.code();
-  }
-  return 0;
+  return test::refusal_of(c, method, params).code();
 }
 
 // A run left `interrupted` by a SIGTERM of the daemon that ran it (resumable).

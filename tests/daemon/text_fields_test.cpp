@@ -14,22 +14,12 @@ using protocol::Client;
 using protocol::RpcError;
 using test::DaemonProcess;
 using test::finished;
+using test::refusal_of;
 using test::socket_of;
 using test::TempDir;
 using test::wait_run;
 
 namespace {
-
-// The error of a call that must fail; the test fails when it succeeds.
-RpcError refusal_of(Client& c, const std::string& method, const json& params) {
-  try {
-    const json r = c.call(method, params);
-    ADD_FAILURE() << method << " accepted " << params.dump() << ": " << r.dump();
-  } catch (const RpcError& e) {
-    return e;
-  }
-  return RpcError(0, "accepted");
-}
 
 json paper9_start(const std::string& serial) {
   return json{{"program", "paper9"}, {"unit_serial", serial}, {"dwell_s", 5}, {"settle_s", 0}};
