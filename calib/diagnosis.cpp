@@ -827,8 +827,7 @@ struct Prepared {
 constexpr double kStuckReadingSigma_g = 1e-12;
 
 void require_checkable(const std::vector<PositionAverage>& avg) {
-  if (avg.empty()) throw CannotFit("cannot check the model: the recording has no position");
-  require_finite_positions(avg, "cannot check the model");
+  require_positions(avg, "cannot check the model");
   for (const PositionAverage& p : avg)
     for (int a = 0; a < 3; ++a)
       if (!(p.sigma_g[a] > kStuckReadingSigma_g))
@@ -1001,7 +1000,8 @@ Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& option
   // The unit's nine parameters come from the gravity projections; with no more positions
   // than that they are fitted exactly and the model cannot be checked (model.md, paper9).
   // A repeated orientation checks repeatability, not the model: count distinct ones.
-  const int projection_redundancy = distinct_orientations(avg) - kUnitParameterCount;
+  const int distinct = distinct_orientations(avg);
+  const int projection_redundancy = distinct - kUnitParameterCount;
   if (base.dof <= 0 || projection_redundancy <= 0 || 2 * unpredictable > lp.positions ||
       2 * n_testable < static_cast<int>(cands.size())) {
     d.verdict = "insufficient_redundancy";
@@ -1013,7 +1013,7 @@ Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& option
     if (base.dof <= 0) why = "the fit has no redundancy";
     else if (projection_redundancy <= 0)
       why = positions_for_unknowns(avg, kUnitParameterCount) +
-            ": the nine unit parameters rest on only " + std::to_string(distinct_orientations(avg)) +
+            ": the nine unit parameters rest on only " + std::to_string(distinct) +
             " distinct gravity projections, so they absorb any missing physics exactly";
     else if (2 * unpredictable > lp.positions)
       why = std::to_string(unpredictable) + " of " + std::to_string(lp.positions) +

@@ -399,9 +399,7 @@ void require_some_unit_parameter(const FullModelLayout& layout, const Observabil
 }  // namespace
 
 FitResult fit_full_vector(const std::vector<PositionAverage>& positions, const FullFitOptions& options) {
-  if (positions.empty())
-    throw CannotFit("cannot fit (full vector): " + positions_for_unknowns(positions, kUnitParameterCount));
-  require_finite_positions(positions, "cannot fit (full vector)");
+  require_positions(positions, "cannot fit (full vector)");
   std::vector<StandPose> poses;
   std::vector<Vec3> measured, sigmas;
   std::vector<double> weights;

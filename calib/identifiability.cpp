@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "calib/parameters.hpp"
+
 namespace standcal {
 
 int distinct_orientations(const std::vector<PositionAverage>& positions) {
@@ -25,13 +27,14 @@ std::string positions_for_unknowns(const std::vector<PositionAverage>& positions
   return s + " for " + std::to_string(unknowns) + " unknowns";
 }
 
-void require_finite_positions(const std::vector<PositionAverage>& positions,
-                              const std::string& what) {
+void require_positions(const std::vector<PositionAverage>& positions, const std::string& refusal) {
+  if (positions.empty())
+    throw CannotFit(refusal + ": " + positions_for_unknowns(positions, kUnitParameterCount));
   for (const PositionAverage& p : positions) {
     const bool finite = p.mean_g.allFinite() && p.standard_error_g.allFinite() &&
                         std::isfinite(p.alpha1_cmd_deg) && std::isfinite(p.alpha2_cmd_deg);
     if (!finite)
-      throw CannotFit(what + ": position " + std::to_string(p.pos) +
+      throw CannotFit(refusal + ": position " + std::to_string(p.pos) +
                       " has a mean or standard error that is not a finite number");
   }
 }

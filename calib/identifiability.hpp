@@ -26,9 +26,10 @@ int distinct_orientations(const std::vector<PositionAverage>& positions);
 // "3 positions (2 distinct orientations) for 9 unknowns": the words every refusal uses.
 std::string positions_for_unknowns(const std::vector<PositionAverage>& positions, int unknowns);
 
-// Throws CannotFit unless every position's numbers are finite (means, standard errors):
-// a NaN reaching a decomposition poisons every estimate without an error.
-void require_finite_positions(const std::vector<PositionAverage>& positions,
-                              const std::string& what);
+// Throws CannotFit ("REFUSAL: 0 positions for 9 unknowns", "REFUSAL: position 3 has a mean
+// or standard error that is not a finite number") unless there are positions and every
+// one's numbers are finite: a NaN reaching a decomposition poisons every estimate without
+// an error. `refusal` is "cannot fit (joint)", "cannot check the model", ...
+void require_positions(const std::vector<PositionAverage>& positions, const std::string& refusal);
 
 }  // namespace standcal

@@ -129,14 +129,6 @@ MatrixXd weighted_ls_map(const InvariantData& d, const std::vector<Eigen::Index>
   return Aw.colPivHouseholderQr().solve(MatrixXd(w.asDiagonal()));
 }
 
-// No position, or a number that is not finite, cannot be fitted: refused before any
-// decomposition sees it.
-void require_fittable(const std::vector<PositionAverage>& positions, const std::string& estimator) {
-  if (positions.empty())
-    throw CannotFit("cannot fit (" + estimator + "): " + positions_for_unknowns(positions, kUnitParameterCount));
-  require_finite_positions(positions, "cannot fit (" + estimator + ")");
-}
-
 }  // namespace
 
 double invariant_sigma_g(const PositionAverage& p) {
@@ -146,7 +138,7 @@ double invariant_sigma_g(const PositionAverage& p) {
 }
 
 FitResult fit_invariant_joint(const std::vector<PositionAverage>& positions) {
-  require_fittable(positions, "joint");
+  require_positions(positions, "cannot fit (joint)");
   const InvariantData d = invariant_data(positions);
   FitResult r;
   r.estimator = "joint";
@@ -168,7 +160,7 @@ FitResult fit_invariant_joint(const std::vector<PositionAverage>& positions) {
 }
 
 FitResult fit_paper_sequential(const std::vector<PositionAverage>& positions) {
-  require_fittable(positions, "paper-sequential");
+  require_positions(positions, "cannot fit (paper-sequential)");
   const InvariantData d = invariant_data(positions);
   const auto near_zero = [](double a_deg) {
     return std::abs(std::remainder(a_deg, 360.0)) < 1e-6;

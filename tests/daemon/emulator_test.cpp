@@ -37,6 +37,41 @@ std::string wait_for_line(const std::string& path, std::chrono::seconds timeout)
   return "";
 }
 
+// standcald on the stand emulator (Modbus TCP, `emu_args` added) and the simulated unit,
+// its stand enabled and homed, then moving towards alpha1 = 170 deg (no wait) until the
+// outer axis has passed `past_deg`: a stop from there takes the drives time to decelerate.
+struct StandEmulatorDaemon {
+  std::unique_ptr<DaemonProcess> emulator, daemon;
+};
+
+StandEmulatorDaemon moving_stand_emulator(const TempDir& dir, std::vector<std::string> emu_args,
+                                          double past_deg) {
+  StandEmulatorDaemon d;
+  emu_args.insert(emu_args.begin(), {"--listen", "tcp://127.0.0.1:0"});
+  d.emulator = std::make_unique<DaemonProcess>(dir.path(), emu_args, std::vector<std::string>{},
+                                               STANDCAL_STAND_EMU_PATH, "stand-emu.log", "stand-emu.out");
+  const std::string url = wait_for_line(dir.path() + "/stand-emu.out", 20s);
+  if (url.empty()) throw std::runtime_error("the stand emulator printed no URL:\n" + d.emulator->log());
+  const json config{{"socket", {{"path", dir.path() + "/standcald.sock"}}},
+                    {"state_dir", dir.path() + "/state"},
+                    {"stand", {{"backend", "modbus"}, {"url", url}}},
+                    {"unit", {{"backend", "sim"}}}};
+  std::ofstream(dir.path() + "/standcald.json") << config.dump(2);
+  d.daemon = std::make_unique<DaemonProcess>(dir.path(), std::vector<std::string>{"--config", dir.path() + "/standcald.json"});
+  d.daemon->wait_ready(dir.path() + "/standcald.sock");
+  Client c(dir.path() + "/standcald.sock");
+  c.call("stand.enable");
+  c.call("stand.home", json::object(), 60s);
+  c.call("stand.move", {{"alpha1_deg", 170}, {"alpha2_deg", 0}, {"wait", false}});
+  const auto deadline = std::chrono::steady_clock::now() + 30s;
+  while (c.call("status")["stand"]["axes"][0].value("angle_deg", 0.0) < past_deg) {
+    if (std::chrono::steady_clock::now() > deadline)
+      throw std::runtime_error("the outer axis did not pass " + std::to_string(past_deg) + " deg:\n" + d.daemon->log());
+    std::this_thread::sleep_for(50ms);
+  }
+  return d;
+}
+
 }  // namespace
 
 TEST(DaemonEmulators, Paper9RunOnTheModbusStandAndCanUnitEmulators) {
@@ -93,30 +128,10 @@ TEST(DaemonEmulators, Paper9RunOnTheModbusStandAndCanUnitEmulators) {
 // status file) says neither axis moves any more.
 TEST(DaemonEmulators, StandStopAnswersOnceTheEmulatorsAxesHaveStopped) {
   TempDir dir;
-  DaemonProcess stand_emu(dir.path(),
-                          {"--listen", "tcp://127.0.0.1:0", "--accel-dps2", "10", "--status-file",
-                           dir.path() + "/stand-status"},
-                          {}, STANDCAL_STAND_EMU_PATH, "stand-emu.log", "stand-emu.out");
-  const std::string url = wait_for_line(dir.path() + "/stand-emu.out", 20s);
-  ASSERT_FALSE(url.empty()) << stand_emu.log();
-  const json config{{"socket", {{"path", dir.path() + "/standcald.sock"}}},
-                    {"state_dir", dir.path() + "/state"},
-                    {"stand", {{"backend", "modbus"}, {"url", url}}},
-                    {"unit", {{"backend", "sim"}}}};
-  std::ofstream(dir.path() + "/standcald.json") << config.dump(2);
-  DaemonProcess daemon(dir.path(), {"--config", dir.path() + "/standcald.json"});
-  daemon.wait_ready(dir.path() + "/standcald.sock");
-
-  Client c(dir.path() + "/standcald.sock");
-  c.call("stand.enable");
-  c.call("stand.home", json::object(), 60s);
-  c.call("stand.move", {{"alpha1_deg", 170}, {"alpha2_deg", 0}, {"wait", false}});
   // Up to speed (10 °/s² for 2 s: 20 °/s, 2 s to stop again) before the stop.
-  const auto deadline = std::chrono::steady_clock::now() + 30s;
-  while (c.call("status")["stand"]["axes"][0].value("angle_deg", 0.0) < 20.0) {
-    ASSERT_LT(std::chrono::steady_clock::now(), deadline) << daemon.log();
-    std::this_thread::sleep_for(50ms);
-  }
+  const StandEmulatorDaemon stand = moving_stand_emulator(
+      dir, {"--accel-dps2", "10", "--status-file", dir.path() + "/stand-status"}, 20.0);
+  Client c(dir.path() + "/standcald.sock");
   EXPECT_EQ(c.call("stand.stop")["stopped"], true);
   // The first status file the emulator writes after the answer: "NAME STATE FLAGS ANGLE FAULT".
   const auto answered = std::filesystem::file_time_type::clock::now();
@@ -143,28 +158,9 @@ TEST(DaemonEmulators, StandStopAnswersOnceTheEmulatorsAxesHaveStopped) {
 // once, not after the wait: both in one write, the estop's answer comes first.
 TEST(DaemonEmulators, AnEstopIsNotHeldBackByAStandStopWaitingForTheAxes) {
   TempDir dir;
-  DaemonProcess stand_emu(dir.path(), {"--listen", "tcp://127.0.0.1:0", "--accel-dps2", "2"}, {},
-                          STANDCAL_STAND_EMU_PATH, "stand-emu.log", "stand-emu.out");
-  const std::string url = wait_for_line(dir.path() + "/stand-emu.out", 20s);
-  ASSERT_FALSE(url.empty()) << stand_emu.log();
-  const json config{{"socket", {{"path", dir.path() + "/standcald.sock"}}},
-                    {"state_dir", dir.path() + "/state"},
-                    {"stand", {{"backend", "modbus"}, {"url", url}}},
-                    {"unit", {{"backend", "sim"}}}};
-  std::ofstream(dir.path() + "/standcald.json") << config.dump(2);
-  DaemonProcess daemon(dir.path(), {"--config", dir.path() + "/standcald.json"});
-  daemon.wait_ready(dir.path() + "/standcald.sock");
-
-  Client c(dir.path() + "/standcald.sock");
-  c.call("stand.enable");
-  c.call("stand.home", json::object(), 60s);
-  c.call("stand.move", {{"alpha1_deg", 170}, {"alpha2_deg", 0}, {"wait", false}});
   // At 2 deg/s^2, 16 deg is reached at 8 deg/s, and stopping from there takes 4 s.
-  const auto deadline = std::chrono::steady_clock::now() + 30s;
-  while (c.call("status")["stand"]["axes"][0].value("angle_deg", 0.0) < 16.0) {
-    ASSERT_LT(std::chrono::steady_clock::now(), deadline) << daemon.log();
-    std::this_thread::sleep_for(50ms);
-  }
+  const StandEmulatorDaemon stand = moving_stand_emulator(dir, {"--accel-dps2", "2"}, 16.0);
+  Client c(dir.path() + "/standcald.sock");
   c.send_raw(json{{"jsonrpc", "2.0"}, {"id", 1}, {"method", "stand.stop"}}.dump() + "\n" +
              json{{"jsonrpc", "2.0"}, {"id", 2}, {"method", "estop"}}.dump() + "\n");
   std::vector<json> answers;
@@ -173,7 +169,7 @@ TEST(DaemonEmulators, AnEstopIsNotHeldBackByAStandStopWaitingForTheAxes) {
     auto m = c.next_message(1s);
     if (m && m->contains("id")) answers.push_back(*m);
   }
-  ASSERT_EQ(answers.size(), 2u) << daemon.log();
+  ASSERT_EQ(answers.size(), 2u) << stand.daemon->log();
   EXPECT_EQ(answers[0]["id"], 2) << "the estop waited for stand.stop: " << answers[0].dump();
   EXPECT_EQ(answers[0]["result"]["estop"], true) << answers[0].dump();
   EXPECT_EQ(answers[1]["id"], 1) << answers[1].dump();
