@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "calib/diagnosis.hpp"
+#include "calib/diagnosis/diagnosis.hpp"
 #include "calib/simulator.hpp"
 #include "calib/units.hpp"
 

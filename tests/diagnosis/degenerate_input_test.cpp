@@ -11,7 +11,7 @@
 #include <string>
 
 #include "calib/averaging.hpp"
-#include "calib/diagnosis.hpp"
+#include "calib/diagnosis/diagnosis.hpp"
 #include "calib/full_estimator.hpp"
 #include "calib/identifiability.hpp"
 #include "calib/invariant_estimator.hpp"

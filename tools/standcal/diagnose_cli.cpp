@@ -7,7 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
-#include "calib/diagnosis.hpp"
+#include "calib/diagnosis/diagnosis.hpp"
 #include "calib/recording.hpp"
 #include "calib/simulator.hpp"
 #include "report/diagnosis/diagnosis_report.hpp"

@@ -4,6 +4,7 @@
 // physics (../shared/docs/model.md) with the parametrisations it fixes, keep a term only
 // if an information criterion AND a leave-positions-out prediction check both want it,
 // refit, and say what was found in words and as a model the simulator reproduces.
+// The public API of the calib/diagnosis room (docs/diagnosis.md, "Where the code is").
 #include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <vector>

@@ -1,0 +1,79 @@
+#pragma once
+// A residual model: what the term selection works on. It fits the baseline to position
+// averages, linearises it (whitened residuals y and whitened design A, rows grouped by
+// position) and says how a catalog term or a new pose would add rows. Two models today:
+// the full vector J (3 rows per position, fit_full_vector) and the paper's invariant
+// projection u^T J - 1 (1 row, fit_invariant_joint); an attitude-free model (|J| - 1)
+// plugs in the same way.
+#include <Eigen/Dense>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "calib/diagnosis/catalog.hpp"
+#include "calib/diagnosis/position_context.hpp"
+#include "calib/fit_result.hpp"
+#include "calib/full_estimator.hpp"
+
+namespace standcal::diagnosis {
+
+// The baseline linearised around its fit: whitened residuals y and whitened design A.
+// Candidate terms are added as further columns; rows are grouped by position.
+struct LinearProblem {
+  Eigen::VectorXd y;
+  Eigen::MatrixXd A;
+  std::vector<int> unit_column;  // column of A for each of the 9 unit parameters, or -1
+  std::vector<double> row_sigma_g;
+  std::vector<int> row_position;
+  std::vector<int> row_component;  // 0 .. rows_per_position - 1
+  int positions = 0;
+};
+
+class ResidualModel {
+ public:
+  virtual ~ResidualModel() = default;
+
+  // The JSON `method`: "full" or "joint".
+  virtual std::string name() const = 0;
+  // For sentences: "full-vector", "invariant".
+  virtual std::string words() const = 0;
+  virtual int rows_per_position() const = 0;
+  // A row component for the structure tests ("x", "L") and for sentences ("x output").
+  virtual std::string component_name(int component) const = 0;
+  virtual std::string component_words(int component) const = 0;
+  // Whether the model sees the entry's physics at all (catalog.hpp invariant_visible).
+  virtual bool sees(const CatalogEntry& entry) const = 0;
+  // A contribution to J (3 x k, g) at a position as this model's rows
+  // (rows_per_position x k, g): how the model projects J.
+  virtual Eigen::MatrixXd project(const Eigen::MatrixXd& effect_g,
+                                  const PositionContext& p) const = 0;
+  // The baseline design rows a new pose would add, whitened by sigma_g.
+  virtual Eigen::MatrixXd pose_rows(const StandPose& pose, double sigma_g) const = 0;
+  // The same model fitted to corrected averages (same positions, same design).
+  virtual std::unique_ptr<ResidualModel> refit(
+      const std::vector<PositionAverage>& corrected) const = 0;
+
+  const FitResult& fit() const { return fit_; }
+  const LinearProblem& problem() const { return lp_; }
+
+ protected:
+  FitResult fit_;
+  LinearProblem lp_;
+};
+
+// The full vector when its fit has redundancy, the invariant projection otherwise.
+// Throws CannotFit when not even the invariant calibration can be fitted.
+std::unique_ptr<ResidualModel> choose_residual_model(const std::vector<PositionAverage>& avg);
+
+// The rows (g) a candidate adds at a position, whitened by sigma_g: rows_per_position x params.
+Eigen::MatrixXd candidate_rows(const ResidualModel& model, const Candidate& c,
+                               const PositionContext& p, double sigma_g);
+// The candidate's whitened columns for the model's problem (rows of A x params).
+Eigen::MatrixXd candidate_columns(const Candidate& c, const ResidualModel& model,
+                                  const std::vector<PositionContext>& ctx);
+// Every candidate's columns side by side.
+Eigen::MatrixXd all_candidate_columns(const std::vector<Candidate>& cands,
+                                      const ResidualModel& model,
+                                      const std::vector<PositionContext>& ctx);
+
+}  // namespace standcal::diagnosis
