@@ -125,24 +125,24 @@ double golden_max(const F& f, double lo, double hi, int evaluations) {
   return fc > fd ? c : d;
 }
 
-double median_sigma(const std::vector<NoiseRow>& rows) {
+double median_row_sigma(const std::vector<NoiseRow>& rows) {
   std::vector<double> s;
   for (const NoiseRow& r : rows) s.push_back(r.sigma_g);
   std::nth_element(s.begin(), s.begin() + static_cast<std::ptrdiff_t>(s.size() / 2), s.end());
   return s[s.size() / 2];
 }
 
-struct Candidate {
+struct WanderFit {
   GaussMarkovNoise noise;
   double log_l = -1e300;
 };
 
 // For one tau: a common q for the three axes first (one dimension, robust), then each
 // axis on its own, each compared with no wander on that axis.
-Candidate best_for_tau(const RestrictedLikelihood& L, double tau_s, double sigma_ref) {
+WanderFit best_for_tau(const RestrictedLikelihood& L, double tau_s, double sigma_ref) {
   constexpr double kLogLo = -1.5, kLogHi = 1.5;  // q from 3 % to 30x a row's sigma
   constexpr int kEvaluations = 14;
-  Candidate best{{Vec3::Zero(), tau_s}, 0};
+  WanderFit best{{Vec3::Zero(), tau_s}, 0};
   best.log_l = L(best.noise);
   auto with_q = [&](const Vec3& q) { return L(GaussMarkovNoise{q, tau_s}); };
   const double common =
@@ -166,7 +166,7 @@ Candidate best_for_tau(const RestrictedLikelihood& L, double tau_s, double sigma
   return best;
 }
 
-std::string describe(const NoiseEstimate& e) {
+std::string wander_words(const NoiseEstimate& e) {
   char b[256];
   std::snprintf(
       b, sizeof b,
@@ -189,15 +189,15 @@ NoiseEstimate estimate_bias_wander(const std::vector<NoiseRow>& rows, const Matr
   }
   const RestrictedLikelihood L(rows, X, y);
   const double white_log_l = L(GaussMarkovNoise{});
-  const double sigma_ref = median_sigma(rows);
-  Candidate best{{}, white_log_l};
+  const double sigma_ref = median_row_sigma(rows);
+  WanderFit best{{}, white_log_l};
   for (const double tau : options.tau_grid_s)
-    if (const Candidate c = best_for_tau(L, tau, sigma_ref); c.log_l > best.log_l) best = c;
+    if (const WanderFit c = best_for_tau(L, tau, sigma_ref); c.log_l > best.log_l) best = c;
   out.best = best.noise;
   out.lr = 2 * (best.log_l - white_log_l);
   out.significant = !best.noise.white() && out.lr > options.lr_threshold;
   if (out.significant) out.noise = best.noise;
-  out.how = describe(out);
+  out.how = wander_words(out);
   return out;
 }
 

@@ -7,6 +7,7 @@
 #include "calib/diagnosis/consistency.hpp"
 #include "calib/diagnosis/diagnosis.hpp"
 #include "calib/diagnosis/final_fit.hpp"
+#include "calib/diagnosis/honesty.hpp"
 #include "calib/diagnosis/json.hpp"
 #include "calib/diagnosis/mounting.hpp"
 #include "calib/diagnosis/prepare.hpp"
@@ -14,6 +15,7 @@
 #include "calib/diagnosis/selection.hpp"
 #include "calib/diagnosis/settling.hpp"
 #include "calib/diagnosis/verdict.hpp"
+#include "calib/diagnosis/wander.hpp"
 #include "calib/diagnosis/words.hpp"
 
 namespace standcal {
@@ -90,6 +92,20 @@ bool has_large_mounting(const Diagnosis& d) {
                      [](const Finding& f) { return f.effect == large_mounting_entry().id; });
 }
 
+// `explained` and `consistent` only when what is left is noise (honesty.hpp); `ambiguous`
+// only when the better rival would leave noise. Otherwise `unexplained`, located.
+std::string checked_verdict(Diagnosis& d, const Prepared& P, const Selection& s,
+                            const DiagnoseOptions& options) {
+  if (d.verdict != "explained" && d.verdict != "consistent") return d.verdict;
+  if (s.rivals) {  // rivals that would not leave noise: neither explains the data
+    d.checks = honesty_checks(P, s, d.findings, options);
+    d.checks.passed = false;
+    return "unexplained";
+  }
+  d.checks = honesty_checks(P, s, d.findings, options);
+  return d.checks.passed ? d.verdict : "unexplained";
+}
+
 }  // namespace
 
 }  // namespace diagnosis
@@ -99,7 +115,7 @@ Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& option
   Diagnosis d;
   d.source = rec.source;
   // 1. Baseline: position averages, the residual model's fit, linearised.
-  const Prepared P = prepare(rec, options);
+  Prepared P = prepare(rec, options);
   const ResidualModel& model = *P.model;
   d.method = model.name();
   d.baseline = model.fit();
@@ -110,11 +126,15 @@ Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& option
   d.not_tested = not_tested_words(model, P.have_temp);
   if (const std::string why = redundancy_shortfall(P); !why.empty())
     return cannot_check(std::move(d), P, why, options);
-  // 4-5. Candidates, forward selection, ambiguity.
-  const Selection selection =
-      forward_selection(model, P.ctx, P.cands, P.untestable, P.base, options);
+  // 4-5. Candidates, forward selection, ambiguity; the noise they are tested against.
+  const NoiseAndTerms chosen = select_terms_and_noise(P, options);
+  const Selection& selection = chosen.selection;
+  d.noise = noise_finding(chosen.noise, P.avg);
+  d.baseline_p = consistency_p(P.base.chi2, P.base.dof);
   d.candidates = selection.first_round;
-  if (selection.rivals) explain_rivals(d, P, selection, options);
+  // Two rivals are only worth telling apart when the better one would leave noise.
+  const bool rivals_explain = selection.rivals && best_rival_explains(P, selection, options);
+  if (rivals_explain) explain_rivals(d, P, selection, options);
   // 6. Settling transients, on the raw samples.
   const std::vector<SettlingResult> settling = settling_findings(rec, P.avg, options, d.candidates);
   // Final fit on the averages corrected by what was found.
@@ -128,9 +148,10 @@ Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& option
     mounting = mounting_tests(d.final_fit, d.final_chi2_dof,
                               static_cast<std::size_t>(model.problem().y.size()), options);
   d.candidates.insert(d.candidates.end(), mounting.begin(), mounting.end());
-  // 7. Findings and verdict, in words.
+  // 7. Findings; the checks before saying they (or nothing) explain the data; the verdict.
   d.findings = findings_of(d, selection, refitted, settling, mounting, options);
-  d.verdict = verdict_of(d, selection.rivals.has_value(), options);
+  d.verdict = verdict_of(d, rivals_explain, options);
+  d.verdict = checked_verdict(d, P, selection, options);
   d.residuals = residual_table(P.avg, P.ctx, model.problem(), refitted.model->problem());
   summarise(d, model.words());
   // 8. The augmented model.

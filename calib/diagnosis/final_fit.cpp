@@ -30,6 +30,16 @@ void widen_bias_sigmas(FitResult& fit, const std::vector<SettlingResult>& settli
   }
 }
 
+// The refit's chi2 under the noise the terms were tested against: its own (weighted least
+// squares) under white noise; under bias wander the generalised least-squares minimum of
+// its linearisation, so that wander the noise model carries is not counted as misfit.
+double chi2_under_noise(ResidualModel& refitted, const GaussMarkovNoise& noise) {
+  if (noise.white()) return refitted.fit().chi2;
+  refitted.use_noise(noise);
+  const LinearProblem& lp = refitted.problem();
+  return solve_linear(lp.A, lp.y, lp.row_position, lp.positions).chi2;
+}
+
 }  // namespace
 
 FinalFit final_fit(const Prepared& P, const Selection& selection,
@@ -53,8 +63,9 @@ FinalFit final_fit(const Prepared& P, const Selection& selection,
   out.model = P.model->refit(corrected);
   out.fit = out.model->fit();
   const int final_dof = out.fit.redundancy - n_term_params;
-  out.chi2_dof = final_dof > 0 ? out.fit.chi2 / final_dof : kNaN;
-  out.p = consistency_p(out.fit.chi2, final_dof);
+  const double chi2 = chi2_under_noise(*out.model, lp.noise);
+  out.chi2_dof = final_dof > 0 ? chi2 / final_dof : kNaN;
+  out.p = consistency_p(chi2, final_dof);
   if (!selection.chosen.empty()) {
     take_augmented_sigmas(out.fit, lp, current);
     out.fit.redundancy = final_dof;

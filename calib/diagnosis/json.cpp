@@ -61,6 +61,63 @@ TruthModel augmented_model(const Diagnosis& d, const Recording& rec, const Prepa
   return m;
 }
 
+namespace {
+
+nlohmann::json vec_json(const Vec3& v) { return nlohmann::json::array({v[0], v[1], v[2]}); }
+
+nlohmann::json noise_json(const NoiseFinding& n) {
+  nlohmann::json j = {{"model", n.model},
+                      {"bias_instability", n.bias_instability},
+                      {"lr", n.lr},
+                      {"lr_threshold", n.lr_threshold},
+                      {"how", n.how}};
+  if (n.bias_instability) {
+    j["wander_ug"] = vec_json(n.wander_ug);
+    j["tau_s"] = n.tau_s;
+    j["allan_floor_ug"] = vec_json(n.allan_peak_ug);
+    j["sigma_sqrt_n_understated_by"] = vec_json(n.understated_by);
+  }
+  return j;
+}
+
+nlohmann::json checks_json(const HonestyChecks& c) {
+  using nlohmann::json;
+  if (!c.made) return nullptr;
+  json whiteness = json::array();
+  for (const WhitenessCheck& w : c.whiteness)
+    whiteness.push_back({{"axis", w.axis},
+                         {"against", w.against},
+                         {"test", w.test},
+                         {"statistic", w.statistic},
+                         {"p_value", w.p},
+                         {"positions", w.positions},
+                         {"t_from_s", w.t_from_s},
+                         {"t_to_s", w.t_to_s}});
+  auto finite = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
+  json stability = json::array();
+  for (const StabilityCheck& k : c.stability)
+    stability.push_back({{"effect", k.effect},
+                         {"axis", k.axis},
+                         {"unit", k.unit},
+                         {"value", finite(k.value)},
+                         {"sigma", finite(k.sigma)},
+                         {"first_half", finite(k.first)},
+                         {"first_half_sigma", finite(k.first_sigma)},
+                         {"second_half", finite(k.second)},
+                         {"second_half_sigma", finite(k.second_sigma)},
+                         {"z", k.z},
+                         {"stable", k.stable}});
+  return {{"passed", c.passed},
+          {"family_alpha", c.family_alpha},
+          {"whiteness", whiteness},
+          {"worst", c.worst},
+          {"stability", stability},
+          {"implausible", c.implausible},
+          {"not_explaining", c.not_explaining}};
+}
+
+}  // namespace
+
 }  // namespace diagnosis
 
 nlohmann::json diagnose_to_json(const Diagnosis& d) {
@@ -134,6 +191,8 @@ nlohmann::json diagnose_to_json(const Diagnosis& d) {
           {"located", d.located},
           {"candidates", candidates},
           {"not_tested", d.not_tested},
+          {"noise", diagnosis::noise_json(d.noise)},
+          {"checks", diagnosis::checks_json(d.checks)},
           {"summary", d.summary},
           {"model", truth_to_json(d.model)}};
 }

@@ -1,5 +1,7 @@
 #include "calib/diagnosis/residual_checks.hpp"
 
+#include "calib/diagnosis/words.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -7,7 +9,7 @@
 #include <map>
 #include <numeric>
 
-namespace standcal {
+namespace standcal::diagnosis {
 namespace {
 
 constexpr int kMinResidualsPerTest = 8;
@@ -27,7 +29,7 @@ double kolmogorov_upper_tail(double x) {
 using Ordering = std::function<double(const ResidualSample&)>;
 
 // The component's residuals sorted by the ordering variable (ties keep time order).
-std::vector<const ResidualSample*> ordered(std::vector<const ResidualSample*> rows,
+std::vector<const ResidualSample*> sorted_along(std::vector<const ResidualSample*> rows,
                                            const Ordering& key) {
   std::stable_sort(
       rows.begin(), rows.end(),
@@ -122,21 +124,15 @@ const std::vector<std::pair<std::string, Ordering>>& orderings() {
 void test_component(WhitenessResult& out, const std::string& component,
                     const std::vector<const ResidualSample*>& rows) {
   for (const auto& [name, key] : orderings()) {
-    WhitenessTest t = serial_test(ordered(rows, key));
+    WhitenessTest t = serial_test(sorted_along(rows, key));
     t.component = component;
     t.against = name;
     out.tests.push_back(t);
   }
-  WhitenessTest step = step_test(ordered(rows, orderings().front().second));
+  WhitenessTest step = step_test(sorted_along(rows, orderings().front().second));
   step.component = component;
   step.against = "time";
   out.tests.push_back(step);
-}
-
-std::string fmt(const char* f, double v) {
-  char b[64];
-  std::snprintf(b, sizeof b, f, v);
-  return b;
 }
 
 std::string output_words(const std::string& component) {
@@ -204,4 +200,4 @@ void judge_half_stability(HalfStability& h, double z_limit) {
   h.stable = std::abs(h.z) <= z_limit;
 }
 
-}  // namespace standcal
+}  // namespace standcal::diagnosis

@@ -10,7 +10,7 @@
 
 #include "calib/model.hpp"
 
-namespace standcal {
+namespace standcal::diagnosis {
 
 // One normalised residual (residual / its standard error) of the model being checked.
 struct ResidualSample {
@@ -78,4 +78,4 @@ double half_against_whole_z(double value_half, double sigma_half, double value_a
 // does not count as unstable).
 void judge_half_stability(HalfStability& h, double z_limit);
 
-}  // namespace standcal
+}  // namespace standcal::diagnosis

@@ -14,6 +14,8 @@ namespace {
 using Eigen::MatrixXd;
 using Eigen::VectorXd;
 
+double mid_time_s(const PositionAverage& p) { return 0.5 * (p.t_start_s + p.t_end_s); }
+
 std::vector<StandPose> poses_of(const std::vector<PositionAverage>& avg) {
   std::vector<StandPose> poses;
   for (const auto& p : avg) poses.push_back({p.alpha1_cmd_deg, p.alpha2_cmd_deg, p.mount});
@@ -64,12 +66,15 @@ LinearProblem full_problem(const std::vector<PositionAverage>& avg, const FitRes
       lp.row_sigma_g.push_back(s);
       lp.row_position.push_back(static_cast<int>(k));
       lp.row_component.push_back(a);
+      lp.noise_rows.push_back({mid_time_s(avg[k]), Vec3::Unit(a), s});
     }
   }
   lp.unit_column.assign(kUnitParameterCount, -1);
   for (std::size_t j = 0; j < d.obs.kept.size(); ++j)
     if (d.obs.kept[j] < kUnitParameterCount)
       lp.unit_column[static_cast<std::size_t>(d.obs.kept[j])] = static_cast<int>(j);
+  lp.y_white = lp.y;
+  lp.A_white = lp.A;
   return lp;
 }
 
@@ -87,6 +92,7 @@ LinearProblem invariant_problem(const std::vector<PositionAverage>& avg, const F
     lp.row_sigma_g.push_back(s);
     lp.row_position.push_back(static_cast<int>(k));
     lp.row_component.push_back(0);
+    lp.noise_rows.push_back({mid_time_s(avg[k]), avg[k].up(), s});
   }
   // Keep only the regressors the programme excites (classic24 has no gamma regressors).
   lp.unit_column.assign(kUnitParameterCount, -1);
@@ -99,6 +105,8 @@ LinearProblem invariant_problem(const std::vector<PositionAverage>& avg, const F
   lp.A.resize(m, static_cast<Eigen::Index>(keep.size()));
   for (std::size_t j = 0; j < keep.size(); ++j)
     lp.A.col(static_cast<Eigen::Index>(j)) = A.col(keep[j]);
+  lp.y_white = lp.y;
+  lp.A_white = lp.A;
   return lp;
 }
 
@@ -194,8 +202,18 @@ MatrixXd candidate_rows(const ResidualModel& model, const Candidate& c, const Po
   return model.project(candidate_effect_g(c, p), p) / sigma_g;
 }
 
+MatrixXd decorrelated(const LinearProblem& lp, const MatrixXd& whitened) {
+  return lp.noise.white() ? whitened : decorrelate(lp.noise_rows, lp.noise, whitened);
+}
+
+void ResidualModel::use_noise(const GaussMarkovNoise& noise) {
+  lp_.noise = noise;
+  lp_.y = decorrelated(lp_, lp_.y_white);
+  lp_.A = decorrelated(lp_, lp_.A_white);
+}
+
 MatrixXd candidate_columns(const Candidate& c, const ResidualModel& model,
-                           const std::vector<PositionContext>& ctx) {
+                           const std::vector<PositionContext>& ctx, bool white_only) {
   const LinearProblem& lp = model.problem();
   MatrixXd cols(lp.y.size(), c.params());
   for (Eigen::Index r = 0; r < cols.rows(); ++r) {
@@ -203,7 +221,7 @@ MatrixXd candidate_columns(const Candidate& c, const ResidualModel& model,
     const PositionContext& p = ctx[static_cast<std::size_t>(lp.row_position[row])];
     cols.row(r) = candidate_rows(model, c, p, lp.row_sigma_g[row]).row(lp.row_component[row]);
   }
-  return cols;
+  return white_only ? cols : decorrelated(lp, cols);
 }
 
 MatrixXd all_candidate_columns(const std::vector<Candidate>& cands, const ResidualModel& model,

@@ -14,6 +14,7 @@
 #include "calib/diagnosis/position_context.hpp"
 #include "calib/fit_result.hpp"
 #include "calib/full_estimator.hpp"
+#include "calib/noise_model.hpp"
 
 namespace standcal::diagnosis {
 
@@ -27,7 +28,17 @@ struct LinearProblem {
   std::vector<int> row_position;
   std::vector<int> row_component;  // 0 .. rows_per_position - 1
   int positions = 0;
+  // The noise the rows are weighted with (calib/noise_model): white unless the recording
+  // shows bias wander. y and A (and every candidate column) are then its decorrelated form,
+  // i.e. generalised least squares; y_white and A_white keep the per-dwell whitening alone.
+  GaussMarkovNoise noise;
+  std::vector<NoiseRow> noise_rows;
+  Eigen::VectorXd y_white;
+  Eigen::MatrixXd A_white;
 };
+
+// Decorrelates whitened columns of the problem's rows under its noise (identity for white).
+Eigen::MatrixXd decorrelated(const LinearProblem& lp, const Eigen::MatrixXd& whitened);
 
 class ResidualModel {
  public:
@@ -55,6 +66,8 @@ class ResidualModel {
 
   const FitResult& fit() const { return fit_; }
   const LinearProblem& problem() const { return lp_; }
+  // Weight the rows with this noise from now on (white: back to per-dwell weights).
+  void use_noise(const GaussMarkovNoise& noise);
 
  protected:
   FitResult fit_;
@@ -68,9 +81,10 @@ std::unique_ptr<ResidualModel> choose_residual_model(const std::vector<PositionA
 // The rows (g) a candidate adds at a position, whitened by sigma_g: rows_per_position x params.
 Eigen::MatrixXd candidate_rows(const ResidualModel& model, const Candidate& c,
                                const PositionContext& p, double sigma_g);
-// The candidate's whitened columns for the model's problem (rows of A x params).
+// The candidate's columns for the model's problem (rows of A x params): whitened by each
+// row's sigma, and decorrelated under the problem's noise unless `white_only`.
 Eigen::MatrixXd candidate_columns(const Candidate& c, const ResidualModel& model,
-                                  const std::vector<PositionContext>& ctx);
+                                  const std::vector<PositionContext>& ctx, bool white_only = false);
 // Every candidate's columns side by side.
 Eigen::MatrixXd all_candidate_columns(const std::vector<Candidate>& cands,
                                       const ResidualModel& model,

@@ -1,5 +1,8 @@
 #include "calib/diagnosis/words.hpp"
 
+#include "calib/diagnosis/honesty.hpp"
+#include "calib/diagnosis/wander.hpp"
+
 #include <cmath>
 #include <cstdio>
 
@@ -102,6 +105,7 @@ void summarise(Diagnosis& d, const std::string& model_words) {
   d.summary.insert(d.summary.begin(), "Baseline (" + model_words + ") fit: chi2/dof " +
                                           fmt("%.2f", d.baseline.chi2_dof) +
                                           ", P = " + fmt("%.3g", d.baseline_p) + ".");
+  if (const std::string n = noise_words(d.noise); !n.empty()) d.summary.push_back(n);
   if (d.verdict == "consistent")
     d.summary.push_back(
         "The residuals are consistent with noise and no catalog candidate improves both the fit "
@@ -111,7 +115,9 @@ void summarise(Diagnosis& d, const std::string& model_words) {
     d.summary.push_back("Corrected parameters: " + parameters_words(d.final_fit) +
                         ". Final chi2/dof " + fmt("%.2f", d.final_chi2_dof) +
                         " (P = " + fmt("%.3g", d.final_p) + ").");
-  if (d.verdict == "unexplained")
+  const std::vector<std::string> not_explained = honesty_words(d.checks);
+  d.summary.insert(d.summary.end(), not_explained.begin(), not_explained.end());
+  if (d.verdict == "unexplained" && not_explained.empty())
     d.summary.push_back(
         "The residuals are not consistent with noise and the catalog does not explain all of it.");
 }

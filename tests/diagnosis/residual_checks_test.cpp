@@ -8,7 +8,7 @@
 
 #include "calib/diagnosis/residual_checks.hpp"
 
-namespace standcal {
+namespace standcal::diagnosis {
 namespace {
 
 // 16 poses visited forward then in reverse (like diagnostic32), 12 s apart, 3 outputs.
@@ -92,4 +92,4 @@ TEST(ResidualChecks, HalfStabilityComparesEachHalfWithTheWhole) {
 }
 
 }  // namespace
-}  // namespace standcal
+}  // namespace standcal::diagnosis
