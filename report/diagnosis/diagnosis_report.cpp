@@ -448,8 +448,10 @@ std::string proposed_table(const Diagnosis& d) {
   return h + "</table>\n";
 }
 
-std::string figure_block(const plot::Figure& fig) {
-  return "<figure>" + compact_svg(plot::render_svg_inline(fig)) + "</figure>\n";
+// `id`: unique on the page, it prefixes the figure's SVG ids.
+std::string figure_block(const plot::Figure& fig, const std::string& id) {
+  return "<figure id=\"" + id + "\">" + compact_svg(plot::render_svg_inline(fig, id)) +
+         "</figure>\n";
 }
 
 }  // namespace
@@ -484,14 +486,17 @@ std::string diagnosis_html(const Diagnosis& d, const Recording& rec) {
   if (!temperature_varies(points))
     h += "<p>The unit temperature was not recorded or stayed within " +
          fmt("%.2f", kMinTemperatureSpread_c) + " degC: no panel against temperature.</p>\n";
-  for (const plot::Figure& fig : residual_figures(d, points)) h += figure_block(fig);
+  int figures = 0;
+  for (const plot::Figure& fig : residual_figures(d, points))
+    h += figure_block(fig, "figure" + std::to_string(++figures));
   const std::vector<plot::Figure> settling = settling_figures(d, rec);
   if (!settling.empty()) {
     h += "<h2>Settling transient on the raw samples</h2>\n<p>A transient of the same shape at "
          "every position is "
          "invisible in the per-position means; inside each dwell it shows as a decay after "
          "arrival.</p>\n";
-    for (const plot::Figure& fig : settling) h += figure_block(fig);
+    for (const plot::Figure& fig : settling)
+      h += figure_block(fig, "figure" + std::to_string(++figures));
   }
   h += "<h2>Residual table</h2>\n<p>Cells beyond 3 sigma are highlighted.</p>\n" +
        residual_table(d, points);

@@ -9,6 +9,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <regex>
+#include <set>
 #include <sstream>
 
 #include "calib/averaging.hpp"
@@ -277,6 +279,119 @@ TEST(SvgCompact, SameTextAndStrokesInAThirdOfTheBytes) {
   EXPECT_EQ(
       report::compact_svg("<svg>\n  <rect\n    x=\"1.504000\"\n    y=\"2.000000\"\n  />\n</svg>"),
       "<svg><rect x=\"1.5\" y=\"2\"/></svg>");
+}
+
+// ---- what a person reads (issue 15, item 5) ---------------------------------------------
+
+// Every inline <svg> of a page, in order.
+std::vector<std::string> inline_svgs(const std::string& html) {
+  std::vector<std::string> out;
+  for (std::size_t at = html.find("<svg"); at != std::string::npos; at = html.find("<svg", at)) {
+    const std::size_t end = html.find("</svg>", at) + 6;
+    out.push_back(html.substr(at, end - at));
+    at = end;
+  }
+  return out;
+}
+
+// The values of `attribute="..."` in `text`, prefixed by `lead` (e.g. "url(#").
+std::vector<std::string> quoted_after(const std::string& text, const std::string& lead, char stop) {
+  std::vector<std::string> out;
+  for (std::size_t at = text.find(lead); at != std::string::npos; at = text.find(lead, at + 1)) {
+    const std::size_t from = at + lead.size();
+    out.push_back(text.substr(from, text.find(stop, from) - from));
+  }
+  return out;
+}
+
+// Issue 20's blank panel: PLplot numbers the clip paths of every drawing from 0, so two
+// inline SVGs defined the same ids and the second's url(#..) found the first's.
+TEST(DiagnosisReport, InlinedFiguresHaveDisjointIds) {
+  const Recording rec = simulate(diagnostic32(), "scale_nonlinearity_k2", "z", -34, 31);
+  const std::string html = report::diagnosis_html(diagnose_recording(rec), rec);
+  const std::vector<std::string> svgs = inline_svgs(html);
+  ASSERT_EQ(svgs.size(), 3u);
+  std::set<std::string> page_ids;
+  for (const std::string& svg : svgs) {
+    const std::vector<std::string> ids = quoted_after(svg, " id=\"", '"');
+    ASSERT_FALSE(ids.empty());
+    for (const std::string& id : ids) EXPECT_TRUE(page_ids.insert(id).second) << id;
+    const std::set<std::string> own(ids.begin(), ids.end());
+    for (const std::string& ref : quoted_after(svg, "url(#", ')'))
+      EXPECT_EQ(own.count(ref), 1u) << ref << " is not defined in its own drawing";
+  }
+}
+
+// A rectangle in the drawing's coordinates (PLplot's: y up).
+struct Box {
+  double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
+  void take(double x, double y, double pad = 0) {
+    x0 = std::min(x0, x - pad);
+    x1 = std::max(x1, x + pad);
+    y0 = std::min(y0, y - pad);
+    y1 = std::max(y1, y + pad);
+  }
+  bool empty() const { return x0 > x1; }
+  bool overlaps(const Box& o) const { return x0 < o.x1 && o.x0 < x1 && y0 < o.y1 && o.y0 < y1; }
+};
+
+// The corners of every "x,y" pair in a points or d attribute.
+Box box_of_points(const std::string& list) {
+  Box b;
+  static const std::regex pair("(-?[0-9.]+),(-?[0-9.]+)");
+  for (auto it = std::sregex_iterator(list.begin(), list.end(), pair); it != std::sregex_iterator();
+       ++it)
+    b.take(std::stod((*it)[1]), std::stod((*it)[2]));
+  return b;
+}
+
+// One panel of a compacted PLplot drawing: from its grid (drawn first, in the grid colour)
+// to the next panel's. The legend is the white-filled background pllegend draws; the data
+// points are the point glyphs drawn before it.
+struct PanelShapes {
+  Box frame, legend, points;
+};
+
+std::vector<PanelShapes> panels_of(const std::string& svg) {
+  static const std::regex glyph(
+      R"re(<text[^>]*font-size="([0-9.]+)"[^>]*matrix\(1 0 0 -1 ([0-9.-]+) ([0-9.-]+)\)[^>]*><tspan[^>]*>●<)re");
+  std::vector<PanelShapes> out;
+  const std::string grid = "stroke=\"#E1E1E1\"";
+  for (std::size_t at = svg.find(grid); at != std::string::npos;) {
+    const std::size_t next = svg.find(grid, at + 1);
+    const std::string panel =
+        svg.substr(at, next == std::string::npos ? std::string::npos : next - at);
+    PanelShapes p;
+    p.frame = box_of_points(panel.substr(0, panel.find("/>")));
+    const std::size_t legend = panel.find("<polyline");
+    if (legend != std::string::npos &&
+        panel.find("fill=\"#FFFFFF\"", legend) < panel.find('>', legend))
+      p.legend = box_of_points(panel.substr(legend, panel.find('>', legend) - legend));
+    const std::string data = panel.substr(0, legend);
+    for (auto it = std::sregex_iterator(data.begin(), data.end(), glyph);
+         it != std::sregex_iterator(); ++it)
+      p.points.take(std::stod((*it)[2]), std::stod((*it)[3]), std::stod((*it)[1]) / 2);
+    out.push_back(p);
+    at = next;
+  }
+  return out;
+}
+
+// Legends do not cover data: each panel's legend lies above its frame, clear of the points.
+TEST(DiagnosisReport, LegendsDoNotCoverThePlottedPoints) {
+  const Recording rec = simulate(diagnostic32(), "scale_nonlinearity_k2", "z", -34, 31, 0, 10);
+  const std::string html = report::diagnosis_html(diagnose_recording(rec), rec);
+  std::size_t panels = 0;
+  for (const std::string& svg : inline_svgs(html)) {
+    for (const PanelShapes& p : panels_of(svg)) {
+      ++panels;
+      ASSERT_FALSE(p.legend.empty()) << "panel " << panels << " has no legend";
+      ASSERT_FALSE(p.points.empty()) << "panel " << panels << " has no points";
+      EXPECT_FALSE(p.legend.overlaps(p.points)) << "panel " << panels;
+      EXPECT_GE(p.legend.y0, p.frame.y1) << "panel " << panels << ": legend inside the frame";
+    }
+  }
+  EXPECT_EQ(panels, 15u);
 }
 
 }  // namespace
