@@ -283,6 +283,96 @@ TEST(SvgCompact, SameTextAndStrokesInAThirdOfTheBytes) {
 
 // ---- what a person reads (issue 15, item 5) ---------------------------------------------
 
+// The row of the candidates table for one candidate, as the page prints it.
+std::string candidate_row(const std::string& html, const std::string& effect,
+                          const std::string& axis) {
+  const std::string start = "<tr><td>" + effect + "</td><td>" + axis + "</td>";
+  const std::size_t at = html.find(start);
+  if (at == std::string::npos) return "";
+  return html.substr(at, html.find("</tr>", at) - at);
+}
+
+CandidateTest candidate(const std::string& effect, const std::string& axis, bool testable,
+                        double value, double sigma, const std::string& reason = "") {
+  CandidateTest c;
+  c.effect = effect;
+  c.axis = axis;
+  c.unit = "ug";
+  c.testable = testable;
+  c.reason = reason;
+  c.value = value;
+  c.sigma = sigma;
+  return c;
+}
+
+// The numbers issue 15 found in the table: a candidate the programme cannot identify, and
+// estimates that are not finite, are listed as not testable with their reason, never with
+// a number; so is a candidate whose sigma is missing.
+TEST(DiagnosisReport, UntestableCandidatesAreListedWithoutNumbers) {
+  const Recording rec = simulate(diagnostic32(), "", "", 0, 21);
+  Diagnosis d = diagnose_recording(rec);
+  const CandidateTest implausible =
+      candidate("cross_coupling", "yx", false, 12404302006548456.0, 7884205963143679.0,
+                "its estimate is implausible for its kind");
+  const CandidateTest no_sigma =
+      candidate("angle_sensor_error", "alpha1", true, 2930995070440539.5, kNaN);
+  const CandidateTest nan_value = candidate("bias_temperature", "z", true, kNaN, 5050);
+  d.candidates = {implausible, no_sigma, nan_value};
+  const std::string html = report::diagnosis_html(d, rec);
+  for (const char* digits : {"12404302006548456", "7884205963143679", "2930995070440539", "5050"})
+    EXPECT_EQ(html.find(digits), std::string::npos) << digits;
+  EXPECT_NE(candidate_row(html, "cross_coupling", "yx")
+                .find("not testable: its estimate is implausible for its kind"),
+            std::string::npos);
+  EXPECT_NE(candidate_row(html, "angle_sensor_error", "alpha1").find("not testable"),
+            std::string::npos);
+  EXPECT_NE(candidate_row(html, "bias_temperature", "z").find("not testable"), std::string::npos);
+}
+
+// Whole words nan / inf, as printf writes them ("nan", "-nan", "inf", "+inf").
+bool has_non_finite_word(const std::string& text) {
+  static const std::regex word("(^|[^A-Za-z0-9_])[+-]?(nan|inf|infinity)($|[^A-Za-z0-9_])",
+                               std::regex::icase);
+  return std::regex_search(text, word);
+}
+
+// A recording without temperature (the T column printed "nan"), a residual without a
+// standard error, and a sentence from calib with a non-finite number: no nan or inf on the
+// page.
+TEST(DiagnosisReport, NoNanOrInfAnywhereOnThePage) {
+  Recording rec = simulate(diagnostic32(), "scale_nonlinearity_k2", "z", -34, 31);
+  for (RecordingSample& s : rec.samples) s.temp_c = kNaN;
+  rec.temp_ref_c.reset();
+  Diagnosis d = diagnose_recording(rec);
+  ASSERT_FALSE(d.findings.empty());
+  d.baseline.residuals.front().sigma_g.setZero();
+  d.summary.push_back("Two explanations fit about equally well: a (nan ug, chi2 gain -inf).");
+  const std::string html = report::diagnosis_html(d, rec);
+  ASSERT_FALSE(has_non_finite_word("nanometres, infinite care"));
+  ASSERT_TRUE(has_non_finite_word("<td>-nan</td>"));
+  EXPECT_FALSE(has_non_finite_word(html));
+  EXPECT_NE(html.find("(n/a ug, chi2 gain n/a)"), std::string::npos);
+  EXPECT_EQ(html.find("T (degC)"), std::string::npos) << "no temperature column without one";
+}
+
+TEST(DiagnosisReport, EmptySectionsAreNotPrinted) {
+  const Recording rec = simulate(diagnostic32(), "", "", 0, 21);
+  Diagnosis d = diagnose_recording(rec);
+  d.not_tested.clear();
+  d.located.clear();
+  d.structure.clear();
+  std::string html = report::diagnosis_html(d, rec);
+  for (const char* heading : {"<h2>Not tested</h2>", "<h2>Where the mismatch is</h2>",
+                              "<h2>Structure tests", "<h2>Proposed positions</h2>"})
+    EXPECT_EQ(html.find(heading), std::string::npos) << heading;
+  EXPECT_EQ(html.find("<ul></ul>"), std::string::npos);
+  EXPECT_EQ(html.find("<table><tr><th>axis</th><th>against</th><th>z</th></tr></table>"),
+            std::string::npos);
+  d.not_tested = {"bias_temperature, scale_temperature: the recording has no temperature column"};
+  html = report::diagnosis_html(d, rec);
+  EXPECT_EQ(count(html, "<h2>Not tested</h2>"), 1u);
+}
+
 // Every inline <svg> of a page, in order.
 std::vector<std::string> inline_svgs(const std::string& html) {
   std::vector<std::string> out;
