@@ -216,8 +216,8 @@ plot::Panel residual_panel(const std::string& title, const FitResult& fit, Eigen
 }
 
 std::string figure_html(const std::string& id, const plot::Figure& f, const std::string& caption) {
-  return "<figure id=\"" + id + "\">\n" + plot::render_svg_inline(f) + "\n<figcaption>" + html_escape(caption) +
-         "</figcaption>\n</figure>\n";
+  return "<figure id=\"" + id + "\">\n" + plot::render_svg_inline(f, id) + "\n<figcaption>" +
+         html_escape(caption) + "</figcaption>\n</figure>\n";
 }
 
 std::string residuals_section(const CertificateInput& in) {

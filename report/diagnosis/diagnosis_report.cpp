@@ -1,6 +1,7 @@
 #include "report/diagnosis/diagnosis_report.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -23,9 +24,16 @@ namespace {
 // mismatch (the same 3-sigma rule as calib's `located`).
 constexpr double kLocatedSigma = 3.0;
 
-std::string fmt(const char* f, double v) {
+// What the page shows instead of a number that is not finite.
+constexpr const char* kNoNumber = "n/a";
+
+// Every number on the page goes through here: a value that is not finite (a term the data
+// cannot identify, a temperature never recorded, a z without a standard error) is never
+// printed as "nan" or "inf".
+std::string number(const char* format, double v) {
+  if (!std::isfinite(v)) return kNoNumber;
   char buf[64];
-  std::snprintf(buf, sizeof buf, f, v);
+  std::snprintf(buf, sizeof buf, format, v);
   return buf;
 }
 
@@ -44,6 +52,36 @@ std::string html_escape(const std::string& s) {
       out += c;
   }
   return out;
+}
+
+bool word_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; }
+
+bool non_finite_word(std::string word) {
+  for (char& c : word) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return word == "nan" || word == "inf" || word == "infinity";
+}
+
+// Text written by calib (summary sentences, locations, reasons) carries numbers printed
+// there: one that is not finite ("nan", "-inf") is shown as the page's own numbers are.
+std::string calib_text(const std::string& s) {
+  std::string out;
+  std::size_t i = 0;
+  while (i < s.size()) {
+    std::size_t j = i;
+    while (j < s.size() && word_char(s[j])) ++j;
+    if (j == i) {
+      out += s[i++];
+      continue;
+    }
+    if (non_finite_word(s.substr(i, j - i))) {
+      if (!out.empty() && (out.back() == '+' || out.back() == '-')) out.pop_back();
+      out += kNoNumber;
+    } else {
+      out.append(s, i, j - i);
+    }
+    i = j;
+  }
+  return html_escape(out);
 }
 
 // The temperature the diagnosis references temperature terms to (calib's rule: the
@@ -327,12 +365,12 @@ std::vector<plot::Figure> settling_figures(const Diagnosis& d, const Recording& 
     }
     plot::Series data{
         "samples minus their position mean (bin mean)", {}, {}, {}, plot::SeriesStyle::points};
-    plot::Series predicted{
-        "predicted: " + fmt("%+.1f", f.value) + " ug * exp(-t/" + fmt("%.0f", f.tau_s) + " s)",
-        {},
-        {},
-        {},
-        plot::SeriesStyle::line};
+    plot::Series predicted{"predicted: " + number("%+.1f", f.value) + " ug * exp(-t/" +
+                               number("%.0f", f.tau_s) + " s)",
+                           {},
+                           {},
+                           {},
+                           plot::SeriesStyle::line};
     for (std::size_t b = 0; b < n_bins; ++b) {
       if (n[b] < 2) continue;
       const double x = (static_cast<double>(b) + 0.5) * bin_s;
@@ -365,15 +403,21 @@ std::string residual_cells(const std::vector<double>& v, const std::vector<doubl
   for (std::size_t i = 0; i < v.size(); ++i) {
     const double z = sigma[i] > 0 ? v[i] / sigma[i] : kNaN;
     const bool hot = std::abs(z) > kLocatedSigma;
-    s += std::string("<td") + (hot ? " class=\"hot\"" : "") + ">" + fmt("%+.1f", v[i]) + " (" +
-         fmt("%+.1f", z) + ")</td>";
+    s += std::string("<td") + (hot ? " class=\"hot\"" : "") + ">" + number("%+.1f", v[i]) + " (" +
+         number("%+.1f", z) + ")</td>";
   }
   return s;
 }
 
+// A heading and what it heads, or nothing when there is nothing under it.
+std::string section(const std::string& heading, const std::string& body) {
+  return body.empty() ? "" : "<h2>" + heading + "</h2>\n" + body;
+}
+
 std::string list_items(const std::vector<std::string>& items) {
+  if (items.empty()) return "";
   std::string h = "<ul>";
-  for (const std::string& s : items) h += "<li>" + html_escape(s) + "</li>";
+  for (const std::string& s : items) h += "<li>" + calib_text(s) + "</li>";
   return h + "</ul>\n";
 }
 
@@ -384,122 +428,172 @@ std::string findings_table(const Diagnosis& d) {
       "<th>tau (s)</th><th>chi2 gain</th><th>chi2/dof after</th><th>absorbed into</th></tr>";
   for (const Finding& f : d.findings)
     h += "<tr><td>" + html_escape(f.effect) + "</td><td>" + html_escape(f.axis) + "</td><td>" +
-         fmt("%+.2f", f.value) + "</td><td>" + fmt("%.2f", f.sigma) + "</td><td>" +
-         html_escape(f.unit) + "</td><td>" + (f.tau_s > 0 ? fmt("%.0f", f.tau_s) : "") +
-         "</td><td>" + fmt("%.1f", f.delta_chi2) + "</td><td>" +
-         (std::isfinite(f.chi2_dof_after) ? fmt("%.2f", f.chi2_dof_after) : "") + "</td><td>" +
-         html_escape(f.absorbed_into) + "</td></tr>";
+         number("%+.2f", f.value) + "</td><td>" + number("%.2f", f.sigma) + "</td><td>" +
+         html_escape(f.unit) + "</td><td>" + (f.tau_s > 0 ? number("%.0f", f.tau_s) : "") +
+         "</td><td>" + number("%.1f", f.delta_chi2) + "</td><td>" +
+         (std::isfinite(f.chi2_dof_after) ? number("%.2f", f.chi2_dof_after) : "") + "</td><td>" +
+         calib_text(f.absorbed_into) + "</td></tr>";
   return h + "</table>\n";
 }
 
+bool any_temperature(const std::vector<ResidualPoint>& points) {
+  return std::any_of(points.begin(), points.end(),
+                     [](const ResidualPoint& p) { return std::isfinite(p.temp_c); });
+}
+
 std::string residual_table(const Diagnosis& d, const std::vector<ResidualPoint>& points) {
+  if (points.empty()) return "";
   const std::vector<std::string> names = component_names(d);
   const auto n = std::to_string(names.size());
+  // A recording without temperature has no column for it rather than one of n/a.
+  const bool temperature = any_temperature(points);
   std::string h =
       "<table><tr><th rowspan=2>pos</th><th rowspan=2>alpha1</th><th rowspan=2>alpha2</th>"
-      "<th rowspan=2>t (s)</th><th rowspan=2>T (degC)</th><th colspan=" +
-      n +
-      ">before, ug (sigma)</th>"
-      "<th colspan=" +
-      n + ">after, ug (sigma)</th></tr><tr>";
+      "<th rowspan=2>t (s)</th>" +
+      std::string(temperature ? "<th rowspan=2>T (degC)</th>" : "") + "<th colspan=" + n +
+      ">before, ug (sigma)</th><th colspan=" + n + ">after, ug (sigma)</th></tr><tr>";
   for (int pass = 0; pass < 2; ++pass)
     for (const std::string& c : names) h += "<th>" + c + "</th>";
   h += "</tr>";
   for (const ResidualPoint& p : points)
-    h += "<tr><td>" + std::to_string(p.pos) + "</td><td>" + fmt("%.1f", p.alpha1_deg) +
-         "</td><td>" + fmt("%.1f", p.alpha2_deg) + "</td><td>" + fmt("%.0f", p.t_mid_s) +
-         "</td><td>" + fmt("%.2f", p.temp_c) + "</td>" +
+    h += "<tr><td>" + std::to_string(p.pos) + "</td><td>" + number("%.1f", p.alpha1_deg) +
+         "</td><td>" + number("%.1f", p.alpha2_deg) + "</td><td>" + number("%.0f", p.t_mid_s) +
+         "</td>" + (temperature ? "<td>" + number("%.2f", p.temp_c) + "</td>" : "") +
          residual_cells(p.before_ug, p.before_sigma_ug) +
          residual_cells(p.after_ug, p.after_sigma_ug) + "</tr>";
   return h + "</table>\n";
 }
 
 std::string structure_table(const Diagnosis& d) {
+  if (d.structure.empty()) return "";
   std::string h = "<table><tr><th>axis</th><th>against</th><th>z</th></tr>";
   for (const StructureTest& s : d.structure)
     h += "<tr><td>" + html_escape(s.axis) + "</td><td>" + html_escape(s.against) + "</td><td" +
-         (std::abs(s.z) > kLocatedSigma ? " class=\"hot\"" : "") + ">" + fmt("%+.2f", s.z) +
+         (std::abs(s.z) > kLocatedSigma ? " class=\"hot\"" : "") + ">" + number("%+.2f", s.z) +
          "</td></tr>";
   return h + "</table>\n";
 }
 
+// Why a candidate's numbers say nothing, or "" when they do. A value or sigma that is not
+// finite, or no standard error at all, is not an estimate: the reader sees the reason,
+// never the number (issue 15: a cross-coupling of 1.2e16 ug/g2 was printed).
+std::string untestable_reason(const Diagnosis& d, const CandidateTest& c) {
+  if (!c.testable)
+    return c.reason.empty() ? "the programme cannot identify it" : calib_text(c.reason);
+  if (!std::isfinite(c.value) || !std::isfinite(c.sigma))
+    return "the fit cannot identify it (its estimate is not finite)";
+  if (d.verdict == "insufficient_redundancy")
+    return "the programme has no redundancy to test it (see the verdict)";
+  if (!(c.sigma > 0)) return "not estimated (no standard error)";
+  return "";
+}
+
+std::string candidate_row(const Diagnosis& d, const CandidateTest& c) {
+  std::string h = "<tr><td>" + html_escape(c.effect) + "</td><td>" + html_escape(c.axis) + "</td>";
+  const std::string why_not = untestable_reason(d, c);
+  if (!why_not.empty()) return h + "<td colspan=6>not testable: " + why_not + "</td></tr>";
+  return h + "<td>" + number("%+.2f", c.value) + "</td><td>" + number("%.2f", c.sigma) +
+         "</td><td>" + html_escape(c.unit) + "</td><td>" + number("%.1f", c.delta_chi2) +
+         "</td><td>" + number("%.1f", c.delta_bic) + "</td><td>" + number("%.1f", c.press_gain) +
+         "</td></tr>";
+}
+
 std::string candidates_table(const Diagnosis& d) {
+  if (d.candidates.empty()) return "";
   std::string h =
       "<table><tr><th>effect</th><th>axis</th><th>value</th><th>sigma</th><th>unit</th>"
       "<th>chi2 gain</th><th>BIC gain</th><th>held-out gain</th></tr>";
-  for (const CandidateTest& c : d.candidates) {
-    h += "<tr><td>" + html_escape(c.effect) + "</td><td>" + html_escape(c.axis) + "</td>";
-    if (!c.testable) {
-      h += "<td colspan=6>" + html_escape(c.reason) + "</td></tr>";
-      continue;
-    }
-    h += "<td>" + fmt("%+.2f", c.value) + "</td><td>" + fmt("%.2f", c.sigma) + "</td><td>" +
-         html_escape(c.unit) + "</td><td>" + fmt("%.1f", c.delta_chi2) + "</td><td>" +
-         fmt("%.1f", c.delta_bic) + "</td><td>" + fmt("%.1f", c.press_gain) + "</td></tr>";
-  }
+  for (const CandidateTest& c : d.candidates) h += candidate_row(d, c);
   return h + "</table>\n";
 }
 
 std::string proposed_table(const Diagnosis& d) {
+  if (d.proposed_positions.empty()) return "";
   std::string h = "<table><tr><th>alpha1 (deg)</th><th>alpha2 (deg)</th><th>why</th></tr>";
   for (const ProposedPosition& p : d.proposed_positions)
-    h += "<tr><td>" + fmt("%.0f", p.alpha1_deg) + "</td><td>" + fmt("%.0f", p.alpha2_deg) +
-         "</td><td>" + html_escape(p.why) + "</td></tr>";
+    h += "<tr><td>" + number("%.0f", p.alpha1_deg) + "</td><td>" + number("%.0f", p.alpha2_deg) +
+         "</td><td>" + calib_text(p.why) + "</td></tr>";
   return h + "</table>\n";
 }
 
-std::string figure_block(const plot::Figure& fig) {
-  return "<figure>" + compact_svg(plot::render_svg_inline(fig)) + "</figure>\n";
+// The figures of one page, each inlined with its own id prefix (ids are unique per page).
+class FigureBlocks {
+ public:
+  std::string operator()(const plot::Figure& fig) {
+    const std::string id = "figure" + std::to_string(++count_);
+    return "<figure id=\"" + id + "\">" + compact_svg(plot::render_svg_inline(fig, id)) +
+           "</figure>\n";
+  }
+
+ private:
+  int count_ = 0;
+};
+
+const char* const kResidualsIntro =
+    "<p>Per output axis: each position's residual (ug, with its standard error as the bar) "
+    "against the stand angles, the gravity component along the axis, time and temperature. "
+    "<i>Before</i>: the baseline model; <i>after</i>: refitted with the findings. Shaded: the "
+    "positions whose baseline residual is beyond 3 sigma (the located mismatch). <i>Predicted "
+    "by the findings</i>: the residual pattern the found effects leave after the calibration "
+    "parameters absorbed what they can.</p>\n";
+
+std::string residuals_section(const Diagnosis& d, const std::vector<ResidualPoint>& points,
+                              FigureBlocks& figure) {
+  if (points.empty()) return "";
+  std::string h = kResidualsIntro;
+  if (!temperature_varies(points))
+    h += "<p>The unit temperature was not recorded or stayed within " +
+         number("%.2f", kMinTemperatureSpread_c) + " degC: no panel against temperature.</p>\n";
+  for (const plot::Figure& fig : residual_figures(d, points)) h += figure(fig);
+  return section("Residuals before and after", h);
+}
+
+std::string settling_section(const Diagnosis& d, const Recording& rec, FigureBlocks& figure) {
+  const std::vector<plot::Figure> settling = settling_figures(d, rec);
+  if (settling.empty()) return "";
+  std::string h =
+      "<p>A transient of the same shape at every position is invisible in the per-position "
+      "means; inside each dwell it shows as a decay after arrival.</p>\n";
+  for (const plot::Figure& fig : settling) h += figure(fig);
+  return section("Settling transient on the raw samples", h);
+}
+
+std::string page_head(const Diagnosis& d) {
+  return "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>standcal diagnosis: " +
+         html_escape(d.source) +
+         "</title><style>body{font-family:sans-serif;max-width:70em}table{border-collapse:"
+         "collapse;margin:0.5em 0}td,th{border:1px solid #999;padding:2px 6px;text-align:right}"
+         ".hot{background:#f99}figure{margin:0.5em 0}svg{max-width:100%;height:auto}</style>"
+         "</head><body>\n";
+}
+
+std::string verdict_block(const Diagnosis& d, std::size_t positions) {
+  return "<h1>Model-mismatch diagnosis: " + html_escape(d.source) +
+         "</h1>\n<p><b>Verdict: " + html_escape(d.verdict) + "</b> (baseline: " +
+         (d.method == "full" ? std::string("full-vector fit")
+                             : std::string("invariant joint fit")) +
+         ", " + std::to_string(positions) + " positions)</p>\n" + list_items(d.summary);
 }
 
 }  // namespace
 
 std::string diagnosis_html(const Diagnosis& d, const Recording& rec) {
   const std::vector<ResidualPoint> points = residual_points(d, rec);
-  std::string h =
-      "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>standcal diagnosis: " +
-      html_escape(d.source) +
-      "</title><style>body{font-family:sans-serif;max-width:70em}table{border-collapse:collapse;"
-      "margin:0.5em 0}td,th{border:1px solid #999;padding:2px "
-      "6px;text-align:right}.hot{background:#f99}"
-      "figure{margin:0.5em 0}svg{max-width:100%;height:auto}</style></head><body>\n";
-  h += "<h1>Model-mismatch diagnosis: " + html_escape(d.source) + "</h1>\n";
-  h += "<p><b>Verdict: " + html_escape(d.verdict) + "</b> (baseline: " +
-       (d.method == "full" ? std::string("full-vector fit") : std::string("invariant joint fit")) +
-       ", " + std::to_string(points.size()) + " positions)</p>\n";
-  h += list_items(d.summary);
-  h += "<h2>Where the mismatch is</h2>\n" + list_items(d.located);
-  h += "<h2>Findings</h2>\n" + findings_table(d);
-  if (!d.proposed_positions.empty()) h += "<h2>Proposed positions</h2>\n" + proposed_table(d);
-  h += "<h2>Residuals before and after</h2>\n<p>Per output axis: each position's residual (ug, "
-       "with its standard "
-       "error as the bar) against the stand angles, the gravity component along the axis, time and "
-       "temperature. "
-       "<i>Before</i>: the baseline model; <i>after</i>: refitted with the findings. Shaded: the "
-       "positions whose "
-       "baseline residual is beyond 3 sigma (the located mismatch). <i>Predicted by the "
-       "findings</i>: the residual "
-       "pattern the found effects leave after the calibration parameters absorbed what they "
-       "can.</p>\n";
-  if (!temperature_varies(points))
-    h += "<p>The unit temperature was not recorded or stayed within " +
-         fmt("%.2f", kMinTemperatureSpread_c) + " degC: no panel against temperature.</p>\n";
-  for (const plot::Figure& fig : residual_figures(d, points)) h += figure_block(fig);
-  const std::vector<plot::Figure> settling = settling_figures(d, rec);
-  if (!settling.empty()) {
-    h += "<h2>Settling transient on the raw samples</h2>\n<p>A transient of the same shape at "
-         "every position is "
-         "invisible in the per-position means; inside each dwell it shows as a decay after "
-         "arrival.</p>\n";
-    for (const plot::Figure& fig : settling) h += figure_block(fig);
-  }
-  h += "<h2>Residual table</h2>\n<p>Cells beyond 3 sigma are highlighted.</p>\n" +
-       residual_table(d, points);
-  h += "<h2>Structure tests (baseline residual trend, sigma units)</h2>\n" + structure_table(d);
-  h += "<h2>Catalog candidates (first round, against the baseline)</h2>\n" + candidates_table(d);
-  h += "<h2>Not tested</h2>\n" + list_items(d.not_tested);
-  h += "</body></html>\n";
-  return h;
+  FigureBlocks figure;
+  std::string h = page_head(d) + verdict_block(d, points.size());
+  h += section("Where the mismatch is", list_items(d.located));
+  h += section("Findings", findings_table(d));
+  h += section("Proposed positions", proposed_table(d));
+  h += residuals_section(d, points, figure);
+  h += settling_section(d, rec, figure);
+  const std::string residuals = residual_table(d, points);
+  h += section(
+      "Residual table",
+      residuals.empty() ? "" : "<p>Cells beyond 3 sigma are highlighted.</p>\n" + residuals);
+  h += section("Structure tests (baseline residual trend, sigma units)", structure_table(d));
+  h += section("Catalog candidates (first round, against the baseline)", candidates_table(d));
+  h += section("Not tested", list_items(d.not_tested));
+  return h + "</body></html>\n";
 }
 
 }  // namespace standcal::report

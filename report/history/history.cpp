@@ -169,7 +169,8 @@ std::string render_history_html(const UnitHistory& h) {
   out += "<h2>Parameters over time</h2>\n";
   for (int p = 0; p < kUnitParameterCount; ++p) {
     out += "<figure data-parameter=\"" + html_escape(parameter_name(p)) + "\">\n";
-    out += plot::render_svg_inline(parameter_figure(h, cals, days, p));
+    out += plot::render_svg_inline(parameter_figure(h, cals, days, p),
+                                   "parameter" + std::to_string(p));
     out += "\n<figcaption>" + html_escape(parameter_name(p)) + " (" + parameter_unit(p) + ") against days since " +
            html_escape(date_only(cals.front()->date_utc)) + " UTC; bars ±U.</figcaption>\n</figure>\n";
   }

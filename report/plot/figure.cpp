@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -169,38 +170,130 @@ void draw_series(const Panel& panel, const Series& s, int colour) {
   }
 }
 
-void draw_legend(const Panel& panel) {
-  std::vector<std::string> labels;
-  std::vector<PLINT> colours;
-  std::vector<PLINT> options;
+// The legend sits in a band above the frame, under the title, where it cannot cover data.
+// Lengths in character heights (the current one, at scale 1).
+constexpr double kLegendTextScale = 0.8;
+constexpr double kLegendRowSpacing = 1.4;
+constexpr double kLegendTextOffset = 0.3;    // between an entry's symbol and its text
+constexpr double kLegendSymbolWidth = 0.02;  // of the frame's width
+constexpr double kLegendGap = 0.3;           // between the frame and the legend
+// PLplot has no public text measure: a character of a label is taken as this many
+// character heights wide (pllegend's own Hershey measure of the reports' labels: 0.76).
+constexpr double kCharWidth = 0.8;
+
+struct Legend {
+  std::vector<std::string> labels;  // PLplot-escaped
+  std::vector<PLINT> colours, options;
+  int columns = 0, rows = 0;
+};
+
+Legend legend_of(const Panel& panel) {
+  Legend legend;
   for (std::size_t i = 0; i < panel.series.size(); ++i) {
     const Series& s = panel.series[i];
     if (s.label.empty()) continue;
-    labels.push_back(escape_text(s.label));
-    colours.push_back(kFirstSeries + static_cast<int>(i) % kPaletteSize);
+    legend.labels.push_back(escape_text(s.label));
+    legend.colours.push_back(kFirstSeries + static_cast<int>(i) % kPaletteSize);
     PLINT opt = 0;
     if (s.style != SeriesStyle::points) opt |= PL_LEGEND_LINE;
     if (s.style != SeriesStyle::line) opt |= PL_LEGEND_SYMBOL;
-    options.push_back(opt);
+    legend.options.push_back(opt);
   }
-  if (labels.empty()) return;
-  const auto n = static_cast<PLINT>(labels.size());
-  std::vector<const char*> text, symbols(labels.size(), kPointGlyph);
-  for (const std::string& l : labels) text.push_back(l.c_str());
-  std::vector<PLINT> styles(labels.size(), 1), symbol_numbers(labels.size(), 1);
-  std::vector<PLFLT> widths(labels.size(), 1.0), symbol_scales(labels.size(), kPointScale);
+  return legend;
+}
+
+std::size_t utf8_length(const std::string& text) {
+  std::size_t n = 0;
+  for (char c : text) n += (static_cast<unsigned char>(c) & 0xC0) != 0x80 ? 1 : 0;
+  return n;
+}
+
+// The current subpage in millimetres and the character height.
+struct Subpage {
+  double width_mm = 1, height_mm = 1, char_mm = 0;
+  double char_x() const { return char_mm / width_mm; }  // in normalized subpage coordinates
+  double char_y() const { return char_mm / height_mm; }
+};
+
+Subpage current_subpage() {
+  PLFLT x0 = 0, x1 = 1, y0 = 0, y1 = 1, default_mm = 0, char_mm = 0;
+  plgspa(&x0, &x1, &y0, &y1);
+  plgchr(&default_mm, &char_mm);
+  return {x1 - x0, y1 - y0, char_mm};
+}
+
+// The legend's width in `columns` columns (normalized subpage coordinates), by pllegend's
+// rule (PLplot 5.15, src/pllegend.c): every column as wide as the longest text, a 0.4
+// character border each side, 2 characters between columns, a character's width taken as
+// its height in normalized y.
+double legend_width(const Legend& legend, int columns, double frame_width, const Subpage& page) {
+  std::size_t longest = 0;
+  for (const std::string& l : legend.labels) longest = std::max(longest, utf8_length(l));
+  const double text =
+      kCharWidth * kLegendTextScale * static_cast<double>(longest) * page.char_mm / page.width_mm;
+  const double ch = page.char_y();
+  const double column = text + kLegendTextOffset * ch + kLegendSymbolWidth * frame_width;
+  return 0.8 * ch + (columns - 1) * 2.0 * ch + columns * column;
+}
+
+// As many entries per row as fit over the frame.
+void arrange(Legend& legend, double frame_width, const Subpage& page) {
+  const auto n = static_cast<int>(legend.labels.size());
+  legend.columns = std::max(1, n);
+  while (legend.columns > 1 &&
+         legend_width(legend, legend.columns, frame_width, page) > frame_width)
+    --legend.columns;
+  legend.rows = n == 0 ? 0 : (n + legend.columns - 1) / legend.columns;
+}
+
+// A panel's frame in its subpage (normalized coordinates) and its title's distance above the
+// frame (character heights): plvsta's margins of 8, 5, 5 and 5 character heights, the top one
+// grown when the legend needs more than one row.
+struct PanelLayout {
+  double x0 = 0, x1 = 1, y0 = 0, y1 = 1;
+  double title_disp = 2.0;
+  double legend_offset = 0;  // the legend's gap above the frame, in frame heights
+};
+
+PanelLayout layout_panel(Legend& legend) {
+  const Subpage page = current_subpage();
+  PanelLayout l;
+  l.x0 = 8 * page.char_x();
+  l.x1 = 1 - 5 * page.char_x();
+  l.y0 = 5 * page.char_y();
+  arrange(legend, l.x1 - l.x0, page);
+  const double band = legend.rows > 0 ? kLegendGap + legend.rows * kLegendRowSpacing : 0.0;
+  l.title_disp = std::max(2.0, band + 1.4);
+  l.y1 = 1 - std::max(5.0, l.title_disp + 2.3) * page.char_y();
+  l.legend_offset = kLegendGap * page.char_y() / (l.y1 - l.y0);
+  return l;
+}
+
+void draw_legend(const Legend& legend, const PanelLayout& layout) {
+  if (legend.labels.empty()) return;
+  const auto n = static_cast<PLINT>(legend.labels.size());
+  std::vector<const char*> text, symbols(legend.labels.size(), kPointGlyph);
+  for (const std::string& l : legend.labels) text.push_back(l.c_str());
+  std::vector<PLINT> styles(legend.labels.size(), 1), symbol_numbers(legend.labels.size(), 1);
+  std::vector<PLFLT> widths(legend.labels.size(), 1.0),
+      symbol_scales(legend.labels.size(), kPointScale);
   PLFLT legend_width = 0, legend_height = 0;
   plcol0(kInk);
-  pllegend(&legend_width, &legend_height, PL_LEGEND_BACKGROUND | PL_LEGEND_BOUNDING_BOX,
-           PL_POSITION_TOP | PL_POSITION_RIGHT | PL_POSITION_INSIDE, 0.01, 0.01, 0.05, kBackground, kInk, 1,
-           0, 0, n, options.data(), 1.0, 0.8, 1.6, 0.0, colours.data(), text.data(), nullptr, nullptr,
-           nullptr, nullptr, colours.data(), styles.data(), widths.data(), colours.data(),
-           symbol_scales.data(), symbol_numbers.data(), symbols.data());
+  // The background marks the legend in the drawing (white on white outside the frame).
+  pllegend(&legend_width, &legend_height, PL_LEGEND_BACKGROUND | PL_LEGEND_ROW_MAJOR,
+           PL_POSITION_TOP | PL_POSITION_OUTSIDE, 0.0, layout.legend_offset, kLegendSymbolWidth,
+           kBackground, kInk, 1, legend.rows, legend.columns, n, legend.options.data(),
+           kLegendTextOffset, kLegendTextScale, kLegendRowSpacing, 0.0, legend.colours.data(),
+           text.data(), nullptr, nullptr, nullptr, nullptr, legend.colours.data(), styles.data(),
+           widths.data(), legend.colours.data(), symbol_scales.data(), symbol_numbers.data(),
+           symbols.data());
 }
 
 void draw_panel(const Panel& panel) {
   pladv(0);
-  plvsta();
+  Legend legend = legend_of(panel);
+  const PanelLayout layout = layout_panel(legend);
+  plvpor(layout.x0, layout.x1, layout.y0, layout.y1);
   const auto [x, y] = panel_window(panel);
   plwind(x.lo, x.hi, y.lo, y.hi);
   draw_highlights(panel, y);
@@ -208,12 +301,13 @@ void draw_panel(const Panel& panel) {
   plbox(panel.log_x ? "gl" : "g", 0, 0, panel.log_y ? "gl" : "g", 0, 0);
   plcol0(kInk);
   plbox(panel.log_x ? "bclnst" : "bcnst", 0, 0, panel.log_y ? "bclnstv" : "bcnstv", 0, 0);
-  pllab(escape_text(panel.x_label).c_str(), escape_text(panel.y_label).c_str(), escape_text(panel.title).c_str());
+  pllab(escape_text(panel.x_label).c_str(), escape_text(panel.y_label).c_str(), "");
+  plmtex("t", layout.title_disp, 0.5, 0.5, escape_text(panel.title).c_str());
   draw_reference(panel, x);
   for (std::size_t i = 0; i < panel.series.size(); ++i) {
     draw_series(panel, panel.series[i], kFirstSeries + static_cast<int>(i) % kPaletteSize);
   }
-  draw_legend(panel);
+  draw_legend(legend, layout);
 }
 
 // A temporary file PLplot writes into; removed when this goes out of scope.
@@ -288,6 +382,29 @@ std::string read_all(const std::filesystem::path& path) {
   return text.str();
 }
 
+bool valid_id_prefix(const std::string& prefix) {
+  if (prefix.empty() || !std::isalpha(static_cast<unsigned char>(prefix.front()))) return false;
+  return std::all_of(prefix.begin(), prefix.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_';
+  });
+}
+
+void replace_all(std::string& s, const std::string& from, const std::string& to) {
+  for (std::size_t at = s.find(from); at != std::string::npos; at = s.find(from, at + to.size()))
+    s.replace(at, from.size(), to);
+}
+
+// PLplot's svg device numbers its clip paths from 0 in every drawing, and ids are unique per
+// HTML page: two inlined drawings would share them, and the second's url(#..) would find the
+// first's clip paths (losing its text where the two differ). Text cannot contain these
+// patterns: its quotes stay character references (decode_character_references).
+std::string prefix_ids(std::string svg, const std::string& prefix) {
+  replace_all(svg, " id=\"", " id=\"" + prefix);
+  replace_all(svg, "\"url(#", "\"url(#" + prefix);
+  replace_all(svg, "href=\"#", "href=\"#" + prefix);
+  return svg;
+}
+
 void draw_with_plplot(const Figure& figure, const std::filesystem::path& out) {
   PLINT previous_stream = 0, stream = 0;
   plgstrm(&previous_stream);
@@ -322,9 +439,12 @@ std::string render_svg(const Figure& figure) {
   return svg;
 }
 
-std::string render_svg_inline(const Figure& figure) {
-  std::string svg = render_svg(figure);
-  return svg.substr(svg.find("<svg"));
+std::string render_svg_inline(const Figure& figure, const std::string& id_prefix) {
+  if (!valid_id_prefix(id_prefix))
+    throw std::invalid_argument("plot: \"" + id_prefix +
+                                "\" is not an id prefix (a letter, then letters, digits, - or _)");
+  const std::string svg = render_svg(figure);
+  return prefix_ids(svg.substr(svg.find("<svg")), id_prefix + "-");
 }
 
 void write_svg(const Figure& figure, const std::filesystem::path& path) {

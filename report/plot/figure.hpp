@@ -45,8 +45,11 @@ struct Figure {
 // panel when it cannot be drawn (no panels, a series whose x and y lengths differ).
 std::string render_svg(const Figure& figure);
 
-// render_svg() without the XML prologue, ready to inline into an HTML page.
-std::string render_svg_inline(const Figure& figure);
+// render_svg() without the XML prologue, ready to inline into an HTML page: every id it
+// defines (and every reference to one) starts with `id_prefix` and '-', so the drawings of a
+// page must have different prefixes. Throws std::invalid_argument unless the prefix is a
+// letter followed by letters, digits, '-' or '_'.
+std::string render_svg_inline(const Figure& figure, const std::string& id_prefix);
 
 // Writes render_svg() to `path` (replaced atomically). Throws with the path on failure.
 void write_svg(const Figure& figure, const std::filesystem::path& path);

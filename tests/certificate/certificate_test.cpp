@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <string>
 
 #include "calib/averaging.hpp"
@@ -140,6 +141,9 @@ TEST_F(CertificateOfSimulatedRun, DrawsResidualPlotsPerPositionAndAxis) {
   for (const char* axis : {"x accelerometer", "y accelerometer", "z accelerometer"})
     EXPECT_NE(axes.find(axis), std::string::npos) << axis << " panel title in the SVG";
   EXPECT_EQ(page.count("//table[@id='compensation']//tr"), 5u) << "header, b and three rows of M";
+  // Issue 20: both inline SVGs defined text-clipping0.., and the second lost its text.
+  const std::vector<std::string> ids = page.texts("//@id");
+  EXPECT_EQ(std::set<std::string>(ids.begin(), ids.end()).size(), ids.size()) << "duplicate ids";
 }
 
 TEST_F(CertificateOfSimulatedRun, ReportsTheStoredDiagnosisWhenOneWasRun) {

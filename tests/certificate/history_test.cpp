@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <set>
 #include <string>
 
 #include "calib/averaging.hpp"
@@ -65,6 +66,8 @@ TEST(UnitHistory, PageHasATableTheDriftsAndOnePlotPerParameter) {
   EXPECT_EQ(page.count("//ul[@id='drifts']/li[@data-parameter='bias_x']"), 3u);
   EXPECT_EQ(page.count("//figure[@data-parameter]//svg"), 9u);
   EXPECT_EQ(page.count("//figure[@data-parameter='gamma23']//svg"), 1u);
+  const std::vector<std::string> ids = page.texts("//@id");  // nine inline SVGs, one page
+  EXPECT_EQ(std::set<std::string>(ids.begin(), ids.end()).size(), ids.size()) << "duplicate ids";
 }
 
 TEST(UnitHistory, ReadsBothUtcStampFormsAndRejectsOthers) {

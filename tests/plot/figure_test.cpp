@@ -42,8 +42,22 @@ TEST(Figure, SvgCarriesTitlesLabelsAndLegendOfEveryPanel) {
 }
 
 TEST(Figure, InlineSvgStartsAtTheSvgElement) {
-  const std::string svg = render_svg_inline(residual_figure());
+  const std::string svg = render_svg_inline(residual_figure(), "figure");
   EXPECT_EQ(svg.rfind("<svg", 0), 0u);
+}
+
+// PLplot numbers the clip paths of every drawing from 0: inlined into one page, two
+// figures must not share ids (issue 20), and each reference stays inside its own figure.
+TEST(Figure, InlineSvgIdsCarryTheirPrefix) {
+  const std::string a = render_svg_inline(residual_figure(), "first");
+  const std::string b = render_svg_inline(residual_figure(), "second");
+  ASSERT_GT(count(a, " id=\""), 0u);
+  EXPECT_EQ(count(a, " id=\"first-"), count(a, " id=\""));
+  EXPECT_EQ(count(a, "url(#first-"), count(a, "url(#"));
+  EXPECT_EQ(count(b, " id=\"second-"), count(b, " id=\""));
+  EXPECT_EQ(count(b, "url(#second-"), count(b, "url(#"));
+  EXPECT_THROW(render_svg_inline(residual_figure(), ""), std::invalid_argument);
+  EXPECT_THROW(render_svg_inline(residual_figure(), "a\" onload=\"x"), std::invalid_argument);
 }
 
 TEST(Figure, LogAxesSkipNonPositivePointsInsteadOfFailing) {

@@ -9,6 +9,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <regex>
+#include <set>
 #include <sstream>
 
 #include "calib/averaging.hpp"
@@ -277,6 +279,209 @@ TEST(SvgCompact, SameTextAndStrokesInAThirdOfTheBytes) {
   EXPECT_EQ(
       report::compact_svg("<svg>\n  <rect\n    x=\"1.504000\"\n    y=\"2.000000\"\n  />\n</svg>"),
       "<svg><rect x=\"1.5\" y=\"2\"/></svg>");
+}
+
+// ---- what a person reads (issue 15, item 5) ---------------------------------------------
+
+// The row of the candidates table for one candidate, as the page prints it.
+std::string candidate_row(const std::string& html, const std::string& effect,
+                          const std::string& axis) {
+  const std::string start = "<tr><td>" + effect + "</td><td>" + axis + "</td>";
+  const std::size_t at = html.find(start);
+  if (at == std::string::npos) return "";
+  return html.substr(at, html.find("</tr>", at) - at);
+}
+
+CandidateTest candidate(const std::string& effect, const std::string& axis, bool testable,
+                        double value, double sigma, const std::string& reason = "") {
+  CandidateTest c;
+  c.effect = effect;
+  c.axis = axis;
+  c.unit = "ug";
+  c.testable = testable;
+  c.reason = reason;
+  c.value = value;
+  c.sigma = sigma;
+  return c;
+}
+
+// The numbers issue 15 found in the table: a candidate the programme cannot identify, and
+// estimates that are not finite, are listed as not testable with their reason, never with
+// a number; so is a candidate whose sigma is missing.
+TEST(DiagnosisReport, UntestableCandidatesAreListedWithoutNumbers) {
+  const Recording rec = simulate(diagnostic32(), "", "", 0, 21);
+  Diagnosis d = diagnose_recording(rec);
+  const CandidateTest implausible =
+      candidate("cross_coupling", "yx", false, 12404302006548456.0, 7884205963143679.0,
+                "its estimate is implausible for its kind");
+  const CandidateTest no_sigma =
+      candidate("angle_sensor_error", "alpha1", true, 2930995070440539.5, kNaN);
+  const CandidateTest nan_value = candidate("bias_temperature", "z", true, kNaN, 5050);
+  d.candidates = {implausible, no_sigma, nan_value};
+  const std::string html = report::diagnosis_html(d, rec);
+  for (const char* digits : {"12404302006548456", "7884205963143679", "2930995070440539", "5050"})
+    EXPECT_EQ(html.find(digits), std::string::npos) << digits;
+  EXPECT_NE(candidate_row(html, "cross_coupling", "yx")
+                .find("not testable: its estimate is implausible for its kind"),
+            std::string::npos);
+  EXPECT_NE(candidate_row(html, "angle_sensor_error", "alpha1").find("not testable"),
+            std::string::npos);
+  EXPECT_NE(candidate_row(html, "bias_temperature", "z").find("not testable"), std::string::npos);
+}
+
+// Whole words nan / inf, as printf writes them ("nan", "-nan", "inf", "+inf").
+bool has_non_finite_word(const std::string& text) {
+  static const std::regex word("(^|[^A-Za-z0-9_])[+-]?(nan|inf|infinity)($|[^A-Za-z0-9_])",
+                               std::regex::icase);
+  return std::regex_search(text, word);
+}
+
+// A recording without temperature (the T column printed "nan"), a residual without a
+// standard error, and a sentence from calib with a non-finite number: no nan or inf on the
+// page.
+TEST(DiagnosisReport, NoNanOrInfAnywhereOnThePage) {
+  Recording rec = simulate(diagnostic32(), "scale_nonlinearity_k2", "z", -34, 31);
+  for (RecordingSample& s : rec.samples) s.temp_c = kNaN;
+  rec.temp_ref_c.reset();
+  Diagnosis d = diagnose_recording(rec);
+  ASSERT_FALSE(d.findings.empty());
+  d.baseline.residuals.front().sigma_g.setZero();
+  d.summary.push_back("Two explanations fit about equally well: a (nan ug, chi2 gain -inf).");
+  const std::string html = report::diagnosis_html(d, rec);
+  ASSERT_FALSE(has_non_finite_word("nanometres, infinite care"));
+  ASSERT_TRUE(has_non_finite_word("<td>-nan</td>"));
+  EXPECT_FALSE(has_non_finite_word(html));
+  EXPECT_NE(html.find("(n/a ug, chi2 gain n/a)"), std::string::npos);
+  EXPECT_EQ(html.find("T (degC)"), std::string::npos) << "no temperature column without one";
+}
+
+TEST(DiagnosisReport, EmptySectionsAreNotPrinted) {
+  const Recording rec = simulate(diagnostic32(), "", "", 0, 21);
+  Diagnosis d = diagnose_recording(rec);
+  d.not_tested.clear();
+  d.located.clear();
+  d.structure.clear();
+  std::string html = report::diagnosis_html(d, rec);
+  for (const char* heading : {"<h2>Not tested</h2>", "<h2>Where the mismatch is</h2>",
+                              "<h2>Structure tests", "<h2>Proposed positions</h2>"})
+    EXPECT_EQ(html.find(heading), std::string::npos) << heading;
+  EXPECT_EQ(html.find("<ul></ul>"), std::string::npos);
+  EXPECT_EQ(html.find("<table><tr><th>axis</th><th>against</th><th>z</th></tr></table>"),
+            std::string::npos);
+  d.not_tested = {"bias_temperature, scale_temperature: the recording has no temperature column"};
+  html = report::diagnosis_html(d, rec);
+  EXPECT_EQ(count(html, "<h2>Not tested</h2>"), 1u);
+}
+
+// Every inline <svg> of a page, in order.
+std::vector<std::string> inline_svgs(const std::string& html) {
+  std::vector<std::string> out;
+  for (std::size_t at = html.find("<svg"); at != std::string::npos; at = html.find("<svg", at)) {
+    const std::size_t end = html.find("</svg>", at) + 6;
+    out.push_back(html.substr(at, end - at));
+    at = end;
+  }
+  return out;
+}
+
+// The values of `attribute="..."` in `text`, prefixed by `lead` (e.g. "url(#").
+std::vector<std::string> quoted_after(const std::string& text, const std::string& lead, char stop) {
+  std::vector<std::string> out;
+  for (std::size_t at = text.find(lead); at != std::string::npos; at = text.find(lead, at + 1)) {
+    const std::size_t from = at + lead.size();
+    out.push_back(text.substr(from, text.find(stop, from) - from));
+  }
+  return out;
+}
+
+// Issue 20's blank panel: PLplot numbers the clip paths of every drawing from 0, so two
+// inline SVGs defined the same ids and the second's url(#..) found the first's.
+TEST(DiagnosisReport, InlinedFiguresHaveDisjointIds) {
+  const Recording rec = simulate(diagnostic32(), "scale_nonlinearity_k2", "z", -34, 31);
+  const std::string html = report::diagnosis_html(diagnose_recording(rec), rec);
+  const std::vector<std::string> svgs = inline_svgs(html);
+  ASSERT_EQ(svgs.size(), 3u);
+  std::set<std::string> page_ids;
+  for (const std::string& svg : svgs) {
+    const std::vector<std::string> ids = quoted_after(svg, " id=\"", '"');
+    ASSERT_FALSE(ids.empty());
+    for (const std::string& id : ids) EXPECT_TRUE(page_ids.insert(id).second) << id;
+    const std::set<std::string> own(ids.begin(), ids.end());
+    for (const std::string& ref : quoted_after(svg, "url(#", ')'))
+      EXPECT_EQ(own.count(ref), 1u) << ref << " is not defined in its own drawing";
+  }
+}
+
+// A rectangle in the drawing's coordinates (PLplot's: y up).
+struct Box {
+  double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
+  void take(double x, double y, double pad = 0) {
+    x0 = std::min(x0, x - pad);
+    x1 = std::max(x1, x + pad);
+    y0 = std::min(y0, y - pad);
+    y1 = std::max(y1, y + pad);
+  }
+  bool empty() const { return x0 > x1; }
+  bool overlaps(const Box& o) const { return x0 < o.x1 && o.x0 < x1 && y0 < o.y1 && o.y0 < y1; }
+};
+
+// The corners of every "x,y" pair in a points or d attribute.
+Box box_of_points(const std::string& list) {
+  Box b;
+  static const std::regex pair("(-?[0-9.]+),(-?[0-9.]+)");
+  for (auto it = std::sregex_iterator(list.begin(), list.end(), pair); it != std::sregex_iterator();
+       ++it)
+    b.take(std::stod((*it)[1]), std::stod((*it)[2]));
+  return b;
+}
+
+// One panel of a compacted PLplot drawing: from its grid (drawn first, in the grid colour)
+// to the next panel's. The legend is the white-filled background pllegend draws; the data
+// points are the point glyphs drawn before it.
+struct PanelShapes {
+  Box frame, legend, points;
+};
+
+std::vector<PanelShapes> panels_of(const std::string& svg) {
+  static const std::regex glyph(
+      R"re(<text[^>]*font-size="([0-9.]+)"[^>]*matrix\(1 0 0 -1 ([0-9.-]+) ([0-9.-]+)\)[^>]*><tspan[^>]*>●<)re");
+  std::vector<PanelShapes> out;
+  const std::string grid = "stroke=\"#E1E1E1\"";
+  for (std::size_t at = svg.find(grid); at != std::string::npos;) {
+    const std::size_t next = svg.find(grid, at + 1);
+    const std::string panel =
+        svg.substr(at, next == std::string::npos ? std::string::npos : next - at);
+    PanelShapes p;
+    p.frame = box_of_points(panel.substr(0, panel.find("/>")));
+    const std::size_t legend = panel.find("<polyline");
+    if (legend != std::string::npos &&
+        panel.find("fill=\"#FFFFFF\"", legend) < panel.find('>', legend))
+      p.legend = box_of_points(panel.substr(legend, panel.find('>', legend) - legend));
+    const std::string data = panel.substr(0, legend);
+    for (auto it = std::sregex_iterator(data.begin(), data.end(), glyph);
+         it != std::sregex_iterator(); ++it)
+      p.points.take(std::stod((*it)[2]), std::stod((*it)[3]), std::stod((*it)[1]) / 2);
+    out.push_back(p);
+    at = next;
+  }
+  return out;
+}
+
+// Legends do not cover data: each panel's legend lies above its frame, clear of the points.
+TEST(DiagnosisReport, LegendsDoNotCoverThePlottedPoints) {
+  const Recording rec = simulate(diagnostic32(), "scale_nonlinearity_k2", "z", -34, 31, 0, 10);
+  const std::string html = report::diagnosis_html(diagnose_recording(rec), rec);
+  std::size_t panels = 0;
+  for (const std::string& svg : inline_svgs(html)) {
+    for (const PanelShapes& p : panels_of(svg)) {
+      ++panels;
+      ASSERT_FALSE(p.legend.empty()) << "panel " << panels << " has no legend";
+      ASSERT_FALSE(p.points.empty()) << "panel " << panels << " has no points";
+      EXPECT_FALSE(p.legend.overlaps(p.points)) << "panel " << panels;
+      EXPECT_GE(p.legend.y0, p.frame.y1) << "panel " << panels << ": legend inside the frame";
+    }
+  }
+  EXPECT_EQ(panels, 15u);
 }
 
 }  // namespace
