@@ -40,6 +40,10 @@ struct DiagnoseOptions {
   // raises the restricted log-likelihood by this much (2 delta log L; chi2 with four
   // parameters at P = 1e-3). Infinity: always test against white noise.
   double wander_lr_threshold = 18.5;
+  // The largest bias wander (Gauss-Markov standard deviation) the unit's class can have: a
+  // navigation-grade quartz unit's bias instability is a few ug. A larger "wander" is an
+  // event (a jump, a knock, an oscillation), not noise, and is left for the checks to find.
+  double max_bias_instability_ug = 10;
   // Before `explained` or `consistent`: the residuals must pass the whiteness tests at this
   // family-wise false-alarm rate, each chosen term must agree between the two halves of the
   // run within this many sigma, and no found value may exceed this many times its

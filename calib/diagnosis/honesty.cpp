@@ -20,23 +20,15 @@ std::vector<ResidualSample> residual_samples(const Prepared& P, const VectorXd& 
     const auto k = static_cast<std::size_t>(lp.row_position[r]);
     const PositionContext& c = P.ctx[k];
     out.push_back({static_cast<int>(k), P.avg[k].pos, P.model->component_name(lp.row_component[r]),
-                   c.t_mid_h * 3600, c.alpha1_deg, c.alpha2_deg, c.up, residual[static_cast<Eigen::Index>(r)]});
+                   c.t_mid_h * 3600, c.alpha1_deg, c.alpha2_deg, c.up,
+                   residual[static_cast<Eigen::Index>(r)]});
   }
   return out;
 }
 
-WhitenessResult whiteness_of(const Prepared& P, const VectorXd& residual, const DiagnoseOptions& options) {
+WhitenessResult whiteness_of(const Prepared& P, const VectorXd& residual,
+                             const DiagnoseOptions& options) {
   return whiteness_tests(residual_samples(P, residual), options.whiteness_family_alpha);
-}
-
-// The chosen terms' columns, whitened by sigma only (a half is decorrelated on its own).
-std::vector<VectorXd> white_columns(const Prepared& P, const std::vector<Candidate>& terms) {
-  std::vector<VectorXd> cols;
-  for (const Candidate& c : terms) {
-    const MatrixXd m = candidate_columns(c, *P.model, P.ctx, /*white_only=*/true);
-    for (Eigen::Index j = 0; j < m.cols(); ++j) cols.push_back(m.col(j));
-  }
-  return cols;
 }
 
 int column_rank(const MatrixXd& M) {
@@ -78,8 +70,9 @@ HalfFit fit_half(const Prepared& P, const MatrixXd& X_white, bool first_half, do
   const VectorXd y = decorrelate(noise_rows, lp.noise, lp.y_white(rows));
   const Eigen::Index baseline_cols = lp.A.cols();
   out.fit = solve_linear(X, y, row_position, positions);
-  out.terms_identifiable = out.fit.dof > 0 && column_rank(X) - column_rank(X.leftCols(baseline_cols)) ==
-                                                  static_cast<int>(X.cols() - baseline_cols);
+  out.terms_identifiable =
+      out.fit.dof > 0 && column_rank(X) - column_rank(X.leftCols(baseline_cols)) ==
+                             static_cast<int>(X.cols() - baseline_cols);
   return out;
 }
 
@@ -90,39 +83,46 @@ double median_time_h(const Prepared& P) {
   return t[t.size() / 2];
 }
 
-std::vector<StabilityCheck> stability_checks(const Prepared& P, const Selection& s, const DiagnoseOptions& options) {
+std::vector<StabilityCheck> stability_checks(const Prepared& P, const Selection& s,
+                                             const DiagnoseOptions& options) {
   std::vector<StabilityCheck> out;
   if (s.chosen.empty()) return out;
   const LinearProblem& lp = P.model->problem();
-  const MatrixXd X = with_columns(lp.A_white, white_columns(P, s.chosen_candidates()));
+  const MatrixXd X =
+      with_columns(lp.A_white, term_columns_white(*P.model, P.ctx, s.chosen_candidates()));
   const double t_split_h = median_time_h(P);
   const HalfFit halves[2] = {fit_half(P, X, true, t_split_h), fit_half(P, X, false, t_split_h)};
   Eigen::Index col = lp.A.cols();
   for (const Chosen& c : s.chosen) {
-    const TermEstimate whole = term_estimate(c.cand, s.current.beta, s.current.cov, col, sigma_scale(s.current));
+    const TermEstimate whole =
+        term_estimate(c.cand, s.current.beta, s.current.cov, col, sigma_scale(s.current));
     TermEstimate half[2];
     for (int h = 0; h < 2; ++h) {
       const LinearFit& f = halves[h].fit;
-      half[h] = halves[h].terms_identifiable ? term_estimate(c.cand, f.beta, f.cov, col, sigma_scale(f))
-                                             : TermEstimate{kNaN, kNaN, 0};
+      half[h] = halves[h].terms_identifiable
+                    ? term_estimate(c.cand, f.beta, f.cov, col, sigma_scale(f))
+                    : TermEstimate{kNaN, kNaN, 0};
     }
-    HalfStability hs{c.cand.effect(), c.cand.axis, c.cand.unit(), whole.value, whole.sigma,
-                     half[0].value,   half[0].sigma, half[1].value, half[1].sigma, 0, true};
+    HalfStability hs{
+        c.cand.effect(), c.cand.axis,   c.cand.unit(), whole.value, whole.sigma, half[0].value,
+        half[0].sigma,   half[1].value, half[1].sigma, 0,           true};
     judge_half_stability(hs, options.half_stability_z);
-    out.push_back({hs.effect, hs.axis, hs.unit, hs.value_all, hs.sigma_all, hs.value_first, hs.sigma_first,
-                   hs.value_second, hs.sigma_second, hs.z, hs.stable});
+    out.push_back({hs.effect, hs.axis, hs.unit, hs.value_all, hs.sigma_all, hs.value_first,
+                   hs.sigma_first, hs.value_second, hs.sigma_second, hs.z, hs.stable});
     col += c.cand.params();
   }
   return out;
 }
 
-std::vector<std::string> implausible_values(const std::vector<Finding>& findings, const DiagnoseOptions& options) {
+std::vector<std::string> implausible_values(const std::vector<Finding>& findings,
+                                            const DiagnoseOptions& options) {
   std::vector<std::string> out;
   for (const Finding& f : findings) {
     const double bound = options.implausible_factor * catalog_entry(f.effect).typical_max;
     if (std::abs(f.value) > bound)
-      out.push_back(f.effect + " " + f.axis + " " + num(f.value) + " " + f.unit + " is beyond " + fmt("%.0f", bound) +
-                    " " + f.unit + ", ten times the largest a navigation-grade unit on a good stand shows");
+      out.push_back(f.effect + " " + f.axis + " " + num(f.value) + " " + f.unit + " is beyond " +
+                    fmt("%.0f", bound) + " " + f.unit +
+                    ", ten times the largest a navigation-grade unit on a good stand shows");
   }
   return out;
 }
@@ -138,7 +138,8 @@ std::vector<std::string> tried_candidates(const Selection& s) {
   for (const CandidateTest& t : s.first_round) {
     if (out.size() >= 4) break;
     const std::string name = t.effect + " " + t.axis;
-    const bool listed = std::any_of(out.begin(), out.end(), [&](const std::string& o) { return o.rfind(name, 0) == 0; });
+    const bool listed = std::any_of(out.begin(), out.end(),
+                                    [&](const std::string& o) { return o.rfind(name, 0) == 0; });
     if (t.testable && !listed && std::isfinite(t.delta_chi2) && t.delta_chi2 > 0)
       out.push_back(name + " (chi2 gain " + fmt("%.1f", t.delta_chi2) + ")");
   }
@@ -151,8 +152,8 @@ WhitenessCheck as_check(const WhitenessTest& t) {
 
 }  // namespace
 
-HonestyChecks honesty_checks(const Prepared& P, const Selection& s, const std::vector<Finding>& findings,
-                             const DiagnoseOptions& options) {
+HonestyChecks honesty_checks(const Prepared& P, const Selection& s,
+                             const std::vector<Finding>& findings, const DiagnoseOptions& options) {
   HonestyChecks c;
   c.made = true;
   c.family_alpha = options.whiteness_family_alpha;
@@ -161,7 +162,8 @@ HonestyChecks honesty_checks(const Prepared& P, const Selection& s, const std::v
   c.worst = w.worst;
   c.stability = stability_checks(P, s, options);
   c.implausible = implausible_values(findings, options);
-  const bool stable = std::all_of(c.stability.begin(), c.stability.end(), [](const StabilityCheck& k) { return k.stable; });
+  const bool stable = std::all_of(c.stability.begin(), c.stability.end(),
+                                  [](const StabilityCheck& k) { return k.stable; });
   c.passed = w.white && stable && c.implausible.empty();
   if (!c.passed) c.not_explaining = tried_candidates(s);
   return c;
@@ -174,7 +176,8 @@ bool best_rival_explains(const Prepared& P, const Selection& s, const DiagnoseOp
   const MatrixXd extra = candidate_columns(s.rivals->best_cand, *P.model, P.ctx);
   for (Eigen::Index j = 0; j < extra.cols(); ++j) cols.push_back(extra.col(j));
   const LinearFit f = solve_linear(with_columns(lp.A, cols), lp.y, lp.row_position, lp.positions);
-  return consistency_p(f.chi2, f.dof) > options.consistency_p && whiteness_of(P, f.residual, options).white;
+  return consistency_p(f.chi2, f.dof) > options.consistency_p &&
+         whiteness_of(P, f.residual, options).white;
 }
 
 std::vector<std::string> honesty_words(const HonestyChecks& c) {
@@ -189,23 +192,28 @@ std::vector<std::string> honesty_words(const HonestyChecks& c) {
   if (c.worst >= 0) {
     const WhitenessCheck& w = c.whiteness[static_cast<std::size_t>(c.worst)];
     if (w.p < c.family_alpha / static_cast<double>(c.whiteness.size())) {
-      WhitenessTest t{w.axis, w.against, w.test, 0, w.statistic, w.p, w.positions, w.t_from_s, w.t_to_s};
+      WhitenessTest t{w.axis, w.against,   w.test,     0,       w.statistic,
+                      w.p,    w.positions, w.t_from_s, w.t_to_s};
       add(whiteness_words(t));
     }
   }
   for (const StabilityCheck& k : c.stability)
     if (!k.stable)
-      add(k.effect + " " + k.axis + " is " + num(k.value) + " +- " + fmt("%.1f", k.sigma) + " " + k.unit +
-          " on the whole run but " + num(k.first) + " +- " + fmt("%.1f", k.first_sigma) + " on its first half and " +
-          num(k.second) + " +- " + fmt("%.1f", k.second_sigma) + " on its second (" + fmt("%.1f", std::abs(k.z)) +
+      add(k.effect + " " + k.axis + " is " + num(k.value) + " +- " + fmt("%.1f", k.sigma) + " " +
+          k.unit + " on the whole run but " + num(k.first) + " +- " + fmt("%.1f", k.first_sigma) +
+          " on its first half and " + num(k.second) + " +- " + fmt("%.1f", k.second_sigma) +
+          " on its second (" + fmt("%.1f", std::abs(k.z)) +
           " sigma apart): it fits, but it is not the physics");
   for (const std::string& i : c.implausible) add(i);
   s += ".";
   out.push_back(s);
   if (!c.not_explaining.empty()) {
     std::string n = "Catalog candidates tried that do not explain it:";
-    for (std::size_t i = 0; i < c.not_explaining.size(); ++i) n += (i ? ", " : " ") + c.not_explaining[i];
-    out.push_back(n + ". The physics is in no catalog of this tool: look at the located positions and times.");
+    for (std::size_t i = 0; i < c.not_explaining.size(); ++i)
+      n += (i ? ", " : " ") + c.not_explaining[i];
+    out.push_back(
+        n +
+        ". The physics is in no catalog of this tool: look at the located positions and times.");
   }
   return out;
 }

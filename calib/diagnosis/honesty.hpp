@@ -13,8 +13,8 @@
 namespace standcal::diagnosis {
 
 // The checks of the model the selection ended with, under the problem's noise.
-HonestyChecks honesty_checks(const Prepared& P, const Selection& s, const std::vector<Finding>& findings,
-                             const DiagnoseOptions& options);
+HonestyChecks honesty_checks(const Prepared& P, const Selection& s,
+                             const std::vector<Finding>& findings, const DiagnoseOptions& options);
 
 // Two rivals the data cannot tell apart: does the better one, added to the chosen terms,
 // leave noise (chi2 and whiteness)? If not, neither explains the data and the verdict is

@@ -30,7 +30,7 @@ using Ordering = std::function<double(const ResidualSample&)>;
 
 // The component's residuals sorted by the ordering variable (ties keep time order).
 std::vector<const ResidualSample*> sorted_along(std::vector<const ResidualSample*> rows,
-                                           const Ordering& key) {
+                                                const Ordering& key) {
   std::stable_sort(
       rows.begin(), rows.end(),
       [&key](const ResidualSample* a, const ResidualSample* b) { return key(*a) < key(*b); });
@@ -110,6 +110,23 @@ WhitenessTest step_test(const std::vector<const ResidualSample*>& rows) {
   return t;
 }
 
+// One residual far beyond the others: a sudden event (a jump, a knock) that a noise model
+// with slow wander would otherwise absorb as a single large innovation.
+WhitenessTest outlier_test(const std::vector<const ResidualSample*>& rows) {
+  WhitenessTest t;
+  t.test = "outlier";
+  t.n = static_cast<int>(rows.size());
+  std::size_t at = 0;
+  for (std::size_t i = 1; i < rows.size(); ++i)
+    if (std::abs(rows[i]->r) > std::abs(rows[at]->r)) at = i;
+  t.statistic = std::abs(rows[at]->r);
+  // P(max of n |N(0,1)| > m) = 1 - (1 - erfc(m / sqrt 2))^n.
+  t.p = -std::expm1(static_cast<double>(rows.size()) *
+                    std::log1p(-std::erfc(t.statistic / std::sqrt(2.0))));
+  span_of(t, rows, at, at + 1);
+  return t;
+}
+
 const std::vector<std::pair<std::string, Ordering>>& orderings() {
   static const std::vector<std::pair<std::string, Ordering>> all = {
       {"time", [](const ResidualSample& r) { return r.t_s; }},
@@ -129,10 +146,12 @@ void test_component(WhitenessResult& out, const std::string& component,
     t.against = name;
     out.tests.push_back(t);
   }
-  WhitenessTest step = step_test(sorted_along(rows, orderings().front().second));
-  step.component = component;
-  step.against = "time";
-  out.tests.push_back(step);
+  const std::vector<const ResidualSample*> in_time = sorted_along(rows, orderings().front().second);
+  for (WhitenessTest t : {step_test(in_time), outlier_test(in_time)}) {
+    t.component = component;
+    t.against = "time";
+    out.tests.push_back(t);
+  }
 }
 
 std::string output_words(const std::string& component) {
@@ -170,6 +189,9 @@ std::string whiteness_words(const WhitenessTest& t) {
     s += "follow a pattern " + against_words(t.against) +
          " (neighbours agree: serial correlation z = " + fmt("%.1f", t.statistic) +
          ", P = " + fmt("%.2g", t.p) + "); the longest run of one sign covers positions";
+  else if (t.test == "outlier")
+    s += "have one value of " + fmt("%.1f", t.statistic) + " sigma (P = " + fmt("%.2g", t.p) +
+         " among that many), a sudden event rather than noise, at position";
   else
     s += "shift level " + against_words(t.against) +
          " (step test D*sqrt(n) = " + fmt("%.2f", t.statistic) + ", P = " + fmt("%.2g", t.p) +

@@ -27,7 +27,7 @@ struct ResidualSample {
 struct WhitenessTest {
   std::string component;  // "x", "y", "z" or "L"
   std::string against;    // "time", "alpha1", "alpha2", "u_x", "u_y", "u_z"
-  std::string test;       // "serial" (neighbours agree) or "step" (a level shift, CUSUM)
+  std::string test;       // "serial" (neighbours agree), "step" (a level shift, CUSUM), "outlier"
   int n = 0;
   double statistic = 0;  // serial: z of the lag-one correlation; step: Kolmogorov D * sqrt(n)
   double p = 1;          // one-sided P(at least this much structure | white residuals)
@@ -48,7 +48,8 @@ struct WhitenessResult {
 
 // Serial-correlation tests of each component's residuals ordered by time, by each stand
 // angle and by each gravity component, and a step test in time. A component with fewer
-// than 8 residuals is not tested (the tests' normal approximations need them).
+// than 8 residuals is not tested (the tests' normal approximations need them). And the
+// largest residual of each component against the largest of that many normal ones.
 WhitenessResult whiteness_tests(const std::vector<ResidualSample>& residuals,
                                 double family_alpha = 1e-3);
 

@@ -224,6 +224,17 @@ MatrixXd candidate_columns(const Candidate& c, const ResidualModel& model,
   return white_only ? cols : decorrelated(lp, cols);
 }
 
+std::vector<VectorXd> term_columns_white(const ResidualModel& model,
+                                         const std::vector<PositionContext>& ctx,
+                                         const std::vector<Candidate>& terms) {
+  std::vector<VectorXd> cols;
+  for (const Candidate& c : terms) {
+    const MatrixXd m = candidate_columns(c, model, ctx, /*white_only=*/true);
+    for (Eigen::Index j = 0; j < m.cols(); ++j) cols.push_back(m.col(j));
+  }
+  return cols;
+}
+
 MatrixXd all_candidate_columns(const std::vector<Candidate>& cands, const ResidualModel& model,
                                const std::vector<PositionContext>& ctx) {
   Eigen::Index total = 0;

@@ -85,6 +85,11 @@ Eigen::MatrixXd candidate_rows(const ResidualModel& model, const Candidate& c,
 // row's sigma, and decorrelated under the problem's noise unless `white_only`.
 Eigen::MatrixXd candidate_columns(const Candidate& c, const ResidualModel& model,
                                   const std::vector<PositionContext>& ctx, bool white_only = false);
+// Several terms' columns whitened by sigma only, in order (for the noise estimate and for a
+// part of the run decorrelated on its own).
+std::vector<Eigen::VectorXd> term_columns_white(const ResidualModel& model,
+                                                const std::vector<PositionContext>& ctx,
+                                                const std::vector<Candidate>& terms);
 // Every candidate's columns side by side.
 Eigen::MatrixXd all_candidate_columns(const std::vector<Candidate>& cands,
                                       const ResidualModel& model,

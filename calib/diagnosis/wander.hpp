@@ -2,8 +2,8 @@
 // Which noise the terms are tested against (docs/diagnosis.md, "Noise"): white, or the
 // bias wander of model.md's bias_instability when the recording shows it. The two compete
 // with the deterministic terms for the same slow residuals (a drift is wander that happens
-// to be straight), so the choice alternates: terms under the current noise, then the noise
-// re-estimated with those terms in the model, until neither changes.
+// to be straight), so the wander is estimated with every slow catalog term in the model and
+// the terms are then selected under it.
 #include "calib/diagnosis/diagnosis.hpp"
 #include "calib/diagnosis/prepare.hpp"
 #include "calib/diagnosis/selection.hpp"

@@ -36,7 +36,7 @@ TEST(ResidualChecks, WhiteResidualsPassAtTheirNominalRate) {
   // at most; 12 would be 4 sigma of a binomial(400, 0.01) above that.
   EXPECT_LE(flagged, 12);
   const WhitenessResult one = whiteness_tests(white_residuals(rng));
-  EXPECT_EQ(one.tests.size(), 21u);  // 3 outputs x (6 serial orderings + 1 step)
+  EXPECT_EQ(one.tests.size(), 24u);  // 3 outputs x (6 serial orderings + step + outlier)
 }
 
 TEST(ResidualChecks, AStepMidRunIsCaughtAndLocatedInTime) {
@@ -63,6 +63,19 @@ TEST(ResidualChecks, APatternAlongAGravityComponentIsCaught) {
   ASSERT_FALSE(w.white);
   EXPECT_EQ(w.tests[static_cast<std::size_t>(w.worst)].component, "x");
   EXPECT_NE(w.tests[static_cast<std::size_t>(w.worst)].against, "time");
+}
+
+TEST(ResidualChecks, OneSuddenEventIsAnOutlier) {
+  std::mt19937_64 rng(6);
+  std::vector<ResidualSample> rs = white_residuals(rng);
+  rs[3 * 20 + 1].r = 6.5;  // y at the 21st position: what a jump leaves as one innovation
+  const WhitenessResult w = whiteness_tests(rs);
+  ASSERT_FALSE(w.white);
+  const WhitenessTest& worst = w.tests[static_cast<std::size_t>(w.worst)];
+  EXPECT_EQ(worst.test, "outlier");
+  EXPECT_EQ(worst.component, "y");
+  ASSERT_EQ(worst.positions.size(), 1u);
+  EXPECT_EQ(worst.positions[0], 21);
 }
 
 TEST(ResidualChecks, TooFewResidualsAreNotTested) {
