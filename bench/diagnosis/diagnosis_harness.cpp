@@ -197,7 +197,7 @@ int main(int argc, char** argv) {
         {"none", "none"}, {"scale_nonlinearity_k2", "K2"}, {"scale_nonlinearity_k3", "K3"}, {"bias_drift", "drift"},
         {"hysteresis", "hyst"}, {"bias_temperature", "bT"}, {"scale_temperature", "kT"}, {"cross_coupling", "Kij"},
         {"angle_sensor_error", "angle"}, {"settling_transient", "settle"}, {"mounting_misalignment_large", "mount"},
-        {"ambiguous", "ambig"}};
+        {"scale_asymmetry", "Koq"}, {"stand_level_drift", "level"}, {"ambiguous", "ambig"}};
     const auto it = s.find(id);
     return it == s.end() ? id : it->second;
   };

@@ -61,8 +61,7 @@ void explain_rivals(Diagnosis& d, const Prepared& P, const Selection& s,
   const Discrimination found =
       propose_discriminating(*P.model, P.ctx, s, *s.rivals, P.avg.front().mount, options.limits);
   d.proposed_positions = found.positions;
-  for (const std::string& w :
-       rivals_words(*s.rivals, found.no_pose_separates, !found.positions.empty()))
+  for (const std::string& w : rivals_words(*s.rivals, found.no_pose_separates, found.positions))
     d.summary.push_back(w);
 }
 
@@ -112,7 +111,7 @@ Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& option
     return cannot_check(std::move(d), P, why, options);
   // 4-5. Candidates, forward selection, ambiguity.
   const Selection selection =
-      forward_selection(model, P.ctx, P.cands, P.untestable, P.base, options);
+      forward_selection(model, P.ctx, P.cands, P.untestable, P.implausible, P.base, options);
   d.candidates = selection.first_round;
   if (selection.rivals) explain_rivals(d, P, selection, options);
   // 6. Settling transients, on the raw samples.
