@@ -16,6 +16,7 @@ enum class CatalogAxes {
   output,       // one accelerometer output: "x", "y", "z"
   output_pair,  // an ordered pair of outputs, the output first: "zx" is K_zx a_z a_x on z
   stand_axis,   // a stand axis: "alpha1" (outer), "alpha2" (inner)
+  level_axis,   // an axis of the stand's levelling error: "x" (x_S) or "z" (z_S)
 };
 
 // How the diagnosis tests an entry.
@@ -51,6 +52,9 @@ struct CatalogEntry {
   // The largest physically plausible size (report unit) for the navigation-grade unit and
   // the good stand of model.md's "typical magnitudes".
   double typical_max;
+  // What must vary on a programme for the term to show ("too little <excitation> on this
+  // programme"), for the reason a candidate is not testable.
+  const char* excitation;
   EffectColumns effect_g;     // test == columns only
   AxisWords effect_words;     // the physics: "bias drift of the x accelerometer"
   AxisWords signature_words;  // what its residuals do: "grow with time since the start"
@@ -69,7 +73,7 @@ const CatalogEntry& catalog_entry(const std::string& id);
 struct Candidate {
   const CatalogEntry* entry = nullptr;
   std::string axis;
-  int out_axis = 0;     // output axis (output and output_pair entries)
+  int out_axis = 0;     // output axis (output, output_pair), 0 / 2 for level_axis x / z
   int other_axis = -1;  // output_pair only
 
   std::string effect() const { return entry->id; }
@@ -78,7 +82,8 @@ struct Candidate {
 };
 
 // The column candidates on every axis: per output axis its terms and its ordered pairs,
-// then the stand-axis terms. Temperature terms only when the recording has a temperature.
+// then the stand-side terms (stand axes, levelling axes). Temperature terms only when the
+// recording has a temperature.
 std::vector<Candidate> catalog_candidates(bool have_temperature);
 
 // The candidate's contribution to J (g) per report unit: 3 x params.

@@ -63,8 +63,7 @@ void explain_rivals(Diagnosis& d, const Prepared& P, const Selection& s,
   const Discrimination found =
       propose_discriminating(*P.model, P.ctx, s, *s.rivals, P.avg.front().mount, options.limits);
   d.proposed_positions = found.positions;
-  for (const std::string& w :
-       rivals_words(*s.rivals, found.no_pose_separates, !found.positions.empty()))
+  for (const std::string& w : rivals_words(*s.rivals, found.no_pose_separates, found.positions))
     d.summary.push_back(w);
 }
 

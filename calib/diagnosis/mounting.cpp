@@ -37,6 +37,9 @@ std::vector<CandidateTest> mounting_tests(const FitResult& fit, double chi2_dof,
     if (!std::isfinite(m.value_arcmin[a])) {
       t.testable = false;
       t.reason = "the full-vector fit has no estimate of the mounting about this axis";
+    } else if (!std::isfinite(m.sigma_arcmin[a] * scale)) {
+      t.testable = false;  // never reported with a number
+      t.reason = kNoFiniteValue;
     } else {
       t.value = m.value_arcmin[a];
       t.sigma = m.sigma_arcmin[a] * scale;

@@ -31,4 +31,10 @@ Vec3 up_derivative(const PositionContext& p, bool outer) {
   return mount_permutation(p.mount) * d_table;
 }
 
+Vec3 level_derivative(const PositionContext& p, int level_axis) {
+  const Vec3 d_base = -Vec3::Unit(level_axis).cross(Vec3::UnitY());
+  return mount_permutation(p.mount) * C2(p.alpha2_deg * kDegToRad) * C1(p.alpha1_deg * kDegToRad) *
+         d_base;
+}
+
 }  // namespace standcal::diagnosis

@@ -27,4 +27,9 @@ std::vector<PositionContext> position_contexts(const std::vector<PositionAverage
 // d u / d alpha_k (per rad) at a commanded pose, in instrument axes (model.md's u).
 Vec3 up_derivative(const PositionContext& p, bool outer);
 
+// d u / d epsilon (per rad) for the stand's levelling error about x_S (level_axis 0) or z_S
+// (level_axis 2) at a commanded pose, in instrument axes: model.md's C_eps to first order,
+// C_eps e_y = e_y - eps x e_y, carried through C1, C2 and the mount. Perpendicular to u.
+Vec3 level_derivative(const PositionContext& p, int level_axis);
+
 }  // namespace standcal::diagnosis

@@ -36,17 +36,40 @@ double temperature_reference_c(const Recording& rec) {
   return 0;
 }
 
-// Which candidates can this programme test at all? Every column of a candidate must keep
-// some of its size after the baseline parameters have absorbed what they can.
+struct Testability {
+  std::string reason;        // why the candidate cannot be tested, or empty
+  bool implausible = false;  // only because no plausible size would stand out
+};
+
+// Whether this programme can test a candidate: not when the residual model cannot see it;
+// nor when the baseline parameters absorb it (every column must keep some of its size after
+// they have absorbed what they can); nor when its sigma on this programme (white noise)
+// exceeds any plausible size, so the fit could not tell a plausible value from zero, as for
+// a temperature coefficient on a run whose temperature hardly changed.
+Testability testability(const Candidate& c, const Prepared& P, const Eigen::VectorXd& left,
+                        const Eigen::MatrixXd& rest, Eigen::Index first,
+                        const DiagnoseOptions& options) {
+  if (std::string unseen = P.model->unseen_reason(*c.entry); !unseen.empty()) return {unseen};
+  if (P.base.dof <= 0 ||
+      !(left.segment(first, c.params()).minCoeff() > options.min_unabsorbed_fraction))
+    return {"absorbed by the calibration parameters on this programme"};
+  if (!(term_sigma(rest.middleCols(first, c.params())) <= c.entry->typical_max))
+    return {std::string("too little ") + c.entry->excitation +
+                " on this programme: no plausible size would stand out from the noise",
+            true};
+  return {};
+}
+
 void mark_testable(Prepared& P, const DiagnoseOptions& options) {
-  const Eigen::VectorXd frac =
-      unabsorbed_fractions(P.model->problem().A, all_candidate_columns(P.cands, *P.model, P.ctx));
+  const Eigen::MatrixXd C = all_candidate_columns(P.cands, *P.model, P.ctx);
+  const Eigen::MatrixXd rest = unexplained_part(P.model->problem().A, C);
+  const Eigen::VectorXd left = fractions_left(C, rest);
   Eigen::Index j = 0;
   for (const Candidate& c : P.cands) {
-    const bool ok =
-        P.base.dof > 0 && frac.segment(j, c.params()).minCoeff() > options.min_unabsorbed_fraction;
-    P.untestable.push_back(ok ? "" : "absorbed by the calibration parameters on this programme");
-    P.n_testable += ok ? 1 : 0;
+    const Testability t = testability(c, P, left, rest, j, options);
+    P.untestable.push_back(t.reason);
+    P.implausible.push_back(t.implausible);
+    P.n_standing_out += t.reason.empty() || t.implausible ? 1 : 0;
     j += c.params();
   }
 }

@@ -23,7 +23,10 @@ struct Prepared {
   LinearFit base;  // the linearised baseline, no candidate
   std::vector<Candidate> cands;
   std::vector<std::string> untestable;  // per candidate: why it cannot be tested, or empty
-  int n_testable = 0;
+  std::vector<bool> implausible;        // untestable only because no plausible size would show
+  // Candidates whose signature the calibration parameters do not absorb (testable, or
+  // testable but for their plausible size): what the programme's positions can separate.
+  int n_standing_out = 0;
 };
 
 // Throws CannotFit for a recording that cannot be checked (no position, numbers that are

@@ -145,14 +145,16 @@ Discrimination propose_discriminating(const ResidualModel& model,
   std::sort(scored.begin(), scored.end(), [](const ProposedPosition& a, const ProposedPosition& b) {
     return a.predicted_difference_sigma > b.predicted_difference_sigma;
   });
-  if (scored.size() > 4) scored.resize(4);
   Discrimination d;
-  d.positions = scored;
-  // The rivals differ in time or temperature, not in angle: no pose tells them apart.
+  if (scored.empty()) return d;
+  const double best = scored.front().predicted_difference_sigma;
+  const double worst = scored.back().predicted_difference_sigma;
+  if (scored.size() > 4) scored.resize(4);
+  // The rivals differ in time or temperature, not in angle: every pose predicts the same
+  // difference, and the best few differ by less than a sigma.
   d.no_pose_separates =
-      !scored.empty() &&
-      scored.front().predicted_difference_sigma - scored.back().predicted_difference_sigma < 1;
-  if (d.no_pose_separates) d.positions.clear();
+      best - scored.back().predicted_difference_sigma < 1 && best - worst < 0.1 * best;
+  if (!d.no_pose_separates) d.positions = scored;
   return d;
 }
 

@@ -20,8 +20,8 @@ std::vector<ProposedPosition> propose_for_redundancy(const ResidualModel& model,
                                                      Mount mount, const StandLimits& limits);
 
 // Poses where the two rivals' predictions differ most, in sigma of one position's mean.
-// None when no pose separates them by a sigma more than any other (they differ in time or
-// temperature, not in angle).
+// None when the difference does not depend on the pose (they differ in time or temperature,
+// not in angle).
 struct Discrimination {
   std::vector<ProposedPosition> positions;
   bool no_pose_separates = false;

@@ -125,7 +125,7 @@ class FullVectorModel : public ResidualModel {
   std::string component_words(int c) const override {
     return std::string(kAxisNames[c]) + " output";
   }
-  bool sees(const CatalogEntry&) const override { return true; }
+  std::string unseen_reason(const CatalogEntry&) const override { return ""; }
   MatrixXd project(const MatrixXd& effect_g, const PositionContext&) const override {
     return effect_g;
   }
@@ -155,7 +155,11 @@ class InvariantModel : public ResidualModel {
   int rows_per_position() const override { return 1; }
   std::string component_name(int) const override { return "L"; }
   std::string component_words(int) const override { return "invariant projection"; }
-  bool sees(const CatalogEntry& entry) const override { return entry.invariant_visible; }
+  std::string unseen_reason(const CatalogEntry& entry) const override {
+    if (entry.invariant_visible) return "";
+    return "the invariant projection cannot see it (it turns the measured vector, which u^T J "
+           "ignores to first order); a programme with redundancy for the full-vector fit would";
+  }
   MatrixXd project(const MatrixXd& effect_g, const PositionContext& p) const override {
     return p.up.transpose() * effect_g;
   }

@@ -52,8 +52,10 @@ class ResidualModel {
   // A row component for the structure tests ("x", "L") and for sentences ("x output").
   virtual std::string component_name(int component) const = 0;
   virtual std::string component_words(int component) const = 0;
-  // Whether the model sees the entry's physics at all (catalog.hpp invariant_visible).
-  virtual bool sees(const CatalogEntry& entry) const = 0;
+  // Why the model cannot see an entry's physics at all (catalog.hpp invariant_visible), in
+  // words, or empty when it can.
+  virtual std::string unseen_reason(const CatalogEntry& entry) const = 0;
+  bool sees(const CatalogEntry& entry) const { return unseen_reason(entry).empty(); }
   // A contribution to J (3 x k, g) at a position as this model's rows
   // (rows_per_position x k, g): how the model projects J.
   virtual Eigen::MatrixXd project(const Eigen::MatrixXd& effect_g,

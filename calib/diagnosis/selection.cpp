@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <optional>
 #include <utility>
 
 #include "calib/report.hpp"
@@ -115,13 +117,25 @@ MatrixXd unexplained_part(const MatrixXd& A, const MatrixXd& C) {
 }
 
 VectorXd unabsorbed_fractions(const MatrixXd& A, const MatrixXd& C) {
-  const MatrixXd rest = unexplained_part(A, C);
+  return fractions_left(C, unexplained_part(A, C));
+}
+
+VectorXd fractions_left(const MatrixXd& C, const MatrixXd& rest) {
   VectorXd f(C.cols());
   for (Eigen::Index j = 0; j < C.cols(); ++j) {
     const double n = C.col(j).norm();
     f[j] = n > 0 ? rest.col(j).norm() / n : 0.0;
   }
   return f;
+}
+
+double smallest_singular_value(const MatrixXd& M) {
+  return M.size() == 0 ? 0.0 : Eigen::JacobiSVD<MatrixXd>(M).singularValues().minCoeff();
+}
+
+double term_sigma(const MatrixXd& unexplained) {
+  const double s = smallest_singular_value(unexplained);
+  return s > 0 ? 1.0 / s : std::numeric_limits<double>::infinity();
 }
 
 TermEstimate term_estimate(const Candidate& c, const VectorXd& beta, const MatrixXd& cov,
@@ -170,6 +184,11 @@ CandidateTest test_against(const Candidate& c, CandidateTest t, const ResidualMo
   }
   const TermEstimate te =
       term_estimate(c, f.beta, f.cov, f.beta.size() - c.params(), sigma_scale(f));
+  if (!std::isfinite(te.value) || !std::isfinite(te.sigma)) {  // never reported with a number
+    t.testable = false;
+    t.reason = kNoFiniteValue;
+    return t;
+  }
   t.value = te.value;
   t.sigma = te.sigma;
   t.phase_deg = te.phase_deg;
@@ -186,56 +205,101 @@ bool already_chosen(const Selection& s, const Candidate& c) {
   return already;
 }
 
+// Terms with more parameters need a larger chi2 gain for the same false-finding
+// probability; candidates are ranked by their gain beyond that need.
+double excess(const CandidateTest& t, const DiagnoseOptions& options) {
+  return t.testable ? t.delta_chi2 - significance_for(options.significance_chi2, t.params) : -1e300;
+}
+
+using Tested = std::pair<CandidateTest, std::size_t>;  // a test and its candidate's index
+
+// One round: every candidate not yet chosen against the current model, best first; and
+// the implausible candidate that explains most (fitted, though it is listed without a
+// number: an explanation the data cannot rule out still competes in the ambiguity rule).
+struct Round {
+  std::vector<Tested> tests;
+  std::optional<Tested> implausible_best;
+};
+
+Round test_round(const ResidualModel& model, const std::vector<PositionContext>& ctx,
+                 const std::vector<Candidate>& cands, const std::vector<std::string>& untestable,
+                 const std::vector<bool>& implausible, const Selection& s,
+                 const DiagnoseOptions& options) {
+  Round r;
+  for (std::size_t i = 0; i < cands.size(); ++i) {
+    if (already_chosen(s, cands[i])) continue;
+    const CandidateTest t = candidate_test(cands[i], untestable[i]);
+    r.tests.push_back({t.testable ? test_against(cands[i], t, model, ctx, s) : t, i});
+    if (!implausible[i]) continue;
+    const CandidateTest fitted =
+        test_against(cands[i], candidate_test(cands[i], ""), model, ctx, s);
+    if (fitted.testable && (!r.implausible_best ||
+                            excess(fitted, options) > excess(r.implausible_best->first, options)))
+      r.implausible_best = {fitted, i};
+  }
+  std::stable_sort(r.tests.begin(), r.tests.end(), [&options](const Tested& a, const Tested& b) {
+    return excess(a.first, options) > excess(b.first, options);
+  });
+  return r;
+}
+
+// The best and its nearest rival (the second best, or the implausible candidate when it
+// explains more) when the data cannot tell them apart.
+std::optional<Rivals> rivals_in(const Round& r, const std::vector<Candidate>& cands,
+                                const std::vector<std::string>& untestable,
+                                const std::vector<bool>& implausible,
+                                const DiagnoseOptions& options) {
+  std::optional<Tested> rival;
+  if (r.tests.size() > 1) rival = r.tests[1];
+  if (r.implausible_best &&
+      (!rival || excess(r.implausible_best->first, options) > excess(rival->first, options)))
+    rival = r.implausible_best;
+  const CandidateTest& best = r.tests.front().first;
+  if (!rival || !rival->first.testable || excess(rival->first, options) <= 0 ||
+      excess(best, options) - excess(rival->first, options) >= options.ambiguity_chi2)
+    return std::nullopt;
+  CandidateTest named = rival->first;
+  if (implausible[rival->second])  // named without a value
+    named = candidate_test(cands[rival->second], untestable[rival->second]);
+  named.delta_chi2 = rival->first.delta_chi2;
+  return Rivals{best, named, cands[r.tests.front().second], cands[rival->second]};
+}
+
+// The selection with one more term.
+void choose(Selection& s, const Candidate& cand, double delta_chi2, const ResidualModel& model,
+            const std::vector<PositionContext>& ctx) {
+  const LinearProblem& lp = model.problem();
+  Chosen c;
+  c.cand = cand;
+  c.delta_chi2 = delta_chi2;
+  c.chi2_dof_before = s.current.dof > 0 ? s.current.chi2 / s.current.dof : kNaN;
+  const MatrixXd cols = candidate_columns(c.cand, model, ctx);
+  for (Eigen::Index j = 0; j < cols.cols(); ++j) s.chosen_cols.push_back(cols.col(j));
+  s.current = solve_linear(with_columns(lp.A, s.chosen_cols), lp.y, lp.row_position, lp.positions);
+  c.chi2_dof_after = s.current.dof > 0 ? s.current.chi2 / s.current.dof : kNaN;
+  s.chosen.push_back(c);
+}
+
 }  // namespace
 
 Selection forward_selection(const ResidualModel& model, const std::vector<PositionContext>& ctx,
                             const std::vector<Candidate>& cands,
-                            const std::vector<std::string>& untestable, const LinearFit& base,
+                            const std::vector<std::string>& untestable,
+                            const std::vector<bool>& implausible, const LinearFit& base,
                             const DiagnoseOptions& options) {
-  // Terms with more parameters need a larger chi2 gain for the same false-finding
-  // probability; candidates are ranked by their gain beyond that need ("excess").
-  auto excess = [&options](const CandidateTest& t) {
-    return t.testable ? t.delta_chi2 - significance_for(options.significance_chi2, t.params)
-                      : -1e300;
-  };
-  const LinearProblem& lp = model.problem();
   Selection s;
   s.current = base;
   for (int round = 0; round < options.max_terms; ++round) {
-    std::vector<std::pair<CandidateTest, std::size_t>> tests;
-    for (std::size_t i = 0; i < cands.size(); ++i) {
-      if (already_chosen(s, cands[i])) continue;
-      const CandidateTest t = candidate_test(cands[i], untestable[i]);
-      tests.push_back({t.testable ? test_against(cands[i], t, model, ctx, s) : t, i});
-    }
-    std::stable_sort(tests.begin(), tests.end(), [&excess](const auto& a, const auto& b) {
-      return excess(a.first) > excess(b.first);
-    });
+    const Round r = test_round(model, ctx, cands, untestable, implausible, s, options);
     if (round == 0)
-      for (const auto& t : tests) s.first_round.push_back(t.first);
-    if (tests.empty()) break;
-    const CandidateTest& best = tests.front().first;
-    const bool significant =
-        best.testable && excess(best) > 0 && best.delta_bic > 0 && best.press_gain > 0;
-    if (!significant) break;
-    if (tests.size() > 1) {
-      const CandidateTest& rival = tests[1].first;
-      if (rival.testable && excess(rival) > 0 &&
-          excess(best) - excess(rival) < options.ambiguity_chi2) {
-        s.rivals = Rivals{best, rival, cands[tests.front().second], cands[tests[1].second]};
-        break;
-      }
-    }
-    Chosen c;
-    c.cand = cands[tests.front().second];
-    c.delta_chi2 = best.delta_chi2;
-    c.chi2_dof_before = s.current.dof > 0 ? s.current.chi2 / s.current.dof : kNaN;
-    const MatrixXd cols = candidate_columns(c.cand, model, ctx);
-    for (Eigen::Index j = 0; j < cols.cols(); ++j) s.chosen_cols.push_back(cols.col(j));
-    s.current =
-        solve_linear(with_columns(lp.A, s.chosen_cols), lp.y, lp.row_position, lp.positions);
-    c.chi2_dof_after = s.current.dof > 0 ? s.current.chi2 / s.current.dof : kNaN;
-    s.chosen.push_back(c);
+      for (const Tested& t : r.tests) s.first_round.push_back(t.first);
+    if (r.tests.empty()) break;
+    const CandidateTest& best = r.tests.front().first;
+    if (!(best.testable && excess(best, options) > 0 && best.delta_bic > 0 && best.press_gain > 0))
+      break;  // nothing significant is left
+    s.rivals = rivals_in(r, cands, untestable, implausible, options);
+    if (s.rivals) break;
+    choose(s, cands[r.tests.front().second], best.delta_chi2, model, ctx);
   }
   return s;
 }

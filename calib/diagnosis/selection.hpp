@@ -48,6 +48,17 @@ double significance_for(double chi2_1, int params);
 Eigen::MatrixXd unexplained_part(const Eigen::MatrixXd& A, const Eigen::MatrixXd& C);
 // Fractions of each column (of C) the baseline design A cannot absorb.
 Eigen::VectorXd unabsorbed_fractions(const Eigen::MatrixXd& A, const Eigen::MatrixXd& C);
+// The same from C's unexplained part (unexplained_part(A, C)).
+Eigen::VectorXd fractions_left(const Eigen::MatrixXd& C, const Eigen::MatrixXd& unexplained);
+
+// A term stands out when it is this many sigma from zero (discrimination thresholds).
+inline constexpr double kStandOut_sigma = 3;
+// The smallest singular value of M (0 for an empty M).
+double smallest_singular_value(const Eigen::MatrixXd& M);
+// The sigma (its columns' unit) of a term under white noise, from the part of its whitened
+// columns that what is fitted besides cannot explain: 1 / s_min (for one column
+// 1 / |P c|). Infinite when nothing is left.
+double term_sigma(const Eigen::MatrixXd& unexplained);
 
 // A term's value and sigma in its report unit; cyclic terms (a sin + b cos) are reported as
 // amplitude and phase.
@@ -59,6 +70,10 @@ TermEstimate term_estimate(const Candidate& c, const Eigen::VectorXd& beta,
 // sqrt(chi2/dof) of a fit, at least 1: sigmas are widened when the residuals are not noise.
 double sigma_scale(const LinearFit& f);
 
+// Why a candidate whose fitted value or sigma is not a finite number is not testable.
+inline constexpr const char* kNoFiniteValue =
+    "the fit gives no finite value for it on this programme";
+
 // A candidate as listed before any fit: testable unless `untestable_reason` says why not.
 CandidateTest candidate_test(const Candidate& c, const std::string& untestable_reason);
 
@@ -68,7 +83,8 @@ struct Chosen {
   double chi2_dof_before = 0, chi2_dof_after = 0;
 };
 
-// Two candidates the data cannot tell apart: selection stops there and claims neither.
+// Two candidates the data cannot tell apart: selection stops there and claims neither. The
+// rival may be one not testable at a plausible size (rival.testable false, no value).
 struct Rivals {
   CandidateTest best, rival;
   Candidate best_cand, rival_cand;
@@ -86,10 +102,13 @@ struct Selection {
 
 // Forward selection: each round tests every candidate against the current model; a term
 // is kept when its chi2 gain beats significance_for, BIC improves and the held-out
-// prediction improves. `untestable[i]` is empty for a testable candidate.
+// prediction improves. `untestable[i]` is empty for a testable candidate; `implausible[i]`
+// marks one not testable only because no plausible size would stand out: it is never kept,
+// but when it explains about as well as the best (or better) the two are rivals.
 Selection forward_selection(const ResidualModel& model, const std::vector<PositionContext>& ctx,
                             const std::vector<Candidate>& cands,
-                            const std::vector<std::string>& untestable, const LinearFit& base,
+                            const std::vector<std::string>& untestable,
+                            const std::vector<bool>& implausible, const LinearFit& base,
                             const DiagnoseOptions& options);
 
 }  // namespace standcal::diagnosis

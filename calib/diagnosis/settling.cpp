@@ -161,8 +161,13 @@ std::vector<SettlingResult> settling_findings(const Recording& rec,
                     bic_gain(best.delta_chi2, 2, rec.samples.size()),
                     best.press_gain,
                     best.tau_s};
+    if (!std::isfinite(t.value) || !std::isfinite(t.sigma) || !std::isfinite(t.delta_chi2)) {
+      t.testable = false;  // never reported with a number
+      t.reason = kNoFiniteValue;
+    }
     tests.push_back(t);
-    if (best.delta_chi2 > options.significance_chi2 && t.delta_bic > 0 && best.press_gain > 0)
+    if (t.testable && best.delta_chi2 > options.significance_chi2 && t.delta_bic > 0 &&
+        best.press_gain > 0)
       found.push_back(best);
   }
   return found;

@@ -25,8 +25,8 @@ std::string redundancy_shortfall(const Prepared& P) {
   if (2 * unpredictable > lp.positions)
     return std::to_string(unpredictable) + " of " + std::to_string(lp.positions) +
            " positions cannot be predicted from the others (no held-out check)";
-  if (2 * P.n_testable < static_cast<int>(P.cands.size()))
-    return "only " + std::to_string(P.n_testable) + " of " + std::to_string(P.cands.size()) +
+  if (2 * P.n_standing_out < static_cast<int>(P.cands.size()))
+    return "only " + std::to_string(P.n_standing_out) + " of " + std::to_string(P.cands.size()) +
            " catalog candidates stand out from the calibration parameters";
   return "";
 }

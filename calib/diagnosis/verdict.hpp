@@ -11,7 +11,7 @@ namespace standcal::diagnosis {
 // Why the model cannot be checked on this programme, in words, or empty when it can: no
 // redundancy, no more distinct gravity projections than the nine unit parameters, more
 // than half of the positions unpredictable from the others, or fewer than half of the
-// candidates testable.
+// candidates standing out from the calibration parameters.
 std::string redundancy_shortfall(const Prepared& P);
 
 // The verdict once the candidates are tested.

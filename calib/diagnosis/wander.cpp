@@ -24,7 +24,7 @@ Selection select_under(Prepared& P, const GaussMarkovNoise& noise, const Diagnos
   P.model->use_noise(noise);
   const LinearProblem& lp = P.model->problem();
   P.base = solve_linear(lp.A, lp.y, lp.row_position, lp.positions);
-  return forward_selection(*P.model, P.ctx, P.cands, P.untestable, P.base, options);
+  return forward_selection(*P.model, P.ctx, P.cands, P.untestable, P.implausible, P.base, options);
 }
 
 // The rows of the positions whose pose the programme visits more than once, with a free

@@ -61,7 +61,8 @@ namespace {
 // Whose residuals show the term: an accelerometer, or for a stand-side term the
 // horizontal components.
 std::string residuals_of(const Candidate& c) {
-  if (c.entry->axes == CatalogAxes::stand_axis) return "the horizontal components";
+  if (c.entry->axes == CatalogAxes::stand_axis || c.entry->axes == CatalogAxes::level_axis)
+    return "the horizontal components";
   return "the " + c.axis.substr(0, 1) + " accelerometer";
 }
 
@@ -84,20 +85,37 @@ Finding term_finding(const Chosen& c, const TermEstimate& te, const std::string&
   return f;
 }
 
+namespace {
+
+// What the proposed poses achieve: one dwell at the best tells the rivals apart at 3 sigma,
+// or it does not and they need repeating.
+std::string proposals_words(const std::vector<ProposedPosition>& proposed) {
+  if (proposed.empty()) return "";
+  const double best = proposed.front().predicted_difference_sigma;
+  if (best >= 3) return " The proposed positions tell them apart.";
+  return " The proposed positions separate them best, yet by only " + fmt("%.1f", best) +
+         " sigma of one dwell mean: repeat them or dwell longer there.";
+}
+
+// A rival with its value, or, when no plausible size of it is testable, without one.
+std::string rival_words(const CandidateTest& t) {
+  const std::string gain = "chi2 gain " + fmt("%.1f", t.delta_chi2);
+  if (!t.testable)
+    return effect_words(t.effect, t.axis) + " (at an implausible size, " + gain + ")";
+  return effect_words(t.effect, t.axis) + " (" + num(t.value) + " " + t.unit + ", " + gain + ")";
+}
+
+}  // namespace
+
 std::vector<std::string> rivals_words(const Rivals& r, bool no_pose_separates,
-                                      bool have_proposals) {
+                                      const std::vector<ProposedPosition>& proposed) {
   std::vector<std::string> s;
   if (no_pose_separates)
     s.push_back(
         "No stand position tells these two apart (they differ in time or temperature, not in "
         "angle); a run whose temperature is not a straight line in time (hold, then ramp) would.");
-  const CandidateTest& a = r.best;
-  const CandidateTest& b = r.rival;
-  s.push_back("Two explanations fit about equally well: " + effect_words(a.effect, a.axis) + " (" +
-              num(a.value) + " " + a.unit + ", chi2 gain " + fmt("%.1f", a.delta_chi2) + ") and " +
-              effect_words(b.effect, b.axis) + " (" + num(b.value) + " " + b.unit + ", chi2 gain " +
-              fmt("%.1f", b.delta_chi2) + ")." +
-              (have_proposals ? " The proposed positions tell them apart." : ""));
+  s.push_back("Two explanations fit about equally well: " + rival_words(r.best) + " and " +
+              rival_words(r.rival) + "." + proposals_words(proposed));
   return s;
 }
 

@@ -22,9 +22,10 @@ std::string parameters_words(const FitResult& fit);
 // A chosen column term as a finding, explained.
 Finding term_finding(const Chosen& c, const TermEstimate& te, const std::string& absorbed);
 
-// Two rivals the data cannot tell apart, and whether a pose or only a different
-// temperature profile would.
-std::vector<std::string> rivals_words(const Rivals& r, bool no_pose_separates, bool have_proposals);
+// Two rivals the data cannot tell apart, and whether the proposed poses would (by how many
+// sigma of one dwell mean at the best), or only a different temperature profile.
+std::vector<std::string> rivals_words(const Rivals& r, bool no_pose_separates,
+                                      const std::vector<ProposedPosition>& proposed);
 
 // Sentences around the findings: the baseline first, then (after what is already there)
 // the verdict's words, every finding's explanation and the corrected parameters.
