@@ -96,6 +96,12 @@ void print_thresholds(const HarnessSetup& setup) {
   std::printf(
       "  (settling and large mounting: the diagnosis's only. 'unknown': not in the diagnosis's\n"
       "   catalog yet; the harness draws it at multiples of the generator-made threshold.)\n");
+  std::printf("Not drawn (3x the threshold is beyond %g x typical_max, an implausible size):",
+              DiagnoseOptions{}.implausible_factor);
+  for (const Threshold& t : setup.thresholds)
+    if (std::isfinite(t.value) && plausible_multiple(t) < 3)
+      std::printf(" %s %s%s;", t.id.c_str(), t.axis.c_str(), t.tau_s > 0 ? (" " + tau_words(t.tau_s)).c_str() : "");
+  std::printf("\n");
 }
 
 // How much of each uncatalogued effect no combination of catalog terms explains, in the
@@ -325,6 +331,11 @@ void print_power(const HarnessSetup& setup, const Options& o) {
     const PowerTerm& p = kPowerTerms[term_i];
     const Threshold& term = threshold_of(setup, p.id, p.axis, p.tau_s);
     std::printf("%-28s %-6s %11.3f  ", p.id, p.axis, term.value);
+    if (plausible_multiple(term) < 3) {
+      std::printf("not drawn: 3x is beyond a plausible size (%.0f x typical_max)\n",
+                  DiagnoseOptions{}.implausible_factor);
+      continue;
+    }
     PowerCell cells[4];
     for (int m = 0; m < 4; ++m) {
       // Trials of their own seeds: 1000 per cell (so at most 1000 power trials).

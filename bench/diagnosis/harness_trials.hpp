@@ -28,6 +28,11 @@ struct Threshold {
   std::string generator_nearest;
 };
 
+// How many times its threshold a term can be before the diagnosis calls its value
+// implausible (DiagnoseOptions::implausible_factor times the catalog's typical_max): the
+// harness draws no size beyond it, and does not draw a term that is implausible at 3x.
+double plausible_multiple(const Threshold& t);
+
 struct HarnessSetup {
   GeneratorRun run = harness_run();
   ChamberProfile chamber;

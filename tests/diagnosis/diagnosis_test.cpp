@@ -43,10 +43,10 @@ struct Concealed {
   double value, tau_s;
 };
 
-Diagnosis expect_found(const Concealed& c, std::uint64_t seed) {
+Diagnosis expect_found(const Concealed& c, std::uint64_t seed, const DiagnoseOptions& options = {}) {
   TruthModel t = with_effect(c.id, c.axis, c.value, c.tau_s);
   if (c.id == "bias_temperature" || c.id == "scale_temperature") t.temperature.rate_c_per_h = 20;
-  const Diagnosis d = diagnose_recording(simulate(diagnostic32(), t, seed));
+  const Diagnosis d = diagnose_recording(simulate(diagnostic32(), t, seed), options);
   print(d);
   if (d.findings.empty()) {
     ADD_FAILURE() << c.id << " " << c.axis << " seed " << seed << ": nothing found";
@@ -130,12 +130,32 @@ TEST(DiagnosisBlind, SettlingTransientOnY) { expect_found({"settling_transient",
 // diagnostic32 K_oq and K3 are nearly collinear (its |u| values 0.5, 0.71, 0.87, 1 leave one
 // degree of freedom among u, u|u| and u^3): the size is 4x the discrimination threshold the
 // harness prints for y (142 ug/g2, nearest competitor K3 y).
+// 600 ug/g2 is far beyond a navigation-grade unit's (the diagnosis would call it
+// implausible, ImplausibleValueIsNotExplained): the plausibility bound is lifted here to
+// show that the catalog term itself is told from K2 and K3.
 TEST(DiagnosisBlind, ScaleAsymmetryOnYIsNotMistakenForANonlinearity) {
-  const Diagnosis d = expect_found({"scale_asymmetry", "y", 600, 0}, 60);
+  DiagnoseOptions lifted;
+  lifted.implausible_factor = 1e3;
+  const Diagnosis d = expect_found({"scale_asymmetry", "y", 600, 0}, 60, lifted);
   for (const Finding& f : d.findings) {
     EXPECT_NE(f.effect, "scale_nonlinearity_k3");
     EXPECT_NE(f.effect, "scale_nonlinearity_k2");
   }
+}
+
+// The same recording with the plausibility bound: found, but not believed.
+TEST(DiagnosisBlind, ImplausibleValueIsNotExplained) {
+  const Diagnosis d =
+      diagnose_recording(simulate(diagnostic32(), with_effect("scale_asymmetry", "y", 600), 60));
+  print(d);
+  EXPECT_EQ(d.verdict, "unexplained");
+  ASSERT_TRUE(d.checks.made);
+  EXPECT_FALSE(d.checks.passed);
+  ASSERT_EQ(d.checks.implausible.size(), 1u);
+  EXPECT_NE(d.checks.implausible[0].find("scale_asymmetry y"), std::string::npos);
+  bool said = false;
+  for (const std::string& s : d.summary) said = said || s.find("Not explained:") != std::string::npos;
+  EXPECT_TRUE(said);
 }
 
 // At a plausible size (20 ug/g2, model.md's K2 bound) the same programme cannot tell K_oq

@@ -59,10 +59,15 @@ TEST(ResidualChecks, APatternAlongAGravityComponentIsCaught) {
   // What a K3 fit leaves of a |u|^3-shaped effect: positive at the poles, negative between.
   for (ResidualSample& r : rs)
     if (r.component == "x") r.r += 8 * (std::abs(r.up[0]) - 0.55);
-  const WhitenessResult w = whiteness_tests(rs);
+  const WhitenessResult w = whiteness_tests(rs, 1e-2);  // 32 residuals: a 4-sigma pattern needs it
   ASSERT_FALSE(w.white);
   EXPECT_EQ(w.tests[static_cast<std::size_t>(w.worst)].component, "x");
-  EXPECT_NE(w.tests[static_cast<std::size_t>(w.worst)].against, "time");
+  // The serial test that sees it best orders the residuals by an angle or gravity component.
+  const WhitenessTest* best_serial = nullptr;
+  for (const WhitenessTest& t : w.tests)
+    if (t.test == "serial" && (!best_serial || t.p < best_serial->p)) best_serial = &t;
+  ASSERT_NE(best_serial, nullptr);
+  EXPECT_NE(best_serial->against, "time");
 }
 
 TEST(ResidualChecks, OneSuddenEventIsAnOutlier) {
