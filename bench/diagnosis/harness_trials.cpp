@@ -112,7 +112,9 @@ void settle_expected_values(Trial& t) {
 // A catalog term as the harness draws it: id uniformly, then an axis (settling: tau 2, 4 or
 // 8 s) uniformly among that id's finite thresholds that a plausible size can reach at 3x.
 const Threshold& draw_term(Rng& rng, const HarnessSetup& setup) {
-  auto drawable = [](const Threshold& t) { return std::isfinite(t.value) && plausible_multiple(t) >= 3; };
+  auto drawable = [](const Threshold& t) {
+    return std::isfinite(t.value) && plausible_multiple(t) >= 3;
+  };
   std::vector<std::string> ids;
   for (const Threshold& t : setup.thresholds)
     if (drawable(t) && std::find(ids.begin(), ids.end(), t.id) == ids.end()) ids.push_back(t.id);
@@ -322,8 +324,13 @@ Recording record(const Trial& trial, const HarnessSetup& setup) {
   return generate_recording(trial.truth, setup.run, trial.generator_seed);
 }
 
-Outcome diagnose_trial(const Trial& trial, const Recording& rec) {
-  const Diagnosis d = diagnose_recording(rec);
+GaussMarkovNoise specified_wander() { return {Vec3::Constant(5 * kUg), 300}; }
+
+Outcome diagnose_trial(const Trial& trial, const Recording& rec, bool without_specification) {
+  DiagnoseOptions options;
+  if (trial.kind == TrialKind::coloured && !without_specification)
+    options.specified_wander = specified_wander();
+  const Diagnosis d = diagnose_recording(rec, options);
   Outcome o;
   o.verdict = d.verdict;
   o.summary = d.summary;

@@ -92,8 +92,15 @@ struct Outcome {
   bool false_finding = false;  // effect-free: a deterministic finding, or an ambiguous pair named
   int found = 0;               // drawn catalog effects among the findings (anywhere)
   int within_3sigma = 0;       // of those, values within 3 sigma of the truth
+  bool right_unspecified = false;  // coloured: right also without the unit's specified wander
 };
-Outcome diagnose_trial(const Trial& trial, const Recording& rec);
+// Coloured-noise trials are diagnosed with the unit's specified wander (kSpecifiedWander,
+// what a data sheet or `standcal noise` on a static recording gives: the same bound for
+// every such unit, not the drawn truth) unless `without_specification`.
+Outcome diagnose_trial(const Trial& trial, const Recording& rec,
+                       bool without_specification = false);
+// The specification the coloured-noise units come with: Gauss-Markov up to 5 ug, 300 s.
+GaussMarkovNoise specified_wander();
 // Whether the findings name the effect with its axis.
 bool finds(const Outcome& outcome, const ConcealedEffect& effect);
 

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "calib/fit_result.hpp"
+#include "calib/noise_model.hpp"
 #include "calib/programs.hpp"
 #include "calib/recording.hpp"
 #include "calib/simulator.hpp"
@@ -43,7 +44,12 @@ struct DiagnoseOptions {
   // The largest bias wander (Gauss-Markov standard deviation) the unit's class can have: a
   // navigation-grade quartz unit's bias instability is a few ug. A larger "wander" is an
   // event (a jump, a knock, an oscillation), not noise, and is left for the checks to find.
-  double max_bias_instability_ug = 10;
+  double max_bias_instability_ug = 6;
+  // The unit's bias wander as known before this run: its specification, or `standcal noise`
+  // on a long static recording. One short run often cannot tell a few ug of wander from a
+  // drift or a temperature coefficient (docs/diagnosis.md, "Noise"); when it does not show
+  // the wander itself, the terms are tested against this. White: nothing known.
+  GaussMarkovNoise specified_wander;
   // Before `explained` or `consistent`: the residuals must pass the whiteness tests at this
   // family-wise false-alarm rate, each chosen term must agree between the two halves of the
   // run within this many sigma, and no found value may exceed this many times its
@@ -105,7 +111,8 @@ struct ResidualRow {
 // white-noise errors, and every chi2 and sigma then comes from generalised least squares.
 struct NoiseFinding {
   std::string model = "white";  // "white" or "gauss_markov"
-  bool bias_instability = false;
+  std::string source;           // gauss_markov: "estimated" (this recording) or "specified"
+  bool bias_instability = false;  // the recording itself shows the wander
   Vec3 wander_ug = Vec3::Zero();       // Gauss-Markov standard deviation per axis
   double tau_s = 0;                    // its correlation time
   Vec3 allan_peak_ug = Vec3::Zero();   // the Allan-deviation floor that wander shows

@@ -71,7 +71,8 @@ nlohmann::json noise_json(const NoiseFinding& n) {
                       {"lr", n.lr},
                       {"lr_threshold", n.lr_threshold},
                       {"how", n.how}};
-  if (n.bias_instability) {
+  if (n.model == "gauss_markov") {
+    j["source"] = n.source;
     j["wander_ug"] = vec_json(n.wander_ug);
     j["tau_s"] = n.tau_s;
     j["allan_floor_ug"] = vec_json(n.allan_peak_ug);

@@ -107,6 +107,10 @@ NoiseAndTerms select_terms_and_noise(Prepared& P, const DiagnoseOptions& options
                      " ug is beyond the bias instability of this class of unit (" +
                      fmt("%.0f", options.max_bias_instability_ug) + " ug)";
   }
+  if (!out.noise.significant && !options.specified_wander.white()) {
+    out.noise.noise = options.specified_wander;
+    out.noise.how += "; the tests use the unit's specified wander instead";
+  }
   out.selection = select_under(P, out.noise.noise, options);
   return out;
 }
@@ -116,9 +120,10 @@ NoiseFinding noise_finding(const NoiseEstimate& e, const std::vector<PositionAve
   n.lr = e.lr;
   n.lr_threshold = e.lr_threshold;
   n.how = e.how;
-  if (!e.significant) return n;
+  if (e.noise.white()) return n;
   n.model = "gauss_markov";
-  n.bias_instability = true;
+  n.source = e.significant ? "estimated" : "specified";
+  n.bias_instability = e.significant;
   n.tau_s = e.noise.tau_s;
   for (int a = 0; a < 3; ++a) {
     std::vector<double> se;
@@ -133,6 +138,15 @@ NoiseFinding noise_finding(const NoiseEstimate& e, const std::vector<PositionAve
 }
 
 std::string noise_words(const NoiseFinding& n) {
+  if (n.model == "gauss_markov" && !n.bias_instability)
+    return "Noise: this run does not show bias wander by itself (2 delta log L = " +
+           fmt("%.1f", n.lr) + " of " + fmt("%.1f", n.lr_threshold) +
+           " needed), so the terms are tested against the unit's specified "
+           "bias instability, Gauss-Markov up to " +
+           fmt("%.1f", n.wander_ug.maxCoeff()) + " ug with correlation time " +
+           fmt("%.0f", n.tau_s) +
+           " s (generalised least squares): a drift or temperature term must stand out from "
+           "what that wander can do in this run.";
   if (!n.bias_instability) return "";
   std::string s =
       "Noise: the dwell means wander more than their white-noise errors allow (bias instability, a "
