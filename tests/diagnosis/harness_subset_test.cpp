@@ -6,7 +6,12 @@
 
 #include <cstdio>
 
+#include <nlohmann/json.hpp>
+
 #include "bench/diagnosis/harness_trials.hpp"
+#include "calib/recording.hpp"
+#include "tests/support/command.hpp"
+#include "tests/support/temp_dir.hpp"
 
 namespace standcal::bench {
 namespace {
@@ -99,6 +104,32 @@ TEST(HarnessSubset, WhiteNoiseWithoutEffectIsConsistent) {
 // of Gauss-Markov wander from a drift or a temperature coefficient by itself.
 TEST(HarnessSubset, ColouredNoiseWithoutEffectIsConsistent) {
   expect_drawn_right(TrialKind::coloured, 3);
+}
+
+// `standcal diagnose --bias-instability-ug`: a coloured recording that comes out with a
+// finding when the unit's wander is unknown is `consistent` once the operator gives it.
+TEST(HarnessSubset, TheCliTakesTheUnitsSpecifiedWander) {
+  const Trial* wrong_without = nullptr;
+  std::vector<Trial> coloured;
+  for (int index = 0; coloured.size() < 10; ++index)
+    if (kind_of_trial(index) == TrialKind::coloured)
+      coloured.push_back(draw_trial(index, kSeed, setup()));
+  for (const Trial& t : coloured)
+    if (!wrong_without && !diagnose_trial(t, record(t, setup()), true).right) wrong_without = &t;
+  ASSERT_NE(wrong_without, nullptr) << "no coloured draw needs the specification";
+  test::TempDir dir;
+  const std::string path = dir.file("coloured.csv");
+  write_recording(record(*wrong_without, setup()), path);
+  auto verdict = [&](const std::string& extra) {
+    const test::CommandOutcome r =
+        test::standcal_cli("diagnose --json " + path + extra + " 2>/dev/null");
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    return nlohmann::json::parse(r.output.substr(r.output.find('{')));
+  };
+  EXPECT_NE(verdict("")["verdict"], "consistent");
+  const nlohmann::json with = verdict(" --bias-instability-ug 5 --bias-instability-tau-s 300");
+  EXPECT_EQ(with["verdict"], "consistent") << with["summary"].dump(1);
+  EXPECT_EQ(with["noise"]["source"], "specified");
 }
 
 TEST(HarnessSubset, UncataloguedEffectsAreUnexplained) {
