@@ -1,8 +1,11 @@
 #include "calib/noise_model.hpp"
 
+#include "calib/golden_section.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <numeric>
 
 namespace standcal {
@@ -100,31 +103,6 @@ class RestrictedLikelihood {
   Eigen::Index rank_ = 0;
 };
 
-// Maximises f on [lo, hi] by golden section (f unimodal enough there: a log-likelihood
-// in log q).
-template <class F>
-double golden_max(const F& f, double lo, double hi, int evaluations) {
-  const double g = (std::sqrt(5.0) - 1) / 2;
-  double a = lo, b = hi, c = b - g * (b - a), d = a + g * (b - a);
-  double fc = f(c), fd = f(d);
-  for (int i = 0; i < evaluations; ++i) {
-    if (fc > fd) {
-      b = d;
-      d = c;
-      fd = fc;
-      c = b - g * (b - a);
-      fc = f(c);
-    } else {
-      a = c;
-      c = d;
-      fc = fd;
-      d = a + g * (b - a);
-      fd = f(d);
-    }
-  }
-  return fc > fd ? c : d;
-}
-
 double median_row_sigma(const std::vector<NoiseRow>& rows) {
   std::vector<double> s;
   for (const NoiseRow& r : rows) s.push_back(r.sigma_g);
@@ -146,8 +124,10 @@ WanderFit best_for_tau(const RestrictedLikelihood& L, double tau_s, double sigma
   best.log_l = L(best.noise);
   auto with_q = [&](const Vec3& q) { return L(GaussMarkovNoise{q, tau_s}); };
   const double common =
-      golden_max([&](double u) { return with_q(Vec3::Constant(sigma_ref * std::pow(10, u))); },
-                 kLogLo, kLogHi, kEvaluations);
+      golden_section_max(
+          [&](double u) { return with_q(Vec3::Constant(sigma_ref * std::pow(10, u))); }, kLogLo,
+          kLogHi, kEvaluations, std::greater<double>())
+          .first;
   const Vec3 q_common = Vec3::Constant(sigma_ref * std::pow(10, common));
   if (const double l = with_q(q_common); l > best.log_l) best = {{q_common, tau_s}, l};
   for (int axis = 0; axis < 3; ++axis) {
@@ -157,8 +137,9 @@ WanderFit best_for_tau(const RestrictedLikelihood& L, double tau_s, double sigma
       return q;
     };
     const double u =
-        golden_max([&](double v) { return with_q(on_axis(sigma_ref * std::pow(10, v))); }, kLogLo,
-                   kLogHi, kEvaluations);
+        golden_section_max([&](double v) { return with_q(on_axis(sigma_ref * std::pow(10, v))); },
+                           kLogLo, kLogHi, kEvaluations, std::greater<double>())
+            .first;
     for (const double q_axis : {0.0, sigma_ref * std::pow(10, u)})
       if (const double l = with_q(on_axis(q_axis)); l > best.log_l)
         best = {{on_axis(q_axis), tau_s}, l};

@@ -48,6 +48,12 @@ void span_of(WhitenessTest& t, const std::vector<const ResidualSample*>& rows, s
   }
 }
 
+double mean_residual(const std::vector<const ResidualSample*>& rows) {
+  double sum = 0;
+  for (const ResidualSample* r : rows) sum += r->r;
+  return sum / static_cast<double>(rows.size());
+}
+
 // Lag-one serial correlation along the ordering (von Neumann): neighbours that agree
 // mean the residuals follow a smooth pattern in that variable. It uses the residuals'
 // sizes, not only their signs (a runs test needed a pattern of 5 sigma to see it on 32
@@ -58,8 +64,7 @@ WhitenessTest serial_test(const std::vector<const ResidualSample*>& rows) {
   t.test = "serial";
   t.n = static_cast<int>(rows.size());
   const double n = static_cast<double>(rows.size());
-  double mean = 0;
-  for (const ResidualSample* r : rows) mean += r->r / n;
+  const double mean = mean_residual(rows);
   double ss = 0, lag = 0;
   for (std::size_t i = 0; i < rows.size(); ++i) {
     const double ri = rows[i]->r - mean;
@@ -89,8 +94,7 @@ WhitenessTest step_test(const std::vector<const ResidualSample*>& rows) {
   t.test = "step";
   t.n = static_cast<int>(rows.size());
   const double n = static_cast<double>(rows.size());
-  double mean = 0;
-  for (const ResidualSample* r : rows) mean += r->r / n;
+  const double mean = mean_residual(rows);
   double ss = 0;
   for (const ResidualSample* r : rows) ss += (r->r - mean) * (r->r - mean);
   const double s = std::sqrt(ss / (n - 1));

@@ -1,5 +1,7 @@
 #include "calib/diagnosis/settling.hpp"
 
+#include "calib/golden_section.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -116,26 +118,11 @@ SettlingResult best_settling(const Recording& rec, const std::vector<PositionAve
   if (best.delta_chi2 <= refine_above_chi2 || tau_grid_s.size() < 2) return best;
   double lo = std::log(tau_grid_s[best_i > 0 ? best_i - 1 : 0]);
   double hi = std::log(tau_grid_s[std::min(best_i + 1, tau_grid_s.size() - 1)]);
-  const double phi = 0.5 * (std::sqrt(5.0) - 1);
   auto eval = [&](double log_tau) { return settling_search(rec, avg, axis, std::exp(log_tau)); };
-  double x1 = hi - phi * (hi - lo), x2 = lo + phi * (hi - lo);
-  SettlingResult r1 = eval(x1), r2 = eval(x2);
-  for (int it = 0; it < 12; ++it) {
-    if (r1.delta_chi2 > r2.delta_chi2) {
-      hi = x2;
-      x2 = x1;
-      r2 = r1;
-      x1 = hi - phi * (hi - lo);
-      r1 = eval(x1);
-    } else {
-      lo = x1;
-      x1 = x2;
-      r1 = r2;
-      x2 = lo + phi * (hi - lo);
-      r2 = eval(x2);
-    }
-  }
-  const SettlingResult& refined = r1.delta_chi2 > r2.delta_chi2 ? r1 : r2;
+  const SettlingResult refined =
+      golden_section_max(eval, lo, hi, 12, [](const SettlingResult& a, const SettlingResult& b) {
+        return a.delta_chi2 > b.delta_chi2;
+      }).second;
   return refined.delta_chi2 > best.delta_chi2 ? refined : best;
 }
 
