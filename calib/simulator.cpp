@@ -116,6 +116,10 @@ ExtraEffect read_extra_effect(const json& item, const std::string& where) {
   if (stand_axis) {
     if (e.axis != "alpha1" && e.axis != "alpha2")
       throw std::runtime_error(k.path("axis") + ": '" + e.axis + "' is not a stand axis, \"alpha1\" or \"alpha2\"");
+  } else if (e.id == "stand_level_drift") {
+    if (e.axis != "x" && e.axis != "z")
+      throw std::runtime_error(k.path("axis") + ": '" + e.axis +
+                               "' is not an axis of the stand's levelling error, \"x\" or \"z\"");
   } else if (pair ? !is_pair_axis(e.axis) : !is_single_axis(e.axis)) {
     throw std::runtime_error(k.path("axis") + ": '" + e.axis + "' is not " +
                              (pair ? "an ordered axis pair such as \"zx\"" : "x, y or z"));
@@ -142,18 +146,20 @@ std::vector<ExtraEffect> read_extra_physics(const json& arr, const std::string& 
 }  // namespace
 
 std::string extra_effect_unit(const std::string& id) {
-  if (id == "scale_nonlinearity_k2" || id == "cross_coupling") return "ug/g2";
+  if (id == "scale_nonlinearity_k2" || id == "cross_coupling" || id == "scale_asymmetry")
+    return "ug/g2";
   if (id == "scale_nonlinearity_k3") return "ug/g3";
   if (id == "bias_temperature") return "ug/degC";
   if (id == "scale_temperature") return "ppm/degC";
   if (id == "bias_drift") return "ug/h";
   if (id == "hysteresis" || id == "settling_transient") return "ug";
   if (id == "angle_sensor_error") return "arcsec";
+  if (id == "stand_level_drift") return "arcsec/h";
   return "";
 }
 
 int extra_effect_output_axis(const ExtraEffect& e) {
-  if (e.id == "angle_sensor_error") return -1;
+  if (e.id == "angle_sensor_error" || e.id == "stand_level_drift") return -1;
   return static_cast<int>(std::string("xyz").find(e.axis.empty() ? 'x' : e.axis[0]));
 }
 
@@ -164,6 +170,14 @@ double angle_sensor_error_deg(const std::vector<ExtraEffect>& extra, int stand_a
     if (e.id == "angle_sensor_error" && e.axis == name)
       error_deg += e.value / 3600.0 * std::sin((alpha_deg + e.phase_deg) * kDegToRad);
   return error_deg;
+}
+
+Vec3 level_drift_rad(const std::vector<ExtraEffect>& extra, double t_s) {
+  Vec3 level = Vec3::Zero();
+  for (const ExtraEffect& e : extra)
+    if (e.id == "stand_level_drift")
+      level[e.axis == "x" ? 0 : 2] += e.value * kArcsecToRad * t_s / 3600.0;
+  return level;
 }
 
 double TemperatureProfile::delta_c(double t_s) const {
@@ -178,6 +192,7 @@ double extra_effect_output_g(const ExtraEffect& e, const Vec3& J, double t_s, do
   const double v = e.value * 1e-6;  // every catalog unit is micro-something per something
   if (e.id == "scale_nonlinearity_k2") return v * J[i] * J[i];
   if (e.id == "scale_nonlinearity_k3") return v * J[i] * J[i] * J[i];
+  if (e.id == "scale_asymmetry") return v * J[i] * std::abs(J[i]);
   if (e.id == "cross_coupling") return v * J[i] * J[static_cast<int>(std::string("xyz").find(e.axis[1]))];
   if (e.id == "bias_temperature") return v * temp_delta_c;
   if (e.id == "scale_temperature") return v * temp_delta_c * J[i];
@@ -337,6 +352,8 @@ UnitSimulator::UnitSimulator(const TruthModel& truth, std::uint64_t seed, double
     : truth_(truth),
       sample_sigma_g_(truth.noise.density_ug_rthz * kUg * std::sqrt(sample_rate_hz)),
       rng_(seed) {
+  for (const ExtraEffect& e : truth_.extra_physics)
+    level_drifts_ = level_drifts_ || e.id == "stand_level_drift";
   for (int a = 0; a < 3; ++a)
     bias_gauss_markov_g_[a] = truth_.noise.bias_instability_ug * kUg * gauss_(rng_);
 }
@@ -361,13 +378,18 @@ void UnitSimulator::advance_bias_processes(double t_s) {
 Vec3 UnitSimulator::specific_force_mps2(double t_s, double alpha1_cmd_deg, double alpha2_cmd_deg,
                                         Mount m) {
   advance_bias_processes(t_s);
-  // The stand holds still during a dwell: compute the noise-free output once per position.
-  if (!cached_ || alpha1_cmd_deg != cached_alpha1_deg_ || alpha2_cmd_deg != cached_alpha2_deg_ ||
-      m != cached_mount_) {
+  // The stand holds still during a dwell: compute the noise-free output once per position,
+  // unless its base level drifts.
+  if (!cached_ || level_drifts_ || alpha1_cmd_deg != cached_alpha1_deg_ ||
+      alpha2_cmd_deg != cached_alpha2_deg_ || m != cached_mount_) {
     // A cyclic angle-sensor error moves the true angle away from the one the servo holds.
     const double a1_deg = alpha1_cmd_deg + angle_sensor_error_deg(truth_.extra_physics, 1, alpha1_cmd_deg);
     const double a2_deg = alpha2_cmd_deg + angle_sensor_error_deg(truth_.extra_physics, 2, alpha2_cmd_deg);
-    const Vec3 u_true = true_up_vector(a1_deg * kDegToRad, a2_deg * kDegToRad, m, truth_.stand);
+    StandErrors stand = truth_.stand;
+    const Vec3 level_drift = level_drift_rad(truth_.extra_physics, t_s);
+    stand.levelling_x_rad += level_drift.x();
+    stand.levelling_z_rad += level_drift.z();
+    const Vec3 u_true = true_up_vector(a1_deg * kDegToRad, a2_deg * kDegToRad, m, stand);
     cached_J_g_ = unit_output_g(truth_.unit, u_true);
     cached_alpha1_deg_ = alpha1_cmd_deg;
     cached_alpha2_deg_ = alpha2_cmd_deg;

@@ -39,17 +39,22 @@ struct TemperatureProfile {
 // One effect of the catalog of physics the calibration model leaves out (model.md,
 // "Physics the model leaves out"), in its report unit. `axis` is "x", "y" or "z", or for
 // cross_coupling the output axis then the other axis ("zx": K_zx a_z a_x on the z output),
-// for angle_sensor_error the stand axis "alpha1" or "alpha2".
+// for angle_sensor_error the stand axis "alpha1" or "alpha2", for stand_level_drift the axis
+// of the levelling error "x" (x_S) or "z" (z_S).
 // Temperature terms are referenced to the temperature profile's start_c (the simulator
 // then writes `temp_ref_c` into the recording), drift to t = 0, hysteresis is h * d.
 // angle_sensor_error is the once-per-revolution cyclic error of a stand axis's angle
 // sensor (encoder eccentricity): the true angle is the reading + value * sin(alpha + phase).
+// scale_asymmetry is IEEE 1293's odd-quadratic K_oq a_i |a_i|; stand_level_drift turns the
+// stand's levelling error (model.md's C_eps) by value * t from t = 0.
 struct ExtraEffect {
   std::string id;     // bias_temperature, bias_drift, hysteresis, settling_transient,
                       // scale_nonlinearity_k2, scale_nonlinearity_k3, cross_coupling,
-                      // scale_temperature, angle_sensor_error
+                      // scale_temperature, angle_sensor_error, scale_asymmetry,
+                      // stand_level_drift
   std::string axis;
-  double value = 0;   // ug/g2, ug/g3, ug/g2, ug/degC, ppm/degC, ug/h, ug, ug (amplitude), arcsec
+  double value = 0;   // ug/g2, ug/g3, ug/g2, ug/degC, ppm/degC, ug/h, ug, ug (amplitude), arcsec,
+                      // ug/g2, arcsec/h
   double tau_s = 0;   // settling_transient only: time constant after arrival
   double phase_deg = 0;  // angle_sensor_error only
 };
@@ -60,12 +65,15 @@ std::string extra_effect_unit(const std::string& id);
 // noise-free output without extra physics; temp_delta_c = T - temp_ref; approach = +-1.
 double extra_effect_output_g(const ExtraEffect& e, const Vec3& J_nominal_g, double t_s,
                              double temp_delta_c, int approach, double time_since_arrival_s);
-// Index 0..2 of the output axis an effect acts on; -1 for an effect on a stand axis
-// (angle_sensor_error), which acts through the geometry instead.
+// Index 0..2 of the output axis an effect acts on; -1 for an effect of the stand
+// (angle_sensor_error, stand_level_drift), which acts through the geometry instead.
 int extra_effect_output_axis(const ExtraEffect& e);
 // The true-minus-read angle (deg) of stand axis 1 or 2 at reading alpha_deg from the
 // angle_sensor_error effects among `extra` (0 when there are none).
 double angle_sensor_error_deg(const std::vector<ExtraEffect>& extra, int stand_axis, double alpha_deg);
+// The levelling error (rad, about x_S and z_S; y is 0) the stand_level_drift effects among
+// `extra` have added by time t_s.
+Vec3 level_drift_rad(const std::vector<ExtraEffect>& extra, double t_s);
 
 // Everything the simulator needs to know about the world: the `--truth` / `--model`
 // JSON (format standcal-model/1).
@@ -125,6 +133,7 @@ class UnitSimulator {
   double cached_alpha2_deg_ = 0;
   Mount cached_mount_ = Mount::x;
   Vec3 cached_J_g_ = Vec3::Zero();
+  bool level_drifts_ = false;  // stand_level_drift: the geometry changes sample by sample
   int approach_ = +1;
   double t_arrive_s_ = -1e300;
 };

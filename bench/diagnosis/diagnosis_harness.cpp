@@ -96,6 +96,13 @@ void print_thresholds(const HarnessSetup& setup) {
   std::printf(
       "  (settling and large mounting: the diagnosis's only. 'unknown': not in the diagnosis's\n"
       "   catalog yet; the harness draws it at multiples of the generator-made threshold.)\n");
+  std::printf("Not drawn (3x the threshold is beyond %g x typical_max, an implausible size):",
+              DiagnoseOptions{}.implausible_factor);
+  for (const Threshold& t : setup.thresholds)
+    if (std::isfinite(t.value) && plausible_multiple(t) < 3)
+      std::printf(" %s %s%s;", t.id.c_str(), t.axis.c_str(),
+                  t.tau_s > 0 ? (" " + tau_words(t.tau_s)).c_str() : "");
+  std::printf("\n");
 }
 
 // How much of each uncatalogued effect no combination of catalog terms explains, in the
@@ -219,6 +226,7 @@ struct Tally {
   std::map<TrialKind, int> right, total, beyond_concealed;
   int all_right = 0, found = 0, within = 0, uncatalogued_explained = 0;
   int false_white = 0, false_coloured = 0;
+  int coloured_right_unspecified = 0;  // the same recordings without the unit's specification
 };
 
 Tally tally(const std::vector<Scored>& scored) {
@@ -233,6 +241,7 @@ Tally tally(const std::vector<Scored>& scored) {
     t.uncatalogued_explained += k == TrialKind::uncatalogued && o.verdict == "explained";
     t.false_white += k == TrialKind::white && o.false_finding;
     t.false_coloured += k == TrialKind::coloured && o.false_finding;
+    t.coloured_right_unspecified += k == TrialKind::coloured && o.right_unspecified;
     t.beyond_concealed[k] += o.findings.size() > trial.drawn.size();
   }
   return t;
@@ -260,6 +269,8 @@ void print_targets(const std::vector<Scored>& scored, double elapsed_s) {
   line("false findings, white noise:", t.false_white, t.total[TrialKind::white], "(target <= 1 %)");
   line("false findings, coloured noise:", t.false_coloured, t.total[TrialKind::coloured],
        "(target <= 1 %)");
+  line("  coloured, without the unit's specified wander:", t.coloured_right_unspecified,
+       t.total[TrialKind::coloured], "consistent, nothing found");
   line("found catalog values within 3 sigma of the truth:", t.within, t.found,
        "(docs/diagnosis.md: >= 95 %)");
   line("catalog trials with findings beyond the concealed:", t.beyond_concealed[TrialKind::catalog],
@@ -325,6 +336,11 @@ void print_power(const HarnessSetup& setup, const Options& o) {
     const PowerTerm& p = kPowerTerms[term_i];
     const Threshold& term = threshold_of(setup, p.id, p.axis, p.tau_s);
     std::printf("%-28s %-6s %11.3f  ", p.id, p.axis, term.value);
+    if (plausible_multiple(term) < 3) {
+      std::printf("not drawn: 3x is beyond a plausible size (%.0f x typical_max)\n",
+                  DiagnoseOptions{}.implausible_factor);
+      continue;
+    }
     PowerCell cells[4];
     for (int m = 0; m < 4; ++m) {
       // Trials of their own seeds: 1000 per cell (so at most 1000 power trials).
@@ -359,7 +375,9 @@ int main(int argc, char** argv) {
   for (int i = 0; i < o.trials; ++i) {
     if (o.only >= 0 && i != o.only) continue;
     const Trial t = draw_trial(i, o.seed, setup);
-    const Outcome out = diagnose_trial(t, record(t, setup));
+    const Recording rec = record(t, setup);
+    Outcome out = diagnose_trial(t, rec);
+    if (t.kind == TrialKind::coloured) out.right_unspecified = diagnose_trial(t, rec, true).right;
     if (o.verbose || !out.right || out.found > out.within_3sigma) print_trial(t, out, o.verbose);
     scored.push_back({t, out});
   }

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "calib/averaging.hpp"
-#include "calib/diagnosis.hpp"
+#include "calib/diagnosis/diagnosis.hpp"
 #include "calib/simulator.hpp"
 
 using namespace standcal;

@@ -5,7 +5,7 @@
 #include <random>
 #include <stdexcept>
 
-#include "calib/diagnosis.hpp"
+#include "calib/diagnosis/diagnosis.hpp"
 #include "calib/units.hpp"
 
 namespace standcal::bench {

@@ -1,5 +1,7 @@
 #include "bench/diagnosis/harness_trials.hpp"
 
+#include "calib/diagnosis/catalog.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <random>
@@ -83,6 +85,16 @@ double expected_value(const ConcealedEffect& e, const GeneratorTruth& truth) {
          kArcminToRad;
 }
 
+}  // namespace
+
+double plausible_multiple(const Threshold& t) {
+  const diagnosis::CatalogEntry* e = diagnosis::find_catalog_entry(t.id);
+  if (!e) return std::numeric_limits<double>::infinity();
+  return DiagnoseOptions{}.implausible_factor * e->typical_max / t.value;
+}
+
+namespace {
+
 void conceal(Trial& t, const Threshold& term, double multiple, Rng& rng) {
   ConcealedEffect e{term.id, term.axis, multiple * term.value, term.tau_s};
   if (e.id == "angle_sensor_error")
@@ -98,19 +110,26 @@ void settle_expected_values(Trial& t) {
 }
 
 // A catalog term as the harness draws it: id uniformly, then an axis (settling: tau 2, 4 or
-// 8 s) uniformly among that id's finite thresholds.
+// 8 s) uniformly among that id's finite thresholds that a plausible size can reach at 3x.
 const Threshold& draw_term(Rng& rng, const HarnessSetup& setup) {
+  auto drawable = [](const Threshold& t) {
+    return std::isfinite(t.value) && plausible_multiple(t) >= 3;
+  };
   std::vector<std::string> ids;
   for (const Threshold& t : setup.thresholds)
-    if (std::isfinite(t.value) && std::find(ids.begin(), ids.end(), t.id) == ids.end())
-      ids.push_back(t.id);
+    if (drawable(t) && std::find(ids.begin(), ids.end(), t.id) == ids.end()) ids.push_back(t.id);
   const std::string& id = pick(rng, ids);
   std::vector<const Threshold*> terms;
   for (const Threshold& t : setup.thresholds)
-    if (t.id == id && std::isfinite(t.value) &&
+    if (t.id == id && drawable(t) &&
         (id != "settling_transient" || t.tau_s == 2 || t.tau_s == 4 || t.tau_s == 8))
       terms.push_back(&t);
   return *pick(rng, terms);
+}
+
+// A size between lo and hi times the threshold, but never beyond the plausible size.
+double draw_multiple(Rng& rng, const Threshold& t, double lo, double hi) {
+  return uniform(rng, lo, std::max(lo, std::min(hi, plausible_multiple(t))));
 }
 
 // An uncatalogued effect's shape (axis, phase, time) as drawn, and its size: 10-30 sigma of
@@ -140,8 +159,8 @@ void conceal_pair(Trial& t, Rng& rng, const HarnessSetup& setup) {
   const Threshold& first = draw_term(rng, setup);
   const Threshold* second = &draw_term(rng, setup);
   while (second->id == first.id && second->axis == first.axis) second = &draw_term(rng, setup);
-  conceal(t, first, uniform(rng, 5, 10), rng);
-  conceal(t, *second, uniform(rng, 5, 10), rng);
+  conceal(t, first, draw_multiple(rng, first, 5, 10), rng);
+  conceal(t, *second, draw_multiple(rng, *second, 5, 10), rng);
 }
 
 void conceal_uncatalogued(Trial& t, const std::string& id, Rng& rng, const HarnessSetup& setup) {
@@ -269,7 +288,7 @@ Trial draw_trial(int index, std::uint64_t seed, const HarnessSetup& setup) {
       break;
     case TrialKind::catalog: {
       const Threshold& term = draw_term(rng, setup);
-      conceal(t, term, uniform(rng, 3, 10), rng);
+      conceal(t, term, draw_multiple(rng, term, 3, 10), rng);
       break;
     }
     case TrialKind::uncatalogued:
@@ -305,8 +324,13 @@ Recording record(const Trial& trial, const HarnessSetup& setup) {
   return generate_recording(trial.truth, setup.run, trial.generator_seed);
 }
 
-Outcome diagnose_trial(const Trial& trial, const Recording& rec) {
-  const Diagnosis d = diagnose_recording(rec);
+GaussMarkovNoise specified_wander() { return {Vec3::Constant(5 * kUg), 300}; }
+
+Outcome diagnose_trial(const Trial& trial, const Recording& rec, bool without_specification) {
+  DiagnoseOptions options;
+  if (trial.kind == TrialKind::coloured && !without_specification)
+    options.specified_wander = specified_wander();
+  const Diagnosis d = diagnose_recording(rec, options);
   Outcome o;
   o.verdict = d.verdict;
   o.summary = d.summary;

@@ -10,7 +10,7 @@
 
 #include "bench/diagnosis/effect_generator.hpp"
 #include "bench/diagnosis/ideal_test.hpp"
-#include "calib/diagnosis.hpp"
+#include "calib/diagnosis/diagnosis.hpp"
 
 namespace standcal::bench {
 
@@ -27,6 +27,11 @@ struct Threshold {
       std::numeric_limits<double>::quiet_NaN();  // the generator-made one, beside it
   std::string generator_nearest;
 };
+
+// How many times its threshold a term can be before the diagnosis calls its value
+// implausible (DiagnoseOptions::implausible_factor times the catalog's typical_max): the
+// harness draws no size beyond it, and does not draw a term that is implausible at 3x.
+double plausible_multiple(const Threshold& t);
 
 struct HarnessSetup {
   GeneratorRun run = harness_run();
@@ -87,8 +92,15 @@ struct Outcome {
   bool false_finding = false;  // effect-free: a deterministic finding, or an ambiguous pair named
   int found = 0;               // drawn catalog effects among the findings (anywhere)
   int within_3sigma = 0;       // of those, values within 3 sigma of the truth
+  bool right_unspecified = false;  // coloured: right also without the unit's specified wander
 };
-Outcome diagnose_trial(const Trial& trial, const Recording& rec);
+// Coloured-noise trials are diagnosed with the unit's specified wander (kSpecifiedWander,
+// what a data sheet or `standcal noise` on a static recording gives: the same bound for
+// every such unit, not the drawn truth) unless `without_specification`.
+Outcome diagnose_trial(const Trial& trial, const Recording& rec,
+                       bool without_specification = false);
+// The specification the coloured-noise units come with: Gauss-Markov up to 5 ug, 300 s.
+GaussMarkovNoise specified_wander();
 // Whether the findings name the effect with its axis.
 bool finds(const Outcome& outcome, const ConcealedEffect& effect);
 

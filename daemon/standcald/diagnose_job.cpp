@@ -7,7 +7,7 @@
 #include <filesystem>
 #include <string>
 
-#include "calib/diagnosis.hpp"
+#include "calib/diagnosis/diagnosis.hpp"
 #include "calib/recording.hpp"
 #include "daemon/standcald/diagnose_worker.hpp"
 #include "protocol/jsonrpc/jsonrpc.hpp"

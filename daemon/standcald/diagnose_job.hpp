@@ -1,6 +1,7 @@
 #pragma once
-// `run.diagnose` {run_id, report?}: the model-mismatch diagnosis (calib/diagnosis.hpp) of a
-// run's recording, in the shape of `standcal diagnose --json`. A diagnosis takes seconds,
+// `run.diagnose` {run_id, report?}: the model-mismatch diagnosis
+// (calib/diagnosis/diagnosis.hpp) of a run's recording, in the shape of `standcal diagnose
+// --json`. A diagnosis takes seconds,
 // so it never runs on the socket thread: requests are checked there (a bad one is answered
 // at once), then one worker thread hands them in turn to a child process
 // (diagnose_worker.hpp: a crash in the maths never takes the daemon down) and passes each

@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "calib/averaging.hpp"
-#include "calib/diagnosis.hpp"
+#include "calib/diagnosis/diagnosis.hpp"
 #include "calib/full_estimator.hpp"
 #include "calib/identifiability.hpp"
 #include "calib/invariant_estimator.hpp"

@@ -31,7 +31,8 @@ struct CertificateTraceability {
   std::string origin;            // "standcald run record" or "imported recording"
 };
 
-// A model-mismatch diagnosis (calib/diagnosis.hpp), reduced to what a certificate shows.
+// A model-mismatch diagnosis (calib/diagnosis/diagnosis.hpp), reduced to what a certificate
+// shows.
 struct CertificateDiagnosis {
   std::string verdict;  // consistent | explained | unexplained | insufficient_redundancy | ambiguous
   std::vector<std::string> summary;

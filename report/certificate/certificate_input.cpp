@@ -7,7 +7,7 @@
 #include <stdexcept>
 
 #include "calib/averaging.hpp"
-#include "calib/diagnosis.hpp"
+#include "calib/diagnosis/diagnosis.hpp"
 #include "calib/full_estimator.hpp"
 #include "calib/invariant_estimator.hpp"
 #include "calib/recording.hpp"

@@ -104,13 +104,18 @@ std::vector<ExtraEffect> findings_as_effects(const Diagnosis& d) {
   return effects;
 }
 
-// A stand angle-sensor error acts through the geometry: the stand sits at the reading
-// (the commanded angle), the unit at the true angle = reading + error.
-Vec3 angle_sensor_effect_g(const std::vector<ExtraEffect>& effects, const PositionAverage& p) {
+// Stand effects act through the geometry: the stand sits at the reading (the commanded
+// angle), the unit at the true angle = reading + angle-sensor error, on a base whose level
+// has drifted by the dwell's mid-time (linear in time, so the dwell mean).
+Vec3 stand_effect_g(const std::vector<ExtraEffect>& effects, const PositionAverage& p) {
   const double a1 = p.alpha1_cmd_deg, a2 = p.alpha2_cmd_deg;
   const double true1 = a1 + angle_sensor_error_deg(effects, 1, a1),
                true2 = a2 + angle_sensor_error_deg(effects, 2, a2);
-  return up_vector(true1 * kDegToRad, true2 * kDegToRad, p.mount) -
+  StandErrors drifted;
+  const Vec3 level = level_drift_rad(effects, 0.5 * (p.t_start_s + p.t_end_s));
+  drifted.levelling_x_rad = level.x();
+  drifted.levelling_z_rad = level.z();
+  return true_up_vector(true1 * kDegToRad, true2 * kDegToRad, p.mount, drifted) -
          up_vector(a1 * kDegToRad, a2 * kDegToRad, p.mount);
 }
 
@@ -141,7 +146,7 @@ std::vector<Vec3> findings_effect_per_position_g(const Diagnosis& d, const Recor
   }
   for (std::size_t k = 0; k < avg.size(); ++k) {
     if (count[k] > 0) sum[k] /= count[k];
-    sum[k] += angle_sensor_effect_g(effects, avg[k]);
+    sum[k] += stand_effect_g(effects, avg[k]);
   }
   return sum;
 }

@@ -1,5 +1,5 @@
 #pragma once
-// The model-mismatch diagnosis (calib/diagnosis.hpp) as a report a bench engineer reads:
+// The model-mismatch diagnosis (calib/diagnosis/diagnosis.hpp) as a report a bench engineer reads:
 // the verdict and findings in words, and figures drawn by standcal_plot — per output axis,
 // the residuals against angle, time and temperature before (baseline model) and after
 // (with the findings), the positions that carry the mismatch shaded, and the residual
@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "calib/diagnosis.hpp"
+#include "calib/diagnosis/diagnosis.hpp"
 #include "calib/recording.hpp"
 #include "report/plot/figure.hpp"
 

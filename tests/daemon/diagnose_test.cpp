@@ -9,7 +9,7 @@
 #include <set>
 #include <sstream>
 
-#include "calib/diagnosis.hpp"
+#include "calib/diagnosis/diagnosis.hpp"
 #include "calib/recording.hpp"
 #include "daemon_process.hpp"
 #include "tests/support/command.hpp"

@@ -4,7 +4,7 @@
 #include <cstdint>
 #include <cstdio>
 
-#include "calib/diagnosis.hpp"
+#include "calib/diagnosis/diagnosis.hpp"
 #include "calib/programs.hpp"
 #include "calib/simulator.hpp"
 

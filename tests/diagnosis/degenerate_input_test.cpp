@@ -11,7 +11,7 @@
 #include <string>
 
 #include "calib/averaging.hpp"
-#include "calib/diagnosis.hpp"
+#include "calib/diagnosis/diagnosis.hpp"
 #include "calib/full_estimator.hpp"
 #include "calib/identifiability.hpp"
 #include "calib/invariant_estimator.hpp"
@@ -165,6 +165,11 @@ TEST(DegenerateInput, RandomSmallProgrammesNeverCrashOrReportNonFiniteNumbers) {
       }
       for (const Finding& f : d.findings)
         EXPECT_TRUE(std::isfinite(f.value) && std::isfinite(f.sigma)) << f.effect;
+      // A candidate with a number has a finite one; one without is not testable, with why.
+      for (const CandidateTest& c : d.candidates)
+        EXPECT_TRUE(c.testable ? std::isfinite(c.value) && std::isfinite(c.sigma)
+                               : !c.reason.empty())
+            << "trial " << trial << ": " << c.effect << " " << c.axis;
     } catch (const CannotFit& e) {
       EXPECT_NE(std::string(e.what()).find("cannot check the model"), std::string::npos)
           << e.what();

@@ -8,7 +8,7 @@
 
 #include "bench/diagnosis/effect_generator.hpp"
 #include "calib/averaging.hpp"
-#include "calib/diagnosis.hpp"
+#include "calib/diagnosis/diagnosis.hpp"
 #include "calib/simulator.hpp"
 #include "calib/units.hpp"
 #include "tests/calib/test_support.hpp"

@@ -6,7 +6,12 @@
 
 #include <cstdio>
 
+#include <nlohmann/json.hpp>
+
 #include "bench/diagnosis/harness_trials.hpp"
+#include "calib/recording.hpp"
+#include "tests/support/command.hpp"
+#include "tests/support/temp_dir.hpp"
 
 namespace standcal::bench {
 namespace {
@@ -78,9 +83,9 @@ TEST(HarnessSubset, UncataloguedEffectsAreNoCombinationOfCatalogTerms) {
     }
 }
 
+// Every id a plausible size can show at 5x its threshold (not K3 and K_oq on diagnostic32).
 TEST(HarnessSubset, CatalogEffectsAreFoundWithTheirAxisAndValue) {
   expect_catalog_term_found("scale_nonlinearity_k2", "z", 0, 1);
-  expect_catalog_term_found("scale_nonlinearity_k3", "x", 0, 2);
   expect_catalog_term_found("cross_coupling", "xy", 0, 3);
   expect_catalog_term_found("bias_temperature", "y", 0, 4);
   expect_catalog_term_found("scale_temperature", "z", 0, 5);
@@ -95,31 +100,59 @@ TEST(HarnessSubset, WhiteNoiseWithoutEffectIsConsistent) {
   expect_drawn_right(TrialKind::white, 3);
 }
 
-// Waits for bias_instability as a noise finding (issue 15 item 2, "Honest uncertainty under
-// coloured noise"): today a Gauss-Markov bias comes out as drift or temperature findings.
-TEST(HarnessSubset, DISABLED_ColouredNoiseWithoutEffectIsConsistent) {
+// With the unit's specified wander (harness_trials.hpp): one 6-minute run cannot tell 2-5 ug
+// of Gauss-Markov wander from a drift or a temperature coefficient by itself.
+TEST(HarnessSubset, ColouredNoiseWithoutEffectIsConsistent) {
   expect_drawn_right(TrialKind::coloured, 3);
 }
 
-// Wait for the honesty checks before `explained` (issue 15 item 3): today these come out
-// `ambiguous` between catalog terms in about a third of the draws.
-TEST(HarnessSubset, DISABLED_UncataloguedEffectsAreUnexplained) {
+// `standcal diagnose --bias-instability-ug`: a coloured recording that comes out with a
+// finding when the unit's wander is unknown is `consistent` once the operator gives it.
+TEST(HarnessSubset, TheCliTakesTheUnitsSpecifiedWander) {
+  const Trial* wrong_without = nullptr;
+  std::vector<Trial> coloured;
+  for (int index = 0; coloured.size() < 10; ++index)
+    if (kind_of_trial(index) == TrialKind::coloured)
+      coloured.push_back(draw_trial(index, kSeed, setup()));
+  for (const Trial& t : coloured)
+    if (!wrong_without && !diagnose_trial(t, record(t, setup()), true).right) wrong_without = &t;
+  ASSERT_NE(wrong_without, nullptr) << "no coloured draw needs the specification";
+  test::TempDir dir;
+  const std::string path = dir.file("coloured.csv");
+  write_recording(record(*wrong_without, setup()), path);
+  auto verdict = [&](const std::string& extra) {
+    const test::CommandOutcome r =
+        test::standcal_cli("diagnose --json " + path + extra + " 2>/dev/null");
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    return nlohmann::json::parse(r.output.substr(r.output.find('{')));
+  };
+  EXPECT_NE(verdict("")["verdict"], "consistent");
+  const nlohmann::json with = verdict(" --bias-instability-ug 5 --bias-instability-tau-s 300");
+  EXPECT_EQ(with["verdict"], "consistent") << with["summary"].dump(1);
+  EXPECT_EQ(with["noise"]["source"], "specified");
+}
+
+TEST(HarnessSubset, UncataloguedEffectsAreUnexplained) {
   for (const char* id : {"bias_jump", "angle_sensor_harmonic2", "bias_oscillation"})
     for (int i = 0; i < 2; ++i) expect_right(uncatalogued_trial(20 + i, kSeed, setup(), id));
 }
 
-// Waits for scale_asymmetry in the catalog (issue 15 item 2).
-TEST(HarnessSubset, DISABLED_ScaleAsymmetryIsFound) {
-  expect_catalog_term_found("scale_asymmetry", "x", 0, 11);
+// K_oq and K3 cannot be told apart on diagnostic32 below an implausible size (their
+// thresholds are 93-1300 against 10 x 20 ug/g2): the harness does not draw them.
+TEST(HarnessSubset, ScaleAsymmetryAndK3AreNotDrawnAtImplausibleSizes) {
+  for (const char* axis : {"x", "y", "z"}) {
+    EXPECT_LT(plausible_multiple(threshold_of(setup(), "scale_asymmetry", axis, 0)), 3) << axis;
+    EXPECT_LT(plausible_multiple(threshold_of(setup(), "scale_nonlinearity_k3", axis, 0)), 3)
+        << axis;
+  }
+  EXPECT_GE(plausible_multiple(threshold_of(setup(), "scale_nonlinearity_k2", "z", 0)), 3);
 }
 
-// Waits for stand_level_drift in the catalog (issue 15 item 2).
-TEST(HarnessSubset, DISABLED_StandLevelDriftIsFound) {
+TEST(HarnessSubset, StandLevelDriftIsFound) {
   expect_catalog_term_found("stand_level_drift", "z", 0, 12);
 }
 
-// Waits for several effects at once (issue 15 item 4) and the two new catalog ids.
-TEST(HarnessSubset, DISABLED_PairsAreFoundTogether) { expect_drawn_right(TrialKind::pair, 4); }
+TEST(HarnessSubset, PairsAreFoundTogether) { expect_drawn_right(TrialKind::pair, 4); }
 
 }  // namespace
 }  // namespace standcal::bench

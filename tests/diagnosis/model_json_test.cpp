@@ -2,6 +2,7 @@
 // rejection of bad entries, and byte-identical JSON for models without extra physics.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
@@ -12,6 +13,15 @@
 
 namespace standcal {
 namespace {
+
+// The default unit and stand without noise: what an extra term adds is exactly visible.
+TruthModel noise_free_truth() {
+  TruthModel t = default_truth();
+  t.noise = NoiseModel{};
+  t.noise.density_ug_rthz = 0;
+  t.temperature.noise_c = 0;
+  return t;
+}
 
 TEST(ExtraPhysicsJson, ModelsWithoutExtraPhysicsHaveNoKey) {
   EXPECT_FALSE(truth_to_json(default_truth()).contains("extra_physics"));
@@ -64,6 +74,29 @@ TEST(ExtraPhysicsJson, AngleSensorErrorRoundTripAndRejections) {
   EXPECT_THROW(truth_from_json(bad, "m"), std::runtime_error);
 }
 
+TEST(ExtraPhysicsJson, ScaleAsymmetryAndStandLevelDriftRoundTripAndRejections) {
+  TruthModel t = default_truth();
+  t.extra_physics.push_back({"scale_asymmetry", "y", 25, 0});
+  t.extra_physics.push_back({"stand_level_drift", "z", 4, 0});
+  const nlohmann::json j = truth_to_json(t);
+  EXPECT_EQ(j["extra_physics"][0]["unit"], "ug/g2");
+  EXPECT_EQ(j["extra_physics"][1]["unit"], "arcsec/h");
+  const TruthModel back = truth_from_json(j, "model");
+  ASSERT_EQ(back.extra_physics.size(), 2u);
+  EXPECT_EQ(back.extra_physics[1].id, "stand_level_drift");
+  EXPECT_EQ(back.extra_physics[1].axis, "z");
+  EXPECT_EQ(truth_to_json(back)["extra_physics"], j["extra_physics"]);
+  nlohmann::json bad = j;
+  bad["extra_physics"][1]["axis"] = "y";  // a rotation about y_S leaves gravity unchanged
+  EXPECT_THROW(truth_from_json(bad, "m"), std::runtime_error);
+  bad = j;
+  bad["extra_physics"][1]["unit"] = "arcsec";
+  EXPECT_THROW(truth_from_json(bad, "m"), std::runtime_error);
+  bad = j;
+  bad["extra_physics"][0]["axis"] = "alpha1";
+  EXPECT_THROW(truth_from_json(bad, "m"), std::runtime_error);
+}
+
 TEST(TemperatureProfileJson, CycleKeysOnlyWhenThereIsACycle) {
   TruthModel t = default_truth();
   EXPECT_FALSE(truth_to_json(t)["temperature"].contains("cycle_amplitude_c"));
@@ -103,10 +136,7 @@ TEST(ExtraPhysicsSimulator, AngleSensorErrorTurnsTheUpVector) {
 
 // The simulator applies each term as model.md parametrises it.
 TEST(ExtraPhysicsSimulator, TermsFollowTheCatalogParametrisation) {
-  TruthModel t = default_truth();
-  t.noise = NoiseModel{};
-  t.noise.density_ug_rthz = 0;
-  t.temperature.noise_c = 0;
+  const TruthModel t = noise_free_truth();
   TruthModel k2 = t;
   k2.extra_physics.push_back({"scale_nonlinearity_k2", "z", -34, 0});
   UnitSimulator plain(t, 1, 100), with(k2, 1, 100);
@@ -126,6 +156,38 @@ TEST(ExtraPhysicsSimulator, TermsFollowTheCatalogParametrisation) {
   const Vec3 g1 = h.specific_force_mps2(3600.0, 0, 0, Mount::x);
   EXPECT_NEAR((g1.x() - g0.x()) / t.g_local_mps2 / kUg, -10, 1e-6);
   EXPECT_NEAR((g1.y() - g0.y()) / t.g_local_mps2 / kUg, 36, 1e-6);
+}
+
+// IEEE 1293's odd-quadratic term: K_oq a |a| changes sign with the input, unlike K2 a^2.
+TEST(ExtraPhysicsSimulator, ScaleAsymmetryIsOddInTheInput) {
+  const TruthModel t = noise_free_truth();
+  TruthModel oq = t;
+  oq.extra_physics.push_back({"scale_asymmetry", "y", 25, 0});
+  UnitSimulator plain(t, 1, 100), with(oq, 1, 100);
+  for (double alpha1_deg : {0.0, 180.0, 60.0}) {  // y up, y down, y at cos 60 deg
+    const Vec3 f0 = plain.specific_force_mps2(1.0, alpha1_deg, 0, Mount::x) / t.g_local_mps2;
+    const Vec3 f1 = with.specific_force_mps2(1.0, alpha1_deg, 0, Mount::x) / t.g_local_mps2;
+    EXPECT_NEAR((f1.y() - f0.y()) / kUg, 25 * f0.y() * std::abs(f0.y()), 1e-6) << alpha1_deg;
+    EXPECT_NEAR(f1.x(), f0.x(), 1e-12);
+  }
+}
+
+// The stand's base level turns linearly from t = 0: after one hour of 20 arcsec/h about
+// z_S the unit reads as on a stand levelled 20 arcsec further about z_S (model.md's C_eps).
+TEST(ExtraPhysicsSimulator, StandLevelDriftTurnsTheLevelWithTime) {
+  const TruthModel t = noise_free_truth();
+  TruthModel drifting = t;
+  drifting.extra_physics.push_back({"stand_level_drift", "z", 20, 0});
+  TruthModel tilted = t;
+  tilted.stand.levelling_z_rad += 20 * kArcsecToRad;
+  UnitSimulator d(drifting, 1, 100), at_one_hour(tilted, 1, 100), plain(t, 1, 100);
+  EXPECT_EQ(d.specific_force_mps2(0.0, 30, 45, Mount::x),
+            plain.specific_force_mps2(0.0, 30, 45, Mount::x));
+  const Vec3 f1 = d.specific_force_mps2(3600.0, 30, 45, Mount::x);  // same pose, one hour on
+  const Vec3 f2 = at_one_hour.specific_force_mps2(3600.0, 30, 45, Mount::x);
+  EXPECT_LT((f1 - f2).norm() / t.g_local_mps2, 1e-12);
+  EXPECT_GT((f1 - plain.specific_force_mps2(3600.0, 30, 45, Mount::x)).norm() / t.g_local_mps2,
+            50 * kUg);
 }
 
 // Without extra physics a simulated run is exactly what it was before the extension.

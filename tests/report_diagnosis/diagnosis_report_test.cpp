@@ -14,7 +14,7 @@
 #include <sstream>
 
 #include "calib/averaging.hpp"
-#include "calib/diagnosis.hpp"
+#include "calib/diagnosis/diagnosis.hpp"
 #include "calib/invariant_estimator.hpp"
 #include "calib/programs.hpp"
 #include "calib/simulator.hpp"

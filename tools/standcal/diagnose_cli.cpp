@@ -7,9 +7,10 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
-#include "calib/diagnosis.hpp"
+#include "calib/diagnosis/diagnosis.hpp"
 #include "calib/recording.hpp"
 #include "calib/simulator.hpp"
+#include "calib/units.hpp"
 #include "report/diagnosis/diagnosis_report.hpp"
 #include "tools/standcal/commands.hpp"
 
@@ -22,7 +23,17 @@ struct DiagnoseCliOptions {
   bool json = false;
   std::string report;
   std::string model_out;
+  // The unit's bias instability as its data sheet or a static recording gives it.
+  double bias_instability_ug = 0;
+  double bias_instability_tau_s = 300;
 };
+
+DiagnoseOptions diagnose_options(const DiagnoseCliOptions& o) {
+  DiagnoseOptions d;
+  if (o.bias_instability_ug > 0)
+    d.specified_wander = {Vec3::Constant(o.bias_instability_ug * kUg), o.bias_instability_tau_s};
+  return d;
+}
 
 void write_file(const std::string& path, const std::string& text, const char* what) {
   std::ofstream out(path);
@@ -33,15 +44,15 @@ void write_file(const std::string& path, const std::string& text, const char* wh
 void run_diagnose(const DiagnoseCliOptions& o) {
   const Recording rec = read_recording(o.recording);
   for (const std::string& w : rec.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
-  const Diagnosis d = diagnose_recording(rec);
+  const Diagnosis d = diagnose_recording(rec, diagnose_options(o));
   if (!o.report.empty()) {
     write_file(o.report, report::diagnosis_html(d, rec), "report");
     std::fprintf(stderr, "report written to %s\n", o.report.c_str());
   }
   if (!o.model_out.empty()) {
     save_truth(d.model, o.model_out);
-    std::fprintf(stderr, "augmented model written to %s (standcal simulate --model %s)\n", o.model_out.c_str(),
-                 o.model_out.c_str());
+    std::fprintf(stderr, "augmented model written to %s (standcal simulate --model %s)\n",
+                 o.model_out.c_str(), o.model_out.c_str());
   }
   if (o.json) {
     std::cout << diagnose_to_json(d).dump(2) << "\n";
@@ -52,16 +63,29 @@ void run_diagnose(const DiagnoseCliOptions& o) {
   std::cout << "where:\n";
   for (const std::string& s : d.located) std::cout << "  " << s << "\n";
   for (const ProposedPosition& p : d.proposed_positions)
-    std::printf("proposed position: alpha1 %.0f deg, alpha2 %.0f deg (%s)\n", p.alpha1_deg, p.alpha2_deg, p.why.c_str());
+    std::printf("proposed position: alpha1 %.0f deg, alpha2 %.0f deg (%s)\n", p.alpha1_deg,
+                p.alpha2_deg, p.why.c_str());
 }
 
 void add_diagnose_commands(CLI::App& app) {
   auto opts = std::make_shared<DiagnoseCliOptions>();
-  CLI::App* cmd = app.add_subcommand("diagnose", "find where a recording and the model disagree and what physics is missing");
+  CLI::App* cmd = app.add_subcommand(
+      "diagnose", "find where a recording and the model disagree and what physics is missing");
   cmd->add_option("recording", opts->recording, "recording (standcal-recording/1 CSV)")->required();
   cmd->add_flag("--json", opts->json, "machine-readable output");
-  cmd->add_option("--report", opts->report, "write an HTML report with plots (residuals before/after, located mismatch) to FILE");
-  cmd->add_option("--model-out", opts->model_out, "write the augmented model (standcal-model/1 JSON) to FILE");
+  cmd->add_option(
+      "--report", opts->report,
+      "write an HTML report with plots (residuals before/after, located mismatch) to FILE");
+  cmd->add_option("--model-out", opts->model_out,
+                  "write the augmented model (standcal-model/1 JSON) to FILE");
+  cmd->add_option("--bias-instability-ug", opts->bias_instability_ug,
+                  "the unit's bias wander (Gauss-Markov sigma, ug) from its data sheet or a static "
+                  "recording: "
+                  "the terms are tested against it when the run does not show the wander itself")
+      ->check(CLI::Range(0.0, 1e6));
+  cmd->add_option("--bias-instability-tau-s", opts->bias_instability_tau_s,
+                  "its correlation time (s, default 300)")
+      ->check(CLI::PositiveNumber);
   cmd->callback([opts] { run_diagnose(*opts); });
 }
 

@@ -4,11 +4,13 @@
 // physics (../shared/docs/model.md) with the parametrisations it fixes, keep a term only
 // if an information criterion AND a leave-positions-out prediction check both want it,
 // refit, and say what was found in words and as a model the simulator reproduces.
+// The public API of the calib/diagnosis room (docs/diagnosis.md, "Where the code is").
 #include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <vector>
 
 #include "calib/fit_result.hpp"
+#include "calib/noise_model.hpp"
 #include "calib/programs.hpp"
 #include "calib/recording.hpp"
 #include "calib/simulator.hpp"
@@ -35,6 +37,26 @@ struct DiagnoseOptions {
   double mounting_tolerance_arcmin = 5;
   // Where the stand can go: every proposed position lies inside these ranges.
   StandLimits limits;
+  // Bias wander (model.md bias_instability) is believed when the Gauss-Markov noise model
+  // raises the restricted log-likelihood by this much (2 delta log L; chi2 with four
+  // parameters at P = 1e-3). Infinity: always test against white noise.
+  double wander_lr_threshold = 18.5;
+  // The largest bias wander (Gauss-Markov standard deviation) the unit's class can have: a
+  // navigation-grade quartz unit's bias instability is a few ug. A larger "wander" is an
+  // event (a jump, a knock, an oscillation), not noise, and is left for the checks to find.
+  double max_bias_instability_ug = 6;
+  // The unit's bias wander as known before this run: its specification, or `standcal noise`
+  // on a long static recording. One short run often cannot tell a few ug of wander from a
+  // drift or a temperature coefficient (docs/diagnosis.md, "Noise"); when it does not show
+  // the wander itself, the terms are tested against this. White: nothing known.
+  GaussMarkovNoise specified_wander;
+  // Before `explained` or `consistent`: the residuals must pass the whiteness tests at this
+  // family-wise false-alarm rate, each chosen term must agree between the two halves of the
+  // run within this many sigma, and no found value may exceed this many times its
+  // catalog's typical_max.
+  double whiteness_family_alpha = 1e-3;
+  double half_stability_z = 4;
+  double implausible_factor = 10;
 };
 
 // A trend of the baseline's normalised residuals against one variable, per axis.
@@ -84,6 +106,46 @@ struct ResidualRow {
   std::vector<double> before, after;  // 3 (full) or 1 (invariant) components
 };
 
+// The noise the tests were made against (calib/noise_model.hpp). A noise finding, never a
+// deterministic term: bias_instability is true when the dwell means wander beyond their
+// white-noise errors, and every chi2 and sigma then comes from generalised least squares.
+struct NoiseFinding {
+  std::string model = "white";  // "white" or "gauss_markov"
+  std::string source;           // gauss_markov: "estimated" (this recording) or "specified"
+  bool bias_instability = false;  // the recording itself shows the wander
+  Vec3 wander_ug = Vec3::Zero();       // Gauss-Markov standard deviation per axis
+  double tau_s = 0;                    // its correlation time
+  Vec3 allan_peak_ug = Vec3::Zero();   // the Allan-deviation floor that wander shows
+  Vec3 understated_by = Vec3::Ones();  // how much sigma/sqrt(n) understated a dwell mean's error
+  double lr = 0, lr_threshold = 0;     // 2 delta log L against white noise, and the bar
+  std::string how;
+};
+
+// Honesty outside the catalog (docs/diagnosis.md, "Checks before explained").
+struct WhitenessCheck {
+  std::string axis, against, test;  // "x", "time", "serial" | "step"
+  double statistic = 0, p = 1;
+  std::vector<int> positions;  // where the pattern is strongest
+  double t_from_s = 0, t_to_s = 0;
+};
+struct StabilityCheck {
+  std::string effect, axis, unit;
+  double value = 0, sigma = 0;  // whole run
+  double first = 0, first_sigma = 0, second = 0, second_sigma = 0;
+  double z = 0;
+  bool stable = true;
+};
+struct HonestyChecks {
+  bool made = false;   // false: the verdict did not need them (or no redundancy)
+  bool passed = true;  // residuals white, every term stable and plausible
+  double family_alpha = 0;
+  std::vector<WhitenessCheck> whiteness;  // every test, in the order made
+  int worst = -1;                         // index of the smallest p
+  std::vector<StabilityCheck> stability;  // one per chosen term
+  std::vector<std::string> implausible;   // found values beyond their kind's plausible size
+  std::vector<std::string> not_explaining;  // catalog candidates tried that do not explain it
+};
+
 struct Diagnosis {
   std::string verdict;  // consistent | explained | unexplained | insufficient_redundancy | ambiguous
   std::string method;   // "full" (full-vector) or "joint" (invariant)
@@ -101,6 +163,8 @@ struct Diagnosis {
   std::vector<ResidualRow> residuals;
   std::vector<std::string> summary;  // the diagnosis in sentences, with numbers
   TruthModel model;                  // augmented model for `standcal simulate --model`
+  NoiseFinding noise;
+  HonestyChecks checks;
 };
 
 Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& options = {});

@@ -1,0 +1,169 @@
+#include "calib/diagnosis/wander.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <iterator>
+
+#include "calib/diagnosis/words.hpp"
+#include "calib/units.hpp"
+
+namespace standcal::diagnosis {
+
+namespace {
+
+// Terms that vary slowly with time (directly, through temperature, or through the order
+// of the moves): the shapes a wander realisation can mimic.
+bool slow_in_time(const Candidate& c) {
+  static const char* const kSlow[] = {"bias_drift", "bias_temperature", "scale_temperature",
+                                      "hysteresis", "stand_level_drift"};
+  return std::any_of(std::begin(kSlow), std::end(kSlow),
+                     [&c](const char* id) { return c.effect() == id; });
+}
+
+Selection select_under(Prepared& P, const GaussMarkovNoise& noise, const DiagnoseOptions& options) {
+  P.model->use_noise(noise);
+  const LinearProblem& lp = P.model->problem();
+  P.base = solve_linear(lp.A, lp.y, lp.row_position, lp.positions);
+  return forward_selection(*P.model, P.ctx, P.cands, P.untestable, P.implausible, P.base, options);
+}
+
+// The rows of the positions whose pose the programme visits more than once, with a free
+// mean per pose and row component, and the slow terms' columns on those rows.
+struct BetweenVisits {
+  std::vector<Eigen::Index> rows;
+  std::vector<NoiseRow> noise_rows;
+  Eigen::MatrixXd X;
+  Eigen::VectorXd y;
+};
+
+std::vector<int> pose_index(const std::vector<PositionContext>& ctx) {
+  std::vector<int> pose(ctx.size(), -1);
+  int n = 0;
+  for (std::size_t k = 0; k < ctx.size(); ++k) {
+    for (std::size_t j = 0; j < k && pose[k] < 0; ++j)
+      if ((ctx[j].up - ctx[k].up).norm() < 1e-9) pose[k] = pose[j];
+    if (pose[k] < 0) pose[k] = n++;
+  }
+  return pose;
+}
+
+BetweenVisits between_visits(const Prepared& P, const std::vector<Candidate>& slow) {
+  const LinearProblem& lp = P.model->problem();
+  const std::vector<int> pose = pose_index(P.ctx);
+  std::vector<int> visits(P.ctx.size(), 0);
+  for (int p : pose) ++visits[static_cast<std::size_t>(p)];
+  BetweenVisits bv;
+  std::vector<std::pair<int, int>> column_of;  // (pose, component) of each mean column
+  std::vector<int> row_column;
+  for (std::size_t r = 0; r < lp.row_position.size(); ++r) {
+    const int p = pose[static_cast<std::size_t>(lp.row_position[r])];
+    if (visits[static_cast<std::size_t>(p)] < 2) continue;
+    const std::pair<int, int> key{p, lp.row_component[r]};
+    auto it = std::find(column_of.begin(), column_of.end(), key);
+    if (it == column_of.end()) it = column_of.insert(column_of.end(), key);
+    row_column.push_back(static_cast<int>(it - column_of.begin()));
+    bv.rows.push_back(static_cast<Eigen::Index>(r));
+    bv.noise_rows.push_back(lp.noise_rows[r]);
+  }
+  if (bv.rows.empty()) return bv;
+  const Eigen::MatrixXd slow_cols =
+      with_columns(Eigen::MatrixXd(lp.y.size(), 0), term_columns_white(*P.model, P.ctx, slow));
+  const auto m = static_cast<Eigen::Index>(bv.rows.size());
+  const auto means = static_cast<Eigen::Index>(column_of.size());
+  bv.X = Eigen::MatrixXd::Zero(m, means + slow_cols.cols());
+  for (Eigen::Index i = 0; i < m; ++i) {
+    bv.X(i, row_column[static_cast<std::size_t>(i)]) =
+        1.0 / lp.row_sigma_g[static_cast<std::size_t>(bv.rows[static_cast<std::size_t>(i)])];
+    bv.X.row(i).tail(slow_cols.cols()) = slow_cols.row(bv.rows[static_cast<std::size_t>(i)]);
+  }
+  bv.y = lp.y_white(bv.rows);
+  return bv;
+}
+
+}  // namespace
+
+NoiseAndTerms select_terms_and_noise(Prepared& P, const DiagnoseOptions& options) {
+  // The wander is estimated from the positions the programme visits more than once, with
+  // each pose's mean free (one column per pose and row component) and every testable slow
+  // term in the model: what is left is the between-visit scatter (model.md
+  // bias_instability). Anything that depends on the pose alone, known to the catalog or not,
+  // cancels there and cannot be taken for noise; a real drift or temperature coefficient
+  // stays a column. When the wander is significant the terms are selected under it
+  // (generalised least squares), so that a wander realisation is not taken for a drift.
+  std::vector<Candidate> slow;
+  for (std::size_t i = 0; i < P.cands.size(); ++i)
+    if (P.untestable[i].empty() && slow_in_time(P.cands[i])) slow.push_back(P.cands[i]);
+  const BetweenVisits bv = between_visits(P, slow);
+  NoiseEstimateOptions o;
+  o.lr_threshold = options.wander_lr_threshold;
+  NoiseAndTerms out;
+  if (bv.rows.size() > 0) out.noise = estimate_bias_wander(bv.noise_rows, bv.X, bv.y, o);
+  if (bv.rows.empty()) out.noise.how = "not estimated: no position is visited twice";
+  if (out.noise.significant &&
+      out.noise.noise.q_g.maxCoeff() > options.max_bias_instability_ug * kUg) {
+    out.noise.significant = false;
+    out.noise.noise = GaussMarkovNoise{};
+    out.noise.how += "; not taken as noise: " + fmt("%.1f", out.noise.best.q_g.maxCoeff() / kUg) +
+                     " ug is beyond the bias instability of this class of unit (" +
+                     fmt("%.0f", options.max_bias_instability_ug) + " ug)";
+  }
+  if (!out.noise.significant && !options.specified_wander.white()) {
+    out.noise.noise = options.specified_wander;
+    out.noise.how += "; the tests use the unit's specified wander instead";
+  }
+  out.selection = select_under(P, out.noise.noise, options);
+  return out;
+}
+
+NoiseFinding noise_finding(const NoiseEstimate& e, const std::vector<PositionAverage>& avg) {
+  NoiseFinding n;
+  n.lr = e.lr;
+  n.lr_threshold = e.lr_threshold;
+  n.how = e.how;
+  if (e.noise.white()) return n;
+  n.model = "gauss_markov";
+  n.source = e.significant ? "estimated" : "specified";
+  n.bias_instability = e.significant;
+  n.tau_s = e.noise.tau_s;
+  for (int a = 0; a < 3; ++a) {
+    std::vector<double> se;
+    for (const PositionAverage& p : avg) se.push_back(p.standard_error_g[a]);
+    std::nth_element(se.begin(), se.begin() + static_cast<std::ptrdiff_t>(se.size() / 2), se.end());
+    const double sigma = se[se.size() / 2], q = e.noise.q_g[a];
+    n.wander_ug[a] = q / kUg;
+    n.allan_peak_ug[a] = gauss_markov_allan_peak(q, e.noise.tau_s).deviation / kUg;
+    n.understated_by[a] = sigma > 0 ? std::sqrt(1 + q * q / (sigma * sigma)) : 1.0;
+  }
+  return n;
+}
+
+std::string noise_words(const NoiseFinding& n) {
+  if (n.model == "gauss_markov" && !n.bias_instability)
+    return "Noise: this run does not show bias wander by itself (2 delta log L = " +
+           fmt("%.1f", n.lr) + " of " + fmt("%.1f", n.lr_threshold) +
+           " needed), so the terms are tested against the unit's specified "
+           "bias instability, Gauss-Markov up to " +
+           fmt("%.1f", n.wander_ug.maxCoeff()) + " ug with correlation time " +
+           fmt("%.0f", n.tau_s) +
+           " s (generalised least squares): a drift or temperature term must stand out from "
+           "what that wander can do in this run.";
+  if (!n.bias_instability) return "";
+  std::string s =
+      "Noise: the dwell means wander more than their white-noise errors allow (bias instability, a "
+      "noise "
+      "finding, not missing physics): Gauss-Markov";
+  for (int a = 0; a < 3; ++a)
+    s +=
+        std::string(a ? "," : "") + " " + kAxisNames[a] + " " + fmt("%.1f", n.wander_ug[a]) + " ug";
+  s += ", correlation time " + fmt("%.0f", n.tau_s) + " s (Allan floor";
+  for (int a = 0; a < 3; ++a)
+    s += std::string(a ? "," : "") + " " + fmt("%.1f", n.allan_peak_ug[a]);
+  s += " ug); sigma/sqrt(n) understated a dwell mean's error by up to " +
+       fmt("%.1f", n.understated_by.maxCoeff()) +
+       "x. Every test above weighs the positions with this noise "
+       "(generalised least squares; 2 delta log L = " +
+       fmt("%.0f", n.lr) + ").";
+  return s;
+}
+
+}  // namespace standcal::diagnosis

@@ -1,0 +1,28 @@
+#pragma once
+// Which noise the terms are tested against (docs/diagnosis.md, "Noise"): white, or the
+// bias wander of model.md's bias_instability when the recording shows it. The two compete
+// with the deterministic terms for the same slow residuals (a drift is wander that happens
+// to be straight), so the wander is estimated with every slow catalog term in the model and
+// the terms are then selected under it.
+#include "calib/diagnosis/diagnosis.hpp"
+#include "calib/diagnosis/prepare.hpp"
+#include "calib/diagnosis/selection.hpp"
+#include "calib/noise_model.hpp"
+
+namespace standcal::diagnosis {
+
+struct NoiseAndTerms {
+  NoiseEstimate noise;
+  Selection selection;
+};
+
+// Sets P.model's noise and P.base to the final choice.
+NoiseAndTerms select_terms_and_noise(Prepared& P, const DiagnoseOptions& options);
+
+// The noise finding as reported, with how much sigma/sqrt(n) understated the dwell means.
+NoiseFinding noise_finding(const NoiseEstimate& e, const std::vector<PositionAverage>& avg);
+
+// A sentence for the summary: empty for white noise.
+std::string noise_words(const NoiseFinding& n);
+
+}  // namespace standcal::diagnosis

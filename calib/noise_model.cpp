@@ -1,0 +1,200 @@
+#include "calib/noise_model.hpp"
+
+#include "calib/golden_section.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <numeric>
+
+namespace standcal {
+
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+
+namespace {
+
+std::vector<std::size_t> time_order(const std::vector<NoiseRow>& rows) {
+  std::vector<std::size_t> order(rows.size());
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  std::stable_sort(order.begin(), order.end(),
+                   [&rows](std::size_t a, std::size_t b) { return rows[a].t_s < rows[b].t_s; });
+  return order;
+}
+
+}  // namespace
+
+MatrixXd decorrelate(const std::vector<NoiseRow>& rows, const GaussMarkovNoise& noise,
+                     const MatrixXd& whitened, double* log_det_out) {
+  double log_det = 0;
+  if (noise.white() || noise.tau_s <= 0) {
+    if (log_det_out) *log_det_out = 0;
+    return whitened;
+  }
+  const Eigen::Index k = whitened.cols();
+  MatrixXd out(whitened.rows(), k);
+  const Eigen::Array3d q2 = noise.q_g.array().square();
+  Eigen::Matrix3d P = q2.matrix().asDiagonal();  // the wander starts stationary
+  MatrixXd state = MatrixXd::Zero(3, k);         // its estimate, one per column
+  double t_prev = 0;
+  bool first = true;
+  for (std::size_t r : time_order(rows)) {
+    const NoiseRow& row = rows[r];
+    if (!first) {  // propagate: b(t + dt) = a b(t) + w, var(w) = q^2 (1 - a^2)
+      const Eigen::Array3d a =
+          Eigen::Array3d::Constant(std::exp(-(row.t_s - t_prev) / noise.tau_s));
+      state = a.matrix().asDiagonal() * state;
+      P = a.matrix().asDiagonal() * P * a.matrix().asDiagonal();
+      P.diagonal().array() += q2 * (1 - a.square());
+    }
+    first = false;
+    t_prev = row.t_s;
+    const Eigen::RowVector3d H = row.projection.transpose() / row.sigma_g;  // whitened units
+    const Eigen::RowVectorXd innovation = whitened.row(static_cast<Eigen::Index>(r)) - H * state;
+    const double S = (H * P * H.transpose())(0, 0) + 1.0;
+    const Eigen::Vector3d K = P * H.transpose() / S;
+    state += K * innovation;
+    P -= K * S * K.transpose();
+    out.row(static_cast<Eigen::Index>(r)) = innovation / std::sqrt(S);
+    log_det += std::log(S);
+  }
+  if (log_det_out) *log_det_out = log_det;
+  return out;
+}
+
+namespace {
+
+// Restricted log-likelihood (up to a constant) of the model's residual under `noise`.
+class RestrictedLikelihood {
+ public:
+  RestrictedLikelihood(const std::vector<NoiseRow>& rows, const MatrixXd& X, const VectorXd& y)
+      : rows_(rows) {
+    data_.resize(y.size(), X.cols() + 1);
+    data_.col(0) = y;
+    for (Eigen::Index j = 0; j < X.cols(); ++j) {
+      const double norm = X.col(j).norm();  // unit columns: the design mixes scales of 1e6
+      data_.col(j + 1) = norm > 0 ? VectorXd(X.col(j) / norm) : VectorXd(X.col(j));
+    }
+    Eigen::ColPivHouseholderQR<MatrixXd> qr(data_.rightCols(X.cols()));
+    qr.setThreshold(1e-9);
+    rank_ = qr.rank();  // held fixed, so every noise model is compared on the same model
+  }
+
+  double operator()(const GaussMarkovNoise& noise) const {
+    double log_det = 0;
+    const MatrixXd z = decorrelate(rows_, noise, data_, &log_det);
+    const VectorXd y = z.col(0);
+    const MatrixXd X = z.rightCols(z.cols() - 1);
+    double log_det_xtx = 0, rss = y.squaredNorm();
+    if (rank_ > 0) {
+      Eigen::ColPivHouseholderQR<MatrixXd> qr(X);
+      const MatrixXd R = qr.matrixR().topLeftCorner(rank_, rank_).triangularView<Eigen::Upper>();
+      for (Eigen::Index i = 0; i < rank_; ++i) log_det_xtx += 2 * std::log(std::abs(R(i, i)));
+      const VectorXd qty = qr.householderQ().adjoint() * y;
+      rss = qty.tail(qty.size() - rank_).squaredNorm();
+    }
+    return -0.5 * (log_det + log_det_xtx + rss);
+  }
+
+ private:
+  const std::vector<NoiseRow>& rows_;
+  MatrixXd data_;
+  Eigen::Index rank_ = 0;
+};
+
+double median_row_sigma(const std::vector<NoiseRow>& rows) {
+  std::vector<double> s;
+  for (const NoiseRow& r : rows) s.push_back(r.sigma_g);
+  std::nth_element(s.begin(), s.begin() + static_cast<std::ptrdiff_t>(s.size() / 2), s.end());
+  return s[s.size() / 2];
+}
+
+struct WanderFit {
+  GaussMarkovNoise noise;
+  double log_l = -1e300;
+};
+
+// For one tau: a common q for the three axes first (one dimension, robust), then each
+// axis on its own, each compared with no wander on that axis.
+WanderFit best_for_tau(const RestrictedLikelihood& L, double tau_s, double sigma_ref) {
+  constexpr double kLogLo = -1.5, kLogHi = 1.5;  // q from 3 % to 30x a row's sigma
+  constexpr int kEvaluations = 14;
+  WanderFit best{{Vec3::Zero(), tau_s}, 0};
+  best.log_l = L(best.noise);
+  auto with_q = [&](const Vec3& q) { return L(GaussMarkovNoise{q, tau_s}); };
+  const double common =
+      golden_section_max(
+          [&](double u) { return with_q(Vec3::Constant(sigma_ref * std::pow(10, u))); }, kLogLo,
+          kLogHi, kEvaluations, std::greater<double>())
+          .first;
+  const Vec3 q_common = Vec3::Constant(sigma_ref * std::pow(10, common));
+  if (const double l = with_q(q_common); l > best.log_l) best = {{q_common, tau_s}, l};
+  for (int axis = 0; axis < 3; ++axis) {
+    auto on_axis = [&](double q_axis) {
+      Vec3 q = best.noise.q_g;
+      q[axis] = q_axis;
+      return q;
+    };
+    const double u =
+        golden_section_max([&](double v) { return with_q(on_axis(sigma_ref * std::pow(10, v))); },
+                           kLogLo, kLogHi, kEvaluations, std::greater<double>())
+            .first;
+    for (const double q_axis : {0.0, sigma_ref * std::pow(10, u)})
+      if (const double l = with_q(on_axis(q_axis)); l > best.log_l)
+        best = {{on_axis(q_axis), tau_s}, l};
+  }
+  return best;
+}
+
+std::string wander_words(const NoiseEstimate& e) {
+  char b[256];
+  std::snprintf(
+      b, sizeof b,
+      "Gauss-Markov bias wander fitted to the per-position residuals by restricted maximum "
+      "likelihood (Kalman-filter innovations, tau grid); 2 delta log L = %.1f against white noise "
+      "(threshold %.1f)",
+      e.lr, e.lr_threshold);
+  return b;
+}
+
+}  // namespace
+
+NoiseEstimate estimate_bias_wander(const std::vector<NoiseRow>& rows, const MatrixXd& X,
+                                   const VectorXd& y, const NoiseEstimateOptions& options) {
+  NoiseEstimate out;
+  out.lr_threshold = options.lr_threshold;
+  if (rows.size() < 3 || static_cast<Eigen::Index>(rows.size()) <= X.cols()) {
+    out.how = "not estimated: too few rows";
+    return out;
+  }
+  const RestrictedLikelihood L(rows, X, y);
+  const double white_log_l = L(GaussMarkovNoise{});
+  const double sigma_ref = median_row_sigma(rows);
+  WanderFit best{{}, white_log_l};
+  for (const double tau : options.tau_grid_s)
+    if (const WanderFit c = best_for_tau(L, tau, sigma_ref); c.log_l > best.log_l) best = c;
+  out.best = best.noise;
+  out.lr = 2 * (best.log_l - white_log_l);
+  out.significant = !best.noise.white() && out.lr > options.lr_threshold;
+  if (out.significant) out.noise = best.noise;
+  out.how = wander_words(out);
+  return out;
+}
+
+AllanPeak gauss_markov_allan_peak(double q, double tau_s) {
+  // Averages over T of a stationary process with autocovariance q^2 exp(-|dt| / tau):
+  // var = 2 q^2 tau / T^2 (T - tau (1 - e^{-T/tau})), adjacent covariance
+  // q^2 (tau / T)^2 (1 - e^{-T/tau})^2; Allan variance = var - covariance.
+  AllanPeak peak;
+  for (double T = 0.01 * tau_s; T < 100 * tau_s; T *= 1.02) {
+    const double e = 1 - std::exp(-T / tau_s);
+    const double var = 2 * q * q * tau_s / (T * T) * (T - tau_s * e);
+    const double cov = q * q * (tau_s / T) * (tau_s / T) * e * e;
+    const double dev = std::sqrt(std::max(var - cov, 0.0));
+    if (dev > peak.deviation) peak = {dev, T};
+  }
+  return peak;
+}
+
+}  // namespace standcal

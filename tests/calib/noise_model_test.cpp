@@ -1,0 +1,136 @@
+// The bias-wander noise model (calib/noise_model): its Kalman-filter decorrelation is the
+// Cholesky factor's inverse; its REML estimate finds wander that is there and (at about
+// its nominal rate) none that is not; its Allan peak matches a simulated Allan curve.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "calib/allan.hpp"
+#include "calib/noise_model.hpp"
+
+namespace standcal {
+namespace {
+
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+
+// 32 dwells 12 s apart, three full-vector rows each, and one invariant-like row with a
+// mixed projection, sigmas 3 ug give or take.
+std::vector<NoiseRow> rows_of_a_run(std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::vector<NoiseRow> rows;
+  for (int k = 0; k < 32; ++k) {
+    const double t = 6 + 12.0 * k;
+    for (int a = 0; a < 3; ++a) rows.push_back({t, Vec3::Unit(a), (3 + u(rng)) * 1e-6});
+    rows.push_back({t, Vec3(u(rng), u(rng), u(rng)).normalized(), (3 + u(rng)) * 1e-6});
+  }
+  std::shuffle(rows.begin(), rows.end(), rng);  // the filter must not rely on the rows' order
+  return rows;
+}
+
+MatrixXd whitened_covariance(const std::vector<NoiseRow>& rows, const GaussMarkovNoise& n) {
+  const auto m = static_cast<Eigen::Index>(rows.size());
+  MatrixXd C = MatrixXd::Identity(m, m);
+  for (Eigen::Index r = 0; r < m; ++r)
+    for (Eigen::Index s = 0; s < m; ++s) {
+      const NoiseRow &a = rows[static_cast<std::size_t>(r)], &b = rows[static_cast<std::size_t>(s)];
+      const double rho = std::exp(-std::abs(a.t_s - b.t_s) / n.tau_s);
+      double c = 0;
+      for (int ax = 0; ax < 3; ++ax)
+        c += a.projection[ax] * b.projection[ax] * n.q_g[ax] * n.q_g[ax] * rho;
+      C(r, s) += c / (a.sigma_g * b.sigma_g);
+    }
+  return C;
+}
+
+TEST(NoiseModel, DecorrelationIsTheInverseCholeskyFactor) {
+  std::mt19937_64 rng(21);
+  const std::vector<NoiseRow> rows = rows_of_a_run(rng);
+  const GaussMarkovNoise noise{Vec3(2e-6, 5e-6, 1e-6), 300};
+  const MatrixXd C = whitened_covariance(rows, noise);
+  const MatrixXd M = MatrixXd::Random(static_cast<Eigen::Index>(rows.size()), 4);
+  double log_det = 0;
+  const MatrixXd Z = decorrelate(rows, noise, M, &log_det);
+  // Any square root W of C^{-1} with Z = W M gives Z^T Z = M^T C^{-1} M; the log det must agree.
+  EXPECT_LT((Z.transpose() * Z - M.transpose() * C.llt().solve(M)).norm(),
+            1e-9 * (M.transpose() * M).norm());
+  const Eigen::LLT<MatrixXd> llt(C);
+  const double expected_log_det = 2 * llt.matrixL().toDenseMatrix().diagonal().array().log().sum();
+  EXPECT_NEAR(log_det, expected_log_det, 1e-9);
+  EXPECT_EQ(decorrelate(rows, GaussMarkovNoise{}, M), M);  // white noise: nothing to do
+}
+
+// y = X beta + noise drawn from `noise` (exactly, through the dense covariance).
+VectorXd draw(const std::vector<NoiseRow>& rows, const GaussMarkovNoise& noise,
+              std::mt19937_64& rng) {
+  std::normal_distribution<double> n01(0, 1);
+  VectorXd z(static_cast<Eigen::Index>(rows.size()));
+  for (Eigen::Index i = 0; i < z.size(); ++i) z[i] = n01(rng);
+  if (noise.white()) return z;
+  return whitened_covariance(rows, noise).llt().matrixL() * z;
+}
+
+// The model's columns: a bias per axis and a scale-like column, whitened.
+MatrixXd design(const std::vector<NoiseRow>& rows) {
+  MatrixXd X(static_cast<Eigen::Index>(rows.size()), 4);
+  for (std::size_t r = 0; r < rows.size(); ++r) {
+    const auto i = static_cast<Eigen::Index>(r);
+    X.row(i).head(3) = rows[r].projection.transpose() / rows[r].sigma_g;
+    X(i, 3) = rows[r].projection.squaredNorm() * std::cos(rows[r].t_s) / rows[r].sigma_g;
+  }
+  return X;
+}
+
+TEST(NoiseModel, WhiteNoiseIsRarelyTakenForWander) {
+  std::mt19937_64 rng(7);
+  int significant = 0;
+  constexpr int kTrials = 100;
+  for (int i = 0; i < kTrials; ++i) {
+    const std::vector<NoiseRow> rows = rows_of_a_run(rng);
+    significant +=
+        estimate_bias_wander(rows, design(rows), draw(rows, {}, rng)).significant ? 1 : 0;
+  }
+  // Nominal P = 1e-3 (chi2 with 4 parameters at 18.5; at the boundary q = 0 it is less).
+  EXPECT_LE(significant, 3);
+}
+
+TEST(NoiseModel, WanderOfTheSizeOfTheWhiteErrorIsFoundAndSized) {
+  std::mt19937_64 rng(8);
+  const GaussMarkovNoise truth{Vec3(4e-6, 4e-6, 4e-6), 300};
+  int significant = 0;
+  double log_ratio_sum = 0;
+  constexpr int kTrials = 40;
+  for (int i = 0; i < kTrials; ++i) {
+    const std::vector<NoiseRow> rows = rows_of_a_run(rng);
+    const NoiseEstimate e = estimate_bias_wander(rows, design(rows), draw(rows, truth, rng));
+    significant += e.significant ? 1 : 0;
+    log_ratio_sum += std::log(std::max(e.best.q_g.mean(), 1e-9) / truth.q_g.mean());
+  }
+  EXPECT_GE(significant, 30);
+  // One short run fixes q only roughly; on average within a factor 1.5 of the truth.
+  EXPECT_LT(std::abs(log_ratio_sum / kTrials), std::log(1.5));
+}
+
+TEST(NoiseModel, AllanPeakMatchesASimulatedGaussMarkovCurve) {
+  const double q = 3.0, tau = 50, dt = 1;
+  const AllanPeak peak = gauss_markov_allan_peak(q, tau);
+  std::mt19937_64 rng(9);
+  std::normal_distribution<double> n01(0, 1);
+  const double a = std::exp(-dt / tau);
+  std::vector<double> x(400000);
+  double b = q * n01(rng);
+  for (double& v : x) {
+    b = a * b + q * std::sqrt(1 - a * a) * n01(rng);
+    v = b;
+  }
+  double simulated_peak = 0;
+  for (const AllanPoint& p : overlapping_allan_deviation({x}, dt, 20))
+    if (p.tau_s > 10 && p.tau_s < 1000) simulated_peak = std::max(simulated_peak, p.deviation);
+  EXPECT_NEAR(simulated_peak, peak.deviation, 0.05 * peak.deviation);
+  EXPECT_GT(peak.tau_s, tau);
+  EXPECT_LT(peak.tau_s, 3 * tau);
+}
+
+}  // namespace
+}  // namespace standcal
