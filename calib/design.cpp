@@ -379,19 +379,6 @@ DwellPlan allocated_dwell_for_target(const DesignBasis& basis, const AccuracyTar
   return plan;
 }
 
-namespace {
-
-std::vector<double> axis_grid_deg(const AxisRange& range, double step_deg) {
-  std::vector<double> out;
-  const double lo = range.continuous ? -180.0 : range.min_deg;
-  const double hi = range.continuous ? 180.0 : range.max_deg;
-  for (double a = lo; a < hi - 1e-9; a += step_deg) out.push_back(a);
-  if (!range.continuous) out.push_back(hi);
-  return out;
-}
-
-}  // namespace
-
 double continuous_lower_bound_s(DesignModel model, const AccuracyTarget& target, const DesignSettings& settings,
                                 const StandLimits& limits) {
   const double step = model == DesignModel::invariant ? 5.0 : 10.0;

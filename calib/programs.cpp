@@ -164,6 +164,15 @@ nlohmann::json program_to_json(const Program& program) {
   return {{"name", program.name}, {"positions", positions}};
 }
 
+std::vector<double> axis_grid_deg(const AxisRange& range, double step_deg) {
+  std::vector<double> out;
+  const double lo = range.continuous ? -180.0 : range.min_deg;
+  const double hi = range.continuous ? 180.0 : range.max_deg;
+  for (double a = lo; a < hi - 1e-9; a += step_deg) out.push_back(a);
+  if (!range.continuous) out.push_back(hi);
+  return out;
+}
+
 std::optional<double> normalise_angle_deg(double angle_deg, const AxisRange& range) {
   // std::remainder is exact: 1e308 - 360 * round(1e308 / 360) is not (it gives 0, not -64).
   const double a = std::remainder(angle_deg, 360.0);  // [-180, 180]

@@ -71,6 +71,11 @@ nlohmann::json program_to_json(const Program& program);
 // the middle of the range. Empty when no equivalent angle lies inside. Exact for every
 // finite angle (1e308 gives -64).
 std::optional<double> normalise_angle_deg(double angle_deg, const AxisRange& range);
+
+// Angles of one stand axis every step_deg across its range: from the range's start (-180 deg
+// on a continuous axis) and, on a limited axis, its end. The candidate grid of programme
+// design (calib/design) and of the diagnosis's proposed positions.
+std::vector<double> axis_grid_deg(const AxisRange& range, double step_deg);
 // Every position normalised to the stand's ranges; throws ProgramError naming the first
 // position and axis that cannot be reached.
 Program normalise_program(const Program& program, const StandLimits& limits);

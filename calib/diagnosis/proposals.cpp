@@ -13,30 +13,14 @@ namespace {
 using Eigen::MatrixXd;
 using Eigen::VectorXd;
 
-// Angles of one stand axis worth proposing: every 30 deg the axis can reach (normalised to
-// its range), plus the ends of a limited range. Not design.cpp's grid, which starts at the
-// range's minimum: proposals keep to round angles an operator types, 0 included.
-std::vector<double> reachable_grid_deg(const AxisRange& range) {
-  std::vector<double> out;
-  auto add = [&out](double a) {
-    for (double b : out)
-      if (std::abs(a - b) < 1e-9) return;
-    out.push_back(a);
-  };
-  for (int a = 0; a < 360; a += 30)
-    if (const auto n = normalise_angle_deg(a, range)) add(*n);
-  if (!range.continuous) {
-    add(range.min_deg);
-    add(range.max_deg);
-  }
-  return out;
-}
+constexpr double kProposalStep_deg = 30;
 
-// Candidate poses for proposals: only where the stand can go.
+// Candidate poses for proposals: only where the stand can go, every 30 deg of each axis's
+// range (programme design's grid, calib/programs axis_grid_deg).
 std::vector<ProposedPosition> grid_poses(const StandLimits& limits) {
   std::vector<ProposedPosition> out;
-  for (double a1 : reachable_grid_deg(limits.alpha1))
-    for (double a2 : reachable_grid_deg(limits.alpha2)) out.push_back({a1, a2, 0, ""});
+  for (double a1 : axis_grid_deg(limits.alpha1, kProposalStep_deg))
+    for (double a2 : axis_grid_deg(limits.alpha2, kProposalStep_deg)) out.push_back({a1, a2, 0, ""});
   return out;
 }
 

@@ -198,7 +198,9 @@ TEST(DiagnosisTestability, TemperatureConstantTo005DegCIsNotTestable) {
     not_testable += c.testable ? 0 : 1;
   }
   EXPECT_EQ(not_testable, 3);
-  for (const auto& c : diagnose_to_json(d)["candidates"])
+  // A named json: a range-for over a member of a temporary reads freed memory (ASan).
+  const nlohmann::json j = diagnose_to_json(d);
+  for (const auto& c : j["candidates"])
     if (c["effect"] == "bias_temperature") {
       EXPECT_FALSE(c.contains("value"));
       EXPECT_FALSE(c.contains("sigma"));
