@@ -27,6 +27,7 @@ using protocol::Client;
 using protocol::RpcError;
 using test::config_error;
 using test::DaemonProcess;
+using test::exits_with_message;
 using test::TempDir;
 
 namespace {
@@ -339,13 +340,6 @@ int tcp_port_of(const DaemonProcess& d) {
   const std::string marker = "standcald: tcp port ";
   const auto at = log.find(marker);
   return at == std::string::npos ? 0 : std::atoi(log.c_str() + at + marker.size());
-}
-
-bool exits_with_message(DaemonProcess& d, const std::string& message) {
-  const auto deadline = std::chrono::steady_clock::now() + 20s;
-  while (!d.exited() && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(10ms);
-  return d.exited() && WIFEXITED(d.wait_status()) && WEXITSTATUS(d.wait_status()) == 1 &&
-         d.log().find(message) != std::string::npos;
 }
 
 #define REQUIRE_ROOT_AND_TEST_GROUP()                                                               \

@@ -167,4 +167,15 @@ inline bool finished(const nlohmann::json& s) {
   return st == "done" || st == "faulted" || st == "aborted" || st == "interrupted";
 }
 
+// Waits (up to 20 s) for `d` to exit; true when it exited 1 with `message` in its log: a
+// daemon that refused to start and said why.
+inline bool exits_with_message(DaemonProcess& d, const std::string& message) {
+  using namespace std::chrono_literals;
+  const auto deadline = std::chrono::steady_clock::now() + 20s;
+  while (!d.exited() && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(10ms);
+  return d.exited() && WIFEXITED(d.wait_status()) && WEXITSTATUS(d.wait_status()) == 1 &&
+         d.log().find(message) != std::string::npos;
+}
+
 }  // namespace standcal::test

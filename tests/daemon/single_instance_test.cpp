@@ -21,21 +21,9 @@ using namespace std::chrono_literals;
 using nlohmann::json;
 using protocol::Client;
 using test::DaemonProcess;
+using test::exits_with_message;
 using test::socket_of;
 using test::TempDir;
-
-namespace {
-
-// Waits for `d` to exit; true when it exited 1 with `message` in its log.
-bool exits_with_message(DaemonProcess& d, const std::string& message) {
-  const auto deadline = std::chrono::steady_clock::now() + 20s;
-  while (!d.exited() && std::chrono::steady_clock::now() < deadline)
-    std::this_thread::sleep_for(10ms);
-  return d.exited() && WIFEXITED(d.wait_status()) && WEXITSTATUS(d.wait_status()) == 1 &&
-         d.log().find(message) != std::string::npos;
-}
-
-}  // namespace
 
 // A second daemon on the same state directory used to start, mark the first one's running
 // run `interrupted` and serve the same runs.
