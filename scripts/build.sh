@@ -7,9 +7,9 @@ flavour="${1:-release}"
 "$root/scripts/setup.sh"
 case "$flavour" in
   release) flags=(-DCMAKE_BUILD_TYPE=Release) ;;
-  # clang (second compiler, faster on Eigen); -O1 -g1: line tables for sanitizer reports
-  # at a fraction of full debug info's build time.
-  asan) flags=(-DCMAKE_BUILD_TYPE=None "-DCMAKE_CXX_FLAGS=-O1 -g1" "-DCMAKE_C_FLAGS=-O1 -g1"
+  # clang (second compiler, faster on Eigen); -g1: line tables for sanitizer reports at a
+  # fraction of full debug info's build time; -O0 except calib/ (-O1, CMakeLists.txt).
+  asan) flags=(-DCMAKE_BUILD_TYPE=None "-DCMAKE_CXX_FLAGS=-O0 -g1" "-DCMAKE_C_FLAGS=-O0 -g1"
                -DCMAKE_CXX_COMPILER=clang++-14 -DCMAKE_C_COMPILER=clang-14
                -DSTANDCAL_SANITIZE=ON -DSTANDCAL_BUILD_BENCH=OFF) ;;
   *) echo "build.sh: unknown flavour '$flavour' (release, asan)" >&2; exit 2 ;;
