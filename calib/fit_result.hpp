@@ -3,10 +3,12 @@
 // `standcal fit --json` and rendered as the bench engineer's report.
 #include <Eigen/Dense>
 #include <array>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "calib/noise_model.hpp"
 #include "calib/parameters.hpp"
 #include "calib/position_average.hpp"
 
@@ -17,6 +19,9 @@ struct ParameterEstimate {
   std::optional<double> value;  // internal units (g, dimensionless, rad)
   std::optional<double> sigma;  // 1 sigma, same units
   std::string unobservable_reason;
+  // Effective degrees of freedom of sigma^2 when it rests on an estimated noise model
+  // (infinite otherwise); sigma already includes Student's t widening for them.
+  double dof = std::numeric_limits<double>::infinity();
 };
 
 // A named stand-error combination estimated by the full-vector method ("stand health").
@@ -41,7 +46,9 @@ struct FitResult {
   std::string estimator;  // "joint", "paper-sequential", "full"
   int positions = 0;
   int parameters_estimated = 0;
-  int redundancy = 0;     // measurements - estimated parameters
+  // Measurements - estimated parameters, the noise model's included when it is a finding
+  // estimated from the same residuals: the degrees of freedom of chi2.
+  int redundancy = 0;
   double chi2 = 0;
   double chi2_dof = 0;    // NaN when redundancy is zero
   double residual_rms_g = 0;
@@ -50,6 +57,7 @@ struct FitResult {
   std::vector<PositionResidual> residuals;
   std::vector<StandEstimate> stand;  // full-vector only
   std::vector<std::string> notes;    // plain-language remarks (zero redundancy, ...)
+  NoiseFinding noise;                // what the fit weighted with (docs/calibration.md)
 };
 
 }  // namespace standcal

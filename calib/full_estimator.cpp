@@ -286,6 +286,8 @@ struct WeightedProblem {
   std::vector<StandPose> poses;
   std::vector<Vec3> measured_g;
   std::vector<Vec3> sigma_g;
+  std::vector<NoiseRow> noise_rows;  // the residual vector's rows, for the wander
+  GaussMarkovNoise noise;            // white: weighted least squares; else GLS
 
   Eigen::VectorXd full_vector(const Eigen::VectorXd& q) const {
     Eigen::VectorXd p = Eigen::VectorXd::Zero(layout.size());
@@ -300,7 +302,7 @@ struct WeightedProblem {
       const Vec3 model = full_model_output(layout, p, poses[k]);
       r.segment<3>(3 * static_cast<int>(k)) = (measured_g[k] - model).cwiseQuotient(sigma_g[k]);
     }
-    return r;
+    return decorrelate(noise_rows, noise, r);
   }
   // d model / d q, normalised by sigma (the Jacobian of -residuals).
   Eigen::MatrixXd jacobian(const Eigen::VectorXd& q) const {
@@ -312,7 +314,7 @@ struct WeightedProblem {
         jac.block<3, 1>(3 * static_cast<int>(k), static_cast<int>(i)) =
             full.col(obs.kept[i]).cwiseQuotient(sigma_g[k]);
     }
-    return jac;
+    return decorrelate(noise_rows, noise, jac);
   }
 };
 
@@ -323,6 +325,20 @@ Eigen::MatrixXd covariance_from_jacobian(const Eigen::MatrixXd& jac) {
   const Eigen::MatrixXd info = scaled.transpose() * scaled;
   const Eigen::MatrixXd inv = info.ldlt().solve(Eigen::MatrixXd::Identity(info.rows(), info.cols()));
   return d.cwiseInverse().asDiagonal() * inv * d.cwiseInverse().asDiagonal();
+}
+
+// How much each kept parameter's sigma widens for an estimated noise model (noise_model.hpp).
+SigmaWidening sigma_widening(const WeightedProblem& problem, const Eigen::VectorXd& q,
+                             const FitNoiseChoice& noise) {
+  WeightedProblem white = problem;
+  white.noise = {};
+  const Eigen::MatrixXd jac_white = white.jacobian(q);
+  return widen_for_estimated_noise(
+      [&](const GaussMarkovNoise& n) {
+        return Eigen::VectorXd(
+            covariance_from_jacobian(decorrelate(problem.noise_rows, n, jac_white)).diagonal());
+      },
+      noise);
 }
 
 // Levenberg–Marquardt on the kept parameters, starting from zero (every error is small).
@@ -413,18 +429,30 @@ FitResult fit_full_vector(const std::vector<PositionAverage>& positions, const F
   const FullModelLayout layout = full_model_layout(poses, options.mounting);
   const Observability obs = analyse_observability(layout, poses, weights, options.observability_tolerance);
   require_some_unit_parameter(layout, obs, positions);
-  const WeightedProblem problem{layout, obs, poses, measured, sigmas};
+  WeightedProblem problem{layout, obs, poses, measured, sigmas, {}, {}};
+  problem.noise_rows = full_vector_noise_rows(positions, options.sigma_floor_g);
 
-  const Eigen::VectorXd q = solve_levenberg_marquardt(problem, options.max_iterations);
+  Eigen::VectorXd q = solve_levenberg_marquardt(problem, options.max_iterations);
+  // The noise model from the white fit's residuals, then the fit again under it.
+  const FitNoiseChoice noise = choose_fit_noise(problem.noise_rows, problem.jacobian(q),
+                                                problem.residuals(q), options.noise, positions);
+  if (!noise.noise.white()) {
+    problem.noise = noise.noise;
+    q = solve_levenberg_marquardt(problem, options.max_iterations);
+  }
   const Eigen::MatrixXd cov = covariance_from_jacobian(problem.jacobian(q));
-  const Eigen::VectorXd r = problem.residuals(q);
+  const SigmaWidening widen = sigma_widening(problem, q, noise);
+  WeightedProblem check = problem;  // the model check: against the wander only when it is a finding
+  check.noise = noise.check_noise;
+  const Eigen::VectorXd r = check.residuals(q);
   const Eigen::VectorXd p = problem.full_vector(q);
 
   FitResult fit;
   fit.estimator = "full";
+  fit.noise = noise.finding;
   fit.positions = static_cast<int>(positions.size());
   fit.parameters_estimated = static_cast<int>(obs.kept.size());
-  fit.redundancy = 3 * fit.positions - fit.parameters_estimated;
+  fit.redundancy = 3 * fit.positions - fit.parameters_estimated - noise.parameters;
   fit.chi2 = r.squaredNorm();
   fit.chi2_dof = fit.redundancy > 0 ? fit.chi2 / fit.redundancy : std::numeric_limits<double>::quiet_NaN();
 
@@ -455,7 +483,8 @@ FitResult fit_full_vector(const std::vector<PositionAverage>& positions, const F
       continue;
     }
     fit.unit[i].value = q[slot[i]];
-    fit.unit[i].sigma = std::sqrt(cov(slot[i], slot[i]));
+    fit.unit[i].sigma = std::sqrt(cov(slot[i], slot[i])) * widen.factor[slot[i]];
+    fit.unit[i].dof = widen.dof[slot[i]];
     for (int j = 0; j < kUnitParameterCount; ++j)
       if (slot[j] >= 0)
         fit.correlation(i, j) = cov(slot[i], slot[j]) / std::sqrt(cov(slot[i], slot[i]) * cov(slot[j], slot[j]));
@@ -469,7 +498,8 @@ FitResult fit_full_vector(const std::vector<PositionAverage>& positions, const F
     e.description = par.description;
     if (e.name != par.name) e.description += " (with what it cannot be told apart from: " + e.name + ")";
     e.value = q[static_cast<int>(i)] * par.report_scale;
-    e.sigma = std::sqrt(cov(static_cast<int>(i), static_cast<int>(i))) * par.report_scale;
+    e.sigma = std::sqrt(cov(static_cast<int>(i), static_cast<int>(i))) *
+              widen.factor[static_cast<int>(i)] * par.report_scale;
     e.unit = par.unit;
     fit.stand.push_back(e);
   }

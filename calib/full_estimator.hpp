@@ -9,6 +9,7 @@
 
 #include "calib/fit_result.hpp"
 #include "calib/model.hpp"
+#include "calib/noise_model.hpp"
 #include "calib/position_average.hpp"
 
 namespace standcal {
@@ -95,6 +96,9 @@ struct FullFitOptions {
   double observability_tolerance = 1e-6;
   double sigma_floor_g = 1e-9;  // standard errors below this (noise-free data) are raised to it
   MountingModel mounting = MountingModel::common_fixture;
+  // Dwell means close in time share bias wander: weighted by the covariance it implies
+  // (generalised least squares) when the run shows it or it is specified.
+  FitNoiseOptions noise;
 };
 
 // The full-vector estimate from per-position averages (model.md, "Full measurement model").

@@ -71,19 +71,42 @@ std::vector<std::string> unobservable_reasons(const InvariantData& d) {
   return reasons;
 }
 
-// Fills everything derived from a linear estimate x = L y with diagonal Cov(y).
+MatrixXd fitted_columns(const InvariantData& d, const std::vector<int>& fitted) {
+  MatrixXd H(d.H.rows(), static_cast<Eigen::Index>(fitted.size()));
+  for (std::size_t c = 0; c < fitted.size(); ++c)
+    H.col(static_cast<Eigen::Index>(c)) = d.H.col(fitted[c]);
+  return H;
+}
+
+// The rows of delta_J_L for the noise model.
+std::vector<NoiseRow> noise_rows_of(const InvariantData& d,
+                                    const std::vector<PositionAverage>& positions) {
+  return invariant_noise_rows(positions,
+                              std::vector<double>(d.sigma.data(), d.sigma.data() + d.sigma.size()));
+}
+
+// chi2 of the estimate x = L y's residuals under a noise model.
+double chi2_against(const InvariantData& d, const std::vector<PositionAverage>& positions,
+                    const std::vector<int>& fitted, const MatrixXd& L,
+                    const GaussMarkovNoise& noise) {
+  const VectorXd residual = d.y - fitted_columns(d, fitted) * (L * d.y);
+  return decorrelate(noise_rows_of(d, positions), noise, residual.cwiseQuotient(d.sigma))
+      .squaredNorm();
+}
+
+// Fills everything derived from a linear estimate x = L y, Cov(y) from the noise model.
 void finish_linear_fit(const InvariantData& d, const std::vector<PositionAverage>& positions,
-                       const MatrixXd& L, const std::vector<int>& fitted, FitResult& r) {
+                       const MatrixXd& L, const std::vector<int>& fitted,
+                       const GaussMarkovNoise& noise, FitResult& r) {
   const VectorXd x = L * d.y;
-  const MatrixXd cov = L * d.sigma.cwiseAbs2().asDiagonal() * L.transpose();
-  MatrixXd full_H(d.H.rows(), static_cast<Eigen::Index>(fitted.size()));
-  for (std::size_t c = 0; c < fitted.size(); ++c) full_H.col(static_cast<Eigen::Index>(c)) = d.H.col(fitted[c]);
-  const VectorXd residual = d.y - full_H * x;
+  const std::vector<NoiseRow> rows = noise_rows_of(d, positions);
+  const MatrixXd cov = L * row_covariance(rows, noise) * L.transpose();
+  const VectorXd residual = d.y - fitted_columns(d, fitted) * x;
 
   r.positions = static_cast<int>(positions.size());
   r.parameters_estimated = static_cast<int>(fitted.size());
   r.redundancy = r.positions - r.parameters_estimated;
-  r.chi2 = residual.cwiseQuotient(d.sigma).squaredNorm();
+  r.chi2 = chi2_against(d, positions, fitted, L, noise);
   r.chi2_dof = r.redundancy > 0 ? r.chi2 / r.redundancy : kNaN;
   r.residual_rms_g = std::sqrt(residual.squaredNorm() / static_cast<double>(residual.size()));
   r.correlation = MatrixXd::Constant(kUnitParameterCount, kUnitParameterCount, kNaN);
@@ -129,6 +152,36 @@ MatrixXd weighted_ls_map(const InvariantData& d, const std::vector<Eigen::Index>
   return Aw.colPivHouseholderQr().solve(MatrixXd(w.asDiagonal()));
 }
 
+// The generalised least-squares map over all rows: the whitened problem decorrelated by
+// the noise model's C^{-1/2} (Kalman innovations), then solved as above.
+MatrixXd gls_map(const InvariantData& d, const std::vector<PositionAverage>& positions,
+                 const std::vector<int>& fitted, const GaussMarkovNoise& noise) {
+  const std::vector<NoiseRow> rows = noise_rows_of(d, positions);
+  const VectorXd w = d.sigma.cwiseInverse();
+  const MatrixXd Aw = decorrelate(rows, noise, w.asDiagonal() * fitted_columns(d, fitted));
+  const MatrixXd Dw = decorrelate(rows, noise, MatrixXd(w.asDiagonal()));
+  return Aw.colPivHouseholderQr().solve(Dw);
+}
+
+// Each sigma widened for the uncertainty of an estimated wander (noise_model.hpp).
+void widen_sigmas(const InvariantData& d, const std::vector<PositionAverage>& positions,
+                  const std::vector<int>& fitted, const FitNoiseChoice& noise, FitResult& r) {
+  const std::vector<NoiseRow> rows = noise_rows_of(d, positions);
+  const MatrixXd Aw = d.sigma.cwiseInverse().asDiagonal() * fitted_columns(d, fitted);
+  const SigmaWidening widen = standcal::widen_for_estimated_noise(
+      [&](const GaussMarkovNoise& n) {
+        const MatrixXd A = decorrelate(rows, n, Aw);
+        const MatrixXd info = A.transpose() * A;
+        return VectorXd(info.ldlt().solve(MatrixXd::Identity(info.rows(), info.cols())).diagonal());
+      },
+      noise);
+  for (std::size_t a = 0; a < fitted.size(); ++a) {
+    ParameterEstimate& p = r.unit[static_cast<std::size_t>(fitted[a])];
+    p.dof = widen.dof[static_cast<Eigen::Index>(a)];
+    if (p.sigma) *p.sigma *= widen.factor[static_cast<Eigen::Index>(a)];
+  }
+}
+
 }  // namespace
 
 double invariant_sigma_g(const PositionAverage& p) {
@@ -138,6 +191,11 @@ double invariant_sigma_g(const PositionAverage& p) {
 }
 
 FitResult fit_invariant_joint(const std::vector<PositionAverage>& positions) {
+  return fit_invariant_joint(positions, FitNoiseOptions{});
+}
+
+FitResult fit_invariant_joint(const std::vector<PositionAverage>& positions,
+                              const FitNoiseOptions& noise_options) {
   require_positions(positions, "cannot fit (joint)");
   const InvariantData d = invariant_data(positions);
   FitResult r;
@@ -154,8 +212,19 @@ FitResult fit_invariant_joint(const std::vector<PositionAverage>& positions) {
                     "only part of a combination)");
   std::vector<Eigen::Index> rows(positions.size());
   for (std::size_t k = 0; k < rows.size(); ++k) rows[k] = static_cast<Eigen::Index>(k);
-  const MatrixXd L = fitted.empty() ? MatrixXd(0, d.y.size()) : weighted_ls_map(d, rows, fitted);
-  finish_linear_fit(d, positions, L, fitted, r);
+  MatrixXd L = weighted_ls_map(d, rows, fitted);
+  // The noise model from the white fit's residuals, then the fit again under it.
+  const VectorXd white_residual = d.y - fitted_columns(d, fitted) * (L * d.y);
+  const FitNoiseChoice noise = choose_fit_noise(
+      noise_rows_of(d, positions), d.sigma.cwiseInverse().asDiagonal() * fitted_columns(d, fitted),
+      white_residual.cwiseQuotient(d.sigma), noise_options, positions);
+  if (!noise.noise.white()) L = gls_map(d, positions, fitted, noise.noise);
+  finish_linear_fit(d, positions, L, fitted, noise.noise, r);
+  r.chi2 = chi2_against(d, positions, fitted, L, noise.check_noise);  // a finding's wander only
+  r.noise = noise.finding;
+  widen_sigmas(d, positions, fitted, noise, r);
+  r.redundancy -= noise.parameters;  // the chi-square test loses the estimated noise's dof
+  r.chi2_dof = r.redundancy > 0 ? r.chi2 / r.redundancy : kNaN;
   return r;
 }
 
@@ -207,7 +276,9 @@ FitResult fit_paper_sequential(const std::vector<PositionAverage>& positions) {
   r.estimator = "paper-sequential";
   std::vector<int> all(kUnitParameterCount);
   for (int j = 0; j < kUnitParameterCount; ++j) all[static_cast<std::size_t>(j)] = j;
-  finish_linear_fit(d, positions, L, all, r);
+  finish_linear_fit(d, positions, L, all, GaussMarkovNoise{}, r);
+  r.noise.how =
+      "white noise assumed (the paper's sequential procedure weights each mean as independent)";
   return r;
 }
 

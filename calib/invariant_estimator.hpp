@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "calib/fit_result.hpp"
+#include "calib/noise_model.hpp"
 #include "calib/position_average.hpp"
 
 namespace standcal {
@@ -16,11 +17,16 @@ inline constexpr double kInvariantSigmaFloor_g = 1e-10;
 
 // One weighted least-squares fit of the nine parameters. Parameters the programme cannot
 // observe are reported empty with the reason; the rest are fitted.
+// Dwell means close in time share bias wander: with `noise` (by default estimated from the
+// run) they are weighted by the covariance it implies (generalised least squares).
 FitResult fit_invariant_joint(const std::vector<PositionAverage>& positions);
+FitResult fit_invariant_joint(const std::vector<PositionAverage>& positions,
+                              const FitNoiseOptions& noise);
 
 // The paper's sequential procedure: step 1 the alpha2 = 0 positions (bias x, y, scale
 // x, y, gamma12), step 2 the alpha1 = 0 positions (bias z, scale z, gamma23, after
-// subtracting the known y terms), step 3 the rest (gamma13). Throws std::runtime_error
+// subtracting the known y terms), step 3 the rest (gamma13); each mean weighted as
+// independent (the paper's procedure, white noise). Throws std::runtime_error
 // when the programme does not have that structure.
 FitResult fit_paper_sequential(const std::vector<PositionAverage>& positions);
 

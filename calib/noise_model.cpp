@@ -1,11 +1,13 @@
 #include "calib/noise_model.hpp"
 
 #include "calib/golden_section.hpp"
+#include "calib/units.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <limits>
 #include <numeric>
 
 namespace standcal {
@@ -24,6 +26,43 @@ std::vector<std::size_t> time_order(const std::vector<NoiseRow>& rows) {
 }
 
 }  // namespace
+
+std::vector<NoiseRow> full_vector_noise_rows(const std::vector<PositionAverage>& positions,
+                                             double sigma_floor_g) {
+  std::vector<NoiseRow> rows;
+  rows.reserve(3 * positions.size());
+  for (const PositionAverage& p : positions)
+    for (int a = 0; a < 3; ++a)
+      rows.push_back(
+          {p.mid_time_s(), Vec3::Unit(a), std::max(p.standard_error_g[a], sigma_floor_g)});
+  return rows;
+}
+
+std::vector<NoiseRow> invariant_noise_rows(const std::vector<PositionAverage>& positions,
+                                           const std::vector<double>& sigma_g) {
+  std::vector<NoiseRow> rows;
+  rows.reserve(positions.size());
+  for (std::size_t k = 0; k < positions.size(); ++k)
+    rows.push_back({positions[k].mid_time_s(), positions[k].up(), sigma_g[k]});
+  return rows;
+}
+
+MatrixXd row_covariance(const std::vector<NoiseRow>& rows, const GaussMarkovNoise& noise) {
+  const auto n = static_cast<Eigen::Index>(rows.size());
+  MatrixXd c = MatrixXd::Zero(n, n);
+  const Vec3 q2 = noise.q_g.cwiseAbs2();
+  for (Eigen::Index r = 0; r < n; ++r) {
+    const NoiseRow& a = rows[static_cast<std::size_t>(r)];
+    c(r, r) = a.sigma_g * a.sigma_g;
+    if (noise.white() || noise.tau_s <= 0) continue;
+    for (Eigen::Index s = 0; s < n; ++s) {
+      const NoiseRow& b = rows[static_cast<std::size_t>(s)];
+      c(r, s) += a.projection.cwiseProduct(b.projection).dot(q2) *
+                 std::exp(-std::abs(a.t_s - b.t_s) / noise.tau_s);
+    }
+  }
+  return c;
+}
 
 MatrixXd decorrelate(const std::vector<NoiseRow>& rows, const GaussMarkovNoise& noise,
                      const MatrixXd& whitened, double* log_det_out) {
@@ -147,6 +186,17 @@ WanderFit best_for_tau(const RestrictedLikelihood& L, double tau_s, double sigma
   return best;
 }
 
+// -d^2 log L / du^2 at the optimum for q = s * best.q, u = log s^2 (central differences).
+double log_scale_information(const RestrictedLikelihood& L, const GaussMarkovNoise& best) {
+  constexpr double kH = 0.25;
+  auto at = [&](double u) {
+    GaussMarkovNoise n = best;
+    n.q_g *= std::exp(u / 2);
+    return L(n);
+  };
+  return std::max(0.0, -(at(kH) - 2 * at(0) + at(-kH)) / (kH * kH));
+}
+
 std::string wander_words(const NoiseEstimate& e) {
   char b[256];
   std::snprintf(
@@ -164,7 +214,9 @@ NoiseEstimate estimate_bias_wander(const std::vector<NoiseRow>& rows, const Matr
                                    const VectorXd& y, const NoiseEstimateOptions& options) {
   NoiseEstimate out;
   out.lr_threshold = options.lr_threshold;
-  if (rows.size() < 3 || static_cast<Eigen::Index>(rows.size()) <= X.cols()) {
+  // Four noise parameters (three q, tau) need rows beyond the model's to leave the chi-square
+  // test of the fit a degree of freedom.
+  if (rows.size() < 3 || static_cast<Eigen::Index>(rows.size()) <= X.cols() + 4) {
     out.how = "not estimated: too few rows";
     return out;
   }
@@ -172,14 +224,129 @@ NoiseEstimate estimate_bias_wander(const std::vector<NoiseRow>& rows, const Matr
   const double white_log_l = L(GaussMarkovNoise{});
   const double sigma_ref = median_row_sigma(rows);
   WanderFit best{{}, white_log_l};
-  for (const double tau : options.tau_grid_s)
-    if (const WanderFit c = best_for_tau(L, tau, sigma_ref); c.log_l > best.log_l) best = c;
+  std::vector<WanderFit> per_tau;
+  for (const double tau : options.tau_grid_s) {
+    per_tau.push_back(best_for_tau(L, tau, sigma_ref));
+    if (per_tau.back().log_l > best.log_l) best = per_tau.back();
+  }
+  for (const WanderFit& c : per_tau)
+    if (!c.noise.white() && 2 * (best.log_l - c.log_l) <= options.plausible_lr)
+      out.plausible.push_back({c.noise, std::exp(c.log_l - best.log_l)});
   out.best = best.noise;
   out.lr = 2 * (best.log_l - white_log_l);
   out.significant = !best.noise.white() && out.lr > options.lr_threshold;
   if (out.significant) out.noise = best.noise;
   out.how = wander_words(out);
+  if (!best.noise.white()) out.log_scale_information = log_scale_information(L, best.noise);
   return out;
+}
+
+SigmaWidening widen_for_estimated_noise(
+    const std::function<Eigen::VectorXd(const GaussMarkovNoise&)>& variances,
+    const FitNoiseChoice& choice) {
+  const VectorXd at_best = variances(choice.noise);
+  SigmaWidening w{VectorXd::Ones(at_best.size()),
+                  parameter_variance_dof(variances, choice.noise, choice.log_scale_information)};
+  // Averaged over the correlation times the run allows, each weighted by its likelihood.
+  VectorXd averaged = VectorXd::Zero(at_best.size());
+  double weights = 0;
+  for (const PlausibleNoise& p : choice.plausible) {
+    averaged += p.weight * variances(p.noise);
+    weights += p.weight;
+  }
+  averaged = weights > 0 ? VectorXd(averaged / weights) : at_best;
+  for (Eigen::Index j = 0; j < at_best.size(); ++j)
+    if (at_best[j] > 0)
+      w.factor[j] =
+          std::sqrt(std::max(averaged[j], at_best[j]) / at_best[j]) * student_t_inflation(w.dof[j]);
+  return w;
+}
+
+Eigen::VectorXd parameter_variance_dof(
+    const std::function<Eigen::VectorXd(const GaussMarkovNoise&)>& variances,
+    const GaussMarkovNoise& noise, double log_scale_information) {
+  const VectorXd var = variances(noise);
+  VectorXd nu = VectorXd::Constant(var.size(), std::numeric_limits<double>::infinity());
+  if (noise.white() || log_scale_information <= 0) return nu;
+  constexpr double kH = 0.2;  // step in u = log s^2
+  GaussMarkovNoise up = noise, down = noise;
+  up.q_g *= std::exp(kH / 2);
+  down.q_g *= std::exp(-kH / 2);
+  const VectorXd slope = (variances(up) - variances(down)) / (2 * kH);
+  for (Eigen::Index j = 0; j < var.size(); ++j)
+    if (std::abs(slope[j]) > 0)
+      nu[j] = 2 * var[j] * var[j] * log_scale_information / (slope[j] * slope[j]);
+  return nu;
+}
+
+double student_t_inflation(double nu) {
+  constexpr double kMinNu = 2.5;
+  if (!std::isfinite(nu)) return 1.0;
+  const double n = std::max(nu, kMinNu);
+  return std::sqrt(n / (n - 2));
+}
+
+NoiseFinding noise_finding(const NoiseEstimate& e, const std::vector<PositionAverage>& avg) {
+  NoiseFinding n;
+  n.lr = e.lr;
+  n.lr_threshold = e.lr_threshold;
+  n.how = e.how;
+  if (e.noise.white()) return n;
+  n.model = "gauss_markov";
+  n.source = e.significant ? "estimated" : "specified";
+  n.bias_instability = e.significant;
+  n.tau_s = e.noise.tau_s;
+  for (int a = 0; a < 3; ++a) {
+    std::vector<double> se;
+    for (const PositionAverage& p : avg) se.push_back(p.standard_error_g[a]);
+    std::nth_element(se.begin(), se.begin() + static_cast<std::ptrdiff_t>(se.size() / 2), se.end());
+    const double sigma = se[se.size() / 2], q = e.noise.q_g[a];
+    n.wander_ug[a] = q / kUg;
+    n.allan_peak_ug[a] = gauss_markov_allan_peak(q, e.noise.tau_s).deviation / kUg;
+    n.understated_by[a] = sigma > 0 ? std::sqrt(1 + q * q / (sigma * sigma)) : 1.0;
+  }
+  return n;
+}
+
+FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixXd& X,
+                                const VectorXd& y, const FitNoiseOptions& options,
+                                const std::vector<PositionAverage>& positions) {
+  using Mode = FitNoiseOptions::Mode;
+  NoiseEstimate e;
+  bool weighted_below_bar = false;
+  if (options.mode == Mode::white) {
+    e.how =
+        "white noise assumed: each dwell mean independent, with the standard error of its "
+        "dwell (sigma / sqrt(n)); not tested against bias wander";
+  } else if (options.mode == Mode::specified) {
+    e.noise = options.specified;
+    e.how = "the specified bias instability, not tested against this run";
+  } else {
+    e = estimate_bias_wander(rows, X, y, options.estimate);
+    if (!e.significant && !options.specified.white()) {
+      e.noise = options.specified;
+      e.log_scale_information = 0;
+      e.how += "; not significant on this run, so the specified bias instability is used";
+    } else if (!e.significant && e.lr > options.weighting_lr) {
+      e.noise = e.best;  // weighted for, though not a finding (NoiseFinding.bias_instability false)
+      weighted_below_bar = true;
+      e.how +=
+          "; below the bar of a finding, but weighted for: ignoring a wander that is there "
+          "makes every sigma too small";
+    } else if (!e.significant) {
+      e.log_scale_information = 0;
+    }
+  }
+  FitNoiseChoice choice{e.noise,
+                        weighted_below_bar ? GaussMarkovNoise{} : e.noise,
+                        noise_finding(e, positions),
+                        e.log_scale_information,
+                        {},
+                        0};
+  if (e.log_scale_information > 0) choice.plausible = e.plausible;
+  if (e.significant) choice.parameters = 1 + static_cast<int>((e.noise.q_g.array() > 0).count());
+  if (weighted_below_bar) choice.finding.source = "estimated";
+  return choice;
 }
 
 AllanPeak gauss_markov_allan_peak(double q, double tau_s) {

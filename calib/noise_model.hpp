@@ -15,10 +15,12 @@
 // restricted maximum likelihood (REML), which does not count the fitted parameters'
 // share of the residual as noise.
 #include <Eigen/Dense>
+#include <functional>
 #include <string>
 #include <vector>
 
 #include "calib/model.hpp"
+#include "calib/position_average.hpp"
 
 namespace standcal {
 
@@ -35,11 +37,28 @@ struct GaussMarkovNoise {
   bool white() const { return q_g.isZero(); }
 };
 
+// The rows of the two estimators' problems, in position order, whitened by the standard
+// error each position's mean carries: full-vector, three per position (x, y, z); invariant,
+// one per position, the projection on the commanded up-vector u. A row's time is its
+// dwell's mid-time.
+std::vector<NoiseRow> full_vector_noise_rows(const std::vector<PositionAverage>& positions,
+                                             double sigma_floor_g);
+std::vector<NoiseRow> invariant_noise_rows(const std::vector<PositionAverage>& positions,
+                                           const std::vector<double>& sigma_g);
+
+// The rows' covariance C itself (rows x rows, in g^2), for a linear estimate's L C L^T.
+Eigen::MatrixXd row_covariance(const std::vector<NoiseRow>& rows, const GaussMarkovNoise& noise);
+
 // C^{-1/2} M for the rows' covariance under `noise`, where M's rows are already whitened
 // by sigma (row r divided by sigma_r): returns the innovations of each column, normalised
 // to unit variance. log_det_out, when given, receives log |C_w| (C in whitened units).
 Eigen::MatrixXd decorrelate(const std::vector<NoiseRow>& rows, const GaussMarkovNoise& noise,
                             const Eigen::MatrixXd& whitened, double* log_det_out = nullptr);
+
+struct PlausibleNoise {
+  GaussMarkovNoise noise;
+  double weight = 1;  // likelihood relative to the best model's
+};
 
 struct NoiseEstimate {
   GaussMarkovNoise noise;   // white (q = 0) unless the wander is significant
@@ -48,10 +67,21 @@ struct NoiseEstimate {
   double lr_threshold = 0;  // lr needed to call the wander significant
   bool significant = false;
   std::string how;  // how it was obtained, in words
+  // How well the run pins the wander's size: the restricted likelihood's curvature in
+  // u = log s^2 for q = s * best.q (0 when best is white). var(u) = 1 / information, and
+  // the wander variance is worth 2 * information degrees of freedom (a chi-square's).
+  double log_scale_information = 0;
+  // One run pins the correlation time poorly, and the biases' sigmas depend on it: the
+  // optimum at each tau of the grid within plausible_lr of the best, with its likelihood
+  // relative to the best's.
+  std::vector<PlausibleNoise> plausible;
 };
 
 struct NoiseEstimateOptions {
   std::vector<double> tau_grid_s{60, 150, 300, 600, 1200};
+  // 2 delta log L from the best within which another tau counts (its weight exp(-lr/2) is
+  // then above 0.7 %).
+  double plausible_lr = 10;
   // 2 delta log L of the wander model over white noise for it to be believed: chi2 with
   // four parameters (three q, one tau) at P = 1e-3 is 18.5.
   double lr_threshold = 18.5;
@@ -63,6 +93,90 @@ struct NoiseEstimateOptions {
 NoiseEstimate estimate_bias_wander(const std::vector<NoiseRow>& rows, const Eigen::MatrixXd& X,
                                    const Eigen::VectorXd& y,
                                    const NoiseEstimateOptions& options = {});
+
+// How an estimator weights its dwell means (docs/calibration.md, "Noise model").
+struct FitNoiseOptions {
+  enum class Mode {
+    white,      // each mean independent, with the standard error sigma/sqrt(n) of its dwell
+    estimate,   // bias wander estimated from this run (REML on the white fit's residuals) and
+                // used when significant; otherwise `specified` when given, else white
+    specified,  // `specified`, whatever the run shows
+  };
+  Mode mode = Mode::estimate;
+  // estimate: weight for the REML optimum once it beats white noise by this much in
+  // 2 delta log L, significant or not. Weighting for a wander that is not there costs a
+  // little precision; ignoring one that is makes every sigma too small.
+  double weighting_lr = 1.0;
+  GaussMarkovNoise specified;  // the unit's known bias instability (data sheet, earlier runs)
+  NoiseEstimateOptions estimate;
+};
+
+// Weighting as if every dwell mean were independent: for callers that model the noise
+// themselves (the diagnosis selects wander and terms together) and for comparisons.
+inline FitNoiseOptions white_noise_weighting() {
+  FitNoiseOptions o;
+  o.mode = FitNoiseOptions::Mode::white;
+  return o;
+}
+
+// The noise a result was weighted with, as reported (`noise` in the fit and diagnosis JSON).
+struct NoiseFinding {
+  std::string model = "white";         // "white" or "gauss_markov"
+  std::string source;                  // gauss_markov: "estimated" (this recording) or "specified"
+  bool bias_instability = false;       // the recording itself shows the wander
+  Vec3 wander_ug = Vec3::Zero();       // Gauss-Markov standard deviation per axis
+  double tau_s = 0;                    // its correlation time
+  Vec3 allan_peak_ug = Vec3::Zero();   // the Allan-deviation floor that wander shows
+  Vec3 understated_by = Vec3::Ones();  // how much sigma/sqrt(n) understated a dwell mean's error
+  double lr = 0, lr_threshold = 0;     // 2 delta log L against white noise, and the bar
+  std::string how;
+};
+
+// From the estimate (its noise, or the specified one when the run alone shows none) and the
+// dwell means it applies to: understated_by per axis at the median dwell standard error.
+NoiseFinding noise_finding(const NoiseEstimate& e, const std::vector<PositionAverage>& avg);
+
+// The effective degrees of freedom of each parameter's variance when the wander it depends
+// on is estimated (Welch-Satterthwaite): nu_j = 2 var_j^2 I / (d var_j / du)^2, with
+// var_j(noise) the parameter variances under a noise model, u = log s^2 the wander's scale
+// and I its information. Infinite where the wander is known or white.
+Eigen::VectorXd parameter_variance_dof(
+    const std::function<Eigen::VectorXd(const GaussMarkovNoise&)>& variances,
+    const GaussMarkovNoise& noise, double log_scale_information);
+
+// The factor a sigma with nu effective degrees of freedom is widened by so that its
+// z-variance is 1: sqrt(nu / (nu - 2)), the standard deviation of Student's t; capped at
+// sqrt(5) (nu = 2.5) where the t distribution's variance runs away.
+double student_t_inflation(double nu);
+
+// The wander an estimator weights with, chosen by `options` from the white fit's
+// linearised problem at its solution (rows, whitened design X and whitened residual y), and
+// the finding that reports it.
+struct FitNoiseChoice {
+  GaussMarkovNoise noise;        // what the estimate and its sigmas are weighted with
+  GaussMarkovNoise check_noise;  // what the chi-square model check is made against: the
+                                 // wander only when it is a finding (or specified)
+  NoiseFinding finding;
+  double log_scale_information = 0;       // 0: the noise is not estimated (white or specified)
+  std::vector<PlausibleNoise> plausible;  // estimated: the plausible correlation times
+  // Noise parameters of check_noise estimated from the fit's own residuals (each q that is
+  // not zero, and tau): the chi-square test of the fit loses as many degrees of freedom.
+  int parameters = 0;
+};
+
+// How much each parameter's sigma widens when the noise model is estimated from the run:
+// to its variance averaged over the plausible correlation times, weighted by likelihood
+// (one run pins tau poorly), then by Student's t for the wander's estimated scale.
+struct SigmaWidening {
+  Eigen::VectorXd factor;  // multiplies sigma
+  Eigen::VectorXd dof;     // effective degrees of freedom of the variance at the best model
+};
+SigmaWidening widen_for_estimated_noise(
+    const std::function<Eigen::VectorXd(const GaussMarkovNoise&)>& variances,
+    const FitNoiseChoice& choice);
+FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const Eigen::MatrixXd& X,
+                                const Eigen::VectorXd& y, const FitNoiseOptions& options,
+                                const std::vector<PositionAverage>& positions);
 
 // The peak of the Allan deviation of a Gauss-Markov process (q, tau): the "bias
 // instability floor" an Allan plot of this wander would show, and the averaging time at

@@ -25,6 +25,8 @@ struct PositionAverage {
   double temp_mean_c = 0;       // NaN when not measured
   int approach = +1;            // approach direction (model.md hysteresis rule)
 
+  // The dwell's mid-time: when its mean is taken to have been measured (bias wander).
+  double mid_time_s() const { return 0.5 * (t_start_s + t_end_s); }
   // The commanded up-vector u(alpha1, alpha2) in instrument axes for this mount.
   Vec3 up() const;
 };

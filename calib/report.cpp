@@ -98,6 +98,23 @@ double chi2_upper_tail(double chi2, int dof) {
   return 0.5 * std::erfc(z / std::sqrt(2.0));
 }
 
+json noise_finding_json(const NoiseFinding& n) {
+  const auto vec = [](const Vec3& v) { return json::array({v[0], v[1], v[2]}); };
+  json j = {{"model", n.model},
+            {"bias_instability", n.bias_instability},
+            {"lr", n.lr},
+            {"lr_threshold", n.lr_threshold},
+            {"how", n.how}};
+  if (n.model == "gauss_markov") {
+    j["source"] = n.source;
+    j["wander_ug"] = vec(n.wander_ug);
+    j["tau_s"] = n.tau_s;
+    j["allan_floor_ug"] = vec(n.allan_peak_ug);
+    j["sigma_sqrt_n_understated_by"] = vec(n.understated_by);
+  }
+  return j;
+}
+
 json fit_to_json(const FitResult& fit) {
   json params = json::object();
   for (int j = 0; j < kUnitParameterCount; ++j) {
@@ -105,6 +122,7 @@ json fit_to_json(const FitResult& fit) {
     json e{{"unit", std::string(kUnitParameterUnits[static_cast<std::size_t>(j)])}};
     e["value"] = p.value ? json(*p.value * report_scale(j)) : json(nullptr);
     e["sigma"] = p.sigma ? json(*p.sigma * report_scale(j)) : json(nullptr);
+    if (p.value && std::isfinite(p.dof)) e["dof"] = p.dof;
     if (!p.value) e["unobservable_reason"] = p.unobservable_reason;
     params[std::string(kUnitParameterNames[static_cast<std::size_t>(j)])] = e;
   }
@@ -134,10 +152,11 @@ json fit_to_json(const FitResult& fit) {
            {"chi2", fit.chi2},
            {"chi2_dof", number_or_null(fit.chi2_dof)},
            {"parameters", params},
-           {"correlation_order", json(std::vector<std::string>(kUnitParameterNames.begin(),
-                                                               kUnitParameterNames.end()))},
+           {"correlation_order",
+            json(std::vector<std::string>(kUnitParameterNames.begin(), kUnitParameterNames.end()))},
            {"correlation", correlation},
            {"residuals", residuals},
+           {"noise", noise_finding_json(fit.noise)},
            {"notes", fit.notes}};
   if (!fit.stand.empty()) {
     json stand = json::object();
@@ -147,6 +166,29 @@ json fit_to_json(const FitResult& fit) {
     out["stand"] = stand;
   }
   return out;
+}
+
+// One line on the noise the fit weighted with, in the engineer's words.
+std::string noise_line(const NoiseFinding& n) {
+  if (n.model != "gauss_markov") {
+    if (n.lr_threshold <= 0) return "white (" + n.how + ")";
+    return "white: no bias wander between dwells (2 delta log L = " + format("%.1f", n.lr) + ", " +
+           format("%.1f", n.lr_threshold) +
+           " needed); each dwell mean weighted by its own standard error";
+  }
+  const std::string what =
+      n.source != "estimated" ? "the specified bias wander"
+      : n.bias_instability
+          ? "bias wander estimated from this run"
+          : "a possible bias wander (below the bar of a finding: 2 delta log L = " +
+                format("%.1f", n.lr) + " of " + format("%.1f", n.lr_threshold) + "), weighted for";
+  return what + ", Gauss-Markov " + format("%.2f", n.wander_ug[0]) + " / " +
+         format("%.2f", n.wander_ug[1]) + " / " + format("%.2f", n.wander_ug[2]) +
+         " ug (x/y/z), tau " + format("%.0f", n.tau_s) +
+         " s; dwell means close in time share it, so they are weighted by the covariance it "
+         "implies "
+         "(generalised least squares); sigma/sqrt(n) understates a dwell mean's error up to " +
+         format("%.1f", n.understated_by.maxCoeff()) + "x";
 }
 
 std::string format_report(const FitResult& fit, const ReportContext& ctx) {
@@ -159,6 +201,7 @@ std::string format_report(const FitResult& fit, const ReportContext& ctx) {
          (ctx.g_from_header ? " (from the recording)" : " (ASSUMED standard gravity)") + "\n";
   out += "Estimator:  " + fit.estimator + ", " + std::to_string(fit.parameters_estimated) +
          " parameters, redundancy " + std::to_string(fit.redundancy) + "\n";
+  out += "Noise:      " + noise_line(fit.noise) + "\n";
   for (const std::string& w : ctx.warnings) out += "WARNING:    " + w + "\n";
   out += "\nUnit parameters (value +- 1 sigma):\n";
   append_parameters(out, fit);

@@ -28,6 +28,8 @@ ReportContext report_context(const Recording& rec, std::vector<PositionAverage> 
 double chi2_upper_tail(double chi2, int dof);
 
 nlohmann::json fit_to_json(const FitResult& fit);
+// `noise` of the fit and diagnosis JSON: the noise model a result was weighted with.
+nlohmann::json noise_finding_json(const NoiseFinding& n);
 std::string format_report(const FitResult& fit, const ReportContext& context);
 
 // f = M (f_raw - b): what the INS loads to turn raw outputs into calibrated specific force.

@@ -109,18 +109,6 @@ struct ResidualRow {
 // The noise the tests were made against (calib/noise_model.hpp). A noise finding, never a
 // deterministic term: bias_instability is true when the dwell means wander beyond their
 // white-noise errors, and every chi2 and sigma then comes from generalised least squares.
-struct NoiseFinding {
-  std::string model = "white";  // "white" or "gauss_markov"
-  std::string source;           // gauss_markov: "estimated" (this recording) or "specified"
-  bool bias_instability = false;  // the recording itself shows the wander
-  Vec3 wander_ug = Vec3::Zero();       // Gauss-Markov standard deviation per axis
-  double tau_s = 0;                    // its correlation time
-  Vec3 allan_peak_ug = Vec3::Zero();   // the Allan-deviation floor that wander shows
-  Vec3 understated_by = Vec3::Ones();  // how much sigma/sqrt(n) understated a dwell mean's error
-  double lr = 0, lr_threshold = 0;     // 2 delta log L against white noise, and the bar
-  std::string how;
-};
-
 // Honesty outside the catalog (docs/diagnosis.md, "Checks before explained").
 struct WhitenessCheck {
   std::string axis, against, test;  // "x", "time", "serial" | "step"

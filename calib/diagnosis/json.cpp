@@ -63,24 +63,6 @@ TruthModel augmented_model(const Diagnosis& d, const Recording& rec, const Prepa
 
 namespace {
 
-nlohmann::json vec_json(const Vec3& v) { return nlohmann::json::array({v[0], v[1], v[2]}); }
-
-nlohmann::json noise_json(const NoiseFinding& n) {
-  nlohmann::json j = {{"model", n.model},
-                      {"bias_instability", n.bias_instability},
-                      {"lr", n.lr},
-                      {"lr_threshold", n.lr_threshold},
-                      {"how", n.how}};
-  if (n.model == "gauss_markov") {
-    j["source"] = n.source;
-    j["wander_ug"] = vec_json(n.wander_ug);
-    j["tau_s"] = n.tau_s;
-    j["allan_floor_ug"] = vec_json(n.allan_peak_ug);
-    j["sigma_sqrt_n_understated_by"] = vec_json(n.understated_by);
-  }
-  return j;
-}
-
 nlohmann::json checks_json(const HonestyChecks& c) {
   using nlohmann::json;
   if (!c.made) return nullptr;
@@ -192,7 +174,7 @@ nlohmann::json diagnose_to_json(const Diagnosis& d) {
           {"located", d.located},
           {"candidates", candidates},
           {"not_tested", d.not_tested},
-          {"noise", diagnosis::noise_json(d.noise)},
+          {"noise", noise_finding_json(d.noise)},
           {"checks", diagnosis::checks_json(d.checks)},
           {"summary", d.summary},
           {"model", truth_to_json(d.model)}};

@@ -14,7 +14,12 @@ namespace {
 using Eigen::MatrixXd;
 using Eigen::VectorXd;
 
-double mid_time_s(const PositionAverage& p) { return 0.5 * (p.t_start_s + p.t_end_s); }
+// The diagnosis models the noise itself, with the terms (wander.hpp): its fits are white.
+FitResult white_full_vector_fit(const std::vector<PositionAverage>& avg) {
+  FullFitOptions o;
+  o.noise = white_noise_weighting();
+  return fit_full_vector(avg, o);
+}
 
 std::vector<StandPose> poses_of(const std::vector<PositionAverage>& avg) {
   std::vector<StandPose> poses;
@@ -66,7 +71,7 @@ LinearProblem full_problem(const std::vector<PositionAverage>& avg, const FitRes
       lp.row_sigma_g.push_back(s);
       lp.row_position.push_back(static_cast<int>(k));
       lp.row_component.push_back(a);
-      lp.noise_rows.push_back({mid_time_s(avg[k]), Vec3::Unit(a), s});
+      lp.noise_rows.push_back({avg[k].mid_time_s(), Vec3::Unit(a), s});
     }
   }
   lp.unit_column.assign(kUnitParameterCount, -1);
@@ -92,7 +97,7 @@ LinearProblem invariant_problem(const std::vector<PositionAverage>& avg, const F
     lp.row_sigma_g.push_back(s);
     lp.row_position.push_back(static_cast<int>(k));
     lp.row_component.push_back(0);
-    lp.noise_rows.push_back({mid_time_s(avg[k]), avg[k].up(), s});
+    lp.noise_rows.push_back({avg[k].mid_time_s(), avg[k].up(), s});
   }
   // Keep only the regressors the programme excites (classic24 has no gamma regressors).
   lp.unit_column.assign(kUnitParameterCount, -1);
@@ -136,7 +141,7 @@ class FullVectorModel : public ResidualModel {
   }
   std::unique_ptr<ResidualModel> refit(
       const std::vector<PositionAverage>& corrected) const override {
-    return std::make_unique<FullVectorModel>(corrected, fit_full_vector(corrected), design_);
+    return std::make_unique<FullVectorModel>(corrected, white_full_vector_fit(corrected), design_);
   }
 
  private:
@@ -174,14 +179,15 @@ class InvariantModel : public ResidualModel {
   }
   std::unique_ptr<ResidualModel> refit(
       const std::vector<PositionAverage>& corrected) const override {
-    return std::make_unique<InvariantModel>(corrected, fit_invariant_joint(corrected));
+    return std::make_unique<InvariantModel>(
+        corrected, fit_invariant_joint(corrected, white_noise_weighting()));
   }
 };
 
 // The invariant baseline, or why there is none.
 FitResult invariant_baseline(const std::vector<PositionAverage>& avg) {
   try {
-    return fit_invariant_joint(avg);
+    return fit_invariant_joint(avg, white_noise_weighting());
   } catch (const CannotFit& e) {
     throw CannotFit("cannot check the model: " + positions_for_unknowns(avg, kUnitParameterCount) +
                     ", and not even the calibration can be fitted (" + e.what() + ")");
@@ -192,7 +198,7 @@ FitResult invariant_baseline(const std::vector<PositionAverage>& avg) {
 
 std::unique_ptr<ResidualModel> choose_residual_model(const std::vector<PositionAverage>& avg) {
   try {
-    FitResult full = fit_full_vector(avg);
+    FitResult full = white_full_vector_fit(avg);
     if (full.redundancy > 0)
       return std::make_unique<FullVectorModel>(avg, std::move(full), full_design(avg));
   } catch (const std::exception&) {

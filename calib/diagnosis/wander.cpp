@@ -115,28 +115,6 @@ NoiseAndTerms select_terms_and_noise(Prepared& P, const DiagnoseOptions& options
   return out;
 }
 
-NoiseFinding noise_finding(const NoiseEstimate& e, const std::vector<PositionAverage>& avg) {
-  NoiseFinding n;
-  n.lr = e.lr;
-  n.lr_threshold = e.lr_threshold;
-  n.how = e.how;
-  if (e.noise.white()) return n;
-  n.model = "gauss_markov";
-  n.source = e.significant ? "estimated" : "specified";
-  n.bias_instability = e.significant;
-  n.tau_s = e.noise.tau_s;
-  for (int a = 0; a < 3; ++a) {
-    std::vector<double> se;
-    for (const PositionAverage& p : avg) se.push_back(p.standard_error_g[a]);
-    std::nth_element(se.begin(), se.begin() + static_cast<std::ptrdiff_t>(se.size() / 2), se.end());
-    const double sigma = se[se.size() / 2], q = e.noise.q_g[a];
-    n.wander_ug[a] = q / kUg;
-    n.allan_peak_ug[a] = gauss_markov_allan_peak(q, e.noise.tau_s).deviation / kUg;
-    n.understated_by[a] = sigma > 0 ? std::sqrt(1 + q * q / (sigma * sigma)) : 1.0;
-  }
-  return n;
-}
-
 std::string noise_words(const NoiseFinding& n) {
   if (n.model == "gauss_markov" && !n.bias_instability)
     return "Noise: this run does not show bias wander by itself (2 delta log L = " +

@@ -19,9 +19,6 @@ struct NoiseAndTerms {
 // Sets P.model's noise and P.base to the final choice.
 NoiseAndTerms select_terms_and_noise(Prepared& P, const DiagnoseOptions& options);
 
-// The noise finding as reported, with how much sigma/sqrt(n) understated the dwell means.
-NoiseFinding noise_finding(const NoiseEstimate& e, const std::vector<PositionAverage>& avg);
-
 // A sentence for the summary: empty for white noise.
 std::string noise_words(const NoiseFinding& n);
 

@@ -36,6 +36,9 @@ struct FitOptions {
   bool json = false;
   std::string compensation;
   std::string mounting = "common";
+  std::string noise = "estimate";
+  double bias_instability_ug = 0;
+  double bias_instability_tau_s = 300;
 };
 
 void write_text_file(const std::string& path, const std::string& text) {
@@ -59,11 +62,19 @@ void run_simulate(const SimulateOptions& o) {
                rec.samples.empty() ? 0.0 : rec.samples.back().t_s, o.output.c_str());
 }
 
+FitNoiseOptions noise_weighting(const FitOptions& o) {
+  FitNoiseOptions n;
+  n.mode = o.noise == "white" ? FitNoiseOptions::Mode::white : FitNoiseOptions::Mode::estimate;
+  n.specified = {Vec3::Constant(o.bias_instability_ug * kUg), o.bias_instability_tau_s};
+  return n;
+}
+
 FitResult fit_with(const FitOptions& o, const std::vector<PositionAverage>& averages) {
-  if (o.method == "joint") return fit_invariant_joint(averages);
+  if (o.method == "joint") return fit_invariant_joint(averages, noise_weighting(o));
   if (o.method == "paper-sequential") return fit_paper_sequential(averages);
   if (o.method == "full") {
     FullFitOptions full;
+    full.noise = noise_weighting(o);
     full.mounting = o.mounting == "per-mount" ? MountingModel::per_mount : MountingModel::common_fixture;
     return fit_full_vector(averages, full);
   }
@@ -127,6 +138,19 @@ void add_calibrate_commands(CLI::App& app) {
   fit->add_option("--mounting", fit_opts->mounting,
                   "full method, re-mounted programmes: common (one rigid fixture) | per-mount")
       ->check(CLI::IsMember({"common", "per-mount"}))
+      ->capture_default_str();
+  fit->add_option("--noise", fit_opts->noise,
+                  "estimate: bias wander between dwells estimated from the run and weighted for "
+                  "when significant (docs/calibration.md) | white: every dwell mean independent")
+      ->check(CLI::IsMember({"estimate", "white"}))
+      ->capture_default_str();
+  fit->add_option(
+         "--bias-instability-ug", fit_opts->bias_instability_ug,
+         "the unit's known Gauss-Markov bias wander, used when the run alone does not show it")
+      ->check(CLI::NonNegativeNumber);
+  fit->add_option("--bias-instability-tau-s", fit_opts->bias_instability_tau_s,
+                  "its correlation time")
+      ->check(CLI::PositiveNumber)
       ->capture_default_str();
   fit->add_flag("--json", fit_opts->json, "machine-readable output");
   fit->add_option("--compensation", fit_opts->compensation,

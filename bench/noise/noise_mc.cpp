@@ -1,0 +1,136 @@
+#include "bench/noise/noise_mc.hpp"
+
+#include <cmath>
+#include <mutex>
+#include <stdexcept>
+#include <thread>
+
+#include "calib/averaging.hpp"
+#include "calib/full_estimator.hpp"
+#include "calib/invariant_estimator.hpp"
+#include "calib/simulator.hpp"
+#include "calib/units.hpp"
+
+namespace standcal::noise_mc {
+
+namespace {
+
+struct Method {
+  std::string estimator, weighting;
+};
+
+const std::vector<Method>& methods() {
+  static const std::vector<Method> m{{"full", "estimated"},  {"full", "true"},  {"full", "white"},
+                                     {"joint", "estimated"}, {"joint", "true"}, {"joint", "white"}};
+  return m;
+}
+
+FitResult fit_with(const Method& m, const std::vector<PositionAverage>& avg,
+                   const TruthModel& truth, double weighting_lr) {
+  FitNoiseOptions noise;
+  noise.weighting_lr = weighting_lr;
+  if (m.weighting == "white") noise = white_noise_weighting();
+  if (m.weighting == "true") {
+    noise.mode = FitNoiseOptions::Mode::specified;
+    noise.specified = {Vec3::Constant(truth.noise.bias_instability_ug * kUg),
+                       truth.noise.bias_instability_tau_s};
+  }
+  if (m.estimator == "joint") return fit_invariant_joint(avg, noise);
+  FullFitOptions o;
+  o.noise = noise;
+  return fit_full_vector(avg, o);
+}
+
+TruthModel truth_for(const Scenario& s, const Setup& setup, double* dwell_error_g) {
+  TruthModel t = default_truth();
+  const double dwell_error_ug = t.noise.density_ug_rthz / std::sqrt(setup.dwell_s);
+  t.noise.bias_instability_ug = s.wander_per_dwell_error * dwell_error_ug;
+  t.noise.bias_instability_tau_s = s.tau_s;
+  *dwell_error_g = dwell_error_ug * kUg;
+  return t;
+}
+
+void accumulate(ZStats& z, const FitResult& fit,
+                const std::array<double, kUnitParameterCount>& truth) {
+  ++z.runs;
+  if (fit.noise.bias_instability) ++z.wander_significant;
+  for (int j = 0; j < kUnitParameterCount; ++j) {
+    const ParameterEstimate& p = fit.unit[static_cast<std::size_t>(j)];
+    if (!p.value || !p.sigma || *p.sigma <= 0) continue;
+    const double zj = (*p.value - truth[static_cast<std::size_t>(j)]) / *p.sigma;
+    z.z2_mean[static_cast<std::size_t>(j)] += zj * zj;
+    z.z_mean[static_cast<std::size_t>(j)] += zj;
+    if (std::abs(zj) <= 1.96) z.coverage95[static_cast<std::size_t>(j)] += 1;
+    ++z.n[static_cast<std::size_t>(j)];
+  }
+}
+
+}  // namespace
+
+std::vector<Scenario> issue21_scenarios() {
+  return {{"white", 0, 300}, {"wander 1x", 1, 300}, {"wander 3x", 3, 300}, {"wander 10x", 10, 300}};
+}
+
+ScenarioResult run_scenario(const Setup& setup, const Scenario& scenario) {
+  ScenarioResult out;
+  out.scenario = scenario;
+  double dwell_error_g = 0;
+  const TruthModel truth = truth_for(scenario, setup, &dwell_error_g);
+  out.white_dwell_error_ug = dwell_error_g / kUg;
+  std::array<double, kUnitParameterCount> x_true{};
+  for (int a = 0; a < 3; ++a) {  // estimator units: g, dimensionless, rad (gamma pair sums)
+    x_true[static_cast<std::size_t>(a)] = truth.unit.bias_g[a];
+    x_true[static_cast<std::size_t>(3 + a)] = truth.unit.scale[a];
+    x_true[static_cast<std::size_t>(6 + a)] = truth.unit.gamma_pair_sums_rad()[a];
+  }
+  for (const Method& m : methods())
+    out.stats.push_back({m.estimator, m.weighting, {}, {}, {}, 0, 0, 0});
+
+  std::mutex mutex;
+  auto worker = [&](int first, int stride) {
+    std::vector<ZStats> local = out.stats;
+    for (int run = first; run < setup.runs; run += stride) {
+      SimulationRequest req;
+      req.program = setup.program;
+      req.truth = truth;
+      req.timing.dwell_s = setup.dwell_s;
+      req.timing.sample_rate_hz = setup.sample_rate_hz;
+      req.seed = setup.first_seed + static_cast<std::uint64_t>(run);
+      const std::vector<PositionAverage> avg = average_positions(simulate_run(req));
+      for (std::size_t k = 0; k < methods().size(); ++k) {
+        try {
+          accumulate(local[k], fit_with(methods()[k], avg, truth, setup.weighting_lr), x_true);
+        } catch (const std::exception&) {
+          ++local[k].failed;
+        }
+      }
+    }
+    const std::lock_guard<std::mutex> lock(mutex);
+    for (std::size_t k = 0; k < local.size(); ++k) {
+      ZStats& z = out.stats[k];
+      z.runs += local[k].runs;
+      z.failed += local[k].failed;
+      z.wander_significant += local[k].wander_significant;
+      for (std::size_t j = 0; j < z.n.size(); ++j) {
+        z.z2_mean[j] += local[k].z2_mean[j];
+        z.z_mean[j] += local[k].z_mean[j];
+        z.coverage95[j] += local[k].coverage95[j];
+        z.n[j] += local[k].n[j];
+      }
+    }
+  };
+  const int threads = std::max(1, setup.threads);
+  std::vector<std::thread> pool;
+  for (int t = 0; t < threads; ++t) pool.emplace_back(worker, t, threads);
+  for (std::thread& t : pool) t.join();
+  for (ZStats& z : out.stats)
+    for (std::size_t j = 0; j < z.n.size(); ++j)
+      if (z.n[j] > 0) {
+        z.z2_mean[j] /= z.n[j];
+        z.z_mean[j] /= z.n[j];
+        z.coverage95[j] /= z.n[j];
+      }
+  return out;
+}
+
+}  // namespace standcal::noise_mc

@@ -1,0 +1,58 @@
+#pragma once
+// Monte Carlo of the estimators' sigmas under coloured noise (issue 21, docs/calibration.md
+// "Noise model"): seeded simulated runs of one programme with white noise and with
+// Gauss-Markov bias wander, each fitted by the full-vector and the invariant estimator, and
+// (estimate - truth) / sigma collected per unit parameter. Honest sigmas give z-variance 1.
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "calib/noise_model.hpp"
+#include "calib/parameters.hpp"
+#include "calib/programs.hpp"
+
+namespace standcal::noise_mc {
+
+struct Scenario {
+  std::string name;
+  double wander_per_dwell_error = 0;  // Gauss-Markov sigma / white error of one dwell mean
+  double tau_s = 300;
+};
+
+struct Setup {
+  Program program;
+  double dwell_s = 10;
+  double sample_rate_hz = 25;
+  int runs = 1000;
+  std::uint64_t first_seed = 1;
+  int threads = 2;
+  double weighting_lr = FitNoiseOptions{}.weighting_lr;  // the default fit's
+};
+
+// z statistics of one estimator with one weighting in one scenario.
+struct ZStats {
+  std::string estimator;  // "full" | "joint"
+  std::string
+      weighting;  // "estimated" (the default) | "true" (the simulated wander, given) | "white"
+  std::array<double, kUnitParameterCount> z2_mean{};  // mean z^2: the z-variance about truth
+  std::array<double, kUnitParameterCount> z_mean{};
+  std::array<double, kUnitParameterCount> coverage95{};  // share of runs with |z| <= 1.96
+  std::array<int, kUnitParameterCount> n{};
+  int wander_significant = 0;  // runs whose fit found the wander significant
+  int runs = 0;
+  int failed = 0;  // runs whose fit threw
+};
+
+struct ScenarioResult {
+  Scenario scenario;
+  double white_dwell_error_ug = 0;
+  std::vector<ZStats> stats;
+};
+
+ScenarioResult run_scenario(const Setup& setup, const Scenario& scenario);
+
+// The four scenarios of issue 21: white, and wander at 1x, 3x and 10x the dwell error.
+std::vector<Scenario> issue21_scenarios();
+
+}  // namespace standcal::noise_mc

@@ -1,0 +1,137 @@
+// Issue 21: dwell means close in time share bias wander, and the fits weight for it.
+// The algebra of the noise model, then a seeded subset of bench/noise's Monte Carlo: the
+// z-variance of the fitted parameters about the truth with white noise and with wander.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+#include <random>
+
+#include "bench/noise/noise_mc.hpp"
+#include "calib/averaging.hpp"
+#include "calib/diagnosis/diagnosis.hpp"
+#include "calib/full_estimator.hpp"
+#include "calib/report.hpp"
+#include "calib/simulator.hpp"
+#include "calib/units.hpp"
+
+using namespace standcal;
+
+namespace {
+
+// Mean z^2 over n runs of an honest sigma: 1 with sd sqrt(2 / n) (0.18 for 60 runs, 0.22
+// for 40): [0.3, 1.9] is beyond 3.5 sd on either side.
+constexpr int kRunsWander = 60;
+constexpr int kRunsWhite = 40;
+constexpr double kHonestZ2Min = 0.3, kHonestZ2Max = 1.9;
+// Measured over 1000 runs: 90-93 % (docs/calibration.md); over 60 runs a share of 0.9 has
+// sd 0.04, so 0.75 is 3.5 sd below.
+constexpr double kMinCoverageWander = 0.75;
+
+void expect_honest(const noise_mc::ZStats& z) {
+  for (std::size_t j = 0; j < z.n.size(); ++j) {
+    if (z.n[j] == 0) continue;
+    EXPECT_GT(z.z2_mean[j], kHonestZ2Min) << z.estimator << " " << kUnitParameterNames[j];
+    EXPECT_LT(z.z2_mean[j], kHonestZ2Max) << z.estimator << " " << kUnitParameterNames[j];
+  }
+}
+
+std::vector<NoiseRow> random_rows(int n, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(0, 1);
+  std::vector<NoiseRow> rows;
+  double t = 0;
+  for (int r = 0; r < n; ++r) {
+    if (r % 3 == 0) t += 5 + 60 * u(rng);  // three rows per dwell share its time
+    rows.push_back(
+        {t, Vec3(u(rng) - 0.5, u(rng) - 0.5, u(rng) - 0.5).normalized(), (1 + 2 * u(rng)) * kUg});
+  }
+  return rows;
+}
+
+noise_mc::ScenarioResult monte_carlo(const noise_mc::Scenario& s, int runs) {
+  noise_mc::Setup setup;
+  setup.program = diagnostic32();
+  setup.runs = runs;
+  setup.first_seed = 7000;
+  return noise_mc::run_scenario(setup, s);
+}
+
+const noise_mc::ZStats& stats(const noise_mc::ScenarioResult& r, const std::string& estimator,
+                              const std::string& weighting) {
+  for (const auto& z : r.stats)
+    if (z.estimator == estimator && z.weighting == weighting) return z;
+  throw std::runtime_error("no such statistics");
+}
+
+// The smallest share, over the parameters, of runs whose +-1.96 sigma holds the truth.
+double min_coverage(const noise_mc::ZStats& z) {
+  double c = 1;
+  for (std::size_t j = 0; j < z.n.size(); ++j)
+    if (z.n[j] > 0) c = std::min(c, z.coverage95[j]);
+  return c;
+}
+
+}  // namespace
+
+TEST(NoiseModelAlgebra, DecorrelateIsTheInverseSquareRootOfTheRowCovariance) {
+  const std::vector<NoiseRow> rows = random_rows(30, 3);
+  const GaussMarkovNoise noise{Vec3(2, 3, 1) * kUg, 200};
+  Eigen::VectorXd w(30);
+  for (int r = 0; r < 30; ++r) w[r] = 1 / rows[static_cast<std::size_t>(r)].sigma_g;
+  const Eigen::MatrixXd Cw = w.asDiagonal() * row_covariance(rows, noise) * w.asDiagonal();
+  double log_det = 0;
+  const Eigen::MatrixXd K = decorrelate(rows, noise, Eigen::MatrixXd::Identity(30, 30), &log_det);
+  EXPECT_LT((K * Cw * K.transpose() - Eigen::MatrixXd::Identity(30, 30)).norm(), 1e-9);
+  const Eigen::LLT<Eigen::MatrixXd> llt(Cw);
+  EXPECT_NEAR(log_det, 2 * llt.matrixL().toDenseMatrix().diagonal().array().log().sum(), 1e-9);
+}
+
+TEST(NoiseModelAlgebra, WhiteNoiseHasADiagonalCovariance) {
+  const std::vector<NoiseRow> rows = random_rows(9, 4);
+  const Eigen::MatrixXd C = row_covariance(rows, GaussMarkovNoise{});
+  for (int r = 0; r < 9; ++r)
+    EXPECT_DOUBLE_EQ(C(r, r), rows[static_cast<std::size_t>(r)].sigma_g *
+                                  rows[static_cast<std::size_t>(r)].sigma_g);
+  EXPECT_DOUBLE_EQ(C.norm(), C.diagonal().norm());
+}
+
+TEST(FitNoise, TheFitJsonStatesTheNoiseModelItWeightedWith) {
+  SimulationRequest req;
+  req.program = diagnostic32();
+  req.truth = default_truth();
+  req.truth.noise.bias_instability_ug = 10 * req.truth.noise.density_ug_rthz / std::sqrt(10.0);
+  req.timing.dwell_s = 10;
+  req.timing.sample_rate_hz = 25;
+  req.seed = 11;
+  const FitResult fit = fit_full_vector(average_positions(simulate_run(req)));
+  const nlohmann::json j = fit_to_json(fit)["noise"];
+  ASSERT_EQ(j["model"], "gauss_markov") << j.dump(2);
+  EXPECT_EQ(j["source"], "estimated");
+  EXPECT_GT(j["lr"].get<double>(), j["lr_threshold"].get<double>());
+  EXPECT_GT(j["sigma_sqrt_n_understated_by"][0].get<double>(), 2.0);
+}
+
+// Wander 10x the white error of a dwell mean: weighted as white, the biases' intervals
+// hardly ever hold the truth; weighted by the run's own noise model they mostly do. One
+// 32-position run pins the wander's correlation time poorly, so coverage stays short of
+// 95 % (bench/noise, 1000 runs: docs/calibration.md) — the bound says so rather than hides it.
+TEST(FitNoise, WanderTenTimesTheDwellErrorIsWeightedForAndTheIntervalsHoldTheTruth) {
+  const auto r = monte_carlo({"wander 10x", 10, 300}, kRunsWander);
+  EXPECT_LT(min_coverage(stats(r, "full", "white")), 0.3)
+      << "the scenario does not stress the weighting";
+  for (const char* estimator : {"full", "joint"}) {
+    const noise_mc::ZStats& z = stats(r, estimator, "estimated");
+    EXPECT_GE(z.wander_significant, z.runs * 9 / 10) << estimator;
+    EXPECT_GE(min_coverage(z), kMinCoverageWander) << estimator;
+  }
+}
+
+TEST(FitNoise, WhiteNoiseStaysWhiteAndHonest) {
+  const auto r = monte_carlo({"white", 0, 300}, kRunsWhite);
+  for (const char* estimator : {"full", "joint"}) {
+    const noise_mc::ZStats& z = stats(r, estimator, "estimated");
+    EXPECT_LE(z.wander_significant, 2) << estimator;
+    expect_honest(z);
+    EXPECT_GE(min_coverage(z), 0.8) << estimator;
+  }
+}
