@@ -4,6 +4,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "calib/units.hpp"
+
 namespace standcal {
 
 std::vector<AllanPoint> overlapping_allan_deviation(const std::vector<std::vector<double>>& segments,
@@ -85,6 +87,43 @@ NoiseFigures noise_figures(const std::vector<AllanPoint>& curve) {
     f.bias_instability_tau_s = curve[i_min].tau_s;
   }
   return f;
+}
+
+double sample_period_s(const Recording& rec) {
+  if (rec.sample_rate_hz > 0) return 1.0 / rec.sample_rate_hz;
+  std::vector<double> dt;
+  for (std::size_t k = 1; k < rec.samples.size(); ++k)
+    if (rec.samples[k].pos == rec.samples[k - 1].pos) dt.push_back(rec.samples[k].t_s - rec.samples[k - 1].t_s);
+  if (dt.empty()) throw std::runtime_error(rec.source + ": cannot tell the sample rate (no sample_rate_hz header)");
+  std::nth_element(dt.begin(), dt.begin() + static_cast<long>(dt.size() / 2), dt.end());
+  return dt[dt.size() / 2];
+}
+
+DwellAllan dwell_allan(const Recording& rec) {
+  if (rec.samples.size() < 30) throw std::runtime_error(rec.source + ": too few samples for an Allan deviation");
+  DwellAllan out;
+  out.sample_period_s = sample_period_s(rec);
+  std::array<std::vector<std::vector<double>>, 3> segments;
+  for (std::size_t k = 0; k < rec.samples.size(); ++k) {
+    if (k == 0 || rec.samples[k].pos != rec.samples[k - 1].pos)
+      for (auto& axis : segments) axis.emplace_back();
+    for (int a = 0; a < 3; ++a) segments[a].back().push_back(rec.samples[k].f_mps2[a] / rec.g_local_mps2 / kUg);
+  }
+  out.segments = segments[0].size();
+  for (int a = 0; a < 3; ++a) {
+    out.curves[a] = overlapping_allan_deviation(segments[a], out.sample_period_s);
+    out.figures[a] = noise_figures(out.curves[a]);
+  }
+  return out;
+}
+
+std::optional<AllanFinding> allan_finding(const Recording& rec) {
+  try {
+    const DwellAllan a = dwell_allan(rec);
+    return AllanFinding{a.sample_period_s, a.segments, a.figures};
+  } catch (const std::runtime_error&) {
+    return std::nullopt;  // too few samples or no rate: the fit's noise says nothing of Allan
+  }
 }
 
 }  // namespace standcal

@@ -1,8 +1,12 @@
 #pragma once
 // Overlapping Allan deviation of a sampled signal (IEEE Std 952 / 1293 conventions) and
 // the three noise figures read off it: white-noise density, bias instability, random walk.
+#include <array>
+#include <cstddef>
 #include <optional>
 #include <vector>
+
+#include "calib/recording.hpp"
 
 namespace standcal {
 
@@ -33,5 +37,29 @@ struct NoiseFigures {
 // Reads the figures off a curve: each from the points whose local log-log slope is near
 // its signature slope (-1/2 before the minimum, +1/2 after it).
 NoiseFigures noise_figures(const std::vector<AllanPoint>& curve);
+
+// The sampling period of a recording: its sample_rate_hz header, else the median step
+// between samples of one position. Throws naming the recording when neither exists.
+double sample_period_s(const Recording& rec);
+
+// The Allan deviation of each axis over a recording's dwells pooled: each position block is
+// one static segment (the moves are not samples), in ug, with the figures read off it.
+struct DwellAllan {
+  double sample_period_s = 0;
+  std::size_t segments = 0;
+  std::array<std::vector<AllanPoint>, 3> curves;  // ug
+  std::array<NoiseFigures, 3> figures;            // ug/sqrt(Hz), ug, ug/sqrt(s)
+};
+// Throws std::runtime_error naming the recording when it has too few samples.
+DwellAllan dwell_allan(const Recording& rec);
+
+// The figures alone, as the fit's noise model reports them (`noise.allan`); empty when the
+// recording has too few samples or no rate.
+struct AllanFinding {
+  double sample_period_s = 0;
+  std::size_t segments = 0;
+  std::array<NoiseFigures, 3> figures;
+};
+std::optional<AllanFinding> allan_finding(const Recording& rec);
 
 }  // namespace standcal

@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "calib/allan.hpp"
 #include "calib/model.hpp"
 #include "calib/position_average.hpp"
 
@@ -130,6 +131,9 @@ struct NoiseFinding {
   Vec3 understated_by = Vec3::Ones();  // how much sigma/sqrt(n) understated a dwell mean's error
   double lr = 0, lr_threshold = 0;     // 2 delta log L against white noise, and the bar
   std::string how;
+  // The Allan deviation of the raw samples, dwells pooled: white density, bias instability
+  // and random walk within a dwell, where the wander above is between dwells.
+  std::optional<AllanFinding> allan;
 };
 
 // From the estimate (its noise, or the specified one when the run alone shows none) and the

@@ -112,6 +112,21 @@ json noise_finding_json(const NoiseFinding& n) {
     j["allan_floor_ug"] = vec(n.allan_peak_ug);
     j["sigma_sqrt_n_understated_by"] = vec(n.understated_by);
   }
+  if (n.allan) {
+    const auto opt = [](const std::optional<double>& v) { return v ? json(*v) : json(nullptr); };
+    json axes = json::object();
+    for (int a = 0; a < 3; ++a) {
+      const NoiseFigures& f = n.allan->figures[static_cast<std::size_t>(a)];
+      axes[std::string(1, "xyz"[a])] = {{"white_density_ug_rthz", opt(f.white_density)},
+                                        {"bias_instability_ug", opt(f.bias_instability)},
+                                        {"bias_instability_tau_s", f.bias_instability_tau_s},
+                                        {"random_walk_ug_rts", opt(f.random_walk)}};
+    }
+    j["allan"] = {{"source", "the dwells' raw samples, pooled"},
+                  {"segments", n.allan->segments},
+                  {"sample_period_s", n.allan->sample_period_s},
+                  {"axes", axes}};
+  }
   return j;
 }
 

@@ -10,6 +10,7 @@
 #include <sstream>
 #include <thread>
 
+#include "calib/allan.hpp"
 #include "calib/averaging.hpp"
 #include "calib/full_estimator.hpp"
 #include "calib/identifiability.hpp"
@@ -1327,9 +1328,11 @@ namespace {
 // The paper's joint fit of a finished run. A programme that cannot determine the unit by
 // itself (a follow-up of proposed positions, a user programme of a few poses) still ends
 // `done`: its recording is whole, and the result says why there are no parameters.
-json joint_fit_result(const std::vector<PositionAverage>& averages) {
+json joint_fit_result(const std::vector<PositionAverage>& averages, const std::optional<AllanFinding>& allan) {
   try {
-    return fit_to_json(fit_invariant_joint(averages));
+    FitResult fit = fit_invariant_joint(averages);
+    fit.noise.allan = allan;
+    return fit_to_json(fit);
   } catch (const CannotFit& e) {
     return json{{"estimator", "joint"},
                 {"positions", averages.size()},
@@ -1344,9 +1347,13 @@ void Sequencer::finish_with_fit(RunRecord& record) {
   set_progress(record, record.positions, "fitting");
   const Recording rec = read_recording(record.recording_path);
   const std::vector<PositionAverage> averages = average_positions(rec);
-  json result = joint_fit_result(averages);
+  // The noise model of both fits: wander between dwells from the fit, Allan within them.
+  const std::optional<AllanFinding> allan = allan_finding(rec);
+  json result = joint_fit_result(averages, allan);
   try {
-    result["full_vector"] = fit_to_json(fit_full_vector(averages));
+    FitResult full = fit_full_vector(averages);
+    full.noise.allan = allan;
+    result["full_vector"] = fit_to_json(full);
   } catch (const std::exception& e) {
     result["full_vector"] = json{{"error", e.what()}};
   }

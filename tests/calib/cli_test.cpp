@@ -136,4 +136,40 @@ TEST_F(Cli, SimulateRefusesDwellAndSettleTimesPastTheRunLimits) {
   EXPECT_FALSE(fs::exists(path("r.csv")));
 }
 
+
+// Issue 21: the fit states the noise model it weighted with — the wander between dwells and
+// the Allan figures of the raw samples within them — and weights for a wander that is there.
+TEST_F(Cli, FitStatesItsNoiseModelAndWeightsForTheWanderOfTheRun) {
+  ASSERT_EQ(run_cli("simulate --program classic24 --seed 3 --dwell-s 10 -o " + path("white.csv") + " --truth " +
+                    path("t.json")).exit_code, 0);
+  const CliRun white = run_cli("fit " + path("white.csv") + " --method full --json");
+  ASSERT_EQ(white.exit_code, 0) << white.output;
+  const auto w = nlohmann::json::parse(white.output)["noise"];
+  EXPECT_EQ(w["bias_instability"], false) << w.dump(2);  // no wander finding (it may be weighted for)
+  // The simulator's white density is 10 ug/rtHz on every axis.
+  for (const char* axis : {"x", "y", "z"})
+    EXPECT_NEAR(w["allan"]["axes"][axis]["white_density_ug_rthz"].get<double>(), 10.0, 1.5) << axis;
+  EXPECT_EQ(w["allan"]["segments"], 24);
+
+  nlohmann::json truth;
+  std::ifstream(path("t.json")) >> truth;
+  truth["noise"]["bias_instability_ug"] = 30;  // about 10x a 10 s dwell mean's white error
+  std::ofstream(path("wander.json")) << truth.dump(2);
+  ASSERT_EQ(run_cli("simulate --program classic24 --seed 3 --dwell-s 10 -o " + path("wander.csv") + " --model " +
+                    path("wander.json")).exit_code, 0);
+  const CliRun fit = run_cli("fit " + path("wander.csv") + " --method full --json");
+  ASSERT_EQ(fit.exit_code, 0) << fit.output;
+  const auto j = nlohmann::json::parse(fit.output);
+  EXPECT_EQ(j["noise"]["model"], "gauss_markov") << j["noise"].dump(2);
+  EXPECT_EQ(j["noise"]["bias_instability"], true);
+  EXPECT_EQ(j["noise"]["source"], "estimated");
+  const CliRun as_white = run_cli("fit " + path("wander.csv") + " --method full --noise white --json");
+  ASSERT_EQ(as_white.exit_code, 0) << as_white.output;
+  const auto jw = nlohmann::json::parse(as_white.output);
+  EXPECT_EQ(jw["noise"]["model"], "white");
+  // Weighted for the wander, the biases' sigmas are several times the white ones.
+  for (const char* p : {"bias_x", "bias_y", "bias_z"})
+    EXPECT_GT(j["parameters"][p]["sigma"].get<double>(), 3 * jw["parameters"][p]["sigma"].get<double>()) << p;
+}
+
 }  // namespace

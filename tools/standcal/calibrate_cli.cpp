@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
+#include "calib/allan.hpp"
 #include "calib/averaging.hpp"
 #include "calib/full_estimator.hpp"
 #include "calib/invariant_estimator.hpp"
@@ -94,7 +95,8 @@ void run_fit(const FitOptions& o) {
   const Recording rec = read_recording(o.recording);
   for (const std::string& w : rec.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
   std::vector<PositionAverage> averages = average_positions(rec);
-  const FitResult fit = fit_with(o, averages);
+  FitResult fit = fit_with(o, averages);
+  fit.noise.allan = allan_finding(rec);
   if (o.json) {
     std::cout << fit_to_json(fit).dump(2) << "\n";
   } else {

@@ -389,34 +389,13 @@ void run_compare(const CompareOptions& o) {
 
 // ---- noise ---------------------------------------------------------------------------
 
-double sample_period_s(const Recording& rec) {
-  if (rec.sample_rate_hz > 0) return 1.0 / rec.sample_rate_hz;
-  std::vector<double> dt;
-  for (std::size_t k = 1; k < rec.samples.size(); ++k)
-    if (rec.samples[k].pos == rec.samples[k - 1].pos) dt.push_back(rec.samples[k].t_s - rec.samples[k - 1].t_s);
-  if (dt.empty()) throw std::runtime_error(rec.source + ": cannot tell the sample rate (no sample_rate_hz header)");
-  std::nth_element(dt.begin(), dt.begin() + static_cast<long>(dt.size() / 2), dt.end());
-  return dt[dt.size() / 2];
-}
-
 void run_noise(const NoiseOptions& o) {
   const Recording rec = read_recording(o.recording);
-  if (rec.samples.size() < 30) throw std::runtime_error(o.recording + ": too few samples for an Allan deviation");
-  const double tau0 = sample_period_s(rec);
-  // Each position block is one static segment; segments pool (the moves are not samples).
-  std::array<std::vector<std::vector<double>>, 3> segments;
-  for (std::size_t k = 0; k < rec.samples.size(); ++k) {
-    if (k == 0 || rec.samples[k].pos != rec.samples[k - 1].pos)
-      for (auto& axis : segments) axis.emplace_back();
-    for (int a = 0; a < 3; ++a) segments[a].back().push_back(rec.samples[k].f_mps2[a] / rec.g_local_mps2 / kUg);
-  }
+  const DwellAllan allan = dwell_allan(rec);
+  const double tau0 = allan.sample_period_s;
   static const std::array<const char*, 3> axis_names{"x", "y", "z"};
-  std::array<std::vector<AllanPoint>, 3> curves;
-  std::array<NoiseFigures, 3> figures;
-  for (int a = 0; a < 3; ++a) {
-    curves[a] = overlapping_allan_deviation(segments[a], tau0);
-    figures[a] = noise_figures(curves[a]);
-  }
+  const auto& curves = allan.curves;
+  const auto& figures = allan.figures;
   if (!o.curve_out.empty()) {
     std::ofstream out(o.curve_out);
     out << "tau_s,adev_x_ug,adev_y_ug,adev_z_ug\n";
@@ -433,7 +412,7 @@ void run_noise(const NoiseOptions& o) {
   }
   auto opt = [](const std::optional<double>& v) { return v ? json(*v) : json(nullptr); };
   if (o.json) {
-    json j = {{"recording", o.recording}, {"sample_period_s", tau0}, {"segments", segments[0].size()}};
+    json j = {{"recording", o.recording}, {"sample_period_s", tau0}, {"segments", allan.segments}};
     for (int a = 0; a < 3; ++a) {
       json curve = json::array();
       for (const auto& p : curves[a]) curve.push_back({{"tau_s", p.tau_s}, {"adev_ug", p.deviation}});
@@ -447,7 +426,7 @@ void run_noise(const NoiseOptions& o) {
     return;
   }
   std::printf("%s: %zu samples every %.4g s in %zu static segment(s)\n", o.recording.c_str(), rec.samples.size(), tau0,
-              segments[0].size());
+              allan.segments);
   std::printf("  %-4s %22s %26s %22s\n", "axis", "noise density ug/rtHz", "bias instability ug (tau)", "random walk ug/rt(s)");
   auto cell = [](const std::optional<double>& v) {
     char b[32];
