@@ -129,7 +129,13 @@ void expect_scatter_matches_prediction(const Program& program, DesignModel model
   stand.mounting_rad[0] = Vec3(30, -20, 10) * kArcsecToRad;
   const auto poses = poses_of(program);
   const std::vector<PositionAverage> clean = testing::synthetic_averages(poses, unit, stand, sigma_g);
+#ifdef STANDCAL_SANITIZED
+  constexpr int kRuns = 150;  // each fit ~10x slower under ASan+UBSan: tolerance doubled below
+  constexpr double kTolerance = 0.2;
+#else
   constexpr int kRuns = 600;
+  constexpr double kTolerance = 0.1;
+#endif
   std::mt19937_64 rng(77);
   std::normal_distribution<double> gauss(0, 1);
   std::array<std::vector<double>, kUnitParameterCount> estimates;
@@ -145,7 +151,7 @@ void expect_scatter_matches_prediction(const Program& program, DesignModel model
     for (double e : estimates[i]) mean += e / kRuns;
     for (double e : estimates[i]) var += (e - mean) * (e - mean) / (kRuns - 1);
     ASSERT_TRUE(ev.unit_sigma[i].has_value());
-    EXPECT_NEAR(std::sqrt(var) / *ev.unit_sigma[i], 1.0, 0.10)
+    EXPECT_NEAR(std::sqrt(var) / *ev.unit_sigma[i], 1.0, kTolerance)
         << what << " " << kUnitParameterNames[i] << ": scatter " << std::sqrt(var) << " predicted "
         << *ev.unit_sigma[i];
   }
