@@ -216,6 +216,8 @@ void read_unit(Section& top, DaemonConfig& c) {
   s->text("interface", c.can_interface);
   s->text("layout", c.can_layout_file);
   s->number("sample_rate_hz", c.sample_rate_hz, 1, 100000);
+  s->number("bias_instability_ug", c.unit_bias_instability_ug, 0, 100000);
+  s->number("bias_instability_tau_s", c.unit_bias_instability_tau_s, 1, 1e6);
   s->reject_unknown();
 }
 

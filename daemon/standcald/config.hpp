@@ -71,6 +71,10 @@ struct DaemonConfig {
   std::string can_interface = "can0"; // unit.interface for "socketcan"
   std::string can_layout_file;        // unit.layout: a frame-layout JSON file (optional)
   double sample_rate_hz = 100;        // unit.sample_rate_hz: the unit's output rate
+  // unit.bias_instability_ug / _tau_s: the unit's known Gauss-Markov bias wander (data sheet,
+  // earlier runs), which fits and diagnoses assume when a run alone does not show one; 0: none.
+  double unit_bias_instability_ug = 0;
+  double unit_bias_instability_tau_s = 300;
   SimSettings sim;
   drivers::AxisRange outer{false, -180, 180, drivers::CableWrap::nearest};
   drivers::AxisRange inner{false, -180, 180, drivers::CableWrap::nearest};

@@ -50,7 +50,8 @@ void save_beside_recording(json& out, const std::string& recording_path) {
 
 }  // namespace
 
-json diagnose_run(const json& run_status, const StandLimits& limits, bool with_report) {
+json diagnose_run(const json& run_status, const StandLimits& limits, const GaussMarkovNoise& specified_wander,
+                  bool with_report) {
   const std::string run_id = run_status.value("run_id", "");
   const std::string path = run_status.value("recording_path", "");
   Recording rec;
@@ -64,6 +65,7 @@ json diagnose_run(const json& run_status, const StandLimits& limits, bool with_r
   try {
     DiagnoseOptions options;
     options.limits = limits;
+    options.specified_wander = specified_wander;
     d = diagnose_recording(rec, options);
   } catch (const std::exception& e) {
     throw RpcError(ErrorCode::invalid_state,
@@ -145,7 +147,8 @@ void DiagnoseJobs::submit(const Sequencer& sequencer, const json& params, ReplyF
     throw RpcError(ErrorCode::busy,
                    std::to_string(queue_.size()) + " diagnoses are waiting; try again shortly");
   }
-  queue_.push_back({{std::move(status), sequencer.stand_limits(), with_report}, std::move(reply)});
+  queue_.push_back(
+      {{std::move(status), sequencer.stand_limits(), sequencer.unit_bias_wander(), with_report}, std::move(reply)});
   wake_.notify_one();
 }
 

@@ -30,7 +30,8 @@ inline constexpr std::size_t kMaxReportBytes = 768 * 1024;
 // recording, -32007 a recording that cannot be diagnosed). The answer without the report
 // is also kept as diagnosis.json beside the recording (`saved_path`; null with
 // `save_error` when the disk refused it: the answer is still given).
-nlohmann::json diagnose_run(const nlohmann::json& run_status, const StandLimits& limits, bool with_report);
+nlohmann::json diagnose_run(const nlohmann::json& run_status, const StandLimits& limits,
+                            const GaussMarkovNoise& specified_wander, bool with_report);
 
 class DiagnoseJobs {
  public:

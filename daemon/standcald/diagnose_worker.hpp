@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "calib/noise_model.hpp"
 #include "calib/programs.hpp"
 
 namespace standcal::daemon {
@@ -28,6 +29,7 @@ inline constexpr const char* kDiagnoseWorkerFaultEnv = "STANDCALD_FAULT_DIAGNOSE
 struct DiagnoseJob {
   nlohmann::json run_status;  // the run's run.status: run_id, recording_path, unit_serial, ...
   StandLimits limits;         // the configured stand's ranges (proposed positions lie inside)
+  GaussMarkovNoise specified_wander;  // the unit's configured bias wander (white: none)
   bool with_report = false;
 };
 

@@ -824,6 +824,10 @@ StandLimits limits_of(const DaemonConfig& c) {
 
 StandLimits Sequencer::stand_limits() const { return limits_of(config_); }
 
+GaussMarkovNoise Sequencer::unit_bias_wander() const {
+  return {Vec3::Constant(config_.unit_bias_instability_ug * kUg), config_.unit_bias_instability_tau_s};
+}
+
 namespace {
 
 bool uses_several_mounts(const Program& p) {
@@ -1328,9 +1332,10 @@ namespace {
 // The paper's joint fit of a finished run. A programme that cannot determine the unit by
 // itself (a follow-up of proposed positions, a user programme of a few poses) still ends
 // `done`: its recording is whole, and the result says why there are no parameters.
-json joint_fit_result(const std::vector<PositionAverage>& averages, const std::optional<AllanFinding>& allan) {
+json joint_fit_result(const std::vector<PositionAverage>& averages, const FitNoiseOptions& noise,
+                      const std::optional<AllanFinding>& allan) {
   try {
-    FitResult fit = fit_invariant_joint(averages);
+    FitResult fit = fit_invariant_joint(averages, noise);
     fit.noise.allan = allan;
     return fit_to_json(fit);
   } catch (const CannotFit& e) {
@@ -1349,9 +1354,13 @@ void Sequencer::finish_with_fit(RunRecord& record) {
   const std::vector<PositionAverage> averages = average_positions(rec);
   // The noise model of both fits: wander between dwells from the fit, Allan within them.
   const std::optional<AllanFinding> allan = allan_finding(rec);
-  json result = joint_fit_result(averages, allan);
+  FitNoiseOptions noise;
+  noise.specified = unit_bias_wander();
+  json result = joint_fit_result(averages, noise, allan);
   try {
-    FitResult full = fit_full_vector(averages);
+    FullFitOptions full_options;
+    full_options.noise = noise;
+    FitResult full = fit_full_vector(averages, full_options);
     full.noise.allan = allan;
     result["full_vector"] = fit_to_json(full);
   } catch (const std::exception& e) {

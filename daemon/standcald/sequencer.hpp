@@ -20,6 +20,7 @@
 #include <thread>
 #include <vector>
 
+#include "calib/noise_model.hpp"
 #include "calib/programs.hpp"
 #include "daemon/standcald/config.hpp"
 #include "daemon/standcald/hardware.hpp"
@@ -65,6 +66,8 @@ class Sequencer {
   nlohmann::json runs_list(const RunPageQuery& query) const;
   // Where the configured stand can go (config stand.outer / stand.inner).
   StandLimits stand_limits() const;
+  // The unit's configured bias wander (unit.bias_instability_ug), white when none.
+  GaussMarkovNoise unit_bias_wander() const;
 
   // Whether `method` is one this class executes (the server answers unknown ones).
   static bool executes(const std::string& method);

@@ -20,7 +20,8 @@ TEST(DaemonConfig, ReadsEveryGroupOfKeys) {
     "stand": {"backend": "modbus", "id": "stand-3", "url": "tcp://127.0.0.1:1502?unit=1",
               "outer": {"continuous": true}, "inner": {"min_deg": -170, "max_deg": 170},
               "in_position": {"window_deg": 0.002, "dwell_s": 0.5, "timeout_s": 90}, "home_timeout_s": 100},
-    "unit": {"backend": "socketcan", "interface": "can1", "sample_rate_hz": 200},
+    "unit": {"backend": "socketcan", "interface": "can1", "sample_rate_hz": 200,
+             "bias_instability_ug": 5, "bias_instability_tau_s": 600},
     "sim": {"time_scale": 10, "seed": 3},
     "run": {"settle_s": 3, "dwell_s": 30, "g_local_mps2": 9.8105, "g_source": "PTB survey 2024",
             "stability": {"sigma_limit_ug": 500, "remeasure_max": 1},
@@ -39,6 +40,8 @@ TEST(DaemonConfig, ReadsEveryGroupOfKeys) {
   EXPECT_DOUBLE_EQ(c.in_position.window_deg, 0.002);
   EXPECT_EQ(c.can_interface, "can1");
   EXPECT_DOUBLE_EQ(c.sample_rate_hz, 200);
+  EXPECT_DOUBLE_EQ(c.unit_bias_instability_ug, 5);
+  EXPECT_DOUBLE_EQ(c.unit_bias_instability_tau_s, 600);
   EXPECT_DOUBLE_EQ(c.g_local_mps2, 9.8105);
   EXPECT_EQ(c.stability.remeasure_max, 1);
   EXPECT_TRUE(c.thermal.enabled);

@@ -129,6 +129,31 @@ TEST(DaemonRun, FullPaper9RunOverTheSocket) {
   EXPECT_EQ(json::parse(index)["runs"][0], run_id);
 }
 
+// Issue 21: a unit's configured bias wander is what the run's fits weight with when the
+// run alone cannot show one (nine positions leave the joint fit no residual to estimate
+// it from), and the result says so.
+TEST(DaemonRun, TheFitsAssumeTheUnitsConfiguredBiasWander) {
+  TempDir dir;
+  const json config = {{"socket", {{"path", socket_of(dir)}}},
+                       {"state_dir", dir.path() + "/state"},
+                       {"unit", {{"bias_instability_ug", 5}, {"bias_instability_tau_s", 600}}}};
+  const std::string file = dir.path() + "/standcald.json";
+  std::ofstream(file) << config.dump(2);
+  DaemonProcess daemon(dir.path(), {"--config", file, "--sim", "--time-scale", "300"});
+  daemon.wait_ready(socket_of(dir));
+  Client c(socket_of(dir));
+  const json started = c.call("run.start", {{"program", "paper9"}, {"unit_serial", "AU-7"}, {"dwell_s", 10},
+                                            {"settle_s", 1}, {"operator", "test"}});
+  const json final_status = wait_run(c, started["run_id"], finished);
+  ASSERT_EQ(final_status["state"], "done") << final_status.dump() << daemon.log();
+  const json noise = c.call("run.result", {{"run_id", started["run_id"]}})["noise"];
+  EXPECT_EQ(noise["model"], "gauss_markov") << noise.dump(2);
+  EXPECT_EQ(noise["source"], "specified");
+  EXPECT_DOUBLE_EQ(noise["wander_ug"][0].get<double>(), 5);
+  EXPECT_DOUBLE_EQ(noise["tau_s"].get<double>(), 600);
+  EXPECT_TRUE(noise["allan"]["axes"]["x"]["white_density_ug_rthz"].is_number());
+}
+
 TEST(DaemonRun, KillNineMidRunThenResumeRecordsEveryPositionOnce) {
   TempDir dir;
   std::string run_id;
