@@ -121,8 +121,10 @@ std::optional<AllanFinding> allan_finding(const Recording& rec) {
   try {
     const DwellAllan a = dwell_allan(rec);
     return AllanFinding{a.sample_period_s, a.segments, a.figures};
-  } catch (const std::runtime_error&) {
-    return std::nullopt;  // too few samples or no rate: the fit's noise says nothing of Allan
+  } catch (const std::exception&) {
+    // Too few samples, no rate or repeated time stamps (a zero period): the fit's noise says
+    // nothing of Allan rather than refusing the calibration.
+    return std::nullopt;
   }
 }
 

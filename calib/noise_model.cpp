@@ -213,13 +213,11 @@ std::string wander_words(const NoiseEstimate& e) {
 NoiseEstimate estimate_bias_wander(const std::vector<NoiseRow>& rows, const MatrixXd& X,
                                    const VectorXd& y, const NoiseEstimateOptions& options) {
   NoiseEstimate out;
-  out.lr_threshold = options.lr_threshold;
-  // Four noise parameters (three q, tau) need rows beyond the model's to leave the chi-square
-  // test of the fit a degree of freedom.
-  if (rows.size() < 3 || static_cast<Eigen::Index>(rows.size()) <= X.cols() + 4) {
+  if (rows.size() < 3 || static_cast<Eigen::Index>(rows.size()) <= X.cols()) {
     out.how = "not estimated: too few rows";
     return out;
   }
+  out.lr_threshold = options.lr_threshold;
   const RestrictedLikelihood L(rows, X, y);
   const double white_log_l = L(GaussMarkovNoise{});
   const double sigma_ref = median_row_sigma(rows);
@@ -308,6 +306,10 @@ NoiseFinding noise_finding(const NoiseEstimate& e, const std::vector<PositionAve
   return n;
 }
 
+namespace {
+constexpr Eigen::Index kWanderParameters = 4;  // q per axis and tau
+}  // namespace
+
 FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixXd& X,
                                 const VectorXd& y, const FitNoiseOptions& options,
                                 const std::vector<PositionAverage>& positions) {
@@ -321,6 +323,13 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
   } else if (options.mode == Mode::specified) {
     e.noise = options.specified;
     e.how = "the specified bias instability, not tested against this run";
+  } else if (static_cast<Eigen::Index>(rows.size()) <= X.cols() + kWanderParameters) {
+    // The wander's parameters would leave the fit's chi-square test no degree of freedom.
+    e.noise = options.specified;
+    e.how = options.specified.white()
+                ? "white noise assumed: too few measurements beyond the model's parameters to "
+                  "estimate a bias wander"
+                : "the specified bias instability (too few measurements to estimate one)";
   } else {
     e = estimate_bias_wander(rows, X, y, options.estimate);
     if (!e.significant && !options.specified.white()) {
@@ -337,13 +346,10 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
       e.log_scale_information = 0;
     }
   }
-  FitNoiseChoice choice{e.noise,
-                        weighted_below_bar ? GaussMarkovNoise{} : e.noise,
-                        noise_finding(e, positions),
-                        e.log_scale_information,
-                        {},
-                        0};
-  if (e.log_scale_information > 0) choice.plausible = e.plausible;
+  FitNoiseChoice choice{e.noise, weighted_below_bar ? GaussMarkovNoise{} : e.noise,
+                        noise_finding(e, positions), e.log_scale_information, {}, 0};
+  // Estimated and weighted for: its uncertainty widens the sigmas (a specified one is given).
+  if (e.significant || weighted_below_bar) choice.plausible = e.plausible;
   if (e.significant) choice.parameters = 1 + static_cast<int>((e.noise.q_g.array() > 0).count());
   if (weighted_below_bar) choice.finding.source = "estimated";
   return choice;

@@ -84,11 +84,12 @@ ScenarioResult run_scenario(const Setup& setup, const Scenario& scenario) {
     x_true[static_cast<std::size_t>(6 + a)] = truth.unit.gamma_pair_sums_rad()[a];
   }
   for (const Method& m : methods())
-    out.stats.push_back({m.estimator, m.weighting, {}, {}, {}, 0, 0, 0});
+    out.stats.push_back({m.estimator, m.weighting, {}, {}, {}, {}, 0, 0, 0});
 
   std::mutex mutex;
   auto worker = [&](int first, int stride) {
-    std::vector<ZStats> local = out.stats;
+    std::vector<ZStats> local;  // from methods(), not out.stats, which others merge into
+    for (const Method& m : methods()) local.push_back({m.estimator, m.weighting, {}, {}, {}, {}, 0, 0, 0});
     for (int run = first; run < setup.runs; run += stride) {
       SimulationRequest req;
       req.program = setup.program;

@@ -3,13 +3,16 @@
 // z-variance of the fitted parameters about the truth with white noise and with wander.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <nlohmann/json.hpp>
 #include <random>
 
 #include "bench/noise/noise_mc.hpp"
+#include "calib/allan.hpp"
 #include "calib/averaging.hpp"
 #include "calib/diagnosis/diagnosis.hpp"
 #include "calib/full_estimator.hpp"
+#include "calib/invariant_estimator.hpp"
 #include "calib/report.hpp"
 #include "calib/simulator.hpp"
 #include "calib/units.hpp"
@@ -134,4 +137,36 @@ TEST(FitNoise, WhiteNoiseStaysWhiteAndHonest) {
     expect_honest(z);
     EXPECT_GE(min_coverage(z), 0.8) << estimator;
   }
+}
+
+// Review of issue 21: a recording whose time stamps repeat has no sampling period; the
+// fit's Allan figures are then absent, not a refused calibration.
+TEST(FitNoise, ARecordingWithRepeatedTimeStampsHasNoAllanFiguresButIsFitted) {
+  SimulationRequest req;
+  req.program = diagnostic32();
+  req.truth = default_truth();
+  req.timing.dwell_s = 2;
+  req.timing.sample_rate_hz = 10;
+  Recording rec = simulate_run(req);
+  rec.sample_rate_hz = kNoValue;
+  for (RecordingSample& s : rec.samples) s.t_s = std::floor(s.t_s);  // ten samples per stamp
+  EXPECT_FALSE(allan_finding(rec).has_value());
+  EXPECT_NO_THROW(fit_full_vector(average_positions(rec)));
+}
+
+// Review of issue 21: nine positions leave the joint fit no residual to estimate a wander
+// from; the report says it was not estimated rather than that none was found.
+TEST(FitNoise, TooFewMeasurementsSayTheWanderWasNotEstimated) {
+  SimulationRequest req;
+  req.program = load_program("paper9");
+  req.truth = default_truth();
+  req.timing.dwell_s = 2;
+  req.timing.sample_rate_hz = 10;
+  const Recording rec = simulate_run(req);
+  const FitResult fit = fit_invariant_joint(average_positions(rec));
+  EXPECT_EQ(fit.noise.model, "white");
+  EXPECT_EQ(fit.noise.lr_threshold, 0) << fit.noise.how;
+  const std::string report = format_report(fit, report_context(rec, average_positions(rec)));
+  EXPECT_NE(report.find("too few measurements"), std::string::npos) << report;
+  EXPECT_EQ(report.find("no bias wander between dwells"), std::string::npos) << report;
 }
