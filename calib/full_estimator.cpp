@@ -512,4 +512,10 @@ FitResult fit_full_vector(const std::vector<PositionAverage>& positions, const F
   return fit;
 }
 
+FitResult fit_full_vector(const std::vector<PositionAverage>& positions, const FitNoiseOptions& noise) {
+  FullFitOptions options;
+  options.noise = noise;
+  return fit_full_vector(positions, options);
+}
+
 }  // namespace standcal

@@ -103,5 +103,7 @@ struct FullFitOptions {
 
 // The full-vector estimate from per-position averages (model.md, "Full measurement model").
 FitResult fit_full_vector(const std::vector<PositionAverage>& positions, const FullFitOptions& options = {});
+// The same with every option at its default but the noise weighting.
+FitResult fit_full_vector(const std::vector<PositionAverage>& positions, const FitNoiseOptions& noise);
 
 }  // namespace standcal

@@ -239,31 +239,14 @@ NoiseEstimate estimate_bias_wander(const std::vector<NoiseRow>& rows, const Matr
   return out;
 }
 
-SigmaWidening widen_for_estimated_noise(
-    const std::function<Eigen::VectorXd(const GaussMarkovNoise&)>& variances,
-    const FitNoiseChoice& choice) {
-  const VectorXd at_best = variances(choice.noise);
-  SigmaWidening w{VectorXd::Ones(at_best.size()),
-                  parameter_variance_dof(variances, choice.noise, choice.log_scale_information)};
-  // Averaged over the correlation times the run allows, each weighted by its likelihood.
-  VectorXd averaged = VectorXd::Zero(at_best.size());
-  double weights = 0;
-  for (const PlausibleNoise& p : choice.plausible) {
-    averaged += p.weight * variances(p.noise);
-    weights += p.weight;
-  }
-  averaged = weights > 0 ? VectorXd(averaged / weights) : at_best;
-  for (Eigen::Index j = 0; j < at_best.size(); ++j)
-    if (at_best[j] > 0)
-      w.factor[j] =
-          std::sqrt(std::max(averaged[j], at_best[j]) / at_best[j]) * student_t_inflation(w.dof[j]);
-  return w;
-}
+namespace {
 
-Eigen::VectorXd parameter_variance_dof(
-    const std::function<Eigen::VectorXd(const GaussMarkovNoise&)>& variances,
-    const GaussMarkovNoise& noise, double log_scale_information) {
-  const VectorXd var = variances(noise);
+// nu_j = 2 var_j^2 I / (d var_j / du)^2 (Welch-Satterthwaite), var = variances(noise), with u
+// = log s^2 the wander's scale and I its information; infinite where the wander is known or
+// white.
+VectorXd parameter_variance_dof(const std::function<VectorXd(const GaussMarkovNoise&)>& variances,
+                                const VectorXd& var, const GaussMarkovNoise& noise,
+                                double log_scale_information) {
   VectorXd nu = VectorXd::Constant(var.size(), std::numeric_limits<double>::infinity());
   if (noise.white() || log_scale_information <= 0) return nu;
   constexpr double kH = 0.2;  // step in u = log s^2
@@ -277,11 +260,36 @@ Eigen::VectorXd parameter_variance_dof(
   return nu;
 }
 
+// sqrt(nu / (nu - 2)), the standard deviation of Student's t, so that a sigma with nu
+// effective degrees of freedom has z-variance 1; capped at nu = 2.5 where it runs away.
 double student_t_inflation(double nu) {
   constexpr double kMinNu = 2.5;
   if (!std::isfinite(nu)) return 1.0;
   const double n = std::max(nu, kMinNu);
   return std::sqrt(n / (n - 2));
+}
+
+}  // namespace
+
+SigmaWidening widen_for_estimated_noise(
+    const std::function<Eigen::VectorXd(const GaussMarkovNoise&)>& variances,
+    const FitNoiseChoice& choice) {
+  const VectorXd at_best = variances(choice.noise);
+  SigmaWidening w{VectorXd::Ones(at_best.size()),
+                  parameter_variance_dof(variances, at_best, choice.noise, choice.log_scale_information)};
+  // Averaged over the correlation times the run allows, each weighted by its likelihood.
+  VectorXd averaged = VectorXd::Zero(at_best.size());
+  double weights = 0;
+  for (const PlausibleNoise& p : choice.plausible) {
+    averaged += p.weight * variances(p.noise);
+    weights += p.weight;
+  }
+  averaged = weights > 0 ? VectorXd(averaged / weights) : at_best;
+  for (Eigen::Index j = 0; j < at_best.size(); ++j)
+    if (at_best[j] > 0)
+      w.factor[j] =
+          std::sqrt(std::max(averaged[j], at_best[j]) / at_best[j]) * student_t_inflation(w.dof[j]);
+  return w;
 }
 
 NoiseFinding noise_finding(const NoiseEstimate& e, const std::vector<PositionAverage>& avg) {
@@ -334,7 +342,6 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
     e = estimate_bias_wander(rows, X, y, options.estimate);
     if (!e.significant && !options.specified.white()) {
       e.noise = options.specified;
-      e.log_scale_information = 0;
       e.how += "; not significant on this run, so the specified bias instability is used";
     } else if (!e.significant && e.lr > options.weighting_lr) {
       e.noise = e.best;  // weighted for, though not a finding (NoiseFinding.bias_instability false)
@@ -342,14 +349,15 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
       e.how +=
           "; below the bar of a finding, but weighted for: ignoring a wander that is there "
           "makes every sigma too small";
-    } else if (!e.significant) {
-      e.log_scale_information = 0;
     }
   }
   FitNoiseChoice choice{e.noise, weighted_below_bar ? GaussMarkovNoise{} : e.noise,
-                        noise_finding(e, positions), e.log_scale_information, {}, 0};
+                        noise_finding(e, positions), 0, {}, 0};
   // Estimated and weighted for: its uncertainty widens the sigmas (a specified one is given).
-  if (e.significant || weighted_below_bar) choice.plausible = e.plausible;
+  if (e.significant || weighted_below_bar) {
+    choice.log_scale_information = e.log_scale_information;
+    choice.plausible = e.plausible;
+  }
   if (e.significant) choice.parameters = 1 + static_cast<int>((e.noise.q_g.array() > 0).count());
   if (weighted_below_bar) choice.finding.source = "estimated";
   return choice;

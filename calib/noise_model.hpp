@@ -140,19 +140,6 @@ struct NoiseFinding {
 // dwell means it applies to: understated_by per axis at the median dwell standard error.
 NoiseFinding noise_finding(const NoiseEstimate& e, const std::vector<PositionAverage>& avg);
 
-// The effective degrees of freedom of each parameter's variance when the wander it depends
-// on is estimated (Welch-Satterthwaite): nu_j = 2 var_j^2 I / (d var_j / du)^2, with
-// var_j(noise) the parameter variances under a noise model, u = log s^2 the wander's scale
-// and I its information. Infinite where the wander is known or white.
-Eigen::VectorXd parameter_variance_dof(
-    const std::function<Eigen::VectorXd(const GaussMarkovNoise&)>& variances,
-    const GaussMarkovNoise& noise, double log_scale_information);
-
-// The factor a sigma with nu effective degrees of freedom is widened by so that its
-// z-variance is 1: sqrt(nu / (nu - 2)), the standard deviation of Student's t; capped at
-// sqrt(5) (nu = 2.5) where the t distribution's variance runs away.
-double student_t_inflation(double nu);
-
 // The wander an estimator weights with, chosen by `options` from the white fit's
 // linearised problem at its solution (rows, whitened design X and whitened residual y), and
 // the finding that reports it.

@@ -122,18 +122,12 @@ double critical_chi2(int params, double one_parameter_chi2) {
   return 0.5 * (lo + hi);
 }
 
-// The diagnosis's baseline is a white-weighted fit (its noise model comes with the terms).
-FitResult white_full_fit(const std::vector<PositionAverage>& avg) {
-  FullFitOptions o;
-  o.noise = white_noise_weighting();
-  return fit_full_vector(avg, o);
-}
-
 Eigen::VectorXd baseline_leftover(const std::vector<ConcealedEffect>& effects,
                                   const ChamberProfile& chamber, const GeneratorRun& run,
                                   const std::vector<PositionAverage>& noisy) {
   const Recording clean = generate_recording(effect_only(effects, chamber), run, 0);
-  return whitened_residuals(white_full_fit(with_errors_of(average_positions(clean), noisy)));
+  return whitened_residuals(  // white, as the diagnosis's baseline (its noise comes with the terms)
+      fit_full_vector(with_errors_of(average_positions(clean), noisy), white_noise_weighting()));
 }
 
 double ideal_noncentrality(const GeneratorTruth& truth, const GeneratorRun& run,
@@ -141,7 +135,8 @@ double ideal_noncentrality(const GeneratorTruth& truth, const GeneratorRun& run,
   GeneratorTruth t = effect_only(truth.effects, truth.chamber);
   t.g_local_mps2 = truth.g_local_mps2;
   const Recording clean = generate_recording(t, run, 0);
-  const double means = white_full_fit(with_errors_of(average_positions(clean), noisy)).chi2;
+  const double means =
+      fit_full_vector(with_errors_of(average_positions(clean), noisy), white_noise_weighting()).chi2;
   return means + within_dwell_chi2(clean, noisy);
 }
 

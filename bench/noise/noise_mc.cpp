@@ -35,10 +35,7 @@ FitResult fit_with(const Method& m, const std::vector<PositionAverage>& avg,
     noise.specified = {Vec3::Constant(truth.noise.bias_instability_ug * kUg),
                        truth.noise.bias_instability_tau_s};
   }
-  if (m.estimator == "joint") return fit_invariant_joint(avg, noise);
-  FullFitOptions o;
-  o.noise = noise;
-  return fit_full_vector(avg, o);
+  return m.estimator == "joint" ? fit_invariant_joint(avg, noise) : fit_full_vector(avg, noise);
 }
 
 TruthModel truth_for(const Scenario& s, const Setup& setup, double* dwell_error_g) {

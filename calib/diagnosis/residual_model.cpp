@@ -9,17 +9,11 @@
 
 namespace standcal::diagnosis {
 
+// The diagnosis models the noise itself, with the terms (wander.hpp): its fits weight as white.
 namespace {
 
 using Eigen::MatrixXd;
 using Eigen::VectorXd;
-
-// The diagnosis models the noise itself, with the terms (wander.hpp): its fits are white.
-FitResult white_full_vector_fit(const std::vector<PositionAverage>& avg) {
-  FullFitOptions o;
-  o.noise = white_noise_weighting();
-  return fit_full_vector(avg, o);
-}
 
 std::vector<StandPose> poses_of(const std::vector<PositionAverage>& avg) {
   std::vector<StandPose> poses;
@@ -141,7 +135,7 @@ class FullVectorModel : public ResidualModel {
   }
   std::unique_ptr<ResidualModel> refit(
       const std::vector<PositionAverage>& corrected) const override {
-    return std::make_unique<FullVectorModel>(corrected, white_full_vector_fit(corrected), design_);
+    return std::make_unique<FullVectorModel>(corrected, fit_full_vector(corrected, white_noise_weighting()), design_);
   }
 
  private:
@@ -198,7 +192,7 @@ FitResult invariant_baseline(const std::vector<PositionAverage>& avg) {
 
 std::unique_ptr<ResidualModel> choose_residual_model(const std::vector<PositionAverage>& avg) {
   try {
-    FitResult full = white_full_vector_fit(avg);
+    FitResult full = fit_full_vector(avg, white_noise_weighting());
     if (full.redundancy > 0)
       return std::make_unique<FullVectorModel>(avg, std::move(full), full_design(avg));
   } catch (const std::exception&) {

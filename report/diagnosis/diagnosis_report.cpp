@@ -153,10 +153,8 @@ std::vector<Vec3> findings_effect_per_position_g(const Diagnosis& d, const Recor
 
 // White, as the diagnosis's own residuals are before its noise model decorrelates them.
 FitResult refit(const Diagnosis& d, const std::vector<PositionAverage>& avg) {
-  if (d.method != "full") return fit_invariant_joint(avg, white_noise_weighting());
-  FullFitOptions white;
-  white.noise = white_noise_weighting();
-  return fit_full_vector(avg, white);
+  return d.method == "full" ? fit_full_vector(avg, white_noise_weighting())
+                            : fit_invariant_joint(avg, white_noise_weighting());
 }
 
 std::vector<double> to_ug(const Eigen::VectorXd& v_g) {

@@ -169,11 +169,9 @@ TEST(DesignEvaluate, PredictedSigmaMatchesInvariantEstimatorScatter) {
 }
 
 TEST(DesignEvaluate, PredictedSigmaMatchesFullEstimatorScatter) {
-  FullFitOptions white;
-  white.noise = white_noise_weighting();
   expect_scatter_matches_prediction(
       paper9(), DesignModel::full,
-      [&white](const std::vector<PositionAverage>& a) { return fit_full_vector(a, white); },
+      [](const std::vector<PositionAverage>& a) { return fit_full_vector(a, white_noise_weighting()); },
       "full");
 }
 
