@@ -210,6 +210,11 @@ std::string wander_words(const NoiseEstimate& e) {
 
 }  // namespace
 
+double restricted_log_likelihood(const std::vector<NoiseRow>& rows, const MatrixXd& X,
+                                 const VectorXd& y, const GaussMarkovNoise& noise) {
+  return RestrictedLikelihood(rows, X, y)(noise);
+}
+
 NoiseEstimate estimate_bias_wander(const std::vector<NoiseRow>& rows, const MatrixXd& X,
                                    const VectorXd& y, const NoiseEstimateOptions& options) {
   NoiseEstimate out;

@@ -95,6 +95,12 @@ NoiseEstimate estimate_bias_wander(const std::vector<NoiseRow>& rows, const Eige
                                    const Eigen::VectorXd& y,
                                    const NoiseEstimateOptions& options = {});
 
+// The restricted log-likelihood (up to a constant) of y = X beta + e under `noise`: how
+// well another noise model is supported by the same rows (2 x the difference is a
+// likelihood-ratio statistic).
+double restricted_log_likelihood(const std::vector<NoiseRow>& rows, const Eigen::MatrixXd& X,
+                                 const Eigen::VectorXd& y, const GaussMarkovNoise& noise);
+
 // How an estimator weights its dwell means (docs/calibration.md, "Noise model").
 struct FitNoiseOptions {
   enum class Mode {

@@ -10,21 +10,17 @@
 #include <string>
 #include <vector>
 
+#include "bench/support/timing.hpp"
 #include "calib/averaging.hpp"
 #include "calib/diagnosis/diagnosis.hpp"
 #include "calib/simulator.hpp"
 
 using namespace standcal;
-using Clock = std::chrono::steady_clock;
+using standcal::bench::Clock;
+using standcal::bench::median;
+using standcal::bench::seconds_of;
 
 namespace {
-
-double seconds_of(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
 
 std::string one_hour_recording() {
   SimulationRequest req;

@@ -11,11 +11,16 @@
 
 #include "calib/fit_result.hpp"
 #include "calib/noise_model.hpp"
+#include "calib/norm_calibration.hpp"
 #include "calib/programs.hpp"
 #include "calib/recording.hpp"
 #include "calib/simulator.hpp"
 
 namespace standcal {
+
+// The Allan floor (bias instability) of the navigation-grade unit the catalog's plausible
+// sizes describe (model.md: "a few ug").
+inline constexpr double kNavigationGradeAllanFloor_ug = 5;
 
 struct DiagnoseOptions {
   // A term must lower chi2 by this much (4 sigma for one parameter: with ~50 candidates
@@ -57,6 +62,19 @@ struct DiagnoseOptions {
   double whiteness_family_alpha = 1e-3;
   double half_stability_z = 4;
   double implausible_factor = 10;
+  // The recording's directions are measured, not commanded (a recording without angles,
+  // calibrated by the norm fit): the residual model is |f| - g, which sees only the unit's
+  // physics, never the stand's (no angle sensor, no levelling, no approach direction).
+  bool attitude_free = false;
+  // The catalog's plausible sizes (typical_max) are a navigation-grade unit's, whose bias
+  // instability is a few ug; a coarser unit's K2, drift or cross-coupling are larger in
+  // proportion. Multiplies every typical_max (the attitude-free diagnosis sets it from the
+  // recording's Allan floor against kNavigationGradeAllanFloor_ug).
+  double plausible_size_factor = 1;
+  // When given, one per position: the standard error of each dwell mean (g per axis), in
+  // place of sigma / sqrt(n) where it is larger. A caller that knows the noise within a
+  // dwell is not white (the Allan deviation of an attitude-free recording) passes it here.
+  std::vector<Vec3> dwell_standard_error_g;
 };
 
 // A trend of the baseline's normalised residuals against one variable, per axis.
@@ -156,6 +174,17 @@ struct Diagnosis {
 };
 
 Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& options = {});
+
+// A recording without angles, calibrated by the norm fit (norm_calibration.hpp): its static
+// intervals as the dwells of a recording in calibrated m/s^2 (the measured directions as
+// angles, each interval's start as its arrival), diagnosed with the |f| - g residual model,
+// each mean's error from the recording's Allan deviation, and the bias wander between
+// intervals that the norm fit estimated as the noise the terms must stand out from.
+// Throws CannotFit for a means table (no samples to test a settling transient or
+// whiteness on).
+Recording calibrated_recording(const RawInput& input, const NormCalibration& calibration);
+Diagnosis diagnose_without_angles(const RawInput& input, const NormCalibration& calibration,
+                                  DiagnoseOptions options = {});
 
 // The discrimination threshold of one candidate on a programme: the smallest size (report
 // unit) at which it stands out at 3 sigma both from the noise and from its nearest

@@ -118,11 +118,14 @@ std::vector<std::string> implausible_values(const std::vector<Finding>& findings
                                             const DiagnoseOptions& options) {
   std::vector<std::string> out;
   for (const Finding& f : findings) {
-    const double bound = options.implausible_factor * catalog_entry(f.effect).typical_max;
+    const double bound = options.implausible_factor * catalog_entry(f.effect).typical_max *
+                         options.plausible_size_factor;
     if (std::abs(f.value) > bound)
       out.push_back(f.effect + " " + f.axis + " " + num(f.value) + " " + f.unit + " is beyond " +
                     fmt("%.0f", bound) + " " + f.unit +
-                    ", ten times the largest a navigation-grade unit on a good stand shows");
+                    (options.plausible_size_factor == 1
+                         ? ", ten times the largest a navigation-grade unit on a good stand shows"
+                         : ", ten times the largest a unit of this grade shows"));
   }
   return out;
 }

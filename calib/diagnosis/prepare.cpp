@@ -53,7 +53,8 @@ Testability testability(const Candidate& c, const Prepared& P, const Eigen::Vect
   if (P.base.dof <= 0 ||
       !(left.segment(first, c.params()).minCoeff() > options.min_unabsorbed_fraction))
     return {"absorbed by the calibration parameters on this programme"};
-  if (!(term_sigma(rest.middleCols(first, c.params())) <= c.entry->typical_max))
+  if (!(term_sigma(rest.middleCols(first, c.params())) <=
+        c.entry->typical_max * options.plausible_size_factor))
     return {std::string("too little ") + c.entry->excitation +
                 " on this programme: no plausible size would stand out from the noise",
             true};
@@ -79,11 +80,15 @@ void mark_testable(Prepared& P, const DiagnoseOptions& options) {
 Prepared prepare(const Recording& rec, const DiagnoseOptions& options) {
   Prepared P;
   P.avg = average_positions(rec);
+  if (options.dwell_standard_error_g.size() == P.avg.size())
+    for (std::size_t k = 0; k < P.avg.size(); ++k)
+      P.avg[k].standard_error_g =
+          P.avg[k].standard_error_g.cwiseMax(options.dwell_standard_error_g[k]);
   require_checkable(P.avg);
   for (const auto& p : P.avg) P.have_temp = P.have_temp && std::isfinite(p.temp_mean_c);
   P.temp_ref_c = temperature_reference_c(rec);
   P.ctx = position_contexts(P.avg, P.temp_ref_c);
-  P.model = choose_residual_model(P.avg);
+  P.model = choose_residual_model(P.avg, options.attitude_free);
   const LinearProblem& lp = P.model->problem();
   P.base = solve_linear(lp.A, lp.y, lp.row_position, lp.positions);
   P.cands = catalog_candidates(P.have_temp);

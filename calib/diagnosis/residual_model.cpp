@@ -178,6 +178,29 @@ class InvariantModel : public ResidualModel {
   }
 };
 
+// An attitude-free recording's |f| - g: the invariant projection on the measured direction
+// of each interval (norm_estimator.hpp), so it sees what the invariant sees of the unit, and
+// nothing of a stand: the unit was placed, not driven.
+class NormModel : public InvariantModel {
+ public:
+  using InvariantModel::InvariantModel;
+  std::string name() const override { return "norm"; }
+  std::string words() const override { return "attitude-free |f| - g"; }
+  std::string component_words(int) const override { return "norm residual"; }
+  std::string unseen_reason(const CatalogEntry& entry) const override {
+    if (entry.axes == CatalogAxes::stand_axis || entry.axes == CatalogAxes::level_axis ||
+        std::string_view(entry.id) == "hysteresis")
+      return "a recording without angles has no stand: no angle sensor, level or approach "
+             "direction to be wrong";
+    return InvariantModel::unseen_reason(entry);
+  }
+  std::unique_ptr<ResidualModel> refit(
+      const std::vector<PositionAverage>& corrected) const override {
+    return std::make_unique<NormModel>(corrected,
+                                       fit_invariant_joint(corrected, white_noise_weighting()));
+  }
+};
+
 // The invariant baseline, or why there is none.
 FitResult invariant_baseline(const std::vector<PositionAverage>& avg) {
   try {
@@ -190,7 +213,9 @@ FitResult invariant_baseline(const std::vector<PositionAverage>& avg) {
 
 }  // namespace
 
-std::unique_ptr<ResidualModel> choose_residual_model(const std::vector<PositionAverage>& avg) {
+std::unique_ptr<ResidualModel> choose_residual_model(const std::vector<PositionAverage>& avg,
+                                                     bool attitude_free) {
+  if (attitude_free) return std::make_unique<NormModel>(avg, invariant_baseline(avg));
   try {
     FitResult full = fit_full_vector(avg, white_noise_weighting());
     if (full.redundancy > 0)

@@ -44,7 +44,7 @@ class ResidualModel {
  public:
   virtual ~ResidualModel() = default;
 
-  // The JSON `method`: "full" or "joint".
+  // The JSON `method`: "full", "joint" or "norm".
   virtual std::string name() const = 0;
   // For sentences: "full-vector", "invariant".
   virtual std::string words() const = 0;
@@ -76,9 +76,11 @@ class ResidualModel {
   LinearProblem lp_;
 };
 
-// The full vector when its fit has redundancy, the invariant projection otherwise.
+// The full vector when its fit has redundancy, the invariant projection otherwise; for an
+// attitude-free recording, |f| - g (the invariant projection on the measured direction).
 // Throws CannotFit when not even the invariant calibration can be fitted.
-std::unique_ptr<ResidualModel> choose_residual_model(const std::vector<PositionAverage>& avg);
+std::unique_ptr<ResidualModel> choose_residual_model(const std::vector<PositionAverage>& avg,
+                                                     bool attitude_free = false);
 
 // The rows (g) a candidate adds at a position, whitened by sigma_g: rows_per_position x params.
 Eigen::MatrixXd candidate_rows(const ResidualModel& model, const Candidate& c,

@@ -11,6 +11,8 @@ namespace standcal::diagnosis {
 
 namespace {
 
+constexpr double kAttitudeFreeSamePose_deg = 2;
+
 // Terms that vary slowly with time (directly, through temperature, or through the order
 // of the moves): the shapes a wander realisation can mimic.
 bool slow_in_time(const Candidate& c) {
@@ -36,20 +38,24 @@ struct BetweenVisits {
   Eigen::VectorXd y;
 };
 
-std::vector<int> pose_index(const std::vector<PositionContext>& ctx) {
+// Positions whose up-vectors agree within `tolerance_rad` are one pose: exactly, for a stand's
+// commanded angles; within kAttitudeFreeSamePose_deg for a unit placed by hand, whose
+// pose-dependent physics changes by its gradient times that angle at most.
+std::vector<int> pose_index(const std::vector<PositionContext>& ctx, double tolerance_rad) {
   std::vector<int> pose(ctx.size(), -1);
   int n = 0;
   for (std::size_t k = 0; k < ctx.size(); ++k) {
     for (std::size_t j = 0; j < k && pose[k] < 0; ++j)
-      if ((ctx[j].up - ctx[k].up).norm() < 1e-9) pose[k] = pose[j];
+      if ((ctx[j].up - ctx[k].up).norm() < tolerance_rad) pose[k] = pose[j];
     if (pose[k] < 0) pose[k] = n++;
   }
   return pose;
 }
 
-BetweenVisits between_visits(const Prepared& P, const std::vector<Candidate>& slow) {
+BetweenVisits between_visits(const Prepared& P, const std::vector<Candidate>& slow,
+                             double tolerance_rad) {
   const LinearProblem& lp = P.model->problem();
-  const std::vector<int> pose = pose_index(P.ctx);
+  const std::vector<int> pose = pose_index(P.ctx, tolerance_rad);
   std::vector<int> visits(P.ctx.size(), 0);
   for (int p : pose) ++visits[static_cast<std::size_t>(p)];
   BetweenVisits bv;
@@ -80,6 +86,51 @@ BetweenVisits between_visits(const Prepared& P, const std::vector<Candidate>& sl
   return bv;
 }
 
+// A unit placed by hand seldom repeats a pose, so there are no revisits to take the
+// wander from: it is estimated from every interval with the calibration and every testable
+// catalog term free, so that no term the catalog knows can pass for noise.
+NoiseEstimate wander_with_every_term(const Prepared& P, const NoiseEstimateOptions& o) {
+  std::vector<Candidate> testable;
+  for (std::size_t i = 0; i < P.cands.size(); ++i)
+    if (P.untestable[i].empty() && P.cands[i].entry->test == CatalogTest::columns)
+      testable.push_back(P.cands[i]);
+  const LinearProblem& lp = P.model->problem();
+  const Eigen::MatrixXd X = with_columns(lp.A_white, term_columns_white(*P.model, P.ctx, testable));
+  NoiseEstimate e = estimate_bias_wander(lp.noise_rows, X, lp.y_white, o);
+  e.how = "from all " + std::to_string(lp.positions) + " intervals with the calibration and " +
+          std::to_string(testable.size()) + " testable catalog terms free; " + e.how;
+  return e;
+}
+
+// A unit placed by hand revisits only some orientations, and only roughly, so the revisits
+// alone seldom pin the wander. It is estimated from every interval, with the calibration
+// and the slow terms free, and believed only if the revisits support it better than white
+// noise: a pattern that depends on the pose (a K2, a cross-coupling) inflates that
+// estimate, but repeated orientations agree with each other whatever pose-dependent
+// physics there is, so they then prefer no wander. Without revisits every testable term is
+// held free instead.
+NoiseEstimate attitude_free_wander(const Prepared& P, const std::vector<Candidate>& slow,
+                                   const BetweenVisits& bv, const NoiseEstimateOptions& o) {
+  if (bv.rows.empty()) return wander_with_every_term(P, o);
+  const LinearProblem& lp = P.model->problem();
+  const Eigen::MatrixXd X = with_columns(lp.A_white, term_columns_white(*P.model, P.ctx, slow));
+  NoiseEstimate all = estimate_bias_wander(lp.noise_rows, X, lp.y_white, o);
+  all.how = "from all " + std::to_string(lp.positions) +
+            " intervals with the calibration and the slow terms free; " + all.how;
+  if (!all.significant) return all;
+  const double support =
+      2 * (restricted_log_likelihood(bv.noise_rows, bv.X, bv.y, all.noise) -
+           restricted_log_likelihood(bv.noise_rows, bv.X, bv.y, GaussMarkovNoise{}));
+  all.how += "; the " + std::to_string(bv.rows.size()) + " revisits of repeated orientations " +
+             (support > 0 ? "support" : "do not support") +
+             " it against white noise (2 delta log L = " + fmt("%.1f", support) + ")";
+  if (!(support > 0)) {
+    all.significant = false;
+    all.noise = GaussMarkovNoise{};
+  }
+  return all;
+}
+
 }  // namespace
 
 NoiseAndTerms select_terms_and_noise(Prepared& P, const DiagnoseOptions& options) {
@@ -93,12 +144,18 @@ NoiseAndTerms select_terms_and_noise(Prepared& P, const DiagnoseOptions& options
   std::vector<Candidate> slow;
   for (std::size_t i = 0; i < P.cands.size(); ++i)
     if (P.untestable[i].empty() && slow_in_time(P.cands[i])) slow.push_back(P.cands[i]);
-  const BetweenVisits bv = between_visits(P, slow);
   NoiseEstimateOptions o;
   o.lr_threshold = options.wander_lr_threshold;
   NoiseAndTerms out;
-  if (bv.rows.size() > 0) out.noise = estimate_bias_wander(bv.noise_rows, bv.X, bv.y, o);
-  if (bv.rows.empty()) out.noise.how = "not estimated: no position is visited twice";
+  const double tolerance_rad = options.attitude_free ? kAttitudeFreeSamePose_deg * kDegToRad : 1e-9;
+  const BetweenVisits bv = between_visits(P, slow, tolerance_rad);
+  if (options.attitude_free) {
+    out.noise = attitude_free_wander(P, slow, bv, o);
+  } else if (bv.rows.size() > 0) {
+    out.noise = estimate_bias_wander(bv.noise_rows, bv.X, bv.y, o);
+  } else {
+    out.noise.how = "not estimated: no position is visited twice";
+  }
   if (out.noise.significant &&
       out.noise.noise.q_g.maxCoeff() > options.max_bias_instability_ug * kUg) {
     out.noise.significant = false;

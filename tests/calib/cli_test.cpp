@@ -99,7 +99,9 @@ TEST_F(Cli, UnknownProgrammeAndMethodAreClearErrors) {
   ASSERT_EQ(run_cli("simulate --dwell-s 1 -o " + path("r.csv")).exit_code, 0);
   const CliRun fit = run_cli("fit " + path("r.csv") + " --method magic");
   EXPECT_NE(fit.exit_code, 0);
-  EXPECT_NE(fit.output.find("unknown fit method 'magic'"), std::string::npos) << fit.output;
+  EXPECT_NE(fit.output.find("--method: magic not in {auto,joint,paper-sequential,full,norm}"),
+            std::string::npos)
+      << fit.output;
 }
 
 TEST_F(Cli, FullVectorFitAddsStandHealth) {
@@ -170,6 +172,60 @@ TEST_F(Cli, FitStatesItsNoiseModelAndWeightsForTheWanderOfTheRun) {
   // Weighted for the wander, the biases' sigmas are several times the white ones.
   for (const char* p : {"bias_x", "bias_y", "bias_z"})
     EXPECT_GT(j["parameters"][p]["sigma"].get<double>(), 3 * jw["parameters"][p]["sigma"].get<double>()) << p;
+}
+
+// Issue 16: a recording from another tool, without angles, through the same commands.
+const std::string kXsensFile = std::string(STANDCAL_TEST_DATA) + "/imu_tk_xsens/xsens_acc.mat";
+
+TEST_F(Cli, FitOfARecordingWithoutAnglesChoosesTheNormFit) {
+  const CliRun fit = run_cli("fit " + kXsensFile + " --g-mps2 9.81744 --json");
+  ASSERT_EQ(fit.exit_code, 0) << fit.output;
+  const auto j = nlohmann::json::parse(fit.output);
+  EXPECT_EQ(j["estimator"], "norm");
+  EXPECT_EQ(j["input"]["format"], "imu_tk");
+  EXPECT_EQ(j["input"]["units"], "counts");
+  EXPECT_EQ(j["intervals"]["count"], 39);
+  EXPECT_EQ(j["intervals"]["list"].size(), 39u);
+  EXPECT_NEAR(j["compensation"]["scale"][0].get<double>(), 414.46, 0.1);
+  EXPECT_EQ(j["threshold_stability"].size(), 2u);
+  EXPECT_TRUE(j["parameters"]["bias_x"]["value"].is_null());  // counts: no nominal scale
+  const CliRun report =
+      run_cli("fit " + kXsensFile + " --g-mps2 9.81744 --compensation " + path("comp"));
+  ASSERT_EQ(report.exit_code, 0) << report.output;
+  EXPECT_NE(report.output.find("Intervals:  39 static"), std::string::npos) << report.output;
+  std::ifstream comp(path("comp.json"));
+  ASSERT_TRUE(comp.good());
+  const auto c = nlohmann::json::parse(comp);
+  EXPECT_EQ(c["format"], "standcal-compensation/1");
+  EXPECT_EQ(c["matrix"].size(), 3u);
+}
+
+TEST_F(Cli, AStandMethodOnARecordingWithoutAnglesIsAClearError) {
+  const CliRun fit = run_cli("fit " + kXsensFile + " --method joint");
+  EXPECT_NE(fit.exit_code, 0);
+  EXPECT_NE(
+      fit.output.find(
+          "the joint method needs the stand's angles, and this imu_tk recording has none; use "
+          "--method norm"),
+      std::string::npos)
+      << fit.output;
+}
+
+TEST_F(Cli, DiagnoseOfARecordingWithoutAnglesFindsNoiseNotPhysics) {
+  const CliRun d = run_cli("diagnose " + kXsensFile + " --g-mps2 9.81744 --json");
+  ASSERT_EQ(d.exit_code, 0) << d.output;
+  const auto j = nlohmann::json::parse(d.output);
+  EXPECT_EQ(j["method"], "norm");
+  EXPECT_EQ(j["verdict"], "consistent");
+  EXPECT_TRUE(j["findings"].empty());
+  EXPECT_EQ(j["noise"]["bias_instability"], true);
+}
+
+TEST_F(Cli, IntegersThatCouldBeAnyUnitAskForUnits) {
+  std::ofstream(path("small.txt")) << "0 0 1\n1 0 0\n0 1 0\n0 0 -1\n";
+  const CliRun fit = run_cli("fit " + path("small.txt") + " --rate-hz 100");
+  EXPECT_NE(fit.exit_code, 0);
+  EXPECT_NE(fit.output.find("pass --units counts|g|mps2"), std::string::npos) << fit.output;
 }
 
 }  // namespace

@@ -9,11 +9,14 @@
 #include "calib/averaging.hpp"
 #include "calib/full_estimator.hpp"
 #include "calib/invariant_estimator.hpp"
+#include "calib/norm_calibration.hpp"
 #include "calib/programs.hpp"
+#include "calib/raw_input.hpp"
 #include "calib/recording.hpp"
 #include "calib/report.hpp"
 #include "calib/simulator.hpp"
 #include "tools/standcal/commands.hpp"
+#include "tools/standcal/input_options.hpp"
 
 namespace standcal::cli {
 
@@ -33,7 +36,8 @@ struct SimulateOptions {
 
 struct FitOptions {
   std::string recording;
-  std::string method = "joint";
+  std::string method = "auto";
+  InputCliOptions input;
   bool json = false;
   std::string compensation;
   std::string mounting = "common";
@@ -70,16 +74,18 @@ FitNoiseOptions noise_weighting(const FitOptions& o) {
   return n;
 }
 
-FitResult fit_with(const FitOptions& o, const std::vector<PositionAverage>& averages) {
-  if (o.method == "joint") return fit_invariant_joint(averages, noise_weighting(o));
-  if (o.method == "paper-sequential") return fit_paper_sequential(averages);
-  if (o.method == "full") {
+FitResult fit_with(const FitOptions& o, const std::string& method,
+                   const std::vector<PositionAverage>& averages) {
+  if (method == "joint") return fit_invariant_joint(averages, noise_weighting(o));
+  if (method == "paper-sequential") return fit_paper_sequential(averages);
+  if (method == "full") {
     FullFitOptions full;
     full.noise = noise_weighting(o);
     full.mounting = o.mounting == "per-mount" ? MountingModel::per_mount : MountingModel::common_fixture;
     return fit_full_vector(averages, full);
   }
-  throw std::runtime_error("unknown fit method '" + o.method + "' (joint, paper-sequential, full)");
+  throw std::runtime_error("unknown fit method '" + method +
+                           "' (joint, paper-sequential, full, norm)");
 }
 
 void write_compensation(const FitResult& fit, double g_mps2, const std::string& path) {
@@ -91,11 +97,40 @@ void write_compensation(const FitResult& fit, double g_mps2, const std::string& 
   std::fprintf(stderr, "compensation written to %s.json and %s.csv\n", stem.c_str(), stem.c_str());
 }
 
+void run_norm_fit(const FitOptions& o, const RawInput& in) {
+  NormCalibrationOptions options;
+  options.fit.noise = noise_weighting(o);
+  const NormCalibration c = calibrate_without_angles(in, options);
+  if (o.json) {
+    std::cout << norm_calibration_to_json(c, in).dump(2) << "\n";
+  } else {
+    std::cout << format_norm_report(c, in);
+  }
+  if (!o.compensation.empty()) {
+    std::string path = o.compensation;
+    if (!path.ends_with(".json")) path += ".json";
+    write_text_file(path, norm_compensation_to_json(c.fit, in).dump(2) + "\n");
+    std::fprintf(stderr, "compensation written to %s\n", path.c_str());
+  }
+}
+
 void run_fit(const FitOptions& o) {
-  const Recording rec = read_recording(o.recording);
-  for (const std::string& w : rec.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  const RawInput in = read_input(o.recording, input_options(o.input));
+  for (const std::string& w : in.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  const std::string method = o.method != "auto" ? o.method : in.recording ? "joint" : "norm";
+  if (method == "norm") return run_norm_fit(o, in);
+  if (!in.recording)
+    throw std::runtime_error(o.recording + ": the " + method +
+                             " method needs the stand's angles, and this " +
+                             std::string(to_string(in.format)) +
+                             " recording has none; use --method norm (attitude-free, |f| = g)");
+  Recording rec = *in.recording;
+  if (o.input.g_mps2 > 0) {
+    rec.g_local_mps2 = o.input.g_mps2;
+    rec.g_from_header = true;  // given, not assumed
+  }
   std::vector<PositionAverage> averages = average_positions(rec);
-  FitResult fit = fit_with(o, averages);
+  FitResult fit = fit_with(o, method, averages);
   fit.noise.allan = allan_finding(rec);
   if (o.json) {
     std::cout << fit_to_json(fit).dump(2) << "\n";
@@ -133,10 +168,16 @@ void add_calibrate_commands(CLI::App& app) {
 
   auto fit_opts = std::make_shared<FitOptions>();
   CLI::App* fit = app.add_subcommand("fit", "estimate the unit's parameters from a recording");
-  fit->add_option("recording", fit_opts->recording, "recording (standcal-recording/1 CSV)")
+  fit->add_option("recording", fit_opts->recording,
+                  "recording: standcal-recording/1, imu_tk text, delimited text or a means table "
+                  "(told from the content)")
       ->required();
-  fit->add_option("--method", fit_opts->method, "joint | paper-sequential | full")
+  fit->add_option("--method", fit_opts->method,
+                  "auto (joint with stand angles, else norm) | joint | paper-sequential | full | "
+                  "norm (attitude-free: |f| = g in each static interval)")
+      ->check(CLI::IsMember({"auto", "joint", "paper-sequential", "full", "norm"}))
       ->capture_default_str();
+  add_input_options(fit, fit_opts->input);
   fit->add_option("--mounting", fit_opts->mounting,
                   "full method, re-mounted programmes: common (one rigid fixture) | per-mount")
       ->check(CLI::IsMember({"common", "per-mount"}))

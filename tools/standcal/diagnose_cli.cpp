@@ -8,11 +8,14 @@
 #include <stdexcept>
 
 #include "calib/diagnosis/diagnosis.hpp"
+#include "calib/norm_calibration.hpp"
+#include "calib/raw_input.hpp"
 #include "calib/recording.hpp"
 #include "calib/simulator.hpp"
 #include "calib/units.hpp"
 #include "report/diagnosis/diagnosis_report.hpp"
 #include "tools/standcal/commands.hpp"
+#include "tools/standcal/input_options.hpp"
 
 namespace standcal::cli {
 
@@ -26,6 +29,7 @@ struct DiagnoseCliOptions {
   // The unit's bias instability as its data sheet or a static recording gives it.
   double bias_instability_ug = 0;
   double bias_instability_tau_s = 300;
+  InputCliOptions input;
 };
 
 DiagnoseOptions diagnose_options(const DiagnoseCliOptions& o) {
@@ -41,10 +45,26 @@ void write_file(const std::string& path, const std::string& text, const char* wh
   if (!out) throw std::runtime_error(path + ": could not write the " + what);
 }
 
+// A stand recording is diagnosed as it is; one without angles through the norm fit.
+std::pair<Diagnosis, Recording> diagnose_input(const DiagnoseCliOptions& o) {
+  const RawInput in = read_input(o.recording, input_options(o.input));
+  for (const std::string& w : in.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  if (in.recording) {
+    Recording rec = *in.recording;
+    if (o.input.g_mps2 > 0) {
+      rec.g_local_mps2 = o.input.g_mps2;
+      rec.g_from_header = true;
+    }
+    Diagnosis d = diagnose_recording(rec, diagnose_options(o));
+    return {std::move(d), std::move(rec)};
+  }
+  const NormCalibration calibration = calibrate_without_angles(in);
+  Diagnosis d = diagnose_without_angles(in, calibration, diagnose_options(o));
+  return {std::move(d), calibrated_recording(in, calibration)};
+}
+
 void run_diagnose(const DiagnoseCliOptions& o) {
-  const Recording rec = read_recording(o.recording);
-  for (const std::string& w : rec.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
-  const Diagnosis d = diagnose_recording(rec, diagnose_options(o));
+  const auto [d, rec] = diagnose_input(o);
   if (!o.report.empty()) {
     write_file(o.report, report::diagnosis_html(d, rec), "report");
     std::fprintf(stderr, "report written to %s\n", o.report.c_str());
@@ -71,7 +91,11 @@ void add_diagnose_commands(CLI::App& app) {
   auto opts = std::make_shared<DiagnoseCliOptions>();
   CLI::App* cmd = app.add_subcommand(
       "diagnose", "find where a recording and the model disagree and what physics is missing");
-  cmd->add_option("recording", opts->recording, "recording (standcal-recording/1 CSV)")->required();
+  cmd->add_option("recording", opts->recording,
+                  "recording: standcal-recording/1, or one without angles (imu_tk text, delimited "
+                  "text), diagnosed through the attitude-free norm fit")
+      ->required();
+  add_input_options(cmd, opts->input);
   cmd->add_flag("--json", opts->json, "machine-readable output");
   cmd->add_option(
       "--report", opts->report,

@@ -1,0 +1,346 @@
+#include "calib/norm_calibration.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+
+#include "calib/parameters.hpp"
+#include "calib/report.hpp"
+
+namespace standcal {
+
+using nlohmann::json;
+
+namespace {
+
+using Vec9 = Eigen::Matrix<double, 9, 1>;
+
+Vec9 compensation_vector(const NormCompensation& c) {
+  Vec9 v;
+  v << c.bias, c.scale, c.misalignment;
+  return v;
+}
+
+// A table of means is its own list of intervals. Rows without a standard error get the
+// scatter of the fit itself (two passes), which then cannot also check the model.
+std::vector<StaticInterval> intervals_from_means(const RawInput& in, bool& errors_given) {
+  std::vector<StaticInterval> out;
+  errors_given = true;
+  for (const StaticMeanRow& row : in.means) {
+    StaticInterval iv;
+    iv.mean = row.mean;
+    iv.samples = row.samples ? static_cast<std::size_t>(*row.samples) : 0;
+    iv.t_start_s = iv.t_end_s = static_cast<double>(out.size());
+    if (row.standard_error) {
+      iv.standard_error = iv.white_standard_error = *row.standard_error;
+      iv.sigma =
+          *row.standard_error * std::sqrt(std::max<double>(1, static_cast<double>(iv.samples)));
+    } else {
+      errors_given = false;
+    }
+    out.push_back(iv);
+  }
+  return out;
+}
+
+void set_common_error(std::vector<StaticInterval>& intervals, const Vec3& se) {
+  for (StaticInterval& iv : intervals) iv.standard_error = iv.white_standard_error = iv.sigma = se;
+}
+
+NormFit fit_means_without_errors(std::vector<StaticInterval>& intervals, double g, InputUnits units,
+                                 NormFitOptions o, std::vector<std::string>& notes) {
+  o.noise = white_noise_weighting();
+  set_common_error(intervals, Vec3::Ones());
+  const NormFit first = fit_norm(intervals, g, units, o);
+  // |f| residual rms (m/s^2) back to input units through the mean scale, with the
+  // redundancy's degrees of freedom.
+  const double n = static_cast<double>(intervals.size());
+  const double rms_in =
+      first.norm_residual_rms_mps2 * std::sqrt(n / (n - 9)) * first.compensation.scale.mean();
+  set_common_error(intervals, Vec3::Constant(rms_in));
+  notes.push_back(
+      "the table gives no standard errors: each mean is given the scatter of the fit "
+      "itself, so the sigmas rest on it and chi-square cannot check the model");
+  return fit_norm(intervals, g, units, o);
+}
+
+Vec3 median_understatement(const std::vector<StaticInterval>& intervals) {
+  Vec3 out = Vec3::Ones();
+  for (int a = 0; a < 3; ++a) {
+    std::vector<double> r;
+    for (const StaticInterval& iv : intervals)
+      if (iv.white_standard_error[a] > 0)
+        r.push_back(iv.standard_error[a] / iv.white_standard_error[a]);
+    if (r.empty()) continue;
+    std::nth_element(r.begin(), r.begin() + static_cast<std::ptrdiff_t>(r.size() / 2), r.end());
+    out[a] = r[r.size() / 2];
+  }
+  return out;
+}
+
+ThresholdStability refit_at(const RawInput& in, const NormCalibrationOptions& o, double factor,
+                            const NormFit& main) {
+  ThresholdStability s;
+  s.factor = factor;
+  NormCalibrationOptions other = o;
+  other.detector.threshold_factor = o.detector.threshold_factor * factor;
+  try {
+    const StaticDetection d = detect_static_intervals(in, other.detector);
+    s.intervals = d.intervals.size();
+    s.values =
+        compensation_vector(fit_norm(d.intervals, in.g_mps2, in.units, other.fit).compensation);
+    const Vec9 moved =
+        (s.values - compensation_vector(main.compensation)).cwiseQuotient(main.sigma);
+    for (int k = 0; k < 9; ++k)
+      if (std::abs(moved[k]) > 1)
+        s.moved.emplace_back(kNormParameterNames[static_cast<std::size_t>(k)]);
+  } catch (const std::exception& e) {
+    s.error = e.what();
+  }
+  return s;
+}
+
+std::string fmt(const char* f, double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, f, v);
+  return buf;
+}
+
+std::string wander_words(const NoiseFinding& n) {
+  if (n.model != "gauss_markov") return "no bias wander between intervals beyond their own errors";
+  return "bias wander between intervals " + fmt("%.0f", n.wander_ug[0]) + ", " +
+         fmt("%.0f", n.wander_ug[1]) + ", " + fmt("%.0f", n.wander_ug[2]) +
+         " ug (Gauss-Markov, tau " + fmt("%.0f", n.tau_s) + " s, " + n.source + "), weighted for";
+}
+
+json vec_json(const Vec3& v) { return json::array({v[0], v[1], v[2]}); }
+
+json intervals_json(const NormCalibration& c) {
+  json list = json::array();
+  for (std::size_t i = 0; i < c.detection.intervals.size(); ++i) {
+    const StaticInterval& iv = c.detection.intervals[i];
+    list.push_back({{"start_s", iv.t_start_s},
+                    {"end_s", iv.t_end_s},
+                    {"samples", iv.samples},
+                    {"mean", vec_json(iv.mean)},
+                    {"standard_error", vec_json(iv.standard_error)},
+                    {"white_standard_error", vec_json(iv.white_standard_error)},
+                    {"norm_residual_mps2", c.fit.norm_residual_mps2[i]},
+                    {"norm_residual_sigma_mps2", c.fit.norm_residual_sigma_mps2[i]}});
+  }
+  return {{"how", c.detection.how},
+          {"count", c.detection.intervals.size()},
+          {"window_samples", c.detection.window_samples},
+          {"quiet_level", c.detection.quiet_level},
+          {"threshold", c.detection.threshold},
+          {"saturated_samples", c.detection.saturated_samples},
+          {"short_runs_dropped", c.detection.short_runs_dropped},
+          {"list", list}};
+}
+
+}  // namespace
+
+json norm_compensation_to_json(const NormFit& f, const RawInput& in) {
+  const NormCompensation& c = f.compensation;
+  json m = json::array();
+  for (int i = 0; i < 3; ++i) m.push_back(vec_json(c.matrix.row(i).transpose()));
+  json cov = json::array();
+  for (int i = 0; i < 9; ++i) {
+    json row = json::array();
+    for (int k = 0; k < 9; ++k) row.push_back(f.covariance(i, k));
+    cov.push_back(row);
+  }
+  return {{"format", "standcal-compensation/1"},
+          {"equation", "f = M * (raw - b), M = T * K, T unit upper-triangular"},
+          {"source", in.source},
+          {"input_units", std::string(to_string(in.units))},
+          {"output_units", "m/s^2"},
+          {"bias", vec_json(c.bias)},
+          {"bias_sigma", vec_json(f.sigma.head<3>())},
+          {"matrix", m},
+          {"scale", vec_json(c.scale)},
+          {"scale_sigma", vec_json(f.sigma.segment<3>(3))},
+          {"misalignment",
+           {{"m01", c.misalignment[0]}, {"m02", c.misalignment[1]}, {"m12", c.misalignment[2]}}},
+          {"misalignment_sigma", vec_json(f.sigma.tail<3>())},
+          {"covariance_order",
+           json(std::vector<std::string>(kNormParameterNames.begin(), kNormParameterNames.end()))},
+          {"covariance", cov}};
+}
+
+namespace {
+
+json stability_json(const NormCalibration& c) {
+  json out = json::array();
+  for (const ThresholdStability& s : c.stability) {
+    json e{{"threshold_factor", s.factor}, {"intervals", s.intervals}};
+    if (!s.error.empty()) {
+      e["error"] = s.error;
+    } else {
+      json values = json::object();
+      for (int k = 0; k < 9; ++k)
+        values[std::string(kNormParameterNames[static_cast<std::size_t>(k)])] = s.values[k];
+      e["compensation"] = values;
+      e["moved_over_1_sigma"] = s.moved;
+    }
+    out.push_back(e);
+  }
+  return out;
+}
+
+// The Allan figures of the intervals pooled, in ug of the calibrated axes (the fit's
+// `noise.allan`, as for stand recordings).
+AllanFinding allan_in_ug(const StaticDetection& d, const NormCompensation& k, const RawInput& in) {
+  AllanFinding f;
+  f.sample_period_s = 1.0 / in.sample_rate_hz;
+  f.segments = d.intervals.size();
+  for (std::size_t a = 0; a < 3; ++a) {
+    std::vector<AllanPoint> curve = d.allan[a];
+    const double to_ug =
+        k.matrix(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(a)) / in.g_mps2 / kUg;
+    for (AllanPoint& p : curve) p.deviation *= to_ug;
+    f.figures[a] = noise_figures(curve);
+  }
+  return f;
+}
+
+}  // namespace
+
+Vec3 white_noise_understatement(const std::vector<StaticInterval>& intervals,
+                                const NormCompensation& k, double g, const NoiseFinding& n) {
+  const Vec3 q2 = n.model == "gauss_markov" ? Vec3((n.wander_ug * kUg).cwiseAbs2()) : Vec3::Zero();
+  const Mat3 m2 = k.matrix.cwiseAbs2() / (g * g);
+  Vec3 out = Vec3::Ones();
+  for (int a = 0; a < 3; ++a) {
+    std::vector<double> r;
+    for (const StaticInterval& iv : intervals) {
+      const double white2 = m2.row(a).dot(iv.white_standard_error.cwiseAbs2());
+      const double total2 = m2.row(a).dot(iv.standard_error.cwiseAbs2()) + q2[a];
+      if (white2 > 0) r.push_back(std::sqrt(total2 / white2));
+    }
+    if (r.empty()) continue;
+    std::nth_element(r.begin(), r.begin() + static_cast<std::ptrdiff_t>(r.size() / 2), r.end());
+    out[a] = r[r.size() / 2];
+  }
+  return out;
+}
+
+NormCalibration calibrate_without_angles(const RawInput& in, const NormCalibrationOptions& o) {
+  NormCalibration c;
+  if (in.format == InputFormat::means) {
+    bool errors_given = false;
+    c.detection.intervals = intervals_from_means(in, errors_given);
+    c.detection.how = "the table's " + std::to_string(in.means.size()) + " static means";
+    if (errors_given) {
+      NormFitOptions fo = o.fit;
+      fo.noise = white_noise_weighting();  // a table has no times to model wander over
+      c.fit = fit_norm(c.detection.intervals, in.g_mps2, in.units, fo);
+    } else {
+      c.fit = fit_means_without_errors(c.detection.intervals, in.g_mps2, in.units, o.fit, c.notes);
+    }
+    return c;
+  }
+  c.detection = detect_static_intervals(in, o.detector);
+  if (c.detection.intervals.empty())
+    throw std::runtime_error(in.source + ": no static interval found (" + c.detection.how +
+                             "): the unit never stayed still long enough");
+  c.fit = fit_norm(c.detection.intervals, in.g_mps2, in.units, o.fit);
+  c.understated_by = median_understatement(c.detection.intervals);
+  c.fit.result.noise.allan = allan_in_ug(c.detection, c.fit.compensation, in);
+  c.fit.result.noise.understated_by = white_noise_understatement(
+      c.detection.intervals, c.fit.compensation, in.g_mps2, c.fit.result.noise);
+  const bool detected = c.detection.window_samples > 0;
+  if (o.stability && detected)
+    for (double factor : {0.5, 2.0}) c.stability.push_back(refit_at(in, o, factor, c.fit));
+  return c;
+}
+
+json norm_calibration_to_json(const NormCalibration& c, const RawInput& in) {
+  json out = fit_to_json(c.fit.result);
+  out["input"] = {{"source", in.source},
+                  {"format", std::string(to_string(in.format))},
+                  {"units", std::string(to_string(in.units))},
+                  {"units_how", in.units_how},
+                  {"g_mps2", in.g_mps2},
+                  {"g_given", in.g_given},
+                  {"samples", in.size()},
+                  {"warnings", in.warnings}};
+  out["intervals"] = intervals_json(c);
+  out["compensation"] = norm_compensation_to_json(c.fit, in);
+  out["norm_residual_rms_mps2"] = c.fit.norm_residual_rms_mps2;
+  out["iterations"] = c.fit.iterations;
+  out["white_noise_understated_by"] = vec_json(c.understated_by);
+  out["threshold_stability"] = stability_json(c);
+  for (const std::string& n : c.notes) out["notes"].push_back(n);
+  return out;
+}
+
+std::string format_norm_report(const NormCalibration& c, const RawInput& in) {
+  const NormFit& f = c.fit;
+  const NormCompensation& k = f.compensation;
+  const std::string unit(to_string(in.units));
+  std::string out = "standcal calibration report (attitude-free, |f| = g)\n";
+  out += "====================================================\n";
+  out += "Recording:  " + in.source + " (" + std::string(to_string(in.format)) + ", " + unit +
+         ": " + in.units_how + ")\n";
+  out += "Gravity:    " + fmt("%.5f", in.g_mps2) + " m/s^2" +
+         (in.g_given ? "" : " (ASSUMED standard gravity)") + "\n";
+  out += "Intervals:  " + std::to_string(c.detection.intervals.size()) + " static, " +
+         c.detection.how + "\n";
+  if (c.detection.saturated_samples > 0)
+    out += "            " + std::to_string(c.detection.saturated_samples) +
+           " samples at the converter's limits excluded\n";
+  for (const std::string& w : in.warnings) out += "WARNING:    " + w + "\n";
+  out += "\nCompensation f = M (raw - b), M = T K (value +- 1 sigma):\n";
+  const char* axes = "xyz";
+  for (int a = 0; a < 3; ++a)
+    out += std::string("  bias ") + axes[a] + "   " + fmt("%14.6g", k.bias[a]) + " +- " +
+           fmt("%.3g", f.sigma[a]) + " " + unit + "\n";
+  for (int a = 0; a < 3; ++a)
+    out += std::string("  scale ") + axes[a] + "  " + fmt("%14.6g", k.scale[a]) + " +- " +
+           fmt("%.3g", f.sigma[3 + a]) + " " + unit + " per m/s^2\n";
+  for (int a = 0; a < 3; ++a)
+    out += "  " + std::string(kNormParameterNames[static_cast<std::size_t>(6 + a)]) + "     " +
+           fmt("%+14.6f", k.misalignment[a]) + " +- " + fmt("%.3g", f.sigma[6 + a]) + "\n";
+  if (in.units != InputUnits::counts) {
+    out += "\nUnit parameters against nominal (value +- 1 sigma):\n";
+    for (int j = 0; j < kUnitParameterCount; ++j) {
+      const ParameterEstimate& p = f.result.unit[static_cast<std::size_t>(j)];
+      if (!p.value) continue;
+      out += "  " + std::string(kUnitParameterNames[static_cast<std::size_t>(j)]) + " " +
+             fmt("%+12.2f", *p.value * report_scale(j)) + " +- " +
+             fmt("%.2f", *p.sigma * report_scale(j)) + " " +
+             std::string(kUnitParameterUnits[static_cast<std::size_t>(j)]) + "\n";
+    }
+  }
+  out += "\nModel check: |f| - g rms " + fmt("%.3g", f.norm_residual_rms_mps2 / in.g_mps2 / kUg) +
+         " ug over " + std::to_string(c.detection.intervals.size()) + " intervals; chi2/dof " +
+         fmt("%.2f", f.result.chi2_dof) + " (redundancy " + std::to_string(f.result.redundancy) +
+         ")\n";
+  out += "Noise:      " + wander_words(f.result.noise) + "\n";
+  out += "            within an interval, white noise would understate a mean's error by x" +
+         fmt("%.2f", c.understated_by[0]) + ", x" + fmt("%.2f", c.understated_by[1]) + ", x" +
+         fmt("%.2f", c.understated_by[2]) + " (Allan deviation of the intervals pooled)\n";
+  for (const ThresholdStability& s : c.stability) {
+    out += "Threshold x" + fmt("%.1f", s.factor) + ": ";
+    if (!s.error.empty())
+      out += "refit failed: " + s.error + "\n";
+    else if (s.moved.empty())
+      out += std::to_string(s.intervals) + " intervals, no parameter moves by more than 1 sigma\n";
+    else {
+      out += std::to_string(s.intervals) + " intervals; moved by more than 1 sigma:";
+      for (const std::string& m : s.moved) out += " " + m;
+      out += "\n";
+    }
+  }
+  if (!c.notes.empty() || !f.result.notes.empty()) {
+    out += "\nNotes:\n";
+    for (const std::string& n : c.notes) out += "  - " + n + "\n";
+    for (const std::string& n : f.result.notes) out += "  - " + n + "\n";
+  }
+  return out;
+}
+
+}  // namespace standcal

@@ -1,0 +1,60 @@
+#pragma once
+// Calibration of a recording no stand angle describes (`standcal fit FILE --method norm`):
+// static intervals (detected, the recording's dwell blocks, or a table of means), the
+// attitude-free fit, and how far its result moves when the detector's threshold is halved
+// or doubled. Serialised to the JSON of `fit --json` and to the text report.
+#include <nlohmann/json_fwd.hpp>
+#include <string>
+#include <vector>
+
+#include "calib/norm_estimator.hpp"
+#include "calib/raw_input.hpp"
+#include "calib/static_intervals.hpp"
+
+namespace standcal {
+
+inline constexpr std::array<std::string_view, 9> kNormParameterNames{
+    "bias_x", "bias_y", "bias_z", "scale_x", "scale_y", "scale_z", "m01", "m02", "m12"};
+
+struct NormCalibrationOptions {
+  StaticDetectorOptions detector;
+  NormFitOptions fit;
+  bool stability = true;  // refit at half and twice the detector's threshold
+};
+
+// The result at another threshold, against the main one.
+struct ThresholdStability {
+  double factor = 1;
+  std::size_t intervals = 0;
+  Eigen::Matrix<double, 9, 1> values = Eigen::Matrix<double, 9, 1>::Zero();  // compensation
+  std::vector<std::string> moved;  // parameters that moved by more than 1 sigma
+  std::string error;               // the refit failed (too few intervals...)
+};
+
+struct NormCalibration {
+  StaticDetection detection;
+  NormFit fit;
+  std::vector<ThresholdStability> stability;
+  // Median over the intervals of standard error / (sigma / sqrt(n)) per axis: by how much
+  // white noise would have understated a static mean's error.
+  Vec3 understated_by = Vec3::Ones();
+  std::vector<std::string> notes;
+};
+
+// By how much sigma/sqrt(n) understated each interval mean's error under the noise model:
+// the colour within the interval (its Allan-deviation standard error) and the wander `n`
+// between intervals together. Median over the intervals, per calibrated axis.
+Vec3 white_noise_understatement(const std::vector<StaticInterval>& intervals,
+                                const NormCompensation& k, double g, const NoiseFinding& n);
+
+// Throws std::runtime_error with a plain message (no static interval, too few, no
+// convergence).
+NormCalibration calibrate_without_angles(const RawInput& input,
+                                         const NormCalibrationOptions& options = {});
+
+nlohmann::json norm_calibration_to_json(const NormCalibration& c, const RawInput& input);
+// The compensation an INS (or a script) loads: f = M (raw - b), with sigmas and covariance.
+nlohmann::json norm_compensation_to_json(const NormFit& fit, const RawInput& input);
+std::string format_norm_report(const NormCalibration& c, const RawInput& input);
+
+}  // namespace standcal

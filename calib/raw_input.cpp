@@ -1,0 +1,1403 @@
+#include "calib/raw_input.hpp"
+
+#include "calib/allan.hpp"
+
+#include <algorithm>
+#include <array>
+#include <charconv>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <utility>
+
+namespace standcal {
+
+namespace {
+// Everything file-local lives in `input_reader`: the unity build concatenates calib/*.cpp,
+// and the other files' anonymous namespaces hold helpers of the same names (trim...).
+namespace input_reader {
+
+constexpr std::string_view kBom = "\xEF\xBB\xBF";
+constexpr double kRelativeUnitWindow = 0.2;  // values within 20 % of 1 g tell the units
+constexpr double kMinCountsNorm = 50;        // raw counts are integers at least this large
+
+bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
+
+std::string_view trim(std::string_view s) {
+  while (!s.empty() && is_blank(s.front())) s.remove_prefix(1);
+  while (!s.empty() && is_blank(s.back())) s.remove_suffix(1);
+  return s;
+}
+
+// A field without surrounding blanks and double quotes ("Acc X" as spreadsheets quote it).
+std::string_view unquote(std::string_view s) {
+  s = trim(s);
+  if (s.size() >= 2 && s.front() == '"' && s.back() == '"') s = trim(s.substr(1, s.size() - 2));
+  return s;
+}
+
+bool parse_number(std::string_view text, double& out) {
+  text = unquote(text);
+  if (!text.empty() && text.front() == '+') text.remove_prefix(1);
+  if (text.empty()) return false;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), out);
+  return ec == std::errc() && end == text.data() + text.size() && std::isfinite(out);
+}
+
+bool parse_int(std::string_view text, int& out) {
+  text = unquote(text);
+  if (!text.empty() && text.front() == '+') text.remove_prefix(1);
+  if (text.empty()) return false;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), out);
+  return ec == std::errc() && end == text.data() + text.size();
+}
+
+std::string number_text(double v) {
+  std::array<char, 32> buf{};
+  const auto [end, ec] =
+      std::to_chars(buf.data(), buf.data() + buf.size(), v, std::chars_format::general, 6);
+  return ec == std::errc() ? std::string(buf.data(), end) : std::to_string(v);
+}
+
+std::string lower(std::string_view s) {
+  std::string out(s);
+  for (char& c : out)
+    if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
+  return out;
+}
+
+std::string join(const std::vector<std::string>& items) {
+  std::string out;
+  for (const std::string& s : items) {
+    if (!out.empty()) out += ", ";
+    out += s;
+  }
+  return out;
+}
+
+double median_of(std::vector<double> v) {
+  if (v.empty()) return kNaN;
+  const std::size_t mid = v.size() / 2;
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid), v.end());
+  const double upper = v[mid];
+  if (v.size() % 2 == 1) return upper;
+  const double lower_half =
+      *std::max_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid));
+  return 0.5 * (lower_half + upper);
+}
+
+// ---------------------------------------------------------------- fields and delimiters
+
+enum class Delim { comma, semicolon, tab, spaces };
+// Order of preference when two delimiters split a line equally well.
+constexpr std::array<Delim, 4> kDelims{Delim::comma, Delim::semicolon, Delim::tab, Delim::spaces};
+
+std::string delim_name(Delim d) {
+  switch (d) {
+    case Delim::comma:
+      return "','";
+    case Delim::semicolon:
+      return "';'";
+    case Delim::tab:
+      return "tabs";
+    case Delim::spaces:
+      return "spaces";
+  }
+  return "?";
+}
+
+// Splits a line into `fields` (views into the line): at every `,`, `;` or tab, or at runs
+// of blanks (leading and trailing blanks then delimit nothing).
+void split(std::string_view line, Delim d, std::vector<std::string_view>& fields) {
+  fields.clear();
+  if (d == Delim::spaces) {
+    std::size_t i = 0;
+    while (true) {
+      while (i < line.size() && is_blank(line[i])) ++i;
+      if (i >= line.size()) return;
+      std::size_t j = i;
+      while (j < line.size() && !is_blank(line[j])) ++j;
+      fields.push_back(line.substr(i, j - i));
+      i = j;
+    }
+  }
+  const char c = d == Delim::comma ? ',' : d == Delim::semicolon ? ';' : '\t';
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t at = line.find(c, start);
+    if (at == std::string_view::npos) {
+      fields.push_back(line.substr(start));
+      return;
+    }
+    fields.push_back(line.substr(start, at - start));
+    start = at + 1;
+  }
+}
+
+// ---------------------------------------------------------------- column names
+
+enum class Unit { none, mps2, g, counts, s, ms, us, ns };
+
+Unit unit_from_text(std::string_view text) {
+  std::string u;
+  for (char c : lower(text))
+    if (c != ' ') u += c;
+  static const std::array<std::pair<std::string_view, Unit>, 29> known{{
+      {"m/s^2", Unit::mps2},   {"m/s2", Unit::mps2},    {"m/s\xC2\xB2", Unit::mps2},
+      {"m/s/s", Unit::mps2},   {"m*s^-2", Unit::mps2},  {"ms^-2", Unit::mps2},
+      {"m/sec^2", Unit::mps2}, {"mps2", Unit::mps2},    {"ms2", Unit::mps2},
+      {"g", Unit::g},          {"g0", Unit::g},         {"counts", Unit::counts},
+      {"count", Unit::counts}, {"cnt", Unit::counts},   {"lsb", Unit::counts},
+      {"raw", Unit::counts},   {"adc", Unit::counts},   {"digits", Unit::counts},
+      {"s", Unit::s},          {"sec", Unit::s},        {"secs", Unit::s},
+      {"seconds", Unit::s},    {"ms", Unit::ms},        {"msec", Unit::ms},
+      {"us", Unit::us},        {"\xC2\xB5s", Unit::us}, {"\xCE\xBCs", Unit::us},
+      {"usec", Unit::us},      {"ns", Unit::ns},
+  }};
+  for (const auto& [name, unit] : known)
+    if (u == name) return unit;
+  return Unit::none;
+}
+
+// Unit suffixes of a normalised name (fx_mps2, t_ms, ax_raw).
+constexpr std::array<std::pair<std::string_view, Unit>, 20> kUnitSuffixes{{
+    {"_mps2", Unit::mps2},    {"_m_s2", Unit::mps2},  {"_m_s_2", Unit::mps2},
+    {"_ms2", Unit::mps2},     {"_g", Unit::g},        {"_counts", Unit::counts},
+    {"_count", Unit::counts}, {"_cnt", Unit::counts}, {"_lsb", Unit::counts},
+    {"_raw", Unit::counts},   {"_adc", Unit::counts}, {"_s", Unit::s},
+    {"_sec", Unit::s},        {"_secs", Unit::s},     {"_seconds", Unit::s},
+    {"_ms", Unit::ms},        {"_msec", Unit::ms},    {"_us", Unit::us},
+    {"_usec", Unit::us},      {"_ns", Unit::ns},
+}};
+
+// A header name, taken apart: "Acc X [m/s^2]" -> full "acc_x" (unit m/s^2);
+// "fx_mps2" -> full "fx_mps2", base "fx" (unit m/s^2 from the suffix).
+struct ColumnName {
+  std::string original;  // as in the header, without blanks and quotes around it
+  std::string full;      // lower case, separators as '_', bracketed unit removed
+  Unit full_unit = Unit::none;
+  std::string base;  // `full` without a unit suffix (== full when it has none)
+  Unit base_unit = Unit::none;
+};
+
+std::string normalise(std::string_view s) {
+  std::string out;
+  for (char c : lower(trim(s))) {
+    if (c == ' ' || c == '-' || c == '.' || c == '\t') c = '_';
+    if (c == '_' && (out.empty() || out.back() == '_')) continue;
+    out += c;
+  }
+  while (!out.empty() && out.back() == '_') out.pop_back();
+  return out;
+}
+
+ColumnName analyse_name(std::string_view field) {
+  ColumnName n;
+  std::string_view text = unquote(field);
+  n.original = std::string(text);
+  if (!text.empty() && (text.back() == ']' || text.back() == ')')) {
+    const char open = text.back() == ']' ? '[' : '(';
+    const std::size_t at = text.rfind(open);
+    if (at != std::string_view::npos && at > 0) {
+      n.full_unit = unit_from_text(text.substr(at + 1, text.size() - at - 2));
+      text = text.substr(0, at);
+    }
+  }
+  n.full = normalise(text);
+  n.base = n.full;
+  n.base_unit = n.full_unit;
+  for (const auto& [suffix, unit] : kUnitSuffixes) {
+    if (n.full.size() > suffix.size() && n.full.ends_with(suffix)) {
+      n.base = n.full.substr(0, n.full.size() - suffix.size());
+      if (n.base_unit == Unit::none) n.base_unit = unit;
+      break;
+    }
+  }
+  return n;
+}
+
+// The accelerometer axis (0, 1, 2) a name stands for, or -1: fx, ax, acc_x, accx, accel_x,
+// accelerometer_x, acceleration_x, a_x, x...
+int axis_of(std::string_view name) {
+  static constexpr std::array<std::string_view, 15> kPrefixes{"",
+                                                              "f",
+                                                              "f_",
+                                                              "a",
+                                                              "a_",
+                                                              "acc",
+                                                              "acc_",
+                                                              "accel",
+                                                              "accel_",
+                                                              "accelerometer",
+                                                              "accelerometer_",
+                                                              "acceleration",
+                                                              "acceleration_",
+                                                              "accl",
+                                                              "accl_"};
+  if (name.empty()) return -1;
+  const char last = name.back();
+  if (last >= 'x' && last <= 'z') {
+    const std::string_view head = name.substr(0, name.size() - 1);
+    for (std::string_view p : kPrefixes)
+      if (head == p) return last - 'x';
+  }
+  const char first = name.front();
+  if (first >= 'x' && first <= 'z') {
+    const std::string_view tail = name.substr(1);
+    if (tail == "_acc" || tail == "_accel" || tail == "acc") return first - 'x';
+  }
+  return -1;
+}
+
+// A mean's axis: any axis name, or one with mean_/avg_ in front or _mean/_avg behind.
+int mean_axis_of(std::string_view name) {
+  if (const int a = axis_of(name); a >= 0) return a;
+  for (std::string_view p : {"mean_", "avg_", "average_"})
+    if (name.starts_with(p)) return axis_of(name.substr(p.size()));
+  for (std::string_view s : {"_mean", "_avg", "_average"})
+    if (name.ends_with(s)) return axis_of(name.substr(0, name.size() - s.size()));
+  return -1;
+}
+
+// A standard error's axis: se_x, sem_fx, stderr_x, std_err_x, se_mean_x, x_se...
+int se_axis_of(std::string_view name) {
+  for (std::string_view p : {"se_", "sem_", "stderr_", "std_err_", "stderror_", "standard_error_"})
+    if (name.starts_with(p)) return mean_axis_of(name.substr(p.size()));
+  for (std::string_view s : {"_se", "_sem", "_stderr", "_std_err"})
+    if (name.ends_with(s)) return mean_axis_of(name.substr(0, name.size() - s.size()));
+  return -1;
+}
+
+bool is_time_name(std::string_view name) {
+  for (std::string_view t : {"t", "time", "timestamp", "time_stamp", "sec", "secs", "seconds"})
+    if (name == t) return true;
+  return false;
+}
+
+bool is_count_name(std::string_view name) {
+  for (std::string_view t :
+       {"n", "samples", "count", "n_samples", "num_samples", "nsamples", "sample_count"})
+    if (name == t) return true;
+  return false;
+}
+
+// Seconds per unit of a time column; 1 when it names none.
+double time_scale(Unit u) {
+  switch (u) {
+    case Unit::ms:
+      return 1e-3;
+    case Unit::us:
+      return 1e-6;
+    case Unit::ns:
+      return 1e-9;
+    default:
+      return 1;
+  }
+}
+
+bool is_force_unit(Unit u) { return u == Unit::mps2 || u == Unit::g || u == Unit::counts; }
+
+InputUnits input_units(Unit u) {
+  return u == Unit::mps2 ? InputUnits::mps2 : u == Unit::g ? InputUnits::g : InputUnits::counts;
+}
+
+// Which role a header name plays under `match` (axis_of, mean_axis_of...): tried on the
+// whole name first ("sample_count"), then without its unit suffix ("fx" of "fx_mps2").
+template <class Match>
+int match_name(const ColumnName& n, Match match, Unit& unit) {
+  if (const int a = match(n.full); a >= 0) {
+    unit = n.full_unit;
+    return a;
+  }
+  if (n.base != n.full) {
+    if (const int a = match(n.base); a >= 0) {
+      unit = n.base_unit;
+      return a;
+    }
+  }
+  return -1;
+}
+
+// The unit a column chosen by --columns names, if any (ax_g, "Acc X [m/s^2]", mean_x_raw).
+Unit named_unit(const ColumnName& c) {
+  for (Unit u : {c.base_unit, c.full_unit})
+    if (is_force_unit(u)) return u;
+  return Unit::none;
+}
+
+// ---------------------------------------------------------------- the reader
+
+struct Line {
+  std::string_view text;      // without '\n' and a trailing '\r'
+  int number = 0;             // 1-based
+  std::size_t offset = 0;     // where it starts in the text
+  bool unterminated = false;  // the file's last line, without a newline
+};
+
+struct CommentKey {
+  std::string key;
+  std::string value;
+  int line = 0;
+};
+
+// Where the three axes, the time and the dwell index of the rows are.
+struct Layout {
+  Delim delim = Delim::comma;
+  std::size_t fields = 0;
+  int header_line = 0;  // 0: no header line (then first_row_line names the fields)
+  int first_row_line = 0;
+  std::array<int, 3> axis{-1, -1, -1};  // 0-based field indices
+  int time = -1;
+  double time_scale = 1;
+  bool time_tentative = false;  // headerless column 1: a time only if it never decreases
+  int pos = -1;
+  bool drop_unterminated_last = false;  // standcal's rule: any last line without newline
+  std::vector<std::string> names;       // field names for messages ("fx_mps2", "column 2")
+  std::array<Unit, 3> name_units{Unit::none, Unit::none, Unit::none};
+};
+
+class Reader {
+ public:
+  Reader(std::string_view text, const std::string& source, const InputOptions& options)
+      : text_(text), options_(options) {
+    out_.source = source;
+    if (text_.starts_with(kBom)) offset_ = kBom.size();
+  }
+
+  RawInput run() {
+    check_options();
+    skip_preamble();
+    body_offset_ = offset_;
+    body_line_ = line_no_;
+    read_comment_lines();
+    Line first;
+    if (!next_content_line(first)) {
+      if (comments_seen_ == 0) fail_empty();
+      fail(0, "no data: the file holds only comment lines");
+    }
+    InputFormat format = options_.format;
+    if (format == InputFormat::automatic && standcal_marker_) format = InputFormat::standcal;
+    switch (format) {
+      case InputFormat::standcal:
+        read_standcal(first);
+        break;
+      case InputFormat::means:
+        read_means(first);
+        break;
+      default:
+        read_samples_file(first, format);
+        break;
+    }
+    return std::move(out_);
+  }
+
+ private:
+  [[noreturn]] void fail(int column, const std::string& what) const {
+    throw RecordingError(out_.source, line_no_, column, what);
+  }
+  [[noreturn]] void fail_at(int line, int column, const std::string& what) const {
+    throw RecordingError(out_.source, line, column, what);
+  }
+
+  void check_options() const {
+    if (options_.skip_lines < 0) throw std::invalid_argument("--skip-lines must be 0 or more");
+    if (options_.rate_hz && !(std::isfinite(*options_.rate_hz) && *options_.rate_hz > 0))
+      throw std::invalid_argument("--rate-hz must be a positive number of samples per second");
+    if (options_.g_mps2 && !(std::isfinite(*options_.g_mps2) && *options_.g_mps2 > 0))
+      throw std::invalid_argument("--g-mps2 must be a positive acceleration in m/s^2");
+    if (!options_.columns.empty() && options_.columns.size() != 3)
+      throw std::invalid_argument(
+          "--columns takes three columns (x, y, z) by name or 1-based "
+          "number; " +
+          std::to_string(options_.columns.size()) + " given");
+  }
+
+  // Next line without its newline; false at the end.
+  bool next_line(Line& line) {
+    if (offset_ >= text_.size()) return false;
+    const std::size_t nl = text_.find('\n', offset_);
+    ++line_no_;
+    line.number = line_no_;
+    line.offset = offset_;
+    line.unterminated = nl == std::string_view::npos;
+    if (line.unterminated) {
+      line.text = text_.substr(offset_);
+      offset_ = text_.size();
+    } else {
+      line.text = text_.substr(offset_, nl - offset_);
+      offset_ = nl + 1;
+    }
+    if (!line.text.empty() && line.text.back() == '\r') line.text.remove_suffix(1);
+    return true;
+  }
+
+  bool next_content_line(Line& line) {
+    while (next_line(line))
+      if (!trim(line.text).empty()) return true;
+    return false;
+  }
+
+  // Reads `line` again next.
+  void rewind_to(const Line& line) {
+    offset_ = line.offset;
+    line_no_ = line.number - 1;
+  }
+
+  [[noreturn]] void fail_empty() const {
+    if (options_.skip_lines > 0)
+      fail_at(std::max(line_no_, 1), 0,
+              "nothing after the " + std::to_string(options_.skip_lines) +
+                  " preamble lines skipped (--skip-lines)");
+    fail_at(std::max(line_no_, 1), 0, "the file is empty");
+  }
+
+  void skip_preamble() {
+    Line line;
+    for (int i = 0; i < options_.skip_lines; ++i)
+      if (!next_line(line)) fail_empty();
+  }
+
+  // Leading `#` lines: comments, some `# key: value` (g_local_mps2, sample_rate_hz, format).
+  void read_comment_lines() {
+    Line line;
+    while (next_line(line)) {
+      const std::string_view t = trim(line.text);
+      if (t.empty()) continue;
+      if (t.front() != '#') {
+        rewind_to(line);
+        return;
+      }
+      ++comments_seen_;
+      const std::string_view body = trim(t.substr(1));
+      const std::size_t colon = body.find(':');
+      if (colon == std::string_view::npos || colon == 0) continue;
+      CommentKey k{std::string(trim(body.substr(0, colon))),
+                   std::string(trim(body.substr(colon + 1))), line.number};
+      if (k.key == "format" && k.value.starts_with("standcal-recording/")) {
+        if (k.value != kRecordingFormat && options_.format == InputFormat::automatic)
+          fail_at(k.line, 0,
+                  "unsupported format '" + k.value + "' (this reader reads " +
+                      std::string(kRecordingFormat) + ")");
+        standcal_marker_ = true;
+      }
+      comments_.push_back(std::move(k));
+    }
+  }
+
+  // g_local_mps2 and sample_rate_hz from the comment lines.
+  void apply_comment_keys() {
+    bool g_seen = false;
+    bool rate_seen = false;
+    for (const CommentKey& k : comments_) {
+      const bool is_g = k.key == "g_local_mps2";
+      if (!is_g && k.key != "sample_rate_hz") continue;
+      if ((is_g && g_seen) || (!is_g && rate_seen))
+        fail_at(k.line, 0, "header key '" + k.key + "' appears twice");
+      double v = 0;
+      if (!parse_number(k.value, v))
+        fail_at(k.line, 0, "header '" + k.key + "': '" + k.value + "' is not a number");
+      if (is_g) {
+        if (v < 9.7 || v > 9.9)
+          fail_at(k.line, 0,
+                  "header 'g_local_mps2': " + k.value +
+                      " m/s^2 is not a plausible local gravity (9.7 ... 9.9)");
+        header_g_ = v;
+        g_seen = true;
+      } else {
+        if (v <= 0) fail_at(k.line, 0, "header 'sample_rate_hz': " + k.value + " is not a rate");
+        header_rate_ = v;
+        rate_seen = true;
+      }
+    }
+  }
+
+  // ------------------------------------------------------------ standcal-recording/1
+
+  void read_standcal(const Line& column_line) {
+    out_.format = InputFormat::standcal;
+    std::vector<std::string_view> names;
+    split(column_line.text, Delim::comma, names);
+    bool cmd1 = false;
+    bool cmd2 = false;
+    for (std::string_view n : names) {
+      cmd1 = cmd1 || trim(n) == "alpha1_cmd_deg";
+      cmd2 = cmd2 || trim(n) == "alpha2_cmd_deg";
+    }
+    if (cmd1 && cmd2) {
+      read_full_recording();
+      return;
+    }
+    for (const CommentKey& k : comments_)
+      if (k.key == "format" && k.value != kRecordingFormat)
+        fail_at(k.line, 0,
+                "unsupported format '" + k.value + "' (this reader reads " +
+                    std::string(kRecordingFormat) + ")");
+    apply_comment_keys();
+    Layout layout;
+    layout.delim = Delim::comma;
+    layout.header_line = column_line.number;
+    layout.drop_unterminated_last = true;
+    for (std::string_view n : names) layout.names.emplace_back(trim(n));
+    layout.fields = names.size();
+    const auto find = [&](std::string_view name) {
+      int found = -1;
+      for (std::size_t i = 0; i < names.size(); ++i) {
+        if (trim(names[i]) != name) continue;
+        if (found >= 0)
+          fail_at(column_line.number, static_cast<int>(i) + 1,
+                  "column '" + std::string(name) + "' appears twice");
+        found = static_cast<int>(i);
+      }
+      return found;
+    };
+    layout.time = find("t_s");
+    layout.pos = find("pos");
+    if (options_.columns.empty()) {
+      static constexpr std::array<std::string_view, 3> kForce{"fx_mps2", "fy_mps2", "fz_mps2"};
+      for (int k = 0; k < 3; ++k) {
+        layout.axis[static_cast<std::size_t>(k)] = find(kForce[static_cast<std::size_t>(k)]);
+        if (layout.axis[static_cast<std::size_t>(k)] < 0)
+          fail_at(column_line.number, 0,
+                  "required column '" + std::string(kForce[static_cast<std::size_t>(k)]) +
+                      "' is missing (a " + std::string(kRecordingFormat) +
+                      " file without angle columns needs t_s, fx_mps2, fy_mps2 and fz_mps2)");
+      }
+    } else {
+      std::vector<ColumnName> analysed;
+      for (std::string_view n : names) analysed.push_back(analyse_name(n));
+      layout.axis = chosen_columns(&analysed, names.size(), column_line.number);
+      for (std::size_t k = 0; k < 3; ++k)
+        layout.name_units[k] = named_unit(analysed[static_cast<std::size_t>(layout.axis[k])]);
+    }
+    if (layout.time < 0) fail_at(column_line.number, 0, "required column 't_s' is missing");
+    read_rows(layout);
+    list_ignored(layout);
+    if (options_.units != InputUnits::automatic) {
+      set_units_from_option();
+    } else if (options_.columns.empty()) {
+      out_.units = InputUnits::mps2;
+      out_.units_how =
+          "the " + std::string(kRecordingFormat) + " format (fx_mps2, fy_mps2, fz_mps2 in m/s^2)";
+    } else {
+      units_from_names_or_values(layout);
+    }
+    resolve_g(header_g_);
+    resolve_rate();
+  }
+
+  // A recording with its angle columns: parse_recording reads it, the samples are copied.
+  void read_full_recording() {
+    std::string shifted;
+    std::string_view text = text_;
+    if (options_.skip_lines > 0) {
+      // The preamble becomes blank lines, which the recording reader passes over: its
+      // messages then name the lines of the file as it is.
+      shifted.assign(static_cast<std::size_t>(body_line_), '\n');
+      shifted.append(text_.substr(body_offset_));
+      text = shifted;
+    }
+    Recording rec = parse_recording(text, out_.source);
+    RawInput samples = raw_input_of(rec);
+    out_.t_s = std::move(samples.t_s);
+    out_.axis = std::move(samples.axis);
+    out_.block = std::move(samples.block);
+    if (options_.units != InputUnits::automatic) {
+      set_units_from_option();
+    } else {
+      out_.units = InputUnits::mps2;
+      out_.units_how =
+          "the " + std::string(kRecordingFormat) + " format (fx_mps2, fy_mps2, fz_mps2 in m/s^2)";
+    }
+    for (const std::string& w : rec.warnings)
+      if (!(options_.g_mps2 && w.find("g_local_mps2") != std::string::npos))
+        out_.warnings.push_back(w);
+    if (options_.g_mps2) {
+      out_.g_mps2 = *options_.g_mps2;
+      out_.g_given = true;
+    } else {
+      out_.g_mps2 = rec.g_local_mps2;
+      out_.g_given = rec.g_from_header;
+    }
+    if (std::isfinite(rec.sample_rate_hz) && rec.sample_rate_hz > 0)
+      out_.sample_rate_hz = rec.sample_rate_hz;
+    else if (options_.rate_hz)
+      out_.sample_rate_hz = *options_.rate_hz;
+    else
+      out_.sample_rate_hz = rate_from_steps();
+    out_.recording = std::move(rec);
+  }
+
+  // ------------------------------------------------------------ samples: imu_tk, delimited
+
+  // The delimiter that splits a line into numbers only, into the most fields; none when
+  // the line is not a row of numbers (then it is a header line).
+  static std::optional<Delim> numeric_delimiter(std::string_view line) {
+    std::optional<Delim> best;
+    std::size_t best_count = 0;
+    std::vector<std::string_view> fields;
+    for (Delim d : kDelims) {
+      split(line, d, fields);
+      std::size_t numbers = 0;
+      bool all = true;
+      for (std::string_view f : fields) {
+        double v = 0;
+        if (parse_number(f, v)) {
+          ++numbers;
+        } else if (!trim(f).empty()) {
+          all = false;
+          break;
+        }
+      }
+      if (all && numbers > 0 && fields.size() > best_count) {
+        best = d;
+        best_count = fields.size();
+      }
+    }
+    return best;
+  }
+
+  void read_samples_file(const Line& first, InputFormat format) {
+    apply_comment_keys();
+    const std::optional<Delim> numeric = numeric_delimiter(first.text);
+    if (numeric) {
+      if (format == InputFormat::imu_tk && *numeric != Delim::spaces)
+        fail_at(
+            first.number, 0,
+            "imu_tk text is separated by spaces; this row is separated by " + delim_name(*numeric));
+      out_.format = format != InputFormat::automatic ? format
+                    : *numeric == Delim::spaces      ? InputFormat::imu_tk
+                                                     : InputFormat::delimited;
+      read_headerless(first, *numeric);
+      return;
+    }
+    if (format == InputFormat::imu_tk)
+      fail_at(first.number, 1,
+              "imu_tk text holds rows of numbers `t x y z` only; this line is not numbers (a "
+              "header line? read the file with --format delimited)");
+    out_.format = InputFormat::delimited;
+    read_with_header(first);
+  }
+
+  // Rows of numbers without a header line: `t x y z` (imu_tk), `x y z` with --rate-hz, or
+  // the columns --columns chooses by number.
+  void read_headerless(const Line& first, Delim delim) {
+    std::vector<std::string_view> fields;
+    split(first.text, delim, fields);
+    Layout layout;
+    layout.delim = delim;
+    layout.fields = fields.size();
+    layout.first_row_line = first.number;
+    for (std::size_t i = 0; i < fields.size(); ++i)
+      layout.names.push_back("column " + std::to_string(i + 1));
+    const std::string n = std::to_string(fields.size());
+    if (!options_.columns.empty()) {
+      layout.axis = chosen_columns(nullptr, fields.size(), first.number);
+      const bool first_chosen =
+          std::find(layout.axis.begin(), layout.axis.end(), 0) != layout.axis.end();
+      if (!time_rate() && !first_chosen) {
+        layout.time = 0;
+        layout.time_tentative = true;
+      }
+    } else if (fields.size() == 4) {
+      layout.time = 0;
+      layout.axis = {1, 2, 3};
+    } else if (fields.size() == 3) {
+      layout.axis = {0, 1, 2};
+    } else if (fields.size() > 4) {
+      fail_at(first.number, 0,
+              "rows of " + n +
+                  " numbers and no header line naming them: add a header line "
+                  "(e.g. t,ax,ay,az,...) or pass --columns X,Y,Z as 1-based column numbers");
+    } else {
+      fail_at(first.number, 0, "rows of " + n + " numbers: three accelerometer columns are needed");
+    }
+    if (layout.time < 0 && !time_rate())
+      fail_at(first.number, 0,
+              options_.columns.empty()
+                  ? "rows of " + n +
+                        " numbers (x y z) without a time column: pass --rate-hz "
+                        "with the sample rate"
+                  : "no time column (column 1 is one of --columns): pass --rate-hz with the "
+                    "sample rate");
+    rewind_to(first);
+    read_rows(layout);
+    list_ignored(layout);
+    units_from_names_or_values(layout);
+    resolve_g(header_g_);
+    resolve_rate();
+  }
+
+  // A header line naming the columns, then rows.
+  void read_with_header(const Line& header) {
+    Line row;
+    if (!next_content_line(row)) fail_at(header.number, 0, "a header line but no data rows");
+    const Delim delim = detect_delimiter(header, row);
+    std::vector<std::string_view> fields;
+    split(header.text, delim, fields);
+    std::vector<ColumnName> names;
+    for (std::string_view f : fields) names.push_back(analyse_name(f));
+    Layout layout;
+    layout.delim = delim;
+    layout.fields = fields.size();
+    layout.header_line = header.number;
+    for (const ColumnName& c : names) layout.names.push_back(c.original);
+    if (options_.columns.empty()) {
+      layout.axis = axes_by_name(names, header.number, axis_of, layout.name_units);
+    } else {
+      layout.axis = chosen_columns(&names, fields.size(), header.number);
+      for (std::size_t k = 0; k < 3; ++k)
+        layout.name_units[k] = named_unit(names[static_cast<std::size_t>(layout.axis[k])]);
+    }
+    find_time(names, layout);
+    if (layout.time < 0 && !time_rate())
+      fail_at(header.number, 0,
+              "no time column (columns: " + join(layout.names) +
+                  "): pass --rate-hz with the sample rate");
+    rewind_to(row);
+    read_rows(layout);
+    list_ignored(layout);
+    units_from_names_or_values(layout);
+    resolve_g(header_g_);
+    resolve_rate();
+  }
+
+  void find_time(const std::vector<ColumnName>& names, Layout& layout) {
+    std::vector<int> found;
+    std::vector<Unit> units;
+    for (std::size_t i = 0; i < names.size(); ++i) {
+      const int index = static_cast<int>(i);
+      if (std::find(layout.axis.begin(), layout.axis.end(), index) != layout.axis.end()) continue;
+      Unit u = Unit::none;
+      if (match_name(
+              names[i], [](std::string_view s) { return is_time_name(s) ? 0 : -1; }, u) < 0)
+        continue;
+      found.push_back(index);
+      units.push_back(u);
+    }
+    if (found.empty()) return;
+    layout.time = found[0];
+    layout.time_scale = time_scale(units[0]);
+    if (found.size() > 1) {
+      std::vector<std::string> others;
+      for (std::size_t i = 1; i < found.size(); ++i)
+        others.push_back("'" + layout.names[static_cast<std::size_t>(found[i])] + "'");
+      out_.warnings.push_back(out_.source + ":" + std::to_string(layout.header_line) +
+                              ": several time columns; using '" +
+                              layout.names[static_cast<std::size_t>(found[0])] + "', ignoring " +
+                              join(others));
+    }
+  }
+
+  // The delimiter that splits the header into the most fields, as many as the first row.
+  Delim detect_delimiter(const Line& header, const Line& row) const {
+    std::vector<std::string_view> fields;
+    std::optional<Delim> best;
+    std::size_t best_count = 1;
+    std::size_t widest = 0;
+    Delim widest_delim = Delim::comma;
+    for (Delim d : kDelims) {
+      split(header.text, d, fields);
+      const std::size_t in_header = fields.size();
+      if (in_header > widest) {
+        widest = in_header;
+        widest_delim = d;
+      }
+      split(row.text, d, fields);
+      if (fields.size() == in_header && in_header > best_count) {
+        best = d;
+        best_count = in_header;
+      }
+    }
+    if (best) return *best;
+    if (widest <= 1)
+      fail_at(header.number, 0,
+              "the header line holds one column name only; expected names "
+              "separated by ',', ';', tabs or spaces");
+    split(row.text, widest_delim, fields);
+    fail_at(row.number, 0,
+            "this row does not match the header line " + std::to_string(header.number) +
+                ": split at " + delim_name(widest_delim) + " the header has " +
+                std::to_string(widest) + " fields and this row " + std::to_string(fields.size()));
+  }
+
+  // The three columns named by --columns: 1-based numbers, or header names (any case).
+  std::array<int, 3> chosen_columns(const std::vector<ColumnName>* names, std::size_t count,
+                                    int line) const {
+    std::array<int, 3> chosen{-1, -1, -1};
+    std::vector<std::string> all;
+    if (names)
+      for (const ColumnName& c : *names) all.push_back(c.original);
+    for (std::size_t k = 0; k < 3; ++k) {
+      const std::string_view want = trim(options_.columns[k]);
+      int index = 0;
+      if (!want.empty() &&
+          std::all_of(want.begin(), want.end(), [](char c) { return c >= '0' && c <= '9'; })) {
+        if (!parse_int(want, index) || index < 1 || static_cast<std::size_t>(index) > count)
+          fail_at(line, 0,
+                  "--columns: column " + std::string(want) + " is out of range (the " +
+                      "rows have " + std::to_string(count) + " columns)");
+        chosen[k] = index - 1;
+      } else {
+        if (!names)
+          fail_at(line, 0,
+                  "--columns '" + std::string(want) +
+                      "': the file has no header line, so columns are chosen by "
+                      "1-based number");
+        const std::string wanted = lower(want);
+        const std::string wanted_norm = normalise(want);
+        for (std::size_t i = 0; i < names->size(); ++i) {
+          const ColumnName& c = (*names)[i];
+          if (lower(c.original) != wanted && c.full != wanted_norm) continue;
+          if (chosen[k] >= 0)
+            fail_at(line, static_cast<int>(i) + 1,
+                    "--columns '" + std::string(want) + "' matches more than one column");
+          chosen[k] = static_cast<int>(i);
+        }
+        if (chosen[k] < 0)
+          fail_at(line, 0,
+                  "--columns: no column named '" + std::string(want) + "' (columns: " + join(all) +
+                      ")");
+      }
+      for (std::size_t j = 0; j < k; ++j)
+        if (chosen[j] == chosen[k])
+          fail_at(line, chosen[k] + 1,
+                  "--columns names column " + std::to_string(chosen[k] + 1) + " twice");
+    }
+    return chosen;
+  }
+
+  // The three accelerometer columns, found by name; refuses a missing or doubled axis.
+  std::array<int, 3> axes_by_name(const std::vector<ColumnName>& names, int line,
+                                  int (*role)(std::string_view), std::array<Unit, 3>& units) const {
+    std::array<std::vector<int>, 3> found;
+    std::array<Unit, 3> found_units{Unit::none, Unit::none, Unit::none};
+    for (std::size_t i = 0; i < names.size(); ++i) {
+      Unit u = Unit::none;
+      const int a = match_name(names[i], role, u);
+      if (a < 0) continue;
+      found[static_cast<std::size_t>(a)].push_back(static_cast<int>(i));
+      found_units[static_cast<std::size_t>(a)] = u;
+    }
+    std::vector<std::string> all;
+    for (const ColumnName& c : names) all.push_back(c.original);
+    if (found[0].empty() && found[1].empty() && found[2].empty())
+      fail_at(line, 0,
+              "no accelerometer columns found among the header's columns (" + join(all) +
+                  "): pass --columns X,Y,Z (names or 1-based numbers)");
+    std::array<int, 3> axis{};
+    for (std::size_t k = 0; k < 3; ++k) {
+      const std::string letter(1, static_cast<char>('x' + k));
+      if (found[k].empty())
+        fail_at(line, 0,
+                "no column for the " + letter +
+                    " accelerometer among the header's "
+                    "columns (" +
+                    join(all) + "): pass --columns X,Y,Z");
+      if (found[k].size() > 1) {
+        const auto a = static_cast<std::size_t>(found[k][0]);
+        const auto b = static_cast<std::size_t>(found[k][1]);
+        fail_at(line, found[k][1] + 1,
+                "columns '" + names[a].original + "' (column " + std::to_string(a + 1) + ") and '" +
+                    names[b].original + "' (column " + std::to_string(b + 1) + ") both name the " +
+                    letter + " accelerometer: choose with --columns X,Y,Z");
+      }
+      axis[k] = found[k][0];
+      units[k] = is_force_unit(found_units[k]) ? found_units[k] : Unit::none;
+    }
+    return axis;
+  }
+
+  // Reads the rows of `layout` from the current position to the end.
+  void read_rows(const Layout& layout) {
+    const auto expected = static_cast<std::size_t>(
+        std::count(text_.begin() + static_cast<std::ptrdiff_t>(offset_), text_.end(), '\n') + 1);
+    out_.t_s.reserve(expected);
+    for (auto& a : out_.axis) a.reserve(expected);
+    if (layout.pos >= 0) out_.block.reserve(expected);
+    std::vector<std::string_view> fields;
+    Line line;
+    double previous_t = 0;
+    bool first = true;
+    bool time_ok = true;
+    while (next_content_line(line)) {
+      if (first_data_line_ == 0) first_data_line_ = line.number;
+      split(line.text, layout.delim, fields);
+      if (line.unterminated && (layout.drop_unterminated_last || fields.size() != layout.fields ||
+                                !row_is_complete(layout, fields))) {
+        out_.warnings.push_back(out_.source + ":" + std::to_string(line.number) +
+                                ": last line has no newline (a run cut off mid-write?); dropped");
+        break;
+      }
+      if (fields.size() != layout.fields) {
+        const std::string where = layout.header_line > 0
+                                      ? "the header line " + std::to_string(layout.header_line)
+                                      : "line " + std::to_string(layout.first_row_line);
+        fail(0, "expected " + std::to_string(layout.fields) + " fields as in " + where +
+                    ", found " + std::to_string(fields.size()));
+      }
+      for (std::size_t k = 0; k < 3; ++k)
+        out_.axis[k].push_back(field_number(layout, fields, layout.axis[k]));
+      if (layout.pos >= 0) {
+        const auto p = static_cast<std::size_t>(layout.pos);
+        int pos = 0;
+        if (!parse_int(fields[p], pos) || pos < 0)
+          fail(layout.pos + 1, "column 'pos': '" + std::string(fields[p]) +
+                                   "' is not a position index (an integer >= 0)");
+        out_.block.push_back(pos);
+      }
+      if (layout.time < 0 || !time_ok) continue;
+      const double t = field_number(layout, fields, layout.time) * layout.time_scale;
+      if (!first && t < previous_t) {
+        const std::string name = layout.names[static_cast<std::size_t>(layout.time)];
+        if (!layout.time_tentative)
+          fail(layout.time + 1, "'" + name + "' goes backwards (" + number_text(t) + " after " +
+                                    number_text(previous_t) + "); times must not decrease");
+        time_ok = false;  // column 1 is no time after all
+        time_broken_line_ = line.number;
+        continue;
+      }
+      out_.t_s.push_back(t);
+      previous_t = t;
+      first = false;
+    }
+    if (out_.axis[0].empty()) {
+      if (layout.header_line > 0) fail_at(layout.header_line, 0, "a header line but no data rows");
+      fail_at(std::max(line_no_, 1), 0, "no complete data rows");
+    }
+    if (layout.time < 0 || !time_ok) {
+      const std::optional<double> rate = time_rate();
+      if (!rate)
+        fail_at(time_broken_line_, 1,
+                "no time: column 1 decreases here, so it is not a time, and the rows have "
+                "no other time column: pass --rate-hz with the sample rate");
+      out_.t_s.resize(out_.axis[0].size());
+      for (std::size_t i = 0; i < out_.t_s.size(); ++i)
+        out_.t_s[i] = static_cast<double>(i) / *rate;
+      times_from_rate_ = true;
+    }
+  }
+
+  double field_number(const Layout& layout, const std::vector<std::string_view>& fields,
+                      int index) const {
+    const std::string_view f = fields[static_cast<std::size_t>(index)];
+    double v = 0;
+    if (parse_number(f, v)) return v;
+    std::string what = "column '" + layout.names[static_cast<std::size_t>(index)] + "': ";
+    if (trim(f).empty())
+      what += "empty field";
+    else
+      what += "'" + std::string(f) + "' is not a number";
+    if (f.find(',') != std::string_view::npos) what += " (a decimal comma? write numbers with '.')";
+    fail(index + 1, what);
+  }
+
+  static bool row_is_complete(const Layout& layout, const std::vector<std::string_view>& fields) {
+    double v = 0;
+    for (int i : layout.axis)
+      if (!parse_number(fields[static_cast<std::size_t>(i)], v)) return false;
+    return layout.time < 0 || parse_number(fields[static_cast<std::size_t>(layout.time)], v);
+  }
+
+  void list_ignored(const Layout& layout) {
+    for (std::size_t i = 0; i < layout.fields; ++i) {
+      const int index = static_cast<int>(i);
+      if (std::find(layout.axis.begin(), layout.axis.end(), index) != layout.axis.end()) continue;
+      if (index == layout.pos || (index == layout.time && !times_from_rate_)) continue;
+      out_.ignored_columns.push_back(layout.names[i]);
+    }
+  }
+
+  // ------------------------------------------------------------ means tables
+
+  void read_means(const Line& header) {
+    out_.format = InputFormat::means;
+    apply_comment_keys();
+    if (numeric_delimiter(header.text))
+      fail_at(header.number, 0,
+              "a means table needs a header line naming its columns "
+              "(mean_x, mean_y, mean_z; optional n, se_x, se_y, se_z)");
+    Line row;
+    if (!next_content_line(row)) fail_at(header.number, 0, "a header line but no data rows");
+    const Delim delim = detect_delimiter(header, row);
+    std::vector<std::string_view> fields;
+    split(header.text, delim, fields);
+    std::vector<ColumnName> names;
+    for (std::string_view f : fields) names.push_back(analyse_name(f));
+    Layout layout;
+    layout.delim = delim;
+    layout.fields = fields.size();
+    layout.header_line = header.number;
+    for (const ColumnName& c : names) layout.names.push_back(c.original);
+    if (options_.columns.empty()) {
+      layout.axis = means_by_name(names, header.number, layout.name_units);
+    } else {
+      layout.axis = chosen_columns(&names, fields.size(), header.number);
+      for (std::size_t k = 0; k < 3; ++k)
+        layout.name_units[k] = named_unit(names[static_cast<std::size_t>(layout.axis[k])]);
+    }
+    int count_column = -1;
+    std::array<int, 3> se{-1, -1, -1};
+    for (std::size_t i = 0; i < names.size(); ++i) {
+      const int index = static_cast<int>(i);
+      if (std::find(layout.axis.begin(), layout.axis.end(), index) != layout.axis.end()) continue;
+      Unit u = Unit::none;
+      if (match_name(
+              names[i], [](std::string_view s) { return is_count_name(s) ? 0 : -1; }, u) >= 0) {
+        if (count_column >= 0)
+          fail_at(header.number, index + 1,
+                  "two sample-count columns ('" +
+                      layout.names[static_cast<std::size_t>(count_column)] + "' and '" +
+                      layout.names[i] + "')");
+        count_column = index;
+        continue;
+      }
+      const int a = match_name(names[i], se_axis_of, u);
+      if (a < 0) continue;
+      if (se[static_cast<std::size_t>(a)] >= 0)
+        fail_at(header.number, index + 1,
+                "two standard-error columns for " + std::string(1, static_cast<char>('x' + a)));
+      se[static_cast<std::size_t>(a)] = index;
+    }
+    const bool any_se = se[0] >= 0 || se[1] >= 0 || se[2] >= 0;
+    for (std::size_t k = 0; k < 3; ++k)
+      if (any_se && se[k] < 0)
+        fail_at(header.number, 0,
+                "no standard-error column for " + std::string(1, static_cast<char>('x' + k)) +
+                    " although the others have one (columns: " + join(layout.names) + ")");
+    rewind_to(row);
+    Line line;
+    while (next_content_line(line)) {
+      if (first_data_line_ == 0) first_data_line_ = line.number;
+      split(line.text, delim, fields);
+      if (line.unterminated &&
+          (fields.size() != layout.fields || !row_is_complete(layout, fields))) {
+        out_.warnings.push_back(out_.source + ":" + std::to_string(line.number) +
+                                ": last line has no newline (cut off?); dropped");
+        break;
+      }
+      if (fields.size() != layout.fields)
+        fail(0, "expected " + std::to_string(layout.fields) + " fields as in the header line " +
+                    std::to_string(header.number) + ", found " + std::to_string(fields.size()));
+      StaticMeanRow r;
+      r.line = line.number;
+      for (std::size_t k = 0; k < 3; ++k)
+        r.mean[static_cast<Eigen::Index>(k)] = field_number(layout, fields, layout.axis[k]);
+      if (count_column >= 0) {
+        const double n = optional_number(layout, fields, count_column);
+        if (!std::isnan(n)) {
+          if (n <= 0)
+            fail(count_column + 1, "column '" +
+                                       layout.names[static_cast<std::size_t>(count_column)] +
+                                       "': the sample count must be positive");
+          r.samples = n;
+        }
+      }
+      if (any_se) {
+        Vec3 e;
+        int empty = 0;
+        for (std::size_t k = 0; k < 3; ++k) {
+          e[static_cast<Eigen::Index>(k)] = optional_number(layout, fields, se[k]);
+          if (std::isnan(e[static_cast<Eigen::Index>(k)]))
+            ++empty;
+          else if (e[static_cast<Eigen::Index>(k)] < 0)
+            fail(se[k] + 1, "column '" + layout.names[static_cast<std::size_t>(se[k])] +
+                                "': a standard error cannot be negative");
+        }
+        if (empty == 0) {
+          r.standard_error = e;
+        } else if (empty < 3) {
+          for (std::size_t k = 0; k < 3; ++k)
+            if (std::isnan(e[static_cast<Eigen::Index>(k)]))
+              fail(se[k] + 1, "column '" + layout.names[static_cast<std::size_t>(se[k])] +
+                                  "': empty field while the other standard errors are given");
+        }
+      }
+      out_.means.push_back(r);
+    }
+    if (out_.means.empty()) fail_at(header.number, 0, "a header line but no data rows");
+    for (std::size_t i = 0; i < layout.fields; ++i) {
+      const int index = static_cast<int>(i);
+      if (std::find(layout.axis.begin(), layout.axis.end(), index) != layout.axis.end() ||
+          index == count_column || std::find(se.begin(), se.end(), index) != se.end())
+        continue;
+      out_.ignored_columns.push_back(layout.names[i]);
+    }
+    units_from_names_or_values(layout);
+    resolve_g(header_g_);
+  }
+
+  // A number, or NaN for an empty field.
+  double optional_number(const Layout& layout, const std::vector<std::string_view>& fields,
+                         int index) const {
+    if (unquote(fields[static_cast<std::size_t>(index)]).empty()) return kNaN;
+    return field_number(layout, fields, index);
+  }
+
+  std::array<int, 3> means_by_name(const std::vector<ColumnName>& names, int line,
+                                   std::array<Unit, 3>& units) const {
+    std::array<std::vector<int>, 3> found;
+    std::array<Unit, 3> found_units{Unit::none, Unit::none, Unit::none};
+    for (std::size_t i = 0; i < names.size(); ++i) {
+      Unit u = Unit::none;
+      if (match_name(names[i], se_axis_of, u) >= 0) continue;  // "x_se" is no mean
+      const int a = match_name(names[i], mean_axis_of, u);
+      if (a < 0) continue;
+      found[static_cast<std::size_t>(a)].push_back(static_cast<int>(i));
+      found_units[static_cast<std::size_t>(a)] = u;
+    }
+    std::vector<std::string> all;
+    for (const ColumnName& c : names) all.push_back(c.original);
+    std::array<int, 3> axis{};
+    for (std::size_t k = 0; k < 3; ++k) {
+      const std::string letter(1, static_cast<char>('x' + k));
+      if (found[k].empty())
+        fail_at(line, 0,
+                "no mean column for " + letter + " (e.g. mean_" + letter +
+                    ") among the header's columns (" + join(all) + "): pass --columns X,Y,Z");
+      if (found[k].size() > 1) {
+        const auto a = static_cast<std::size_t>(found[k][0]);
+        const auto b = static_cast<std::size_t>(found[k][1]);
+        fail_at(line, found[k][1] + 1,
+                "columns '" + names[a].original + "' and '" + names[b].original +
+                    "' both name the mean of " + letter + ": choose with --columns X,Y,Z");
+      }
+      axis[k] = found[k][0];
+      units[k] = is_force_unit(found_units[k]) ? found_units[k] : Unit::none;
+    }
+    return axis;
+  }
+
+  // ------------------------------------------------------------ units, g, rate
+
+  void set_units_from_option() {
+    out_.units = options_.units;
+    out_.units_how = "--units " + std::string(to_string(options_.units));
+  }
+
+  void units_from_names_or_values(const Layout& layout) {
+    if (options_.units != InputUnits::automatic) {
+      set_units_from_option();
+      return;
+    }
+    Unit named = Unit::none;
+    int named_axis = -1;
+    for (std::size_t k = 0; k < 3; ++k) {
+      const Unit u = layout.name_units[k];
+      if (u == Unit::none) continue;
+      if (named != Unit::none && u != named)
+        fail_at(layout.header_line, layout.axis[k] + 1,
+                "columns '" +
+                    layout.names[static_cast<std::size_t>(
+                        layout.axis[static_cast<std::size_t>(named_axis)])] +
+                    "' and '" + layout.names[static_cast<std::size_t>(layout.axis[k])] +
+                    "' name different units: pass --units counts|g|mps2");
+      named = u;
+      named_axis = static_cast<int>(k);
+    }
+    if (named != Unit::none) {
+      out_.units = input_units(named);
+      std::vector<std::string> cols;
+      for (int i : layout.axis) cols.push_back(layout.names[static_cast<std::size_t>(i)]);
+      out_.units_how = "column names " + join(cols);
+      return;
+    }
+    units_from_values();
+  }
+
+  void units_from_values() {
+    const bool means = out_.format == InputFormat::means;
+    const std::size_t n = means ? out_.means.size() : out_.axis[0].size();
+    std::vector<double> norms(n);
+    bool integers = true;
+    for (std::size_t i = 0; i < n; ++i) {
+      const Vec3 v = means ? out_.means[i].mean : out_.sample(i);
+      norms[i] = v.norm();
+      for (int k = 0; k < 3 && integers; ++k) integers = v[k] == std::floor(v[k]);
+    }
+    const double median = median_of(norms);
+    const std::string seen = "median |" + std::string(means ? "mean" : "sample") + "| " +
+                             number_text(median) + " over " + std::to_string(n) +
+                             (means ? " rows" : " samples");
+    const bool near_mps2 =
+        std::abs(median - kStandardGravity_mps2) <= kRelativeUnitWindow * kStandardGravity_mps2;
+    const bool near_g = std::abs(median - 1) <= kRelativeUnitWindow;
+    if (!integers && near_mps2) {
+      out_.units = InputUnits::mps2;
+      out_.units_how = "values: " + seen + ", near 9.80665 m/s^2";
+    } else if (!integers && near_g) {
+      out_.units = InputUnits::g;
+      out_.units_how = "values: " + seen + ", near 1 g";
+    } else if ((integers || means) && median >= kMinCountsNorm) {
+      out_.units = InputUnits::counts;
+      out_.units_how =
+          "values: " + seen + (integers ? ", every value an integer" : "") + ", raw counts";
+    } else {
+      fail_at(first_data_line_, 0,
+              "cannot tell the units of " + out_.source + " (" + seen +
+                  (integers ? ", every value an integer: too small for raw counts, and g or "
+                              "m/s^2 would not be whole numbers"
+                            : ", neither near 1 g nor near 9.81 m/s^2") +
+                  "): pass --units counts|g|mps2");
+    }
+  }
+
+  void resolve_g(std::optional<double> from_file) {
+    if (options_.g_mps2) {
+      out_.g_mps2 = *options_.g_mps2;
+      out_.g_given = true;
+    } else if (from_file) {
+      out_.g_mps2 = *from_file;
+      out_.g_given = true;
+    } else {
+      out_.g_mps2 = kStandardGravity_mps2;
+      out_.g_given = false;
+      out_.warnings.push_back(out_.source +
+                              ": no local gravity given (no '# g_local_mps2' header, no "
+                              "--g-mps2); assuming standard gravity 9.80665 m/s^2 (a wrong g "
+                              "reads as a common scale-factor error)");
+    }
+  }
+
+  // The rate that makes times for rows without a time column.
+  std::optional<double> time_rate() const {
+    if (options_.rate_hz) return options_.rate_hz;
+    return header_rate_;
+  }
+
+  void resolve_rate() {
+    if (times_from_rate_)
+      out_.sample_rate_hz = *time_rate();
+    else if (header_rate_)
+      out_.sample_rate_hz = *header_rate_;
+    else if (options_.rate_hz)
+      out_.sample_rate_hz = *options_.rate_hz;
+    else
+      out_.sample_rate_hz = rate_from_steps();
+  }
+
+  double rate_from_steps() {
+    const std::vector<double>& t = out_.t_s;
+    if (t.size() < 2) return kNaN;
+    std::vector<double> steps(t.size() - 1);
+    for (std::size_t i = 1; i < t.size(); ++i) steps[i - 1] = t[i] - t[i - 1];
+    const double step = median_of(std::move(steps));
+    if (!(step > 0)) {
+      out_.warnings.push_back(out_.source +
+                              ": the median time step is zero; sample rate unknown "
+                              "(pass --rate-hz)");
+      return kNaN;
+    }
+    return 1 / step;
+  }
+
+  std::string_view text_;
+  const InputOptions& options_;
+  std::size_t offset_ = 0;
+  int line_no_ = 0;
+  std::size_t body_offset_ = 0;
+  int body_line_ = 0;
+  int first_data_line_ = 0;
+  int time_broken_line_ = 0;
+  bool times_from_rate_ = false;
+  bool standcal_marker_ = false;
+  int comments_seen_ = 0;
+  std::vector<CommentKey> comments_;
+  std::optional<double> header_g_;
+  std::optional<double> header_rate_;
+  RawInput out_;
+};
+
+}  // namespace input_reader
+}  // namespace
+
+RawInput raw_input_of(const Recording& rec) {
+  RawInput out;
+  out.source = rec.source;
+  out.format = InputFormat::standcal;
+  out.units = InputUnits::mps2;
+  out.units_how = "the " + std::string(kRecordingFormat) + " format (m/s^2)";
+  out.g_mps2 = rec.g_local_mps2;
+  out.g_given = rec.g_from_header;
+  const std::size_t n = rec.samples.size();
+  out.t_s.reserve(n);
+  out.block.reserve(n);
+  for (auto& a : out.axis) a.reserve(n);
+  for (const RecordingSample& s : rec.samples) {
+    out.t_s.push_back(s.t_s);
+    for (int k = 0; k < 3; ++k) out.axis[static_cast<std::size_t>(k)].push_back(s.f_mps2[k]);
+    out.block.push_back(s.pos);
+  }
+  try {
+    out.sample_rate_hz = 1.0 / sample_period_s(rec);
+  } catch (const std::exception&) {
+    // no rate header and no two samples in one position: the rate stays unknown
+  }
+  out.warnings = rec.warnings;
+  return out;
+}
+
+namespace {
+
+// One spelling per value, for printing and for parsing the command line.
+template <typename E, std::size_t N>
+using Spellings = std::array<std::pair<E, std::string_view>, N>;
+constexpr Spellings<InputFormat, 5> kFormatSpellings{{{InputFormat::automatic, "auto"},
+                                                      {InputFormat::standcal, "standcal"},
+                                                      {InputFormat::imu_tk, "imu_tk"},
+                                                      {InputFormat::delimited, "delimited"},
+                                                      {InputFormat::means, "means"}}};
+constexpr Spellings<InputUnits, 4> kUnitSpellings{{{InputUnits::automatic, "auto"},
+                                                   {InputUnits::counts, "counts"},
+                                                   {InputUnits::g, "g"},
+                                                   {InputUnits::mps2, "mps2"}}};
+
+template <typename E, std::size_t N>
+std::string_view spelling_of(E value, const Spellings<E, N>& spellings) {
+  for (const auto& [v, name] : spellings)
+    if (v == value) return name;
+  return "?";
+}
+
+template <typename E, std::size_t N>
+E parse_spelling(std::string_view s, const Spellings<E, N>& spellings, const char* what) {
+  std::string allowed;
+  for (const auto& [v, name] : spellings) {
+    if (s == name) return v;
+    allowed += (allowed.empty() ? "" : ", ") + std::string(name);
+  }
+  throw std::invalid_argument("unknown input " + std::string(what) + " '" + std::string(s) + "' (" +
+                              allowed + ")");
+}
+
+}  // namespace
+
+std::string_view to_string(InputFormat f) { return spelling_of(f, kFormatSpellings); }
+std::string_view to_string(InputUnits u) { return spelling_of(u, kUnitSpellings); }
+
+InputFormat parse_input_format(std::string_view s) {
+  return parse_spelling(s, kFormatSpellings, "format");
+}
+InputUnits parse_input_units(std::string_view s) {
+  return parse_spelling(s, kUnitSpellings, "units");
+}
+
+RawInput parse_input(std::string_view text, const std::string& source,
+                     const InputOptions& options) {
+  return input_reader::Reader(text, source, options).run();
+}
+
+RawInput read_input(const std::string& path, const InputOptions& options) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw std::runtime_error(path + ": cannot open (a directory)");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(path + ": cannot open");
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  const std::string text = buffer.str();
+  return parse_input(text, path, options);
+}
+
+}  // namespace standcal

@@ -1,0 +1,80 @@
+#pragma once
+// Static intervals of a raw recording: the stretches where the unit was held still, found
+// from the samples alone (docs/calibration.md, "Recordings without angles").
+//
+// Detector: the motion statistic of sample i is the sum over the three axes of the sample
+// variance in a centred window of `window_s`. Its quiet level Q is read off the data: the
+// 10th percentile of the statistic over the whole recording (a recording is at least a
+// tenth still, or nothing can be calibrated). White noise alone makes the window variance
+// scatter around Q by a relative sqrt(2 / (w - 1)) per axis; real sensors scatter more,
+// so the spread is measured too, in the quietest half of the windows below the median:
+// the edge of the still windows is Q * exp(6 * s_log), s_log the robust (MAD) scale of
+// log(statistic) there, and the threshold is twice the edge, so that half the threshold
+// (the stability refit) still admits the still windows and twice it still stops at motion.
+// A sample is static when its window is below the threshold; a run of static samples of at
+// least `min_length_s` is an interval. `threshold_factor` scales the threshold (the fit
+// reports how its result moves at half and twice it).
+//
+// Samples at the converter's limits are flagged and excluded: for counts, within
+// `adc_margin` of the full scale of the smallest 8..32-bit range (signed or unsigned) that
+// holds the data; for physical units, a value repeated at an axis's extreme (clipping).
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "calib/allan.hpp"
+#include "calib/model.hpp"
+#include "calib/raw_input.hpp"
+
+namespace standcal {
+
+struct StaticInterval {
+  std::size_t begin = 0, end = 0;  // sample indices [begin, end)
+  double t_start_s = 0, t_end_s = 0;
+  std::size_t samples = 0;    // used (saturated ones excluded)
+  Vec3 mean = Vec3::Zero();   // input units
+  Vec3 sigma = Vec3::Zero();  // sample standard deviation, input units
+  // Standard error of the mean: sigma / sqrt(n) if the noise were white, and the one the
+  // recording's own noise implies (the Allan deviation of the intervals pooled, at this
+  // interval's length), which is never smaller.
+  Vec3 white_standard_error = Vec3::Zero();
+  Vec3 standard_error = Vec3::Zero();
+  double mid_time_s() const { return 0.5 * (t_start_s + t_end_s); }
+};
+
+struct StaticDetectorOptions {
+  double window_s = 1.0;          // window of the motion statistic (imu_tk: 101 samples at 100 Hz)
+  double min_length_s = 2.0;      // shortest interval kept
+  double threshold_factor = 1.0;  // multiplies the data-derived threshold
+  double adc_margin = 0.001;      // fraction of full scale counted as "at the limit"
+  // Standcal recordings already say which samples are static (their dwell blocks): use
+  // them rather than detect.
+  bool use_blocks = true;
+};
+
+struct StaticDetection {
+  std::vector<StaticInterval> intervals;
+  std::string how;  // in words: blocks or detector, window, threshold
+  std::size_t window_samples = 0;
+  double quiet_level = 0;  // Q, input units^2
+  double threshold = 0;    // input units^2
+  double threshold_factor = 1;
+  std::size_t saturated_samples = 0;
+  std::size_t short_runs_dropped = 0;  // still stretches shorter than min_length_s
+  // The Allan deviation of the intervals pooled, per axis, input units: what the
+  // coloured-noise standard errors are read from.
+  std::array<std::vector<AllanPoint>, 3> allan;
+};
+
+// Throws std::runtime_error naming the source when the input has no samples, no rate, or
+// is shorter than two windows.
+StaticDetection detect_static_intervals(const RawInput& input,
+                                        const StaticDetectorOptions& options = {});
+
+// The standard error of a T-second mean from an Allan curve: the deviation at T (log-log
+// interpolation; beyond the curve, its last point continued at the slope of its last factor
+// of three in tau, clamped to white noise's -1/2 .. random walk's +1/2). Never below `white`.
+double coloured_standard_error(const std::vector<AllanPoint>& curve, double duration_s,
+                               double white);
+
+}  // namespace standcal

@@ -1,0 +1,423 @@
+// The input reader (raw_input.hpp): formats told from the content, units from names or
+// values, and errors that name file, line and column.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+#include "calib/raw_input.hpp"
+
+namespace standcal {
+namespace {
+
+const std::string kXsens = std::string(STANDCAL_TEST_DATA) + "/imu_tk_xsens/xsens_acc.mat";
+
+std::string file_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  return buffer.str();
+}
+
+// The first `n` lines of the Xsens file, as the file has them.
+std::string xsens_head(int n) {
+  const std::string all = file_text(kXsens);
+  std::size_t end = 0;
+  for (int i = 0; i < n; ++i) end = all.find('\n', end) + 1;
+  return all.substr(0, end);
+}
+
+// The error message of parsing `text`, or "" when it parses.
+std::string input_error_of(const std::string& text, const InputOptions& options = {},
+                           const std::string& source = "in.csv") {
+  try {
+    parse_input(text, source, options);
+  } catch (const RecordingError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+bool contains(const std::string& text, const std::string& part) {
+  return text.find(part) != std::string::npos;
+}
+
+// A standcal-recording/1 file with angle columns (recording_test.cpp's example).
+const std::string kStandcalHeader =
+    "# format: standcal-recording/1\n"
+    "# g_local_mps2: 9.81625\n"
+    "# settle_s: 5\n"
+    "# sample_rate_hz: 100\n";
+const std::string kStandcalColumns =
+    "t_s,pos,alpha1_cmd_deg,alpha2_cmd_deg,alpha1_deg,alpha2_deg,fx_mps2,fy_mps2,fz_mps2,temp_c\n";
+const std::string kStandcalRows =
+    "5.000,0,0.0000,0.0000,0.000012,-0.000210,0.000421,9.816702,-0.000217,23.05\n"
+    "5.010,0,0.0000,0.0000,0.000012,-0.000210,0.000425,9.816700,-0.000219,23.05\n"
+    "20.000,1,90.0000,0.0000,,,9.816702,0.000421,-0.000217,\n";
+
+// Rows in g at 100 Hz: t, x, y, z.
+const std::string kRowsG =
+    "0.00,0.012,-0.004,0.998\n"
+    "0.01,0.011,-0.003,0.999\n"
+    "0.02,0.013,-0.005,0.997\n";
+
+TEST(RawInputImuTk, ReadsTheVendoredXsensFile) {
+  const RawInput in = read_input(kXsens);
+  EXPECT_EQ(in.format, InputFormat::imu_tk);
+  EXPECT_EQ(in.units, InputUnits::counts);
+  EXPECT_TRUE(contains(in.units_how, "integer")) << in.units_how;
+  ASSERT_EQ(in.size(), 51175u);
+  EXPECT_NEAR(in.sample_rate_hz, 100.0, 0.5);
+  EXPECT_DOUBLE_EQ(in.t_s.front(), 0.02984);
+  EXPECT_DOUBLE_EQ(in.t_s.back(), 511.718);
+  EXPECT_EQ(in.sample(0), Vec3(33108, 33329, 36429));
+  EXPECT_EQ(in.sample(in.size() - 1), Vec3(35290, 35137, 27631));
+  EXPECT_TRUE(in.ignored_columns.empty());
+  EXPECT_TRUE(in.block.empty());
+  EXPECT_FALSE(in.recording.has_value());
+  EXPECT_FALSE(in.g_given);
+  EXPECT_DOUBLE_EQ(in.g_mps2, kStandardGravity_mps2);
+  ASSERT_EQ(in.warnings.size(), 1u);  // g assumed
+  EXPECT_TRUE(contains(in.warnings[0], "9.80665"));
+}
+
+TEST(RawInputImuTk, TheSameRowsUnderACommaHeaderReadTheSame) {
+  const std::string head = xsens_head(300);
+  const RawInput plain = parse_input(head, "head.mat");
+  std::istringstream lines(head);
+  std::string csv = "t,x,y,z\n";
+  std::string line;
+  while (std::getline(lines, line)) {
+    std::istringstream fields(line);
+    std::string f;
+    bool first = true;
+    while (fields >> f) {
+      if (!first) csv += ',';
+      csv += f;
+      first = false;
+    }
+    csv += '\n';
+  }
+  const RawInput in = parse_input(csv, "head.csv");
+  EXPECT_EQ(plain.format, InputFormat::imu_tk);
+  EXPECT_EQ(in.format, InputFormat::delimited);
+  EXPECT_EQ(in.units, InputUnits::counts);
+  ASSERT_EQ(in.size(), 300u);
+  EXPECT_EQ(in.t_s, plain.t_s);
+  for (std::size_t k = 0; k < 3; ++k) EXPECT_EQ(in.axis[k], plain.axis[k]);
+  EXPECT_DOUBLE_EQ(in.sample_rate_hz, plain.sample_rate_hz);
+}
+
+TEST(RawInputImuTk, ThreeColumnsNeedTheRateAndUseIt) {
+  const std::string rows = "0.012 -0.004 0.998\n0.011 -0.003 0.999\n0.013 -0.005 0.997\n";
+  const std::string message = input_error_of(rows);
+  EXPECT_TRUE(contains(message, "in.csv:1")) << message;
+  EXPECT_TRUE(contains(message, "--rate-hz")) << message;
+  InputOptions options;
+  options.rate_hz = 50;
+  const RawInput in = parse_input(rows, "in.txt", options);
+  ASSERT_EQ(in.size(), 3u);
+  EXPECT_DOUBLE_EQ(in.t_s[2], 0.04);
+  EXPECT_DOUBLE_EQ(in.sample_rate_hz, 50);
+  EXPECT_EQ(in.units, InputUnits::g);
+  EXPECT_DOUBLE_EQ(in.axis[2][1], 0.999);
+}
+
+TEST(RawInputImuTk, ManyColumnsWithoutAHeaderAskForOneOrForColumns) {
+  const std::string rows = "0.00 1 2 0.01 0.02 0.98\n0.01 1 2 0.01 0.02 0.99\n";
+  const std::string message = input_error_of(rows);
+  EXPECT_TRUE(contains(message, "header line")) << message;
+  EXPECT_TRUE(contains(message, "--columns")) << message;
+  InputOptions options;
+  options.columns = {"4", "5", "6"};
+  const RawInput in = parse_input(rows, "in.txt", options);
+  EXPECT_EQ(in.sample(1), Vec3(0.01, 0.02, 0.99));
+  EXPECT_DOUBLE_EQ(in.t_s[1], 0.01);  // column 1 never decreases: the time
+  EXPECT_EQ(in.ignored_columns, (std::vector<std::string>{"column 2", "column 3"}));
+}
+
+TEST(RawInputDelimited, SemicolonFileWithValuesInG) {
+  std::string text = "time;acc_x;acc_y;acc_z\n" + kRowsG;
+  for (char& c : text)
+    if (c == ',') c = ';';
+  const RawInput in = parse_input(text, "semi.csv");
+  EXPECT_EQ(in.format, InputFormat::delimited);
+  EXPECT_EQ(in.units, InputUnits::g);
+  EXPECT_TRUE(contains(in.units_how, "values")) << in.units_how;
+  ASSERT_EQ(in.size(), 3u);
+  EXPECT_EQ(in.sample(2), Vec3(0.013, -0.005, 0.997));
+  EXPECT_NEAR(in.sample_rate_hz, 100, 1e-9);
+}
+
+TEST(RawInputDelimited, TabFileWithUnitsInBrackets) {
+  const std::string text =
+      "timestamp\tAcc X [m/s^2]\tAcc Y [m/s^2]\tAcc Z [m/s^2]\n"
+      "0.000\t0.1\t0.2\t9.80\n"
+      "0.005\t0.1\t0.2\t9.81\n";
+  const RawInput in = parse_input(text, "tab.tsv");
+  EXPECT_EQ(in.units, InputUnits::mps2);
+  EXPECT_TRUE(contains(in.units_how, "column names")) << in.units_how;
+  EXPECT_EQ(in.sample(1), Vec3(0.1, 0.2, 9.81));
+  EXPECT_NEAR(in.sample_rate_hz, 200, 1e-9);
+}
+
+TEST(RawInputDelimited, GyroscopeAndOtherColumnsAreIgnoredAndListed) {
+  const std::string text =
+      "t,gx,gy,gz,ax,ay,az,temp,counter\n"
+      "0.00,0.1,0.2,0.3,0.012,-0.004,0.998,25.1,1\n"
+      "0.01,0.1,0.2,0.3,0.011,-0.003,0.999,25.1,2\n";
+  const RawInput in = parse_input(text, "imu.csv");
+  EXPECT_EQ(in.sample(0), Vec3(0.012, -0.004, 0.998));
+  EXPECT_EQ(in.ignored_columns, (std::vector<std::string>{"gx", "gy", "gz", "temp", "counter"}));
+}
+
+TEST(RawInputDelimited, ColumnsByNameAndByNumber) {
+  const std::string text =
+      "time,a1,a2,a3,b1,b2,b3\n"
+      "0.00,5,6,7,0.01,0.02,0.98\n"
+      "0.01,5,6,7,0.01,0.02,0.99\n";
+  const std::string message = input_error_of(text);
+  EXPECT_TRUE(contains(message, "in.csv:1: no accelerometer columns")) << message;
+  EXPECT_TRUE(contains(message, "time, a1, a2, a3, b1, b2, b3")) << message;
+  EXPECT_TRUE(contains(message, "--columns")) << message;
+
+  InputOptions by_name;
+  by_name.columns = {"b1", "B2", " b3 "};
+  const RawInput named = parse_input(text, "in.csv", by_name);
+  EXPECT_EQ(named.sample(1), Vec3(0.01, 0.02, 0.99));
+  EXPECT_DOUBLE_EQ(named.t_s[1], 0.01);
+  EXPECT_EQ(named.ignored_columns, (std::vector<std::string>{"a1", "a2", "a3"}));
+
+  InputOptions by_number;
+  by_number.columns = {"5", "6", "7"};
+  const RawInput numbered = parse_input(text, "in.csv", by_number);
+  EXPECT_EQ(numbered.axis, named.axis);
+
+  by_number.columns = {"5", "6", "9"};
+  EXPECT_TRUE(contains(input_error_of(text, by_number), "out of range"));
+  by_name.columns = {"b1", "b2", "b4"};
+  EXPECT_TRUE(contains(input_error_of(text, by_name), "no column named 'b4'"));
+}
+
+TEST(RawInputDelimited, NoTimeColumnNeedsTheRate) {
+  const std::string text = "ax,ay,az\n0.01,0.02,0.98\n0.01,0.02,0.99\n";
+  const std::string message = input_error_of(text);
+  EXPECT_TRUE(contains(message, "in.csv:1: no time column")) << message;
+  EXPECT_TRUE(contains(message, "--rate-hz")) << message;
+  InputOptions options;
+  options.rate_hz = 10;
+  const RawInput in = parse_input(text, "in.csv", options);
+  EXPECT_DOUBLE_EQ(in.t_s[1], 0.1);
+  EXPECT_DOUBLE_EQ(in.sample_rate_hz, 10);
+}
+
+TEST(RawInputDelimited, MillisecondTimesAreSeconds) {
+  const std::string text = "t_ms,ax_g,ay_g,az_g\n0,0,0,1\n20,0,0,1\n40,0,0,1\n";
+  const RawInput in = parse_input(text, "ms.csv");
+  EXPECT_DOUBLE_EQ(in.t_s[2], 0.04);
+  EXPECT_NEAR(in.sample_rate_hz, 50, 1e-9);
+  EXPECT_EQ(in.units, InputUnits::g);  // from the names: the values alone could not tell
+}
+
+TEST(RawInputDelimited, SkipLinesPassesOverAPreambleAndKeepsLineNumbers) {
+  const std::string preamble = "Logger v1.2, serial 1234\nexported 2024-05-01\n";
+  const std::string text = preamble + "t,ax,ay,az\n" + kRowsG;
+  InputOptions options;
+  options.skip_lines = 2;
+  const RawInput in = parse_input(text, "log.csv", options);
+  ASSERT_EQ(in.size(), 3u);
+  EXPECT_EQ(in.sample(0), Vec3(0.012, -0.004, 0.998));
+  const std::string bad = preamble + "t,ax,ay,az\n0.00,0.01,0.02,0.98\n0.01,0.01,x,0.98\n";
+  EXPECT_TRUE(contains(input_error_of(bad, options), "in.csv:5: column 3"))
+      << input_error_of(bad, options);
+}
+
+TEST(RawInputDelimited, GravityFromACommentHeaderOrTheOption) {
+  const std::string text = "# g_local_mps2: 9.8162\n# exported by logger\nt,ax,ay,az\n" + kRowsG;
+  const RawInput in = parse_input(text, "g.csv");
+  EXPECT_DOUBLE_EQ(in.g_mps2, 9.8162);
+  EXPECT_TRUE(in.g_given);
+  EXPECT_TRUE(in.warnings.empty());
+  InputOptions options;
+  options.g_mps2 = 9.80;
+  EXPECT_DOUBLE_EQ(parse_input(text, "g.csv", options).g_mps2, 9.80);
+}
+
+TEST(RawInputDelimited, ByteOrderMarkAndCrlfAreAccepted) {
+  std::string text = "\xEF\xBB\xBFt,ax,ay,az\r\n";
+  std::istringstream rows(kRowsG);
+  std::string row;
+  while (std::getline(rows, row)) text += row + "\r\n";
+  const RawInput in = parse_input(text, "win.csv");
+  ASSERT_EQ(in.size(), 3u);
+  EXPECT_DOUBLE_EQ(in.axis[2][2], 0.997);
+}
+
+TEST(RawInputDelimited, TruncatedLastLineIsDroppedWithAWarning) {
+  const RawInput in = parse_input("t,ax,ay,az\n" + kRowsG + "0.03,0.01", "cut.csv");
+  EXPECT_EQ(in.size(), 3u);
+  ASSERT_FALSE(in.warnings.empty());
+  EXPECT_TRUE(contains(in.warnings[0], "cut.csv:5")) << in.warnings[0];
+  EXPECT_TRUE(contains(in.warnings[0], "dropped"));
+}
+
+TEST(RawInputStandcal, RecordingWithAngleColumnsKeepsTheRecording) {
+  const RawInput in = parse_input(kStandcalHeader + kStandcalColumns + kStandcalRows, "rec.csv");
+  EXPECT_EQ(in.format, InputFormat::standcal);
+  ASSERT_TRUE(in.recording.has_value());
+  EXPECT_EQ(in.recording->samples.size(), 3u);
+  ASSERT_EQ(in.size(), 3u);
+  EXPECT_EQ(in.units, InputUnits::mps2);
+  EXPECT_DOUBLE_EQ(in.axis[1][0], 9.816702);
+  EXPECT_DOUBLE_EQ(in.t_s[2], 20.0);
+  EXPECT_EQ(in.block, (std::vector<int>{0, 0, 1}));
+  EXPECT_DOUBLE_EQ(in.g_mps2, 9.81625);
+  EXPECT_TRUE(in.g_given);
+  EXPECT_DOUBLE_EQ(in.sample_rate_hz, 100);
+}
+
+TEST(RawInputStandcal, SkippedPreambleKeepsTheRecordingsLineNumbers) {
+  InputOptions options;
+  options.skip_lines = 1;
+  const std::string bad = "5.020,0,0,0,,,0.1,9.8x,0.1,\n";
+  const std::string message =
+      input_error_of("exported\n" + kStandcalHeader + kStandcalColumns + bad, options, "rec.csv");
+  EXPECT_TRUE(contains(message, "rec.csv:7: column 8")) << message;
+}
+
+TEST(RawInputStandcal, RecordingWithoutAngleColumns) {
+  const std::string text =
+      "# format: standcal-recording/1\n"
+      "# g_local_mps2: 9.81\n"
+      "# sample_rate_hz: 200\n"
+      "t_s,pos,fx_mps2,fy_mps2,fz_mps2,gx\n"
+      "0.000,0,0.01,9.81,0.02,0.5\n"
+      "0.005,0,0.01,9.80,0.02,0.5\n"
+      "3.000,1,9.81,0.01,0.02,0.5\n";
+  const RawInput in = parse_input(text, "noangles.csv");
+  EXPECT_EQ(in.format, InputFormat::standcal);
+  EXPECT_FALSE(in.recording.has_value());
+  ASSERT_EQ(in.size(), 3u);
+  EXPECT_EQ(in.block, (std::vector<int>{0, 0, 1}));
+  EXPECT_EQ(in.sample(2), Vec3(9.81, 0.01, 0.02));
+  EXPECT_EQ(in.units, InputUnits::mps2);
+  EXPECT_DOUBLE_EQ(in.g_mps2, 9.81);
+  EXPECT_TRUE(in.g_given);
+  EXPECT_DOUBLE_EQ(in.sample_rate_hz, 200);
+  EXPECT_EQ(in.ignored_columns, (std::vector<std::string>{"gx"}));
+
+  const std::string missing = "# format: standcal-recording/1\nt_s,fx_mps2,fz_mps2\n0,1,2\n";
+  EXPECT_TRUE(contains(input_error_of(missing), "in.csv:2: required column 'fy_mps2' is missing"));
+}
+
+TEST(RawInputMeans, TableWithCountsAndStandardErrors) {
+  const std::string text =
+      "mean_x,mean_y,mean_z,n,se_x,se_y,se_z,std_x\n"
+      "0.0012,-0.0004,1.0003,500,1e-5,2e-5,3e-5,0.0002\n"
+      "1.0011,0.0003,0.0002,400,1e-5,1e-5,1e-5,0.0002\n";
+  InputOptions options;
+  options.format = InputFormat::means;
+  const RawInput in = parse_input(text, "means.csv", options);
+  EXPECT_EQ(in.format, InputFormat::means);
+  EXPECT_EQ(in.size(), 0u);
+  ASSERT_EQ(in.means.size(), 2u);
+  EXPECT_EQ(in.means[0].line, 2);
+  EXPECT_EQ(in.means[1].mean, Vec3(1.0011, 0.0003, 0.0002));
+  ASSERT_TRUE(in.means[0].samples.has_value());
+  EXPECT_DOUBLE_EQ(*in.means[0].samples, 500);
+  ASSERT_TRUE(in.means[0].standard_error.has_value());
+  EXPECT_EQ(*in.means[0].standard_error, Vec3(1e-5, 2e-5, 3e-5));
+  EXPECT_EQ(in.units, InputUnits::g);
+  EXPECT_EQ(in.ignored_columns, (std::vector<std::string>{"std_x"}));
+}
+
+TEST(RawInputMeans, MissingMeanColumnOrFieldIsNamed) {
+  InputOptions options;
+  options.format = InputFormat::means;
+  const std::string message = input_error_of("mean_x,mean_y,n\n0.1,0.2,10\n", options);
+  EXPECT_TRUE(contains(message, "in.csv:1: no mean column for z")) << message;
+  const std::string empty_field =
+      input_error_of("mean_x,mean_y,mean_z\n0.01,0.02,0.99\n0.01,,0.99\n", options);
+  EXPECT_TRUE(contains(empty_field, "in.csv:3: column 2: column 'mean_y': empty field"))
+      << empty_field;
+  const std::string not_number = input_error_of("x;y;z\n0.01;0.02;0.99\n0.01;0.02;zero\n", options);
+  EXPECT_TRUE(contains(not_number, "in.csv:3: column 3")) << not_number;
+}
+
+TEST(RawInputUnits, FromColumnNames) {
+  EXPECT_EQ(parse_input("t,fx_mps2,fy_mps2,fz_mps2\n0,0,0,10\n1,0,0,10\n", "a").units,
+            InputUnits::mps2);
+  EXPECT_EQ(parse_input("t,acc_x_raw,acc_y_raw,acc_z_raw\n0,0,0,10\n1,0,0,10\n", "b").units,
+            InputUnits::counts);
+  EXPECT_EQ(parse_input("t,Accel X (g),Accel Y (g),Accel Z (g)\n0,0,0,10\n1,0,0,10\n", "c").units,
+            InputUnits::g);
+  EXPECT_TRUE(
+      contains(input_error_of("t,ax_g,ay_g,az_mps2\n0,0,0,1\n1,0,0,1\n"), "different units"));
+}
+
+TEST(RawInputUnits, FromValues) {
+  const RawInput g = parse_input("t,ax,ay,az\n" + kRowsG, "g.csv");
+  EXPECT_EQ(g.units, InputUnits::g);
+  const RawInput mps2 = parse_input("t,ax,ay,az\n0,0.1,0.2,9.79\n0.01,0.1,0.2,9.81\n", "m.csv");
+  EXPECT_EQ(mps2.units, InputUnits::mps2);
+  const RawInput counts =
+      parse_input("t,ax,ay,az\n0,1000,-20,16384\n0.01,1002,-21,16390\n", "c.csv");
+  EXPECT_EQ(counts.units, InputUnits::counts);
+  EXPECT_TRUE(contains(counts.units_how, "16"));  // the median norm it saw
+}
+
+TEST(RawInputUnits, SmallIntegersCannotBeToldAndAskForUnits) {
+  const std::string text = "t x y z\n0 0 0 1\n1 1 0 0\n2 0 1 0\n";
+  const std::string message = input_error_of(text, {}, "ints.txt");
+  EXPECT_TRUE(contains(message, "cannot tell the units of ints.txt")) << message;
+  EXPECT_TRUE(contains(message, "pass --units counts|g|mps2")) << message;
+  InputOptions options;
+  options.units = InputUnits::g;
+  const RawInput in = parse_input(text, "ints.txt", options);
+  EXPECT_EQ(in.units, InputUnits::g);
+  EXPECT_EQ(in.units_how, "--units g");
+}
+
+TEST(RawInputErrors, NonNumberNamesLineAndColumn) {
+  const std::string message = input_error_of("t,ax,ay,az\n0,0.1,0.2,0.98\n0.01,0.1,abc,0.98\n");
+  EXPECT_TRUE(contains(message, "in.csv:3: column 3: column 'ay': 'abc' is not a number"))
+      << message;
+  const std::string imu_tk = input_error_of("0.0 1.5 2.5 3.5\n0.1 1.5 2.5 3.5x\n");
+  EXPECT_TRUE(contains(imu_tk, "in.csv:2: column 4")) << imu_tk;
+}
+
+TEST(RawInputErrors, TimeMustNotDecrease) {
+  const std::string message =
+      input_error_of("t,ax,ay,az\n0.00,0.1,0.2,0.98\n0.02,0.1,0.2,0.98\n0.01,0.1,0.2,0.98\n");
+  EXPECT_TRUE(contains(message, "in.csv:4: column 1: 't' goes backwards")) << message;
+}
+
+TEST(RawInputErrors, FileShapeErrors) {
+  EXPECT_TRUE(contains(input_error_of(""), "the file is empty"));
+  EXPECT_TRUE(contains(input_error_of("\n  \n"), "the file is empty"));
+  EXPECT_TRUE(contains(input_error_of("t,ax,ay,az\n"), "in.csv:1: a header line but no data rows"));
+  EXPECT_TRUE(contains(input_error_of("t,ax,ay,az\n0,0.1,0.2,0.9\n0,0.1,0.2\n"),
+                       "in.csv:3: expected 4 fields as in the header line 1, found 3"));
+  const std::string twice = input_error_of("t,x,ax,y,z\n0,0.1,0.1,0.2,0.9\n");
+  EXPECT_TRUE(contains(twice, "in.csv:1: column 3: columns 'x' (column 2) and 'ax' (column 3)"))
+      << twice;
+  InputOptions imu_tk;
+  imu_tk.format = InputFormat::imu_tk;
+  EXPECT_TRUE(contains(input_error_of("t,ax,ay,az\n" + kRowsG, imu_tk), "in.csv:1: column 1"));
+}
+
+TEST(RawInputNames, SpellingsRoundTripAndUnknownOnesAreRefused) {
+  for (InputFormat f : {InputFormat::automatic, InputFormat::standcal, InputFormat::imu_tk,
+                        InputFormat::delimited, InputFormat::means})
+    EXPECT_EQ(parse_input_format(to_string(f)), f);
+  for (InputUnits u : {InputUnits::automatic, InputUnits::counts, InputUnits::g, InputUnits::mps2})
+    EXPECT_EQ(parse_input_units(to_string(u)), u);
+  EXPECT_THROW(parse_input_format("csv"), std::invalid_argument);
+  EXPECT_THROW(parse_input_units("mg"), std::invalid_argument);
+  EXPECT_THROW(read_input("/nonexistent/raw_input_test.csv"), std::runtime_error);
+}
+
+}  // namespace
+}  // namespace standcal

@@ -1,0 +1,50 @@
+#include "tools/standcal/input_options.hpp"
+
+namespace standcal::cli {
+
+namespace {
+
+std::vector<std::string> split_at_commas(const std::string& text) {
+  std::vector<std::string> out;
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t comma = text.find(',', start);
+    out.push_back(
+        text.substr(start, comma == std::string::npos ? std::string::npos : comma - start));
+    if (comma == std::string::npos) return out;
+    start = comma + 1;
+  }
+}
+
+}  // namespace
+
+void add_input_options(CLI::App* cmd, InputCliOptions& o) {
+  cmd->add_option("--format", o.format,
+                  "auto (told from the content) | standcal | imu_tk | delimited | means")
+      ->check(CLI::IsMember({"auto", "standcal", "imu_tk", "delimited", "means"}))
+      ->capture_default_str();
+  cmd->add_option("--columns", o.columns,
+                  "the three accelerometer columns, by header name or 1-based index: x,y,z");
+  cmd->add_option("--rate-hz", o.rate_hz, "sample rate, where the file has no time column")
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--skip-lines", o.skip_lines, "preamble lines before the header or first row")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--units", o.units, "auto | counts | g | mps2")
+      ->check(CLI::IsMember({"auto", "counts", "g", "mps2"}))
+      ->capture_default_str();
+  cmd->add_option("--g-mps2", o.g_mps2, "local gravity (overrides the file's)")
+      ->check(CLI::Range(9.7, 9.9));
+}
+
+InputOptions input_options(const InputCliOptions& o) {
+  InputOptions in;
+  in.format = parse_input_format(o.format);
+  in.units = parse_input_units(o.units);
+  if (!o.columns.empty()) in.columns = split_at_commas(o.columns);
+  if (o.rate_hz > 0) in.rate_hz = o.rate_hz;
+  in.skip_lines = o.skip_lines;
+  if (o.g_mps2 > 0) in.g_mps2 = o.g_mps2;
+  return in;
+}
+
+}  // namespace standcal::cli

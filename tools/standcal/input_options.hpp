@@ -1,0 +1,23 @@
+#pragma once
+// The recording-input options `fit` and `diagnose` share (calib/raw_input.hpp): one
+// spelling, one help text, one conversion.
+#include <CLI/CLI.hpp>
+#include <string>
+
+#include "calib/raw_input.hpp"
+
+namespace standcal::cli {
+
+struct InputCliOptions {
+  std::string format = "auto";
+  std::string columns;
+  double rate_hz = 0;
+  int skip_lines = 0;
+  std::string units = "auto";
+  double g_mps2 = 0;
+};
+
+void add_input_options(CLI::App* cmd, InputCliOptions& o);
+InputOptions input_options(const InputCliOptions& o);
+
+}  // namespace standcal::cli
