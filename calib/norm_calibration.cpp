@@ -227,7 +227,24 @@ Vec3 white_noise_understatement(const std::vector<StaticInterval>& intervals,
   return out;
 }
 
+namespace {
+NormCalibration calibrate(const RawInput& in, const NormCalibrationOptions& o);
+}  // namespace
+
 NormCalibration calibrate_without_angles(const RawInput& in, const NormCalibrationOptions& o) {
+  try {
+    return calibrate(in, o);
+  } catch (const std::runtime_error& e) {
+    // The fit's own messages know neither the file nor how its intervals were found.
+    const std::string what = e.what();
+    if (what.rfind(in.source, 0) == 0) throw;
+    throw std::runtime_error(in.source + ": " + what);
+  }
+}
+
+namespace {
+
+NormCalibration calibrate(const RawInput& in, const NormCalibrationOptions& o) {
   NormCalibration c;
   if (in.format == InputFormat::means) {
     bool errors_given = false;
@@ -246,7 +263,11 @@ NormCalibration calibrate_without_angles(const RawInput& in, const NormCalibrati
   if (c.detection.intervals.empty())
     throw std::runtime_error(in.source + ": no static interval found (" + c.detection.how +
                              "): the unit never stayed still long enough");
-  c.fit = fit_norm(c.detection.intervals, in.g_mps2, in.units, o.fit);
+  try {
+    c.fit = fit_norm(c.detection.intervals, in.g_mps2, in.units, o.fit);
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error(in.source + ": " + e.what() + " (intervals: " + c.detection.how + ")");
+  }
   c.understated_by = median_understatement(c.detection.intervals);
   c.fit.result.noise.allan = allan_in_ug(c.detection, c.fit.compensation, in);
   c.fit.result.noise.understated_by = white_noise_understatement(
@@ -256,6 +277,8 @@ NormCalibration calibrate_without_angles(const RawInput& in, const NormCalibrati
     for (double factor : {0.5, 2.0}) c.stability.push_back(refit_at(in, o, factor, c.fit));
   return c;
 }
+
+}  // namespace
 
 json norm_calibration_to_json(const NormCalibration& c, const RawInput& in) {
   json out = fit_to_json(c.fit.result);

@@ -91,6 +91,10 @@ Vec9 levenberg_marquardt(const std::vector<StaticInterval>& intervals, Vec9 p, d
   double lambda = 1e-3;
   Linearised lin = linearise(intervals, p, g);
   double cost = lin.r.squaredNorm();
+  if (!std::isfinite(cost))
+    throw std::runtime_error(
+        "norm fit: the residuals at the start are not finite numbers (a "
+        "zero standard error, or interval means that are not finite)");
   for (iterations = 0; iterations < max_iterations; ++iterations) {
     const Mat9 a = lin.j.transpose() * lin.j;
     const Vec9 grad = lin.j.transpose() * lin.r;
@@ -251,7 +255,8 @@ NormCompensation ellipsoid_start(const std::vector<StaticInterval>& intervals, d
   const double k = b.dot(a * b) - th[9];
   const Mat3 shape = a / k / (spread * spread) * (g * g);  // M'M in input units
   Eigen::LLT<Mat3> llt(shape);
-  if (llt.info() != Eigen::Success)
+  if (!shape.allFinite() || llt.info() != Eigen::Success ||
+      !llt.matrixL().toDenseMatrix().allFinite())
     throw std::runtime_error(
         "cannot calibrate: the static interval means do not lie on an "
         "ellipsoid (too few distinct orientations, or intervals that were not static)");

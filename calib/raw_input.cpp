@@ -882,10 +882,19 @@ class Reader {
     }
     std::vector<std::string> all;
     for (const ColumnName& c : names) all.push_back(c.original);
-    if (found[0].empty() && found[1].empty() && found[2].empty())
+    if (found[0].empty() && found[1].empty() && found[2].empty()) {
+      // A table of means read as samples: say so rather than ask for columns.
+      bool means_columns = false;
+      for (const ColumnName& c : names) {
+        Unit u = Unit::none;
+        means_columns = means_columns || match_name(c, mean_axis_of, u) >= 0;
+      }
       fail_at(line, 0,
-              "no accelerometer columns found among the header's columns (" + join(all) +
-                  "): pass --columns X,Y,Z (names or 1-based numbers)");
+              "no accelerometer columns found among the header's columns (" + join(all) + "): " +
+                  (means_columns
+                       ? std::string("they look like a table of static means: pass --format means")
+                       : std::string("pass --columns X,Y,Z (names or 1-based numbers)")));
+    }
     std::array<int, 3> axis{};
     for (std::size_t k = 0; k < 3; ++k) {
       const std::string letter(1, static_cast<char>('x' + k));
@@ -1107,7 +1116,11 @@ class Reader {
         }
         if (empty == 0) {
           r.standard_error = e;
-        } else if (empty < 3) {
+        } else if (empty == 3) {
+          fail(se[0] + 1,
+               "column '" + layout.names[static_cast<std::size_t>(se[0])] +
+                   "': no standard errors on this row while the table has their columns");
+        } else {
           for (std::size_t k = 0; k < 3; ++k)
             if (std::isnan(e[static_cast<Eigen::Index>(k)]))
               fail(se[k] + 1, "column '" + layout.names[static_cast<std::size_t>(se[k])] +

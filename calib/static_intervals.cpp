@@ -3,11 +3,14 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <stdexcept>
 
 namespace standcal {
 
 namespace {
+
+constexpr double kMaxThresholdOverQuiet = 10;
 
 double quantile_of(std::vector<double> v, double p) {
   if (v.empty()) return kNaN;
@@ -18,7 +21,7 @@ double quantile_of(std::vector<double> v, double p) {
 
 // Sum over the axes of the variance in the window centred on each sample (windows are
 // clipped at the ends), from running sums of the samples less a reference (precision).
-std::vector<double> motion_statistic(const RawInput& in, std::size_t w) {
+std::vector<double> motion_statistic(const RawInput& in, std::size_t w, double variance_floor) {
   const std::size_t n = in.size();
   std::vector<double> stat(n, 0.0);
   for (int a = 0; a < 3; ++a) {
@@ -35,7 +38,7 @@ std::vector<double> motion_statistic(const RawInput& in, std::size_t w) {
       const std::size_t lo = i >= half ? i - half : 0, hi = std::min(n, i + half + 1);
       const double m = static_cast<double>(hi - lo);
       const double mean = (s1[hi] - s1[lo]) / m;
-      stat[i] += std::max(0.0, (s2[hi] - s2[lo]) / m - mean * mean) * m / (m - 1);
+      stat[i] += std::max(variance_floor, (s2[hi] - s2[lo]) / m - mean * mean) * m / (m - 1);
     }
   }
   return stat;
@@ -56,29 +59,40 @@ std::pair<double, double> converter_range(const RawInput& in) {
 }
 
 // Samples at the converter's limits: see the header.
-std::vector<bool> saturated_samples(const RawInput& in, double margin) {
+std::vector<bool> saturated_samples(const RawInput& in, double g_in_input_units) {
   const std::size_t n = in.size();
   std::vector<bool> sat(n, false);
   if (in.units == InputUnits::counts) {
     const auto [lo, hi] = converter_range(in);
     if (hi <= lo) return sat;
-    const double band = margin * (hi - lo);
     for (const auto& x : in.axis)
       for (std::size_t i = 0; i < n; ++i)
-        if (x[i] <= lo + band || x[i] >= hi - band) sat[i] = true;
+        if (x[i] <= lo || x[i] >= hi) sat[i] = true;
     return sat;
   }
-  // Physical units: an axis's extreme value held for three or more samples is clipping;
-  // noise never repeats its extreme exactly.
+  // Physical units: a run of three or more identical samples at an axis's extreme, beyond
+  // 1.2 g (a unit at rest never reads more than 1 g on one axis; quantised exports repeat
+  // values, clipping holds them at the range).
   for (const auto& x : in.axis) {
     const auto [mn, mx] = std::minmax_element(x.begin(), x.end());
     for (double limit : {*mn, *mx}) {
-      if (std::count(x.begin(), x.end(), limit) < 3) continue;
-      for (std::size_t i = 0; i < n; ++i)
-        if (x[i] == limit) sat[i] = true;
+      if (std::abs(limit) < 1.2 * g_in_input_units) continue;
+      for (std::size_t i = 0; i + 2 < n; ++i)
+        if (x[i] == limit && x[i + 1] == limit && x[i + 2] == limit)
+          sat[i] = sat[i + 1] = sat[i + 2] = true;
     }
   }
   return sat;
+}
+
+// The smallest step between successive samples of any axis: the converter's or the
+// export's resolution, whose quantisation noise (step^2 / 12) floors every variance.
+double quantisation_step(const RawInput& in) {
+  double step = std::numeric_limits<double>::infinity();
+  for (const auto& x : in.axis)
+    for (std::size_t i = 1; i < x.size(); ++i)
+      if (const double d = std::abs(x[i] - x[i - 1]); d > 0) step = std::min(step, d);
+  return std::isfinite(step) ? step : 0;
 }
 
 // The quietest tenth of the windows must be still: their standard deviation well below the
@@ -92,7 +106,7 @@ void require_still_somewhere(const RawInput& in, double quiet_level) {
   }
   const double quiet_sd = std::sqrt(quiet_level / 3);
   char what[200];
-  if (half_range < 10 * quiet_sd) {
+  if (half_range <= 10 * quiet_sd) {
     std::snprintf(what, sizeof what,
                   "the signal never leaves its noise (range +-%.3g against a noise of %.3g): one "
                   "orientation only",
@@ -112,6 +126,7 @@ void require_still_somewhere(const RawInput& in, double quiet_level) {
 // Threshold of the motion statistic from its own distribution (see the header).
 std::pair<double, double> quiet_level_and_threshold(const std::vector<double>& stat) {
   const double quiet = quantile_of(stat, 0.10);
+  if (!(quiet > 0)) return {quiet, quiet};
   const double median = quantile_of(stat, 0.5);
   std::vector<double> logs;
   for (double s : stat)
@@ -122,13 +137,15 @@ std::pair<double, double> quiet_level_and_threshold(const std::vector<double>& s
   std::vector<double> dev;
   for (double l : logs) dev.push_back(std::abs(l - centre));
   const double s_log = 1.4826 * quantile_of(dev, 0.5);
-  // The edge of the still windows' own scatter (6 robust sigma of log), and the threshold
-  // twice that: the refit at half the threshold is then still a meaningful one.
-  return {quiet, 2 * quiet * std::exp(6.0 * s_log)};
+  // The edge of the still windows' own scatter (6 robust-scale units of log), and the
+  // threshold twice that: the refit at half the threshold is then still a meaningful one.
+  // A recording that is mostly motion makes the quietest quarter partly motion and the
+  // scale meaningless: a still window's variance never exceeds ten times the quiet level.
+  return {quiet, std::min(2 * quiet * std::exp(6.0 * s_log), kMaxThresholdOverQuiet * quiet)};
 }
 
 StaticInterval summarise(const RawInput& in, std::size_t begin, std::size_t end,
-                         const std::vector<bool>& saturated) {
+                         const std::vector<bool>& saturated, double sigma_floor) {
   StaticInterval iv;
   iv.begin = begin;
   iv.end = end;
@@ -148,7 +165,8 @@ StaticInterval summarise(const RawInput& in, std::size_t begin, std::size_t end,
   const Vec3 centred = sum / n;
   iv.sigma = ((sum2 / n - centred.cwiseProduct(centred)) * n / std::max(1.0, n - 1))
                  .cwiseMax(0.0)
-                 .cwiseSqrt();
+                 .cwiseSqrt()
+                 .cwiseMax(sigma_floor);
   iv.white_standard_error = iv.sigma / std::sqrt(n);
   iv.standard_error = iv.white_standard_error;
   return iv;
@@ -247,7 +265,10 @@ StaticDetection detect_static_intervals(const RawInput& in, const StaticDetector
     throw std::runtime_error(in.source + ": no sample rate (give --rate-hz)");
   StaticDetection d;
   d.threshold_factor = o.threshold_factor;
-  const std::vector<bool> saturated = saturated_samples(in, o.adc_margin);
+  const double g_in_input = in.units == InputUnits::g ? 1.0 : in.g_mps2;
+  const std::vector<bool> saturated = saturated_samples(in, g_in_input);
+  const double step = quantisation_step(in);
+  const double quantisation_variance = step * step / 12;
   d.saturated_samples =
       static_cast<std::size_t>(std::count(saturated.begin(), saturated.end(), true));
   std::vector<std::pair<std::size_t, std::size_t>> runs;
@@ -256,11 +277,13 @@ StaticDetection detect_static_intervals(const RawInput& in, const StaticDetector
     runs = block_runs(in);
     std::snprintf(how, sizeof how, "the recording's %zu dwell blocks (no detection)", runs.size());
   } else {
-    d.window_samples = static_cast<std::size_t>(std::lround(o.window_s * in.sample_rate_hz)) | 1u;
+    // Odd, and at least three samples: a variance needs two, centring one more.
+    d.window_samples = std::max<std::size_t>(
+        3, static_cast<std::size_t>(std::lround(o.window_s * in.sample_rate_hz)) | 1u);
     if (in.size() < 2 * d.window_samples)
       throw std::runtime_error(in.source + ": " + std::to_string(in.size()) +
                                " samples are fewer than two detector windows");
-    std::vector<double> stat = motion_statistic(in, d.window_samples);
+    std::vector<double> stat = motion_statistic(in, d.window_samples, quantisation_variance);
     std::tie(d.quiet_level, d.threshold) = quiet_level_and_threshold(stat);
     require_still_somewhere(in, d.quiet_level);
     d.threshold *= o.threshold_factor;
@@ -279,7 +302,7 @@ StaticDetection detect_static_intervals(const RawInput& in, const StaticDetector
   }
   d.how = how;
   for (const auto& [b, e] : runs) {
-    StaticInterval iv = summarise(in, b, e, saturated);
+    StaticInterval iv = summarise(in, b, e, saturated, std::sqrt(quantisation_variance));
     if (iv.samples >= 2) d.intervals.push_back(iv);
   }
   attach_coloured_errors(in, d);

@@ -3,21 +3,23 @@
 // from the samples alone (docs/calibration.md, "Recordings without angles").
 //
 // Detector: the motion statistic of sample i is the sum over the three axes of the sample
-// variance in a centred window of `window_s`. Its quiet level Q is read off the data: the
-// 10th percentile of the statistic over the whole recording (a recording is at least a
-// tenth still, or nothing can be calibrated). White noise alone makes the window variance
-// scatter around Q by a relative sqrt(2 / (w - 1)) per axis; real sensors scatter more,
-// so the spread is measured too, in the quietest half of the windows below the median:
-// the edge of the still windows is Q * exp(6 * s_log), s_log the robust (MAD) scale of
-// log(statistic) there, and the threshold is twice the edge, so that half the threshold
-// (the stability refit) still admits the still windows and twice it still stops at motion.
-// A sample is static when its window is below the threshold; a run of static samples of at
-// least `min_length_s` is an interval. `threshold_factor` scales the threshold (the fit
-// reports how its result moves at half and twice it).
+// variance in a centred window of `window_s` (at least three samples), each variance
+// floored at the data's quantisation (step^2 / 12, the step the smallest change between
+// successive samples). Its quiet level Q is read off the data: the 10th percentile of the
+// statistic over the whole recording. White noise alone makes the window variance scatter
+// around Q by a relative sqrt(2 / (w - 1)) per axis; real sensors scatter more, so the
+// spread is measured too, in the quietest half of the windows below the median: the edge
+// of the still windows is Q * exp(6 * s_log), s_log the MAD scale of log(statistic) there
+// (the lower tail alone, so it understates the spread: about 3.5 standard deviations), and
+// the threshold is twice the edge, so that half the threshold (the stability refit) still
+// admits the still windows and twice it still stops at motion. That needs about a quarter
+// of the recording still; with less, the quietest quarter is partly motion, and the
+// threshold is capped at ten times Q. A run of static samples of at least `min_length_s`
+// is an interval. `threshold_factor` scales the threshold.
 //
-// Samples at the converter's limits are flagged and excluded: for counts, within
-// `adc_margin` of the full scale of the smallest 8..32-bit range (signed or unsigned) that
-// holds the data; for physical units, a value repeated at an axis's extreme (clipping).
+// Samples at the converter's limits are flagged and excluded: for counts, the limit codes
+// of the smallest 8..32-bit range (signed or unsigned) that holds the data; for physical
+// units, three or more identical samples at an axis's extreme beyond 1.2 g (clipping).
 #include <cstddef>
 #include <string>
 #include <vector>
@@ -46,7 +48,6 @@ struct StaticDetectorOptions {
   double window_s = 1.0;          // window of the motion statistic (imu_tk: 101 samples at 100 Hz)
   double min_length_s = 2.0;      // shortest interval kept
   double threshold_factor = 1.0;  // multiplies the data-derived threshold
-  double adc_margin = 0.001;      // fraction of full scale counted as "at the limit"
   // Standcal recordings already say which samples are static (their dwell blocks): use
   // them rather than detect.
   bool use_blocks = true;

@@ -15,6 +15,7 @@
 #include "calib/simulator.hpp"
 #include "calib/units.hpp"
 #include "report/diagnosis/svg_compact.hpp"
+#include "report/noise/allan_figure.hpp"
 
 namespace standcal::report {
 
@@ -321,11 +322,19 @@ std::vector<plot::Figure> residual_figures(const Diagnosis& d,
   std::vector<plot::Figure> figures;
   if (points.empty()) return figures;
   for (std::size_t c = 0; c < names.size() && c < points.front().before_ug.size(); ++c) {
-    std::vector<Axis> axes = {{"alpha1", "alpha1 (deg), outer axis", alpha1_of},
-                              {"alpha2", "alpha2 (deg), inner axis", alpha2_of}};
-    if (names[c] != "L")
-      axes.push_back({"u_" + names[c],
-                      "u_" + names[c] + " (g): gravity along the " + names[c] + " axis", up_of});
+    std::vector<Axis> axes;
+    if (d.method == "norm") {
+      // No stand angles: the orientation is gravity's direction in the sensor frame.
+      for (const char* a : {"x", "y", "z"})
+        axes.push_back({std::string("u_") + a,
+                        std::string("u_") + a + " (g): gravity along the " + a + " axis", up_of});
+    } else {
+      axes = {{"alpha1", "alpha1 (deg), outer axis", alpha1_of},
+              {"alpha2", "alpha2 (deg), inner axis", alpha2_of}};
+      if (names[c] != "L")
+        axes.push_back({"u_" + names[c],
+                        "u_" + names[c] + " (g): gravity along the " + names[c] + " axis", up_of});
+    }
     axes.push_back({"time", "time since the run started (s)", time_of, true});
     if (temperature_varies(points))
       axes.push_back({"temperature", "unit temperature (degC)", temp_of});
@@ -555,6 +564,22 @@ std::string residuals_section(const Diagnosis& d, const std::vector<ResidualPoin
   return section("Residuals before and after", h);
 }
 
+// A recording without angles: the Allan deviation of its static intervals pooled, which
+// the noise model reads each mean's standard error and the unit's grade from.
+std::string allan_section(const Diagnosis& d, const Recording& rec, FigureBlocks& figure) {
+  if (d.method != "norm") return "";
+  const DwellAllan allan = dwell_allan(rec);
+  std::vector<AxisAllan> axes;
+  for (std::size_t a = 0; a < 3; ++a)
+    axes.push_back({std::string(1, "xyz"[a]), allan.curves[a], allan.figures[a]});
+  return section(
+      "Noise: Allan deviation of the static intervals",
+      "<p>" + std::to_string(allan.segments) +
+          " intervals pooled, calibrated axes. Each interval mean's standard error is "
+          "read off this curve at the interval's length, never below sigma/sqrt(n).</p>\n" +
+          figure(allan_figure(axes, d.source)));
+}
+
 std::string settling_section(const Diagnosis& d, const Recording& rec, FigureBlocks& figure) {
   const std::vector<plot::Figure> settling = settling_figures(d, rec);
   if (settling.empty()) return "";
@@ -577,8 +602,9 @@ std::string page_head(const Diagnosis& d) {
 std::string verdict_block(const Diagnosis& d, std::size_t positions) {
   return "<h1>Model-mismatch diagnosis: " + html_escape(d.source) +
          "</h1>\n<p><b>Verdict: " + html_escape(d.verdict) + "</b> (baseline: " +
-         (d.method == "full" ? std::string("full-vector fit")
-                             : std::string("invariant joint fit")) +
+         (d.method == "full"   ? std::string("full-vector fit")
+          : d.method == "norm" ? std::string("attitude-free norm fit, |f| = g")
+                               : std::string("invariant joint fit")) +
          ", " + std::to_string(positions) + " positions)</p>\n" + list_items(d.summary);
 }
 
@@ -593,6 +619,7 @@ std::string diagnosis_html(const Diagnosis& d, const Recording& rec) {
   h += section("Proposed positions", proposed_table(d));
   h += residuals_section(d, points, figure);
   h += settling_section(d, rec, figure);
+  h += allan_section(d, rec, figure);
   const std::string residuals = residual_table(d, points);
   h += section(
       "Residual table",

@@ -419,5 +419,12 @@ TEST(RawInputNames, SpellingsRoundTripAndUnknownOnesAreRefused) {
   EXPECT_THROW(read_input("/nonexistent/raw_input_test.csv"), std::runtime_error);
 }
 
+TEST(RawInputMeans, ATableOfMeansReadAsSamplesSaysPassFormatMeans) {
+  const std::string what = input_error_of("n,mean_x,mean_y,mean_z\n100,0.01,0.02,9.8\n");
+  EXPECT_NE(what.find("they look like a table of static means: pass --format means"),
+            std::string::npos)
+      << what;
+}
+
 }  // namespace
 }  // namespace standcal

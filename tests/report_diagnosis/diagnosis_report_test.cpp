@@ -16,7 +16,9 @@
 #include "calib/averaging.hpp"
 #include "calib/diagnosis/diagnosis.hpp"
 #include "calib/invariant_estimator.hpp"
+#include "calib/norm_calibration.hpp"
 #include "calib/programs.hpp"
+#include "calib/raw_input.hpp"
 #include "calib/simulator.hpp"
 #include "report/diagnosis/diagnosis_report.hpp"
 #include "report/diagnosis/svg_compact.hpp"
@@ -482,6 +484,27 @@ TEST(DiagnosisReport, LegendsDoNotCoverThePlottedPoints) {
     }
   }
   EXPECT_EQ(panels, 15u);
+}
+
+// A recording without angles (imu_tk's hand-held Xsens): the residuals against gravity's
+// direction in the sensor frame and time, not stand angles it never had, and the Allan
+// deviation the noise model was read from.
+TEST(DiagnosisReport, ARecordingWithoutAnglesShowsOrientationAndTheAllanCurve) {
+  InputOptions o;
+  o.g_mps2 = 9.81744;
+  const RawInput in =
+      read_input(std::string(STANDCAL_TEST_DATA) + "/imu_tk_xsens/xsens_acc.mat", o);
+  const NormCalibration cal = calibrate_without_angles(in);
+  const Recording rec = calibrated_recording(in, cal);
+  const std::string html = report::diagnosis_html(diagnose_without_angles(in, cal), rec);
+  EXPECT_NE(html.find("attitude-free norm fit"), std::string::npos);
+  EXPECT_NE(html.find("<h2>Noise: Allan deviation of the static intervals</h2>"),
+            std::string::npos);
+  EXPECT_NE(html.find("39 intervals pooled"), std::string::npos);
+  for (const char* axis : {"u_x (g)", "u_y (g)", "u_z (g)", "time since the run started"})
+    EXPECT_NE(html.find(axis), std::string::npos) << axis;
+  EXPECT_EQ(html.find("outer axis"), std::string::npos);
+  EXPECT_EQ(html.find("nan"), std::string::npos);
 }
 
 }  // namespace

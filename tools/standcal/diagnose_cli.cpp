@@ -58,7 +58,15 @@ std::pair<Diagnosis, Recording> diagnose_input(const DiagnoseCliOptions& o) {
     Diagnosis d = diagnose_recording(rec, diagnose_options(o));
     return {std::move(d), std::move(rec)};
   }
-  const NormCalibration calibration = calibrate_without_angles(in);
+  if (in.format == InputFormat::means)
+    throw std::runtime_error(o.recording +
+                             ": a table of means has no samples; the diagnosis tests "
+                             "settling and whiteness on the samples of each interval (fit it with "
+                             "`standcal fit`)");
+  NormCalibrationOptions calibrate;
+  calibrate.stability = false;  // the diagnosis does not report it
+  calibrate.fit.noise.specified = diagnose_options(o).specified_wander;
+  const NormCalibration calibration = calibrate_without_angles(in, calibrate);
   Diagnosis d = diagnose_without_angles(in, calibration, diagnose_options(o));
   return {std::move(d), calibrated_recording(in, calibration)};
 }
