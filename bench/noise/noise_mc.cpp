@@ -8,6 +8,8 @@
 #include "calib/averaging.hpp"
 #include "calib/full_estimator.hpp"
 #include "calib/invariant_estimator.hpp"
+#include "calib/norm_calibration.hpp"
+#include "calib/raw_input.hpp"
 #include "calib/simulator.hpp"
 #include "calib/units.hpp"
 
@@ -21,11 +23,12 @@ struct Method {
 
 const std::vector<Method>& methods() {
   static const std::vector<Method> m{{"full", "estimated"},  {"full", "true"},  {"full", "white"},
-                                     {"joint", "estimated"}, {"joint", "true"}, {"joint", "white"}};
+                                     {"joint", "estimated"}, {"joint", "true"}, {"joint", "white"},
+                                     {"norm", "estimated"},  {"norm", "true"},  {"norm", "white"}};
   return m;
 }
 
-FitResult fit_with(const Method& m, const std::vector<PositionAverage>& avg,
+FitResult fit_with(const Method& m, const Recording& rec, const std::vector<PositionAverage>& avg,
                    const TruthModel& truth, double weighting_lr) {
   FitNoiseOptions noise;
   noise.weighting_lr = weighting_lr;
@@ -34,6 +37,12 @@ FitResult fit_with(const Method& m, const std::vector<PositionAverage>& avg,
     noise.mode = FitNoiseOptions::Mode::specified;
     noise.specified = {Vec3::Constant(truth.noise.bias_instability_ug * kUg),
                        truth.noise.bias_instability_tau_s};
+  }
+  if (m.estimator == "norm") {  // the recording without its angles: dwells as intervals
+    NormCalibrationOptions o;
+    o.fit.noise = noise;
+    o.stability = false;
+    return calibrate_without_angles(raw_input_of(rec), o).fit.result;
   }
   return m.estimator == "joint" ? fit_invariant_joint(avg, noise) : fit_full_vector(avg, noise);
 }
@@ -94,10 +103,11 @@ ScenarioResult run_scenario(const Setup& setup, const Scenario& scenario) {
       req.timing.dwell_s = setup.dwell_s;
       req.timing.sample_rate_hz = setup.sample_rate_hz;
       req.seed = setup.first_seed + static_cast<std::uint64_t>(run);
-      const std::vector<PositionAverage> avg = average_positions(simulate_run(req));
+      const Recording rec = simulate_run(req);
+      const std::vector<PositionAverage> avg = average_positions(rec);
       for (std::size_t k = 0; k < methods().size(); ++k) {
         try {
-          accumulate(local[k], fit_with(methods()[k], avg, truth, setup.weighting_lr), x_true);
+          accumulate(local[k], fit_with(methods()[k], rec, avg, truth, setup.weighting_lr), x_true);
         } catch (const std::exception&) {
           ++local[k].failed;
         }

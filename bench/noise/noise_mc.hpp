@@ -1,7 +1,8 @@
 #pragma once
 // Monte Carlo of the estimators' sigmas under coloured noise (issue 21, docs/calibration.md
 // "Noise model"): seeded simulated runs of one programme with white noise and with
-// Gauss-Markov bias wander, each fitted by the full-vector and the invariant estimator, and
+// Gauss-Markov bias wander, each fitted by the full-vector, the invariant and the
+// attitude-free norm estimator (the same recording without its angles), and
 // (estimate - truth) / sigma collected per unit parameter. Honest sigmas give z-variance 1.
 #include <array>
 #include <cstdint>
@@ -32,7 +33,7 @@ struct Setup {
 
 // z statistics of one estimator with one weighting in one scenario.
 struct ZStats {
-  std::string estimator;  // "full" | "joint"
+  std::string estimator;  // "full" | "joint" | "norm" (the recording without its angles)
   std::string
       weighting;  // "estimated" (the default) | "true" (the simulated wander, given) | "white"
   std::array<double, kUnitParameterCount> z2_mean{};  // mean z^2: the z-variance about truth

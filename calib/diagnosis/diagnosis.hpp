@@ -137,6 +137,9 @@ struct WhitenessCheck {
 struct StabilityCheck {
   std::string effect, axis, unit;
   double value = 0, sigma = 0;  // whole run
+  // The two halves: the first and second half of the run in time, or, for a recording
+  // without angles, its even and odd intervals (whose orientations do not follow a plan).
+  std::string halves = "time";  // "time" | "alternate"
   double first = 0, first_sigma = 0, second = 0, second_sigma = 0;
   double z = 0;
   bool stable = true;

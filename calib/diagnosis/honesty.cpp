@@ -49,7 +49,14 @@ struct HalfFit {
   bool terms_identifiable = false;
 };
 
-HalfFit fit_half(const Prepared& P, const MatrixXd& X_white, bool first_half, double t_split_h) {
+// Position k's half: by time for a programme, alternate intervals for a unit placed by
+// hand (a hand's orientations drift with time, so time halves would see different poses).
+bool in_first_half(const Prepared& P, std::size_t k, bool alternate, double t_split_h) {
+  return alternate ? k % 2 == 0 : P.ctx[k].t_mid_h < t_split_h;
+}
+
+HalfFit fit_half(const Prepared& P, const MatrixXd& X_white, bool first_half, bool alternate,
+                 double t_split_h) {
   const LinearProblem& lp = P.model->problem();
   std::vector<Eigen::Index> rows;
   std::vector<int> row_position;
@@ -58,7 +65,7 @@ HalfFit fit_half(const Prepared& P, const MatrixXd& X_white, bool first_half, do
   int positions = 0;
   for (std::size_t r = 0; r < lp.row_position.size(); ++r) {
     const auto k = static_cast<std::size_t>(lp.row_position[r]);
-    if ((P.ctx[k].t_mid_h < t_split_h) != first_half) continue;
+    if (in_first_half(P, k, alternate, t_split_h) != first_half) continue;
     if (compact[k] < 0) compact[k] = positions++;
     rows.push_back(static_cast<Eigen::Index>(r));
     row_position.push_back(compact[k]);
@@ -91,7 +98,9 @@ std::vector<StabilityCheck> stability_checks(const Prepared& P, const Selection&
   const MatrixXd X =
       with_columns(lp.A_white, term_columns_white(*P.model, P.ctx, s.chosen_candidates()));
   const double t_split_h = median_time_h(P);
-  const HalfFit halves[2] = {fit_half(P, X, true, t_split_h), fit_half(P, X, false, t_split_h)};
+  const bool alternate = options.attitude_free;
+  const HalfFit halves[2] = {fit_half(P, X, true, alternate, t_split_h),
+                             fit_half(P, X, false, alternate, t_split_h)};
   Eigen::Index col = lp.A.cols();
   for (const Chosen& c : s.chosen) {
     const TermEstimate whole =
@@ -107,8 +116,9 @@ std::vector<StabilityCheck> stability_checks(const Prepared& P, const Selection&
         c.cand.effect(), c.cand.axis,   c.cand.unit(), whole.value, whole.sigma, half[0].value,
         half[0].sigma,   half[1].value, half[1].sigma, 0,           true};
     judge_half_stability(hs, options.half_stability_z);
-    out.push_back({hs.effect, hs.axis, hs.unit, hs.value_all, hs.sigma_all, hs.value_first,
-                   hs.sigma_first, hs.value_second, hs.sigma_second, hs.z, hs.stable});
+    out.push_back({hs.effect, hs.axis, hs.unit, hs.value_all, hs.sigma_all,
+                   alternate ? "alternate" : "time", hs.value_first, hs.sigma_first,
+                   hs.value_second, hs.sigma_second, hs.z, hs.stable});
     col += c.cand.params();
   }
   return out;
@@ -204,9 +214,10 @@ std::vector<std::string> honesty_words(const HonestyChecks& c) {
     if (!k.stable)
       add(k.effect + " " + k.axis + " is " + num(k.value) + " +- " + fmt("%.1f", k.sigma) + " " +
           k.unit + " on the whole run but " + num(k.first) + " +- " + fmt("%.1f", k.first_sigma) +
-          " on its first half and " + num(k.second) + " +- " + fmt("%.1f", k.second_sigma) +
-          " on its second (" + fmt("%.1f", std::abs(k.z)) +
-          " sigma apart): it fits, but it is not the physics");
+          (k.halves == "alternate" ? " on its even intervals and " : " on its first half and ") +
+          num(k.second) + " +- " + fmt("%.1f", k.second_sigma) +
+          (k.halves == "alternate" ? " on its odd ones (" : " on its second (") +
+          fmt("%.1f", std::abs(k.z)) + " sigma apart): it fits, but it is not the physics");
   for (const std::string& i : c.implausible) add(i);
   s += ".";
   out.push_back(s);

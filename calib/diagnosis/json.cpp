@@ -84,6 +84,7 @@ nlohmann::json checks_json(const HonestyChecks& c) {
                          {"unit", k.unit},
                          {"value", finite(k.value)},
                          {"sigma", finite(k.sigma)},
+                         {"halves", k.halves},
                          {"first_half", finite(k.first)},
                          {"first_half_sigma", finite(k.first_sigma)},
                          {"second_half", finite(k.second)},

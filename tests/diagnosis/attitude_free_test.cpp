@@ -32,6 +32,10 @@ TEST(AttitudeFreeDiagnosis, FindsAScaleNonlinearityWithoutTheAngles) {
     EXPECT_EQ(d.findings.front().axis, "z") << k2;
     EXPECT_LT(std::abs(d.findings.front().value - k2), 3 * d.findings.front().sigma) << k2;
     EXPECT_EQ(d.verdict, "explained") << k2;
+    // Kept only because it is also the same on the even and the odd intervals.
+    ASSERT_EQ(d.checks.stability.size(), 1u) << k2;
+    EXPECT_EQ(d.checks.stability[0].halves, "alternate");
+    EXPECT_TRUE(d.checks.stability[0].stable) << k2;
   }
 }
 

@@ -122,7 +122,7 @@ TEST(FitNoise, WanderTenTimesTheDwellErrorIsWeightedForAndTheIntervalsHoldTheTru
   const auto r = monte_carlo({"wander 10x", 10, 300}, kRunsWander);
   EXPECT_LT(min_coverage(stats(r, "full", "white")), 0.3)
       << "the scenario does not stress the weighting";
-  for (const char* estimator : {"full", "joint"}) {
+  for (const char* estimator : {"full", "joint", "norm"}) {
     const noise_mc::ZStats& z = stats(r, estimator, "estimated");
     EXPECT_GE(z.wander_significant, z.runs * 9 / 10) << estimator;
     EXPECT_GE(min_coverage(z), kMinCoverageWander) << estimator;
@@ -131,7 +131,7 @@ TEST(FitNoise, WanderTenTimesTheDwellErrorIsWeightedForAndTheIntervalsHoldTheTru
 
 TEST(FitNoise, WhiteNoiseStaysWhiteAndHonest) {
   const auto r = monte_carlo({"white", 0, 300}, kRunsWhite);
-  for (const char* estimator : {"full", "joint"}) {
+  for (const char* estimator : {"full", "joint", "norm"}) {
     const noise_mc::ZStats& z = stats(r, estimator, "estimated");
     EXPECT_LE(z.wander_significant, 2) << estimator;
     expect_honest(z);
