@@ -181,7 +181,7 @@ std::vector<std::pair<std::size_t, std::size_t>> static_runs(const std::vector<d
   std::size_t i = 0;
   const std::size_t n = stat.size();
   while (i < n) {
-    if (stat[i] > threshold) {
+    if (!(stat[i] <= threshold)) {  // moving, or not a number: never static
       ++i;
       continue;
     }

@@ -8,6 +8,7 @@ set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 "$root/scripts/setup.sh" gdb valgrind
 "$root/scripts/build.sh" release
+cmake --build "$root/build/release" --target standcal-bench-soak
 # A copy of the daemon, so rebuilding the tree during the soak cannot change it.
 copy="$(mktemp -d)"
 trap 'rm -rf "$copy"' EXIT

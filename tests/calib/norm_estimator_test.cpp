@@ -384,11 +384,11 @@ TEST(NormCalibration, ATableOfMeansWithoutErrorsTakesThemFromTheScatter) {
 
 TEST(StaticIntervals, ALowRateRecordingUsesAWindowOfAtLeastThreeSamples) {
   const RawInput fast = hand_held(20, 20, 4, 4);
-  RawInput slow = fast;  // every 50th sample: 2 Hz
-  slow.sample_rate_hz = 2;
+  RawInput slow = fast;  // every 100th sample: a 1 Hz logger, whose 1 s window is one sample
+  slow.sample_rate_hz = 1;
   slow.t_s.clear();
   for (auto& a : slow.axis) a.clear();
-  for (std::size_t i = 0; i < fast.size(); i += 50) {
+  for (std::size_t i = 0; i < fast.size(); i += 100) {
     slow.t_s.push_back(fast.t_s[i]);
     for (std::size_t a = 0; a < 3; ++a) slow.axis[a].push_back(fast.axis[a][i]);
   }
