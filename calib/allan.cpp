@@ -8,42 +8,83 @@
 
 namespace standcal {
 
-std::vector<AllanPoint> overlapping_allan_deviation(const std::vector<std::vector<double>>& segments,
-                                                    double sample_period_s, int points_per_decade) {
+AllanAccumulator::AllanAccumulator(double sample_period_s, int points_per_decade)
+    : sample_period_s_(sample_period_s), points_per_decade_(points_per_decade) {
   if (!(sample_period_s > 0)) throw std::invalid_argument("Allan deviation: the sample period must be positive");
-  std::size_t longest = 0;
-  for (const auto& s : segments) longest = std::max(longest, s.size());
-  // Phase (integrated signal) per segment: x_k = tau0 * sum of the first k samples.
-  std::vector<std::vector<double>> phase;
-  for (const auto& s : segments) {
-    std::vector<double> x(s.size() + 1, 0.0);
-    for (std::size_t k = 0; k < s.size(); ++k) x[k + 1] = x[k] + s[k] * sample_period_s;
-    phase.push_back(std::move(x));
+  if (points_per_decade < 1)
+    throw std::invalid_argument("Allan deviation: points per decade must be >= 1");
+}
+
+void AllanAccumulator::extend_cluster_sizes(long max_m) {
+  while (cluster_sizes_.empty() || cluster_sizes_.back() < max_m) {
+    const double exponent = static_cast<double>(next_exponent_step_) / points_per_decade_;
+    const long m = std::lround(std::pow(10.0, exponent));
+    if (m > max_m) return;
+    ++next_exponent_step_;
+    if (!cluster_sizes_.empty() && m == cluster_sizes_.back()) continue;
+    cluster_sizes_.push_back(m);
+    sum_sq_.push_back(0.0);
+    terms_.push_back(0);
   }
-  std::vector<long> cluster_sizes;
-  const long max_m = static_cast<long>(longest / 3);
-  for (double e = 0;; e += 1.0 / points_per_decade) {
-    const long m = std::lround(std::pow(10.0, e));
-    if (m > max_m) break;
-    if (cluster_sizes.empty() || m != cluster_sizes.back()) cluster_sizes.push_back(m);
+}
+
+void AllanAccumulator::add_segment(std::vector<double>& samples) {
+  ++segments_;
+  longest_ = std::max(longest_, samples.size());
+  // Phase x_k = tau0 * (sum of the first k samples), k = 0..n, in place.
+  double running = 0;
+  for (double& v : samples) {
+    const double sample = v;
+    v = running;
+    running += sample * sample_period_s_;
   }
-  std::vector<AllanPoint> curve;
-  for (long m : cluster_sizes) {
-    double sum = 0;
-    long terms = 0;
-    for (const auto& x : phase) {
-      const long n = static_cast<long>(x.size());
-      for (long k = 0; k + 2 * m < n; ++k) {
-        const double d = x[k + 2 * m] - 2 * x[k + m] + x[k];
-        sum += d * d;
-        ++terms;
+  samples.push_back(running);
+  const double* x = samples.data();
+  const long n = static_cast<long>(samples.size());
+  extend_cluster_sizes(n / 2);
+  for (std::size_t i = 0; i < cluster_sizes_.size(); ++i) {
+    const long m = cluster_sizes_[i];
+    const long count = n - 2 * m;  // second differences x[k+2m] - 2 x[k+m] + x[k], k < count
+    if (count <= 0) break;
+    double partial[4] = {0, 0, 0, 0};
+    long k = 0;
+    for (; k + 4 <= count; k += 4)
+      for (int j = 0; j < 4; ++j) {
+        const double d = x[k + j + 2 * m] - 2 * x[k + j + m] + x[k + j];
+        partial[j] += d * d;
       }
+    for (; k < count; ++k) {
+      const double d = x[k + 2 * m] - 2 * x[k + m] + x[k];
+      partial[0] += d * d;
     }
-    if (terms == 0) continue;
-    const double tau = static_cast<double>(m) * sample_period_s;
-    curve.push_back({tau, std::sqrt(sum / (2.0 * tau * tau * static_cast<double>(terms))), terms});
+    sum_sq_[i] += (partial[0] + partial[1]) + (partial[2] + partial[3]);
+    terms_[i] += count;
+  }
+}
+
+std::vector<AllanPoint> AllanAccumulator::curve() const {
+  std::vector<AllanPoint> curve;
+  const long max_m = static_cast<long>(longest_ / 3);
+  for (std::size_t i = 0; i < cluster_sizes_.size(); ++i) {
+    if (cluster_sizes_[i] > max_m) break;
+    if (terms_[i] == 0) continue;
+    const double tau = static_cast<double>(cluster_sizes_[i]) * sample_period_s_;
+    curve.push_back({tau,
+                     std::sqrt(sum_sq_[i] / (2.0 * tau * tau * static_cast<double>(terms_[i]))),
+                     terms_[i]});
   }
   return curve;
+}
+
+std::vector<AllanPoint> overlapping_allan_deviation(
+    const std::vector<std::vector<double>>& segments, double sample_period_s,
+    int points_per_decade) {
+  AllanAccumulator pooled(sample_period_s, points_per_decade);
+  for (const auto& s : segments) {
+    std::vector<double> segment = s;
+    pooled.add_segment(segment);
+  }
+  return pooled.curve();
 }
 
 namespace {
@@ -100,18 +141,35 @@ double sample_period_s(const Recording& rec) {
 }
 
 DwellAllan dwell_allan(const Recording& rec) {
-  if (rec.samples.size() < 30) throw std::runtime_error(rec.source + ": too few samples for an Allan deviation");
+  if (rec.samples.size() < kMinAllanSamples)
+    throw std::runtime_error(rec.source + ": too few samples for an Allan deviation");
   DwellAllan out;
   out.sample_period_s = sample_period_s(rec);
-  std::array<std::vector<std::vector<double>>, 3> segments;
-  for (std::size_t k = 0; k < rec.samples.size(); ++k) {
-    if (k == 0 || rec.samples[k].pos != rec.samples[k - 1].pos)
-      for (auto& axis : segments) axis.emplace_back();
-    for (int a = 0; a < 3; ++a) segments[a].back().push_back(rec.samples[k].f_mps2[a] / rec.g_local_mps2 / kUg);
+  std::array<AllanAccumulator, 3> pooled{AllanAccumulator(out.sample_period_s),
+                                         AllanAccumulator(out.sample_period_s),
+                                         AllanAccumulator(out.sample_period_s)};
+  const double to_ug = 1.0 / rec.g_local_mps2 / kUg;
+  std::size_t first = 0;
+  for (std::size_t k = 1; k <= rec.samples.size(); ++k) {
+    if (k < rec.samples.size() && rec.samples[k].pos == rec.samples[first].pos) continue;
+    for (int a = 0; a < 3; ++a) {
+      std::vector<double> segment;
+      segment.reserve(k - first + 1);
+      for (std::size_t i = first; i < k; ++i) segment.push_back(rec.samples[i].f_mps2[a] * to_ug);
+      pooled[a].add_segment(segment);
+    }
+    first = k;
   }
-  out.segments = segments[0].size();
-  for (int a = 0; a < 3; ++a) {
-    out.curves[a] = overlapping_allan_deviation(segments[a], out.sample_period_s);
+  return finish_dwell_allan(out.sample_period_s, pooled);
+}
+
+DwellAllan finish_dwell_allan(double sample_period_s,
+                              const std::array<AllanAccumulator, 3>& pooled) {
+  DwellAllan out;
+  out.sample_period_s = sample_period_s;
+  out.segments = pooled[0].segments();
+  for (std::size_t a = 0; a < 3; ++a) {
+    out.curves[a] = pooled[a].curve();
     out.figures[a] = noise_figures(out.curves[a]);
   }
   return out;

@@ -16,6 +16,35 @@ struct AllanPoint {
   long terms = 0;        // second differences averaged (confidence falls as this falls)
 };
 
+// The overlapping Allan deviation pooled over segments handed over one at a time, so that
+// a reader can give each dwell and drop it: memory is one segment, not the recording.
+// Time is O(samples x tau points); the sums use four running partial sums (vectorised).
+class AllanAccumulator {
+ public:
+  explicit AllanAccumulator(double sample_period_s, int points_per_decade = 10);
+  // Adds one contiguous segment. It is consumed: overwritten with its phase (the integrated
+  // signal, one value longer), which saves a copy the size of the segment.
+  void add_segment(std::vector<double>& samples);
+  // tau from one sample to a third of the longest segment, about points_per_decade values
+  // per decade; taus no segment reached are left out.
+  std::vector<AllanPoint> curve() const;
+  std::size_t segments() const { return segments_; }
+  double sample_period_s() const { return sample_period_s_; }
+
+ private:
+  // Extends the cluster sizes (10^(i / points_per_decade), rounded, distinct) to max_m.
+  void extend_cluster_sizes(long max_m);
+
+  double sample_period_s_;
+  int points_per_decade_;
+  long next_exponent_step_ = 0;
+  std::size_t longest_ = 0;
+  std::size_t segments_ = 0;
+  std::vector<long> cluster_sizes_;
+  std::vector<double> sum_sq_;  // per cluster size: sum of squared second differences
+  std::vector<long> terms_;
+};
+
 // Overlapping Allan deviation over one or more contiguous segments sampled every
 // sample_period_s (segments pool their second differences, so the static dwells of a
 // run can be combined). tau runs from one sample to a third of the longest segment,
@@ -50,8 +79,12 @@ struct DwellAllan {
   std::array<std::vector<AllanPoint>, 3> curves;  // ug
   std::array<NoiseFigures, 3> figures;            // ug/sqrt(Hz), ug, ug/sqrt(s)
 };
-// Throws std::runtime_error naming the recording when it has too few samples.
+// Throws std::runtime_error naming the recording when it has fewer than kMinAllanSamples.
+inline constexpr std::size_t kMinAllanSamples = 30;
 DwellAllan dwell_allan(const Recording& rec);
+// The curves and figures of three axes' pooled accumulators (samples in ug).
+DwellAllan finish_dwell_allan(double sample_period_s,
+                              const std::array<AllanAccumulator, 3>& pooled);
 
 // The figures alone, as the fit's noise model reports them (`noise.allan`); empty when the
 // recording has too few samples or no rate.

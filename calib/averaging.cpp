@@ -24,63 +24,13 @@ std::pair<double, double> robust_centre_scale(std::vector<double> values) {
   return {median, std::max(1.4826 * mad, kRobustScaleFloor_g)};
 }
 
-PositionAverage average_block(const Recording& rec, std::size_t first, std::size_t count) {
-  const double inv_g = 1.0 / rec.g_local_mps2;
-  std::vector<double> axis(count);
-  std::vector<char> keep(count, 1);
-  for (int a = 0; a < 3; ++a) {
-    for (std::size_t i = 0; i < count; ++i) axis[i] = rec.samples[first + i].f_mps2[a] * inv_g;
-    const auto [centre, scale] = robust_centre_scale(axis);
-    for (std::size_t i = 0; i < count; ++i)
-      if (std::abs(axis[i] - centre) > kOutlierThreshold * scale) keep[i] = 0;
-  }
-  PositionAverage avg;
-  const RecordingSample& head = rec.samples[first];
-  avg.pos = head.pos;
-  avg.alpha1_cmd_deg = head.alpha1_cmd_deg;
-  avg.alpha2_cmd_deg = head.alpha2_cmd_deg;
-  avg.mount = head.mount ? *head.mount : rec.default_mount.value_or(Mount::x);
-  avg.t_start_s = head.t_s;
-  avg.t_end_s = rec.samples[first + count - 1].t_s;
-  const double settle_s = std::isnan(rec.settle_s) ? 0.0 : rec.settle_s;
-  avg.t_arrive_s = std::isnan(head.t_arrive_s) ? head.t_s - settle_s : head.t_arrive_s;
-
-  Vec3 sum = Vec3::Zero(), sum_sq = Vec3::Zero();
-  double temp_sum = 0;
-  std::size_t temp_count = 0, n = 0;
-  for (std::size_t i = 0; i < count; ++i) {
-    if (!keep[i]) continue;
-    const RecordingSample& s = rec.samples[first + i];
-    const Vec3 J = s.f_mps2 * inv_g;
-    sum += J;
-    ++n;
-    if (!std::isnan(s.temp_c)) {
-      temp_sum += s.temp_c;
-      ++temp_count;
-    }
-  }
-  avg.samples = n;
-  avg.outliers_rejected = count - n;
-  if (n < 2)
-    throw std::runtime_error(rec.source + ": position " + std::to_string(head.pos) + " has " +
-                             std::to_string(n) + " usable sample(s); at least 2 are needed");
-  avg.mean_g = sum / static_cast<double>(n);
-  for (std::size_t i = 0; i < count; ++i)
-    if (keep[i]) sum_sq += (rec.samples[first + i].f_mps2 * inv_g - avg.mean_g).cwiseAbs2();
-  avg.sigma_g = (sum_sq / static_cast<double>(n - 1)).cwiseSqrt();
-  avg.standard_error_g = avg.sigma_g / std::sqrt(static_cast<double>(n));
-  avg.temp_mean_c = temp_count ? temp_sum / static_cast<double>(temp_count) : std::nan("");
-  return avg;
-}
-
 }  // namespace
 
 Vec3 PositionAverage::up() const {
   return up_vector(alpha1_cmd_deg * kDegToRad, alpha2_cmd_deg * kDegToRad, mount);
 }
 
-std::vector<int> approach_directions(
-    const std::vector<std::pair<double, double>>& alpha_cmd_deg) {
+std::vector<int> approach_directions(const std::vector<std::pair<double, double>>& alpha_cmd_deg) {
   std::vector<int> directions;
   double prev1 = 0, prev2 = 0;
   for (const auto& [a1, a2] : alpha_cmd_deg) {
@@ -93,24 +43,99 @@ std::vector<int> approach_directions(
   return directions;
 }
 
+void DwellSamples::clear() {
+  for (auto& axis : f_mps2) axis.clear();
+  temp_c.clear();
+}
+
+void DwellSamples::add(const RecordingSample& s) {
+  if (size() == 0) head = s;
+  t_end_s = s.t_s;
+  for (std::size_t a = 0; a < 3; ++a) f_mps2[a].push_back(s.f_mps2[static_cast<int>(a)]);
+  if (with_temperature) temp_c.push_back(s.temp_c);
+}
+
+void DwellSamples::reserve(std::size_t rows) {
+  for (auto& axis : f_mps2) axis.reserve(rows);
+  if (with_temperature) temp_c.reserve(rows);
+}
+
+PositionAverage average_dwell(const DwellSamples& dwell, const Recording& header) {
+  const std::size_t count = dwell.size();
+  const double inv_g = 1.0 / header.g_local_mps2;
+  std::vector<double> axis(count);
+  std::vector<char> keep(count, 1);
+  for (std::size_t a = 0; a < 3; ++a) {
+    for (std::size_t i = 0; i < count; ++i) axis[i] = dwell.f_mps2[a][i] * inv_g;
+    const auto [centre, scale] = robust_centre_scale(axis);
+    for (std::size_t i = 0; i < count; ++i)
+      if (std::abs(axis[i] - centre) > kOutlierThreshold * scale) keep[i] = 0;
+  }
+  const RecordingSample& head = dwell.head;
+  PositionAverage avg;
+  avg.pos = head.pos;
+  avg.alpha1_cmd_deg = head.alpha1_cmd_deg;
+  avg.alpha2_cmd_deg = head.alpha2_cmd_deg;
+  avg.mount = head.mount ? *head.mount : header.default_mount.value_or(Mount::x);
+  avg.t_start_s = head.t_s;
+  avg.t_end_s = dwell.t_end_s;
+  const double settle_s = std::isnan(header.settle_s) ? 0.0 : header.settle_s;
+  avg.t_arrive_s = std::isnan(head.t_arrive_s) ? head.t_s - settle_s : head.t_arrive_s;
+  avg.approach = head.approach;
+
+  Vec3 sum = Vec3::Zero(), sum_sq = Vec3::Zero();
+  double temp_sum = 0;
+  std::size_t temp_count = 0, n = 0;
+  for (std::size_t i = 0; i < count; ++i) {
+    if (!keep[i]) continue;
+    for (std::size_t a = 0; a < 3; ++a) sum[static_cast<int>(a)] += dwell.f_mps2[a][i] * inv_g;
+    ++n;
+    if (!std::isnan(dwell.temp_c[i])) {
+      temp_sum += dwell.temp_c[i];
+      ++temp_count;
+    }
+  }
+  avg.samples = n;
+  avg.outliers_rejected = count - n;
+  if (n < 2)
+    throw std::runtime_error(header.source + ": position " + std::to_string(head.pos) + " has " +
+                             std::to_string(n) + " usable sample(s); at least 2 are needed");
+  avg.mean_g = sum / static_cast<double>(n);
+  for (std::size_t i = 0; i < count; ++i) {
+    if (!keep[i]) continue;
+    for (std::size_t a = 0; a < 3; ++a) {
+      const double d = dwell.f_mps2[a][i] * inv_g - avg.mean_g[static_cast<int>(a)];
+      sum_sq[static_cast<int>(a)] += d * d;
+    }
+  }
+  avg.sigma_g = (sum_sq / static_cast<double>(n - 1)).cwiseSqrt();
+  avg.standard_error_g = avg.sigma_g / std::sqrt(static_cast<double>(n));
+  avg.temp_mean_c = temp_count ? temp_sum / static_cast<double>(temp_count) : std::nan("");
+  return avg;
+}
+
+void derive_missing_approaches(std::vector<PositionAverage>& averages) {
+  std::vector<std::pair<double, double>> commanded;
+  for (const PositionAverage& a : averages)
+    commanded.emplace_back(a.alpha1_cmd_deg, a.alpha2_cmd_deg);
+  const std::vector<int> derived = approach_directions(commanded);
+  for (std::size_t i = 0; i < averages.size(); ++i)
+    if (averages[i].approach == 0) averages[i].approach = derived[i];
+}
+
 std::vector<PositionAverage> average_positions(const Recording& rec) {
   if (rec.samples.empty()) throw std::runtime_error(rec.source + ": the recording has no samples");
   std::vector<PositionAverage> out;
-  std::vector<std::pair<double, double>> commanded;
-  std::size_t first = 0;
-  for (std::size_t i = 1; i <= rec.samples.size(); ++i) {
-    if (i < rec.samples.size() && rec.samples[i].pos == rec.samples[first].pos) continue;
-    out.push_back(average_block(rec, first, i - first));
-    commanded.emplace_back(out.back().alpha1_cmd_deg, out.back().alpha2_cmd_deg);
-    first = i;
-  }
-  const std::vector<int> derived = approach_directions(commanded);
-  std::size_t block = 0;
+  DwellSamples dwell;
   for (std::size_t i = 0; i < rec.samples.size(); ++i) {
-    if (i > 0 && rec.samples[i].pos != rec.samples[i - 1].pos) ++block;
-    if (i == 0 || rec.samples[i].pos != rec.samples[i - 1].pos)
-      out[block].approach = rec.samples[i].approach != 0 ? rec.samples[i].approach : derived[block];
+    if (dwell.size() > 0 && rec.samples[i].pos != dwell.head.pos) {
+      out.push_back(average_dwell(dwell, rec));
+      dwell.clear();
+    }
+    dwell.add(rec.samples[i]);
   }
+  out.push_back(average_dwell(dwell, rec));
+  derive_missing_approaches(out);
   return out;
 }
 

@@ -6,6 +6,8 @@
 // coarsely quantised data never rejects ordinary samples); a sample further than
 // kOutlierThreshold * s from the median on ANY axis is dropped on all axes and counted.
 // Gaussian noise loses 2e-9 of its samples to this rule, a glitch is always removed.
+#include <array>
+#include <cstddef>
 #include <vector>
 
 #include "calib/position_average.hpp"
@@ -15,6 +17,27 @@ namespace standcal {
 
 inline constexpr double kOutlierThreshold = 6.0;
 inline constexpr double kRobustScaleFloor_g = 1e-6;  // 1 µg
+
+// One dwell's rows as columns: what its average needs, and nothing per row it does not.
+struct DwellSamples {
+  RecordingSample head;  // the first row: pos, commanded angles, mount, arrival, approach
+  double t_end_s = 0;
+  std::array<std::vector<double>, 3> f_mps2;
+  std::vector<double> temp_c;  // NaN where not measured; empty unless with_temperature
+  bool with_temperature = true;
+
+  std::size_t size() const { return f_mps2[0].size(); }
+  void clear();
+  void add(const RecordingSample& s);
+  void reserve(std::size_t rows);
+};
+
+// The average of one dwell, with the recording's g, settle time and default mount. Its
+// approach is the row's `approach` column, 0 when absent (see derive_missing_approaches).
+// Throws std::runtime_error naming the recording when fewer than 2 samples are usable.
+PositionAverage average_dwell(const DwellSamples& dwell, const Recording& header);
+// Gives each average whose recording carried no approach the model.md rule's direction.
+void derive_missing_approaches(std::vector<PositionAverage>& averages);
 
 // Per-position means, standard errors, counts, approach and arrival of a recording.
 // Throws std::runtime_error naming the recording if it has no samples, or a position

@@ -1405,11 +1405,22 @@ RawInput read_input(const std::string& path, const InputOptions& options) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec))
     throw std::runtime_error(path + ": cannot open (a directory)");
-  std::ifstream in(path, std::ios::binary);
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) throw std::runtime_error(path + ": cannot open");
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  const std::string text = buffer.str();
+  // The text is held whole (this reader looks ahead and back over its header lines), read
+  // into one string of the file's size: a string stream copied it twice, three times the
+  // file at the peak. A pipe has no size, and is copied.
+  const std::streamoff size = in.tellg();
+  std::string text;
+  if (size >= 0) {
+    text.resize(static_cast<std::size_t>(size));
+    in.seekg(0);
+    if (!in.read(text.data(), size)) throw std::runtime_error(path + ": read error");
+  } else {
+    std::ostringstream buffer;
+    buffer << in.rdbuf();
+    text = buffer.str();
+  }
   return parse_input(text, path, options);
 }
 

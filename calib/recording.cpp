@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <charconv>
 #include <cstdio>
@@ -13,6 +14,8 @@
 #include <stdexcept>
 #include <unordered_set>
 
+#include "calib/decimal.hpp"
+#include "calib/line_source.hpp"
 #include "calib/text.hpp"
 
 namespace standcal {
@@ -33,6 +36,7 @@ std::string_view trim(std::string_view s) {
 }
 
 bool parse_double(std::string_view text, double& out) {
+  if (parse_plain_decimal(text, out)) return true;  // the common case, no trimming needed
   text = trim(text);
   if (!text.empty() && text.front() == '+') text.remove_prefix(1);
   if (text.empty()) return false;
@@ -60,35 +64,37 @@ constexpr int kRequiredColumns = 7;  // t_s, pos, both commanded angles, fx, fy,
 constexpr std::array<Column, kRequiredColumns> kRequired{kT, kPos, kA1Cmd, kA2Cmd,
                                                           kFx, kFy, kFz};
 
-// Splits a line at commas into `fields` (views into the line).
+// Splits a line at commas into `fields` (views into the line). One pass over the bytes:
+// the fields are short, and a search call per field cost more than the scan (measured, as
+// did a 16-byte SSE2 compare: docs/performance.md).
 void split_fields(std::string_view line, std::vector<std::string_view>& fields) {
   fields.clear();
-  std::size_t start = 0;
-  while (true) {
-    const std::size_t comma = line.find(',', start);
-    if (comma == std::string_view::npos) {
-      fields.push_back(line.substr(start));
-      return;
-    }
-    fields.push_back(line.substr(start, comma - start));
-    start = comma + 1;
+  const char* start = line.data();
+  const char* const end = start + line.size();
+  for (const char* p = start; p != end; ++p) {
+    if (*p != ',') continue;
+    fields.emplace_back(start, static_cast<std::size_t>(p - start));
+    start = p + 1;
   }
+  fields.emplace_back(start, static_cast<std::size_t>(end - start));
 }
 
 class Parser {
  public:
-  Parser(std::string_view text, const std::string& source) : text_(text) {
+  Parser(LineSource& lines, const std::string& source, RecordingRowSink* sink)
+      : lines_(lines), sink_(sink) {
     rec_.source = source;
-    // Spreadsheet tools save CSV with a UTF-8 byte order mark; it is not part of the
-    // first line (it used to turn "# format" or the column line into a missing column).
-    if (text_.starts_with("\xEF\xBB\xBF")) offset_ = 3;
   }
 
   Recording run() {
-    read_header_lines();
-    read_column_line();
-    read_rows();
+    read_column_line(read_header_lines());
     finish_header();
+    if (sink_) sink_->header(rec_);
+    read_rows();
+    if (!rec_.g_from_header)
+      rec_.warnings.push_back(rec_.source +
+                              ": no '# g_local_mps2' header; assuming standard gravity 9.80665 "
+                              "m/s^2 (a wrong g reads as a common scale-factor error)");
     return std::move(rec_);
   }
 
@@ -97,36 +103,22 @@ class Parser {
     throw RecordingError(rec_.source, line_no_, column, what);
   }
 
-  // Next line without its newline; false at end. Flags a final line lacking '\n'.
+  // Next line; false at end. Flags a final line lacking '\n'.
   bool next_line(std::string_view& line) {
-    if (offset_ >= text_.size()) return false;
-    const std::size_t nl = text_.find('\n', offset_);
-    ++line_no_;
-    if (nl == std::string_view::npos) {
-      line = text_.substr(offset_);
-      offset_ = text_.size();
-      last_line_truncated_ = true;
-    } else {
-      line = text_.substr(offset_, nl - offset_);
-      offset_ = nl + 1;
-    }
-    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    if (!lines_.next(line)) return false;
+    line_no_ = lines_.line_number();
+    last_line_truncated_ = lines_.unterminated();
     return true;
   }
 
-  void read_header_lines() {
+  // The header's `# key: value` lines, up to the first other non-blank line, which is
+  // returned (the column line).
+  std::string_view read_header_lines() {
     std::string_view line;
     while (true) {
-      const std::size_t before = offset_;
-      const int line_before = line_no_;
       if (!next_line(line)) fail(0, "no column-header line: the file ends inside its header");
       if (trim(line).empty()) continue;
-      if (line.front() != '#') {  // the column line: hand it back
-        offset_ = before;
-        line_no_ = line_before;
-        last_line_truncated_ = false;
-        return;
-      }
+      if (line.front() != '#') return line;
       parse_header_line(line);
     }
   }
@@ -151,9 +143,7 @@ class Parser {
     rec_.header.emplace_back(std::move(key), std::move(value));
   }
 
-  void read_column_line() {
-    std::string_view line;
-    next_line(line);
+  void read_column_line(std::string_view line) {
     if (last_line_truncated_) fail(0, "the file ends at its column-header line (no samples)");
     column_line_ = line_no_;
     std::vector<std::string_view> names;
@@ -177,6 +167,7 @@ class Parser {
     rec_.columns.mount = index_[kMountCol] >= 0;
     rec_.columns.t_arrive = index_[kTArrive] >= 0;
     rec_.columns.approach = index_[kApproach] >= 0;
+    find_still_runs();
   }
 
   double number(const std::vector<std::string_view>& f, Column c, bool optional) const {
@@ -193,6 +184,7 @@ class Parser {
   void read_rows() {
     std::string_view line;
     std::vector<std::string_view> fields;
+    row_bytes_start_ = lines_.bytes_consumed();
     while (next_line(line)) {
       if (last_line_truncated_) {
         if (!trim(line).empty())
@@ -206,27 +198,96 @@ class Parser {
       if (fields.size() != field_count_)
         fail(0, "expected " + std::to_string(field_count_) + " fields as in the column line " +
                     std::to_string(column_line_) + ", found " + std::to_string(fields.size()));
-      rec_.samples.push_back(parse_row(fields));
-      check_order(rec_.samples.back());
+      const RecordingSample sample = parse_row(fields);
+      check_order(sample);
+      if (sink_) {
+        sink_->row(sample);
+      } else {
+        rec_.samples.push_back(sample);
+      }
+      if (++rows_ == kRowsToSizeFrom) announce_size();
+      previous_ = sample;
     }
   }
 
-  RecordingSample parse_row(const std::vector<std::string_view>& f) const {
-    RecordingSample s;
+  // Columns that hold still through a dwell (position, angles, mount, arrival, approach)
+  // repeat their text row after row, and the same text is the same value: each is parsed
+  // when its text changes, which halves the numbers a stand recording's rows need parsed.
+  // Adjacent still columns are compared as one span of the line (standcal writes two such
+  // runs), since a comparison per column cost a tenth of the reading (docs/performance.md).
+  struct StillRun {
+    std::size_t first = 0;  // field indices, inclusive
+    std::size_t last = 0;
+    std::vector<Column> columns;
+    std::string text;  // the span in the previous row
+  };
+
+  void find_still_runs() {
+    static constexpr std::array<Column, 8> kStill{kPos, kA1Cmd,    kA2Cmd,   kA1,
+                                                  kA2,  kMountCol, kTArrive, kApproach};
+    std::vector<std::pair<std::size_t, Column>> present;
+    for (Column c : kStill)
+      if (index_[c] >= 0) present.emplace_back(static_cast<std::size_t>(index_[c]), c);
+    std::sort(present.begin(), present.end());
+    for (const auto& [field, column] : present) {
+      if (still_runs_.empty() || field != still_runs_.back().last + 1)
+        still_runs_.push_back({field, field, {}, {}});
+      still_runs_.back().last = field;
+      still_runs_.back().columns.push_back(column);
+    }
+  }
+
+  // Marks in changed_ the still columns whose text differs from the previous row's.
+  void find_changed_columns(const std::vector<std::string_view>& f) {
+    changed_.fill(false);
+    for (StillRun& run : still_runs_) {
+      const char* begin = f[run.first].data();
+      const std::string_view span(
+          begin, static_cast<std::size_t>(f[run.last].data() + f[run.last].size() - begin));
+      if (!first_row_ && span == run.text) continue;
+      run.text.assign(span);
+      for (Column c : run.columns) changed_[static_cast<std::size_t>(c)] = true;
+    }
+  }
+  bool repeats(Column c) const { return !changed_[static_cast<std::size_t>(c)]; }
+
+  // After the first rows, the samples vector is sized for the rest of the file at their
+  // mean length: growing it by doubling copied it and held old and new at once (1.5-2x
+  // the recording's memory at the peak).
+  static constexpr std::size_t kRowsToSizeFrom = 256;
+  // (A sink is told the same estimate: reserved memory costs nothing until it is used.)
+  void announce_size() {
+    if (lines_.bytes_total() <= lines_.bytes_consumed()) return;
+    const double bytes_per_row = static_cast<double>(lines_.bytes_consumed() - row_bytes_start_) /
+                                 static_cast<double>(kRowsToSizeFrom);
+    const double remaining = static_cast<double>(lines_.bytes_total() - lines_.bytes_consumed());
+    const std::size_t rows =
+        kRowsToSizeFrom + static_cast<std::size_t>(remaining / bytes_per_row * 1.02) + 16;
+    if (sink_)
+      sink_->expect_rows(rows);
+    else
+      rec_.samples.reserve(rows);
+  }
+
+  RecordingSample parse_row(const std::vector<std::string_view>& f) {
+    RecordingSample s = previous_;  // the still columns' values, where their text repeats
+    find_changed_columns(f);
     s.t_s = number(f, kT, false);
-    const int pos_col = index_[kPos];
-    if (!parse_int(f[static_cast<std::size_t>(pos_col)], s.pos) || s.pos < 0)
-      fail(pos_col + 1, "column 'pos': '" + std::string(f[static_cast<std::size_t>(pos_col)]) +
-                            "' is not a position index (an integer >= 0)");
-    s.alpha1_cmd_deg = number(f, kA1Cmd, false);
-    s.alpha2_cmd_deg = number(f, kA2Cmd, false);
-    s.alpha1_deg = number(f, kA1, true);
-    s.alpha2_deg = number(f, kA2, true);
+    if (!repeats(kPos)) {
+      const int pos_col = index_[kPos];
+      if (!parse_int(f[static_cast<std::size_t>(pos_col)], s.pos) || s.pos < 0)
+        fail(pos_col + 1, "column 'pos': '" + std::string(f[static_cast<std::size_t>(pos_col)]) +
+                              "' is not a position index (an integer >= 0)");
+    }
+    if (!repeats(kA1Cmd)) s.alpha1_cmd_deg = number(f, kA1Cmd, false);
+    if (!repeats(kA2Cmd)) s.alpha2_cmd_deg = number(f, kA2Cmd, false);
+    if (!repeats(kA1)) s.alpha1_deg = number(f, kA1, true);
+    if (!repeats(kA2)) s.alpha2_deg = number(f, kA2, true);
     s.f_mps2 = Vec3(number(f, kFx, false), number(f, kFy, false), number(f, kFz, false));
     s.temp_c = number(f, kTemp, true);
-    s.t_arrive_s = number(f, kTArrive, true);
-    parse_mount_field(f, s);
-    parse_approach_field(f, s);
+    if (!repeats(kTArrive)) s.t_arrive_s = number(f, kTArrive, true);
+    if (!repeats(kMountCol)) parse_mount_field(f, s);
+    if (!repeats(kApproach)) parse_approach_field(f, s);
     return s;
   }
 
@@ -234,6 +295,7 @@ class Parser {
     const int i = index_[kMountCol];
     if (i < 0) return;
     const std::string text(trim(f[static_cast<std::size_t>(i)]));
+    s.mount.reset();
     if (text.empty()) return;
     Mount m{};
     if (!parse_mount(text, m)) fail(i + 1, "column 'mount': '" + text + "' is not x, y or z");
@@ -242,6 +304,7 @@ class Parser {
 
   void parse_approach_field(const std::vector<std::string_view>& f, RecordingSample& s) const {
     const int i = index_[kApproach];
+    s.approach = 0;
     if (i < 0 || trim(f[static_cast<std::size_t>(i)]).empty()) return;
     int a = 0;
     if (!parse_int(f[static_cast<std::size_t>(i)], a) || (a != 1 && a != -1))
@@ -252,7 +315,7 @@ class Parser {
 
   void check_order(const RecordingSample& s) {
     if (!first_row_) {
-      const RecordingSample& prev = rec_.samples[rec_.samples.size() - 2];
+      const RecordingSample& prev = previous_;
       if (s.t_s < prev.t_s)
         fail(index_[kT] + 1, "t_s goes backwards (" + std::to_string(s.t_s) + " after " +
                                  std::to_string(prev.t_s) + "); times must not decrease");
@@ -289,10 +352,6 @@ class Parser {
                            "unsupported format '" + format + "' (this reader reads " +
                                std::string(kRecordingFormat) + ")");
     for (const auto& [key, value] : rec_.header) apply_known_key(key, value);
-    if (!rec_.g_from_header)
-      rec_.warnings.push_back(rec_.source +
-                              ": no '# g_local_mps2' header; assuming standard gravity 9.80665 "
-                              "m/s^2 (a wrong g reads as a common scale-factor error)");
   }
 
   void apply_known_key(const std::string& key, const std::string& value) {
@@ -322,8 +381,13 @@ class Parser {
     }
   }
 
-  std::string_view text_;
-  std::size_t offset_ = 0;
+  LineSource& lines_;
+  RecordingRowSink* sink_;  // null: the rows go into rec_.samples
+  RecordingSample previous_;
+  std::vector<StillRun> still_runs_;
+  std::array<bool, kColumnKinds> changed_{};  // per row: the still columns to parse
+  std::size_t row_bytes_start_ = 0;           // input bytes before the first row
+  std::size_t rows_ = 0;                      // rows read so far
   int line_no_ = 0;
   int column_line_ = 0;
   bool last_line_truncated_ = false;
@@ -369,16 +433,18 @@ void Recording::set_header(const std::string& key, const std::string& value) {
 }
 
 Recording parse_recording(std::string_view text, const std::string& source) {
-  return Parser(text, source).run();
+  LineSource lines = LineSource::of_text(text);
+  return Parser(lines, source, nullptr).run();
 }
 
 Recording read_recording(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error(path + ": cannot open recording");
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  const std::string text = buffer.str();
-  return parse_recording(text, path);
+  LineSource lines = LineSource::of_file(path);
+  return Parser(lines, path, nullptr).run();
+}
+
+Recording stream_recording(const std::string& path, RecordingRowSink& sink) {
+  LineSource lines = LineSource::of_file(path);
+  return Parser(lines, path, &sink).run();
 }
 
 namespace {

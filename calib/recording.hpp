@@ -81,6 +81,24 @@ Recording read_recording(const std::string& path);
 // Parses recording text; `source` names it in messages.
 Recording parse_recording(std::string_view text, const std::string& source);
 
+// Where a streamed recording's rows go, one at a time, in file order.
+class RecordingRowSink {
+ public:
+  virtual ~RecordingRowSink() = default;
+  // Once, after the header and the column line, before the first row: the recording
+  // without samples (its g, settle time, rate, default mount and columns are known).
+  virtual void header(const Recording& rec) = 0;
+  // Every row, after it passed the reader's checks.
+  virtual void row(const RecordingSample& sample) = 0;
+  // Once, early: about how many rows the whole file holds (from its size and the first
+  // rows' length), so storage can be reserved once instead of grown by copies. A hint.
+  virtual void expect_rows(std::size_t rows) { (void)rows; }
+};
+// Reads a recording file without holding it: each row goes to `sink`, and the returned
+// recording has the header, columns and warnings but no samples. The same checks and
+// errors as read_recording.
+Recording stream_recording(const std::string& path, RecordingRowSink& sink);
+
 // Header block ("# key: value" lines + the column line) for a recording's columns.
 std::string format_recording_header(const Recording& rec);
 // Appends one CSV row per sample, in the columns of format_recording_header.

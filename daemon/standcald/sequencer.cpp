@@ -16,6 +16,7 @@
 #include "calib/identifiability.hpp"
 #include "calib/invariant_estimator.hpp"
 #include "calib/recording.hpp"
+#include "calib/recording_digest.hpp"
 #include "calib/report.hpp"
 #include "calib/utc_time.hpp"
 #include "protocol/jsonrpc/jsonrpc.hpp"
@@ -1350,10 +1351,11 @@ json joint_fit_result(const std::vector<PositionAverage>& averages, const FitNoi
 
 void Sequencer::finish_with_fit(RunRecord& record) {
   set_progress(record, record.positions, "fitting");
-  const Recording rec = read_recording(record.recording_path);
-  const std::vector<PositionAverage> averages = average_positions(rec);
+  // Streamed: the daemon holds one dwell of the recording, not the whole run.
+  const RecordingDigest digest = digest_recording(record.recording_path);
+  const std::vector<PositionAverage>& averages = digest.averages;
   // The noise model of both fits: wander between dwells from the fit, Allan within them.
-  const std::optional<AllanFinding> allan = allan_finding(rec);
+  const std::optional<AllanFinding> allan = digest.allan_finding();
   FitNoiseOptions noise;
   noise.specified = unit_bias_wander();
   json result = joint_fit_result(averages, noise, allan);
@@ -1380,7 +1382,7 @@ void Sequencer::finish_with_fit(RunRecord& record) {
                                 {"operator", record.operator_name},
                                 {"started_utc", record.started_utc},
                                 {"ended_utc", record.ended_utc}};
-  result["recording_warnings"] = rec.warnings;
+  result["recording_warnings"] = digest.recording.warnings;
   const std::string path = store_.run_dir(record.run_id) + "/result.json";
   write_file_atomically(path, result.dump(2) + "\n");
   record.result_path = path;

@@ -1,8 +1,10 @@
 // The PostgreSQL backend: one database shared by every bench of a lab (libpq).
+#include <dlfcn.h>
 #include <libpq-fe.h>
 
 #include <cstdlib>
 #include <stdexcept>
+#include <string>
 
 #include "records/db/sql_session.hpp"
 
@@ -40,23 +42,83 @@ std::string trimmed(const std::string& s) {
   return out;
 }
 
+// libpq is opened on first use, not linked: it brings about twenty libraries (Kerberos,
+// LDAP, GnuTLS...) whose loading cost every `standcal` command 12 ms of start-up, and
+// only the PostgreSQL records backend needs it (docs/performance.md).
+struct LibPq {
+  decltype(&PQconnectdbParams) connectdb_params;
+  decltype(&PQstatus) status;
+  decltype(&PQerrorMessage) error_message;
+  decltype(&PQfinish) finish;
+  decltype(&PQexecParams) exec_params;
+  decltype(&PQntuples) ntuples;
+  decltype(&PQnfields) nfields;
+  decltype(&PQgetisnull) getisnull;
+  decltype(&PQgetvalue) getvalue;
+  decltype(&PQcmdTuples) cmd_tuples;
+  decltype(&PQclear) clear;
+  decltype(&PQexec) exec;
+  decltype(&PQresultStatus) result_status;
+  decltype(&PQresultErrorMessage) result_error_message;
+};
+
+constexpr const char* kLibPqSoname = "libpq.so.5";
+
+template <typename F>
+void bind(void* handle, F& function, const char* name) {
+  function = reinterpret_cast<F>(::dlsym(handle, name));
+  if (function == nullptr)
+    throw std::runtime_error(std::string("the PostgreSQL client library ") + kLibPqSoname +
+                             " has no " + name + " (too old a libpq?)");
+}
+
+LibPq load_libpq() {
+  void* handle = ::dlopen(kLibPqSoname, RTLD_NOW | RTLD_LOCAL);
+  if (handle == nullptr)
+    throw std::runtime_error(
+        std::string("the PostgreSQL records backend needs the client library ") + kLibPqSoname +
+        " (Debian package libpq5): " + ::dlerror());
+  LibPq pq{};
+  bind(handle, pq.connectdb_params, "PQconnectdbParams");
+  bind(handle, pq.status, "PQstatus");
+  bind(handle, pq.error_message, "PQerrorMessage");
+  bind(handle, pq.finish, "PQfinish");
+  bind(handle, pq.exec_params, "PQexecParams");
+  bind(handle, pq.ntuples, "PQntuples");
+  bind(handle, pq.nfields, "PQnfields");
+  bind(handle, pq.getisnull, "PQgetisnull");
+  bind(handle, pq.getvalue, "PQgetvalue");
+  bind(handle, pq.cmd_tuples, "PQcmdTuples");
+  bind(handle, pq.clear, "PQclear");
+  bind(handle, pq.exec, "PQexec");
+  bind(handle, pq.result_status, "PQresultStatus");
+  bind(handle, pq.result_error_message, "PQresultErrorMessage");
+  return pq;  // the handle stays open for the life of the process
+}
+
+const LibPq& libpq() {
+  static const LibPq pq = load_libpq();
+  return pq;
+}
+
 class PostgresSession final : public SqlSession {
  public:
   explicit PostgresSession(const std::string& url) : location_(without_password(url)) {
     // connect_timeout: an unreachable server is an error in seconds, not minutes.
     const char* keys[] = {"dbname", "connect_timeout", "application_name", nullptr};
     const char* values[] = {url.c_str(), "5", "standcal", nullptr};
-    conn_ = PQconnectdbParams(keys, values, 1);
-    if (conn_ == nullptr || PQstatus(conn_) != CONNECTION_OK) {
-      const std::string why = conn_ != nullptr ? trimmed(PQerrorMessage(conn_)) : "out of memory";
-      PQfinish(conn_);
+    conn_ = libpq().connectdb_params(keys, values, 1);
+    if (conn_ == nullptr || libpq().status(conn_) != CONNECTION_OK) {
+      const std::string why =
+          conn_ != nullptr ? trimmed(libpq().error_message(conn_)) : "out of memory";
+      libpq().finish(conn_);
       throw std::runtime_error("cannot reach the records database " + location_ + ": " + why);
     }
     exec_script("SET client_min_messages = warning");  // no NOTICEs on stderr
   }
   PostgresSession(const PostgresSession&) = delete;
   PostgresSession& operator=(const PostgresSession&) = delete;
-  ~PostgresSession() override { PQfinish(conn_); }
+  ~PostgresSession() override { libpq().finish(conn_); }
 
   std::string backend() const override { return "postgresql"; }
   std::string location() const override { return location_; }
@@ -64,27 +126,28 @@ class PostgresSession final : public SqlSession {
   SqlResult exec(const std::string& sql, const std::vector<SqlValue>& params) override {
     std::vector<const char*> values;
     for (const SqlValue& p : params) values.push_back(p ? p->c_str() : nullptr);
-    PGresult* res = PQexecParams(conn_, sql.c_str(), static_cast<int>(values.size()), nullptr,
-                                 values.data(), nullptr, nullptr, 0);
+    PGresult* res = libpq().exec_params(conn_, sql.c_str(), static_cast<int>(values.size()),
+                                        nullptr, values.data(), nullptr, nullptr, 0);
     check(res);
     SqlResult result;
-    for (int r = 0; r < PQntuples(res); ++r) {
+    for (int r = 0; r < libpq().ntuples(res); ++r) {
       SqlRow row;
-      for (int c = 0; c < PQnfields(res); ++c) {
-        row.push_back(PQgetisnull(res, r, c) ? std::nullopt : SqlValue(PQgetvalue(res, r, c)));
+      for (int c = 0; c < libpq().nfields(res); ++c) {
+        row.push_back(libpq().getisnull(res, r, c) ? std::nullopt
+                                                   : SqlValue(libpq().getvalue(res, r, c)));
       }
       result.rows.push_back(std::move(row));
     }
-    const char* tuples = PQcmdTuples(res);
+    const char* tuples = libpq().cmd_tuples(res);
     result.affected = (tuples != nullptr && *tuples != '\0') ? std::atoll(tuples) : 0;
-    PQclear(res);
+    libpq().clear(res);
     return result;
   }
 
   void exec_script(const std::string& sql) override {
-    PGresult* res = PQexec(conn_, sql.c_str());
+    PGresult* res = libpq().exec(conn_, sql.c_str());
     check(res);
-    PQclear(res);
+    libpq().clear(res);
   }
 
   void begin_exclusive() override {
@@ -94,11 +157,11 @@ class PostgresSession final : public SqlSession {
  private:
   // Throws (after freeing `res`) unless the statement succeeded.
   void check(PGresult* res) const {
-    const ExecStatusType status = PQresultStatus(res);
+    const ExecStatusType status = libpq().result_status(res);
     if (status == PGRES_COMMAND_OK || status == PGRES_TUPLES_OK) return;
-    std::string why = res != nullptr ? trimmed(PQresultErrorMessage(res)) : "";
-    if (why.empty()) why = trimmed(PQerrorMessage(conn_));
-    PQclear(res);
+    std::string why = res != nullptr ? trimmed(libpq().result_error_message(res)) : "";
+    if (why.empty()) why = trimmed(libpq().error_message(conn_));
+    libpq().clear(res);
     throw std::runtime_error("records database " + location_ + ": " + why);
   }
 

@@ -13,10 +13,12 @@
 #include "calib/programs.hpp"
 #include "calib/raw_input.hpp"
 #include "calib/recording.hpp"
+#include "calib/recording_digest.hpp"
 #include "calib/report.hpp"
 #include "calib/simulator.hpp"
 #include "tools/standcal/commands.hpp"
 #include "tools/standcal/input_options.hpp"
+#include "tools/standcal/threaded_rows.hpp"
 
 namespace standcal::cli {
 
@@ -114,9 +116,36 @@ void run_norm_fit(const FitOptions& o, const RawInput& in) {
   }
 }
 
+// The stand methods on averages and the header alone: from a streamed file, or from a
+// recording read whole (any other format or reading option).
+void fit_stand_averages(const FitOptions& o, const std::string& method, const Recording& rec,
+                        std::vector<PositionAverage> averages, std::optional<AllanFinding> allan) {
+  FitResult fit = fit_with(o, method, averages);
+  fit.noise.allan = std::move(allan);
+  if (o.json) {
+    std::cout << fit_to_json(fit).dump(2) << "\n";
+  } else {
+    std::cout << format_report(fit, report_context(rec, std::move(averages)));
+  }
+  if (!o.compensation.empty()) write_compensation(fit, rec.g_local_mps2, o.compensation);
+}
+
+void print_warnings(const std::vector<std::string>& warnings) {
+  for (const std::string& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+}
+
 void run_fit(const FitOptions& o) {
+  if (o.method != "norm" && streams_as_stand_recording(o.input, o.recording)) {
+    DigestOptions options;
+    if (o.input.g_mps2 > 0) options.g_mps2 = o.input.g_mps2;
+    RecordingDigest digest = digest_on_two_threads(o.recording, options);
+    print_warnings(digest.recording.warnings);
+    const std::string method = o.method == "auto" ? "joint" : o.method;
+    return fit_stand_averages(o, method, digest.recording, std::move(digest.averages),
+                              digest.allan_finding());
+  }
   const RawInput in = read_input(o.recording, input_options(o.input));
-  for (const std::string& w : in.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  print_warnings(in.warnings);
   const std::string method = o.method != "auto" ? o.method : in.recording ? "joint" : "norm";
   if (method == "norm") return run_norm_fit(o, in);
   if (!in.recording)
@@ -130,14 +159,8 @@ void run_fit(const FitOptions& o) {
     rec.g_from_header = true;  // given, not assumed
   }
   std::vector<PositionAverage> averages = average_positions(rec);
-  FitResult fit = fit_with(o, method, averages);
-  fit.noise.allan = allan_finding(rec);
-  if (o.json) {
-    std::cout << fit_to_json(fit).dump(2) << "\n";
-  } else {
-    std::cout << format_report(fit, report_context(rec, std::move(averages)));
-  }
-  if (!o.compensation.empty()) write_compensation(fit, rec.g_local_mps2, o.compensation);
+  std::optional<AllanFinding> allan = allan_finding(rec);
+  fit_stand_averages(o, method, rec, std::move(averages), std::move(allan));
 }
 
 void add_calibrate_commands(CLI::App& app) {

@@ -16,9 +16,11 @@
 #include "calib/design.hpp"
 #include "calib/programs.hpp"
 #include "calib/recording.hpp"
+#include "calib/recording_digest.hpp"
 #include "calib/units.hpp"
 #include "report/noise/allan_figure.hpp"
 #include "tools/standcal/commands.hpp"
+#include "tools/standcal/threaded_rows.hpp"
 
 namespace standcal::cli {
 namespace {
@@ -390,8 +392,12 @@ void run_compare(const CompareOptions& o) {
 // ---- noise ---------------------------------------------------------------------------
 
 void run_noise(const NoiseOptions& o) {
-  const Recording rec = read_recording(o.recording);
-  const DwellAllan allan = dwell_allan(rec);
+  DigestOptions reading;
+  reading.averages = false;  // the Allan deviation alone: each dwell is dropped once added
+  const RecordingDigest digest = digest_on_two_threads(o.recording, reading);
+  if (!digest.allan) throw std::runtime_error(digest.allan_unavailable);
+  const Recording& rec = digest.recording;
+  const DwellAllan& allan = *digest.allan;
   const double tau0 = allan.sample_period_s;
   static const std::array<const char*, 3> axis_names{"x", "y", "z"};
   const auto& curves = allan.curves;
@@ -425,8 +431,8 @@ void run_noise(const NoiseOptions& o) {
     print_json(j);
     return;
   }
-  std::printf("%s: %zu samples every %.4g s in %zu static segment(s)\n", o.recording.c_str(), rec.samples.size(), tau0,
-              allan.segments);
+  std::printf("%s: %zu samples every %.4g s in %zu static segment(s)\n", o.recording.c_str(),
+              digest.samples, tau0, allan.segments);
   std::printf("  %-4s %22s %26s %22s\n", "axis", "noise density ug/rtHz", "bias instability ug (tau)", "random walk ug/rt(s)");
   auto cell = [](const std::optional<double>& v) {
     char b[32];

@@ -1,5 +1,7 @@
 #include "tools/standcal/input_options.hpp"
 
+#include "calib/recording_digest.hpp"
+
 namespace standcal::cli {
 
 namespace {
@@ -45,6 +47,13 @@ InputOptions input_options(const InputCliOptions& o) {
   in.skip_lines = o.skip_lines;
   if (o.g_mps2 > 0) in.g_mps2 = o.g_mps2;
   return in;
+}
+
+bool streams_as_stand_recording(const InputCliOptions& o, const std::string& path) {
+  const bool default_reading = (o.format == "auto" || o.format == "standcal") &&
+                               o.columns.empty() && o.skip_lines == 0 &&
+                               (o.units == "auto" || o.units == "mps2");
+  return default_reading && is_stand_recording(path);
 }
 
 }  // namespace standcal::cli

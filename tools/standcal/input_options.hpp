@@ -19,5 +19,8 @@ struct InputCliOptions {
 
 void add_input_options(CLI::App* cmd, InputCliOptions& o);
 InputOptions input_options(const InputCliOptions& o);
+// The file is a standcal recording with the stand's angles and no option asks to read it
+// otherwise: it can be streamed (calib/recording_digest.hpp) instead of read whole.
+bool streams_as_stand_recording(const InputCliOptions& o, const std::string& path);
 
 }  // namespace standcal::cli

@@ -1,0 +1,54 @@
+#pragma once
+// The lines of a recording, from text in memory or from a file read in fixed blocks: the
+// readers' one way to walk their input, so that reading a file never holds it whole (a
+// one-hour, 100 Hz recording is 40 MB; the block is 1 MiB).
+#include <cstddef>
+#include <string>
+#include <string_view>
+
+namespace standcal {
+
+class LineSource {
+ public:
+  // Lines of `text` (not copied: it must outlive the source).
+  static LineSource of_text(std::string_view text);
+  // Lines of the file at `path`; throws std::runtime_error "<path>: cannot open (...)".
+  static LineSource of_file(const std::string& path);
+
+  LineSource(LineSource&& other) noexcept;
+  LineSource& operator=(LineSource&&) = delete;
+  LineSource(const LineSource&) = delete;
+  ~LineSource();
+
+  // The next line without its '\n' and without a trailing '\r'; false at the end. The view
+  // stays valid until the next call. A UTF-8 byte order mark before the first line is not
+  // part of it (spreadsheet tools write one).
+  bool next(std::string_view& line);
+  // The line `next` returned last ended the input without a '\n' (a run cut off mid-write).
+  bool unterminated() const { return unterminated_; }
+  // 1-based number of the line `next` returned last (0 before the first).
+  int line_number() const { return line_number_; }
+  // Bytes of input passed so far, and in all (for a file: its size when opened), so that
+  // a reader can size its storage once instead of growing it by copies.
+  std::size_t bytes_consumed() const { return consumed_before_ + offset_; }
+  std::size_t bytes_total() const { return total_; }
+
+ private:
+  LineSource(std::string_view text, int fd, std::string path);
+  // Moves the unread tail to the front of the buffer and reads more; false at end of file.
+  bool refill();
+
+  std::string path_;
+  int fd_ = -1;            // -1: text in memory
+  std::string buffer_;     // file blocks (empty for text in memory)
+  std::string_view data_;  // the bytes available: the text, or the filled part of buffer_
+  std::size_t offset_ = 0;
+  std::size_t consumed_before_ = 0;  // bytes dropped from the buffer by refills
+  std::size_t total_ = 0;
+  bool end_of_input_ = false;
+  bool unterminated_ = false;
+  bool at_start_ = true;
+  int line_number_ = 0;
+};
+
+}  // namespace standcal

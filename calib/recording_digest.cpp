@@ -1,0 +1,142 @@
+#include "calib/recording_digest.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <stdexcept>
+#include <utility>
+
+#include "calib/averaging.hpp"
+#include "calib/line_source.hpp"
+#include "calib/units.hpp"
+
+namespace standcal {
+
+RecordingDigester::RecordingDigester(const DigestOptions& options) : options_(options) {
+  dwell_.with_temperature = options.averages;  // the Allan deviation needs the force alone
+}
+
+// The longest dwell is at most the whole file: reserving that much costs address space,
+// not memory (pages count only once written), and a long dwell is never copied to grow.
+// One row more, for the phase the Allan accumulator appends in place.
+void RecordingDigester::expect_rows(std::size_t rows) { dwell_.reserve(rows + 1); }
+
+void RecordingDigester::header(const Recording& rec) {
+  header_ = rec;
+  if (options_.g_mps2) {
+    header_.g_local_mps2 = *options_.g_mps2;
+    header_.g_from_header = true;  // given, not assumed
+  }
+  rate_known_ = std::isfinite(header_.sample_rate_hz) && header_.sample_rate_hz > 0;
+  if (rate_known_) start_allan(1.0 / header_.sample_rate_hz);
+}
+
+void RecordingDigester::row(const RecordingSample& s) {
+  if (dwell_.size() > 0 && s.pos != dwell_.head.pos) finish_dwell();
+  if (!rate_known_ && dwell_.size() > 0) steps_s_.push_back(s.t_s - dwell_.t_end_s);
+  dwell_.add(s);
+  ++samples_;
+}
+
+RecordingDigest RecordingDigester::finish(Recording&& read) {
+  if (dwell_.size() > 0) finish_dwell();
+  RecordingDigest out;
+  out.samples = samples_;
+  if (options_.averages) {
+    if (samples_ == 0) throw std::runtime_error(read.source + ": the recording has no samples");
+    derive_missing_approaches(averages_);
+    out.averages = std::move(averages_);
+  }
+  if (options_.allan) finish_allan(read, out);
+  if (options_.g_mps2) {  // given: the "g assumed" warning no longer holds
+    read.g_local_mps2 = *options_.g_mps2;
+    read.g_from_header = true;
+    std::erase_if(read.warnings,
+                  [](const std::string& w) { return w.find("g_local_mps2") != std::string::npos; });
+  }
+  out.recording = std::move(read);
+  return out;
+}
+
+void RecordingDigester::start_allan(double period_s) {
+  if (!options_.allan) return;
+  for (auto& axis : allan_) axis.emplace(period_s);
+}
+
+void RecordingDigester::finish_dwell() {
+  if (options_.averages) averages_.push_back(average_dwell(dwell_, header_));
+  if (allan_[0]) {
+    feed_allan();
+  } else if (options_.allan) {
+    held_.push_back(std::move(dwell_.f_mps2));  // no rate yet: kept until the end
+    dwell_.f_mps2 = {};
+  }
+  dwell_.clear();
+}
+
+void RecordingDigester::feed_allan() {
+  const double to_ug = 1.0 / header_.g_local_mps2 / kUg;
+  for (std::size_t a = 0; a < 3; ++a) {
+    std::vector<double>& segment = dwell_.f_mps2[a];
+    for (double& v : segment) v *= to_ug;
+    allan_[a]->add_segment(segment);  // keeps its capacity for the next dwell
+  }
+}
+
+void RecordingDigester::finish_allan(const Recording& read, RecordingDigest& out) {
+  if (samples_ < kMinAllanSamples) {
+    out.allan_unavailable = read.source + ": too few samples for an Allan deviation";
+    return;
+  }
+  if (!rate_known_) {
+    // As sample_period_s: the median step between samples of one position.
+    if (steps_s_.empty()) {
+      out.allan_unavailable =
+          read.source + ": cannot tell the sample rate (no sample_rate_hz header)";
+      return;
+    }
+    const auto mid = steps_s_.begin() + static_cast<std::ptrdiff_t>(steps_s_.size() / 2);
+    std::nth_element(steps_s_.begin(), mid, steps_s_.end());
+    if (!(*mid > 0)) {
+      out.allan_unavailable = read.source + ": repeated time stamps (no sample period)";
+      return;
+    }
+    start_allan(*mid);
+    for (auto& held : held_) {
+      dwell_.f_mps2 = std::move(held);
+      feed_allan();
+    }
+  }
+  out.allan =
+      finish_dwell_allan(allan_[0]->sample_period_s(), {*allan_[0], *allan_[1], *allan_[2]});
+}
+
+std::optional<AllanFinding> RecordingDigest::allan_finding() const {
+  if (!allan) return std::nullopt;
+  return AllanFinding{allan->sample_period_s, allan->segments, allan->figures};
+}
+
+RecordingDigest digest_recording(const std::string& path, const DigestOptions& options) {
+  RecordingDigester sink(options);
+  Recording read = stream_recording(path, sink);
+  return sink.finish(std::move(read));
+}
+
+bool is_stand_recording(const std::string& path) {
+  LineSource lines = LineSource::of_file(path);
+  std::string_view line;
+  bool format_seen = false;
+  while (lines.next(line)) {
+    if (line.find_first_not_of(" \t") == std::string_view::npos) continue;
+    if (line.front() == '#') {
+      format_seen =
+          format_seen || line.find("format: standcal-recording/") != std::string_view::npos;
+      continue;
+    }
+    return format_seen && line.find("alpha1_cmd_deg") != std::string_view::npos &&
+           line.find("alpha2_cmd_deg") != std::string_view::npos;
+  }
+  return false;
+}
+
+}  // namespace standcal

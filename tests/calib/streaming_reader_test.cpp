@@ -1,0 +1,366 @@
+// The streamed recording reader (issue 17): the same numbers and the same errors as the
+// reader that holds the whole file, on real files, including lines that straddle its
+// 1 MiB blocks.
+#include <gtest/gtest.h>
+
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "calib/allan.hpp"
+#include "calib/averaging.hpp"
+#include "calib/decimal.hpp"
+#include "calib/line_source.hpp"
+#include "calib/recording_digest.hpp"
+#include "calib/simulator.hpp"
+#include "tests/support/command.hpp"
+
+namespace fs = std::filesystem;
+using namespace standcal;
+
+namespace {
+
+class StreamingReader : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("standcal_stream_" +
+            std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string write(const std::string& name, const std::string& text) const {
+    const std::string p = (dir_ / name).string();
+    std::ofstream(p, std::ios::binary) << text;
+    return p;
+  }
+  fs::path dir_;
+};
+
+std::vector<std::string> all_lines(LineSource& source, bool* unterminated = nullptr) {
+  std::vector<std::string> out;
+  std::string_view line;
+  while (source.next(line)) out.emplace_back(line);
+  if (unterminated) *unterminated = source.unterminated();
+  return out;
+}
+
+// Text whose lines cross the 1 MiB block boundary at every offset near it, with CRLF, a
+// byte order mark, blank lines, one line longer than a block and no final newline.
+std::string awkward_text() {
+  std::string text = "\xEF\xBB\xBF# first\r\n\n";
+  std::mt19937 rng(3);
+  while (text.size() < (std::size_t{1} << 20) + 5000) {
+    text += std::string(rng() % 200, 'a' + static_cast<char>(rng() % 26));
+    text += (rng() % 3 == 0) ? "\r\n" : "\n";
+  }
+  text += std::string((std::size_t{3} << 20) / 2, 'L') + "\n";
+  text += "last line without newline";
+  return text;
+}
+
+TEST_F(StreamingReader, AFileReadInBlocksGivesTheLinesOfTheTextInMemory) {
+  const std::string text = awkward_text();
+  const std::string path = write("awkward.txt", text);
+  LineSource from_memory = LineSource::of_text(text);
+  LineSource from_file = LineSource::of_file(path);
+  bool memory_unterminated = false, file_unterminated = false;
+  const auto expected = all_lines(from_memory, &memory_unterminated);
+  const auto got = all_lines(from_file, &file_unterminated);
+  ASSERT_EQ(got.size(), expected.size());
+  for (std::size_t i = 0; i < got.size(); ++i) ASSERT_EQ(got[i], expected[i]) << "line " << i + 1;
+  EXPECT_EQ(got.front(), "# first");  // the byte order mark and the '\r' are not part of it
+  EXPECT_EQ(got[1], "");
+  EXPECT_EQ(got.back(), "last line without newline");
+  EXPECT_TRUE(memory_unterminated);
+  EXPECT_TRUE(file_unterminated);
+  EXPECT_EQ(from_file.line_number(), static_cast<int>(got.size()));
+  EXPECT_EQ(from_file.bytes_consumed(), text.size());
+  EXPECT_EQ(from_file.bytes_total(), text.size());
+}
+
+TEST_F(StreamingReader, EmptyMissingAndDirectoryInputsAreToldApart) {
+  LineSource empty = LineSource::of_file(write("empty.txt", ""));
+  std::string_view line;
+  EXPECT_FALSE(empty.next(line));
+  try {
+    LineSource::of_file((dir_ / "absent.csv").string());
+    FAIL() << "a missing file was opened";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("absent.csv: cannot open (No such file or directory)"),
+              std::string::npos)
+        << e.what();
+  }
+  try {
+    LineSource::of_file(dir_.string());
+    FAIL() << "a directory was opened";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("cannot open (a directory)"), std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(PlainDecimal, GivesTheDoubleFromCharsGivesOrDeclines) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> value(-20, 20);
+  for (int i = 0; i < 200000; ++i) {
+    char text[64];
+    const int decimals = static_cast<int>(rng() % 12);
+    const int n =
+        std::snprintf(text, sizeof text, "%.*f", decimals, value(rng) * std::pow(10.0, rng() % 6));
+    double expected = 0, got = 0;
+    std::from_chars(text, text + n, expected);
+    if (parse_plain_decimal({text, static_cast<std::size_t>(n)}, got)) {
+      ASSERT_EQ(std::memcmp(&got, &expected, sizeof got), 0) << text;  // bit for bit, -0.0 too
+    }
+  }
+  double v = 0;
+  EXPECT_TRUE(parse_plain_decimal("9.816196357", v));
+  EXPECT_EQ(v, 9.816196357);
+  EXPECT_TRUE(parse_plain_decimal(".5", v));
+  EXPECT_EQ(v, 0.5);
+  // Long mantissas each side of the point, up to the 15 digits the fast path takes.
+  for (const char* text :
+       {"12345678.5", "0.12345678", "-123456789012345", "99999999.9999999", "0000000.00000001"}) {
+    double expected = 0;
+    std::from_chars(text, text + std::strlen(text), expected);
+    EXPECT_TRUE(parse_plain_decimal(text, v)) << text;
+    EXPECT_EQ(v, expected) << text;
+  }
+  EXPECT_FALSE(parse_plain_decimal("1234567812345678", v));  // 16 digits
+  EXPECT_FALSE(parse_plain_decimal("12345678a.5", v));
+  for (const char* declined :
+       {"", "-", ".", "1e3", "+1", " 1", "1 ", "1.2.3", "nan", "1234567890.1234567", "x"})
+    EXPECT_FALSE(parse_plain_decimal(declined, v)) << declined;
+}
+
+// The reference: the overlapping Allan variance written out (IEEE 1293 eq.), pooled.
+std::vector<AllanPoint> naive_allan(const std::vector<std::vector<double>>& segments, double tau0) {
+  std::size_t longest = 0;
+  for (const auto& s : segments) longest = std::max(longest, s.size());
+  std::vector<AllanPoint> out;
+  long previous = 0;
+  for (int step = 0;; ++step) {
+    const long m = std::lround(std::pow(10.0, step / 10.0));
+    if (m > static_cast<long>(longest / 3)) break;
+    if (m == previous) continue;
+    previous = m;
+    double sum = 0;
+    long terms = 0;
+    for (const auto& y : segments) {
+      for (long k = 0; k + 2 * m <= static_cast<long>(y.size()); ++k) {
+        double a = 0, b = 0;
+        for (long j = 0; j < m; ++j) {
+          a += y[static_cast<std::size_t>(k + j)];
+          b += y[static_cast<std::size_t>(k + m + j)];
+        }
+        const double d = (b - a) / static_cast<double>(m);
+        sum += d * d;
+        ++terms;
+      }
+    }
+    if (terms > 0) out.push_back({m * tau0, std::sqrt(sum / (2.0 * terms)), terms});
+  }
+  return out;
+}
+
+TEST(AllanAccumulator, PoolsSegmentsFedOneAtATimeAsTheFormulaSays) {
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0, 30);
+  std::vector<std::vector<double>> segments;
+  for (std::size_t n : {500u, 1300u, 90u, 2u}) {
+    std::vector<double> s(n);
+    double walk = 0;
+    for (double& v : s) v = 1e6 + (walk += 0.3 * noise(rng)) + noise(rng);
+    segments.push_back(s);
+  }
+  const auto expected = naive_allan(segments, 0.01);
+  const auto got = overlapping_allan_deviation(segments, 0.01);
+  ASSERT_EQ(got.size(), expected.size());
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    EXPECT_DOUBLE_EQ(got[i].tau_s, expected[i].tau_s);
+    EXPECT_EQ(got[i].terms, expected[i].terms);
+    EXPECT_NEAR(got[i].deviation, expected[i].deviation, 1e-7 * expected[i].deviation)
+        << "tau " << got[i].tau_s;
+  }
+}
+
+Recording small_run(bool with_rate_header) {
+  SimulationRequest req;
+  req.program = classic24();
+  req.timing.dwell_s = 3;
+  req.seed = 9;
+  Recording rec = simulate_run(req);
+  if (!with_rate_header) {
+    rec.sample_rate_hz = kNoValue;
+    std::erase_if(rec.header, [](const auto& kv) { return kv.first == "sample_rate_hz"; });
+  }
+  return rec;
+}
+
+void expect_same_averages(const std::vector<PositionAverage>& a,
+                          const std::vector<PositionAverage>& b) {
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].pos, b[i].pos);
+    EXPECT_EQ(a[i].mean_g, b[i].mean_g) << "position " << a[i].pos;
+    EXPECT_EQ(a[i].standard_error_g, b[i].standard_error_g);
+    EXPECT_EQ(a[i].samples, b[i].samples);
+    EXPECT_EQ(a[i].approach, b[i].approach);
+    EXPECT_EQ(a[i].t_arrive_s, b[i].t_arrive_s);
+    EXPECT_EQ(a[i].mount, b[i].mount);
+  }
+}
+
+TEST_F(StreamingReader, TheDigestIsWhatTheWholeRecordingGives) {
+  for (const bool rate_header : {true, false}) {
+    SCOPED_TRACE(rate_header ? "with sample_rate_hz" : "without sample_rate_hz");
+    const std::string path = (dir_ / "run.csv").string();
+    write_recording(small_run(rate_header), path);
+    const Recording whole = read_recording(path);
+    const RecordingDigest digest = digest_recording(path);
+    EXPECT_EQ(digest.samples, whole.samples.size());
+    EXPECT_TRUE(digest.recording.samples.empty());
+    EXPECT_EQ(digest.recording.header, whole.header);
+    EXPECT_EQ(digest.recording.warnings, whole.warnings);
+    expect_same_averages(digest.averages, average_positions(whole));
+    const DwellAllan expected = dwell_allan(whole);
+    ASSERT_TRUE(digest.allan) << digest.allan_unavailable;
+    EXPECT_EQ(digest.allan->segments, expected.segments);
+    EXPECT_DOUBLE_EQ(digest.allan->sample_period_s, expected.sample_period_s);
+    for (std::size_t a = 0; a < 3; ++a) {
+      ASSERT_EQ(digest.allan->curves[a].size(), expected.curves[a].size());
+      for (std::size_t i = 0; i < expected.curves[a].size(); ++i)
+        EXPECT_DOUBLE_EQ(digest.allan->curves[a][i].deviation, expected.curves[a][i].deviation);
+    }
+  }
+}
+
+TEST_F(StreamingReader, AGivenGravityIsUsedAndItsWarningDropped) {
+  Recording rec = small_run(true);
+  std::erase_if(rec.header, [](const auto& kv) { return kv.first == "g_local_mps2"; });
+  const std::string path = (dir_ / "no_g.csv").string();
+  write_recording(rec, path);
+  EXPECT_EQ(digest_recording(path).recording.warnings.size(), 1u);  // g assumed
+  DigestOptions options;
+  options.g_mps2 = 9.80;
+  const RecordingDigest digest = digest_recording(path, options);
+  EXPECT_TRUE(digest.recording.warnings.empty());
+  EXPECT_EQ(digest.recording.g_local_mps2, 9.80);
+  Recording whole = read_recording(path);
+  whole.g_local_mps2 = 9.80;
+  expect_same_averages(digest.averages, average_positions(whole));
+}
+
+// Every way a row can be wrong, in a still column (parsed only when its text changes) or
+// a moving one: streamed and whole reading name the same line, column and reason.
+TEST_F(StreamingReader, BadRowsAreReportedAsTheWholeReaderReportsThem) {
+  const std::string head =
+      "# format: standcal-recording/1\n# g_local_mps2: 9.81\n"
+      "t_s,pos,alpha1_cmd_deg,alpha2_cmd_deg,fx_mps2,fy_mps2,fz_mps2,mount,approach\n"
+      "0.00,0,0,0,0,9.81,0,x,1\n0.01,0,0,0,0,9.81,0,x,1\n";
+  const std::vector<std::string> bad_rows = {
+      "0.02,0,0,abc,0,9.81,0,x,1\n",  // a still column that is not a number
+      "0.02,0,0,5,0,9.81,0,x,1\n",    // commanded angles change inside a position
+      "0.02,0,0,0,0,9.81,0,q,1\n",    // not a mount
+      "0.02,0,0,0,0,9.81,0,x,2\n",    // not an approach
+      "0.02,-1,0,0,0,9.81,0,x,1\n",   // not a position index
+      "0.02,0,0,0,0,9.8x,0,x,1\n",    // a moving column that is not a number
+      "0.00,0,0,0,0,9.81,0,x,1\n0.001,1,90,0,9.81,0,0,x,1\n"
+      "0.002,0,0,0,0,9.81,0,x,1\n",  // time backwards, then a position again
+      "0.02,0,0,0,0,9.81\n",         // too few fields
+  };
+  for (const std::string& bad : bad_rows) {
+    SCOPED_TRACE(bad);
+    const std::string path = write("bad.csv", head + bad + "0.03,0,0,0,0,9.81,0,x,1\n");
+    std::string whole_error, streamed_error;
+    try {
+      read_recording(path);
+    } catch (const RecordingError& e) {
+      whole_error = e.what();
+    }
+    try {
+      digest_recording(path);
+    } catch (const RecordingError& e) {
+      streamed_error = e.what();
+    }
+    EXPECT_FALSE(whole_error.empty());
+    EXPECT_EQ(streamed_error, whole_error);
+  }
+}
+
+TEST_F(StreamingReader, AStillColumnThatEmptiesIsReadAsEmpty) {
+  const std::string path =
+      write("mount.csv",
+            "# format: standcal-recording/1\n# g_local_mps2: 9.81\n# mount: z\n"
+            "t_s,pos,alpha1_cmd_deg,alpha2_cmd_deg,fx_mps2,fy_mps2,fz_mps2,mount,approach\n"
+            "0.00,0,0,0,0,9.81,0,y,-1\n0.01,0,0,0,0,9.81,0,,\n");
+  const Recording rec = read_recording(path);
+  ASSERT_EQ(rec.samples.size(), 2u);
+  EXPECT_EQ(rec.samples[0].mount, Mount::y);
+  EXPECT_EQ(rec.samples[0].approach, -1);
+  EXPECT_FALSE(rec.samples[1].mount.has_value());
+  EXPECT_EQ(rec.samples[1].approach, 0);
+}
+
+// The CLI parses on one thread and averages on another; an error still comes out as the
+// one-thread reading raises it: a position with too few samples before a bad line later
+// is reported, not the later line.
+TEST_F(StreamingReader, TheTwoThreadFitReportsTheFirstErrorOfTheFile) {
+  std::string text =
+      "# format: standcal-recording/1\n# g_local_mps2: 9.81\n# sample_rate_hz: 100\n"
+      "t_s,pos,alpha1_cmd_deg,alpha2_cmd_deg,fx_mps2,fy_mps2,fz_mps2\n"
+      "0.00,0,0,0,0,9.81,0\n";  // position 0: one sample
+  for (int i = 0; i < 10000; ++i) text += std::to_string(1 + i * 0.01) + ",1,90,0,9.81,0,0\n";
+  const std::string first_error = write("first.csv", text + "200.0,2,0,90,0,0,bad\n");
+  std::string single_thread;
+  try {
+    digest_recording(first_error);
+  } catch (const std::exception& e) {
+    single_thread = e.what();
+  }
+  ASSERT_NE(single_thread.find("position 0 has 1 usable sample"), std::string::npos)
+      << single_thread;
+  const auto fit = standcal::test::standcal_cli("fit " + first_error + " --json");
+  EXPECT_NE(fit.exit_code, 0);
+  EXPECT_NE(fit.output.find(single_thread), std::string::npos) << fit.output;
+
+  // The same when the bad line comes right after: the rows before it were never handed to
+  // the averaging thread in a full batch, and still come first.
+  const std::string right_after =
+      write("right_after.csv", text.substr(0, text.find("1.000000,1")) +
+                                   "1.00,1,90,0,9.81,0,0\n1.01,1,90,0,9.81,0,bad\n");
+  const auto near = standcal::test::standcal_cli("fit " + right_after + " --json");
+  EXPECT_NE(near.exit_code, 0);
+  EXPECT_NE(near.output.find("position 0 has 1 usable sample"), std::string::npos) << near.output;
+
+  const std::string parse_error = write("parse.csv", text.replace(text.find("0.00,0,0,0"), 1, "x"));
+  const auto bad = standcal::test::standcal_cli("fit " + parse_error + " --json");
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_NE(bad.output.find("parse.csv:5: column 1: column 't_s': 'x.00' is not a number"),
+            std::string::npos)
+      << bad.output;
+}
+
+TEST_F(StreamingReader, TheCliFitOfAStreamedFileEqualsTheFitOfTheWholeFile) {
+  const std::string path = (dir_ / "run.csv").string();
+  write_recording(small_run(true), path);
+  // --units mps2 is the default reading; --skip-lines 0 too, but --format standcal with
+  // --columns forces the whole-file reader: both paths must print the same fit.
+  const auto streamed = standcal::test::standcal_cli("fit " + path + " --json");
+  const auto whole =
+      standcal::test::standcal_cli("fit " + path + " --json --columns fx_mps2,fy_mps2,fz_mps2");
+  ASSERT_EQ(streamed.exit_code, 0) << streamed.output;
+  ASSERT_EQ(whole.exit_code, 0) << whole.output;
+  EXPECT_EQ(nlohmann::json::parse(streamed.output), nlohmann::json::parse(whole.output));
+}
+
+}  // namespace
