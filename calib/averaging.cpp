@@ -86,11 +86,12 @@ PositionAverage average_dwell(const DwellSamples& dwell, const Recording& header
   Vec3 sum = Vec3::Zero(), sum_sq = Vec3::Zero();
   double temp_sum = 0;
   std::size_t temp_count = 0, n = 0;
+  const bool temperatures = dwell.temp_c.size() == count;  // not kept: no mean
   for (std::size_t i = 0; i < count; ++i) {
     if (!keep[i]) continue;
     for (std::size_t a = 0; a < 3; ++a) sum[static_cast<int>(a)] += dwell.f_mps2[a][i] * inv_g;
     ++n;
-    if (!std::isnan(dwell.temp_c[i])) {
+    if (temperatures && !std::isnan(dwell.temp_c[i])) {
       temp_sum += dwell.temp_c[i];
       ++temp_count;
     }

@@ -4,6 +4,7 @@
 // measurement delta_J_L.
 #include <Eigen/Dense>
 #include <array>
+#include <cstdint>
 #include <string>
 
 namespace standcal {
@@ -12,7 +13,7 @@ using Vec3 = Eigen::Vector3d;
 using Mat3 = Eigen::Matrix3d;
 
 // Mounting of the unit on the inner table (model.md, classic program).
-enum class Mount { x = 0, y = 1, z = 2 };
+enum class Mount : std::uint8_t { x = 0, y = 1, z = 2 };
 inline constexpr int kMountCount = 3;
 std::string mount_name(Mount m);
 // Parses "x", "y" or "z"; returns false on anything else.

@@ -1405,17 +1405,17 @@ RawInput read_input(const std::string& path, const InputOptions& options) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec))
     throw std::runtime_error(path + ": cannot open (a directory)");
-  std::ifstream in(path, std::ios::binary | std::ios::ate);
+  std::ifstream in(path, std::ios::binary);
   if (!in) throw std::runtime_error(path + ": cannot open");
   // The text is held whole (this reader looks ahead and back over its header lines), read
   // into one string of the file's size: a string stream copied it twice, three times the
-  // file at the peak. A pipe has no size, and is copied.
-  const std::streamoff size = in.tellg();
+  // file at the peak. A pipe has no size (and cannot seek), and is copied.
   std::string text;
-  if (size >= 0) {
-    text.resize(static_cast<std::size_t>(size));
-    in.seekg(0);
-    if (!in.read(text.data(), size)) throw std::runtime_error(path + ": read error");
+  if (std::filesystem::is_regular_file(path, ec)) {
+    text.resize(static_cast<std::size_t>(std::filesystem::file_size(path, ec)));
+    in.read(text.data(), static_cast<std::streamsize>(text.size()));
+    text.resize(static_cast<std::size_t>(in.gcount()));  // shorter if it shrank meanwhile
+    if (in.bad()) throw std::runtime_error(path + ": read error");
   } else {
     std::ostringstream buffer;
     buffer << in.rdbuf();

@@ -310,7 +310,7 @@ class Parser {
     if (!parse_int(f[static_cast<std::size_t>(i)], a) || (a != 1 && a != -1))
       fail(i + 1, "column 'approach': '" + std::string(f[static_cast<std::size_t>(i)]) +
                       "' must be +1 or -1");
-    s.approach = a;
+    s.approach = static_cast<std::int8_t>(a);
   }
 
   void check_order(const RecordingSample& s) {

@@ -2,6 +2,7 @@
 // Reader and writer of the recording interchange format `standcal-recording/1`
 // (docs: ../shared/docs/recording-format.md). Every error names file, line and column.
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <optional>
 #include <stdexcept>
@@ -18,18 +19,20 @@ namespace standcal {
 inline constexpr std::string_view kRecordingFormat = "standcal-recording/1";
 inline constexpr double kNoValue = std::numeric_limits<double>::quiet_NaN();
 
+// One row. The small members come last, packed: a recording holds hundreds of thousands
+// of these (88 bytes each, not 104: docs/performance.md).
 struct RecordingSample {
   double t_s = 0;
-  int pos = 0;
   double alpha1_cmd_deg = 0;
   double alpha2_cmd_deg = 0;
   double alpha1_deg = kNoValue;  // angle-sensor readings, NaN when not available
   double alpha2_deg = kNoValue;
   Vec3 f_mps2 = Vec3::Zero();
   double temp_c = kNoValue;      // NaN when not measured
-  std::optional<Mount> mount;    // from the `mount` column
   double t_arrive_s = kNoValue;  // from the `t_arrive_s` column
-  int approach = 0;              // +1/-1 from the `approach` column, 0 when absent
+  int pos = 0;
+  std::int8_t approach = 0;    // +1/-1 from the `approach` column, 0 when absent
+  std::optional<Mount> mount;  // from the `mount` column
 };
 
 // Which optional columns a recording carries (and a writer writes).

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <filesystem>
 #include <stdexcept>
 #include <utility>
 
@@ -123,6 +124,10 @@ RecordingDigest digest_recording(const std::string& path, const DigestOptions& o
 }
 
 bool is_stand_recording(const std::string& path) {
+  // Only a regular file can be opened twice (here, then to read it); a pipe's first lines
+  // would be gone, so it is read whole by the caller's other reader.
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return false;
   LineSource lines = LineSource::of_file(path);
   std::string_view line;
   bool format_seen = false;

@@ -69,8 +69,8 @@ class RecordingDigester : public RecordingRowSink {
 // when averages are asked for.
 RecordingDigest digest_recording(const std::string& path, const DigestOptions& options = {});
 
-// Whether the file at `path` is a standcal-recording/1 with the stand's commanded angles:
-// its header and column line alone are read.
+// Whether the file at `path` is a regular file in standcal-recording/1 with the stand's
+// commanded angles: its header and column line alone are read (a pipe: false).
 bool is_stand_recording(const std::string& path);
 
 }  // namespace standcal

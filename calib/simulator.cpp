@@ -483,7 +483,7 @@ Recording simulate_run(const SimulationRequest& req) {
       s.temp_c = unit.temperature_c(s.t_s);
       if (rec.columns.mount) s.mount = p.mount;
       s.t_arrive_s = t_arrive_s;
-      s.approach = approach[i];
+      s.approach = static_cast<std::int8_t>(approach[i]);
       rec.samples.push_back(s);
       t_s = s.t_s;
     }

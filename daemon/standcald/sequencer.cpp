@@ -1298,7 +1298,7 @@ void Sequencer::measure_position(RunRecord& record, const Program& program, int 
     r.temp_c = std::isfinite(x.temperature_c) ? x.temperature_c : kNoValue;
     if (columns.mount) r.mount = pp.mount;
     r.t_arrive_s = t_arrive;
-    r.approach = approach;
+    r.approach = static_cast<std::int8_t>(approach);
     rows.push_back(r);
   }
   std::string text;
