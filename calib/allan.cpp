@@ -135,19 +135,24 @@ double sample_period_s(const Recording& rec) {
   std::vector<double> dt;
   for (std::size_t k = 1; k < rec.samples.size(); ++k)
     if (rec.samples[k].pos == rec.samples[k - 1].pos) dt.push_back(rec.samples[k].t_s - rec.samples[k - 1].t_s);
-  if (dt.empty()) throw std::runtime_error(rec.source + ": cannot tell the sample rate (no sample_rate_hz header)");
-  std::nth_element(dt.begin(), dt.begin() + static_cast<long>(dt.size() / 2), dt.end());
-  return dt[dt.size() / 2];
+  const std::optional<double> step = median_step_s(std::move(dt));
+  if (!step) throw std::runtime_error(rec.source + ": cannot tell the sample rate (no sample_rate_hz header)");
+  return *step;
+}
+
+std::optional<double> median_step_s(std::vector<double> steps_s) {
+  if (steps_s.empty()) return std::nullopt;
+  const auto mid = steps_s.begin() + static_cast<std::ptrdiff_t>(steps_s.size() / 2);
+  std::nth_element(steps_s.begin(), mid, steps_s.end());
+  return *mid;
 }
 
 DwellAllan dwell_allan(const Recording& rec) {
   if (rec.samples.size() < kMinAllanSamples)
     throw std::runtime_error(rec.source + ": too few samples for an Allan deviation");
-  DwellAllan out;
-  out.sample_period_s = sample_period_s(rec);
-  std::array<AllanAccumulator, 3> pooled{AllanAccumulator(out.sample_period_s),
-                                         AllanAccumulator(out.sample_period_s),
-                                         AllanAccumulator(out.sample_period_s)};
+  const double period_s = sample_period_s(rec);
+  std::array<AllanAccumulator, 3> pooled{AllanAccumulator(period_s), AllanAccumulator(period_s),
+                                         AllanAccumulator(period_s)};
   const double to_ug = 1.0 / rec.g_local_mps2 / kUg;
   std::size_t first = 0;
   for (std::size_t k = 1; k <= rec.samples.size(); ++k) {
@@ -160,7 +165,7 @@ DwellAllan dwell_allan(const Recording& rec) {
     }
     first = k;
   }
-  return finish_dwell_allan(out.sample_period_s, pooled);
+  return finish_dwell_allan(period_s, pooled);
 }
 
 DwellAllan finish_dwell_allan(double sample_period_s,

@@ -70,6 +70,9 @@ NoiseFigures noise_figures(const std::vector<AllanPoint>& curve);
 // The sampling period of a recording: its sample_rate_hz header, else the median step
 // between samples of one position. Throws naming the recording when neither exists.
 double sample_period_s(const Recording& rec);
+// That median step, from the steps between consecutive samples of one position; nullopt
+// when there are none.
+std::optional<double> median_step_s(std::vector<double> steps_s);
 
 // The Allan deviation of each axis over a recording's dwells pooled: each position block is
 // one static segment (the moves are not samples), in ug, with the figures read off it.

@@ -432,6 +432,16 @@ void Recording::set_header(const std::string& key, const std::string& value) {
   header.emplace_back(key, value);
 }
 
+bool is_assumed_gravity_warning(std::string_view warning) {
+  return warning.find("g_local_mps2") != std::string_view::npos;
+}
+
+void Recording::use_given_g(double g_mps2) {
+  g_local_mps2 = g_mps2;
+  g_from_header = true;  // given, not assumed
+  std::erase_if(warnings, [](const std::string& w) { return is_assumed_gravity_warning(w); });
+}
+
 Recording parse_recording(std::string_view text, const std::string& source) {
   LineSource lines = LineSource::of_text(text);
   return Parser(lines, source, nullptr).run();

@@ -63,7 +63,13 @@ struct Recording {
   std::string header_value(std::string_view key) const;
   // Sets (or replaces) a header key, keeping the order of first appearance.
   void set_header(const std::string& key, const std::string& value);
+  // Local gravity the operator gave (--g-mps2): it replaces the header's, and the reader's
+  // "g assumed" warning no longer holds.
+  void use_given_g(double g_mps2);
 };
+
+// The reader's warning that the recording has no g_local_mps2 header.
+bool is_assumed_gravity_warning(std::string_view warning);
 
 // A bad recording: the message already names file, line and column.
 class RecordingError : public std::runtime_error {

@@ -24,10 +24,7 @@ void RecordingDigester::expect_rows(std::size_t rows) { dwell_.reserve(rows + 1)
 
 void RecordingDigester::header(const Recording& rec) {
   header_ = rec;
-  if (options_.g_mps2) {
-    header_.g_local_mps2 = *options_.g_mps2;
-    header_.g_from_header = true;  // given, not assumed
-  }
+  if (options_.g_mps2) header_.use_given_g(*options_.g_mps2);
   rate_known_ = std::isfinite(header_.sample_rate_hz) && header_.sample_rate_hz > 0;
   if (rate_known_) start_allan(1.0 / header_.sample_rate_hz);
 }
@@ -49,12 +46,7 @@ RecordingDigest RecordingDigester::finish(Recording&& read) {
     out.averages = std::move(averages_);
   }
   if (options_.allan) finish_allan(read, out);
-  if (options_.g_mps2) {  // given: the "g assumed" warning no longer holds
-    read.g_local_mps2 = *options_.g_mps2;
-    read.g_from_header = true;
-    std::erase_if(read.warnings,
-                  [](const std::string& w) { return w.find("g_local_mps2") != std::string::npos; });
-  }
+  if (options_.g_mps2) read.use_given_g(*options_.g_mps2);
   out.recording = std::move(read);
   return out;
 }
@@ -90,19 +82,17 @@ void RecordingDigester::finish_allan(const Recording& read, RecordingDigest& out
     return;
   }
   if (!rate_known_) {
-    // As sample_period_s: the median step between samples of one position.
-    if (steps_s_.empty()) {
+    const std::optional<double> step_s = median_step_s(std::move(steps_s_));
+    if (!step_s) {
       out.allan_unavailable =
           read.source + ": cannot tell the sample rate (no sample_rate_hz header)";
       return;
     }
-    const auto mid = steps_s_.begin() + static_cast<std::ptrdiff_t>(steps_s_.size() / 2);
-    std::nth_element(steps_s_.begin(), mid, steps_s_.end());
-    if (!(*mid > 0)) {
+    if (!(*step_s > 0)) {
       out.allan_unavailable = read.source + ": repeated time stamps (no sample period)";
       return;
     }
-    start_allan(*mid);
+    start_allan(*step_s);
     for (auto& held : held_) {
       dwell_.f_mps2 = std::move(held);
       feed_allan();

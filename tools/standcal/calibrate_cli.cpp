@@ -130,10 +130,6 @@ void fit_stand_averages(const FitOptions& o, const std::string& method, const Re
   if (!o.compensation.empty()) write_compensation(fit, rec.g_local_mps2, o.compensation);
 }
 
-void print_warnings(const std::vector<std::string>& warnings) {
-  for (const std::string& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
-}
-
 void run_fit(const FitOptions& o) {
   if (o.method != "norm" && streams_as_stand_recording(o.input, o.recording)) {
     DigestOptions options;
@@ -154,10 +150,7 @@ void run_fit(const FitOptions& o) {
                              std::string(to_string(in.format)) +
                              " recording has none; use --method norm (attitude-free, |f| = g)");
   Recording rec = *in.recording;
-  if (o.input.g_mps2 > 0) {
-    rec.g_local_mps2 = o.input.g_mps2;
-    rec.g_from_header = true;  // given, not assumed
-  }
+  if (o.input.g_mps2 > 0) rec.use_given_g(o.input.g_mps2);
   std::vector<PositionAverage> averages = average_positions(rec);
   std::optional<AllanFinding> allan = allan_finding(rec);
   fit_stand_averages(o, method, rec, std::move(averages), std::move(allan));

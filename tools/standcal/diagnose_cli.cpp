@@ -48,13 +48,8 @@ void write_file(const std::string& path, const std::string& text, const char* wh
 // A stand recording is diagnosed as it is; one without angles through the norm fit.
 std::pair<Diagnosis, Recording> diagnose_stand_recording(const DiagnoseCliOptions& o,
                                                          Recording rec) {
-  if (o.input.g_mps2 > 0) {
-    rec.g_local_mps2 = o.input.g_mps2;
-    rec.g_from_header = true;
-    std::erase_if(rec.warnings,
-                  [](const std::string& w) { return w.find("g_local_mps2") != std::string::npos; });
-  }
-  for (const std::string& w : rec.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  if (o.input.g_mps2 > 0) rec.use_given_g(o.input.g_mps2);
+  print_warnings(rec.warnings);
   Diagnosis d = diagnose_recording(rec, diagnose_options(o));
   return {std::move(d), std::move(rec)};
 }
@@ -68,7 +63,7 @@ std::pair<Diagnosis, Recording> diagnose_input(const DiagnoseCliOptions& o) {
     in.recording->warnings = in.warnings;  // the reader's, with what the options changed
     return diagnose_stand_recording(o, std::move(*in.recording));
   }
-  for (const std::string& w : in.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  print_warnings(in.warnings);
   if (in.format == InputFormat::means)
     throw std::runtime_error(o.recording +
                              ": a table of means has no samples; the diagnosis tests "

@@ -1,5 +1,7 @@
 #include "tools/standcal/input_options.hpp"
 
+#include <cstdio>
+
 #include "calib/recording_digest.hpp"
 
 namespace standcal::cli {
@@ -54,6 +56,10 @@ bool streams_as_stand_recording(const InputCliOptions& o, const std::string& pat
                                o.columns.empty() && o.skip_lines == 0 &&
                                (o.units == "auto" || o.units == "mps2");
   return default_reading && is_stand_recording(path);
+}
+
+void print_warnings(const std::vector<std::string>& warnings) {
+  for (const std::string& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
 }
 
 }  // namespace standcal::cli

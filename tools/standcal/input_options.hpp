@@ -3,6 +3,7 @@
 // spelling, one help text, one conversion.
 #include <CLI/CLI.hpp>
 #include <string>
+#include <vector>
 
 #include "calib/raw_input.hpp"
 
@@ -22,5 +23,7 @@ InputOptions input_options(const InputCliOptions& o);
 // The file is a standcal recording with the stand's angles and no option asks to read it
 // otherwise: it can be streamed (calib/recording_digest.hpp) instead of read whole.
 bool streams_as_stand_recording(const InputCliOptions& o, const std::string& path);
+// The reader's warnings, one "warning: ..." line each on stderr.
+void print_warnings(const std::vector<std::string>& warnings);
 
 }  // namespace standcal::cli
