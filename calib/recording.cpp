@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -35,9 +36,18 @@ std::string_view trim(std::string_view s) {
   return s;
 }
 
+// A field as a spreadsheet may save it: quoted ("1.5", "x"). Numbers and names never hold
+// a quote themselves, so the quotes are simply dropped.
+std::string_view unquoted(std::string_view field) {
+  field = trim(field);
+  if (field.size() >= 2 && field.front() == '"' && field.back() == '"')
+    field = trim(field.substr(1, field.size() - 2));
+  return field;
+}
+
 bool parse_double(std::string_view text, double& out) {
   if (parse_plain_decimal(text, out)) return true;  // the common case, no trimming needed
-  text = trim(text);
+  text = unquoted(text);
   if (!text.empty() && text.front() == '+') text.remove_prefix(1);
   if (text.empty()) return false;
   const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), out);
@@ -45,7 +55,7 @@ bool parse_double(std::string_view text, double& out) {
 }
 
 bool parse_int(std::string_view text, int& out) {
-  text = trim(text);
+  text = unquoted(text);
   if (!text.empty() && text.front() == '+') text.remove_prefix(1);
   if (text.empty()) return false;
   const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), out);
@@ -115,12 +125,34 @@ class Parser {
   // returned (the column line).
   std::string_view read_header_lines() {
     std::string_view line;
+    std::string storage;
     while (true) {
       if (!next_line(line)) fail(0, "no column-header line: the file ends inside its header");
       if (trim(line).empty()) continue;
-      if (line.front() != '#') return line;
-      parse_header_line(line);
+      const std::optional<std::string_view> header = header_text(line, storage);
+      if (!header) return line;
+      parse_header_line(*header);
     }
+  }
+
+  // A header line as written, or as a spreadsheet saves it back: padded with the
+  // separators of the empty cells beside it ("# format: standcal-recording/1,,,,,,"), and
+  // quoted when its value holds a comma ("\"# stand: lab 2, stand A\",,,,"). Nothing when
+  // the line is not a header line.
+  std::optional<std::string_view> header_text(std::string_view line, std::string& storage) const {
+    while (!line.empty() && (line.back() == ',' || line.back() == ';' || line.back() == '\t' ||
+                             line.back() == ' ' || line.back() == '\r'))
+      line.remove_suffix(1);
+    if (!line.empty() && line.front() == '#') return line;
+    if (line.size() < 3 || line.substr(0, 2) != "\"#" || line.back() != '"') return std::nullopt;
+    storage.clear();
+    for (std::size_t i = 1; i + 1 < line.size(); ++i) {
+      if (line[i] == '"' && line[i + 1] != '"')
+        fail(static_cast<int>(i) + 1, "a quote inside a quoted header line");
+      storage += line[i];
+      if (line[i] == '"') ++i;  // "" is one quote
+    }
+    return std::string_view(storage);
   }
 
   void parse_header_line(std::string_view line) {
@@ -148,9 +180,10 @@ class Parser {
     column_line_ = line_no_;
     std::vector<std::string_view> names;
     split_fields(line, names);
+    if (names.size() == 1) refuse_other_separator(line);
     index_.fill(-1);
     for (std::size_t i = 0; i < names.size(); ++i) {
-      const std::string_view name = trim(names[i]);
+      const std::string_view name = unquoted(names[i]);
       const int column = static_cast<int>(i) + 1;
       for (int k = 0; k < kColumnKinds; ++k) {
         if (kColumnNames[k] != name) continue;
@@ -168,6 +201,24 @@ class Parser {
     rec_.columns.t_arrive = index_[kTArrive] >= 0;
     rec_.columns.approach = index_[kApproach] >= 0;
     find_still_runs();
+  }
+
+  // A file whose columns are separated by something else than ',' (a spreadsheet in a
+  // locale with decimal commas saves ';'), said as such rather than "column missing".
+  [[noreturn]] void refuse_other_separator(std::string_view line) const {
+    for (const auto& [separator, name] : {std::pair{';', "';'"}, std::pair{'\t', "tabs"}}) {
+      if (line.find(separator) == std::string_view::npos) continue;
+      fail(0,
+           "the columns are separated by " + std::string(name) +
+               ", not ',': standcal-recording/1 is comma-separated with '.' as the decimal point "
+               "(a spreadsheet set to a decimal-comma locale writes ';' and ','; save it as CSV "
+               "with "
+               "',' as the field separator and '.' decimals, e.g. LibreOffice Save As > Text CSV, "
+               "Field delimiter ',', with an English (USA) locale)");
+    }
+    fail(0,
+         "one column only: the column line must list t_s, pos, alpha1_cmd_deg, alpha2_cmd_deg, "
+         "fx_mps2, fy_mps2, fz_mps2 separated by ','");
   }
 
   double number(const std::vector<std::string_view>& f, Column c, bool optional) const {
@@ -196,8 +247,13 @@ class Parser {
       if (trim(line).empty()) continue;
       split_fields(line, fields);
       if (fields.size() != field_count_)
-        fail(0, "expected " + std::to_string(field_count_) + " fields as in the column line " +
-                    std::to_string(column_line_) + ", found " + std::to_string(fields.size()));
+        fail(0,
+             "expected " + std::to_string(field_count_) + " fields as in the column line " +
+                 std::to_string(column_line_) + ", found " + std::to_string(fields.size()) +
+                 (line.find('"') != std::string_view::npos
+                      ? " (a quoted cell holds a ',': a decimal comma? standcal-recording/1 writes "
+                        "'.' as the decimal point and no ',' inside a cell)"
+                      : ""));
       const RecordingSample sample = parse_row(fields);
       check_order(sample);
       if (sink_) {
@@ -294,7 +350,7 @@ class Parser {
   void parse_mount_field(const std::vector<std::string_view>& f, RecordingSample& s) const {
     const int i = index_[kMountCol];
     if (i < 0) return;
-    const std::string text(trim(f[static_cast<std::size_t>(i)]));
+    const std::string text(unquoted(f[static_cast<std::size_t>(i)]));
     s.mount.reset();
     if (text.empty()) return;
     Mount m{};

@@ -1,6 +1,6 @@
 #pragma once
 // Reader and writer of the recording interchange format `standcal-recording/1`
-// (docs: ../shared/docs/recording-format.md). Every error names file, line and column.
+// (docs/recording-format.md). Every error names file, line and column.
 #include <cmath>
 #include <cstdint>
 #include <limits>

@@ -11,9 +11,12 @@ packages=(
   libplplot-dev libsqlite3-dev libpq-dev libxml2-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   socat
-  # The sanitizer build and the fuzzers use clang: it compiles this tree's Eigen-heavy
-  # code in about 40 % less CPU time than g++ and checks a second compiler's warnings.
-  clang-14 libclang-rt-14-dev
+  # Man pages (docs/CMakeLists.txt): standcal(1) and standcald(8) from --help-all,
+  # standcald.json(5) from Markdown.
+  help2man lowdown
+  # scripts/build.sh and the fuzzers use clang and lld: clang compiles this tree's
+  # Eigen-heavy code in about half the CPU time of g++ (scripts/build.sh says more).
+  clang-14 libclang-rt-14-dev lld-14
   # The PostgreSQL records tests start a throw-away server on a loopback port.
   postgresql
   "$@"

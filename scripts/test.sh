@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# The whole test suite: a Release build and an AddressSanitizer+UBSan build, warnings as
-# errors in both, every test in both. Slower checks (TSan, fuzzing) are separate scripts.
+# The whole test suite: a Release build and an AddressSanitizer+UBSan build (both clang,
+# scripts/build.sh), warnings as errors in both, every test in both. Slower checks (TSan,
+# fuzzing) and the Debian package (g++, scripts/package.sh) are separate scripts.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1"

@@ -11,6 +11,7 @@
 #include <filesystem>
 
 #include "tests/faults/fault_cases.hpp"
+#include "tools/cli_checks.hpp"
 
 using namespace standcal::faults;
 
@@ -19,9 +20,11 @@ int main(int argc, char** argv) {
   int tries = 3, kill_tries = 20;
   unsigned seed = 1;
   std::vector<std::string> only;
-  app.add_option("--tries", tries, "tries per fault (seeds seed..seed+tries-1)")->check(CLI::PositiveNumber);
-  app.add_option("--kill-tries", kill_tries, "tries of sigkill and power_loss (each a seeded point)")
-      ->check(CLI::PositiveNumber);
+  app.add_option("--tries", tries, "tries per fault (seeds seed..seed+tries-1)")
+      ->check(standcal::cli_checks::kPositive);
+  app.add_option("--kill-tries", kill_tries,
+                 "tries of sigkill and power_loss (each a seeded point)")
+      ->check(standcal::cli_checks::kPositive);
   app.add_option("--seed", seed, "first seed");
   app.add_option("--only", only, "run only these faults (names as in the table)");
   CLI11_PARSE(app, argc, argv);

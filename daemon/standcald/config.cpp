@@ -192,6 +192,7 @@ void read_server(Section& top, DaemonConfig& c) {
 void read_stand(Section& top, DaemonConfig& c) {
   auto s = top.sub("stand");
   if (!s) return;
+  c.stand_backend_named = s->find("backend") != nullptr;
   s->choice("backend", c.stand_backend, {"sim", "modbus"});
   s->text("id", c.stand_id);
   s->text("url", c.modbus_url);
@@ -212,6 +213,7 @@ void read_stand(Section& top, DaemonConfig& c) {
 void read_unit(Section& top, DaemonConfig& c) {
   auto s = top.sub("unit");
   if (!s) return;
+  c.unit_backend_named = s->find("backend") != nullptr;
   s->choice("backend", c.unit_backend, {"sim", "socketcan"});
   s->text("interface", c.can_interface);
   s->text("layout", c.can_layout_file);
@@ -291,9 +293,21 @@ DaemonConfig load_config(const std::string& path) {
   return parse_config(doc, path);
 }
 
+void require_named_backends(const DaemonConfig& c) {
+  const auto missing = [&c](const char* key, const char* real) {
+    throw ConfigError(
+        c.source + ": " + key +
+        ": not given, and standcald does not guess which hardware to drive: set it to " + real +
+        ", or to \"sim\" for the simulated backend (or start standcald with --sim)");
+  };
+  if (!c.stand_backend_named) missing("stand.backend", "\"modbus\" (with stand.url)");
+  if (!c.unit_backend_named) missing("unit.backend", "\"socketcan\" (with unit.interface)");
+}
+
 DaemonConfig sim_config(const std::string& socket_path, const std::string& state_dir, double time_scale) {
   DaemonConfig c;
   c.source = "--sim";
+  c.stand_backend_named = c.unit_backend_named = true;
   c.socket_path = socket_path;
   c.state_dir = state_dir;
   c.sim.time_scale = time_scale;

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "drivers/stand.hpp"
+#include "protocol/jsonrpc/paths.hpp"
 
 namespace standcal::daemon {
 
@@ -43,7 +44,7 @@ struct DaemonConfig {
   std::string source = "(built-in defaults)";  // file the config came from
   nlohmann::json document = nlohmann::json::object();  // as read, for the configuration hash
   // Server.
-  std::string socket_path = "/run/standcal/standcald.sock";
+  std::string socket_path = paths::kSocket;
   std::string socket_group;          // empty: leave the group of the socket file alone
   unsigned socket_mode = 0660;       // socket.mode, given as an octal string ("0660")
   bool tcp_enabled = false;          // TCP listener
@@ -59,12 +60,16 @@ struct DaemonConfig {
   // A connection with no request, no answer pending and no event subscription for this
   // long is closed.
   double client_idle_timeout_s = 600;
-  std::string state_dir = "/var/lib/standcald";
+  std::string state_dir = paths::kStateDir;
   std::string db_url;                // records database (docs/records.md); empty: STATE/records.sqlite
   std::string log_level = "info";
   // Hardware.
   std::string stand_backend = "sim";  // "sim" | "modbus"
   std::string unit_backend = "sim";   // "sim" | "socketcan"
+  // Whether stand.backend / unit.backend were given (in the file, or by --sim): the daemon
+  // never runs on the simulator because a section was left out (require_named_backends).
+  bool stand_backend_named = false;
+  bool unit_backend_named = false;
   std::string stand_id = "sim-stand";
   std::string modbus_url;             // stand.url for "modbus"
   std::string modbus_map_file;        // stand.register_map: a register-map JSON file (optional)
@@ -94,6 +99,9 @@ struct DaemonConfig {
 DaemonConfig load_config(const std::string& path);
 // Parses a config document (`source` names it in errors).
 DaemonConfig parse_config(const nlohmann::json& doc, const std::string& source);
+// Throws ConfigError unless the stand's and the unit's backends were both named: a lab
+// config that forgot its "stand" section must not calibrate a simulated stand.
+void require_named_backends(const DaemonConfig& config);
 // Built-in defaults with the simulated backend (standcald --sim).
 DaemonConfig sim_config(const std::string& socket_path, const std::string& state_dir, double time_scale);
 // Whether `address` (numeric IPv4 or IPv6) is a loopback address (127.0.0.0/8, ::1).

@@ -1,12 +1,16 @@
 // standcald: the calibration service. `standcald --config FILE`, or for demos and tests
 // `standcald --sim --socket PATH --state-dir DIR [--time-scale K]` (docs/daemon.md).
-#include <CLI/CLI.hpp>
 #include <signal.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/sinks/systemd_sink.h>
 #include <spdlog/spdlog.h>
+#include <sys/stat.h>
 #include <systemd/sd-daemon.h>
+#include <unistd.h>
+#include <CLI/CLI.hpp>
 
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <memory>
 
@@ -17,6 +21,7 @@
 #include "daemon/standcald/run_store.hpp"
 #include "daemon/standcald/sequencer.hpp"
 #include "daemon/standcald/server.hpp"
+#include "protocol/jsonrpc/exit_codes.hpp"
 #include "standcal/version.hpp"
 
 namespace {
@@ -34,21 +39,26 @@ struct Options {
 standcal::daemon::DaemonConfig effective_config(const Options& o) {
   using namespace standcal::daemon;
   if (o.config_file.empty() && !o.sim) {
-    throw ConfigError("give --config FILE, or --sim --socket PATH --state-dir DIR for the simulated backend");
+    throw ConfigError("give --config FILE (the installed one is " +
+                      std::string(standcal::paths::kConfigFile) +
+                      "), or --sim --socket PATH --state-dir DIR for the simulated backend");
   }
-  DaemonConfig c = o.config_file.empty() ? sim_config(o.socket_path.empty() ? "/run/standcal/standcald.sock" : o.socket_path,
-                                                      o.state_dir.empty() ? "/var/lib/standcald" : o.state_dir,
-                                                      o.time_scale)
-                                         : load_config(o.config_file);
+  DaemonConfig c =
+      o.config_file.empty()
+          ? sim_config(o.socket_path.empty() ? standcal::paths::kSocket : o.socket_path,
+                       o.state_dir.empty() ? standcal::paths::kStateDir : o.state_dir, o.time_scale)
+          : load_config(o.config_file);
   // Command-line values override the file (handy for a quick test of a lab config).
   if (!o.config_file.empty()) {
     if (!o.socket_path.empty()) c.socket_path = o.socket_path;
     if (!o.state_dir.empty()) c.state_dir = o.state_dir;
     if (o.sim) {
       c.stand_backend = c.unit_backend = "sim";
+      c.stand_backend_named = c.unit_backend_named = true;
       c.sim.time_scale = o.time_scale;
     }
   }
+  require_named_backends(c);
   if (o.tcp_port >= 0) {
     c.tcp_enabled = true;
     c.tcp_port = o.tcp_port;
@@ -101,16 +111,39 @@ int run_daemon(const standcal::daemon::DaemonConfig& config) {
   return 0;
 }
 
+// Whether stderr is the journal (systemd sets JOURNAL_STREAM to its device:inode; a
+// redirected stderr of a child keeps the variable but not the stream, so both are compared).
+bool stderr_is_journal() {
+  const char* stream = std::getenv("JOURNAL_STREAM");
+  if (stream == nullptr) return false;
+  unsigned long long dev = 0, ino = 0;
+  if (std::sscanf(stream, "%llu:%llu", &dev, &ino) != 2) return false;
+  struct stat st {};
+  return ::fstat(STDERR_FILENO, &st) == 0 && st.st_dev == dev && st.st_ino == ino;
+}
+
+// Under systemd: the journal, with each message's priority and without our timestamp
+// (journald stamps it). Elsewhere: stderr with a timestamp.
+void set_up_logging() {
+  if (stderr_is_journal()) {
+    spdlog::set_default_logger(spdlog::systemd_logger_mt("standcald", "standcald"));
+  } else {
+    spdlog::set_default_logger(spdlog::stderr_color_mt("standcald"));
+    spdlog::set_pattern("%Y-%m-%d %H:%M:%S.%e [%l] %v");
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   // The child that computes one run.diagnose (diagnose_worker.hpp), not a daemon.
   if (argc == 2 && std::string(argv[1]) == standcal::daemon::kDiagnoseWorkerFlag)
     return standcal::daemon::diagnose_worker_main();
-  spdlog::set_default_logger(spdlog::stderr_color_mt("standcald"));
-  spdlog::set_pattern("%Y-%m-%d %H:%M:%S.%e [%l] %v");
+  set_up_logging();
   CLI::App app{"standcald: the standcal calibration service (JSON-RPC 2.0 over a Unix socket)"};
-  app.set_version_flag("--version", standcal::kVersion);
+  app.set_version_flag("--version", standcal::kVersionLine);
+  app.set_help_all_flag("--help-all", "Print this help and exit (for the man page)");
+  app.footer(standcal::exit_code_table_text());
   Options o;
   app.add_option("--config", o.config_file, "configuration file (JSON; docs/daemon.md)");
   app.add_flag("--sim", o.sim, "use the simulated stand and unit");
@@ -121,12 +154,18 @@ int main(int argc, char** argv) {
   app.add_option("--tcp-port", o.tcp_port, "also listen on 127.0.0.1:PORT (0: any free port, printed)")
       ->check(CLI::Range(0, 65535));
   app.add_option("--log-level", o.log_level, "trace, debug, info, warn, error");
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int cli11_code = app.exit(e);  // 0 for --help and --version
+    return cli11_code == 0 ? 0 : standcal::exit_status(standcal::ExitCode::usage_error);
+  }
   try {
     return run_daemon(effective_config(o));
   } catch (const std::exception& e) {
     spdlog::critical("{}", e.what());
-    std::fprintf(stderr, "standcald: %s\n", e.what());
-    return 1;
+    // The journal has it already; on a terminal, the plain line is the one to read.
+    if (!stderr_is_journal()) std::fprintf(stderr, "standcald: %s\n", e.what());
+    return standcal::exit_status(standcal::ExitCode::runtime_error);
   }
 }

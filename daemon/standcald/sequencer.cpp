@@ -737,8 +737,13 @@ json Sequencer::unit_read(double seconds) {
 // --------------------------------------------------------------------------- views
 
 json Sequencer::status() const {
+  // Which hardware is live, so nobody mistakes a simulated run for a real one.
+  json backend{{"stand", config_.stand_backend},
+               {"unit", config_.unit_backend},
+               {"simulated", config_.stand_backend == "sim" || config_.unit_backend == "sim"},
+               {"description", hw_.description}};
   std::lock_guard lock(snapshot_mutex_);
-  return json{{"stand", stand_snapshot_}, {"run", progress_}};
+  return json{{"stand", stand_snapshot_}, {"run", progress_}, {"backend", std::move(backend)}};
 }
 
 json Sequencer::run_status(const std::string& run_id) const {

@@ -2,7 +2,7 @@
 // The lab's calibration records (docs/records.md): one row per calibration with its
 // traceability, the fit as `standcal fit --json` emits it and the verdict. One schema,
 // two backends behind one interface, chosen by URL:
-//   sqlite:///var/lib/standcald/records.sqlite  or a plain path   -> SQLite (embedded)
+//   sqlite:///var/lib/standcal/records.sqlite  or a plain path   -> SQLite (embedded)
 //   postgresql://user@host:5432/standcal  (or postgres://…)       -> PostgreSQL (libpq)
 // so every bench of a lab can write to one shared PostgreSQL database. Schema versions
 // live in the `schema_version` table; migrate() applies the missing ones in order.

@@ -252,3 +252,82 @@ TEST(RecordingWriter, RefusesControlCharactersInTheHeaderNamingTheKey) {
   EXPECT_NE(error_of_header("a: b", "v").find("':'"), std::string::npos);
   EXPECT_EQ(error_of_header("unit_type", "QA-7 \xC3\xA9"), "");  // printable UTF-8 is fine
 }
+
+namespace {
+
+// Recordings that went through a spreadsheet and back (issue 19): header lines padded
+// with the separators of empty cells, quoted cells, and the clear refusal of a ';' file.
+const char* const kAsWritten =
+    "# format: standcal-recording/1\n"
+    "# g_local_mps2: 9.81\n"
+    "# stand: lab 2, stand A\n"
+    "t_s,pos,alpha1_cmd_deg,alpha2_cmd_deg,fx_mps2,fy_mps2,fz_mps2,mount\n"
+    "0.00,0,0,0,0.01,0.02,9.81,x\n"
+    "0.01,0,0,0,0.011,0.021,9.809,x\n"
+    "0.02,1,90,0,9.81,0.02,0.01,y\n";
+
+// What LibreOffice writes back when the file is opened and saved as CSV: every line as
+// wide as the widest, the cell holding a comma quoted, text cells quoted, trailing zeros
+// of numbers gone, and a byte order mark.
+const char* const kSpreadsheetSaved =
+    "\xEF\xBB\xBF# format: standcal-recording/1,,,,,,,\r\n"
+    "# g_local_mps2: 9.81,,,,,,,\r\n"
+    "\"# stand: lab 2, stand A\",,,,,,,\r\n"
+    "\"t_s\",\"pos\",\"alpha1_cmd_deg\",\"alpha2_cmd_deg\",\"fx_mps2\",\"fy_mps2\",\"fz_mps2\","
+    "\"mount\"\r\n"
+    "0,0,0,0,0.01,0.02,9.81,\"x\"\r\n"
+    "0.01,0,0,0,0.011,0.021,9.809,\"x\"\r\n"
+    "0.02,1,90,0,9.81,0.02,0.01,\"y\"\r\n";
+
+TEST(SpreadsheetRecording, ASpreadsheetReSaveReadsAsTheOriginal) {
+  const Recording original = parse_recording(kAsWritten, "original.csv");
+  const Recording saved = parse_recording(kSpreadsheetSaved, "saved.csv");
+  EXPECT_EQ(saved.header_value("stand"), "lab 2, stand A");
+  EXPECT_EQ(saved.header_value("format"), original.header_value("format"));
+  EXPECT_DOUBLE_EQ(saved.g_local_mps2, 9.81);
+  ASSERT_EQ(saved.samples.size(), original.samples.size());
+  for (std::size_t i = 0; i < saved.samples.size(); ++i) {
+    const RecordingSample& a = original.samples[i];
+    const RecordingSample& b = saved.samples[i];
+    EXPECT_EQ(a.t_s, b.t_s);
+    EXPECT_EQ(a.pos, b.pos);
+    EXPECT_EQ(a.alpha1_cmd_deg, b.alpha1_cmd_deg);
+    EXPECT_EQ(a.f_mps2, b.f_mps2);
+    ASSERT_TRUE(b.mount.has_value());
+    EXPECT_EQ(*a.mount, *b.mount);
+  }
+}
+
+// A spreadsheet in a decimal-comma locale writes ';' between cells and ',' in numbers.
+TEST(SpreadsheetRecording, ASemicolonFileIsNamedAsSuchWithTheFix) {
+  const std::string semicolons =
+      "# format: standcal-recording/1;;;;;;\n"
+      "# g_local_mps2: 9,81;;;;;;\n"
+      "t_s;pos;alpha1_cmd_deg;alpha2_cmd_deg;fx_mps2;fy_mps2;fz_mps2\n"
+      "0;0;0;0;0,01;0,02;9,81\n";
+  const std::string e = error_of(semicolons);
+  EXPECT_NE(e.find("rec.csv:3"), std::string::npos) << e;
+  EXPECT_NE(e.find("separated by ';', not ','"), std::string::npos) << e;
+  EXPECT_NE(e.find("'.' decimals"), std::string::npos) << e;
+}
+
+TEST(SpreadsheetRecording, AQuotedDecimalCommaIsNamedWhereItIs) {
+  const std::string text =
+      "# format: standcal-recording/1\n# g_local_mps2: 9.81\n"
+      "t_s,pos,alpha1_cmd_deg,alpha2_cmd_deg,fx_mps2,fy_mps2,fz_mps2\n"
+      "0,0,0,0,\"0,01\",0.02,9.81\n";
+  const std::string e = error_of(text);
+  EXPECT_NE(e.find("rec.csv:4: expected 7 fields"), std::string::npos) << e;
+  EXPECT_NE(e.find("a decimal comma?"), std::string::npos) << e;
+}
+
+TEST(SpreadsheetRecording, ATabSeparatedFileIsNamedAsSuch) {
+  const std::string e = error_of(
+      "# format: "
+      "standcal-recording/"
+      "1\nt_s\tpos\talpha1_cmd_deg\talpha2_cmd_deg\tfx_mps2\tfy_mps2\tfz_mps2\n0\t0\t0\t0\t0\t0\t9."
+      "8\n");
+  EXPECT_NE(e.find("separated by tabs"), std::string::npos) << e;
+}
+
+}  // namespace

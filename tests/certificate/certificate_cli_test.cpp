@@ -8,9 +8,10 @@
 #include <sstream>
 #include <string>
 
+#include "protocol/jsonrpc/exit_codes.hpp"
 #include "tests/certificate/certificate_support.hpp"
-#include "tests/support/command.hpp"
 #include "tests/certificate/html_query.hpp"
+#include "tests/support/command.hpp"
 
 namespace standcal::test {
 namespace {
@@ -40,11 +41,16 @@ class CertificateCli : public ::testing::Test {
 
 TEST_F(CertificateCli, WritesTheCertificateOfARunInTheStateDirectory) {
   const std::filesystem::path out = state_.file("cert.html");
-  const CommandResult r = run_cli("certificate 20261121T223638Z-AU-0042 --state-dir " + state_.path() +
-                                  " --limits " + state_.file("limits.json") + " -o " + out.string());
-  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const CommandResult r =
+      run_cli("certificate 20261121T223638Z-AU-0042 --state-dir " + state_.path() + " --limits " +
+              state_.file("limits.json") + " -o " + out.string());
   EXPECT_NE(r.output.find("certificate for AU-0042 written to"), std::string::npos) << r.output;
   const HtmlDocument page(read_text(out));
+  // The verdict is the exit status a bench script acts on (README "Exit status").
+  const std::string verdict = page.text("//*[@id='verdict']/@data-outcome");
+  EXPECT_EQ(r.exit_code, verdict == "fail" ? exit_status(ExitCode::verdict_fail)
+                                           : exit_status(ExitCode::verdict_indeterminate))
+      << verdict << ": " << r.output;
   EXPECT_EQ(page.text("//dl[@id='traceability']/dd[@data-field='unit_type']"), "QA-2000")
       << "the only unit type in the limits applies";
   // default_truth's scale_z is 310 ppm against a 300 ppm limit: outside by more than U?

@@ -12,6 +12,21 @@ using namespace standcal::daemon;
 using nlohmann::json;
 using standcal::test::config_error;
 
+namespace {
+
+// The exit status of a daemon that is expected to give up at start (-1: still running
+// after 20 s, or killed by a signal).
+int exit_code_at_start(standcal::test::DaemonProcess& d) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (!d.exited() && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  if (!d.exited() || !WIFEXITED(d.wait_status())) return -1;
+  return WEXITSTATUS(d.wait_status());
+}
+
+}  // namespace
+
 TEST(DaemonConfig, ReadsEveryGroupOfKeys) {
   const json doc = json::parse(R"({
     "socket": {"path": "/tmp/x.sock", "group": "standcal"},
@@ -76,12 +91,7 @@ TEST(DaemonProcessStart, ABadConfigFailsAtStartNamingTheKey) {
   const std::string file = dir.path() + "/bad.json";
   std::ofstream(file) << R"({"state_dir": ")" << dir.path() << R"(/state", "run": {"settle_s": -4}})";
   standcal::test::DaemonProcess d(dir.path(), {"--config", file});
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
-  while (!d.exited() && std::chrono::steady_clock::now() < deadline) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  ASSERT_TRUE(d.exited());
-  EXPECT_TRUE(WIFEXITED(d.wait_status()) && WEXITSTATUS(d.wait_status()) == 1);
+  EXPECT_EQ(exit_code_at_start(d), 1);
   EXPECT_NE(d.log().find("run.settle_s: must be between 0 and 3600"), std::string::npos) << d.log();
 }
 
@@ -89,12 +99,7 @@ TEST(DaemonProcessStart, ABadConfigFailsAtStartNamingTheKey) {
 TEST(DaemonProcessStart, AConfigThatIsADirectoryIsNamedAsOne) {
   standcal::test::TempDir dir;
   standcal::test::DaemonProcess d(dir.path(), {"--config", dir.path()});
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
-  while (!d.exited() && std::chrono::steady_clock::now() < deadline) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  ASSERT_TRUE(d.exited());
-  EXPECT_TRUE(WIFEXITED(d.wait_status()) && WEXITSTATUS(d.wait_status()) == 1);
+  EXPECT_EQ(exit_code_at_start(d), 1);
   EXPECT_NE(d.log().find("standcald: " + dir.path() + ": is a directory, not a config file"),
             std::string::npos)
       << d.log();
@@ -117,4 +122,47 @@ TEST(DaemonConfig, ClientTimeoutsAreReadAndChecked) {
   EXPECT_NE(standcal::test::config_error(json{{"client_request_timeout_s", 0}})
                 .find("client_request_timeout_s: must be between"),
             std::string::npos);
+}
+
+// A lab config that lost its "stand" (or "unit") section must not calibrate a simulated
+// stand: the daemon refuses to start and says how to simulate on purpose (issue 19).
+TEST(DaemonProcessStart, AConfigWithoutBackendsIsRefusedUnlessSimulationIsAskedFor) {
+  standcal::test::TempDir dir;
+  const std::string file = dir.path() + "/lab.json";
+  std::ofstream(file) << json{{"socket", {{"path", dir.path() + "/standcald.sock"}}},
+                              {"state_dir", dir.path() + "/state"},
+                              {"unit", {{"backend", "socketcan"}}}}
+                             .dump();
+  standcal::test::DaemonProcess refused(dir.path(), {"--config", file});
+  EXPECT_EQ(exit_code_at_start(refused), 1);
+  EXPECT_NE(refused.log().find(file + ": stand.backend: not given"), std::string::npos)
+      << refused.log();
+  EXPECT_NE(refused.log().find("--sim"), std::string::npos) << refused.log();
+
+  // Asked for in the file: it runs, and `status` says the stand is simulated.
+  std::ofstream(file) << json{
+      {"socket", {{"path", dir.path() + "/standcald.sock"}}},
+      {"state_dir", dir.path() + "/state"},
+      {"stand", {{"backend", "sim"}}},
+      {"unit",
+       {{"backend", "sim"}}}}.dump();
+  standcal::test::DaemonProcess simulated(dir.path(), {"--config", file});
+  simulated.wait_ready(dir.path() + "/standcald.sock");
+  standcal::protocol::Client c(dir.path() + "/standcald.sock");
+  const json backend = c.call("status")["backend"];
+  EXPECT_EQ(backend["stand"], "sim");
+  EXPECT_EQ(backend["simulated"], true);
+  const auto cli =
+      standcal::test::standcal_cli("status --socket " + dir.path() + "/standcald.sock");
+  EXPECT_NE(cli.output.find("SIMULATED"), std::string::npos) << cli.output;
+}
+
+TEST(DaemonConfig, BackendsAreNamedOnlyWhenGiven) {
+  EXPECT_FALSE(parse_config(json::object(), "lab.json").stand_backend_named);
+  const DaemonConfig c = parse_config(
+      json{{"stand", {{"backend", "sim"}}}, {"unit", {{"backend", "sim"}}}}, "lab.json");
+  EXPECT_TRUE(c.stand_backend_named && c.unit_backend_named);
+  EXPECT_NO_THROW(require_named_backends(c));
+  EXPECT_THROW(require_named_backends(parse_config(json{{"stand", {{"id", "x"}}}}, "lab.json")),
+               ConfigError);
 }

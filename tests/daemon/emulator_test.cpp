@@ -16,6 +16,7 @@
 
 #include "calib/recording.hpp"
 #include "daemon_process.hpp"
+#include "tests/support/command.hpp"
 
 using namespace standcal;
 using namespace std::chrono_literals;
@@ -173,4 +174,83 @@ TEST(DaemonEmulators, AnEstopIsNotHeldBackByAStandStopWaitingForTheAxes) {
   EXPECT_EQ(answers[0]["id"], 2) << "the estop waited for stand.stop: " << answers[0].dump();
   EXPECT_EQ(answers[0]["result"]["estop"], true) << answers[0].dump();
   EXPECT_EQ(answers[1]["id"], 1) << answers[1].dump();
+}
+
+namespace {
+
+// `standcal doctor --json` with the checks by name.
+std::map<std::string, json> doctor_checks(const std::string& config, int* exit_code) {
+  const auto r = test::run_command(std::string(STANDCAL_CLI_PATH) + " doctor --json --config " +
+                                   config + " 2>/dev/null");
+  *exit_code = r.exit_code;
+  std::map<std::string, json> checks;
+  for (const json& line : json::parse(r.output)) checks[line["check"].get<std::string>()] = line;
+  return checks;
+}
+
+}  // namespace
+
+// `standcal doctor` with the daemon stopped opens the stand and the unit as the daemon would:
+// against the emulators the link and the unit's rate pass; with the stand emulator stopped
+// the stand link fails and says what to check (issue 19).
+TEST(Doctor, ChecksTheStandAndTheUnitOfTheEmulatorsAndNamesAStoppedOne) {
+  TempDir dir;
+  int pair[2];
+  ASSERT_EQ(::socketpair(AF_UNIX, SOCK_SEQPACKET, 0, pair),
+            0);  // inherited by the emulator and doctor
+  auto stand_emu = std::make_unique<DaemonProcess>(
+      dir.path(), std::vector<std::string>{"--listen", "tcp://127.0.0.1:0"},
+      std::vector<std::string>{}, STANDCAL_STAND_EMU_PATH, "stand-emu.log", "stand-emu.out");
+  const std::string url = wait_for_line(dir.path() + "/stand-emu.out", 20s);
+  ASSERT_FALSE(url.empty()) << stand_emu->log();
+  DaemonProcess can_emu(dir.path(), {"--fd", std::to_string(pair[0]), "--rate-hz", "100"}, {},
+                        STANDCAL_CAN_EMU_PATH, "can-emu.log");
+  std::filesystem::create_directories(dir.path() + "/state");
+  const std::string config = dir.path() + "/standcald.json";
+  std::ofstream(config)
+      << json{{"socket", {{"path", dir.path() + "/standcald.sock"}}},
+              {"state_dir", dir.path() + "/state"},
+              {"stand", {{"backend", "modbus"}, {"url", url}}},
+              {"unit", {{"backend", "socketcan"}, {"interface", "fd:" + std::to_string(pair[1])}}}}
+             .dump();
+  int exit_code = 0;
+  auto checks = doctor_checks(config, &exit_code);
+  EXPECT_EQ(checks["config"]["verdict"], "PASS") << checks["config"];
+  EXPECT_EQ(checks["state directory"]["verdict"], "PASS") << checks["state directory"];
+  EXPECT_EQ(checks["daemon"]["verdict"], "FAIL") << "no daemon was started";
+  EXPECT_EQ(checks["stand link"]["verdict"], "PASS") << checks["stand link"];
+  EXPECT_EQ(checks["unit"]["verdict"], "PASS") << checks["unit"];
+  EXPECT_EQ(checks["records database"]["verdict"], "PASS") << checks["records database"];
+  EXPECT_EQ(exit_code, 1) << "a failed check (the daemon) fails the doctor";
+
+  stand_emu.reset();  // SIGKILL: the controller is gone
+  checks = doctor_checks(config, &exit_code);
+  EXPECT_EQ(checks["stand link"]["verdict"], "FAIL") << checks["stand link"];
+  EXPECT_NE(checks["stand link"]["fix"].get<std::string>().find("stand.url"), std::string::npos);
+  EXPECT_EQ(checks["unit"]["verdict"], "PASS") << checks["unit"];
+  EXPECT_EQ(exit_code, 1);
+  ::close(pair[0]);
+  ::close(pair[1]);
+}
+
+// With the daemon running, doctor asks it instead of opening the hardware it owns.
+TEST(Doctor, AsksARunningDaemon) {
+  TempDir dir;
+  const std::string config = dir.path() + "/standcald.json";
+  std::ofstream(config) << json{
+      {"socket", {{"path", dir.path() + "/standcald.sock"}}},
+      {"state_dir", dir.path() + "/state"},
+      {"stand", {{"backend", "sim"}}},
+      {"unit",
+       {{"backend", "sim"}}}}.dump();
+  DaemonProcess daemon(dir.path(), {"--config", config});
+  daemon.wait_ready(dir.path() + "/standcald.sock");
+  int exit_code = 0;
+  auto checks = doctor_checks(config, &exit_code);
+  EXPECT_EQ(checks["daemon"]["verdict"], "PASS") << checks["daemon"];
+  EXPECT_NE(checks["daemon"]["detail"].get<std::string>().find("may command the stand"),
+            std::string::npos);
+  EXPECT_EQ(checks["stand link"]["verdict"], "SKIP")
+      << checks["stand link"] << " (the idle daemon's stand is unconfigured)";
+  EXPECT_EQ(exit_code, 0) << checks["unit"];
 }

@@ -2,7 +2,12 @@
 // while both threads are alive (sd_notify to a socket the test owns, as systemd would).
 #include <gtest/gtest.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <sys/un.h>
+
+#include <fstream>
+#include <string>
+#include <vector>
 
 #include "daemon_process.hpp"
 
@@ -42,4 +47,45 @@ TEST(DaemonSystemd, NotifiesReadyAndPingsTheWatchdog) {
   ::close(fd);
   EXPECT_TRUE(ready) << d.log();
   EXPECT_GE(pings, 3) << d.log();
+}
+
+namespace {
+
+// JOURNAL_STREAM as systemd sets it when stderr is the journal: "DEVICE:INODE" of stderr.
+std::string journal_stream_of(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) return "";
+  return "JOURNAL_STREAM=" + std::to_string(st.st_dev) + ":" + std::to_string(st.st_ino);
+}
+
+// Starts a simulated daemon whose stderr is DIR/standcald.log with `env`, stops it, and
+// returns what it wrote there.
+std::string stderr_of_daemon(const TempDir& dir, const std::vector<std::string>& env) {
+  DaemonProcess d(
+      dir.path(),
+      {"--sim", "--socket", dir.path() + "/standcald.sock", "--state-dir", dir.path() + "/state"},
+      env);
+  d.wait_ready(dir.path() + "/standcald.sock");
+  d.kill_now(SIGTERM);
+  return d.log();
+}
+
+}  // namespace
+
+// Under systemd (JOURNAL_STREAM names the daemon's own stderr) the log goes to the journal
+// with priorities, not to stderr with a second timestamp; with the variable inherited but
+// stderr redirected elsewhere, stderr it is.
+TEST(DaemonSystemd, LogsToTheJournalOnlyWhenStderrIsTheJournal) {
+  TempDir journal_dir;
+  const std::string log = journal_dir.path() + "/standcald.log";
+  { std::ofstream create(log); }
+  const std::string under_systemd = stderr_of_daemon(journal_dir, {journal_stream_of(log)});
+  EXPECT_EQ(under_systemd.find("starting: backend"), std::string::npos) << under_systemd;
+
+  TempDir redirected_dir;
+  const std::string elsewhere = redirected_dir.path() + "/elsewhere";
+  { std::ofstream create(elsewhere); }
+  const std::string redirected = stderr_of_daemon(redirected_dir, {journal_stream_of(elsewhere)});
+  EXPECT_NE(redirected.find("[info] standcald "), std::string::npos) << redirected;
+  EXPECT_NE(redirected.find("starting: backend sim"), std::string::npos) << redirected;
 }

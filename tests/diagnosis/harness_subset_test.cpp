@@ -10,6 +10,7 @@
 
 #include "bench/diagnosis/harness_trials.hpp"
 #include "calib/recording.hpp"
+#include "protocol/jsonrpc/exit_codes.hpp"
 #include "tests/support/command.hpp"
 #include "tests/support/temp_dir.hpp"
 
@@ -123,8 +124,9 @@ TEST(HarnessSubset, TheCliTakesTheUnitsSpecifiedWander) {
   auto verdict = [&](const std::string& extra) {
     const test::CommandOutcome r =
         test::standcal_cli("diagnose --json " + path + extra + " 2>/dev/null");
-    EXPECT_EQ(r.exit_code, 0) << r.output;
-    return nlohmann::json::parse(r.output.substr(r.output.find('{')));
+    const nlohmann::json j = nlohmann::json::parse(r.output.substr(r.output.find('{')));
+    EXPECT_EQ(r.exit_code, exit_status(diagnosis_exit_code(j.value("verdict", "")))) << r.output;
+    return j;
   };
   EXPECT_NE(verdict("")["verdict"], "consistent");
   const nlohmann::json with = verdict(" --bias-instability-ug 5 --bias-instability-tau-s 300");

@@ -28,7 +28,7 @@ CalibrationRecord sample_record(const std::string& run_id, const std::string& se
   r.started_utc = started;
   r.ended_utc = "2026-11-21T23:40:00Z";
   r.program_name = "paper9";
-  r.recording_path = "/var/lib/standcald/runs/" + run_id + "/recording.csv";
+  r.recording_path = "/var/lib/standcal/runs/" + run_id + "/recording.csv";
   r.method = "joint";
   r.result = json{{"estimator", "joint"},
                   {"parameters", {{"bias_x", {{"value", 12.5}, {"sigma", 0.75}, {"unit", "ug"}}},
@@ -272,7 +272,7 @@ TEST(RecordsDbOpen, APlainPathIsSqlite) {
   auto db = open_and_migrate(dir.path() + "/plain.sqlite");
   EXPECT_EQ(db->backend(), "sqlite");
   EXPECT_TRUE(std::filesystem::exists(dir.path() + "/plain.sqlite"));
-  EXPECT_EQ(default_db_url("/var/lib/standcald"), "sqlite:///var/lib/standcald/records.sqlite");
+  EXPECT_EQ(default_db_url("/var/lib/standcal"), "sqlite:///var/lib/standcal/records.sqlite");
 }
 
 TEST(CanonicalUtc, DatesTimesAndOffsetsBecomeUtcSeconds) {

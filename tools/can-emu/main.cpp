@@ -25,6 +25,8 @@
 #include "calib/units.hpp"
 #include "drivers/socketcan/can_link.hpp"
 #include "drivers/socketcan/frame_layout.hpp"
+#include "standcal/version.hpp"
+#include "tools/cli_checks.hpp"
 
 namespace {
 
@@ -243,6 +245,7 @@ int run(const EmuOptions& o, const FrameLayout& layout, CanLink& link) {
 int main(int argc, char** argv) {
   CLI::App app{
       "standcal-can-emu: a simulated accelerometer unit emitting CAN frames (docs/unit-can.md)"};
+  app.set_version_flag("--version", standcal::kVersionLine);
   EmuOptions o;
   auto* can = app.add_option("--can", o.can_iface, "CAN interface to send on (e.g. vcan0)");
   auto* fd = app.add_option("--fd", o.fd, "inherited file descriptor carrying CAN frame datagrams");
@@ -262,7 +265,7 @@ int main(int argc, char** argv) {
       ->expected(3);
   app.add_option("--noise-ug-rthz", o.noise_ug_rthz,
                  "white noise density N; one sample has sigma N*sqrt(rate)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(standcal::cli_checks::kNonNegative);
   app.add_option("--gravity-mps2", o.gravity_mps2, "local gravity g");
   app.add_option("--temperature-c", o.temperature_c, "reported unit temperature");
   app.add_option("--seed", o.seed, "noise and fault-injection seed");

@@ -11,6 +11,8 @@
 
 #include "drivers/modbus/register_map.hpp"
 #include "drivers/modbus/url.hpp"
+#include "standcal/version.hpp"
+#include "tools/cli_checks.hpp"
 #include "tools/stand-emu/emulator.hpp"
 
 namespace {
@@ -37,6 +39,7 @@ void apply_soft_limit(const std::string& text, std::array<standcal::emu::AxisMod
 
 int main(int argc, char** argv) {
   CLI::App app{"standcal-stand-emu: an emulated stand controller (Modbus TCP/RTU server)"};
+  app.set_version_flag("--version", standcal::kVersionLine);
   std::string listen, config_path, control;
   std::vector<std::string> soft_limits, fault_lines;
   standcal::emu::EmulatorOptions options;
@@ -44,11 +47,15 @@ int main(int argc, char** argv) {
   app.add_option("--listen", listen, "tcp://IP:PORT (port 0: any free port) or rtu:/dev/tty...?baud=..&unit=..")
       ->required();
   app.add_option("--config", config_path, "stand config JSON: its register map and scaling are served");
-  app.add_option("--time-scale", options.time_scale, "simulated seconds per real second (speeds up motion)")
-      ->check(CLI::PositiveNumber);
-  app.add_option("--max-speed-dps", max_speed_dps, "rate limit of both axes, °/s")->check(CLI::PositiveNumber);
-  app.add_option("--accel-dps2", accel_dps2, "acceleration limit of both axes, °/s²")->check(CLI::PositiveNumber);
-  app.add_option("--noise-deg", noise_deg, "encoder noise, 1σ in degrees")->check(CLI::NonNegativeNumber);
+  app.add_option("--time-scale", options.time_scale,
+                 "simulated seconds per real second (speeds up motion)")
+      ->check(standcal::cli_checks::kPositive);
+  app.add_option("--max-speed-dps", max_speed_dps, "rate limit of both axes, °/s")
+      ->check(standcal::cli_checks::kPositive);
+  app.add_option("--accel-dps2", accel_dps2, "acceleration limit of both axes, °/s²")
+      ->check(standcal::cli_checks::kPositive);
+  app.add_option("--noise-deg", noise_deg, "encoder noise, 1σ in degrees")
+      ->check(standcal::cli_checks::kNonNegative);
   app.add_option("--start-outer-deg", options.start_deg[0], "outer axis angle at power-up");
   app.add_option("--start-inner-deg", options.start_deg[1], "inner axis angle at power-up");
   app.add_option("--soft-limit", soft_limits, "AXIS:MIN:MAX soft limits of commanded angles, e.g. inner:-170:170");

@@ -16,6 +16,7 @@
 #include "calib/recording_digest.hpp"
 #include "calib/report.hpp"
 #include "calib/simulator.hpp"
+#include "tools/cli_checks.hpp"
 #include "tools/standcal/commands.hpp"
 #include "tools/standcal/input_options.hpp"
 #include "tools/standcal/threaded_rows.hpp"
@@ -173,13 +174,19 @@ void add_calibrate_commands(CLI::App& app) {
   // The daemon's run limits: past them a simulated run only exhausts the memory.
   sim->add_option("--dwell-s", sim_opts->timing.dwell_s)
       ->capture_default_str()
-      ->check(CLI::PositiveNumber & CLI::Range(0.0, kMaxDwell_s));
+      ->check(cli_checks::kPositive & CLI::Range(0.0, kMaxDwell_s));
   sim->add_option("--settle-s", sim_opts->timing.settle_s)
       ->capture_default_str()
       ->check(CLI::Range(0.0, kMaxSettle_s));
-  sim->add_option("--rate-hz", sim_opts->timing.sample_rate_hz)->capture_default_str()->check(CLI::PositiveNumber);
-  sim->add_option("--move-rate-deg-s", sim_opts->timing.move_rate_deg_s)->capture_default_str()->check(CLI::PositiveNumber);
-  sim->add_option("--remount-s", sim_opts->timing.remount_s)->capture_default_str()->check(CLI::NonNegativeNumber);
+  sim->add_option("--rate-hz", sim_opts->timing.sample_rate_hz)
+      ->capture_default_str()
+      ->check(cli_checks::kPositive);
+  sim->add_option("--move-rate-deg-s", sim_opts->timing.move_rate_deg_s)
+      ->capture_default_str()
+      ->check(cli_checks::kPositive);
+  sim->add_option("--remount-s", sim_opts->timing.remount_s)
+      ->capture_default_str()
+      ->check(cli_checks::kNonNegative);
   sim->callback([sim_opts] { run_simulate(*sim_opts); });
 
   auto fit_opts = std::make_shared<FitOptions>();
@@ -206,10 +213,10 @@ void add_calibrate_commands(CLI::App& app) {
   fit->add_option(
          "--bias-instability-ug", fit_opts->bias_instability_ug,
          "the unit's known Gauss-Markov bias wander, used when the run alone does not show it")
-      ->check(CLI::NonNegativeNumber);
+      ->check(cli_checks::kNonNegative);
   fit->add_option("--bias-instability-tau-s", fit_opts->bias_instability_tau_s,
                   "its correlation time")
-      ->check(CLI::PositiveNumber)
+      ->check(cli_checks::kPositive)
       ->capture_default_str();
   fit->add_flag("--json", fit_opts->json, "machine-readable output");
   fit->add_option("--compensation", fit_opts->compensation,

@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "protocol/jsonrpc/paths.hpp"
 #include "protocol/jsonrpc/run_id.hpp"
 #include "report/certificate/certificate.hpp"
 #include "tools/standcal/commands.hpp"
@@ -56,6 +57,21 @@ void write_certificate(const std::string& path, const std::string& html) {
   }
 }
 
+// The ILAC-G8 verdict as a bench script sees it (protocol/jsonrpc/exit_codes.hpp).
+ExitCode conformity_exit_code(records::Outcome overall) {
+  switch (overall) {
+    case records::Outcome::fail:
+      return ExitCode::verdict_fail;
+    case records::Outcome::indeterminate:
+    case records::Outcome::not_evaluated:
+      return ExitCode::verdict_indeterminate;
+    case records::Outcome::pass:
+    case records::Outcome::no_limit:
+      break;
+  }
+  return ExitCode::success;
+}
+
 void run_certificate(const CertificateCliOptions& o) {
   // A run id is a name under STATE/runs, never a path ("../../elsewhere/fake").
   if (!o.request.run_id.empty() && !protocol::is_run_id(o.request.run_id))
@@ -69,6 +85,7 @@ void run_certificate(const CertificateCliOptions& o) {
   write_certificate(o.output, report::render_certificate_html(input));
   const std::string verdict =
       input.conformity ? records::outcome_name(input.conformity->overall) : std::string("no limits applied");
+  if (input.conformity) set_exit_code(conformity_exit_code(input.conformity->overall));
   std::fprintf(stderr, "certificate for %s written to %s (%s)\n",
                input.trace.unit_serial.empty() ? "(no serial)" : input.trace.unit_serial.c_str(), o.output.c_str(),
                verdict.c_str());
@@ -76,7 +93,7 @@ void run_certificate(const CertificateCliOptions& o) {
 
 void add_certificate_commands(CLI::App& app) {
   auto opts = std::make_shared<CertificateCliOptions>();
-  opts->request.state_dir = "/var/lib/standcald";  // the daemon's default (docs/daemon.md)
+  opts->request.state_dir = paths::kStateDir;  // the daemon's default
   CLI::App* cmd = app.add_subcommand("certificate", "write the calibration certificate of a run (HTML)");
   cmd->add_option("run_id", opts->request.run_id, "run id (STATE/runs/RUN_ID); or use --recording");
   cmd->add_option("--state-dir", opts->request.state_dir, "the daemon's state directory")

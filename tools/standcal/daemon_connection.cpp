@@ -17,14 +17,13 @@
 #include "protocol/jsonrpc/client.hpp"
 #include "protocol/jsonrpc/jsonrpc.hpp"
 #include "protocol/jsonrpc/methods.hpp"
+#include "protocol/jsonrpc/paths.hpp"
 
 namespace standcal::cli {
 
 using nlohmann::json;
 
 namespace {
-
-constexpr const char* kDefaultDaemonSocket = "/run/standcal/standcald.sock";
 
 std::string octal_mode(mode_t mode) {
   char buf[8];
@@ -115,7 +114,7 @@ std::string daemon_endpoint(const DaemonOptions& o) {
       return doc["socket"]["path"].get<std::string>();
   }
   if (const char* env = std::getenv("STANDCAL_SOCKET")) return env;
-  return kDefaultDaemonSocket;
+  return paths::kSocket;
 }
 
 std::string read_token_file(const std::string& path) {

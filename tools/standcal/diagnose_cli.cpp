@@ -14,6 +14,7 @@
 #include "calib/simulator.hpp"
 #include "calib/units.hpp"
 #include "report/diagnosis/diagnosis_report.hpp"
+#include "tools/cli_checks.hpp"
 #include "tools/standcal/commands.hpp"
 #include "tools/standcal/input_options.hpp"
 
@@ -79,6 +80,7 @@ std::pair<Diagnosis, Recording> diagnose_input(const DiagnoseCliOptions& o) {
 
 void run_diagnose(const DiagnoseCliOptions& o) {
   const auto [d, rec] = diagnose_input(o);
+  set_exit_code(diagnosis_exit_code(d.verdict));
   if (!o.report.empty()) {
     write_file(o.report, report::diagnosis_html(d, rec), "report");
     std::fprintf(stderr, "report written to %s\n", o.report.c_str());
@@ -123,7 +125,7 @@ void add_diagnose_commands(CLI::App& app) {
       ->check(CLI::Range(0.0, 1e6));
   cmd->add_option("--bias-instability-tau-s", opts->bias_instability_tau_s,
                   "its correlation time (s, default 300)")
-      ->check(CLI::PositiveNumber);
+      ->check(cli_checks::kPositive);
   cmd->callback([opts] { run_diagnose(*opts); });
 }
 

@@ -3,6 +3,7 @@
 #include <cstdio>
 
 #include "calib/recording_digest.hpp"
+#include "tools/cli_checks.hpp"
 
 namespace standcal::cli {
 
@@ -30,9 +31,9 @@ void add_input_options(CLI::App* cmd, InputCliOptions& o) {
   cmd->add_option("--columns", o.columns,
                   "the three accelerometer columns, by header name or 1-based index: x,y,z");
   cmd->add_option("--rate-hz", o.rate_hz, "sample rate, where the file has no time column")
-      ->check(CLI::PositiveNumber);
+      ->check(cli_checks::kPositive);
   cmd->add_option("--skip-lines", o.skip_lines, "preamble lines before the header or first row")
-      ->check(CLI::NonNegativeNumber);
+      ->check(cli_checks::kNonNegative);
   cmd->add_option("--units", o.units, "auto | counts | g | mps2")
       ->check(CLI::IsMember({"auto", "counts", "g", "mps2"}))
       ->capture_default_str();

@@ -18,20 +18,33 @@ bool register_command_group(CommandGroup group) {
   return true;
 }
 
+static ExitCode& command_exit_code() {
+  static ExitCode code = ExitCode::success;
+  return code;
+}
+
+void set_exit_code(ExitCode code) { command_exit_code() = code; }
+
 }  // namespace standcal::cli
 
 int main(int argc, char** argv) {
   CLI::App app{"standcal: accelerometer-unit calibration on a two-axis stand"};
-  app.set_version_flag("--version", standcal::kVersion);
+  app.set_version_flag("--version", standcal::kVersionLine);
+  // --help-all: every command's options in one text, which the man page is made from.
+  app.set_help_all_flag("--help-all", "Print the help of every command and exit");
+  app.footer(standcal::exit_code_table_text());
   app.require_subcommand(1);
   for (const auto& group : standcal::cli::command_groups()) group(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    // CLI11 has its own codes (105 a bad value, 106 a missing one, 109 an extra one, ...);
+    // a script sees one usage code.
+    const int cli11_code = app.exit(e);
+    return cli11_code == 0 ? 0 : standcal::exit_status(standcal::ExitCode::usage_error);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "standcal: %s\n", e.what());
-    return 1;
+    return standcal::exit_status(standcal::ExitCode::runtime_error);
   }
-  return 0;
+  return standcal::exit_status(standcal::cli::command_exit_code());
 }

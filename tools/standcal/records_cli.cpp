@@ -19,10 +19,12 @@
 #include "calib/recording.hpp"
 #include "calib/report.hpp"
 #include "calib/utc_time.hpp"
+#include "protocol/jsonrpc/paths.hpp"
 #include "records/db/records_db.hpp"
 #include "records/db/unit_history.hpp"
 #include "report/history/history.hpp"
 #include "standcal/version.hpp"
+#include "tools/cli_checks.hpp"
 #include "tools/standcal/commands.hpp"
 
 namespace standcal::cli {
@@ -35,12 +37,14 @@ using records::CalibrationRecord;
 // Where the records are when --db is not given: $STANDCAL_DB, else the daemon's default.
 std::string default_db() {
   const char* env = std::getenv("STANDCAL_DB");
-  return (env != nullptr && *env != '\0') ? env : records::default_db_url("/var/lib/standcald");
+  return (env != nullptr && *env != '\0') ? env : records::default_db_url(paths::kStateDir);
 }
 
 void add_db_option(CLI::App* cmd, std::string& db) {
-  cmd->add_option("--db", db, "records database: PATH, sqlite:///PATH or postgresql://… "
-                              "(default $STANDCAL_DB, else /var/lib/standcald/records.sqlite)");
+  cmd->add_option("--db", db,
+                  "records database: PATH, sqlite:///PATH or postgresql://… "
+                  "(default $STANDCAL_DB, else " +
+                      records::default_db_url(paths::kStateDir) + ")");
 }
 
 // ---- import ------------------------------------------------------------------------
@@ -270,7 +274,9 @@ void add_history_command(CLI::App& app) {
   auto* cmd = app.add_subcommand("history", "every calibration of one unit, each parameter over time, ageing flagged");
   cmd->add_option("serial", *serial, "unit serial")->required();
   add_db_option(cmd, *db);
-  cmd->add_option("--k", *k, "flag a change beyond k combined σ")->capture_default_str()->check(CLI::PositiveNumber);
+  cmd->add_option("--k", *k, "flag a change beyond k combined σ")
+      ->capture_default_str()
+      ->check(cli_checks::kPositive);
   cmd->add_flag("--json", *as_json, "machine-readable output");
   cmd->add_option("--plot", *plot, "also write an HTML page plotting each parameter over time (±k·σ)");
   cmd->callback([=] {
@@ -300,7 +306,7 @@ void add_records_command(CLI::App& app) {
   cmd->add_option("--unit-type", f->unit_type, "only this unit type");
   cmd->add_option("--verdict", f->verdict, "pass, indeterminate, fail or none (not assessed)")
       ->check(CLI::IsMember({"pass", "indeterminate", "fail", "none"}));
-  cmd->add_option("--limit", f->limit, "at most this many")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--limit", f->limit, "at most this many")->check(cli_checks::kNonNegative);
   cmd->add_flag("--json", *as_json, "machine-readable output (whole records)");
   cmd->callback([=] {
     auto d =

@@ -73,6 +73,9 @@ void print_status(const json& s) {
   const json& d = s["daemon"];
   std::printf("standcald %s (protocol %s), up %s, %d client(s)\n", d.value("version", "?").c_str(),
               d.value("protocol", "?").c_str(), duration_text(d.value("uptime_s", 0.0)).c_str(), d.value("clients", 0));
+  const json& b = s.value("backend", json::object());
+  std::printf("backend: %s%s\n", b.value("description", "?").c_str(),
+              b.value("simulated", false) ? "  (SIMULATED: not a real stand or unit)" : "");
   const json& st = s["stand"];
   std::printf("stand %s (%s): %s%s\n", st.value("id", "").c_str(), st.value("name", "").c_str(),
               st.value("lifecycle", "?").c_str(), st.value("estop_latched", false) ? ", EMERGENCY STOP LATCHED" : "");

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "drivers/socketcan/socketcan_unit.hpp"
+#include "tools/cli_checks.hpp"
 #include "tools/standcal/commands.hpp"
 
 namespace standcal::cli {
@@ -89,10 +90,11 @@ void add_unit_commands(CLI::App& app) {
   unit->add_option("--layout", options->layout_file,
                    "frame layout JSON (default: docs/unit-can.md)");
   unit->add_option("--silence-s", options->silence_s, "no frame this long means the unit is silent")
-      ->check(CLI::PositiveNumber);
+      ->check(cli_checks::kPositive);
   auto* read = unit->add_subcommand(
       "read", "sample for a while and print per-axis mean, sigma, rate, incomplete samples");
-  read->add_option("--seconds", options->seconds, "how long to sample")->check(CLI::PositiveNumber);
+  read->add_option("--seconds", options->seconds, "how long to sample")
+      ->check(cli_checks::kPositive);
   read->callback([options] { read_unit(*options); });
 }
 

@@ -1,0 +1,118 @@
+// Exit status as a bench script sees it (README "Exit status", man pages EXIT STATUS).
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+
+#include "calib/diagnosis/diagnosis.hpp"
+#include "calib/programs.hpp"
+#include "calib/simulator.hpp"
+#include "protocol/jsonrpc/exit_codes.hpp"
+#include "tests/support/command.hpp"
+#include "tests/support/temp_dir.hpp"
+
+namespace standcal::test {
+namespace {
+
+int code(ExitCode c) { return exit_status(c); }
+
+CommandOutcome standcald(const std::string& args) {
+  return run_command(std::string(STANDCALD_PATH) + " " + args);
+}
+
+TEST(ExitCodes, UsageErrorsAreTwoWhateverCli11Calls) {
+  // CLI11's own codes: 109 (an extra argument), 106 (a required one missing), 105 (a value
+  // that is not a number).
+  for (const char* args :
+       {"no-such-command", "fit", "simulate --program paper9 -o x.csv --rate-hz abc",
+        "fit rec.csv --method sideways"}) {
+    const CommandOutcome r = standcal_cli(args);
+    EXPECT_EQ(r.exit_code, code(ExitCode::usage_error)) << "standcal " << args << ": " << r.output;
+  }
+  EXPECT_EQ(standcald("--no-such-option").exit_code, code(ExitCode::usage_error));
+  EXPECT_EQ(standcal_cli("--help").exit_code, 0);
+  EXPECT_EQ(standcal_cli("--help-all").exit_code, 0);
+}
+
+// CLI11's PositiveNumber printed its range as "0.000000 to 1797693134862315708..." (309
+// digits); the bound is said as a person would.
+TEST(ExitCodes, ARangeErrorSaysTheBoundReadably) {
+  const CommandOutcome r = standcal_cli("simulate --program paper9 -o x.csv --rate-hz abc");
+  EXPECT_EQ(r.exit_code, code(ExitCode::usage_error));
+  EXPECT_NE(r.output.find("--rate-hz: 'abc' is not a number"), std::string::npos) << r.output;
+  EXPECT_LT(r.output.size(), 200u) << r.output;
+  const CommandOutcome negative = standcal_cli("simulate --program paper9 -o x.csv --rate-hz -5");
+  EXPECT_NE(negative.output.find("must be > 0 (got -5)"), std::string::npos) << negative.output;
+}
+
+TEST(ExitCodes, ARuntimeErrorIsOne) {
+  const CommandOutcome r = standcal_cli("fit /nonexistent/rec.csv");
+  EXPECT_EQ(r.exit_code, code(ExitCode::runtime_error)) << r.output;
+  EXPECT_EQ(standcald("--config /nonexistent/standcald.json").exit_code,
+            code(ExitCode::runtime_error));
+}
+
+TEST(ExitCodes, VersionNamesVersionCommitAndBuildType) {
+  for (const std::string& program : {std::string(STANDCAL_CLI_PATH), std::string(STANDCALD_PATH)}) {
+    const CommandOutcome r = run_command(program + " --version");
+    EXPECT_EQ(r.exit_code, 0);
+    EXPECT_NE(r.output.find(" (commit "), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find(" build)"), std::string::npos) << r.output;
+  }
+}
+
+// A diagnosis: explained is a finding (0), a mismatch nothing explains is 5, too few
+// positions to judge is indeterminate (4).
+TEST(ExitCodes, DiagnosisVerdicts) {
+  TempDir dir;
+  const std::string rec = dir.path() + "/paper9.csv";
+  ASSERT_EQ(standcal_cli("simulate --program paper9 --seed 3 --dwell-s 5 --settle-s 1 -o " + rec)
+                .exit_code,
+            0);
+  CommandOutcome r = standcal_cli("diagnose " + rec);
+  EXPECT_NE(r.output.find("verdict: insufficient_redundancy"), std::string::npos) << r.output;
+  EXPECT_EQ(r.exit_code, code(ExitCode::verdict_indeterminate)) << r.output;
+
+  // 600 ug/g2 of scale asymmetry on y: found, and beyond any plausible size, so not
+  // explained (DiagnosisBlind.ImplausibleValueIsNotExplained, through the CLI).
+  TruthModel truth = default_truth();
+  truth.extra_physics.push_back({"scale_asymmetry", "y", 600, 0});
+  save_truth(truth, dir.path() + "/model.json");
+  std::ofstream(dir.path() + "/diagnostic32.json") << program_to_json(diagnostic32()).dump();
+  const std::string asym = dir.path() + "/asym.csv";
+  r = standcal_cli("simulate --program " + dir.path() +
+                   "/diagnostic32.json --seed 5 --dwell-s 10 --settle-s 2 --model " + dir.path() +
+                   "/model.json -o " + asym);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = standcal_cli("diagnose " + asym);
+  EXPECT_NE(r.output.find("verdict: unexplained"), std::string::npos) << r.output;
+  EXPECT_EQ(r.exit_code, code(ExitCode::unexplained_mismatch)) << r.output;
+}
+
+// The README's table is the programs' table, row for row.
+TEST(ExitCodes, TheReadmeTableIsTheProgramsTable) {
+  std::ifstream in(STANDCAL_README);
+  std::stringstream s;
+  s << in.rdbuf();
+  const std::string readme = s.str();
+  int rows = 0;
+  for (std::size_t at = readme.find("\n| "); at != std::string::npos;
+       at = readme.find("\n| ", at + 1)) {
+    const std::size_t end = readme.find('\n', at + 1);
+    const std::string line = readme.substr(at + 1, end - at - 1);
+    if (line.size() > 4 && line[2] >= '0' && line[2] <= '9' && line[3] == ' ') ++rows;
+  }
+  EXPECT_EQ(rows, static_cast<int>(kExitCodes.size()))
+      << "README rows that start with an exit code";
+  for (const ExitCodeMeaning& row : kExitCodes) {
+    const std::string expected = "| " + std::to_string(code(row.code)) + " | " + row.meaning + " |";
+    EXPECT_NE(readme.find(expected), std::string::npos) << "README lacks the row\n" << expected;
+  }
+  const CommandOutcome help = standcal_cli("--help-all");
+  EXPECT_NE(help.output.find(exit_code_table_text()), std::string::npos) << help.output;
+}
+
+}  // namespace
+}  // namespace standcal::test
