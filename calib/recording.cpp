@@ -137,12 +137,17 @@ class Parser {
 
   // A header line as written, or as a spreadsheet saves it back: padded with the
   // separators of the empty cells beside it ("# format: standcal-recording/1,,,,,,"), and
-  // quoted when its value holds a comma ("\"# stand: lab 2, stand A\",,,,"). Nothing when
-  // the line is not a header line.
+  // quoted when its value holds a comma ("\"# stand: lab 2, stand A\",,,,,,"). Nothing when
+  // the line is not a header line. Padding is told from a value that ends in ',' or ';' by
+  // its length: a recording has at least 7 columns, so a spreadsheet adds 6 or more.
   std::optional<std::string_view> header_text(std::string_view line, std::string& storage) const {
-    while (!line.empty() && (line.back() == ',' || line.back() == ';' || line.back() == '\t' ||
-                             line.back() == ' ' || line.back() == '\r'))
-      line.remove_suffix(1);
+    line = trim(line);
+    std::size_t separators = 0;
+    while (separators < line.size() &&
+           (line[line.size() - 1 - separators] == ',' || line[line.size() - 1 - separators] == ';'))
+      ++separators;
+    if (separators >= static_cast<std::size_t>(kRequiredColumns - 1))
+      line = trim(line.substr(0, line.size() - separators));
     if (!line.empty() && line.front() == '#') return line;
     if (line.size() < 3 || line.substr(0, 2) != "\"#" || line.back() != '"') return std::nullopt;
     storage.clear();
@@ -224,7 +229,7 @@ class Parser {
   double number(const std::vector<std::string_view>& f, Column c, bool optional) const {
     const int i = index_[c];
     if (i < 0) return kNoValue;
-    if (optional && trim(f[static_cast<std::size_t>(i)]).empty()) return kNoValue;
+    if (optional && unquoted(f[static_cast<std::size_t>(i)]).empty()) return kNoValue;
     double v = 0;
     if (!parse_double(f[static_cast<std::size_t>(i)], v))
       fail(i + 1, "column '" + std::string(kColumnNames[c]) + "': '" +

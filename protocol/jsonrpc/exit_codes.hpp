@@ -1,7 +1,7 @@
 #pragma once
 // standcal's and standcald's exit status, the one table a bench script can rely on. The
 // README's table and the man pages' EXIT STATUS section are this table (the man pages get
-// it from `--help-all`; tests/calib/exit_code_test.cpp checks the README against it).
+// it from `--help-all`; tests/exit_codes/exit_code_test.cpp checks the README against it).
 #include <array>
 #include <cstdio>
 #include <string>
@@ -28,7 +28,9 @@ inline constexpr std::array<ExitCodeMeaning, 6> kExitCodes{{
      "success (a certificate passes or has no limits; a recording the model explains)"},
     {ExitCode::runtime_error,
      "runtime error: a file, the daemon, the stand or the unit failed (the message says which)"},
-    {ExitCode::usage_error, "usage error: an unknown option, a missing or out-of-range argument"},
+    {ExitCode::usage_error,
+     "usage error: the command line does not parse (an unknown command or option, a required "
+     "option missing, a value that is not a number or out of its range)"},
     {ExitCode::verdict_fail,
      "certificate: a parameter is outside its limit even allowing for U (FAIL)"},
     {ExitCode::verdict_indeterminate,

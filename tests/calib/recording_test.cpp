@@ -1,6 +1,7 @@
 // The recording format's rules (recording-format.md), one test per rule.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -296,6 +297,19 @@ TEST(SpreadsheetRecording, ASpreadsheetReSaveReadsAsTheOriginal) {
     ASSERT_TRUE(b.mount.has_value());
     EXPECT_EQ(*a.mount, *b.mount);
   }
+}
+
+// What the writer writes, the reader reads back: a value that ends in a separator or two is
+// not a spreadsheet's padding (which is at least six: a recording has seven columns).
+TEST(SpreadsheetRecording, AValueEndingInACommaIsKept) {
+  const Recording r = parse_recording(
+      "# format: standcal-recording/1\n# operator: Smith, J.;\n# stand: A,,\n"
+      "t_s,pos,alpha1_cmd_deg,alpha2_cmd_deg,fx_mps2,fy_mps2,fz_mps2,temp_c\n0,0,0,0,0,0,9.8,"
+      "\"\"\n",
+      "rec.csv");
+  EXPECT_EQ(r.header_value("operator"), "Smith, J.;");
+  EXPECT_EQ(r.header_value("stand"), "A,,");
+  EXPECT_TRUE(std::isnan(r.samples.at(0).temp_c)) << "a quoted empty cell is an empty cell";
 }
 
 // A spreadsheet in a decimal-comma locale writes ';' between cells and ',' in numbers.

@@ -8,6 +8,8 @@
 // a result stored — not the calibration values (the sim-backend tests check those).
 #include <gtest/gtest.h>
 #include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -253,4 +255,45 @@ TEST(Doctor, AsksARunningDaemon) {
   EXPECT_EQ(checks["stand link"]["verdict"], "SKIP")
       << checks["stand link"] << " (the idle daemon's stand is unconfigured)";
   EXPECT_EQ(exit_code, 0) << checks["unit"];
+
+  // A lab config whose daemon was started with --sim: the bench is not what the file says.
+  const std::string lab = dir.path() + "/lab.json";
+  std::ofstream(lab) << json{{"socket", {{"path", dir.path() + "/standcald.sock"}}},
+                             {"state_dir", dir.path() + "/state"},
+                             {"stand",
+                              {{"backend", "modbus"}, {"url", "tcp://127.0.0.1:1?unit=1"}}},
+                             {"unit", {{"backend", "socketcan"}, {"interface", "can0"}}}}
+                            .dump();
+  checks = doctor_checks(lab, &exit_code);
+  EXPECT_EQ(checks["daemon"]["verdict"], "FAIL") << checks["daemon"];
+  EXPECT_NE(checks["daemon"]["detail"].get<std::string>().find("drives sim"), std::string::npos)
+      << checks["daemon"];
+  EXPECT_EQ(exit_code, 1);
+}
+
+// A socket that exists but does not answer (a busy daemon, or one this user may not
+// reach): doctor must not open the stand and the unit the daemon may be holding.
+TEST(Doctor, DoesNotOpenTheHardwareBehindASocketThatDoesNotAnswer) {
+  TempDir dir;
+  const std::string socket_path = dir.path() + "/standcald.sock";
+  const int listener = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  ASSERT_GE(listener, 0);
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  std::snprintf(addr.sun_path, sizeof addr.sun_path, "%s", socket_path.c_str());
+  ASSERT_EQ(::bind(listener, reinterpret_cast<const sockaddr*>(&addr), sizeof addr), 0);
+  ASSERT_EQ(::listen(listener, 4), 0);  // connections queue, nobody greets them
+  const std::string config = dir.path() + "/standcald.json";
+  std::ofstream(config) << json{{"socket", {{"path", socket_path}}},
+                                {"state_dir", dir.path()},
+                                {"stand",
+                                 {{"backend", "modbus"}, {"url", "tcp://127.0.0.1:1?unit=1"}}},
+                                {"unit", {{"backend", "socketcan"}, {"interface", "can0"}}}}
+                               .dump();
+  int exit_code = 0;
+  auto checks = doctor_checks(config, &exit_code);
+  ::close(listener);
+  EXPECT_EQ(checks["daemon"]["verdict"], "FAIL") << checks["daemon"];
+  EXPECT_EQ(checks["stand link"]["verdict"], "SKIP") << checks["stand link"];
+  EXPECT_EQ(checks["unit"]["verdict"], "SKIP") << checks["unit"];
 }

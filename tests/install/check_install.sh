@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# check_install.sh BUILD_DIR PREFIX SYSCONFDIR EXPECTED_LIST
+# check_install.sh CMAKE BUILD_DIR PREFIX SYSCONFDIR EXPECTED_LIST
 # Installs BUILD_DIR into a temporary DESTDIR and checks what a bench PC would get:
 #  - exactly the files in EXPECTED_LIST (PREFIX written as @PREFIX@), no more, no fewer;
 #  - the systemd units pass `systemd-analyze verify` against the staged tree (their
@@ -7,21 +7,22 @@
 #  - the staged programs start (--version names version, commit and build type), and the
 #    man pages carry each program's options and the exit-status table.
 set -euo pipefail
-build=$1 prefix=$2 sysconfdir=$3 expected=$4
-stage=$(mktemp -d)
-trap 'rm -rf "$stage"' EXIT
+cmake=$1 build=$2 prefix=$3 sysconfdir=$4 expected=$5
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+stage=$work/root
 fail() { echo "check_install: $*" >&2; exit 1; }
 
-DESTDIR="$stage" cmake --install "$build" >/dev/null
-(cd "$stage" && find . -type f -o -type l | sed 's|^\./|/|' | sort) >"$stage.actual"
-sed -e "s|@PREFIX@|$prefix|g" -e "s|@SYSCONF@|$sysconfdir|g" "$expected" | grep -v '^#' | sort >"$stage.expected"
-if ! diff -u "$stage.expected" "$stage.actual"; then
-  rm -f "$stage.actual" "$stage.expected"
-  fail "the installed files differ from $expected (- expected, + installed)"
-fi
-rm -f "$stage.actual" "$stage.expected"
-
+DESTDIR="$stage" "$cmake" --install "$build" >/dev/null
+(cd "$stage" && find . -type f -o -type l | sed 's|^\./|/|' | sort) >"$work/actual"
+# systemd's directories as this system's systemd.pc names them (/lib or /usr/lib).
 units=$(pkg-config --variable=systemdsystemunitdir systemd)
+sed -e "s|@PREFIX@|$prefix|g" -e "s|@SYSCONF@|$sysconfdir|g" -e "s|@UNITDIR@|$units|g" \
+    -e "s|@SYSUSERSDIR@|$(pkg-config --variable=sysusersdir systemd)|g" \
+    -e "s|@TMPFILESDIR@|$(pkg-config --variable=tmpfilesdir systemd)|g" "$expected" |
+  grep -v '^#' | sort >"$work/expected"
+diff -u "$work/expected" "$work/actual" || fail "the installed files differ from $expected (- expected, + installed)"
+
 grep -qx "ExecStart=$prefix/bin/standcald --config .*standcal/standcald.json" "$stage$units/standcald.service" ||
   fail "standcald.service: ExecStart does not run $prefix/bin/standcald with the installed config"
 grep -qx "StateDirectory=standcal" "$stage$units/standcald.service" || fail "standcald.service: StateDirectory is not standcal"
@@ -48,4 +49,4 @@ for page in man1/standcal.1 man8/standcald.8; do
   grep -qi 'exit status' "$man/$page" || fail "$page has no exit-status section"
 done
 grep -q 'stand.backend' "$man/man5/standcald.json.5" || fail "standcald.json.5 lacks the stand.backend key"
-echo "check_install: $(wc -l <"$expected") files, units verified, programs and man pages usable"
+echo "check_install: $(wc -l <"$work/expected") files, units verified, programs and man pages usable"

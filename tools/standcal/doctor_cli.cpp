@@ -4,9 +4,13 @@
 // With the daemon running, the stand and the unit are judged from its status (the daemon
 // owns the serial port and the CAN socket); without it, they are opened as the daemon
 // would open them (daemon/standcald/hardware.hpp).
+#include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/statvfs.h>
+#include <sys/un.h>
+#include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -24,7 +28,6 @@
 #include "protocol/jsonrpc/client.hpp"
 #include "protocol/jsonrpc/paths.hpp"
 #include "records/db/records_db.hpp"
-#include "tools/cli_checks.hpp"
 #include "tools/standcal/commands.hpp"
 
 namespace standcal::cli {
@@ -66,14 +69,23 @@ class Doctor {
 
   std::vector<CheckLine> run() {
     if (!check_config()) return lines_;
-    check_state_dir();
-    if (auto status = check_daemon()) {
-      check_stand_in_daemon(*status);
-      check_unit_in_daemon();
+    guarded("state directory", [this] { check_state_dir(); });
+    std::optional<json> status;
+    guarded("daemon", [this, &status] { status = check_daemon(); });
+    if (status) {
+      guarded("stand link", [this, &status] { check_stand_in_daemon(*status); });
+      guarded("unit", [this] { check_unit_in_daemon(); });
+    } else if (daemon_certainly_down()) {
+      guarded("stand link", [this] { check_hardware_directly(); });
     } else {
-      check_hardware_directly();
+      // The socket is there but did not answer us (permissions, a busy daemon): the daemon
+      // may hold the serial port and the CAN socket, and a second Modbus master on its
+      // RS-485 line would corrupt its frames.
+      for (const char* check : {"stand link", "unit"})
+        skip(check,
+             "not opened: the daemon's socket exists, so it may be running and hold the hardware");
     }
-    check_records_db();
+    guarded("records database", [this] { check_records_db(); });
     return lines_;
   }
 
@@ -86,6 +98,31 @@ class Doctor {
   }
   void fail(const std::string& check, const std::string& detail, const std::string& fix) {
     lines_.push_back({check, Verdict::fail, detail, fix});
+  }
+
+  // One check that throws (a directory it may not read) is one FAIL line, not the end of
+  // the report.
+  template <class Check>
+  void guarded(const std::string& name, Check check) {
+    try {
+      check();
+    } catch (const std::exception& e) {
+      fail(name, e.what(),
+           "see the message; run doctor as root or as a member of group standcal to see more");
+    }
+  }
+
+  // No daemon listens: the socket file is absent, or nothing accepts on it (a stale file).
+  bool daemon_certainly_down() const {
+    const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    if (fd < 0) return false;
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    std::snprintf(addr.sun_path, sizeof addr.sun_path, "%s", config_.socket_path.c_str());
+    const int rc = ::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr);
+    const int connect_errno = errno;
+    ::close(fd);
+    return rc != 0 && (connect_errno == ENOENT || connect_errno == ECONNREFUSED);
   }
 
   bool check_config() {
@@ -137,6 +174,17 @@ class Doctor {
       json status = client_->call("status");
       const json& d = status["daemon"];
       const bool control = d.value("access", json::object()).value("control", false);
+      const json backend = status.value("backend", json::object());
+      if (backend.value("stand", config_.stand_backend) != config_.stand_backend ||
+          backend.value("unit", config_.unit_backend) != config_.unit_backend) {
+        fail("daemon",
+             "standcald on " + socket + " drives " + backend.value("description", "?") + ", but " +
+                 o_.config + " names stand " + config_.stand_backend + " and unit " +
+                 config_.unit_backend,
+             "restart it without --sim (`systemctl restart standcald`), or check that --config is "
+             "the file it runs");
+        return status;
+      }
       pass(
           "daemon",
           "standcald " + d.value("version", "?") + " answers on " + socket + "; this user " +
@@ -145,10 +193,18 @@ class Doctor {
     } catch (const std::exception& e) {
       fail("daemon", socket + ": " + e.what(),
            "start it (`systemctl start standcald`), or run as a member of the socket's group; the "
-           "stand and the "
-           "unit are checked directly below");
+           "stand and the unit are opened here only when no daemon listens on the socket");
       return std::nullopt;
     }
+  }
+
+  // What is wrong with one axis, in the words of both checks ("" when nothing).
+  static std::string axis_problems(const std::string& axis, bool stopped_by_heartbeat,
+                                   int fault_code, const std::string& fault_text) {
+    std::string problems;
+    if (stopped_by_heartbeat) problems += axis + ": stopped by a lost heartbeat; ";
+    if (fault_code != 0) problems += axis + ": fault " + fault_text + "; ";
+    return problems;
   }
 
   void check_stand_in_daemon(const json& status) {
@@ -164,10 +220,8 @@ class Doctor {
     for (const json& axis : stand.value("axes", json::array())) {
       const std::string name = axis.value("axis", "?");
       if (axis.contains("error")) problems += name + ": " + axis["error"].get<std::string>() + "; ";
-      if (axis.value("stopped_by_heartbeat", false))
-        problems += name + ": stopped by a lost heartbeat; ";
-      if (axis.value("fault_code", 0) != 0)
-        problems += name + ": fault " + axis.value("fault_text", "") + "; ";
+      problems += axis_problems(name, axis.value("stopped_by_heartbeat", false),
+                                axis.value("fault_code", 0), axis.value("fault_text", ""));
     }
     const std::string where = stand.value("name", "?") + " (" + stand.value("lifecycle", "?") + ")";
     if (stand.value("estop_latched", false)) problems += "emergency stop latched; ";
@@ -252,6 +306,9 @@ class Doctor {
            "check the stand controller, its cable and stand.url");
       return;
     }
+    std::string problems;
+    if (stand.lifecycle() == drivers::Lifecycle::error)
+      problems += "the link is in error (an emergency stop latched?); ";
     for (const drivers::StandAxis axis : {drivers::StandAxis::outer, drivers::StandAxis::inner}) {
       const auto state = stand.read_state(axis);
       if (!state) {
@@ -260,8 +317,18 @@ class Doctor {
         stand.cleanup();
         return;
       }
+      const drivers::AxisState& st = state.value();
+      if (st.estop)
+        problems += std::string(drivers::to_string(axis)) + ": emergency stop latched; ";
+      problems += axis_problems(drivers::to_string(axis), st.stopped_by_heartbeat, st.fault_code,
+                                st.fault_text);
     }
     stand.cleanup();
+    if (!problems.empty()) {
+      fail("stand link", stand.name() + ": " + problems,
+           "check the stand controller; `standcal stand --url URL reset` clears its latched stop");
+      return;
+    }
     pass("stand link", stand.name() + ": the controller answered, both axes read");
   }
 
@@ -285,7 +352,8 @@ class Doctor {
     const std::string url =
         config_.db_url.empty() ? records::default_db_url(config_.state_dir) : config_.db_url;
     const std::string default_file = config_.state_dir + "/records.sqlite";
-    if (config_.db_url.empty() && !std::filesystem::exists(default_file)) {
+    std::error_code ec;
+    if (config_.db_url.empty() && !std::filesystem::exists(default_file, ec) && !ec) {
       pass("records database",
            default_file + " does not exist yet: the daemon creates it at its first run");
       return;
@@ -332,7 +400,7 @@ void add_doctor_command(CLI::App& app) {
   cmd->add_option("--config", o->config, "the daemon's configuration")->capture_default_str();
   cmd->add_option("--sample-s", o->sample_s, "how long to count the unit's samples")
       ->capture_default_str()
-      ->check(cli_checks::kPositive);
+      ->check(CLI::Range(0.1, 60.0));
   cmd->add_flag("--json", o->json, "machine-readable output");
   cmd->callback([o] {
     const std::vector<CheckLine> lines = Doctor(*o).run();
