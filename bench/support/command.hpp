@@ -21,10 +21,12 @@ struct CommandFigures {
   double peak_rss_mib = 0;
 };
 
-// `ok_exit_codes`: the statuses that are an answer, not a failure (a diagnosis verdict is
-// 4 or 5: protocol/jsonrpc/exit_codes.hpp).
+// `is_answer`: whether an exit status is an answer, not a failure (a diagnosis verdict is
+// 4 or 5: protocol/jsonrpc/exit_codes.hpp, is_diagnosis_answer).
+inline bool is_success(int status) { return status == 0; }
+
 inline CommandFigures measure_command(const std::vector<std::string>& argv, int repeats,
-                                      const std::vector<int>& ok_exit_codes = {0}) {
+                                      bool (*is_answer)(int) = is_success) {
   std::vector<double> wall_s;
   long peak_kib = 0;
   for (int i = 0; i < repeats; ++i) {
@@ -43,8 +45,7 @@ inline CommandFigures measure_command(const std::vector<std::string>& argv, int 
     int status = 0;
     rusage usage{};
     if (::wait4(pid, &status, 0, &usage) != pid || !WIFEXITED(status) ||
-        std::find(ok_exit_codes.begin(), ok_exit_codes.end(), WEXITSTATUS(status)) ==
-            ok_exit_codes.end())
+        !is_answer(WEXITSTATUS(status)))
       throw std::runtime_error(argv[0] + " " + (argv.size() > 1 ? argv[1] : "") + " failed");
     wall_s.push_back(seconds_of(start));
     peak_kib = std::max(peak_kib, usage.ru_maxrss);

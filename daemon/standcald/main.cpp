@@ -157,8 +157,7 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    const int cli11_code = app.exit(e);  // 0 for --help and --version
-    return cli11_code == 0 ? 0 : standcal::exit_status(standcal::ExitCode::usage_error);
+    return standcal::parse_error_exit_status(app.exit(e));
   }
   try {
     return run_daemon(effective_config(o));

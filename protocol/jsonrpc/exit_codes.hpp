@@ -52,6 +52,20 @@ inline ExitCode diagnosis_exit_code(std::string_view verdict) {
   return ExitCode::success;
 }
 
+// Whether a status of `standcal diagnose` is one of its verdicts (what diagnosis_exit_code
+// gives), not a failure to diagnose.
+inline bool is_diagnosis_answer(int status) {
+  for (ExitCode c : {ExitCode::success, ExitCode::verdict_indeterminate, ExitCode::unexplained_mismatch})
+    if (status == exit_status(c)) return true;
+  return false;
+}
+
+// A command line CLI11 could not parse: its own codes (105 a bad value, 106 a missing one,
+// 109 an extra one, ...) become the one usage code; 0 (--help, --version) stays 0.
+inline int parse_error_exit_status(int cli11_code) {
+  return cli11_code == 0 ? 0 : exit_status(ExitCode::usage_error);
+}
+
 // The table as `--help-all` ends it (and so the man pages).
 inline std::string exit_code_table_text() {
   std::string text = "Exit status:\n";

@@ -38,10 +38,7 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    // CLI11 has its own codes (105 a bad value, 106 a missing one, 109 an extra one, ...);
-    // a script sees one usage code.
-    const int cli11_code = app.exit(e);
-    return cli11_code == 0 ? 0 : standcal::exit_status(standcal::ExitCode::usage_error);
+    return standcal::parse_error_exit_status(app.exit(e));
   } catch (const std::exception& e) {
     std::fprintf(stderr, "standcal: %s\n", e.what());
     return standcal::exit_status(standcal::ExitCode::runtime_error);
