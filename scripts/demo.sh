@@ -16,4 +16,4 @@ socket="$work/standcald.sock"
 daemon=$!
 trap 'kill -TERM "$daemon" 2>/dev/null; wait "$daemon" 2>/dev/null || true' EXIT
 for _ in $(seq 100); do [ -S "$socket" ] && break; sleep 0.1; done
-"$bin/tools/standcal/standcal" run start paper9 --unit AU-DEMO --wait --socket "$socket"
+"$bin/tools/standcal/standcal" run start paper9 --unit-serial AU-DEMO --wait --socket "$socket"

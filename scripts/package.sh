@@ -15,8 +15,11 @@ mkdir -p "$src"
 # dpkg-buildpackage works in the source tree and writes beside it: build from a copy of
 # the tracked files (as they are in the working tree), so the checkout stays clean.
 git -C "$root" ls-files -z --cached --others --exclude-standard | (cd "$root" && xargs -0 cp --parents -t "$src")
+# The commit, marked -dirty when the copied files differ from it (uncommitted changes or
+# untracked files), so --version never claims a commit the package was not built from.
 export STANDCAL_GIT_COMMIT
 STANDCAL_GIT_COMMIT=$(git -C "$root" rev-parse --short=12 HEAD)
+if [ -n "$(git -C "$root" status --porcelain)" ]; then STANDCAL_GIT_COMMIT="$STANDCAL_GIT_COMMIT-dirty"; fi
 (cd "$src" && dpkg-buildpackage --build=binary --no-sign -j"$(nproc)")
 
 # Errors and warnings fail the build. No tag is overridden (docs/install.md lists the

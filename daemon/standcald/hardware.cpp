@@ -1,8 +1,6 @@
 #include "daemon/standcald/hardware.hpp"
 
 #include <charconv>
-#include <filesystem>
-#include <fstream>
 #include <string_view>
 
 #include "calib/simulator.hpp"
@@ -58,14 +56,8 @@ int inherited_fd(const DaemonConfig& c) {
 std::shared_ptr<drivers::AccelUnit> make_can_unit(const DaemonConfig& c) {
   auto layout = drivers::can::FrameLayout::default_layout();
   if (!c.can_layout_file.empty()) {
-    std::error_code ec;
-    if (std::filesystem::is_directory(c.can_layout_file, ec))
-      throw ConfigError(c.source + ": unit.layout: " + c.can_layout_file +
-                        " is a directory, not a layout file");
-    std::ifstream in(c.can_layout_file);
-    nlohmann::json doc = nlohmann::json::parse(in, nullptr, false);
-    if (!in || doc.is_discarded()) throw ConfigError(c.source + ": unit.layout: cannot read " + c.can_layout_file);
-    auto parsed = drivers::can::FrameLayout::from_json(doc);
+    // JSON or DBC (docs/unit-can.md); the reader names the file and what is wrong.
+    auto parsed = drivers::can::FrameLayout::from_file(c.can_layout_file);
     if (!parsed) throw ConfigError(c.source + ": unit.layout: " + parsed.status().message);
     layout = parsed.value();
   }

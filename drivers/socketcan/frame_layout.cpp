@@ -1,12 +1,17 @@
 #include "drivers/socketcan/frame_layout.hpp"
 
+#include "drivers/socketcan/dbc.hpp"
+
 #include <linux/can.h>
 
 #include <algorithm>
 #include <bitset>
+#include <cctype>
 #include <charconv>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -115,7 +120,62 @@ std::string hex_id(std::uint32_t id) {
   return os.str();
 }
 
+Status read_layout_text(const std::string& path, std::string& text) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    return Status::error(ErrorKind::invalid_argument,
+                         "CAN layout file " + path + " is a directory, not a layout file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return Status::error(ErrorKind::invalid_argument, "cannot open CAN layout file " + path);
+  text.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  return Status::ok();
+}
+
+bool has_dbc_extension(const std::string& path) {
+  const std::string ext = std::filesystem::path(path).extension().string();
+  return ext.size() == 4 && std::tolower(static_cast<unsigned char>(ext[1])) == 'd' &&
+         std::tolower(static_cast<unsigned char>(ext[2])) == 'b' &&
+         std::tolower(static_cast<unsigned char>(ext[3])) == 'c';
+}
+
+// {"dbc": "vendor.dbc", "roles": {"AccX": "force_x", ...}}: the DBC path is relative to
+// the JSON file, so a layout directory can be copied whole.
+Result<FrameLayout> from_dbc_reference(const nlohmann::json& j, const std::string& json_path) {
+  for (const auto& [k, v] : j.items())
+    if (k != "dbc" && k != "roles")
+      return invalid("unknown key '" + k + "' beside \"dbc\" (expected \"dbc\" and \"roles\")");
+  if (!j["dbc"].is_string()) return invalid("\"dbc\" must be the DBC file's path");
+  std::filesystem::path dbc_path = j["dbc"].get<std::string>();
+  if (dbc_path.is_relative()) dbc_path = std::filesystem::path(json_path).parent_path() / dbc_path;
+  DbcRoles roles;
+  if (j.contains("roles")) {
+    if (!j["roles"].is_object()) return invalid("\"roles\" must map DBC signal names to roles");
+    for (const auto& [signal, role] : j["roles"].items()) {
+      SignalRole r{};
+      if (!role.is_string() || !parse_role(role.get<std::string>(), r))
+        return invalid("roles." + signal +
+                       ": must be force_x, force_y, force_z, temperature or counter");
+      roles[signal] = r;
+    }
+  }
+  std::string text;
+  if (Status read = read_layout_text(dbc_path.string(), text); !read) return read;
+  return layout_from_dbc(text, dbc_path.string(), roles);
+}
+
 }  // namespace
+
+bool parse_role(const std::string& text, SignalRole& role) {
+  static const std::map<std::string, SignalRole> kRoles{{"force_x", SignalRole::force_x},
+                                                        {"force_y", SignalRole::force_y},
+                                                        {"force_z", SignalRole::force_z},
+                                                        {"temperature", SignalRole::temperature},
+                                                        {"counter", SignalRole::counter}};
+  const auto it = kRoles.find(text);
+  if (it == kRoles.end()) return false;
+  role = it->second;
+  return true;
+}
 
 int bytes_needed(int start_bit, int length, ByteOrder order) {
   if (order == ByteOrder::intel) return (start_bit + length - 1) / 8 + 1;
@@ -263,11 +323,6 @@ Result<FrameLayout> FrameLayout::from_json(const nlohmann::json& j) {
   static const std::set<std::string> kKeys{"name",      "role",   "can_id",     "extended",
                                            "start_bit", "length", "byte_order", "signed",
                                            "scale",     "offset", "unit"};
-  static const std::map<std::string, SignalRole> kRoles{{"force_x", SignalRole::force_x},
-                                                        {"force_y", SignalRole::force_y},
-                                                        {"force_z", SignalRole::force_z},
-                                                        {"temperature", SignalRole::temperature},
-                                                        {"counter", SignalRole::counter}};
   if (!j.is_object() || !j.contains("signals") || !j["signals"].is_array())
     return invalid("expected an object with a \"signals\" array");
   std::vector<SignalSpec> specs;
@@ -280,10 +335,8 @@ Result<FrameLayout> FrameLayout::from_json(const nlohmann::json& j) {
         if (!kKeys.count(k)) return invalid(where + ": unknown key '" + k + "'");
       SignalSpec s;
       s.name = js.value("name", where);
-      const auto role = kRoles.find(js.at("role").get<std::string>());
-      if (role == kRoles.end())
+      if (!parse_role(js.at("role").get<std::string>(), s.role))
         return invalid(where + ": role must be force_x, force_y, force_z, temperature or counter");
-      s.role = role->second;
       const auto& id = js.at("can_id");
       s.can_id = id.is_string()
                      ? can_id_text(id.get<std::string>())
@@ -308,13 +361,14 @@ Result<FrameLayout> FrameLayout::from_json(const nlohmann::json& j) {
 }
 
 Result<FrameLayout> FrameLayout::from_file(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) return Status::error(ErrorKind::invalid_argument, "cannot open CAN layout file " + path);
-  const auto j = nlohmann::json::parse(in, nullptr, false);
+  std::string text;
+  if (Status read = read_layout_text(path, text); !read) return read;
+  if (has_dbc_extension(path)) return layout_from_dbc(text, path);
+  const auto j = nlohmann::json::parse(text, nullptr, false);
   if (j.is_discarded())
     return Status::error(ErrorKind::invalid_argument,
                          "CAN layout file " + path + " is not valid JSON");
-  auto r = from_json(j);
+  auto r = j.is_object() && j.contains("dbc") ? from_dbc_reference(j, path) : from_json(j);
   if (!r) return Status::error(r.status().kind, path + ": " + r.status().message);
   return r;
 }

@@ -21,6 +21,10 @@ enum class ByteOrder { intel, motorola };  // little-endian / big-endian (DBC @1
 // What a signal means to the unit driver.
 enum class SignalRole { force_x, force_y, force_z, temperature, counter };
 
+// "force_x", "force_y", "force_z", "temperature" or "counter" to the role; false for any
+// other text.
+bool parse_role(const std::string& text, SignalRole& role);
+
 struct SignalSpec {
   std::string name;
   SignalRole role = SignalRole::force_x;
@@ -66,7 +70,10 @@ class FrameLayout {
   static FrameLayout default_layout();
   // Parses and validates the JSON schema of docs/unit-can.md.
   static Result<FrameLayout> from_json(const nlohmann::json& j);
-  // Reads a layout file.
+  // Reads a layout file: a DBC file (name ending .dbc, roles by signal name), or JSON
+  // holding "signals", or JSON naming a DBC file with a role per signal
+  // ({"dbc": "vendor.dbc", "roles": {"AccX": "force_x", ...}}, the path relative to the
+  // JSON file). docs/unit-can.md.
   static Result<FrameLayout> from_file(const std::string& path);
   // Builds from signal specs after validation.
   static Result<FrameLayout> from_signals(std::vector<SignalSpec> signals);

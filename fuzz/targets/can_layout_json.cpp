@@ -7,28 +7,13 @@
 #include <string>
 
 #include "drivers/socketcan/frame_layout.hpp"
+#include "fuzz/targets/can_layout_checks.hpp"
 #include "fuzz/targets/fuzz_support.hpp"
 #include "fuzz/targets/targets.hpp"
 
 namespace can = standcal::drivers::can;
 
 namespace {
-
-void check_encode_decode(const can::FrameLayout& layout) {
-  const std::uint64_t counter = 5 % layout.counter_modulus();
-  const auto frames = layout.encode({0.1, -0.2, 9.8}, 23.5, counter);
-  std::uint8_t forces_seen = 0;
-  for (const auto& f : frames) {
-    can::FrameValues values;
-    standcal::fuzz::require(layout.decode(f.can_id, f.data.data(), f.len, values),
-                            "can_layout_json: a frame the layout encoded does not decode");
-    forces_seen |= values.force_mask;
-    if (values.has_counter)
-      standcal::fuzz::require(values.counter == counter, "can_layout_json: counter " + std::to_string(counter) +
-                                                             " decoded as " + std::to_string(values.counter));
-  }
-  standcal::fuzz::require(forces_seen == 0b111, "can_layout_json: an encoded sample lacks a force axis");
-}
 
 // Numbers of signal i in the file must be the numbers the layout uses.
 void check_numbers_kept(const nlohmann::json& doc, const can::FrameLayout& layout) {
@@ -56,6 +41,6 @@ int standcal_fuzz_can_layout_json(const std::uint8_t* data, std::size_t size) {
     const auto layout = can::FrameLayout::from_json(doc);
     if (!layout) return;
     check_numbers_kept(doc, layout.value());
-    check_encode_decode(layout.value());
+    standcal::fuzz::check_layout_round_trip(layout.value(), "can_layout_json");
   });
 }

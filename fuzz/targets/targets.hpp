@@ -10,6 +10,7 @@ int standcal_fuzz_program_json(const std::uint8_t* data, std::size_t size);
 int standcal_fuzz_model_json(const std::uint8_t* data, std::size_t size);
 int standcal_fuzz_diagnosis(const std::uint8_t* data, std::size_t size);
 int standcal_fuzz_can_layout_json(const std::uint8_t* data, std::size_t size);
+int standcal_fuzz_can_layout_dbc(const std::uint8_t* data, std::size_t size);
 int standcal_fuzz_can_frames(const std::uint8_t* data, std::size_t size);
 int standcal_fuzz_modbus_url(const std::uint8_t* data, std::size_t size);
 int standcal_fuzz_modbus_config(const std::uint8_t* data, std::size_t size);

@@ -76,6 +76,28 @@ TEST(CliTokenFile, TheRightTokenGivesControlOverTcp) {
   EXPECT_EQ(json::parse(with.output)["estop"], false) << with.output;
 }
 
+// docs/security.md writes the endpoint before the command: `standcal --tcp H:P
+// --token-file F run start ...`. That form was refused as a usage error (exit 109).
+TEST(CliTokenFile, TheEndpointMayComeBeforeTheCommand) {
+  TempDir dir;
+  TokenDaemon daemon(dir);
+  ASSERT_GT(daemon.port(), 0) << daemon.log();
+  const std::string token = write_token_file(dir, "op.token", std::string(kToken) + "\n", 0600);
+  const CommandOutcome with =
+      standcal_cli(daemon.tcp() + " --token-file " + token + " estop --reset --json");
+  ASSERT_EQ(with.exit_code, 0) << with.output;
+  EXPECT_EQ(json::parse(with.output)["estop"], false) << with.output;
+  // The command's own endpoint wins over the global one.
+  const CommandOutcome own = standcal_cli("--tcp 127.0.0.1:9 status --json " + daemon.tcp());
+  ASSERT_EQ(own.exit_code, 0) << own.output;
+  EXPECT_EQ(json::parse(own.output)["daemon"]["access"]["control"], false) << own.output;
+  // A global endpoint for a command that does not talk to standcald is a usage error.
+  const CommandOutcome offline = standcal_cli(daemon.tcp() + " design evaluate paper9");
+  EXPECT_EQ(offline.exit_code, 2) << offline.output;
+  EXPECT_NE(offline.output.find("--tcp: `evaluate` does not talk to standcald"), std::string::npos)
+      << offline.output;
+}
+
 TEST(CliTokenFile, AWrongTokenIsReportedAsARefusedToken) {
   TempDir dir;
   TokenDaemon daemon(dir);

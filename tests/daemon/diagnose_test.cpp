@@ -168,7 +168,7 @@ TEST(DaemonDiagnose, CliWritesTheReportAndRunsTheProposedPositions) {
   const std::string id = run_to_end(c, "paper9", "AU-D3", 20, "QA-7");
   const std::string report = dir.path() + "/report.html";
   const std::string text = run_cli("run diagnose " + id + " --json --report " + report +
-                                   " --run-proposed --dwell 5 --socket " + socket_of(dir));
+                                   " --run-proposed --dwell-s 5 --socket " + socket_of(dir));
   const json d = json::parse(text.substr(text.find('{')));
   EXPECT_EQ(d["verdict"], "insufficient_redundancy");
   ASSERT_FALSE(d["proposed_positions"].empty());

@@ -406,6 +406,7 @@ TEST(DaemonRun, UnknownRunsAndBadProgrammesAreClearErrors) {
 TEST(DaemonCli, RunStartWaitPrintsTheResultOfARunThroughTheDaemon) {
   TempDir dir;
   auto daemon = DaemonProcess::sim(dir.path(), 300);
+  // The spellings before --unit-serial, --dwell-s and --settle-s still work (scripts).
   const test::CommandOutcome run = test::standcal_cli("run start paper9 --unit AU-CLI --unit-type QA-7 --dwell 20 "
                                                   "--settle 1 --wait --json --socket " + socket_of(dir));
   ASSERT_EQ(run.exit_code, 0) << run.output;

@@ -103,9 +103,11 @@ TEST(DaemonRunsList, TheCliShowsOnePageAndSaysHowToGetOlderRunsOrAll) {
   EXPECT_NE(five.output.find("standcal runs --before " + ids[kRuns - 5]), std::string::npos)
       << five.output;
 
-  const test::CommandOutcome unit_page = test::standcal_cli("runs --unit AU-2 --limit 3" + socket);
+  const test::CommandOutcome unit_page =
+      test::standcal_cli("runs --unit-serial AU-2 --limit 3" + socket);
   ASSERT_EQ(unit_page.exit_code, 0) << unit_page.output;
-  EXPECT_NE(unit_page.output.find("standcal runs --unit AU-2 --before " + ids[kRuns - 5]), std::string::npos)
+  EXPECT_NE(unit_page.output.find("standcal runs --unit-serial AU-2 --before " + ids[kRuns - 5]),
+            std::string::npos)
       << unit_page.output;
 
   // --all in pages of 16: each of one unit's 125 runs once.

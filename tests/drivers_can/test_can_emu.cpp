@@ -72,6 +72,21 @@ TEST_F(CanEmu, TiltedUnitReadsTheModelOutputWithTheConfiguredNoise) {
   EXPECT_EQ(unit_->health().incomplete_samples, 0U);
 }
 
+// The emulator sends with a DBC written by hand for its frames, the driver decodes with
+// the built-in layout: the DBC describes the same bits (docs/unit-can.md).
+TEST_F(CanEmu, EmulatorOnTheHandWrittenDbcSpeaksTheDefaultLayout) {
+  start_emu({"--rate-hz", "200", "--alpha1-deg", "90", "--layout",
+             std::string(STANDCAL_CAN_TEST_DATA) + "/standcal_unit.dbc", "--temperature-c",
+             "31.5"});
+  auto r = unit_->collect(0.5);
+  ASSERT_TRUE(r.ok()) << r.status().message;
+  ASSERT_GE(r.value().size(), 20U);
+  const auto x = stats(r.value(), 0);
+  EXPECT_NEAR(x.mean / kStandardGravity_mps2, 1.0, 1e-4);  // alpha1 = +90 deg: x reads +g
+  EXPECT_NEAR(r.value().back().temperature_c, 31.5, 0.01);
+  EXPECT_EQ(unit_->health().incomplete_samples, 0U);
+}
+
 TEST_F(CanEmu, InjectedLossDuplicationAndReorderingShowInTheHealthCounters) {
   start_emu({"--rate-hz", "500", "--alpha2-deg", "90", "--noise-ug-rthz", "5", "--loss", "0.03",
              "--duplicate", "0.03", "--reorder", "0.03", "--seed", "11"});
@@ -157,6 +172,25 @@ TEST(UnitCli, ReadPrintsPerAxisStatisticsOfTheEmulatedUnit) {
       << out;
   EXPECT_NEAR(mean_g, 1.0, 50e-6);
   EXPECT_NEAR(sigma_ug, 10 * std::sqrt(500.0), 0.3 * 10 * std::sqrt(500.0));
+}
+
+// A vendor-style DBC (Motorola signals, a status signal and a float the role map leaves
+// out) read by `standcal unit --layout`, against the emulator sending the documented JSON
+// layout of the same frames.
+TEST(UnitCli, ReadsAVendorDbcThroughARoleMap) {
+  const std::string data = STANDCAL_CAN_TEST_DATA;
+  const auto [code, out] = run_cli_against_emu(
+      {"--rate-hz", "200", "--alpha1-deg", "90", "--layout", data + "/vendor_imu_signals.json"},
+      {"--layout", data + "/vendor_imu_layout.json", "read", "--seconds", "0.5"});
+  ASSERT_EQ(code, 0) << out;
+  EXPECT_NE(out.find(" 0 incomplete"), std::string::npos) << out;
+  double mean_mps2 = 0, sigma_mps2 = 0, mean_g = 0;
+  const auto x_line = out.find("\nx ");
+  ASSERT_NE(x_line, std::string::npos) << out;
+  ASSERT_EQ(std::sscanf(out.c_str() + x_line + 3, "%lf %lf %lf", &mean_mps2, &sigma_mps2, &mean_g),
+            3)
+      << out;
+  EXPECT_NEAR(mean_g, 1.0, 1e-4);
 }
 
 TEST(UnitCli, ASilentUnitExitsNonZero) {

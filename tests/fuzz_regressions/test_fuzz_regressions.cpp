@@ -87,6 +87,7 @@ TEST_F(FuzzReplay, ProgramJson) { replay_target("program_json", standcal_fuzz_pr
 TEST_F(FuzzReplay, ModelJson) { replay_target("model_json", standcal_fuzz_model_json); }
 TEST_F(FuzzReplay, Diagnosis) { replay_target("diagnosis", standcal_fuzz_diagnosis); }
 TEST_F(FuzzReplay, CanLayoutJson) { replay_target("can_layout_json", standcal_fuzz_can_layout_json); }
+TEST_F(FuzzReplay, CanLayoutDbc) { replay_target("can_layout_dbc", standcal_fuzz_can_layout_dbc); }
 TEST_F(FuzzReplay, CanFrames) { replay_target("can_frames", standcal_fuzz_can_frames); }
 TEST_F(FuzzReplay, ModbusUrl) { replay_target("modbus_url", standcal_fuzz_modbus_url); }
 TEST_F(FuzzReplay, ModbusConfig) { replay_target("modbus_config", standcal_fuzz_modbus_config); }

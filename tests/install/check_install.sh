@@ -35,7 +35,7 @@ verify=$(systemd-analyze verify --man=no --recursive-errors=no --root="$stage" s
 
 for program in standcal standcald; do
   version=$("$stage$prefix/bin/$program" --version) || fail "$program --version failed"
-  [[ $version =~ ^[0-9]+\.[0-9]+\.[0-9]+\ \(commit\ ([0-9a-f]+|unknown),\ .+\ build\)$ ]] ||
+  [[ $version =~ ^[0-9]+\.[0-9]+\.[0-9]+\ \(commit\ ([0-9a-f]+(-dirty)?|unknown),\ .+\ build\)$ ]] ||
     fail "$program --version says '$version', not 'VERSION (commit C, TYPE build)'"
 done
 for program in standcal-stand-emu standcal-can-emu; do

@@ -251,7 +251,7 @@ int main(int argc, char** argv) {
   auto* fd = app.add_option("--fd", o.fd, "inherited file descriptor carrying CAN frame datagrams");
   can->excludes(fd);
   app.add_option("--layout", o.layout_file,
-                 "frame layout JSON (default: the layout of docs/unit-can.md)");
+                 "frame layout: JSON, or a DBC file (default: the layout of docs/unit-can.md)");
   app.add_option("--rate-hz", o.rate_hz, "samples per second")->check(CLI::Range(0.001, 1e6));
   app.add_option("--alpha1-deg", o.alpha1_deg, "outer stand axis angle");
   app.add_option("--alpha2-deg", o.alpha2_deg, "inner stand axis angle");

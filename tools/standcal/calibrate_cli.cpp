@@ -168,7 +168,9 @@ void add_calibrate_commands(CLI::App& app) {
   sim->add_option("--truth", sim_opts->truth_out, "write the model used (JSON)");
   sim->add_option("--model", sim_opts->model_in, "simulate this model (JSON, as --truth writes)")
       ->check(CLI::ExistingFile);
-  sim->add_option("--unit-serial", sim_opts->unit_serial)->capture_default_str();
+  sim->add_option("--unit-serial", sim_opts->unit_serial,
+                  "the unit's serial, written in the recording's header")
+      ->capture_default_str();
   sim->add_option("--alpha1-start-deg", sim_opts->alpha1_start_deg, "paper9's alpha1(1)")
       ->capture_default_str();
   // The daemon's run limits: past them a simulated run only exhausts the memory.

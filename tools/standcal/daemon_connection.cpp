@@ -61,7 +61,50 @@ std::string read_checked_token_file(const std::string& path) {
   return text;
 }
 
+DaemonOptions& global_options() {
+  static DaemonOptions options;
+  return options;
+}
+
+// The command's options, with the global ones where the command named no endpoint.
+DaemonOptions effective(const DaemonOptions& o) {
+  DaemonOptions e = o;
+  const DaemonOptions& g = global_options();
+  if (e.tcp.empty() && e.socket.empty()) {
+    e.tcp = g.tcp;
+    e.socket = g.socket;
+  }
+  if (e.token_file.empty()) e.token_file = g.token_file;
+  if (!e.token_file.empty() && e.tcp.empty())
+    throw std::runtime_error("--token-file " + e.token_file +
+                             " needs --tcp: the Unix socket authenticates by the caller's groups");
+  return e;
+}
+
 }  // namespace
+
+void add_global_daemon_options(CLI::App& app) {
+  DaemonOptions& g = global_options();
+  auto* socket =
+      app.add_option("--socket", g.socket, "standcald's socket, for every daemon command");
+  auto* tcp = app.add_option("--tcp", g.tcp,
+                             "reach standcald over TCP at HOST:PORT, for every daemon command");
+  auto* token = app.add_option("--token-file", g.token_file,
+                               "with --tcp: authenticate with the token in FILE");
+  token->needs(tcp);
+  tcp->excludes(socket);
+  // Runs before the command: a global option given to a command that never talks to
+  // standcal (`standcal --tcp H:P fit rec.csv`) is a usage error, not silently dropped.
+  app.parse_complete_callback([&app, socket, tcp, token] {
+    const CLI::App* command = &app;
+    while (!command->get_subcommands().empty()) command = command->get_subcommands().front();
+    if (command->get_option_no_throw("--tcp") != nullptr) return;
+    for (const CLI::Option* given : {socket, tcp, token})
+      if (given->count() > 0)
+        throw CLI::ValidationError(given->get_name(),
+                                   "`" + command->get_name() + "` does not talk to standcald");
+  });
+}
 
 void add_daemon_options(CLI::App* cmd, DaemonOptions& o) {
   auto* socket = cmd->add_option(
@@ -99,7 +142,8 @@ std::string tcp_endpoint(const std::string& option_value) {
   return "tcp://" + host_port;
 }
 
-std::string daemon_endpoint(const DaemonOptions& o) {
+std::string daemon_endpoint(const DaemonOptions& given) {
+  const DaemonOptions o = effective(given);
   if (!o.tcp.empty()) return tcp_endpoint(o.tcp);
   if (!o.socket.empty()) return o.socket;
   if (!o.config.empty()) {
@@ -129,10 +173,11 @@ std::string read_token_file(const std::string& path) {
   return token;
 }
 
-std::unique_ptr<protocol::Client> connect_daemon(const DaemonOptions& o,
+std::unique_ptr<protocol::Client> connect_daemon(const DaemonOptions& given,
                                                  std::chrono::milliseconds timeout) {
   // Check the endpoint and read the token before connecting: a bad file must not cost a
   // connection, and a bad --tcp must not send the token anywhere.
+  const DaemonOptions o = effective(given);
   const std::string endpoint = daemon_endpoint(o);
   const std::string token = o.token_file.empty() ? std::string() : read_token_file(o.token_file);
   auto client = std::make_unique<protocol::Client>(endpoint, timeout);

@@ -22,8 +22,14 @@ struct DaemonOptions {
 // --socket, --tcp, --token-file, --config, --json.
 void add_daemon_options(CLI::App* cmd, DaemonOptions& o);
 
+// --socket, --tcp and --token-file before the command (`standcal --tcp HOST:PORT
+// --token-file F run start ...`, as docs/security.md writes it); a command's own
+// --socket or --tcp wins over these, and its --token-file over this one.
+void add_global_daemon_options(CLI::App& app);
+
 // "tcp://HOST:PORT" for --tcp, else the socket path (--socket, the config's,
-// $STANDCAL_SOCKET, /run/standcal/standcald.sock).
+// $STANDCAL_SOCKET, /run/standcal/standcald.sock). The global options fill what the
+// command's options leave empty.
 std::string daemon_endpoint(const DaemonOptions& o);
 
 // The token in `path`: its first line without trailing whitespace. Refuses, like ssh

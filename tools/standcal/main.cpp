@@ -5,6 +5,7 @@
 
 #include "standcal/version.hpp"
 #include "tools/standcal/commands.hpp"
+#include "tools/standcal/daemon_connection.hpp"
 
 namespace standcal::cli {
 
@@ -34,6 +35,7 @@ int main(int argc, char** argv) {
   app.set_help_all_flag("--help-all", "Print the help of every command and exit");
   app.footer(standcal::exit_code_table_text());
   app.require_subcommand(1);
+  standcal::cli::add_global_daemon_options(app);
   for (const auto& group : standcal::cli::command_groups()) group(app);
   try {
     app.parse(argc, argv);

@@ -302,7 +302,7 @@ void add_records_command(CLI::App& app) {
   add_db_option(cmd, *db);
   cmd->add_option("--since", f->since_utc, "from this date or UTC time (2026-11-01, 2026-11-01T08:00:00Z)");
   cmd->add_option("--until", f->until_utc, "up to this date (whole day) or UTC time");
-  cmd->add_option("--serial", f->unit_serial, "only this unit");
+  cmd->add_option("--unit-serial,--serial", f->unit_serial, "only this unit");
   cmd->add_option("--unit-type", f->unit_type, "only this unit type");
   cmd->add_option("--verdict", f->verdict, "pass, indeterminate, fail or none (not assessed)")
       ->check(CLI::IsMember({"pass", "indeterminate", "fail", "none"}));

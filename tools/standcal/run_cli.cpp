@@ -18,6 +18,7 @@
 #include "calib/report.hpp"
 #include "protocol/jsonrpc/client.hpp"
 #include "protocol/jsonrpc/methods.hpp"
+#include "tools/cli_checks.hpp"
 #include "tools/standcal/commands.hpp"
 #include "tools/standcal/daemon_connection.hpp"
 
@@ -319,7 +320,7 @@ void print_runs(const json& r, const RunsArgs& a) {
                 x.value("has_result", false) ? "  result" : "");
   }
   if (r.value("more", false) && !r["runs"].empty()) {
-    const std::string unit = a.unit.empty() ? "" : " --unit " + a.unit;
+    const std::string unit = a.unit.empty() ? "" : " --unit-serial " + a.unit;
     std::printf("(older runs: standcal runs%s --before %s, or --all)\n", unit.c_str(),
                 r["runs"].back().value("run_id", "").c_str());
   }
@@ -330,7 +331,7 @@ void add_runs(CLI::App& app) {
   auto a = std::make_shared<RunsArgs>();
   auto* cmd = app.add_subcommand("runs", "the daemon's runs, newest first, one page at a time");
   add_daemon_options(cmd, *o);
-  cmd->add_option("--unit", a->unit, "only this unit serial's runs");
+  cmd->add_option("--unit-serial,--unit", a->unit, "only this unit's runs");
   cmd->add_option("--before", a->before, "only runs older than this run id (the next page)");
   cmd->add_option("--limit", a->limit, "runs per page (default: the daemon's, 100; with --all, 1000)")
       ->check(CLI::Range(1, protocol::runs_list_max_limit));
@@ -344,6 +345,18 @@ void add_runs(CLI::App& app) {
       print_runs(r, *a);
     }
   });
+}
+
+// --dwell-s and --settle-s of a run (--dwell and --settle, their older spellings, still
+// work); left at -1, the daemon's configured times apply.
+void add_run_timing_options(CLI::App* cmd, double& dwell_s, double& settle_s,
+                            const std::string& which_run) {
+  cmd->add_option("--dwell-s,--dwell", dwell_s,
+                  which_run + "seconds of samples per position (default: the daemon's)")
+      ->check(cli_checks::kPositive);
+  cmd->add_option("--settle-s,--settle", settle_s,
+                  which_run + "seconds to settle after in-position (default: the daemon's)")
+      ->check(cli_checks::kNonNegative);
 }
 
 void add_run(CLI::App& app) {
@@ -360,10 +373,10 @@ void add_run(CLI::App& app) {
   auto* start = run->add_subcommand("start", "start a run: PROGRAM is paper9, classic24 or a library name");
   add_daemon_options(start, *so);
   start->add_option("program", sa->program, "paper9 | classic24 | a library name")->required();
-  start->add_option("--unit", sa->unit, "serial number of the unit on the stand")->required();
+  start->add_option("--unit-serial,--unit", sa->unit, "serial number of the unit on the stand")
+      ->required();
   start->add_option("--unit-type", sa->unit_type, "the unit's type: which acceptance limits its certificate uses");
-  start->add_option("--dwell", sa->dwell_s, "seconds of samples per position (default: the daemon's)");
-  start->add_option("--settle", sa->settle_s, "seconds to settle after in-position (default: the daemon's)");
+  add_run_timing_options(start, sa->dwell_s, sa->settle_s, "");
   start->add_option("--operator", sa->op, "who runs it, for traceability");
   start->add_flag("--wait", sa->wait, "follow the run with a live progress line; print the report at the end");
   start->callback([so, sa] {
@@ -433,8 +446,7 @@ void add_run(CLI::App& app) {
   diagnose->add_option("--report", da->report, "write the HTML report with plots to FILE (docs/report.md)");
   diagnose->add_flag("--run-proposed", da->run_proposed,
                      "start a follow-up run of the proposed positions on the same unit");
-  diagnose->add_option("--dwell", da->dwell_s, "follow-up run: seconds per position (default: the daemon's)");
-  diagnose->add_option("--settle", da->settle_s, "follow-up run: settle seconds (default: the daemon's)");
+  add_run_timing_options(diagnose, da->dwell_s, da->settle_s, "follow-up run: ");
   diagnose->add_option("--operator", da->op, "follow-up run: who runs it, for traceability");
   diagnose->callback([dgo, da] { run_diagnose(*dgo, *da); });
 

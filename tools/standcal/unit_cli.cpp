@@ -88,7 +88,7 @@ void add_unit_commands(CLI::App& app) {
       unit->add_option("--fd", options->fd, "inherited fd carrying CAN frame datagrams (tests)");
   can_opt->excludes(fd_opt);
   unit->add_option("--layout", options->layout_file,
-                   "frame layout JSON (default: docs/unit-can.md)");
+                   "frame layout: JSON, or a DBC file (default: docs/unit-can.md)");
   unit->add_option("--silence-s", options->silence_s, "no frame this long means the unit is silent")
       ->check(cli_checks::kPositive);
   auto* read = unit->add_subcommand(
