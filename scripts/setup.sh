@@ -8,6 +8,9 @@ packages=(
   build-essential cmake ninja-build pkg-config
   libeigen3-dev nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev
   libmodbus-dev libsystemd-dev
+  # systemd-analyze verifies the installed units (test install_tree); systemd's pkg-config
+  # file says where units, sysusers.d and tmpfiles.d go (below for Debian 13).
+  systemd
   libplplot-dev libsqlite3-dev libpq-dev libxml2-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   socat
@@ -21,6 +24,9 @@ packages=(
   postgresql
   "$@"
 )
+# From Debian 13 on, systemd's pkg-config file is in systemd-dev.
+debian_version=$(. /etc/os-release && echo "${VERSION_ID:-}")
+if [ "$debian_version" != 12 ]; then packages+=(systemd-dev); fi
 
 missing=()
 for p in "${packages[@]}"; do
