@@ -24,9 +24,12 @@ packages=(
   postgresql
   "$@"
 )
-# From Debian 13 on, systemd's pkg-config file is in systemd-dev.
-debian_version=$(. /etc/os-release && echo "${VERSION_ID:-}")
-if [ "$debian_version" != 12 ]; then packages+=(systemd-dev); fi
+# From Debian 13 on (and in testing, which has no VERSION_ID), systemd's pkg-config file
+# is in systemd-dev.
+release=$(. /etc/os-release && echo "${ID:-} ${VERSION_ID:-99}")
+if [ "${release% *}" = debian ] && [ "${release#* }" -ge 13 ] 2>/dev/null; then
+  packages+=(systemd-dev)
+fi
 
 missing=()
 for p in "${packages[@]}"; do

@@ -72,6 +72,12 @@ bool toggles_string(std::string_view line, bool in_string) {
   return in_string;
 }
 
+// The line starts with this keyword as a word of its own (not BO_TX_BU_, SG_MUL_VAL_).
+bool is_statement(std::string_view line, std::string_view keyword) {
+  return line.size() > keyword.size() && line.substr(0, keyword.size()) == keyword &&
+         (line[keyword.size()] == ' ' || line[keyword.size()] == '\t');
+}
+
 struct Message {
   std::string name;
   std::uint32_t id = 0;
@@ -86,7 +92,7 @@ class DbcParser {
 
   Result<std::vector<DbcSignal>> parse(std::string_view text) {
     bool in_string = false;
-    int line_no = 0;
+    int line_no = 0, string_opened = 0;
     while (!text.empty()) {
       const std::size_t eol = text.find('\n');
       const std::string_view line = text.substr(0, eol);
@@ -96,8 +102,12 @@ class DbcParser {
       if (!in_string) {
         if (Status s = statement(trim(line), line_no); !s) return s;
       }
+      const bool was_in_string = in_string;
       in_string = toggles_string(line, in_string);
+      if (in_string && !was_in_string) string_opened = line_no;
     }
+    // Else everything after the quote would be skipped without a word.
+    if (in_string) return dbc_error(source_, string_opened, "a string opened here is never closed");
     for (auto& s : signals_)
       if (floats_.count({s.spec.can_id | (s.spec.extended ? kDbcExtendedFlag : 0), s.spec.name}))
         s.is_float = true;
@@ -106,8 +116,8 @@ class DbcParser {
 
  private:
   Status statement(std::string_view line, int line_no) {
-    const bool parsed_here = line.rfind("BO_ ", 0) == 0 || line.rfind("SG_ ", 0) == 0 ||
-                             line.rfind("SIG_VALTYPE_ ", 0) == 0;
+    const bool parsed_here = is_statement(line, "BO_") || is_statement(line, "SG_") ||
+                             is_statement(line, "SIG_VALTYPE_");
     // std::regex recurses per character: a bounded line keeps a hostile file from
     // exhausting the stack (real BO_ and SG_ lines are well under a hundred characters
     // plus their receivers).
@@ -116,9 +126,9 @@ class DbcParser {
                        "line is " + std::to_string(line.size()) + " characters long; a " +
                            std::string(line.substr(0, line.find(' '))) + " line may have at most " +
                            std::to_string(kMaxStatementChars));
-    if (line.rfind("BO_ ", 0) == 0) return message(std::string(line), line_no);
-    if (line.rfind("SG_ ", 0) == 0) return signal(std::string(line), line_no);
-    if (line.rfind("SIG_VALTYPE_ ", 0) == 0) return value_type(std::string(line), line_no);
+    if (is_statement(line, "BO_")) return message(std::string(line), line_no);
+    if (is_statement(line, "SG_")) return signal(std::string(line), line_no);
+    if (is_statement(line, "SIG_VALTYPE_")) return value_type(std::string(line), line_no);
     // Any other statement ends the message's signal list.
     if (!line.empty()) in_message_ = false;
     return Status::ok();
@@ -235,6 +245,8 @@ Status check_role_names(const std::vector<DbcSignal>& signals, const DbcRoles& r
     for (const auto& s : signals)
       if (key == s.spec.name || key == s.message + "." + s.spec.name) messages.push_back(s.message);
     if (messages.empty()) return dbc_error(source, 0, "roles: no signal '" + key + "' in the file");
+    if (messages.size() > 1 && messages[0] == messages[1])
+      return dbc_error(source, 0, "roles: '" + key + "' is twice in message " + messages[0]);
     if (messages.size() > 1)
       return dbc_error(source, 0,
                        "roles: '" + key + "' is a signal of " + messages[0] + " and " +

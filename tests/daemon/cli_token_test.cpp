@@ -76,7 +76,7 @@ TEST(CliTokenFile, TheRightTokenGivesControlOverTcp) {
   EXPECT_EQ(json::parse(with.output)["estop"], false) << with.output;
 }
 
-// docs/security.md writes the endpoint before the command: `standcal --tcp H:P
+// docs/protocol.md writes the endpoint before the command: `standcal --tcp H:P
 // --token-file F run start ...`. That form was refused as a usage error (exit 109).
 TEST(CliTokenFile, TheEndpointMayComeBeforeTheCommand) {
   TempDir dir;
@@ -91,11 +91,15 @@ TEST(CliTokenFile, TheEndpointMayComeBeforeTheCommand) {
   const CommandOutcome own = standcal_cli("--tcp 127.0.0.1:9 status --json " + daemon.tcp());
   ASSERT_EQ(own.exit_code, 0) << own.output;
   EXPECT_EQ(json::parse(own.output)["daemon"]["access"]["control"], false) << own.output;
-  // A global endpoint for a command that does not talk to standcald is a usage error.
+  // A global endpoint for a command that takes none is a usage error.
   const CommandOutcome offline = standcal_cli(daemon.tcp() + " design evaluate paper9");
   EXPECT_EQ(offline.exit_code, 2) << offline.output;
-  EXPECT_NE(offline.output.find("--tcp: `evaluate` does not talk to standcald"), std::string::npos)
+  EXPECT_NE(offline.output.find("--tcp: `design evaluate` does not take it"), std::string::npos)
       << offline.output;
+  // The token may go before the command and the endpoint after it.
+  const CommandOutcome split =
+      standcal_cli("--token-file " + token + " estop --reset --json " + daemon.tcp());
+  ASSERT_EQ(split.exit_code, 0) << split.output;
 }
 
 TEST(CliTokenFile, AWrongTokenIsReportedAsARefusedToken) {

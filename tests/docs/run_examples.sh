@@ -2,7 +2,8 @@
 # Runs every `standcal` example of README.md and docs/*.md as written, in one working
 # directory, in reading order (README first), with the built programs first on PATH.
 #
-# An example is a line inside a fenced block that starts with `standcal ` (or `$ standcal `),
+# An example is a line inside a fenced block that starts, at its first column, with
+# `standcal ` (or `$ standcal `),
 # joined with its `\` continuations, without its trailing `# comment`. It is left out, and
 # the reason printed, when it is a synopsis (holds [ ] | … or an UPPER_CASE placeholder
 # such as RUN_ID or REC.csv) or needs a bench (a stand, a CAN bus, a running daemon, a
@@ -48,7 +49,9 @@ reason_to_leave_out() {
       "standcal estop"*) echo "needs a running standcald"; return ;;
     *" /etc/"* | *" /var/lib/"*) echo "needs the installed /etc and /var/lib"; return ;;
   esac
-  for word in $example; do
+  local words
+  read -ra words <<< "$example"  # split on blanks only: no glob expansion of the words
+  for word in "${words[@]}"; do
     if [[ $word =~ ^[A-Z][A-Z0-9_]*(\.[a-z]+)?$ ]]; then
       echo "synopsis (placeholder $word)"
       return
@@ -79,7 +82,9 @@ for doc in "$source_dir/README.md" "$source_dir"/docs/*.md; do
       continue
     fi
     ran=$((ran + 1))
-    eval "$example" > out.txt 2>&1
+    # A subshell without the example list on stdin: an example that reads stdin, or names
+    # an unset variable, cannot eat the rest of the list or stop the script.
+    (eval "$example") < /dev/null > out.txt 2>&1
     status=$?
     case $status in
       0 | 3 | 4 | 5) echo "ran (exit $status): $name: $example" ;;

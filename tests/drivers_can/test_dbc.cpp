@@ -63,7 +63,8 @@ void expect_same_layout(const FrameLayout& a, const FrameLayout& b) {
 TEST(Dbc, HandWrittenFileForTheEmulatorsFramesIsTheDefaultLayout) {
   const auto dbc = FrameLayout::from_file(kData + "/standcal_unit.dbc");
   ASSERT_TRUE(dbc.ok()) << dbc.status().message;
-  // Four messages, the comment's "SG_" line and the pseudo-message's signal not read.
+  // Four messages; the comment's "SG_" line is not read, nor the pseudo-message's signal
+  // (named force_x: read, it would make a second force_x and the layout fail).
   EXPECT_EQ(dbc.value().signals().size(), 8U);
   expect_same_layout(dbc.value(), FrameLayout::default_layout());
   expect_same_layout(FrameLayout::default_layout(), dbc.value());
@@ -80,11 +81,19 @@ TEST(Dbc, VendorFileWithARoleMapIsTheDocumentedJsonLayout) {
 }
 
 TEST(Dbc, ParsesEveryMessageAndTheFloatMarks) {
+  // CRLF line ends (Windows tools), a blank line and a tab inside the signal list, a
+  // comment with escaped quotes over two lines whose second line looks like an SG_, and
+  // the look-alike keywords BO_TX_BU_ and SG_MUL_VAL_.
   const auto parsed = parse_dbc(
-      "BO_ 2147484033 EXT: 8 IMU\n"
-      " SG_ A : 0|32@1- (0.5,-1) [0|0] \"m/s^2\" Logger\n"
-      " SG_ F : 32|32@1- (1,0) [0|0] \"\" Logger\n"
-      "SIG_VALTYPE_ 2147484033 F : 1;\n",
+      "BO_ 2147484033 EXT: 8 IMU\r\n"
+      " SG_ A : 0|32@1- (0.5,-1) [0|0] \"m/s^2\" Logger\r\n"
+      "\r\n"
+      " SG_\tF : 32|32@1- (1,0) [0|0] \"\" Logger\r\n"
+      "CM_ SG_ 2147484033 A \"a \\\"quoted\\\" word,\r\n"
+      " SG_ B : 0|8@1+ (1,0) [0|0] \"\" L is comment text\";\r\n"
+      "BO_TX_BU_ 2147484033 : IMU,Logger;\r\n"
+      "SG_MUL_VAL_ 2147484033 A F 0-0;\r\n"
+      "SIG_VALTYPE_ 2147484033 F : 1;\r\n",
       "x.dbc");
   ASSERT_TRUE(parsed.ok()) << parsed.status().message;
   ASSERT_EQ(parsed.value().size(), 2U);
@@ -138,6 +147,8 @@ TEST(Dbc, MistakesNameTheFileTheLineAndTheFix) {
             "unit.dbc:1: an SG_ line outside a BO_ message's signal list");
   EXPECT_EQ(dbc_error("BO_ 257 ACC: 99 IMU\n"),
             "unit.dbc:1: message ACC: DLC 99 is not 0..64 bytes");
+  EXPECT_EQ(dbc_error(three_axes(good_x, "CM_ BO_ 257 \"never closed;\nBA_ \"x\" 1;\n")),
+            "unit.dbc:8: a string opened here is never closed");
   EXPECT_EQ(dbc_error("BO_ 257 A: 8 IMU\n SG_ s : 0|8@1+ (1,0) [0|0] \"\" L\n"),
             "unit.dbc: no signal has a role: name the signals force_x, force_y, force_z, "
             "temperature and counter_*, or give a JSON layout with \"dbc\" and \"roles\" "
@@ -169,6 +180,8 @@ TEST(Dbc, ARoleMapMustNameSignalsThatExistAndOnlyOnce) {
                  {"az", SignalRole::force_z},    {"A.seq", SignalRole::counter},
                  {"B.seq", SignalRole::counter}, {"sq", SignalRole::counter}};
   EXPECT_EQ(dbc_error(text, roles), "(accepted)");
+  EXPECT_EQ(dbc_error(text + " SG_ sq : 24|8@1+ (1,0) [0|0] \"\" L\n", roles),
+            "unit.dbc: roles: 'sq' is twice in message C");
   roles["seq"] = SignalRole::counter;
   EXPECT_EQ(dbc_error(text, roles),
             "unit.dbc: roles: 'seq' is a signal of A and B; name it MESSAGE.SIGNAL");

@@ -89,20 +89,27 @@ void add_global_daemon_options(CLI::App& app) {
       app.add_option("--socket", g.socket, "standcald's socket, for every daemon command");
   auto* tcp = app.add_option("--tcp", g.tcp,
                              "reach standcald over TCP at HOST:PORT, for every daemon command");
+  // No needs(tcp) here: the --tcp may be the command's own (effective() checks the pair).
   auto* token = app.add_option("--token-file", g.token_file,
                                "with --tcp: authenticate with the token in FILE");
-  token->needs(tcp);
   tcp->excludes(socket);
-  // Runs before the command: a global option given to a command that never talks to
-  // standcal (`standcal --tcp H:P fit rec.csv`) is a usage error, not silently dropped.
+  // Runs before the command: a global option given to a command that takes no daemon
+  // endpoint (`standcal --tcp H:P fit rec.csv`; doctor reads its config's) is a usage
+  // error, not silently dropped.
   app.parse_complete_callback([&app, socket, tcp, token] {
     const CLI::App* command = &app;
-    while (!command->get_subcommands().empty()) command = command->get_subcommands().front();
+    std::string path;  // "stand status", not just "status"
+    while (!command->get_subcommands().empty()) {
+      command = command->get_subcommands().front();
+      path += (path.empty() ? "" : " ") + command->get_name();
+    }
     if (command->get_option_no_throw("--tcp") != nullptr) return;
     for (const CLI::Option* given : {socket, tcp, token})
       if (given->count() > 0)
-        throw CLI::ValidationError(given->get_name(),
-                                   "`" + command->get_name() + "` does not talk to standcald");
+        throw CLI::ValidationError(
+            given->get_name(), "`" + path +
+                                   "` does not take it: it names standcald's endpoint for "
+                                   "the commands that talk to the daemon (status, run, runs, ...)");
   });
 }
 

@@ -23,8 +23,9 @@ struct DaemonOptions {
 void add_daemon_options(CLI::App* cmd, DaemonOptions& o);
 
 // --socket, --tcp and --token-file before the command (`standcal --tcp HOST:PORT
-// --token-file F run start ...`, as docs/security.md writes it); a command's own
-// --socket or --tcp wins over these, and its --token-file over this one.
+// --token-file F run start ...`, as docs/protocol.md writes it); a command's own
+// --socket or --tcp wins over these (and they over its --config), and its --token-file
+// over this one.
 void add_global_daemon_options(CLI::App& app);
 
 // "tcp://HOST:PORT" for --tcp, else the socket path (--socket, the config's,
