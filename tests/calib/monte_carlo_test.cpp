@@ -5,24 +5,18 @@
 #include <cmath>
 
 #include "tests/calib/test_support.hpp"
+#include "tests/support/statistical.hpp"
 
 using namespace standcal;
 using namespace standcal::test;
 
 namespace {
 
-#ifdef STANDCAL_SANITIZED
-// A quarter of the runs under ASan+UBSan (each fit ~10x slower there), tolerances doubled.
-constexpr int kRuns = 100;
-constexpr double kToleranceScale = 2;
-#else
 constexpr int kRuns = 400;
-constexpr double kToleranceScale = 1;
-#endif
 // Sample variance of 400 unit normals has sd sqrt(2/399) = 0.071: +-0.25 is 3.5 sd.
-constexpr double kVarianceTolerance = 0.25 * kToleranceScale;
+constexpr double kVarianceTolerance = 0.25;
 // Mean of 400 unit normals has sd 0.05: +-0.2 is 4 sd.
-constexpr double kMeanTolerance = 0.2 * kToleranceScale;
+constexpr double kMeanTolerance = 0.2;
 
 struct NormalisedErrors {
   Eigen::Matrix<double, 9, 1> sum = Eigen::Matrix<double, 9, 1>::Zero();
@@ -64,18 +58,21 @@ void expect_unit_normal(const NormalisedErrors& e) {
 }  // namespace
 
 TEST(MonteCarlo, JointSigmasAreHonestOnThePaperProgramme) {
+  STANDCAL_STATISTICAL_TEST();
   expect_unit_normal(run_monte_carlo(paper9(), fit_invariant_joint));
 }
 
 TEST(MonteCarlo, SequentialSigmasAreHonestOnThePaperProgramme) {
+  STANDCAL_STATISTICAL_TEST();
   expect_unit_normal(run_monte_carlo(paper9(), fit_paper_sequential));
 }
 
 TEST(MonteCarlo, JointSigmasAndChi2AreHonestWithRedundancy) {
+  STANDCAL_STATISTICAL_TEST();
   const NormalisedErrors e = run_monte_carlo(redundant18(), fit_invariant_joint);
   expect_unit_normal(e);
   // chi2 of 9 dof averages 9; over 400 runs the mean has sd sqrt(18/400) = 0.21. A fit that
   // weighted for a wander estimated from its own residuals tests on fewer degrees of freedom.
-  EXPECT_NEAR(e.chi2_sum / e.runs, e.dof_sum / e.runs, 1.0 * kToleranceScale);
+  EXPECT_NEAR(e.chi2_sum / e.runs, e.dof_sum / e.runs, 1.0);
   EXPECT_GT(e.dof_sum / e.runs, 8.0) << "white noise is mostly taken for white";
 }

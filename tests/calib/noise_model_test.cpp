@@ -8,6 +8,7 @@
 
 #include "calib/allan.hpp"
 #include "calib/noise_model.hpp"
+#include "tests/support/statistical.hpp"
 
 namespace standcal {
 namespace {
@@ -82,31 +83,27 @@ MatrixXd design(const std::vector<NoiseRow>& rows) {
   return X;
 }
 
-#ifdef STANDCAL_SANITIZED
-constexpr int kScale = 4;  // a quarter of the trials: each REML fit is ~10x slower there
-#else
-constexpr int kScale = 1;
-#endif
-
 TEST(NoiseModel, WhiteNoiseIsRarelyTakenForWander) {
+  STANDCAL_STATISTICAL_TEST();
   std::mt19937_64 rng(7);
   int significant = 0;
-  constexpr int kTrials = 100 / kScale;
+  constexpr int kTrials = 100;
   for (int i = 0; i < kTrials; ++i) {
     const std::vector<NoiseRow> rows = rows_of_a_run(rng);
     significant +=
         estimate_bias_wander(rows, design(rows), draw(rows, {}, rng)).significant ? 1 : 0;
   }
   // Nominal P = 1e-3 (chi2 with 4 parameters at 18.5; at the boundary q = 0 it is less).
-  EXPECT_LE(significant, 1 + 2 / kScale);
+  EXPECT_LE(significant, 3);
 }
 
 TEST(NoiseModel, WanderOfTheSizeOfTheWhiteErrorIsFoundAndSized) {
+  STANDCAL_STATISTICAL_TEST();
   std::mt19937_64 rng(8);
   const GaussMarkovNoise truth{Vec3(4e-6, 4e-6, 4e-6), 300};
   int significant = 0;
   double log_ratio_sum = 0;
-  constexpr int kTrials = 40 / kScale;
+  constexpr int kTrials = 40;
   for (int i = 0; i < kTrials; ++i) {
     const std::vector<NoiseRow> rows = rows_of_a_run(rng);
     const NoiseEstimate e = estimate_bias_wander(rows, design(rows), draw(rows, truth, rng));

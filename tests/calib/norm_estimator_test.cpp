@@ -18,7 +18,7 @@ namespace {
 
 using Vec9 = Eigen::Matrix<double, 9, 1>;
 
-const std::string kXsens = std::string(STANDCAL_TEST_DATA) + "/imu_tk_xsens/xsens_acc.mat";
+using test::kXsens;
 constexpr double kXsensG_mps2 = 9.81744;  // what imu_tk's test program uses (SOURCE.md)
 
 Vec9 as_vector(const NormCompensation& c) {

@@ -8,11 +8,12 @@
 #include <string>
 
 #include "calib/raw_input.hpp"
+#include "tests/calib/test_support.hpp"
 
 namespace standcal {
 namespace {
 
-const std::string kXsens = std::string(STANDCAL_TEST_DATA) + "/imu_tk_xsens/xsens_acc.mat";
+using test::kXsens;
 
 std::string file_text(const std::string& path) {
   std::ifstream in(path, std::ios::binary);

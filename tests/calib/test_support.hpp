@@ -1,5 +1,6 @@
 #pragma once
 // Shared helpers of the calib tests: simulate, average and fit in one call.
+#include <string>
 #include <vector>
 
 #include "calib/averaging.hpp"
@@ -7,6 +8,11 @@
 #include "calib/simulator.hpp"
 
 namespace standcal::test {
+
+#ifdef STANDCAL_TEST_DATA
+// imu_tk's Xsens recording, vendored with its licence (tests/calib/data/imu_tk_xsens/).
+inline const std::string kXsens = std::string(STANDCAL_TEST_DATA) + "/imu_tk_xsens/xsens_acc.mat";
+#endif
 
 // A truth with no noise at all: the estimators must then be exact up to model order.
 inline TruthModel noise_free(TruthModel t) {

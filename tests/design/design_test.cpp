@@ -11,6 +11,7 @@
 #include "calib/full_estimator.hpp"
 #include "calib/invariant_estimator.hpp"
 #include "tests/design/synthetic.hpp"
+#include "tests/support/statistical.hpp"
 
 namespace standcal {
 namespace {
@@ -128,14 +129,10 @@ void expect_scatter_matches_prediction(const Program& program, DesignModel model
   stand.levelling_x_rad = 20 * kArcsecToRad;
   stand.mounting_rad[0] = Vec3(30, -20, 10) * kArcsecToRad;
   const auto poses = poses_of(program);
-  const std::vector<PositionAverage> clean = testing::synthetic_averages(poses, unit, stand, sigma_g);
-#ifdef STANDCAL_SANITIZED
-  constexpr int kRuns = 150;  // each fit ~10x slower under ASan+UBSan: tolerance doubled below
-  constexpr double kTolerance = 0.2;
-#else
+  const std::vector<PositionAverage> clean =
+      testing::synthetic_averages(poses, unit, stand, sigma_g);
   constexpr int kRuns = 600;
   constexpr double kTolerance = 0.1;
-#endif
   std::mt19937_64 rng(77);
   std::normal_distribution<double> gauss(0, 1);
   std::array<std::vector<double>, kUnitParameterCount> estimates;
@@ -160,6 +157,7 @@ void expect_scatter_matches_prediction(const Program& program, DesignModel model
 // evaluate's prediction is for white noise: the estimators weight as white here (with the
 // default, estimated noise model they agree too, at the price of a REML fit per run).
 TEST(DesignEvaluate, PredictedSigmaMatchesInvariantEstimatorScatter) {
+  STANDCAL_STATISTICAL_TEST();
   expect_scatter_matches_prediction(
       paper9(), DesignModel::invariant,
       [](const std::vector<PositionAverage>& a) {
@@ -169,6 +167,7 @@ TEST(DesignEvaluate, PredictedSigmaMatchesInvariantEstimatorScatter) {
 }
 
 TEST(DesignEvaluate, PredictedSigmaMatchesFullEstimatorScatter) {
+  STANDCAL_STATISTICAL_TEST();
   expect_scatter_matches_prediction(
       paper9(), DesignModel::full,
       [](const std::vector<PositionAverage>& a) { return fit_full_vector(a, white_noise_weighting()); },
