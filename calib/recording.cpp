@@ -15,6 +15,7 @@
 #include <stdexcept>
 #include <unordered_set>
 
+#include "calib/atomic_file.hpp"
 #include "calib/decimal.hpp"
 #include "calib/line_source.hpp"
 #include "calib/text.hpp"
@@ -602,24 +603,8 @@ void write_recording(const Recording& rec, const std::string& path) {
   std::string text = format_recording_header(rec);
   text.reserve(text.size() + rec.samples.size() * 110);
   append_recording_rows(text, rec.columns, rec.samples);
-  std::error_code ec;
-  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec)) {
-    // A device or pipe (-o /dev/null, -o /dev/stdout): write into it; renaming a temporary
-    // file over it would replace the device node with a plain file.
-    std::ofstream out(path, std::ios::binary);
-    if (!(out << text) || !out.flush()) throw std::runtime_error(path + ": could not write the recording");
-    return;
-  }
-  const std::string tmp = path + ".tmp";
-  std::FILE* f = std::fopen(tmp.c_str(), "wb");
-  if (!f) throw std::runtime_error(path + ": cannot create recording file");
-  const bool written = std::fwrite(text.data(), 1, text.size(), f) == text.size() &&
-                       std::fflush(f) == 0 && ::fsync(fileno(f)) == 0;
-  std::fclose(f);
-  if (!written || std::rename(tmp.c_str(), path.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    throw std::runtime_error(path + ": could not write the recording (disk full?)");
-  }
+  // -o /dev/null or /dev/stdout is written in place (atomic_file.hpp).
+  write_file_atomically(path, text, "the recording");
 }
 
 }  // namespace standcal

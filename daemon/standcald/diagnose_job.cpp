@@ -40,7 +40,7 @@ void save_beside_recording(json& out, const std::string& recording_path) {
   const std::string saved = (std::filesystem::path(recording_path).parent_path() / "diagnosis.json").string();
   try {
     out["saved_path"] = saved;
-    write_file_atomically(saved, out.dump(2) + "\n");
+    write_state_file(saved, out.dump(2) + "\n");
   } catch (const std::exception& e) {
     out["saved_path"] = nullptr;
     out["save_error"] = e.what();

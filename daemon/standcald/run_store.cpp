@@ -16,6 +16,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "calib/atomic_file.hpp"
 #include "daemon/standcald/errno_text.hpp"
 #include "protocol/jsonrpc/methods.hpp"
 #include "protocol/jsonrpc/run_id.hpp"
@@ -26,14 +27,6 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 namespace {
-
-void fsync_dir(const std::string& dir) {
-  const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (fd >= 0) {
-    ::fsync(fd);
-    ::close(fd);
-  }
-}
 
 void write_all(int fd, const std::string& text, const std::string& path) {
   std::size_t off = 0;
@@ -110,19 +103,8 @@ std::string unit_index_file_name(const std::string& unit_serial) {
   return out + ".json";
 }
 
-void write_file_atomically(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp";
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0640);
-  if (fd < 0) throw std::runtime_error("cannot create " + tmp + ": " + errno_text());
-  try {
-    write_all(fd, text, tmp);
-  } catch (...) {
-    ::close(fd);
-    throw;
-  }
-  if (::fsync(fd) != 0 || ::close(fd) != 0) throw std::runtime_error("cannot flush " + tmp + ": " + errno_text());
-  if (::rename(tmp.c_str(), path.c_str()) != 0) throw std::runtime_error("cannot rename " + tmp + ": " + errno_text());
-  fsync_dir(fs::path(path).parent_path().string());
+void write_state_file(const std::string& path, const std::string& text) {
+  write_file_atomically(path, text, "the run state", 0640);
 }
 
 namespace {
@@ -226,7 +208,7 @@ RunStore::RunStore(std::string state_dir) : state_dir_(std::move(state_dir)) {
     if (r.state == st::running || r.state == st::paused || r.state == st::waiting_operator) {
       r.state = st::interrupted;
       r.reason = "standcald stopped during the run (crash, kill or power loss); run.resume continues it";
-      write_file_atomically(run_dir(r.run_id) + "/run.json", to_json(r).dump(2) + "\n");
+      write_state_file(run_dir(r.run_id) + "/run.json", to_json(r).dump(2) + "\n");
     }
     runs_.push_back(summary_of(r));
   }
@@ -277,7 +259,7 @@ void RunStore::save(const RunRecord& r) {
   // Held in full: this run, and runs whose newest state only memory has.
   std::erase_if(held_, [&](const HeldRecord& h) { return h.on_disk || h.record.run_id == r.run_id; });
   held_.push_back(HeldRecord{r, false});
-  write_file_atomically(run_dir(r.run_id) + "/run.json", to_json(r).dump(2) + "\n");
+  write_state_file(run_dir(r.run_id) + "/run.json", to_json(r).dump(2) + "\n");
   held_.back().on_disk = true;
   if (is_new) write_unit_index(r.unit_serial);
 }
@@ -289,7 +271,7 @@ void RunStore::write_unit_index(const std::string& unit_serial) const {
   }
   const std::string path =
       (fs::path(state_dir_) / "units" / unit_index_file_name(unit_serial)).string();
-  write_file_atomically(path, json{{"unit_serial", unit_serial}, {"runs", ids}}.dump(2) + "\n");
+  write_state_file(path, json{{"unit_serial", unit_serial}, {"runs", ids}}.dump(2) + "\n");
 }
 
 std::optional<RunRecord> RunStore::get(const std::string& run_id) const {
@@ -395,7 +377,7 @@ RecordingFile RecordingFile::create(const std::string& path, const std::string& 
   if (fd < 0) throw std::runtime_error("cannot create the recording " + path + ": " + errno_text());
   RecordingFile f(path, fd, 0);
   f.append_durably(header);
-  fsync_dir(fs::path(path).parent_path().string());
+  fsync_directory(fs::path(path).parent_path().string());
   return f;
 }
 

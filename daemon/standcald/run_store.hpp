@@ -85,8 +85,9 @@ RunRecord run_record_from_json(const nlohmann::json& j);
 // "AU,1" and "AU\t1" used to) and a plain serial keeps its old name ("AU-0042.json").
 std::string unit_index_file_name(const std::string& unit_serial);
 
-// Writes `text` to `path` atomically: temporary file, fsync, rename, fsync of the folder.
-void write_file_atomically(const std::string& path, const std::string& text);
+// Writes a file of the state directory whole or not at all, mode 0640
+// (calib/atomic_file.hpp: temporary file, fsync, rename, fsync of the directory).
+void write_state_file(const std::string& path, const std::string& text);
 
 // One standcald per state directory: an exclusive flock on STATE/standcald.lock, held
 // until the process ends (the kernel drops it even after SIGKILL, so a crash leaves no

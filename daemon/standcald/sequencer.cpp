@@ -1389,7 +1389,7 @@ void Sequencer::finish_with_fit(RunRecord& record) {
                                 {"ended_utc", record.ended_utc}};
   result["recording_warnings"] = digest.recording.warnings;
   const std::string path = store_.run_dir(record.run_id) + "/result.json";
-  write_file_atomically(path, result.dump(2) + "\n");
+  write_state_file(path, result.dump(2) + "\n");
   record.result_path = path;
   set_state(record, st::done);
 }

@@ -14,6 +14,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "calib/atomic_file.hpp"
+
 namespace standcal::plot {
 namespace {
 
@@ -448,23 +450,7 @@ std::string render_svg_inline(const Figure& figure, const std::string& id_prefix
 }
 
 void write_svg(const Figure& figure, const std::filesystem::path& path) {
-  const std::string svg = render_svg(figure);
-  std::error_code not_there;
-  if (std::filesystem::exists(path, not_there) && !std::filesystem::is_regular_file(path, not_there)) {
-    // A device or pipe (/dev/stdout): write into it; a rename would replace the node.
-    std::ofstream out(path, std::ios::binary);
-    if (!(out << svg) || !out.flush()) throw std::runtime_error("plot: cannot write " + path.string());
-    return;
-  }
-  const std::filesystem::path partial = path.string() + ".partial";
-  {
-    std::ofstream out(partial, std::ios::binary | std::ios::trunc);
-    out << svg;
-    if (!out.flush()) throw std::runtime_error("plot: cannot write " + partial.string());
-  }
-  std::error_code ec;
-  std::filesystem::rename(partial, path, ec);
-  if (ec) throw std::runtime_error("plot: cannot replace " + path.string() + ": " + ec.message());
+  write_file_atomically(path.string(), render_svg(figure), "the figure");
 }
 
 }  // namespace standcal::plot

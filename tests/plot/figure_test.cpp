@@ -92,7 +92,7 @@ TEST(Figure, WriteSvgReplacesTheFile) {
   std::stringstream text;
   text << in.rdbuf();
   EXPECT_NE(text.str().find("<svg"), std::string::npos);
-  EXPECT_FALSE(std::filesystem::exists(path.string() + ".partial"));
+  EXPECT_FALSE(std::filesystem::exists(path.string() + ".tmp"));
   std::filesystem::remove(path);
 }
 

@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "calib/atomic_file.hpp"
 #include "protocol/jsonrpc/paths.hpp"
 #include "protocol/jsonrpc/run_id.hpp"
 #include "report/certificate/certificate.hpp"
@@ -40,21 +41,7 @@ void write_certificate(const std::string& path, const std::string& html) {
   const auto status = std::filesystem::status(path, ec);
   if (std::filesystem::is_directory(status))
     throw std::runtime_error(path + ": is a directory; name the certificate file (.html)");
-  if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status)) {
-    std::ofstream out(path, std::ios::binary);
-    return write_in_place(out, path, html);
-  }
-  const std::string partial = path + ".partial";
-  {
-    std::ofstream out(partial, std::ios::binary);
-    write_in_place(out, path, html);
-  }
-  std::filesystem::rename(partial, path, ec);
-  if (ec) {
-    const std::string why = ec.message();
-    std::filesystem::remove(partial, ec);
-    throw std::runtime_error(path + ": could not write the certificate (" + why + ")");
-  }
+  write_file_atomically(path, html, "the certificate");
 }
 
 // The ILAC-G8 verdict as a bench script sees it (protocol/jsonrpc/exit_codes.hpp).
