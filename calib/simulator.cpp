@@ -8,6 +8,7 @@
 #include <set>
 #include <stdexcept>
 
+#include "calib/atomic_file.hpp"
 #include "calib/averaging.hpp"
 
 namespace standcal {
@@ -343,9 +344,7 @@ TruthModel load_truth(const std::string& path) {
 }
 
 void save_truth(const TruthModel& truth, const std::string& path) {
-  std::ofstream out(path);
-  out << truth_to_json(truth).dump(2) << "\n";
-  if (!out) throw std::runtime_error(path + ": could not write the model file");
+  write_file_atomically(path, truth_to_json(truth).dump(2) + "\n", "the model file");
 }
 
 UnitSimulator::UnitSimulator(const TruthModel& truth, std::uint64_t seed, double sample_rate_hz)

@@ -1,11 +1,13 @@
 // The offline CLI as a user runs it: real process, real files.
 #include <gtest/gtest.h>
 
-
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "tests/support/command.hpp"
 
@@ -229,3 +231,27 @@ TEST_F(Cli, IntegersThatCouldBeAnyUnitAskForUnits) {
 }
 
 }  // namespace
+
+// A full disk (/dev/full: every write fails with ENOSPC) is an error naming the file. The
+// outputs went through std::ofstream, checked before it closed: a text shorter than its
+// buffer was written only at the close, unchecked, so `noise --curve /dev/full` exited 0
+// (a longer one, like the model file, failed at the check). Now every output goes through
+// write_file_atomically. (--compensation takes a stem, FILE.json and FILE.csv: not a device.)
+TEST_F(Cli, AFullDiskIsAnErrorForEveryOutput) {
+  ASSERT_EQ(
+      run_cli("simulate --program paper9 --seed 5 --dwell-s 10 -o " + path("r.csv")).exit_code, 0);
+  const std::vector<std::pair<std::string, std::string>> outputs{
+      {"simulate --program paper9 --seed 5 --dwell-s 10 -o " + path("s.csv") + " --truth /dev/full",
+       "/dev/full: could not write the model file (write: No space left on device)"},
+      {"simulate --program paper9 --seed 5 --dwell-s 10 -o /dev/full",
+       "/dev/full: could not write the recording (write: No space left on device)"},
+      {"design optimize --positions 9 --structure paper -o /dev/full",
+       "/dev/full: could not write the programme (write: No space left on device)"},
+      {"noise " + path("r.csv") + " --curve /dev/full",
+       "/dev/full: could not write the Allan curve (write: No space left on device)"}};
+  for (const auto& [args, message] : outputs) {
+    const CliRun r = run_cli(args);
+    EXPECT_EQ(r.exit_code, 1) << args << "\n" << r.output;
+    EXPECT_NE(r.output.find(message), std::string::npos) << args << "\n" << r.output;
+  }
+}

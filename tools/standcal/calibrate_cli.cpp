@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "calib/allan.hpp"
+#include "calib/atomic_file.hpp"
 #include "calib/averaging.hpp"
 #include "calib/full_estimator.hpp"
 #include "calib/invariant_estimator.hpp"
@@ -49,12 +50,6 @@ struct FitOptions {
   double bias_instability_tau_s = 300;
 };
 
-void write_text_file(const std::string& path, const std::string& text) {
-  std::ofstream out(path);
-  out << text;
-  if (!out) throw std::runtime_error(path + ": could not write");
-}
-
 void run_simulate(const SimulateOptions& o) {
   SimulationRequest req;
   req.program = load_program(o.program, o.alpha1_start_deg);
@@ -95,8 +90,8 @@ void write_compensation(const FitResult& fit, double g_mps2, const std::string& 
   const Compensation c = make_compensation(fit, g_mps2);
   std::string stem = path;
   if (stem.size() > 5 && stem.substr(stem.size() - 5) == ".json") stem.resize(stem.size() - 5);
-  write_text_file(stem + ".json", compensation_to_json(c).dump(2) + "\n");
-  write_text_file(stem + ".csv", compensation_to_csv(c));
+  write_file_atomically(stem + ".json", compensation_to_json(c).dump(2) + "\n", "the compensation");
+  write_file_atomically(stem + ".csv", compensation_to_csv(c), "the compensation");
   std::fprintf(stderr, "compensation written to %s.json and %s.csv\n", stem.c_str(), stem.c_str());
 }
 
@@ -112,7 +107,8 @@ void run_norm_fit(const FitOptions& o, const RawInput& in) {
   if (!o.compensation.empty()) {
     std::string path = o.compensation;
     if (!path.ends_with(".json")) path += ".json";
-    write_text_file(path, norm_compensation_to_json(c.fit, in).dump(2) + "\n");
+    write_file_atomically(path, norm_compensation_to_json(c.fit, in).dump(2) + "\n",
+                          "the compensation");
     std::fprintf(stderr, "compensation written to %s\n", path.c_str());
   }
 }

@@ -13,6 +13,7 @@
 #include <stdexcept>
 
 #include "calib/allan.hpp"
+#include "calib/atomic_file.hpp"
 #include "calib/design.hpp"
 #include "calib/programs.hpp"
 #include "calib/recording.hpp"
@@ -312,9 +313,7 @@ void run_optimize(const OptimizeCliOptions& o) {
     Program timed = best.program;
     for (std::size_t k = 0; k < timed.positions.size() && k < dwell.allocated.dwell_s.size(); ++k)
       timed.positions[k].dwell_s = dwell.allocated.dwell_s[k];
-    std::ofstream out(o.program_out);
-    out << program_to_json(timed).dump(2) << "\n";
-    if (!out) throw std::runtime_error(o.program_out + ": could not write the programme");
+    write_file_atomically(o.program_out, program_to_json(timed).dump(2) + "\n", "the programme");
   }
   if (o.flags.json) {
     json positions = json::array();
@@ -403,12 +402,12 @@ void run_noise(const NoiseOptions& o) {
   const auto& curves = allan.curves;
   const auto& figures = allan.figures;
   if (!o.curve_out.empty()) {
-    std::ofstream out(o.curve_out);
+    std::ostringstream out;
     out << "tau_s,adev_x_ug,adev_y_ug,adev_z_ug\n";
     for (std::size_t i = 0; i < curves[0].size(); ++i)
       out << curves[0][i].tau_s << "," << curves[0][i].deviation << "," << curves[1][i].deviation << ","
           << curves[2][i].deviation << "\n";
-    if (!out) throw std::runtime_error(o.curve_out + ": could not write the Allan curve");
+    write_file_atomically(o.curve_out, out.str(), "the Allan curve");
   }
   if (!o.plot_out.empty()) {
     std::vector<report::AxisAllan> axes;

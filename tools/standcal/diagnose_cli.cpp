@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
+#include "calib/atomic_file.hpp"
 #include "calib/diagnosis/diagnosis.hpp"
 #include "calib/norm_calibration.hpp"
 #include "calib/raw_input.hpp"
@@ -38,12 +39,6 @@ DiagnoseOptions diagnose_options(const DiagnoseCliOptions& o) {
   if (o.bias_instability_ug > 0)
     d.specified_wander = {Vec3::Constant(o.bias_instability_ug * kUg), o.bias_instability_tau_s};
   return d;
-}
-
-void write_file(const std::string& path, const std::string& text, const char* what) {
-  std::ofstream out(path);
-  out << text;
-  if (!out) throw std::runtime_error(path + ": could not write the " + what);
 }
 
 // A stand recording is diagnosed as it is; one without angles through the norm fit.
@@ -82,7 +77,7 @@ void run_diagnose(const DiagnoseCliOptions& o) {
   const auto [d, rec] = diagnose_input(o);
   set_exit_code(diagnosis_exit_code(d.verdict));
   if (!o.report.empty()) {
-    write_file(o.report, report::diagnosis_html(d, rec), "report");
+    write_file_atomically(o.report, report::diagnosis_html(d, rec), "the report");
     std::fprintf(stderr, "report written to %s\n", o.report.c_str());
   }
   if (!o.model_out.empty()) {

@@ -13,6 +13,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "calib/atomic_file.hpp"
 #include "calib/averaging.hpp"
 #include "calib/full_estimator.hpp"
 #include "calib/invariant_estimator.hpp"
@@ -261,8 +262,7 @@ report::UnitHistory history_for_plot(const records::UnitHistory& h) {
 
 void write_history_page(const records::UnitHistory& h, const std::string& path) {
   const std::string html = report::render_history_html(history_for_plot(h));
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!(out << html) || !out.flush()) throw std::runtime_error("cannot write the history page " + path);
+  write_file_atomically(path, html, "the history page");
 }
 
 void add_history_command(CLI::App& app) {

@@ -12,6 +12,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "calib/atomic_file.hpp"
 #include "calib/averaging.hpp"
 #include "calib/invariant_estimator.hpp"
 #include "calib/recording.hpp"
@@ -227,9 +228,7 @@ void run_diagnose(const DaemonOptions& o, const DiagnoseArgs& a) {
   json d = call(c, "run.diagnose", params, std::chrono::minutes(5));
   if (!a.report.empty()) {
     if (!d["report_html"].is_string()) throw std::runtime_error("run " + a.run_id + ": " + d.value("report_note", "no report"));
-    std::ofstream out(a.report);
-    out << d["report_html"].get<std::string>();
-    if (!out) throw std::runtime_error(a.report + ": could not write the report");
+    write_file_atomically(a.report, d["report_html"].get<std::string>(), "the report");
     std::fprintf(stderr, "report written to %s\n", a.report.c_str());
   }
   d.erase("report_html");
