@@ -9,6 +9,10 @@
 
 namespace standcal {
 
+// Writes all of `text` to `fd`, again after EINTR and short writes; false, with errno
+// set, on an error.
+bool write_fully(int fd, std::string_view text);
+
 // fsyncs a directory, so that a file created or renamed in it survives a power cut.
 // Best effort: a directory that cannot be opened (no permission) is left as it is.
 void fsync_directory(const std::string& dir);

@@ -29,15 +29,8 @@ using nlohmann::json;
 namespace {
 
 void write_all(int fd, const std::string& text, const std::string& path) {
-  std::size_t off = 0;
-  while (off < text.size()) {
-    const ssize_t n = ::write(fd, text.data() + off, text.size() - off);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      throw std::runtime_error("cannot write " + path + ": " + errno_text());
-    }
-    off += static_cast<std::size_t>(n);
-  }
+  if (!write_fully(fd, text))
+    throw std::runtime_error("cannot write " + path + ": " + errno_text());
 }
 
 const std::string& id_of(const RunSummary& r) { return r.run_id; }

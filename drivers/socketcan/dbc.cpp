@@ -116,22 +116,25 @@ class DbcParser {
 
  private:
   Status statement(std::string_view line, int line_no) {
-    const bool parsed_here = is_statement(line, "BO_") || is_statement(line, "SG_") ||
-                             is_statement(line, "SIG_VALTYPE_");
+    using Reader = Status (DbcParser::*)(const std::string&, int);
+    const Reader read = is_statement(line, "BO_")            ? &DbcParser::message
+                        : is_statement(line, "SG_")          ? &DbcParser::signal
+                        : is_statement(line, "SIG_VALTYPE_") ? &DbcParser::value_type
+                                                             : nullptr;
+    if (read == nullptr) {
+      // Any other statement ends the message's signal list.
+      if (!line.empty()) in_message_ = false;
+      return Status::ok();
+    }
     // std::regex recurses per character: a bounded line keeps a hostile file from
     // exhausting the stack (real BO_ and SG_ lines are well under a hundred characters
     // plus their receivers).
-    if (parsed_here && line.size() > kMaxStatementChars)
+    if (line.size() > kMaxStatementChars)
       return dbc_error(source_, line_no,
                        "line is " + std::to_string(line.size()) + " characters long; a " +
                            std::string(line.substr(0, line.find(' '))) + " line may have at most " +
                            std::to_string(kMaxStatementChars));
-    if (is_statement(line, "BO_")) return message(std::string(line), line_no);
-    if (is_statement(line, "SG_")) return signal(std::string(line), line_no);
-    if (is_statement(line, "SIG_VALTYPE_")) return value_type(std::string(line), line_no);
-    // Any other statement ends the message's signal list.
-    if (!line.empty()) in_message_ = false;
-    return Status::ok();
+    return (this->*read)(std::string(line), line_no);
   }
 
   Status message(const std::string& line, int line_no) {

@@ -230,8 +230,6 @@ TEST_F(Cli, IntegersThatCouldBeAnyUnitAskForUnits) {
   EXPECT_NE(fit.output.find("pass --units counts|g|mps2"), std::string::npos) << fit.output;
 }
 
-}  // namespace
-
 // A full disk (/dev/full: every write fails with ENOSPC) is an error naming the file. The
 // outputs went through std::ofstream, checked before it closed: a text shorter than its
 // buffer was written only at the close, unchecked, so `noise --curve /dev/full` exited 0
@@ -255,3 +253,5 @@ TEST_F(Cli, AFullDiskIsAnErrorForEveryOutput) {
     EXPECT_NE(r.output.find(message), std::string::npos) << args << "\n" << r.output;
   }
 }
+
+}  // namespace

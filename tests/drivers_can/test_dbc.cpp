@@ -55,7 +55,9 @@ void expect_same_layout(const FrameLayout& a, const FrameLayout& b) {
     EXPECT_EQ(v.counter, 77U);
     for (std::size_t i = 0; i < 3; ++i)
       if (v.force_mask & (1U << i)) decoded[i] = v.force_mps2[i];
-    if (v.has_temperature) EXPECT_NEAR(v.temperature_c, 23.45, 1e-9);
+    if (v.has_temperature) {
+      EXPECT_NEAR(v.temperature_c, 23.45, 1e-9);
+    }
   }
   for (std::size_t i = 0; i < 3; ++i) EXPECT_NEAR(decoded[i], force[i], 1e-5);
 }

@@ -149,8 +149,8 @@ std::string tcp_endpoint(const std::string& option_value) {
   return "tcp://" + host_port;
 }
 
-std::string daemon_endpoint(const DaemonOptions& given) {
-  const DaemonOptions o = effective(given);
+// The endpoint of options the global ones are already merged into (effective()).
+static std::string endpoint_of(const DaemonOptions& o) {
   if (!o.tcp.empty()) return tcp_endpoint(o.tcp);
   if (!o.socket.empty()) return o.socket;
   if (!o.config.empty()) {
@@ -167,6 +167,8 @@ std::string daemon_endpoint(const DaemonOptions& given) {
   if (const char* env = std::getenv("STANDCAL_SOCKET")) return env;
   return paths::kSocket;
 }
+
+std::string daemon_endpoint(const DaemonOptions& given) { return endpoint_of(effective(given)); }
 
 std::string read_token_file(const std::string& path) {
   const std::string text = read_checked_token_file(path);
@@ -185,7 +187,7 @@ std::unique_ptr<protocol::Client> connect_daemon(const DaemonOptions& given,
   // Check the endpoint and read the token before connecting: a bad file must not cost a
   // connection, and a bad --tcp must not send the token anywhere.
   const DaemonOptions o = effective(given);
-  const std::string endpoint = daemon_endpoint(o);
+  const std::string endpoint = endpoint_of(o);
   const std::string token = o.token_file.empty() ? std::string() : read_token_file(o.token_file);
   auto client = std::make_unique<protocol::Client>(endpoint, timeout);
   if (token.empty()) return client;
