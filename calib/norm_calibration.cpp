@@ -152,8 +152,7 @@ json norm_compensation_to_json(const NormFit& f, const RawInput& in) {
     for (int k = 0; k < 9; ++k) row.push_back(f.covariance(i, k));
     cov.push_back(row);
   }
-  return {{"format", "standcal-compensation/1"},
-          {"equation", "f = M * (raw - b), M = T * K, T unit upper-triangular"},
+  return {{"equation", "f = M * (raw - b), M = T * K, T unit upper-triangular"},
           {"source", in.source},
           {"input_units", std::string(to_string(in.units))},
           {"output_units", "m/s^2"},

@@ -53,7 +53,8 @@ NormCalibration calibrate_without_angles(const RawInput& input,
                                          const NormCalibrationOptions& options = {});
 
 nlohmann::json norm_calibration_to_json(const NormCalibration& c, const RawInput& input);
-// The compensation an INS (or a script) loads: f = M (raw - b), with sigmas and covariance.
+// The fit's compensation in its own terms (bias, scale, misalignment, their sigmas and
+// covariance), for the fit JSON; the file an INS loads is calib/compensation.hpp's.
 nlohmann::json norm_compensation_to_json(const NormFit& fit, const RawInput& input);
 std::string format_norm_report(const NormCalibration& c, const RawInput& input);
 

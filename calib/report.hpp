@@ -1,6 +1,6 @@
 #pragma once
 // The fit as the stable JSON of `standcal fit --json` and as the text report a bench
-// engineer reads; plus the compensation the INS loads.
+// engineer reads (the compensation the INS loads is calib/compensation.hpp).
 #include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <vector>
@@ -31,17 +31,5 @@ nlohmann::json fit_to_json(const FitResult& fit);
 // `noise` of the fit and diagnosis JSON: the noise model a result was weighted with.
 nlohmann::json noise_finding_json(const NoiseFinding& n);
 std::string format_report(const FitResult& fit, const ReportContext& context);
-
-// f = M (f_raw - b): what the INS loads to turn raw outputs into calibrated specific force.
-struct Compensation {
-  Vec3 bias_mps2 = Vec3::Zero();
-  Mat3 matrix = Mat3::Identity();
-  double g_local_mps2 = kStandardGravity_mps2;
-  std::vector<std::string> notes;
-};
-
-Compensation make_compensation(const FitResult& fit, double g_local_mps2);
-nlohmann::json compensation_to_json(const Compensation& c);
-std::string compensation_to_csv(const Compensation& c);
 
 }  // namespace standcal

@@ -12,6 +12,8 @@ packages=(
   # file says where units, sysusers.d and tmpfiles.d go (below for Debian 13).
   systemd
   libplplot-dev libsqlite3-dev libpq-dev libxml2-dev
+  # zlib's CRC-32: the compensation file's checksum, and the C example that checks it.
+  zlib1g-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   socat
   # Man pages (docs/CMakeLists.txt): standcal(1) and standcald(8) from --help-all,

@@ -12,6 +12,7 @@
 
 #include "calib/allan.hpp"
 #include "calib/averaging.hpp"
+#include "calib/compensation.hpp"
 #include "calib/full_estimator.hpp"
 #include "calib/identifiability.hpp"
 #include "calib/invariant_estimator.hpp"
@@ -1337,19 +1338,43 @@ namespace {
 
 // The paper's joint fit of a finished run. A programme that cannot determine the unit by
 // itself (a follow-up of proposed positions, a user programme of a few poses) still ends
-// `done`: its recording is whole, and the result says why there are no parameters.
-json joint_fit_result(const std::vector<PositionAverage>& averages, const FitNoiseOptions& noise,
-                      const std::optional<AllanFinding>& allan) {
+// `done`: its recording is whole, and the result says why there are no parameters (and
+// there is no compensation).
+struct JointFit {
+  json result;
+  std::optional<FitResult> fit;
+};
+
+JointFit joint_fit(const std::vector<PositionAverage>& averages, const FitNoiseOptions& noise,
+                   const std::optional<AllanFinding>& allan) {
   try {
     FitResult fit = fit_invariant_joint(averages, noise);
     fit.noise.allan = allan;
-    return fit_to_json(fit);
+    return {fit_to_json(fit), std::move(fit)};
   } catch (const CannotFit& e) {
-    return json{{"estimator", "joint"},
-                {"positions", averages.size()},
-                {"parameters", json::object()},
-                {"fit_error", e.what()}};
+    return {json{{"estimator", "joint"},
+                 {"positions", averages.size()},
+                 {"parameters", json::object()},
+                 {"fit_error", e.what()}},
+            std::nullopt};
   }
+}
+
+// The compensation of the run's joint fit, with the run's identity: what an INS loads.
+Compensation run_compensation(const FitResult& fit, const RunRecord& record,
+                              const std::vector<PositionAverage>& averages) {
+  Compensation c = make_compensation(fit, record.g_local_mps2);
+  CompensationIdentity& id = c.identity;
+  id.unit_serial = record.unit_serial;
+  id.unit_type = record.unit_type;
+  id.run_id = record.run_id;
+  id.stand_id = record.stand_id;
+  id.calibrated_utc = record.ended_utc;
+  id.source = record.recording_path;
+  id.g_source = record.g_source;
+  id.temperature_reference_c = mean_dwell_temperature_c(averages);
+  if (id.temperature_reference_c) id.temperature_how = "mean over the dwells";
+  return c;
 }
 
 }  // namespace
@@ -1363,7 +1388,8 @@ void Sequencer::finish_with_fit(RunRecord& record) {
   const std::optional<AllanFinding> allan = digest.allan_finding();
   FitNoiseOptions noise;
   noise.specified = unit_bias_wander();
-  json result = joint_fit_result(averages, noise, allan);
+  JointFit joint = joint_fit(averages, noise, allan);
+  json& result = joint.result;
   try {
     FullFitOptions full_options;
     full_options.noise = noise;
@@ -1388,7 +1414,16 @@ void Sequencer::finish_with_fit(RunRecord& record) {
                                 {"started_utc", record.started_utc},
                                 {"ended_utc", record.ended_utc}};
   result["recording_warnings"] = digest.recording.warnings;
-  const std::string path = store_.run_dir(record.run_id) + "/result.json";
+  const std::string dir = store_.run_dir(record.run_id);
+  if (joint.fit) {
+    // The files first: a result that names a compensation has it on disk.
+    const Compensation c = run_compensation(*joint.fit, record, averages);
+    result["compensation"] = compensation_to_json(c);
+    write_state_file(dir + "/compensation.json", result["compensation"].dump(2) + "\n");
+    write_state_file(dir + "/compensation.csv",
+                     compensation_to_csv(compensation_from_json(result["compensation"])));
+  }
+  const std::string path = dir + "/result.json";
   write_state_file(path, result.dump(2) + "\n");
   record.result_path = path;
   set_state(record, st::done);

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "calib/compensation.hpp"
 #include "calib/fit_result.hpp"
 #include "calib/position_average.hpp"
 #include "calib/report.hpp"

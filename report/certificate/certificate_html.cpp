@@ -184,7 +184,7 @@ std::string compensation_section(const CertificateInput& in) {
                     "unit's raw outputs f<sub>raw</sub> (m/s², converted with the nominal scale factors) into "
                     "corrected specific force with <b>f = M · (f<sub>raw</sub> − b)</b>:</p>\n"
                     "<table id=\"compensation\">\n<tr><th></th><th>x</th><th>y</th><th>z</th></tr>\n<tr><th>b (m/s²)</th>";
-  for (int i = 0; i < 3; ++i) out += "<td class=\"num\">" + fixed(c.bias_mps2[i], 9, true) + "</td>";
+  for (int i = 0; i < 3; ++i) out += "<td class=\"num\">" + fixed(c.bias[i], 9, true) + "</td>";
   out += "</tr>\n";
   for (int r = 0; r < 3; ++r) {
     out += "<tr><th>M row " + std::to_string(r + 1) + "</th>";

@@ -122,6 +122,21 @@ void note_missing_traceability(CertificateInput& in) {
     if (value->empty()) in.warnings.push_back(std::string("the ") + name + " is not recorded for this calibration");
 }
 
+CompensationIdentity compensation_identity(const CertificateTraceability& t,
+                                           const std::vector<PositionAverage>& positions) {
+  CompensationIdentity id;
+  id.unit_serial = t.unit_serial;
+  id.unit_type = t.unit_type;
+  id.run_id = t.run_id;
+  id.stand_id = t.stand_id;
+  id.calibrated_utc = t.ended_utc;
+  id.source = t.recording_path;
+  id.g_source = t.g_source;
+  id.temperature_reference_c = mean_dwell_temperature_c(positions);
+  if (id.temperature_reference_c) id.temperature_how = "mean over the dwells";
+  return id;
+}
+
 }  // namespace
 
 CertificateDiagnosis certificate_diagnosis_from_json(const json& doc, const std::string& origin) {
@@ -165,6 +180,7 @@ CertificateInput prepare_certificate(const CertificateRequest& req) {
   if (req.method == "full" && !in.full) throw std::runtime_error("--method full: the full-vector fit failed");
   in.fit = req.method == "full" ? *in.full : *in.invariant;
   in.compensation = make_compensation(in.fit, in.trace.g_local_mps2);
+  in.compensation.identity = compensation_identity(in.trace, in.positions);
 
   if (!req.limits_path.empty()) {
     const records::LimitsConfig limits = records::load_limits(req.limits_path);

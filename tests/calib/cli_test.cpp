@@ -76,8 +76,10 @@ TEST_F(Cli, TextReportSaysWhatABenchEngineerNeeds) {
   EXPECT_NE(fit.output.find("Zero redundancy"), std::string::npos);
   EXPECT_NE(fit.output.find("gamma13"), std::string::npos);
   const auto comp = nlohmann::json::parse(std::ifstream(path("comp.json")));
-  EXPECT_EQ(comp["equation"], "f = M * (f_raw - b)");
-  EXPECT_EQ(comp["matrix"].size(), 3u);
+  EXPECT_EQ(comp["equation"], "f = M * (raw - b)");
+  EXPECT_EQ(comp["calibration"]["estimator"], "paper-sequential");
+  EXPECT_EQ(comp["calibration"]["source"], path("r.csv"));
+  EXPECT_EQ(comp["matrix"]["rows"].size(), 3u);
   EXPECT_TRUE(fs::exists(path("comp.csv")));
 }
 
@@ -198,8 +200,11 @@ TEST_F(Cli, FitOfARecordingWithoutAnglesChoosesTheNormFit) {
   std::ifstream comp(path("comp.json"));
   ASSERT_TRUE(comp.good());
   const auto c = nlohmann::json::parse(comp);
-  EXPECT_EQ(c["format"], "standcal-compensation/1");
-  EXPECT_EQ(c["matrix"].size(), 3u);
+  EXPECT_EQ(c["format"], "standcal-compensation/2");
+  EXPECT_EQ(c["raw_units"], "counts");
+  EXPECT_EQ(c["matrix"]["rows"].size(), 3u);
+  EXPECT_EQ(c["covariance"]["values"].size(), 12u);
+  EXPECT_TRUE(fs::exists(path("comp.csv")));
 }
 
 TEST_F(Cli, AStandMethodOnARecordingWithoutAnglesIsAClearError) {

@@ -8,6 +8,7 @@
 #include "calib/allan.hpp"
 #include "calib/atomic_file.hpp"
 #include "calib/averaging.hpp"
+#include "calib/compensation.hpp"
 #include "calib/full_estimator.hpp"
 #include "calib/invariant_estimator.hpp"
 #include "calib/norm_calibration.hpp"
@@ -86,12 +87,8 @@ FitResult fit_with(const FitOptions& o, const std::string& method,
                            "' (joint, paper-sequential, full, norm)");
 }
 
-void write_compensation(const FitResult& fit, double g_mps2, const std::string& path) {
-  const Compensation c = make_compensation(fit, g_mps2);
-  std::string stem = path;
-  if (stem.size() > 5 && stem.substr(stem.size() - 5) == ".json") stem.resize(stem.size() - 5);
-  write_file_atomically(stem + ".json", compensation_to_json(c).dump(2) + "\n", "the compensation");
-  write_file_atomically(stem + ".csv", compensation_to_csv(c), "the compensation");
+void save_compensation(const Compensation& c, const std::string& path) {
+  const std::string stem = write_compensation(c, path);
   std::fprintf(stderr, "compensation written to %s.json and %s.csv\n", stem.c_str(), stem.c_str());
 }
 
@@ -104,13 +101,7 @@ void run_norm_fit(const FitOptions& o, const RawInput& in) {
   } else {
     std::cout << format_norm_report(c, in);
   }
-  if (!o.compensation.empty()) {
-    std::string path = o.compensation;
-    if (!path.ends_with(".json")) path += ".json";
-    write_file_atomically(path, norm_compensation_to_json(c.fit, in).dump(2) + "\n",
-                          "the compensation");
-    std::fprintf(stderr, "compensation written to %s\n", path.c_str());
-  }
+  if (!o.compensation.empty()) save_compensation(make_compensation(c.fit, in), o.compensation);
 }
 
 // The stand methods on averages and the header alone: from a streamed file, or from a
@@ -119,12 +110,14 @@ void fit_stand_averages(const FitOptions& o, const std::string& method, const Re
                         std::vector<PositionAverage> averages, std::optional<AllanFinding> allan) {
   FitResult fit = fit_with(o, method, averages);
   fit.noise.allan = std::move(allan);
+  Compensation compensation = make_compensation(fit, rec.g_local_mps2);
+  compensation.identity = compensation_identity(rec, averages);
   if (o.json) {
     std::cout << fit_to_json(fit).dump(2) << "\n";
   } else {
     std::cout << format_report(fit, report_context(rec, std::move(averages)));
   }
-  if (!o.compensation.empty()) write_compensation(fit, rec.g_local_mps2, o.compensation);
+  if (!o.compensation.empty()) save_compensation(compensation, o.compensation);
 }
 
 void run_fit(const FitOptions& o) {

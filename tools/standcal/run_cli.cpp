@@ -14,6 +14,7 @@
 
 #include "calib/atomic_file.hpp"
 #include "calib/averaging.hpp"
+#include "calib/compensation.hpp"
 #include "calib/invariant_estimator.hpp"
 #include "calib/recording.hpp"
 #include "calib/report.hpp"
@@ -102,6 +103,21 @@ void print_status(const json& s) {
   } else {
     std::printf("no run in progress\n");
   }
+}
+
+// The run's compensation, its checksum checked, as FILE.json and FILE.csv.
+void export_compensation(const json& result, const std::string& run_id, const std::string& path) {
+  if (!result.contains("compensation")) {
+    throw std::runtime_error(
+        "run " + run_id + " has no compensation: " +
+        result.value("fit_error", std::string("a standcald older than compensation files "
+                                              "fitted it; refit its recording with "
+                                              "`standcal fit RECORDING --compensation FILE`")));
+  }
+  const Compensation c = compensation_from_json(result["compensation"]);
+  const std::string stem = write_compensation(c, path);
+  std::fprintf(stderr, "compensation of run %s written to %s.json and %s.csv\n", run_id.c_str(),
+               stem.c_str(), stem.c_str());
 }
 
 void print_result(const json& r) {
@@ -423,13 +439,17 @@ void add_run(CLI::App& app) {
 
   auto ro = std::make_shared<DaemonOptions>();
   auto result_id = std::make_shared<std::string>();
+  auto compensation_path = std::make_shared<std::string>();
   auto* result = run->add_subcommand("result", "the calibration of a finished run");
   add_daemon_options(result, *ro);
   result->add_option("run_id", *result_id, "run id (see `standcal runs`)")->required();
-  result->callback([ro, result_id] {
+  result->add_option("--compensation", *compensation_path,
+                     "also write the run's compensation as FILE.json and FILE.csv");
+  result->callback([ro, result_id, compensation_path] {
     const auto connection = connect_daemon(*ro);
     protocol::Client& c = *connection;
     const json r = call(c, "run.result", {{"run_id", *result_id}});
+    if (!compensation_path->empty()) export_compensation(r, *result_id, *compensation_path);
     if (ro->json) {
       std::cout << r.dump(2) << "\n";
     } else {
