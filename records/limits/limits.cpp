@@ -167,7 +167,8 @@ std::string value_explanation(const ParameterConformity& c, double k) {
   }
 }
 
-ParameterConformity assess_parameter(const FitResult& fit, const UnitTypeLimits& limits, int p, double k) {
+ParameterConformity assess_parameter(const FitResult& fit, const UnitTypeLimits& limits, int p,
+                                     double k, const UncertaintyBudget* budget) {
   const ParameterEstimate& e = fit.unit[static_cast<std::size_t>(p)];
   ParameterConformity c;
   c.parameter = p;
@@ -185,6 +186,13 @@ ParameterConformity assess_parameter(const FitResult& fit, const UnitTypeLimits&
   c.value = *e.value * report_scale(p);
   c.sigma = std::abs(*e.sigma * report_scale(p));
   c.expanded_uncertainty = k * *c.sigma;
+  if (budget != nullptr && budget->parameters[static_cast<std::size_t>(p)].observable) {
+    // The GUM budget's combined u and U = k u_c, k from Student's t at its effective dof.
+    const ParameterBudget& b = budget->parameters[static_cast<std::size_t>(p)];
+    c.sigma = b.combined * report_scale(p);
+    c.expanded_uncertainty = b.expanded * report_scale(p);
+    k = b.coverage_factor;
+  }
   std::vector<std::string> parts;
   if (c.limit.max_abs) {
     c.value_decision = decide(*c.value, *c.expanded_uncertainty, *c.limit.max_abs);
@@ -308,15 +316,16 @@ LimitDecision decide(double value, double expanded_uncertainty, double limit) {
   return d;
 }
 
-ConformityReport assess_conformity(const FitResult& fit, const UnitTypeLimits& limits, double coverage_factor,
-                                   const std::string& limits_source) {
+ConformityReport assess_conformity(const FitResult& fit, const UnitTypeLimits& limits,
+                                   double coverage_factor, const std::string& limits_source,
+                                   const UncertaintyBudget* budget) {
   ConformityReport r;
   r.unit_type = limits.unit_type;
   r.limits_source = limits_source;
   r.coverage_factor = coverage_factor;
   Outcome overall = Outcome::no_limit;
   for (int p = 0; p < kUnitParameterCount; ++p) {
-    r.parameters.push_back(assess_parameter(fit, limits, p, coverage_factor));
+    r.parameters.push_back(assess_parameter(fit, limits, p, coverage_factor, budget));
     overall = combine(overall, r.parameters.back().outcome);
   }
   r.model_check = assess_model_check(fit, limits);

@@ -14,6 +14,7 @@
 
 #include "calib/fit_result.hpp"
 #include "calib/parameters.hpp"
+#include "calib/uncertainty_budget.hpp"
 
 namespace standcal::records {
 
@@ -109,9 +110,12 @@ struct ConformityReport {
 // INDETERMINATE when any parameter is indeterminate or a limited parameter could not be
 // measured; otherwise PASS. A chi2/dof limit on a fit without redundancy is reported as
 // not evaluated and does not change the verdict (the certificate says so).
+// With a GUM budget, each parameter's sigma is the budget's combined u and U its expanded
+// uncertainty (k from its effective degrees of freedom); without, U = coverage_factor sigma.
 ConformityReport assess_conformity(const FitResult& fit, const UnitTypeLimits& limits,
                                    double coverage_factor = kDefaultCoverageFactor,
-                                   const std::string& limits_source = {});
+                                   const std::string& limits_source = {},
+                                   const UncertaintyBudget* budget = nullptr);
 
 // The decision rule in plain words, for the certificate.
 std::string decision_rule_text(double coverage_factor);

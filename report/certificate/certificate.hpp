@@ -12,6 +12,7 @@
 #include "calib/fit_result.hpp"
 #include "calib/position_average.hpp"
 #include "calib/report.hpp"
+#include "calib/uncertainty_budget.hpp"
 #include "records/limits/limits.hpp"
 
 namespace standcal::report {
@@ -49,6 +50,7 @@ struct CertificateInput {
   std::optional<FitResult> invariant;  // invariant residuals per position (one per position)
   std::optional<FitResult> full;       // full-vector residuals per position and axis
   Compensation compensation;
+  std::optional<UncertaintyBudget> budget;  // the GUM budget, with --budget
   std::optional<records::ConformityReport> conformity;
   std::optional<CertificateDiagnosis> diagnosis;
   std::vector<std::string> warnings;   // recording warnings, missing traceability, ...
@@ -63,6 +65,7 @@ struct CertificateRequest {
   std::string run_id;
   std::string recording_path;  // instead: an imported / offline recording
   std::string limits_path;     // optional standcal-limits/1 file
+  std::string budget_path;     // optional standcal-budget/1 file: the type B inputs
   std::string unit_type;       // which limits apply (default: run.json's unit_type or the only one)
   std::string method = "joint";  // certified estimator: joint | full
   bool diagnose = false;       // run the diagnosis now (else use RUN_DIR/diagnosis.json if present)

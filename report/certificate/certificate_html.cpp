@@ -129,7 +129,9 @@ std::string parameter_row(const CertificateInput& in, int p) {
                     "<br><code>" + name + "</code></td>";
   if (e.value && e.sigma) {
     const double value = *e.value * report_scale(p);
-    const double U = in.coverage_factor * std::abs(*e.sigma * report_scale(p));
+    const double U =
+        in.budget ? in.budget->parameters[static_cast<std::size_t>(p)].expanded * report_scale(p)
+                  : in.coverage_factor * std::abs(*e.sigma * report_scale(p));
     row += "<td class=\"num value\">" + fixed(value, 2, true) + "</td><td class=\"num U\">± " + fixed(U, 2) +
            "</td><td>" + unit + "</td>";
   } else {
@@ -159,10 +161,14 @@ std::string chi2_sentence(const FitResult& fit) {
 }
 
 std::string results_section(const CertificateInput& in) {
-  std::string out = "<h2>Results: the unit's instrument errors</h2>\n<table id=\"parameters\">\n"
-                    "<tr><th>parameter</th><th>value</th><th>U (k = " + compact(in.coverage_factor) +
-                    ")</th><th>unit</th><th>limit</th><th>margin<br>(limit − |value| − U)</th><th>result</th>"
-                    "<th>why</th></tr>\n";
+  const std::string u_header =
+      in.budget ? "U (95 %, the budget below)" : "U (k = " + compact(in.coverage_factor) + ")";
+  std::string out =
+      "<h2>Results: the unit's instrument errors</h2>\n<table id=\"parameters\">\n"
+      "<tr><th>parameter</th><th>value</th><th>" +
+      u_header +
+      "</th><th>unit</th><th>limit</th><th>margin<br>(limit − |value| − U)</th><th>result</th>"
+      "<th>why</th></tr>\n";
   for (int p = 0; p < kUnitParameterCount; ++p) out += parameter_row(in, p);
   out += "</table>\n";
   out += "<p id=\"model-check\"><b>Model check.</b> Residual rms " + fixed(in.fit.residual_rms_g / kUg, 3) +
@@ -174,7 +180,97 @@ std::string results_section(const CertificateInput& in) {
                 : outcome_label(in.conformity->model_check.outcome)) +
            ").";
   out += "</p>\n<h2>Decision rule</h2>\n<p id=\"rule\">" +
-         html_escape(records::decision_rule_text(in.coverage_factor)) + "</p>\n";
+         html_escape(records::decision_rule_text(in.coverage_factor)) +
+         (in.budget ? " On this certificate σ is the combined standard uncertainty u<sub>c</sub> "
+                      "of the budget below "
+                      "and U its expanded uncertainty for 95 % coverage: k is Student's t at the "
+                      "effective degrees of "
+                      "freedom of each parameter, so it differs from parameter to parameter."
+                    : std::string(
+                          " No uncertainty budget was given (--budget): σ is the fit's statistical "
+                          "uncertainty only, and the stand, gravity, temperature and method are "
+                          "not in U.")) +
+         "</p>\n";
+  return out;
+}
+
+std::string budget_cell(double v) { return "<td class=\"num\">" + fixed(v, 3) + "</td>"; }
+
+std::string budget_inputs_table(const UncertaintyBudget& b) {
+  std::string out =
+      "<table id=\"budget-inputs\">\n<tr><th>input quantity</th><th>distribution</th>"
+      "<th>bound or u</th><th>source</th></tr>\n";
+  for (const BudgetInput& in : b.inputs) {
+    const bool normal = in.distribution == Distribution::normal;
+    out += "<tr><td>" + html_escape(in.name) + "</td><td>" + (normal ? "normal" : "rectangular") +
+           "</td><td class=\"num\">" + (normal ? "u = " : "± ") + compact(in.stated) + " " +
+           html_escape(in.stated_unit) + "</td><td>" + html_escape(in.source) + "</td></tr>\n";
+  }
+  return out + "</table>\n";
+}
+
+// Parameters as columns, contributions as rows, in the parameters' report units.
+std::string budget_table(const UncertaintyBudget& b) {
+  std::vector<int> shown;
+  for (const ParameterBudget& p : b.parameters)
+    if (p.observable) shown.push_back(p.parameter);
+  std::string out = "<table id=\"budget\">\n<tr><th>contribution u<sub>i</sub></th>";
+  for (int p : shown)
+    out += "<th>" + std::string(kUnitParameterNames[static_cast<std::size_t>(p)]) + "<br>" +
+           unit_symbol(kUnitParameterUnits[static_cast<std::size_t>(p)]) + "</th>";
+  out += "</tr>\n<tr data-row=\"type-a\"><td>type A: the fit (noise model)</td>";
+  for (int p : shown)
+    out += budget_cell(b.parameters[static_cast<std::size_t>(p)].type_a * report_scale(p));
+  out += "</tr>\n";
+  for (std::size_t k = 0; k < b.inputs.size(); ++k) {
+    out += "<tr data-row=\"type-b\"><td>type B: " + html_escape(b.inputs[k].name) + "</td>";
+    for (int p : shown)
+      out +=
+          budget_cell(b.parameters[static_cast<std::size_t>(p)].contribution[k] * report_scale(p));
+    out += "</tr>\n";
+  }
+  const auto row = [&](const char* id, const std::string& label, auto cell) {
+    out += std::string("<tr data-row=\"") + id + "\"><th>" + label + "</th>";
+    for (int p : shown) out += cell(b.parameters[static_cast<std::size_t>(p)], p);
+    out += "</tr>\n";
+  };
+  row("combined", "combined standard uncertainty u<sub>c</sub>",
+      [](const ParameterBudget& x, int p) { return budget_cell(x.combined * report_scale(p)); });
+  row("dof", "effective degrees of freedom ν<sub>eff</sub>", [](const ParameterBudget& x, int) {
+    return "<td class=\"num\">" +
+           (std::isfinite(x.dof_effective) ? fixed(x.dof_effective, 0) : std::string("∞")) +
+           "</td>";
+  });
+  row("k", "coverage factor k (95 %)",
+      [](const ParameterBudget& x, int) { return budget_cell(x.coverage_factor); });
+  row("expanded", "expanded uncertainty U = k·u<sub>c</sub>",
+      [](const ParameterBudget& x, int p) { return budget_cell(x.expanded * report_scale(p)); });
+  return out + "</table>\n";
+}
+
+std::string budget_section(const CertificateInput& in) {
+  if (!in.budget) return "";
+  const UncertaintyBudget& b = *in.budget;
+  std::string out =
+      "<h2>Uncertainty budget (GUM, JCGM 100:2008)</h2>\n<p>Type A is the fit's standard "
+      "uncertainty from the "
+      "noise model estimated from this recording. Each type B input is propagated through the "
+      "certified estimator "
+      "itself: the estimator is run on the measurements as the input at ±u would have changed them "
+      "(the stand "
+      "through the exact rotation model, gravity as a scale of every mean, a temperature "
+      "coefficient through the "
+      "dwells' temperatures), which gives its sensitivity coefficient and, where the method is "
+      "blind to it at first "
+      "order, its second-order effect; both are in u<sub>i</sub>. The effective degrees of freedom "
+      "are "
+      "Welch–Satterthwaite's, with the stated bounds taken as exact.</p>\n";
+  out += budget_inputs_table(b) + budget_table(b);
+  if (!b.not_budgeted.empty()) {
+    out += "<p><b>Not budgeted</b> (no bound given):</p>\n<ul id=\"not-budgeted\">\n";
+    for (const std::string& m : b.not_budgeted) out += "<li>" + html_escape(m) + "</li>\n";
+    out += "</ul>\n";
+  }
   return out;
 }
 
@@ -281,6 +377,7 @@ std::string render_certificate_html(const CertificateInput& in) {
   out += traceability_section(in);
   out += programme_section(in);
   out += results_section(in);
+  out += budget_section(in);
   out += compensation_section(in);
   out += residuals_section(in);
   out += diagnosis_section(in);

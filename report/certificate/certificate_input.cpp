@@ -182,12 +182,26 @@ CertificateInput prepare_certificate(const CertificateRequest& req) {
   in.compensation = make_compensation(in.fit, in.trace.g_local_mps2);
   in.compensation.identity = compensation_identity(in.trace, in.positions);
 
+  std::optional<records::LimitsConfig> limits;
   if (!req.limits_path.empty()) {
-    const records::LimitsConfig limits = records::load_limits(req.limits_path);
-    const records::UnitTypeLimits& type = limits.for_unit_type(in.trace.unit_type);
-    in.trace.unit_type = type.unit_type;
-    in.coverage_factor = limits.coverage_factor;
-    in.conformity = records::assess_conformity(in.fit, type, limits.coverage_factor, req.limits_path);
+    limits = records::load_limits(req.limits_path);
+    in.trace.unit_type = limits->for_unit_type(in.trace.unit_type).unit_type;
+    in.coverage_factor = limits->coverage_factor;
+  }
+  if (!req.budget_path.empty()) {
+    const Estimator estimator =
+        req.method == "full"
+            ? Estimator([](const std::vector<PositionAverage>& a) { return fit_full_vector(a); })
+            : Estimator(
+                  [](const std::vector<PositionAverage>& a) { return fit_invariant_joint(a); });
+    in.budget =
+        evaluate_budget(in.positions, in.fit, estimator, load_budget_config(req.budget_path),
+                        in.trace.unit_type, in.trace.g_local_mps2);
+  }
+  if (limits) {
+    in.conformity = records::assess_conformity(in.fit, limits->for_unit_type(in.trace.unit_type),
+                                               limits->coverage_factor, req.limits_path,
+                                               in.budget ? &*in.budget : nullptr);
   }
 
   const fs::path stored_diagnosis = run.run_dir.empty() ? fs::path() : run.run_dir / "diagnosis.json";

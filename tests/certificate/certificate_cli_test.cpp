@@ -60,6 +60,44 @@ TEST_F(CertificateCli, WritesTheCertificateOfARunInTheStateDirectory) {
   EXPECT_EQ(page.text("//tr[@data-parameter='bias_x']/@data-outcome"), "pass") << "45 ug against 100 ug";
 }
 
+// Issue 20: with --budget the certificate carries the GUM budget, and the results' U and
+// the decision use its expanded uncertainty, not 2 sigma of the fit.
+TEST_F(CertificateCli, TheBudgetsExpandedUncertaintyIsTheOneTheDecisionUses) {
+  write_text(state_.file("budget.json"), R"({"format": "standcal-budget/1",
+      "stand": {"source": "TS-2 data sheet", "angle_zero_arcsec": 10, "level_arcsec": 20, "mounting_arcsec": 120},
+      "gravity": {"standard_uncertainty_mps2": 5e-5, "source": "survey"},
+      "unit_types": {"QA-2000": {"bias_ug_per_c": 1, "scale_ppm_per_c": 0.5}}})");
+  const std::filesystem::path out = state_.file("cert.html");
+  const CommandResult r =
+      run_cli("certificate 20261121T223638Z-AU-0042 --state-dir " + state_.path() + " --limits " +
+              state_.file("limits.json") + " --budget " + state_.file("budget.json") + " -o " +
+              out.string());
+  const HtmlDocument page(read_text(out));
+  ASSERT_EQ(page.count("//table[@id='budget']"), 1u) << r.output;
+  // Type A, 2 + 2 + 3 stand rows, gravity, 6 temperature coefficients, then u_c, nu, k, U.
+  EXPECT_EQ(page.count("//table[@id='budget']//tr[@data-row='type-b']"), 14u);
+  EXPECT_EQ(page.count("//table[@id='budget-inputs']//tr"), 15u);
+  EXPECT_EQ(page.text("//ul[@id='not-budgeted']/li"),
+            "stand.orthogonality_arcsec (not in the budget file)");
+  // scale_x: the U of the results is the budget's, and larger than 2 sigma of the fit alone
+  // (u(g)/g = 5 ppm is in it).
+  const std::vector<std::string> expanded =
+      page.texts("//table[@id='budget']//tr[@data-row='expanded']/td");
+  ASSERT_EQ(expanded.size(), 9u);
+  const std::string results_u =
+      page.text("//tr[@data-parameter='scale_x']/td[contains(@class,'U')]");
+  const double budget_u = std::stod(expanded[3]);
+  EXPECT_NEAR(std::stod(results_u.substr(results_u.find(' ') + 1)), budget_u, 0.006) << results_u;
+  const double type_a =
+      std::stod(page.texts("//table[@id='budget']//tr[@data-row='type-a']/td")[3]);
+  EXPECT_GT(budget_u, 2 * std::hypot(type_a, 5e-5 / 9.81 * 1e6) * 0.95);
+  const std::string why =
+      page.text("//tr[@data-parameter='scale_x']/td[contains(@class,'explanation')]");
+  ASSERT_NE(why.find("with U = "), std::string::npos) << why;
+  EXPECT_NEAR(std::stod(why.substr(why.find("with U = ") + 9)), budget_u, 0.006) << why;
+  EXPECT_NE(page.text("//*[@id='rule']").find("combined standard uncertainty"), std::string::npos);
+}
+
 TEST_F(CertificateCli, CertifiesAnImportedRecording) {
   const std::filesystem::path out = state_.file("imported.html");
   const CommandResult r =

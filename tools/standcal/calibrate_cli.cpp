@@ -18,6 +18,7 @@
 #include "calib/recording_digest.hpp"
 #include "calib/report.hpp"
 #include "calib/simulator.hpp"
+#include "calib/uncertainty_budget.hpp"
 #include "tools/cli_checks.hpp"
 #include "tools/standcal/commands.hpp"
 #include "tools/standcal/input_options.hpp"
@@ -45,6 +46,7 @@ struct FitOptions {
   InputCliOptions input;
   bool json = false;
   std::string compensation;
+  std::string budget;  // standcal-budget/1: the GUM budget's type B inputs
   std::string mounting = "common";
   std::string noise = "estimate";
   double bias_instability_ug = 0;
@@ -112,15 +114,31 @@ void fit_stand_averages(const FitOptions& o, const std::string& method, const Re
   fit.noise.allan = std::move(allan);
   Compensation compensation = make_compensation(fit, rec.g_local_mps2);
   compensation.identity = compensation_identity(rec, averages);
+  std::optional<UncertaintyBudget> budget;
+  if (!o.budget.empty()) {
+    const Estimator estimator = [&o, &method](const std::vector<PositionAverage>& a) {
+      return fit_with(o, method, a);
+    };
+    budget = evaluate_budget(averages, fit, estimator, load_budget_config(o.budget),
+                             rec.header_value("unit_type"), rec.g_local_mps2);
+  }
   if (o.json) {
-    std::cout << fit_to_json(fit).dump(2) << "\n";
+    nlohmann::json j = fit_to_json(fit);
+    if (budget) j["uncertainty_budget"] = budget_to_json(*budget);
+    std::cout << j.dump(2) << "\n";
   } else {
     std::cout << format_report(fit, report_context(rec, std::move(averages)));
+    if (budget) std::cout << format_budget_summary(*budget);
   }
   if (!o.compensation.empty()) save_compensation(compensation, o.compensation);
 }
 
 void run_fit(const FitOptions& o) {
+  if (!o.budget.empty() && o.method == "norm") {
+    throw std::runtime_error(
+        "--budget: the uncertainty budget propagates the stand's tolerances and needs a stand "
+        "method (joint, full), not norm");
+  }
   if (o.method != "norm" && streams_as_stand_recording(o.input, o.recording)) {
     DigestOptions options;
     if (o.input.g_mps2 > 0) options.g_mps2 = o.input.g_mps2;
@@ -212,6 +230,11 @@ void add_calibrate_commands(CLI::App& app) {
   fit->add_flag("--json", fit_opts->json, "machine-readable output");
   fit->add_option("--compensation", fit_opts->compensation,
                   "write the compensation (bias, correction matrix) as FILE.json and FILE.csv");
+  fit->add_option(
+         "--budget", fit_opts->budget,
+         "add the GUM uncertainty budget: type B inputs (stand tolerances, g, temperature) from a "
+         "standcal-budget/1 file (docs/calibration.md)")
+      ->check(CLI::ExistingFile);
   fit->callback([fit_opts] { run_fit(*fit_opts); });
 }
 

@@ -91,6 +91,10 @@ void add_certificate_commands(CLI::App& app) {
   cmd->add_option("-o,--output", opts->output, "certificate to write (.html; - for standard output)")->required();
   cmd->add_option("--limits", opts->request.limits_path, "acceptance limits (standcal-limits/1 JSON)")
       ->check(CLI::ExistingFile);
+  cmd->add_option(
+         "--budget", opts->request.budget_path,
+         "uncertainty budget inputs (standcal-budget/1 JSON): stand tolerances, g, temperature")
+      ->check(CLI::ExistingFile);
   cmd->add_option("--unit-type", opts->request.unit_type, "which unit type's limits apply");
   cmd->add_option("--method", opts->request.method, "certified estimator: joint (invariant) | full")
       ->check(CLI::IsMember({"joint", "full"}))
