@@ -140,4 +140,16 @@ std::vector<PositionAverage> average_positions(const Recording& rec) {
   return out;
 }
 
+std::optional<double> mean_dwell_temperature_c(const std::vector<PositionAverage>& averages) {
+  double sum = 0;
+  int n = 0;
+  for (const PositionAverage& a : averages) {
+    if (std::isnan(a.temp_mean_c)) continue;
+    sum += a.temp_mean_c;
+    ++n;
+  }
+  if (n == 0) return std::nullopt;
+  return sum / n;
+}
+
 }  // namespace standcal

@@ -8,6 +8,7 @@
 // Gaussian noise loses 2e-9 of its samples to this rule, a glitch is always removed.
 #include <array>
 #include <cstddef>
+#include <optional>
 #include <vector>
 
 #include "calib/position_average.hpp"
@@ -43,6 +44,10 @@ void derive_missing_approaches(std::vector<PositionAverage>& averages);
 // Throws std::runtime_error naming the recording if it has no samples, or a position
 // keeps fewer than 2 samples after outlier rejection.
 std::vector<PositionAverage> average_positions(const Recording& rec);
+
+// The unit's mean temperature over the dwells that have one, or nothing: the temperature a
+// calibration holds at.
+std::optional<double> mean_dwell_temperature_c(const std::vector<PositionAverage>& averages);
 
 // The approach direction into each of a sequence of commanded positions (model.md
 // hysteresis rule): the sign of the move on the axis with the larger |delta alpha|,

@@ -2,6 +2,7 @@
 
 #include <zlib.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <functional>
@@ -54,10 +55,7 @@ CompensationCovariance propagate_to_compensation(
 
 // b in m/s^2 and M = A^-1 from the paper's nine (bias in g, scale, gamma pair sums in rad).
 CompensationValues stand_compensation_values(const Eigen::VectorXd& p, double g_mps2) {
-  UnitErrors unit;
-  unit.bias_g = p.head<3>();
-  unit.scale = p.segment<3>(3);
-  unit.set_gamma_pair_sums_rad(p.tail<3>());
+  const UnitErrors unit = UnitErrors::from_parameters(p);
   return pack_compensation(unit.bias_g * g_mps2, unit.output_matrix().inverse());
 }
 
@@ -120,35 +118,32 @@ Mat3 read_mat3(const json& v, const std::string& where) {
 
 }  // namespace
 
-std::optional<double> mean_dwell_temperature_c(const std::vector<PositionAverage>& averages) {
-  double sum = 0;
-  int n = 0;
-  for (const PositionAverage& a : averages) {
-    if (std::isnan(a.temp_mean_c)) continue;
-    sum += a.temp_mean_c;
-    ++n;
-  }
-  if (n == 0) return std::nullopt;
-  return sum / n;
+CompensationIdentity compensation_identity(const RunIdentity& run,
+                                           const std::vector<PositionAverage>& averages) {
+  CompensationIdentity id;
+  id.unit_serial = run.unit_serial;
+  id.unit_type = run.unit_type;
+  id.run_id = run.run_id;
+  id.stand_id = run.stand_id;
+  id.calibrated_utc = run.calibrated_utc;
+  id.source = run.source;
+  id.g_source = run.g_source;
+  id.temperature_reference_c = mean_dwell_temperature_c(averages);
+  if (id.temperature_reference_c) id.temperature_how = "mean over the dwells";
+  return id;
 }
 
 CompensationIdentity compensation_identity(const Recording& rec,
                                            const std::vector<PositionAverage>& averages) {
-  CompensationIdentity id;
-  id.unit_serial = rec.unit_serial;
-  id.unit_type = rec.header_value("unit_type");
-  id.run_id = rec.header_value("run_id");
-  id.stand_id = rec.header_value("stand_id");
-  id.calibrated_utc = rec.header_value("started_utc");
-  id.source = rec.source;
-  id.g_source = rec.header_value("g_source");
-  if (id.g_source.empty()) {
-    id.g_source =
+  std::string g_source = rec.header_value("g_source");
+  if (g_source.empty()) {
+    g_source =
         rec.g_from_header ? "given (recording header or --g-mps2)" : "standard gravity assumed";
   }
-  id.temperature_reference_c = mean_dwell_temperature_c(averages);
-  if (id.temperature_reference_c) id.temperature_how = "mean over the dwells";
-  return id;
+  return compensation_identity(RunIdentity{rec.unit_serial, rec.header_value("unit_type"),
+                                           rec.header_value("run_id"), rec.header_value("stand_id"),
+                                           rec.header_value("started_utc"), rec.source, g_source},
+                               averages);
 }
 
 Compensation make_compensation(const FitResult& fit, double g_local_mps2) {
@@ -210,7 +205,7 @@ Compensation make_compensation(const NormFit& fit, const RawInput& input) {
 }
 
 std::string compensation_checksum(const Compensation& c) {
-  std::string text;
+  std::string text = "raw_units=" + c.input_units + "\n";
   char number[40];
   const CompensationValues v = pack_compensation(c.bias, c.matrix);
   for (int i = 0; i < kCompensationValues; ++i) {
@@ -224,9 +219,13 @@ std::string compensation_checksum(const Compensation& c) {
   return hex;
 }
 
-json compensation_to_json(Compensation c) {
+void stamp_written(Compensation& c) {
   if (c.written_utc.empty()) c.written_utc = utc_now_iso();
   if (c.standcal_version.empty()) c.standcal_version = kVersionLine;
+}
+
+json compensation_to_json(Compensation c) {
+  stamp_written(c);
   json cov = json::array();
   for (int i = 0; i < kCompensationValues; ++i) {
     json row = json::array();
@@ -266,7 +265,9 @@ json compensation_to_json(Compensation c) {
       {"notes", c.notes},
       {"checksum",
        {{"algorithm", "crc32"},
-        {"over", "b_x, b_y, b_z, M_11, M_12, ... M_33, each printed with %.17g and a newline"},
+        {"over",
+         "\"raw_units=\" and raw_units, a newline, then b_x, b_y, b_z, M_11, M_12, ... M_33, each "
+         "printed with %.17g and a newline"},
         {"value", compensation_checksum(c)}}}};
 }
 
@@ -327,19 +328,28 @@ std::string compensation_to_csv(const Compensation& c) {
   const CompensationIdentity& id = c.identity;
   std::string out = std::string("# format: ") + kCompensationFormat + " (CSV view)\n";
   out += "# equation: f = M * (raw - b); raw and b in " + c.input_units + ", f in m/s^2\n";
-  const auto line = [&out](const char* key, const std::string& value) {
+  const auto line = [&out](const char* key, std::string value) {
+    std::replace_if(
+        value.begin(), value.end(), [](char ch) { return ch == '\n' || ch == '\r'; }, ' ');
     if (!value.empty()) out += std::string("# ") + key + ": " + value + "\n";
   };
+  line("raw_units", c.input_units);
   line("unit_serial", id.unit_serial);
   line("unit_type", id.unit_type);
   line("run_id", id.run_id);
+  line("stand_id", id.stand_id);
   line("calibrated_utc", id.calibrated_utc);
+  line("source", id.source);
   line("estimator", c.estimator);
   char number[64];
   if (id.temperature_reference_c) {
     std::snprintf(number, sizeof number, "%.2f", *id.temperature_reference_c);
     line("temperature_reference_c", number);
   }
+  std::snprintf(number, sizeof number, "%.6f", c.g_local_mps2);
+  line("g_local_mps2", number);
+  line("g_source", id.g_source);
+  line("written_utc", c.written_utc);
   line("standcal_version", c.standcal_version.empty() ? kVersionLine : c.standcal_version);
   line("checksum_crc32", compensation_checksum(c));
   out += "name,c1,c2,c3,sigma1,sigma2,sigma3\n";
@@ -363,11 +373,14 @@ std::string compensation_to_csv(const Compensation& c) {
   return out;
 }
 
-std::string write_compensation(const Compensation& c, const std::string& path) {
+std::string write_compensation(Compensation c, const std::string& path, unsigned mode) {
+  stamp_written(c);
   std::string stem = path;
   if (stem.ends_with(".json")) stem.resize(stem.size() - 5);
-  write_file_atomically(stem + ".json", compensation_to_json(c).dump(2) + "\n", "the compensation");
-  write_file_atomically(stem + ".csv", compensation_to_csv(c), "the compensation");
+  write_file_atomically(stem + ".json", compensation_to_json(c).dump(2) + "\n", "the compensation",
+                        static_cast<mode_t>(mode));
+  write_file_atomically(stem + ".csv", compensation_to_csv(c), "the compensation",
+                        static_cast<mode_t>(mode));
   return stem;
 }
 

@@ -1,6 +1,6 @@
 #pragma once
 // The compensation an INS loads, f = M (raw - b), as one file format for every estimator
-// (standcal-compensation/2, docs/calibration.md "The compensation file"): the numbers with
+// (standcal-compensation/2, docs/calibration.md "Compensation"): the numbers with
 // their units, standard uncertainties and covariance, the identity of the unit and of the
 // calibration they belong to, and a checksum over the numbers so a loader can tell a
 // damaged or hand-edited file from the one standcal wrote.
@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "calib/averaging.hpp"
 #include "calib/fit_result.hpp"
 #include "calib/recording.hpp"
 #include "calib/units.hpp"
@@ -60,16 +61,23 @@ Compensation make_compensation(const FitResult& fit, double g_local_mps2);
 // From the attitude-free fit, in the input's units.
 Compensation make_compensation(const NormFit& fit, const RawInput& input);
 
-// The unit's mean temperature over the dwells that have one, or nothing.
-std::optional<double> mean_dwell_temperature_c(const std::vector<PositionAverage>& averages);
+// The identity of a calibration run: these fields, and the dwells' mean temperature as the
+// reference the compensation holds at. calibrated_utc: when the run's data were taken.
+struct RunIdentity {
+  std::string unit_serial, unit_type, run_id, stand_id, calibrated_utc, source, g_source;
+};
+CompensationIdentity compensation_identity(const RunIdentity& run,
+                                           const std::vector<PositionAverage>& averages);
 // What a recording's header says of the unit and the run (standcald writes unit_serial,
-// unit_type, run_id, stand_id and started_utc), and the dwells' mean temperature.
+// unit_type, run_id, stand_id and started_utc).
 CompensationIdentity compensation_identity(const Recording& rec,
                                            const std::vector<PositionAverage>& averages);
 
-// CRC-32 (zlib's) over the 12 numbers b_x .. M_33, each printed with "%.17g" and a newline:
-// eight lower-case hex digits. Printing with %.17g and reading back gives the same double,
-// so a loader in any language recomputes it from the values it parsed.
+// CRC-32 (zlib's) over "raw_units=UNITS\n" and the 12 numbers b_x .. M_33, each printed
+// with "%.17g" and a newline: eight lower-case hex digits. Printing with %.17g and reading
+// back gives the same double, so a loader in any language recomputes it from what it
+// parsed. It covers what a loader applies (the units raw must be in, b and M); the
+// covariance and the identity are not covered.
 std::string compensation_checksum(const Compensation& c);
 
 // A file that is not a standcal-compensation/2 document, or whose numbers do not match its
@@ -79,13 +87,16 @@ class CompensationError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// Stamps written_utc and standcal_version when they are empty.
+// Sets written_utc (now) and standcal_version when they are empty: once, so that the JSON
+// and the CSV written from one Compensation agree.
+void stamp_written(Compensation& c);
+// Stamps a copy when it is not stamped.
 nlohmann::json compensation_to_json(Compensation c);
 Compensation compensation_from_json(const nlohmann::json& doc);
 // The CSV view: identity as `# key: value` lines, then b and M's rows with their sigmas.
 std::string compensation_to_csv(const Compensation& c);
-// Writes FILE.json and its CSV view FILE.csv, each atomically (a PATH ending in .json names
-// the same pair); returns FILE.
-std::string write_compensation(const Compensation& c, const std::string& path);
+// Writes FILE.json and its CSV view FILE.csv, each atomically with `mode` (a PATH ending in
+// .json names the same pair); returns FILE.
+std::string write_compensation(Compensation c, const std::string& path, unsigned mode = 0644);
 
 }  // namespace standcal

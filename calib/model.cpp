@@ -68,6 +68,14 @@ Vec3 up_vector(double alpha1_rad, double alpha2_rad, Mount m) {
   return mount_permutation(m) * up_vector_table(alpha1_rad, alpha2_rad);
 }
 
+UnitErrors UnitErrors::from_parameters(const Eigen::Matrix<double, 9, 1>& p) {
+  UnitErrors u;
+  u.bias_g = p.head<3>();
+  u.scale = p.segment<3>(3);
+  u.set_gamma_pair_sums_rad(p.tail<3>());
+  return u;
+}
+
 Vec3 UnitErrors::gamma_pair_sums_rad() const {
   return {gamma_rad(0, 1) + gamma_rad(1, 0), gamma_rad(0, 2) + gamma_rad(2, 0),
           gamma_rad(1, 2) + gamma_rad(2, 1)};

@@ -49,6 +49,9 @@ struct UnitErrors {
   void set_gamma_pair_sums_rad(const Vec3& sums);
   // (I + dK)(I + Gamma): the matrix that maps true specific force to output.
   Mat3 output_matrix() const;
+  // From the paper's nine in calib/parameters.hpp's order (bias in g, scale, the gamma pair
+  // sums in rad; Gamma made symmetric).
+  static UnitErrors from_parameters(const Eigen::Matrix<double, 9, 1>& p);
 };
 
 // Stand and mounting errors of model.md, all small angles in rad.

@@ -265,6 +265,8 @@ VectorXd parameter_variance_dof(const std::function<VectorXd(const GaussMarkovNo
   return nu;
 }
 
+}  // namespace
+
 // sqrt(nu / (nu - 2)), the standard deviation of Student's t, so that a sigma with nu
 // effective degrees of freedom has z-variance 1; capped at nu = 2.5 where it runs away.
 double student_t_inflation(double nu) {
@@ -273,8 +275,6 @@ double student_t_inflation(double nu) {
   const double n = std::max(nu, kMinNu);
   return std::sqrt(n / (n - 2));
 }
-
-}  // namespace
 
 SigmaWidening widen_for_estimated_noise(
     const std::function<Eigen::VectorXd(const GaussMarkovNoise&)>& variances,

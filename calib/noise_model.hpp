@@ -102,6 +102,11 @@ double restricted_log_likelihood(const std::vector<NoiseRow>& rows, const Eigen:
                                  const Eigen::VectorXd& y, const GaussMarkovNoise& noise);
 
 // How an estimator weights its dwell means (docs/calibration.md, "Noise model").
+// sqrt(nu / (nu - 2)), the standard deviation of Student's t with nu degrees of freedom
+// (nu floored at 2.5, where it runs away; 1 for infinite nu): what an estimated noise
+// model's sigma is widened by, so that it has z-variance 1.
+double student_t_inflation(double nu);
+
 struct FitNoiseOptions {
   enum class Mode {
     white,      // each mean independent, with the standard error sigma/sqrt(n) of its dwell

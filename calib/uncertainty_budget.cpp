@@ -4,7 +4,11 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "calib/averaging.hpp"
+#include "calib/full_estimator.hpp"
+#include "calib/invariant_estimator.hpp"
 #include "calib/model.hpp"
+#include "calib/noise_model.hpp"
 
 namespace standcal {
 
@@ -26,11 +30,7 @@ UnitErrors budget_fitted_unit(const FitResult& fit) {
   Eigen::Matrix<double, 9, 1> p = Eigen::Matrix<double, 9, 1>::Zero();
   for (int j = 0; j < kUnitParameterCount; ++j)
     p[j] = fit.unit[static_cast<std::size_t>(j)].value.value_or(0.0);
-  UnitErrors u;
-  u.bias_g = p.head<3>();
-  u.scale = p.segment<3>(3);
-  u.set_gamma_pair_sums_rad(p.tail<3>());
-  return u;
+  return UnitErrors::from_parameters(p);
 }
 
 // A stand or mounting error: each mean moves by the forward model's J(error = x) - J(0).
@@ -110,13 +110,7 @@ void add_stand_inputs(const BudgetConfig& c, const UnitErrors& unit, std::vector
 void add_temperature_inputs(const BudgetConfig& c, const std::string& unit_type,
                             const std::vector<PositionAverage>& positions,
                             std::vector<InputModel>& out, std::vector<std::string>& missing) {
-  double sum = 0;
-  int n = 0;
-  for (const PositionAverage& a : positions)
-    if (!std::isnan(a.temp_mean_c)) {
-      sum += a.temp_mean_c;
-      ++n;
-    }
+  const std::optional<double> t_ref = mean_dwell_temperature_c(positions);
   if (unit_type.empty() && !c.unit_types.empty()) {
     missing.push_back(
         "temperature: the unit type is not known (no unit_type for this run), so no coefficients "
@@ -129,23 +123,22 @@ void add_temperature_inputs(const BudgetConfig& c, const std::string& unit_type,
                       "' in the budget file");
     return;
   }
-  if (n == 0) {
+  if (!t_ref) {
     missing.push_back("temperature: the recording has no temperatures");
     return;
   }
-  const double t_ref = sum / n;
   const std::string source = c.source + ", unit type " + unit_type;
   for (int axis = 0; axis < 3; ++axis) {
     const std::string a(1, "xyz"[axis]);
     if (!std::isnan(type->second.bias_ug_per_c)) {
       out.push_back({rectangular_input("bias temperature coefficient " + a, source,
                                        type->second.bias_ug_per_c, "ug/degC", kUg),
-                     temperature_error_effect(axis, false, t_ref)});
+                     temperature_error_effect(axis, false, *t_ref)});
     }
     if (!std::isnan(type->second.scale_ppm_per_c)) {
       out.push_back({rectangular_input("scale temperature coefficient " + a, source,
                                        type->second.scale_ppm_per_c, "ppm/degC", kPpm),
-                     temperature_error_effect(axis, true, t_ref)});
+                     temperature_error_effect(axis, true, *t_ref)});
     }
   }
 }
@@ -172,11 +165,9 @@ std::vector<InputModel> budget_input_models(const std::vector<PositionAverage>& 
 double fourth_moment_ratio(Distribution d) { return d == Distribution::normal ? 3.0 : 1.8; }
 
 // GUM's u_A is the scale s of the t distribution; the fit's sigma is its standard
-// deviation s sqrt(nu / (nu - 2)) (calib/noise_model.cpp), so that sigma has z-variance 1.
+// deviation, s times student_t_inflation(nu), so that sigma has z-variance 1.
 double gum_type_a_of(const ParameterEstimate& p) {
-  const double sigma = p.sigma.value_or(0.0);
-  if (!std::isfinite(p.dof) || p.dof <= 2.5) return sigma;
-  return sigma * std::sqrt((p.dof - 2) / p.dof);
+  return p.sigma.value_or(0.0) / student_t_inflation(p.dof);
 }
 
 void combine_budget(ParameterBudget& b) {
@@ -222,9 +213,35 @@ std::string budget_text(const json& obj, const char* key, const std::string& whe
 
 }  // namespace
 
+FitNoiseOptions frozen_noise(const NoiseFinding& noise) {
+  FitNoiseOptions o;
+  if (noise.model != "gauss_markov") return white_noise_weighting();
+  o.mode = FitNoiseOptions::Mode::specified;
+  o.specified.q_g = noise.wander_ug * kUg;
+  o.specified.tau_s = noise.tau_s;
+  return o;
+}
+
+Estimator budget_estimator(const std::string& method, const FitResult& nominal,
+                           MountingModel mounting) {
+  const FitNoiseOptions noise = frozen_noise(nominal.noise);
+  if (method == "full") {
+    FullFitOptions options;
+    options.noise = noise;
+    options.mounting = mounting;
+    return [options](const std::vector<PositionAverage>& a) { return fit_full_vector(a, options); };
+  }
+  if (method == "paper-sequential")
+    return [](const std::vector<PositionAverage>& a) { return fit_paper_sequential(a); };
+  if (method == "joint")
+    return [noise](const std::vector<PositionAverage>& a) { return fit_invariant_joint(a, noise); };
+  throw std::invalid_argument("budget_estimator: unknown method " + method);
+}
+
 double student_t_975(double dof) {
   if (!std::isfinite(dof) || dof > 1e6) return 1.959964;
-  // GUM Table G.2 below 4; Cornish-Fisher's expansion in 1/nu above (to 0.002 at nu = 4).
+  // GUM Table G.2 below 4 (nu < 1 taken as 1); Cornish-Fisher's expansion in 1/nu above,
+  // within 0.006 of the table (0.001 at nu = 4).
   if (dof <= 1) return 12.71;
   if (dof <= 2) return 12.71 + (4.30 - 12.71) * (1 / 1.0 - 1 / dof) / (1 / 1.0 - 1 / 2.0);
   if (dof <= 3) return 4.30 + (3.18 - 4.30) * (1 / 2.0 - 1 / dof) / (1 / 2.0 - 1 / 3.0);
@@ -384,11 +401,13 @@ std::string format_budget_summary(const UncertaintyBudget& budget) {
     if (!b.observable) continue;
     const double scale = report_scale(b.parameter);
     const std::size_t i = static_cast<std::size_t>(b.parameter);
+    char dof[32] = "inf";
+    if (std::isfinite(b.dof_effective) && b.dof_effective < 1e6) {
+      std::snprintf(dof, sizeof dof, "%.0f", b.dof_effective);
+    }
     std::snprintf(
         line, sizeof line, "  %-8s u_A %8.3f  u_c %8.3f  nu_eff %6s  k %.3f  U %8.3f %s\n",
-        std::string(kUnitParameterNames[i]).c_str(), b.type_a * scale, b.combined * scale,
-        std::isfinite(b.dof_effective) ? std::to_string(static_cast<int>(b.dof_effective)).c_str()
-                                       : "inf",
+        std::string(kUnitParameterNames[i]).c_str(), b.type_a * scale, b.combined * scale, dof,
         b.coverage_factor, b.expanded * scale, std::string(kUnitParameterUnits[i]).c_str());
     out += line;
   }

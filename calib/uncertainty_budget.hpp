@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "calib/fit_result.hpp"
+#include "calib/full_estimator.hpp"
 #include "calib/parameters.hpp"
 #include "calib/position_average.hpp"
 
@@ -93,6 +94,14 @@ struct UncertaintyBudget {
 
 // The fit the budget propagates through: the certified estimator on (perturbed) averages.
 using Estimator = std::function<FitResult(const std::vector<PositionAverage>&)>;
+
+// The noise model a fit weighted with, as options that impose it.
+FitNoiseOptions frozen_noise(const NoiseFinding& noise);
+// The stand estimator `method` ("joint", "full", "paper-sequential") weighting as `nominal`
+// did: the re-fits at +-u keep the nominal fit's noise model, so that a re-fit choosing
+// another wander model does not show as a sensitivity that is not there.
+Estimator budget_estimator(const std::string& method, const FitResult& nominal,
+                           MountingModel mounting = MountingModel::common_fixture);
 
 // The budget of `fit` (the estimator's result on `positions`, whose means are in units of
 // g_local_mps2). `unit_type` picks the temperature coefficients.

@@ -115,7 +115,7 @@ struct Sums {
   int failed = 0;
 };
 
-void run_range(const Setup& s, const Estimator& estimator, int first, int last, Sums& sums) {
+void run_range(const Setup& s, int first, int last, Sums& sums) {
   const UnitErrors unit = default_truth().unit;
   const Eigen::Matrix<double, 9, 1> truth = truth_vector(unit);
   for (int r = first; r < last; ++r) {
@@ -123,9 +123,10 @@ void run_range(const Setup& s, const Estimator& estimator, int first, int last, 
     const Draw d = draw(s, rng);
     const std::vector<PositionAverage> averages = measure(s, unit, d, rng);
     try {
-      const FitResult fit = estimator(averages);
-      const UncertaintyBudget b =
-          evaluate_budget(averages, fit, estimator, s.config, s.unit_type, s.g_used_mps2);
+      const FitResult fit =
+          s.estimator == "full" ? fit_full_vector(averages) : fit_invariant_joint(averages);
+      const UncertaintyBudget b = evaluate_budget(averages, fit, budget_estimator(s.estimator, fit),
+                                                  s.config, s.unit_type, s.g_used_mps2);
       for (std::size_t i = 0; i < kUnitParameterCount; ++i) {
         if (!fit.unit[i].value) continue;
         const ParameterBudget& pb = b.parameters[i];
@@ -146,16 +147,12 @@ void run_range(const Setup& s, const Estimator& estimator, int first, int last, 
 }  // namespace
 
 Coverage run_coverage(const Setup& s) {
-  const Estimator estimator =
-      s.estimator == "full"
-          ? Estimator([](const std::vector<PositionAverage>& a) { return fit_full_vector(a); })
-          : Estimator([](const std::vector<PositionAverage>& a) { return fit_invariant_joint(a); });
   const int threads = std::max(1, s.threads);
   std::vector<Sums> parts(static_cast<std::size_t>(threads));
   std::vector<std::thread> workers;
   for (int t = 0; t < threads; ++t) {
-    workers.emplace_back(run_range, std::cref(s), std::cref(estimator), s.runs * t / threads,
-                         s.runs * (t + 1) / threads, std::ref(parts[static_cast<std::size_t>(t)]));
+    workers.emplace_back(run_range, std::cref(s), s.runs * t / threads, s.runs * (t + 1) / threads,
+                         std::ref(parts[static_cast<std::size_t>(t)]));
   }
   for (std::thread& w : workers) w.join();
   Coverage c;

@@ -1364,16 +1364,11 @@ JointFit joint_fit(const std::vector<PositionAverage>& averages, const FitNoiseO
 Compensation run_compensation(const FitResult& fit, const RunRecord& record,
                               const std::vector<PositionAverage>& averages) {
   Compensation c = make_compensation(fit, record.g_local_mps2);
-  CompensationIdentity& id = c.identity;
-  id.unit_serial = record.unit_serial;
-  id.unit_type = record.unit_type;
-  id.run_id = record.run_id;
-  id.stand_id = record.stand_id;
-  id.calibrated_utc = record.ended_utc;
-  id.source = record.recording_path;
-  id.g_source = record.g_source;
-  id.temperature_reference_c = mean_dwell_temperature_c(averages);
-  if (id.temperature_reference_c) id.temperature_how = "mean over the dwells";
+  c.identity = compensation_identity(
+      RunIdentity{record.unit_serial, record.unit_type, record.run_id, record.stand_id,
+                  record.ended_utc, record.recording_path, record.g_source},
+      averages);
+  stamp_written(c);
   return c;
 }
 
@@ -1418,10 +1413,8 @@ void Sequencer::finish_with_fit(RunRecord& record) {
   if (joint.fit) {
     // The files first: a result that names a compensation has it on disk.
     const Compensation c = run_compensation(*joint.fit, record, averages);
+    write_compensation(c, dir + "/compensation", 0640);
     result["compensation"] = compensation_to_json(c);
-    write_state_file(dir + "/compensation.json", result["compensation"].dump(2) + "\n");
-    write_state_file(dir + "/compensation.csv",
-                     compensation_to_csv(compensation_from_json(result["compensation"])));
   }
   const std::string path = dir + "/result.json";
   write_state_file(path, result.dump(2) + "\n");

@@ -323,6 +323,7 @@ ConformityReport assess_conformity(const FitResult& fit, const UnitTypeLimits& l
   r.unit_type = limits.unit_type;
   r.limits_source = limits_source;
   r.coverage_factor = coverage_factor;
+  r.with_budget = budget != nullptr;
   Outcome overall = Outcome::no_limit;
   for (int p = 0; p < kUnitParameterCount; ++p) {
     r.parameters.push_back(assess_parameter(fit, limits, p, coverage_factor, budget));
@@ -337,15 +338,27 @@ ConformityReport assess_conformity(const FitResult& fit, const UnitTypeLimits& l
   return r;
 }
 
-std::string decision_rule_text(double k) {
-  const std::string ks = coverage_text(k);
-  return "Decision rule (ILAC-G8:2019, guarded acceptance with the guard band equal to the expanded uncertainty): "
-         "each value is reported with its expanded uncertainty U = k·σ, k = " + ks +
-         " (about 95 % coverage for a normal distribution). A parameter PASSES when |value| + U is at most the limit, "
-         "FAILS when |value| − U exceeds the limit, and is otherwise INDETERMINATE: the limit lies inside the "
-         "uncertainty interval and conformity cannot be stated either way. An indeterminate parameter, or a limited "
-         "parameter this programme could not measure, makes the unit's verdict INDETERMINATE, which is not a pass. "
-         "A limit on σ (1 standard uncertainty) is compared directly. The margin shown is limit − |value| − U: "
+std::string decision_rule_text(double k, bool budget) {
+  const std::string how =
+      budget ? "each value is reported with its expanded uncertainty U = k·u_c from the GUM "
+               "uncertainty budget (σ is "
+               "the combined standard uncertainty u_c; k is Student's t for 95 % coverage at each "
+               "parameter's "
+               "effective degrees of freedom)"
+             : "each value is reported with its expanded uncertainty U = k·σ, k = " +
+                   coverage_text(k) + " (about 95 % coverage for a normal distribution)";
+  return "Decision rule (ILAC-G8:2019, guarded acceptance with the guard band equal to the "
+         "expanded uncertainty): " +
+         how +
+         ". A parameter PASSES when |value| + U is at most the limit, "
+         "FAILS when |value| − U exceeds the limit, and is otherwise INDETERMINATE: the limit lies "
+         "inside the "
+         "uncertainty interval and conformity cannot be stated either way. An indeterminate "
+         "parameter, or a limited "
+         "parameter this programme could not measure, makes the unit's verdict INDETERMINATE, "
+         "which is not a pass. "
+         "A limit on σ (1 standard uncertainty) is compared directly. The margin shown is limit − "
+         "|value| − U: "
          "positive means room to spare after allowing for the uncertainty.";
 }
 
@@ -369,19 +382,21 @@ nlohmann::json conformity_to_json(const ConformityReport& r) {
     }
     params[c.name] = e;
   }
-  return {{"unit_type", r.unit_type},
-          {"limits_source", r.limits_source},
-          {"coverage_factor", r.coverage_factor},
-          {"rule", decision_rule_text(r.coverage_factor)},
-          {"parameters", params},
-          {"model_check",
-           {{"chi2_dof", opt(r.model_check.chi2_dof)},
-            {"max_chi2_dof", opt(r.model_check.max_chi2_dof)},
-            {"redundancy", r.model_check.redundancy},
-            {"outcome", outcome_name(r.model_check.outcome)},
-            {"explanation", r.model_check.explanation}}},
-          {"overall", outcome_name(r.overall)},
-          {"overall_text", r.overall_text}};
+  return {
+      {"unit_type", r.unit_type},
+      {"limits_source", r.limits_source},
+      {"coverage_factor", r.coverage_factor},
+      {"rule", decision_rule_text(r.coverage_factor, r.with_budget)},
+      {"uncertainty", r.with_budget ? "GUM budget (u_c, U for 95 %)" : "fit sigma, U = k sigma"},
+      {"parameters", params},
+      {"model_check",
+       {{"chi2_dof", opt(r.model_check.chi2_dof)},
+        {"max_chi2_dof", opt(r.model_check.max_chi2_dof)},
+        {"redundancy", r.model_check.redundancy},
+        {"outcome", outcome_name(r.model_check.outcome)},
+        {"explanation", r.model_check.explanation}}},
+      {"overall", outcome_name(r.overall)},
+      {"overall_text", r.overall_text}};
 }
 
 }  // namespace standcal::records

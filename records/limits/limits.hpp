@@ -100,6 +100,7 @@ struct ConformityReport {
   std::string unit_type;
   std::string limits_source;
   double coverage_factor = kDefaultCoverageFactor;
+  bool with_budget = false;  // sigma = the budget's u_c, U its 95 % expanded uncertainty
   std::vector<ParameterConformity> parameters;  // all nine, in order
   ModelCheckConformity model_check;
   Outcome overall = Outcome::no_limit;  // pass, indeterminate or fail (no_limit: no limit set)
@@ -118,7 +119,8 @@ ConformityReport assess_conformity(const FitResult& fit, const UnitTypeLimits& l
                                    const UncertaintyBudget* budget = nullptr);
 
 // The decision rule in plain words, for the certificate.
-std::string decision_rule_text(double coverage_factor);
+// `budget`: U and sigma are the GUM budget's (k per parameter), not coverage_factor sigma.
+std::string decision_rule_text(double coverage_factor, bool budget = false);
 
 nlohmann::json conformity_to_json(const ConformityReport& report);
 

@@ -14,6 +14,7 @@
 #include "calib/report.hpp"
 #include "calib/uncertainty_budget.hpp"
 #include "records/limits/limits.hpp"
+#include "report/certificate/lab_identity.hpp"
 
 namespace standcal::report {
 
@@ -57,6 +58,8 @@ struct CertificateInput {
   double coverage_factor = records::kDefaultCoverageFactor;
   std::string issued_utc;              // when the certificate was made
   std::string issuing_software_version;
+  std::optional<LabIdentity> lab;  // who issues it (--lab)
+  std::string certificate_number;
 };
 
 // What `standcal certificate` was asked for.
@@ -66,6 +69,8 @@ struct CertificateRequest {
   std::string recording_path;  // instead: an imported / offline recording
   std::string limits_path;     // optional standcal-limits/1 file
   std::string budget_path;     // optional standcal-budget/1 file: the type B inputs
+  std::string lab_path;        // optional standcal-lab/1 file: who issues and signs
+  std::string certificate_number;  // default: default_certificate_number()
   std::string unit_type;       // which limits apply (default: run.json's unit_type or the only one)
   std::string method = "joint";  // certified estimator: joint | full
   bool diagnose = false;       // run the diagnosis now (else use RUN_DIR/diagnosis.json if present)

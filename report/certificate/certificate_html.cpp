@@ -18,6 +18,19 @@ namespace {
 
 using records::Outcome;
 
+// A4 pages with the certificate number in every page's footer (WeasyPrint and browsers
+// that print with CSS paged media), tables and figures not split across pages.
+const std::string kPrintStyle =
+    "<style>\n@page{size:A4;margin:18mm 16mm 20mm 16mm;"
+    "@bottom-left{content:string(certno);font-size:8pt}"
+    "@bottom-right{content:\"page \" counter(page) \" of \" counter(pages);font-size:8pt}}\n"
+    "#certificate-number{string-set:certno content()}\n"
+    "@media "
+    "print{body{max-width:none;margin:0;font-size:9.5pt}table,figure,dl{page-break-inside:avoid}"
+    "h2{page-break-after:avoid}#budget{font-size:8pt}}\n"
+    "header#lab{border-bottom:1px solid #333;margin-bottom:.5em}header#lab p{margin:.1em 0}\n"
+    "td.signature-line{min-width:10em;height:2.2em}\n</style>\n";
+
 std::string plain_name(int p) {
   static const char* names[kUnitParameterCount] = {
       "Bias (zero offset), x axis",          "Bias (zero offset), y axis",          "Bias (zero offset), z axis",
@@ -45,19 +58,35 @@ std::string field(const std::string& id, const std::string& label, const std::st
 
 std::string how_to_read(const CertificateInput& in) {
   const std::string k = compact(in.coverage_factor);
-  return "<div class=\"howto\"><p><b>How to read this certificate.</b> An accelerometer unit holds three "
-         "accelerometers, one per axis x, y, z. None is perfect: each reads a little when it should read zero "
-         "(<i>bias</i>, in µg, millionths of gravity), its sensitivity is slightly off (<i>scale-factor error</i>, "
+  const std::string u_is =
+      in.budget ? "U combines the fit's own uncertainty with the stand's, gravity's and "
+                  "temperature's, as the uncertainty budget shows"
+                : "U is " + k + " standard uncertainties of the fit, k = " + k;
+  return "<div class=\"howto\"><p><b>How to read this certificate.</b> An accelerometer unit holds "
+         "three "
+         "accelerometers, one per axis x, y, z. None is perfect: each reads a little when it "
+         "should read zero "
+         "(<i>bias</i>, in µg, millionths of gravity), its sensitivity is slightly off "
+         "(<i>scale-factor error</i>, "
          "in ppm, parts per million), and its axis is not exactly at right angles to the others "
-         "(<i>non-orthogonality</i>, in ″, arc-seconds). The unit was turned on a two-axis rotary stand into "
-         "known orientations so that gravity, whose local value is known, was the reference; these nine errors "
+         "(<i>non-orthogonality</i>, in ″, arc-seconds). The unit was turned on a two-axis rotary "
+         "stand into "
+         "known orientations so that gravity, whose local value is known, was the reference; these "
+         "nine errors "
          "were estimated from what it read.</p>"
-         "<p>Every result is given as <i>value ± U</i>: the true value lies in that interval with about 95 % "
-         "confidence (U is " + k + " standard uncertainties, k = " + k + "). Where acceptance limits apply, each "
-         "result is marked PASS, FAIL or INDETERMINATE by the rule stated below, and the <i>margin</i> says how much "
-         "room was left once the uncertainty is allowed for. The <i>compensation</i> section gives the numbers to "
-         "load into the navigation system so it corrects these errors. The <i>residual</i> plots show how far each "
-         "measurement was from the fitted model: points scattered around zero within their bars mean the model "
+         "<p>Every result is given as <i>value ± U</i>: the true value lies in that interval with "
+         "about 95 % "
+         "confidence (" +
+         u_is +
+         "). Where acceptance limits apply, each "
+         "result is marked PASS, FAIL or INDETERMINATE by the rule stated below, and the "
+         "<i>margin</i> says how much "
+         "room was left once the uncertainty is allowed for. The <i>compensation</i> section gives "
+         "the numbers to "
+         "load into the navigation system so it corrects these errors. The <i>residual</i> plots "
+         "show how far each "
+         "measurement was from the fitted model: points scattered around zero within their bars "
+         "mean the model "
          "describes the unit well.</p></div>\n";
 }
 
@@ -180,12 +209,8 @@ std::string results_section(const CertificateInput& in) {
                 : outcome_label(in.conformity->model_check.outcome)) +
            ").";
   out += "</p>\n<h2>Decision rule</h2>\n<p id=\"rule\">" +
-         html_escape(records::decision_rule_text(in.coverage_factor)) +
-         (in.budget ? " On this certificate σ is the combined standard uncertainty u<sub>c</sub> "
-                      "of the budget below "
-                      "and U its expanded uncertainty for 95 % coverage: k is Student's t at the "
-                      "effective degrees of "
-                      "freedom of each parameter, so it differs from parameter to parameter."
+         html_escape(records::decision_rule_text(in.coverage_factor, in.budget.has_value())) +
+         (in.budget ? std::string(" The budget is below; k differs from parameter to parameter.")
                     : std::string(
                           " No uncertainty budget was given (--budget): σ is the fit's statistical "
                           "uncertainty only, and the stand, gravity, temperature and method are "
@@ -287,8 +312,14 @@ std::string compensation_section(const CertificateInput& in) {
     for (int k = 0; k < 3; ++k) out += "<td class=\"num\">" + fixed(c.matrix(r, k), 12, true) + "</td>";
     out += "</tr>\n";
   }
-  out += "</table>\n<p>g = " + fixed(c.g_local_mps2, 5) + " m/s². Machine-readable: <code>standcal fit RECORDING "
-         "--compensation FILE</code> writes the same numbers as JSON and CSV.</p>\n<ul>\n";
+  out += "</table>\n<p>g = " + fixed(c.g_local_mps2, 5) +
+         " m/s². Checksum (CRC-32 of the numbers) <code id=\""
+         "compensation-checksum\">" +
+         compensation_checksum(c) +
+         "</code>. Machine-readable, with the covariance: "
+         "<code>standcal run result RUN --compensation FILE</code> (standcald keeps it as "
+         "<code>runs/RUN/compensation.json</code>) or <code>standcal fit RECORDING --compensation "
+         "FILE</code>.</p>\n<ul>\n";
   for (const std::string& n : c.notes) out += "<li>" + html_escape(n) + "</li>\n";
   return out + "</ul>\n";
 }
@@ -368,9 +399,55 @@ std::string notes_section(const CertificateInput& in) {
 
 }  // namespace
 
+// The issuer and the certificate's identity, first on the page (#lab, #certificate-number).
+std::string header_section(const CertificateInput& in) {
+  std::string out = "<header id=\"lab\">\n";
+  if (in.lab) {
+    out += "<p class=\"lab-name\"><b>" + html_escape(in.lab->name) + "</b></p>\n";
+    if (!in.lab->address.empty())
+      out += "<p class=\"lab-address\">" + html_escape(in.lab->address) + "</p>\n";
+    if (!in.lab->accreditation.empty())
+      out += "<p class=\"lab-accreditation\">" + html_escape(in.lab->accreditation) + "</p>\n";
+  } else {
+    out +=
+        "<p class=\"lab-name\">Issuing laboratory not configured (<code>--lab FILE</code>): this "
+        "page is a "
+        "calibration record, not a certificate a laboratory has issued.</p>\n";
+  }
+  out += "<p>Certificate number <b id=\"certificate-number\">" +
+         html_escape(in.certificate_number) + "</b>, issued <span id=\"issue-date\">" +
+         html_escape(in.issued_utc) + "</span></p>\n";
+  return out + "</header>\n";
+}
+
+// Names and roles from the laboratory file; "not signed" until a person signs the print.
+std::string signature_section(const CertificateInput& in) {
+  std::string out =
+      "<h2>Signatures</h2>\n<table id=\"signatures\">\n<tr><th>name</th><th>role</th><th>signature"
+      "</th><th>date</th><th>status</th></tr>\n";
+  if (!in.lab || in.lab->signatories.empty()) {
+    out +=
+        "<tr data-status=\"not-signed\"><td colspan=\"4\">no signatories configured "
+        "(<code>signatories</code> in the "
+        "laboratory file)</td><td>not signed</td></tr>\n";
+  } else {
+    for (const Signatory& s : in.lab->signatories)
+      out += "<tr data-status=\"not-signed\"><td>" + html_escape(s.name) + "</td><td>" +
+             html_escape(s.role) +
+             "</td><td class=\"signature-line\"></td><td class=\"signature-line\"></td><td>not "
+             "signed</td></tr>\n";
+  }
+  return out +
+         "</table>\n<p>This certificate shall not be reproduced except in full. The results relate "
+         "only to the "
+         "unit calibrated.</p>\n";
+}
+
 std::string render_certificate_html(const CertificateInput& in) {
   const std::string serial = in.trace.unit_serial.empty() ? "(no serial)" : in.trace.unit_serial;
-  std::string out = html_page_start("Calibration certificate " + serial);
+  std::string out =
+      html_page_start("Calibration certificate " + in.certificate_number, kPrintStyle);
+  out += header_section(in);
   out += "<h1>Calibration certificate: accelerometer unit " + html_escape(serial) + "</h1>\n";
   out += how_to_read(in);
   out += verdict_section(in);
@@ -382,6 +459,7 @@ std::string render_certificate_html(const CertificateInput& in) {
   out += residuals_section(in);
   out += diagnosis_section(in);
   out += notes_section(in);
+  out += signature_section(in);
   return out + html_page_end();
 }
 

@@ -122,21 +122,6 @@ void note_missing_traceability(CertificateInput& in) {
     if (value->empty()) in.warnings.push_back(std::string("the ") + name + " is not recorded for this calibration");
 }
 
-CompensationIdentity compensation_identity(const CertificateTraceability& t,
-                                           const std::vector<PositionAverage>& positions) {
-  CompensationIdentity id;
-  id.unit_serial = t.unit_serial;
-  id.unit_type = t.unit_type;
-  id.run_id = t.run_id;
-  id.stand_id = t.stand_id;
-  id.calibrated_utc = t.ended_utc;
-  id.source = t.recording_path;
-  id.g_source = t.g_source;
-  id.temperature_reference_c = mean_dwell_temperature_c(positions);
-  if (id.temperature_reference_c) id.temperature_how = "mean over the dwells";
-  return id;
-}
-
 }  // namespace
 
 CertificateDiagnosis certificate_diagnosis_from_json(const json& doc, const std::string& origin) {
@@ -170,6 +155,12 @@ CertificateInput prepare_certificate(const CertificateRequest& req) {
   in.positions = average_positions(run.recording);
   in.issued_utc = utc_now_iso();
   in.issuing_software_version = kVersion;
+  if (!req.lab_path.empty()) in.lab = load_lab_identity(req.lab_path);
+  in.certificate_number =
+      !req.certificate_number.empty()
+          ? req.certificate_number
+          : default_certificate_number(in.lab ? in.lab->certificate_prefix : "SC", in.issued_utc,
+                                       in.trace.unit_serial);
 
   in.invariant = fit_invariant_joint(in.positions);
   try {
@@ -180,7 +171,11 @@ CertificateInput prepare_certificate(const CertificateRequest& req) {
   if (req.method == "full" && !in.full) throw std::runtime_error("--method full: the full-vector fit failed");
   in.fit = req.method == "full" ? *in.full : *in.invariant;
   in.compensation = make_compensation(in.fit, in.trace.g_local_mps2);
-  in.compensation.identity = compensation_identity(in.trace, in.positions);
+  const CertificateTraceability& t = in.trace;
+  in.compensation.identity =
+      compensation_identity(RunIdentity{t.unit_serial, t.unit_type, t.run_id, t.stand_id,
+                                        t.ended_utc, t.recording_path, t.g_source},
+                            in.positions);
 
   std::optional<records::LimitsConfig> limits;
   if (!req.limits_path.empty()) {
@@ -189,14 +184,16 @@ CertificateInput prepare_certificate(const CertificateRequest& req) {
     in.coverage_factor = limits->coverage_factor;
   }
   if (!req.budget_path.empty()) {
-    const Estimator estimator =
-        req.method == "full"
-            ? Estimator([](const std::vector<PositionAverage>& a) { return fit_full_vector(a); })
-            : Estimator(
-                  [](const std::vector<PositionAverage>& a) { return fit_invariant_joint(a); });
-    in.budget =
-        evaluate_budget(in.positions, in.fit, estimator, load_budget_config(req.budget_path),
-                        in.trace.unit_type, in.trace.g_local_mps2);
+    in.budget = evaluate_budget(in.positions, in.fit, budget_estimator(req.method, in.fit),
+                                load_budget_config(req.budget_path), in.trace.unit_type,
+                                in.trace.g_local_mps2);
+  }
+  if (limits && in.budget && limits->coverage_factor != records::kDefaultCoverageFactor) {
+    in.warnings.push_back("the limits file's coverage_factor " +
+                          std::to_string(limits->coverage_factor) +
+                          " is not used: with the uncertainty budget, U is the 95 % expanded "
+                          "uncertainty, k from each "
+                          "parameter's effective degrees of freedom");
   }
   if (limits) {
     in.conformity = records::assess_conformity(in.fit, limits->for_unit_type(in.trace.unit_type),

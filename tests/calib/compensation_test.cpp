@@ -101,7 +101,9 @@ TEST(Compensation, StandFitWithAnUnobservableParameterSaysItAssumedZero) {
   fit.unit[8] = ParameterEstimate{};
   fit.unit[8].unobservable_reason = "no position tilts y and z together";
   fit.correlation = Eigen::MatrixXd::Identity(9, 9);
-  fit.correlation(8, 8) = std::numeric_limits<double>::quiet_NaN();
+  // As the estimators report an unobservable parameter: NaN across its row and column.
+  fit.correlation.row(8).setConstant(std::numeric_limits<double>::quiet_NaN());
+  fit.correlation.col(8).setConstant(std::numeric_limits<double>::quiet_NaN());
   const Compensation c = make_compensation(fit, kStandardGravity_mps2);
   ASSERT_FALSE(c.notes.empty());
   EXPECT_NE(c.notes[0].find("gamma23 was not observable"), std::string::npos) << c.notes[0];
@@ -178,6 +180,8 @@ TEST(Compensation, CsvNumbersReproduceTheChecksum) {
   EXPECT_NE(csv.find("# checksum_crc32: " + compensation_checksum(c) + "\n"), std::string::npos)
       << csv;
   Compensation parsed;
+  parsed.input_units = "counts";  // the "# raw_units:" line
+  EXPECT_NE(csv.find("# raw_units: counts\n"), std::string::npos) << csv;
   std::istringstream lines(csv);
   std::string line;
   int rows = 0;
@@ -198,6 +202,8 @@ TEST(Compensation, CsvNumbersReproduceTheChecksum) {
   }
   ASSERT_EQ(rows, 4);
   EXPECT_EQ(compensation_checksum(parsed), compensation_checksum(c));
+  parsed.input_units = "m/s^2";  // the same numbers for other units: another checksum
+  EXPECT_NE(compensation_checksum(parsed), compensation_checksum(c));
 }
 
 }  // namespace

@@ -163,6 +163,17 @@ TEST(UncertaintyBudget, CombinesTypeAAndBWithWelchSatterthwaite) {
   EXPECT_NEAR(s.dof_effective, std::pow(u_c, 4) / (std::pow(s_a, 4) / 10), 1e-6 * s.dof_effective);
   EXPECT_NEAR(s.expanded, student_t_975(s.dof_effective) * u_c, 1e-15);
   EXPECT_GT(s.dof_effective, 10);  // type B with infinite dof raises nu_eff
+
+  // Few degrees of freedom: u_A undoes exactly the fit's widening (floored at nu = 2.5),
+  // and infinite dof leaves sigma as it is, with k = 1.96 when there is no type B.
+  for (ParameterEstimate& p : fit.unit) p.dof = 2.2;
+  const UncertaintyBudget few = evaluate_budget(run, fit, joint, c, "any", kG);
+  EXPECT_NEAR(few.parameters[kScaleX].type_a, 1e-6 / std::sqrt(2.5 / 0.5), 1e-12);
+  for (ParameterEstimate& p : fit.unit) p.dof = std::numeric_limits<double>::infinity();
+  const UncertaintyBudget none = evaluate_budget(run, fit, joint, BudgetConfig{}, "any", kG);
+  EXPECT_DOUBLE_EQ(none.parameters[kBiasX].type_a, 1e-6);
+  EXPECT_DOUBLE_EQ(none.parameters[kBiasX].combined, 1e-6);
+  EXPECT_NEAR(none.parameters[kBiasX].coverage_factor, 1.96, 1e-3);
 }
 
 TEST(UncertaintyBudget, SaysWhatIsNotBudgeted) {

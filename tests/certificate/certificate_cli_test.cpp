@@ -5,6 +5,8 @@
 
 #include <cstdio>
 #include <fstream>
+#include <regex>
+#include <set>
 #include <sstream>
 #include <string>
 
@@ -98,6 +100,85 @@ TEST_F(CertificateCli, TheBudgetsExpandedUncertaintyIsTheOneTheDecisionUses) {
   EXPECT_NE(page.text("//*[@id='rule']").find("combined standard uncertainty"), std::string::npos);
 }
 
+// Issue 20, item 2: the issuing laboratory, a certificate number, the signature block, and a
+// PDF on A4 whose text a reader (poppler's pdftotext) finds: the number on every page.
+class CertificatePdf : public CertificateCli {
+ protected:
+  void SetUp() override {
+    CertificateCli::SetUp();
+    write_text(state_.file("lab.json"),
+               R"({"format": "standcal-lab/1", "name": "Inertial Test Laboratory",
+        "address": "1 Gyro Road, Navtown", "accreditation": "Accredited calibration laboratory D-K-12345-01-00",
+        "certificate_prefix": "ITL", "signatories": [{"name": "Ada Example", "role": "Head of laboratory"},
+        {"name": "Bob Example", "role": "Calibration engineer"}]})");
+  }
+  static bool have(const char* tool) {
+    return test::run_command(std::string("command -v ") + tool + " >/dev/null").exit_code == 0;
+  }
+};
+
+TEST_F(CertificatePdf, TheHtmlNamesTheLabTheNumberAndWhoSigns) {
+  const std::filesystem::path out = state_.file("cert.html");
+  const CommandResult r =
+      run_cli("certificate 20261121T223638Z-AU-0042 --state-dir " + state_.path() + " --lab " +
+              state_.file("lab.json") + " -o " + out.string());
+  const HtmlDocument page(read_text(out));
+  EXPECT_EQ(page.text("//header[@id='lab']/p[@class='lab-name']"), "Inertial Test Laboratory")
+      << r.output;
+  EXPECT_EQ(page.text("//header[@id='lab']/p[@class='lab-accreditation']"),
+            "Accredited calibration laboratory D-K-12345-01-00");
+  const std::string number = page.text("//*[@id='certificate-number']");
+  EXPECT_TRUE(std::regex_match(number, std::regex("ITL-20[0-9]{6}-[0-9]{6}-AU-0042"))) << number;
+  EXPECT_NE(r.output.find("certificate number " + number + "\n"), std::string::npos) << r.output;
+  EXPECT_EQ(page.count("//table[@id='signatures']//tr[@data-status='not-signed']"), 2u);
+  EXPECT_EQ(page.text("//table[@id='signatures']//tr[2]/td[2]"), "Head of laboratory");
+  const std::vector<std::string> ids = page.texts("//@id");
+  EXPECT_EQ(std::set<std::string>(ids.begin(), ids.end()).size(), ids.size()) << "duplicate ids";
+
+  const CommandResult given =
+      run_cli("certificate 20261121T223638Z-AU-0042 --state-dir " + state_.path() +
+              " --certificate-number ITL/2026/0117 -o " + out.string());
+  EXPECT_EQ(HtmlDocument(read_text(out)).text("//*[@id='certificate-number']"), "ITL/2026/0117")
+      << given.output;
+  EXPECT_NE(HtmlDocument(read_text(out)).text("//header[@id='lab']").find("not configured"),
+            std::string::npos);
+}
+
+TEST_F(CertificatePdf, RendersAnA4PdfWhoseTextHasTheNumberOnEveryPage) {
+  if (!have("weasyprint") || !have("pdftotext")) {
+    GTEST_SKIP() << "needs weasyprint and poppler-utils (scripts/setup.sh installs them)";
+  }
+  const std::filesystem::path out = state_.file("cert.pdf");
+  const CommandResult r =
+      run_cli("certificate 20261121T223638Z-AU-0042 --state-dir " + state_.path() + " --lab " +
+              state_.file("lab.json") + " --limits " + state_.file("limits.json") +
+              " --certificate-number ITL/2026/0117 -o " + out.string());
+  ASSERT_TRUE(std::filesystem::exists(out)) << r.output;
+  EXPECT_EQ(read_text(out).rfind("%PDF-", 0), 0u);
+  const CommandResult info = test::run_command("pdfinfo " + out.string());
+  ASSERT_EQ(info.exit_code, 0) << info.output;
+  EXPECT_NE(info.output.find("(A4)"), std::string::npos) << info.output;
+  std::smatch pages;
+  ASSERT_TRUE(std::regex_search(info.output, pages, std::regex("Pages:\\s+([0-9]+)")))
+      << info.output;
+  const int n = std::stoi(pages[1]);
+  EXPECT_GE(n, 2);
+  EXPECT_LE(n, 12);
+  const CommandResult text = test::run_command("pdftotext -layout " + out.string() + " -");
+  ASSERT_EQ(text.exit_code, 0) << text.output;
+  for (const std::string& expected :
+       {std::string("Inertial Test Laboratory"), std::string("AU-0042"), std::string("Ada Example"),
+        std::string("not signed"),
+        std::string("page " + std::to_string(n) + " of " + std::to_string(n))}) {
+    EXPECT_NE(text.output.find(expected), std::string::npos) << expected;
+  }
+  std::size_t footers = 0;
+  for (std::size_t at = text.output.find("ITL/2026/0117"); at != std::string::npos;
+       at = text.output.find("ITL/2026/0117", at + 1))
+    ++footers;
+  EXPECT_GE(footers, static_cast<std::size_t>(n)) << "the number in every page's footer";
+}
+
 TEST_F(CertificateCli, CertifiesAnImportedRecording) {
   const std::filesystem::path out = state_.file("imported.html");
   const CommandResult r =
@@ -122,11 +203,19 @@ TEST_F(CertificateCli, ExplainsAWrongRequestInOneLine) {
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.output.find("no limits for unit type 'QA-9' (known: QA-2000)"), std::string::npos) << r.output;
 
-  r = run_cli("certificate 20261121T223638Z-AU-0042 --state-dir " + state_.path() + " -o " +
-              state_.file("cert.pdf"));
+  write_text(state_.file("lab.json"),
+             R"({"format": "standcal-lab/1", "name": "Lab", "signatories": [{"name": "A"}]})");
+  r = run_cli("certificate 20261121T223638Z-AU-0042 --state-dir " + state_.path() + " --lab " +
+              state_.file("lab.json") + " -o " + out);
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_NE(r.output.find("PDF is not produced"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find(state_.file("lab.json") + ": signatories[0].role: missing"),
+            std::string::npos)
+      << r.output;
   EXPECT_FALSE(std::filesystem::exists(out)) << "nothing written on error";
+  r = run_cli("certificate 20261121T223638Z-AU-0042 --state-dir " + state_.path() +
+              " --certificate-number 'A B' -o " + out);
+  EXPECT_EQ(r.exit_code, 2) << r.output;  // a usage error, refused by the option's check
+  EXPECT_NE(r.output.find("1 to 64 letters, digits"), std::string::npos) << r.output;
 
   r = run_cli("certificate 20261121T223638Z-AU-0042 --state-dir " + state_.path() + " -o " + state_.path());
   EXPECT_EQ(r.exit_code, 1);

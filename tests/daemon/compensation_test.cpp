@@ -60,7 +60,7 @@ std::map<int, Calibrated> apply_c_example(const std::string& csv, const Recordin
     raw << s.f_mps2.x() << ' ' << s.f_mps2.y() << ' ' << s.f_mps2.z() << '\n';
   raw.close();
   const test::CommandOutcome out = test::run_command(std::string(APPLY_COMPENSATION_PATH) + " " +
-                                                     csv + " < " + dir + "/raw.txt");
+                                                     csv + " m/s^2 < " + dir + "/raw.txt");
   EXPECT_EQ(out.exit_code, 0) << out.output;
   std::istringstream lines(out.output);
   std::map<int, std::vector<Vec3>> f_by_pos;
@@ -179,6 +179,20 @@ TEST(DaemonCompensation, AnEditedCompensationFailsItsChecksum) {
   EXPECT_EQ(out.exit_code, 2);
   EXPECT_NE(out.output.find("edited.csv: checksum"), std::string::npos) << out.output;
   EXPECT_NE(out.output.find("damaged or edited, not loaded"), std::string::npos) << out.output;
+  // The right file for other raw units is refused too, before it is applied.
+  const test::CommandOutcome units =
+      test::run_command(std::string(APPLY_COMPENSATION_PATH) + " " + run_dir +
+                        "/compensation.csv counts < /dev/null");
+  EXPECT_EQ(units.exit_code, 2);
+  EXPECT_NE(units.output.find("is for raw outputs in m/s^2, not counts: not loaded"),
+            std::string::npos)
+      << units.output;
+  // And an output it cannot write is an error, not a silent truncation.
+  const test::CommandOutcome full =
+      test::run_command("(echo 1 2 3 | " + std::string(APPLY_COMPENSATION_PATH) + " " + run_dir +
+                        "/compensation.csv > /dev/full)");
+  EXPECT_EQ(full.exit_code, 2);
+  EXPECT_NE(full.output.find("stdout: No space left on device"), std::string::npos) << full.output;
 
   json doc = json::parse(file_text(run_dir + "/compensation.json"));
   doc["bias"]["values"][1] = doc["bias"]["values"][1].get<double>() * 1.001;

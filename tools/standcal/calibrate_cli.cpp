@@ -116,11 +116,11 @@ void fit_stand_averages(const FitOptions& o, const std::string& method, const Re
   compensation.identity = compensation_identity(rec, averages);
   std::optional<UncertaintyBudget> budget;
   if (!o.budget.empty()) {
-    const Estimator estimator = [&o, &method](const std::vector<PositionAverage>& a) {
-      return fit_with(o, method, a);
-    };
-    budget = evaluate_budget(averages, fit, estimator, load_budget_config(o.budget),
-                             rec.header_value("unit_type"), rec.g_local_mps2);
+    const MountingModel mounting =
+        o.mounting == "per-mount" ? MountingModel::per_mount : MountingModel::common_fixture;
+    budget = evaluate_budget(averages, fit, budget_estimator(method, fit, mounting),
+                             load_budget_config(o.budget), rec.header_value("unit_type"),
+                             rec.g_local_mps2);
   }
   if (o.json) {
     nlohmann::json j = fit_to_json(fit);
@@ -151,7 +151,14 @@ void run_fit(const FitOptions& o) {
   const RawInput in = read_input(o.recording, input_options(o.input));
   print_warnings(in.warnings);
   const std::string method = o.method != "auto" ? o.method : in.recording ? "joint" : "norm";
-  if (method == "norm") return run_norm_fit(o, in);
+  if (method == "norm") {
+    if (!o.budget.empty()) {
+      throw std::runtime_error(o.recording +
+                               ": --budget propagates the stand's tolerances through a stand "
+                               "method, and this file has no angles (the norm fit)");
+    }
+    return run_norm_fit(o, in);
+  }
   if (!in.recording)
     throw std::runtime_error(o.recording + ": the " + method +
                              " method needs the stand's angles, and this " +
