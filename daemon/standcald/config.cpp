@@ -242,6 +242,7 @@ void read_run(Section& top, DaemonConfig& c) {
   s->number("dwell_s", c.dwell_s, 0.1, 36000);
   s->number("g_local_mps2", c.g_local_mps2, 9.7, 9.9);
   s->text("g_source", c.g_source);
+  s->text("budget", c.budget_file);
   if (auto st = s->sub("stability")) {
     st->number("sigma_limit_ug", c.stability.sigma_limit_ug, 0.001, 1e7);
     st->number("trend_limit_ug", c.stability.trend_limit_ug, 0.001, 1e7);
@@ -276,6 +277,13 @@ DaemonConfig parse_config(const json& doc, const std::string& source) {
     p->reject_unknown();
   }
   top.reject_unknown();
+  if (!c.budget_file.empty()) {
+    try {
+      c.budget = load_budget_config(c.budget_file);
+    } catch (const BudgetConfigError& e) {
+      throw ConfigError(c.source + ": run.budget: " + e.what());
+    }
+  }
   return c;
 }
 

@@ -4,9 +4,11 @@
 // A bad file fails at start with a ConfigError naming the key and the reason.
 #include <cstdint>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
+#include "calib/uncertainty_budget.hpp"
 #include "drivers/stand.hpp"
 #include "protocol/jsonrpc/paths.hpp"
 
@@ -92,6 +94,10 @@ struct DaemonConfig {
   std::string g_source = "configured value (set run.g_local_mps2 and run.g_source for this site)";
   StabilityRule stability;
   ThermalWait thermal;
+  // run.budget: a standcal-budget/1 file, read at start; every run's result then carries
+  // the GUM uncertainty budget of its joint fit (docs/calibration.md "Uncertainty budget").
+  std::string budget_file;
+  std::optional<BudgetConfig> budget;
   std::string program_library_dir;    // "NAME" -> DIR/NAME.json
 };
 

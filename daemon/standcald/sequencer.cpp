@@ -1360,6 +1360,18 @@ JointFit joint_fit(const std::vector<PositionAverage>& averages, const FitNoiseO
   }
 }
 
+// The GUM budget of the run's joint fit with the configured inputs (run.budget). A budget
+// that cannot be evaluated says why in the result; the run is done all the same.
+json run_budget(const FitResult& fit, const RunRecord& record,
+                const std::vector<PositionAverage>& averages, const BudgetConfig& config) {
+  try {
+    return budget_to_json(evaluate_budget(averages, fit, budget_estimator("joint", fit), config,
+                                          record.unit_type, record.g_local_mps2));
+  } catch (const std::exception& e) {
+    return json{{"error", e.what()}};
+  }
+}
+
 // The compensation of the run's joint fit, with the run's identity: what an INS loads.
 Compensation run_compensation(const FitResult& fit, const RunRecord& record,
                               const std::vector<PositionAverage>& averages) {
@@ -1410,6 +1422,8 @@ void Sequencer::finish_with_fit(RunRecord& record) {
                                 {"ended_utc", record.ended_utc}};
   result["recording_warnings"] = digest.recording.warnings;
   const std::string dir = store_.run_dir(record.run_id);
+  if (joint.fit && config_.budget)
+    result["uncertainty_budget"] = run_budget(*joint.fit, record, averages, *config_.budget);
   if (joint.fit) {
     // The files first: a result that names a compensation has it on disk.
     const Compensation c = run_compensation(*joint.fit, record, averages);

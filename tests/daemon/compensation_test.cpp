@@ -203,3 +203,34 @@ TEST(DaemonCompensation, AnEditedCompensationFailsItsChecksum) {
     EXPECT_NE(std::string(e.what()).find("checksum: the file says"), std::string::npos) << e.what();
   }
 }
+
+// With run.budget configured, a run's result carries the GUM budget of its joint fit: the
+// gravity uncertainty given there widens the scale factors' U beyond 2 sigma of the fit.
+TEST(DaemonCompensation, ARunWithAConfiguredBudgetCarriesIt) {
+  TempDir dir;
+  const std::string budget = dir.path() + "/budget.json";
+  std::ofstream(budget) << R"({"format": "standcal-budget/1", "stand": {"mounting_arcsec": 120},
+      "gravity": {"standard_uncertainty_mps2": 5e-5, "source": "survey"}})";
+  const json config = {{"socket", {{"path", socket_of(dir)}}},
+                       {"state_dir", dir.path() + "/state"},
+                       {"run", {{"budget", budget}}}};
+  const std::string file = dir.path() + "/standcald.json";
+  std::ofstream(file) << config.dump(2);
+  DaemonProcess daemon(dir.path(), {"--config", file, "--sim", "--time-scale", "300"});
+  daemon.wait_ready(socket_of(dir));
+  Client c(socket_of(dir));
+  const json started =
+      c.call("run.start",
+             {{"program", "paper9"}, {"unit_serial", "AU-9"}, {"dwell_s", 10}, {"settle_s", 1}});
+  ASSERT_EQ(wait_run(c, started["run_id"], finished)["state"], "done") << daemon.log();
+  const json result = c.call("run.result", {{"run_id", started["run_id"]}});
+  ASSERT_TRUE(result.contains("uncertainty_budget")) << result.dump(2);
+  const json& scale_x = result["uncertainty_budget"]["parameters"]["scale_x"];
+  EXPECT_EQ(result["uncertainty_budget"]["inputs"].size(), 4u);  // mounting about x, y, z; gravity
+  const double sigma_ppm = result["parameters"]["scale_x"]["sigma"];
+  EXPECT_GT(scale_x["expanded_U"].get<double>(),
+            1.9 * std::hypot(sigma_ppm, 5e-5 / 9.81 * 1e6) * 0.99)
+      << scale_x.dump(2);
+  EXPECT_NE(result["uncertainty_budget"]["not_budgeted"].dump().find("stand.angle_zero_arcsec"),
+            std::string::npos);
+}

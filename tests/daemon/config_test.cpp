@@ -63,6 +63,20 @@ TEST(DaemonConfig, ReadsEveryGroupOfKeys) {
   EXPECT_EQ(c.program_library_dir, "/etc/standcal/programs");
 }
 
+// run.budget is read at start: a bad file stops the daemon's start, naming the key.
+TEST(DaemonConfig, TheBudgetFileIsReadAtStart) {
+  const std::string path = ::testing::TempDir() + "/standcal-budget-test.json";
+  std::ofstream(path)
+      << R"({"format": "standcal-budget/1", "gravity": {"standard_uncertainty_mps2": 2e-5}})";
+  const DaemonConfig c = parse_config(json{{"run", {{"budget", path}}}}, "lab.json");
+  ASSERT_TRUE(c.budget.has_value());
+  EXPECT_DOUBLE_EQ(c.budget->g_standard_uncertainty_mps2, 2e-5);
+  std::ofstream(path) << R"({"format": "standcal-budget/1", "stand": {"level": 3}})";
+  EXPECT_EQ(config_error(json{{"run", {{"budget", path}}}}),
+            "lab.json: run.budget: " + path + ": stand.level: unknown key");
+  std::remove(path.c_str());
+}
+
 TEST(DaemonConfig, ErrorsNameTheKeyAndTheReason) {
   EXPECT_EQ(config_error(json{{"run", {{"dwell_s", "long"}}}}), "lab.json: run.dwell_s: must be a number");
   EXPECT_NE(config_error(json{{"stand", {{"backend", "canopen"}}}}).find("stand.backend: must be one of"),
