@@ -164,9 +164,9 @@ Peer tcp_peer(int fd) {
 }  // namespace
 
 bool is_open_method(const std::string& method) {
-  static const std::set<std::string> open{m::hello,      m::status,   m::run_status, m::run_result,
-                                          m::runs_list,  m::subscribe, m::estop,     m::auth,
-                                          "run.diagnose"};
+  static const std::set<std::string> open{m::hello,      m::status,    m::run_status,
+                                          m::run_result, m::runs_list, m::subscribe,
+                                          m::estop,      m::auth,      m::run_diagnose};
   return open.count(method) > 0;
 }
 

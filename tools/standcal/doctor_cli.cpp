@@ -171,7 +171,7 @@ class Doctor {
     const std::string& socket = config_.socket_path;
     try {
       client_ = std::make_unique<protocol::Client>(socket, std::chrono::seconds(5));
-      json status = client_->call("status");
+      json status = client_->call(protocol::method::status);
       const json& d = status["daemon"];
       const bool control = d.value("access", json::object()).value("control", false);
       const json backend = status.value("backend", json::object());
@@ -256,7 +256,8 @@ class Doctor {
   }
 
   std::uint64_t unit_samples() {
-    const json unit = client_->call("status")["stand"].value("unit", json::object());
+    const json unit =
+        client_->call(protocol::method::status)["stand"].value("unit", json::object());
     if (unit.value("silent", false))
       throw std::runtime_error(unit.value("name", "the unit") + " is silent");
     return unit.value("samples", std::uint64_t{0});

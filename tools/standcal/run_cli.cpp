@@ -159,15 +159,15 @@ void print_result(const json& r) {
 
 // Follows a run's events until it ends; returns its final state.
 std::string watch(protocol::Client& c, const std::string& run_id, bool as_json) {
-  call(c, "subscribe", {{"events", "all"}});
+  call(c, protocol::method::subscribe, {{"events", "all"}});
   const bool tty = ::isatty(STDOUT_FILENO) != 0 && !as_json;
-  json s = call(c, "run.status", {{"run_id", run_id}});
+  json s = call(c, protocol::method::run_status, {{"run_id", run_id}});
   if (terminal_state(s["state"])) return s["state"];
   std::string last_line;
   for (;;) {
     auto n = c.next_notification(2s);
     if (!n) {
-      s = call(c, "run.status", {{"run_id", run_id}});  // a quiet phase: poll
+      s = call(c, protocol::method::run_status, {{"run_id", run_id}});  // a quiet phase: poll
       if (terminal_state(s["state"])) break;
       continue;
     }
@@ -176,7 +176,7 @@ std::string watch(protocol::Client& c, const std::string& run_id, bool as_json) 
     const std::string event = (*n)["method"];
     if (as_json) {
       std::cout << n->dump() << std::endl;
-    } else if (event == "run.progress") {
+    } else if (event == protocol::event::run_progress) {
       const std::string line = progress_line(p);
       if (tty) {
         std::printf("\r%-78s", line.c_str());
@@ -185,12 +185,12 @@ std::string watch(protocol::Client& c, const std::string& run_id, bool as_json) 
         std::printf("%s\n", line.c_str());
       }
       last_line = line;
-    } else if (event == "run.state") {
+    } else if (event == protocol::event::run_state) {
       if (tty) std::printf("\n");
       std::printf("run %s: %s%s\n", run_id.c_str(), p.value("state", "").c_str(),
                   p.value("reason", "").empty() ? "" : (" — " + p.value("reason", "")).c_str());
       if (terminal_state(p.value("state", ""))) return p["state"];
-    } else if (event == "fault") {
+    } else if (event == protocol::event::fault) {
       if (tty) std::printf("\n");
       std::printf("fault: %s\n", p.value("message", "").c_str());
     }
@@ -232,7 +232,7 @@ json follow_up_run(protocol::Client& c, const json& d, const DiagnoseArgs& a) {
   if (!a.op.empty()) params["operator"] = a.op;
   // Same unit, same type: the follow-up's certificate applies the same limits.
   if (const std::string unit_type = d.value("unit_type", ""); !unit_type.empty()) params["unit_type"] = unit_type;
-  return call(c, "run.start", params);
+  return call(c, protocol::method::run_start, params);
 }
 
 void run_diagnose(const DaemonOptions& o, const DiagnoseArgs& a) {
@@ -241,7 +241,7 @@ void run_diagnose(const DaemonOptions& o, const DiagnoseArgs& a) {
   json params{{"run_id", a.run_id}};
   if (!a.report.empty()) params["report"] = true;
   // A diagnosis takes seconds (a long recording, a busy bench PC): wait generously.
-  json d = call(c, "run.diagnose", params, std::chrono::minutes(5));
+  json d = call(c, protocol::method::run_diagnose, params, std::chrono::minutes(5));
   if (!a.report.empty()) {
     if (!d["report_html"].is_string()) throw std::runtime_error("run " + a.run_id + ": " + d.value("report_note", "no report"));
     write_file_atomically(a.report, d["report_html"].get<std::string>(), "the report");
@@ -269,7 +269,7 @@ void add_status(CLI::App& app) {
   cmd->callback([o] {
     const auto connection = connect_daemon(*o);
     protocol::Client& c = *connection;
-    const json s = call(c, "status");
+    const json s = call(c, protocol::method::status);
     if (o->json) {
       std::cout << s.dump(2) << "\n";
     } else {
@@ -287,7 +287,8 @@ void add_estop(CLI::App& app) {
   cmd->callback([o, reset_flag] {
     const auto connection = connect_daemon(*o, 5s);
     protocol::Client& c = *connection;
-    const json r = call(c, *reset_flag ? "estop.reset" : "estop", json::object(), 10s);
+    const json r = call(c, *reset_flag ? protocol::method::estop_reset : protocol::method::estop,
+                        json::object(), 10s);
     if (o->json) {
       std::cout << r.dump(2) << "\n";
     } else {
@@ -316,11 +317,12 @@ json runs_list_params(const RunsArgs& a, const std::string& before) {
 
 // One page, or with --all every page (each answer stays bounded; the CLI joins them).
 json list_runs(protocol::Client& c, const RunsArgs& a) {
-  json page = call(c, "runs.list", runs_list_params(a, a.before));
+  json page = call(c, protocol::method::runs_list, runs_list_params(a, a.before));
   if (!a.all) return page;
   json runs = std::move(page["runs"]);
   while (page.value("more", false) && !runs.empty()) {
-    page = call(c, "runs.list", runs_list_params(a, runs.back().value("run_id", "")));
+    page =
+        call(c, protocol::method::runs_list, runs_list_params(a, runs.back().value("run_id", "")));
     for (json& r : page["runs"]) runs.push_back(std::move(r));
   }
   return json{{"runs", std::move(runs)}, {"more", false}};
@@ -402,7 +404,7 @@ void add_run(CLI::App& app) {
     if (sa->dwell_s > 0) params["dwell_s"] = sa->dwell_s;
     if (sa->settle_s >= 0) params["settle_s"] = sa->settle_s;
     if (!sa->op.empty()) params["operator"] = sa->op;
-    const json r = call(c, "run.start", params);
+    const json r = call(c, protocol::method::run_start, params);
     const std::string id = r["run_id"];
     if (!sa->wait) {
       if (so->json) {
@@ -416,7 +418,7 @@ void add_run(CLI::App& app) {
     if (!so->json) std::printf("run %s started (%d positions)\n", id.c_str(), r.value("positions", 0));
     const std::string state = watch(c, id, so->json);
     if (state != "done") throw std::runtime_error("run " + id + " ended " + state);
-    const json result = call(c, "run.result", {{"run_id", id}});
+    const json result = call(c, protocol::method::run_result, {{"run_id", id}});
     if (so->json) {
       std::cout << result.dump(2) << "\n";
     } else {
@@ -432,7 +434,8 @@ void add_run(CLI::App& app) {
   watch_cmd->callback([wo, watch_id] {
     const auto connection = connect_daemon(*wo);
     protocol::Client& c = *connection;
-    const json s = call(c, "run.status", watch_id->empty() ? json::object() : json{{"run_id", *watch_id}});
+    const json s = call(c, protocol::method::run_status,
+                        watch_id->empty() ? json::object() : json{{"run_id", *watch_id}});
     const std::string state = watch(c, s["run_id"], wo->json);
     if (!wo->json) std::printf("run %s is %s\n", s["run_id"].get<std::string>().c_str(), state.c_str());
   });
@@ -448,7 +451,7 @@ void add_run(CLI::App& app) {
   result->callback([ro, result_id, compensation_path] {
     const auto connection = connect_daemon(*ro);
     protocol::Client& c = *connection;
-    const json r = call(c, "run.result", {{"run_id", *result_id}});
+    const json r = call(c, protocol::method::run_result, {{"run_id", *result_id}});
     if (!compensation_path->empty()) export_compensation(r, *result_id, *compensation_path);
     if (ro->json) {
       std::cout << r.dump(2) << "\n";
@@ -475,11 +478,14 @@ void add_run(CLI::App& app) {
     const char* method;
     const char* help;
   };
-  for (const Simple& s : {Simple{"resume", "run.resume", "resume a paused, interrupted or faulted run"},
-                          Simple{"pause", "run.pause", "pause the run; the stand stops"},
-                          Simple{"abort", "run.abort", "abort the run; recorded positions are kept"},
-                          Simple{"confirm", "operator.confirm", "confirm a re-mount step is done"},
-                          Simple{"status", "run.status", "state and progress of the current (or given) run"}}) {
+  for (const Simple& s :
+       {Simple{"resume", protocol::method::run_resume,
+               "resume a paused, interrupted or faulted run"},
+        Simple{"pause", protocol::method::run_pause, "pause the run; the stand stops"},
+        Simple{"abort", protocol::method::run_abort, "abort the run; recorded positions are kept"},
+        Simple{"confirm", protocol::method::operator_confirm, "confirm a re-mount step is done"},
+        Simple{"status", protocol::method::run_status,
+               "state and progress of the current (or given) run"}}) {
     auto o = std::make_shared<DaemonOptions>();
     auto id = std::make_shared<std::string>();
     auto* cmd = run->add_subcommand(s.name, s.help);
@@ -492,7 +498,7 @@ void add_run(CLI::App& app) {
       const json r = call(c, method, id->empty() ? json::object() : json{{"run_id", *id}});
       if (o->json) {
         std::cout << r.dump(2) << "\n";
-      } else if (method == "run.status") {
+      } else if (method == protocol::method::run_status) {
         std::printf("run %s: %s  %s\n", r.value("run_id", "").c_str(), r.value("state", "").c_str(),
                     progress_line(r).c_str());
       } else {
