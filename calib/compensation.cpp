@@ -61,11 +61,10 @@ CompensationValues stand_compensation_values(const Eigen::VectorXd& p, double g_
 
 // b and M = T diag(1/scale) from the norm fit's bias, scale and misalignment.
 CompensationValues norm_compensation_values(const Eigen::VectorXd& p) {
-  Mat3 t = Mat3::Identity();
-  t(0, 1) = p[6];
-  t(0, 2) = p[7];
-  t(1, 2) = p[8];
-  return pack_compensation(p.head<3>(), t * Vec3(p.segment<3>(3).cwiseInverse()).asDiagonal());
+  NormCompensation k;
+  k.misalignment = p.tail<3>();
+  return pack_compensation(p.head<3>(),
+                           k.triangular() * Vec3(p.segment<3>(3).cwiseInverse()).asDiagonal());
 }
 
 std::string compensation_units_name(InputUnits u) {
@@ -151,7 +150,6 @@ Compensation make_compensation(const FitResult& fit, double g_local_mps2) {
   c.estimator = fit.estimator;
   c.g_local_mps2 = g_local_mps2;
   Eigen::VectorXd p = Eigen::VectorXd::Zero(kUnitParameterCount);
-  Eigen::VectorXd sigma = Eigen::VectorXd::Zero(kUnitParameterCount);
   for (int j = 0; j < kUnitParameterCount; ++j) {
     const ParameterEstimate& e = fit.unit[static_cast<std::size_t>(j)];
     if (!e.value) {
@@ -161,16 +159,8 @@ Compensation make_compensation(const FitResult& fit, double g_local_mps2) {
       continue;
     }
     p[j] = *e.value;
-    sigma[j] = e.sigma.value_or(0.0);
   }
-  Eigen::MatrixXd cov = Eigen::MatrixXd::Zero(kUnitParameterCount, kUnitParameterCount);
-  for (int i = 0; i < kUnitParameterCount; ++i)
-    for (int k = 0; k < kUnitParameterCount; ++k) {
-      const double r = i == k                                          ? 1.0
-                       : fit.correlation.rows() == kUnitParameterCount ? fit.correlation(i, k)
-                                                                       : 0.0;
-      if (std::isfinite(r)) cov(i, k) = r * sigma[i] * sigma[k];
-    }
+  const Eigen::MatrixXd cov = unit_parameter_covariance(fit);
   const CompensationValues v = stand_compensation_values(p, g_local_mps2);
   c.bias = v.head<3>();
   for (int i = 0; i < 9; ++i) c.matrix(i / 3, i % 3) = v[3 + i];

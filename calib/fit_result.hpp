@@ -3,6 +3,7 @@
 // `standcal fit --json` and rendered as the bench engineer's report.
 #include <Eigen/Dense>
 #include <array>
+#include <cmath>
 #include <limits>
 #include <optional>
 #include <string>
@@ -59,5 +60,23 @@ struct FitResult {
   std::vector<std::string> notes;    // plain-language remarks (zero redundancy, ...)
   NoiseFinding noise;                // what the fit weighted with (docs/calibration.md)
 };
+
+// The covariance of the nine unit parameters from their sigmas and correlation (internal
+// units); an unobservable parameter's row and column are zero.
+inline Eigen::Matrix<double, kUnitParameterCount, kUnitParameterCount> unit_parameter_covariance(
+    const FitResult& fit) {
+  Eigen::Matrix<double, kUnitParameterCount, kUnitParameterCount> cov;
+  for (int i = 0; i < kUnitParameterCount; ++i)
+    for (int k = 0; k < kUnitParameterCount; ++k) {
+      const ParameterEstimate& a = fit.unit[static_cast<std::size_t>(i)];
+      const ParameterEstimate& b = fit.unit[static_cast<std::size_t>(k)];
+      const double r = i == k                                          ? 1.0
+                       : fit.correlation.rows() == kUnitParameterCount ? fit.correlation(i, k)
+                                                                       : 0.0;
+      const bool known = a.value && b.value && a.sigma && b.sigma && std::isfinite(r);
+      cov(i, k) = known ? r * *a.sigma * *b.sigma : 0.0;
+    }
+  return cov;
+}
 
 }  // namespace standcal

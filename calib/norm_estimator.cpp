@@ -167,13 +167,6 @@ Mat9 jacobian_at_zero(F f) {
   return j;
 }
 
-Mat9 covariance_of(const FitResult& r) {
-  Vec9 sigma;
-  for (int k = 0; k < kNormParameters; ++k)
-    sigma[k] = r.unit[static_cast<std::size_t>(k)].sigma.value_or(kNaN);
-  return sigma.asDiagonal() * Mat9(r.correlation) * sigma.asDiagonal();
-}
-
 void require_enough(const std::vector<StaticInterval>& intervals) {
   if (static_cast<int>(intervals.size()) >= kNormMinimumIntervals) return;
   throw std::runtime_error(
@@ -299,7 +292,7 @@ NormFit fit_norm(const std::vector<StaticInterval>& intervals, double g, InputUn
   // its corrections (GLS when the run shows wander) are applied.
   FitResult inv = fit_invariant_joint(calibrated_averages(intervals, solved, g), o.noise);
   require_observable(inv);
-  const Mat9 cov_correction = covariance_of(inv);
+  const Mat9 cov_correction = unit_parameter_covariance(inv);  // all observable (above)
   Vec9 correction;
   for (int k = 0; k < kNormParameters; ++k)
     correction[k] = *inv.unit[static_cast<std::size_t>(k)].value;

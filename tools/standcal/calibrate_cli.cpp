@@ -112,8 +112,11 @@ void fit_stand_averages(const FitOptions& o, const std::string& method, const Re
                         std::vector<PositionAverage> averages, std::optional<AllanFinding> allan) {
   FitResult fit = fit_with(o, method, averages);
   fit.noise.allan = std::move(allan);
-  Compensation compensation = make_compensation(fit, rec.g_local_mps2);
-  compensation.identity = compensation_identity(rec, averages);
+  std::optional<Compensation> compensation;  // made before the report takes the averages
+  if (!o.compensation.empty()) {
+    compensation = make_compensation(fit, rec.g_local_mps2);
+    compensation->identity = compensation_identity(rec, averages);
+  }
   std::optional<UncertaintyBudget> budget;
   if (!o.budget.empty()) {
     const MountingModel mounting =
@@ -130,7 +133,7 @@ void fit_stand_averages(const FitOptions& o, const std::string& method, const Re
     std::cout << format_report(fit, report_context(rec, std::move(averages)));
     if (budget) std::cout << format_budget_summary(*budget);
   }
-  if (!o.compensation.empty()) save_compensation(compensation, o.compensation);
+  if (compensation) save_compensation(*compensation, o.compensation);
 }
 
 void run_fit(const FitOptions& o) {
