@@ -64,11 +64,17 @@ const T& check(const drivers::Result<T>& r) {
   if (!r) throw RpcError(code_for(r.status().kind), r.status().message);
   return r.value();
 }
-
-std::string fmt_deg(double d) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.4f°", d);
-  return buf;
+// A wait that ended early: an axis that lost its drive mid-move is a hardware fault, not a
+// refused request.
+template <class T>
+T check_wait(drivers::Result<T> r) {
+  if (!r) {
+    const drivers::ErrorKind kind = r.status().kind;
+    throw RpcError(
+        kind == drivers::ErrorKind::not_allowed ? ErrorCode::hardware_fault : code_for(kind),
+        r.status().message);
+  }
+  return std::move(r.value());
 }
 
 json axis_json(StandAxis axis, const drivers::AxisState& s) {
@@ -456,7 +462,10 @@ json Sequencer::execute_idle(const Command& cmd) {
   }
   if (method == m::estop_reset) {
     p.only({});
-    check(hw_.stand->recover());
+    // The latch is the controller's: an unconfigured stand is configured first so that a
+    // latch set before then is found (it puts the stand in error) and reset here.
+    if (hw_.stand->lifecycle() == drivers::Lifecycle::unconfigured) check(hw_.stand->configure());
+    if (hw_.stand->lifecycle() == drivers::Lifecycle::error) check(hw_.stand->recover());
     estop_latched_ = false;
     return json{{"estop", false}, {"message", "emergency stop reset: send stand.enable and stand.home"}};
   }
@@ -504,28 +513,16 @@ void Sequencer::prepare_stand(bool home_if_needed) {
   }
 }
 
+// The drivers' one in-position rule, on the stand's clock, serving requests while it waits.
+drivers::WaitClock Sequencer::wait_clock() {
+  return {[this] { return stand_time_s(now_real_s()); },
+          [this](double stand_s) { wait_real(std::clamp(real_time_s(stand_s), 0.002, 0.05)); }};
+}
+
 void Sequencer::home_axes() {
   for (StandAxis a : kAxes) check(hw_.stand->home(a));
-  const double start = now_real_s();
-  const double poll_real = std::clamp(real_time_s(config_.in_position.poll_s), 0.005, 0.05);
-  for (;;) {
-    wait_real(poll_real);
-    bool done = true;
-    for (StandAxis a : kAxes) {
-      const drivers::AxisState s = read_axis(a);
-      if (s.estop) throw RpcError(ErrorCode::estop_active, "emergency stop while homing");
-      if (s.mode == drivers::AxisMode::fault) {
-        throw RpcError(ErrorCode::hardware_fault, std::string("stand axis ") + drivers::to_string(a) +
-                                                      " faulted while homing: " + s.fault_text);
-      }
-      done = done && s.homed && s.mode != drivers::AxisMode::homing;
-    }
-    if (done) return;
-    if (stand_time_s(now_real_s() - start) > config_.home_timeout_s) {
-      throw RpcError(ErrorCode::hardware_fault,
-                     "the stand did not finish homing within " + std::to_string(int(config_.home_timeout_s)) + " s");
-    }
-  }
+  check_wait(drivers::wait_homed(*hw_.stand, kAxes, config_.home_timeout_s,
+                                 config_.in_position.poll_s, wait_clock()));
 }
 
 void Sequencer::start_move(double alpha1_deg, double alpha2_deg) {
@@ -548,53 +545,11 @@ std::pair<double, double> Sequencer::move_and_wait(double alpha1_deg, double alp
 }
 
 std::pair<double, double> Sequencer::wait_in_position(double target1_deg, double target2_deg) {
-  const drivers::InPositionRule& rule = config_.in_position;
-  const double targets[2] = {target1_deg, target2_deg};
-  const double start = now_real_s();
-  const double poll_real = std::clamp(real_time_s(rule.poll_s), 0.002, 0.05);
-  double inside_since = -1;
-  for (;;) {
-    drivers::AxisState s[2];
-    bool inside = true;
-    for (int i = 0; i < 2; ++i) {
-      s[i] = read_axis(kAxes[i]);
-      const char* name = drivers::to_string(kAxes[i]);
-      if (s[i].estop) throw RpcError(ErrorCode::estop_active, "emergency stop during the move");
-      if (s[i].mode == drivers::AxisMode::fault) {
-        throw RpcError(ErrorCode::hardware_fault, std::string("stand axis ") + name + " faulted: " + s[i].fault_text);
-      }
-      if (s[i].stopped_by_heartbeat) {
-        throw RpcError(ErrorCode::hardware_fault,
-                       std::string("stand axis ") + name + " was stopped by the controller: heartbeat lost");
-      }
-      const double err = drivers::angle_error_deg(hw_.stand->range(kAxes[i]), s[i].angle_deg, targets[i]);
-      inside = inside && std::abs(err) <= rule.window_deg && s[i].mode != drivers::AxisMode::moving &&
-               s[i].mode != drivers::AxisMode::homing;
-    }
-    const double now = now_real_s();
-    if (!inside) {
-      inside_since = -1;
-    } else if (inside_since < 0) {
-      inside_since = now;
-    }
-    if (inside && stand_time_s(now - inside_since) >= rule.dwell_s) return {s[0].angle_deg, s[1].angle_deg};
-    // Only a stand seen outside the window past the timeout has failed: when this thread
-    // was not scheduled for a while (a loaded PC, or time_scale 1000), the first poll
-    // after the deadline may be the first to see it in position, and its dwell is due.
-    if (!inside && stand_time_s(now - start) > rule.timeout_s) {
-      for (int i = 0; i < 2; ++i) {
-        if (std::abs(drivers::angle_error_deg(hw_.stand->range(kAxes[i]), s[i].angle_deg, targets[i])) > rule.window_deg) {
-          throw RpcError(ErrorCode::hardware_fault,
-                         std::string("stand axis ") + drivers::to_string(kAxes[i]) + " did not reach " +
-                             fmt_deg(targets[i]) + " within " + std::to_string(int(rule.timeout_s)) + " s: at " +
-                             fmt_deg(s[i].angle_deg) + ", " + drivers::to_string(s[i].mode));
-        }
-      }
-      throw RpcError(ErrorCode::hardware_fault, "the stand did not settle in position within " +
-                                                    std::to_string(int(rule.timeout_s)) + " s");
-    }
-    wait_real(poll_real);
-  }
+  const drivers::AxisTarget targets[] = {{StandAxis::outer, target1_deg},
+                                         {StandAxis::inner, target2_deg}};
+  const std::vector<double> reached =
+      check_wait(drivers::wait_in_position(*hw_.stand, targets, config_.in_position, wait_clock()));
+  return {reached[0], reached[1]};
 }
 
 void Sequencer::stop_axes_quietly() {
@@ -1000,10 +955,12 @@ void Sequencer::set_state(RunRecord& record, const std::string& state, const std
     std::lock_guard lock(snapshot_mutex_);
     if (progress_.is_object()) progress_["state"] = state;
   }
+  // The one log line of a state change; a fault is logged here once, at error level.
+  const auto level = state == st::faulted ? spdlog::level::err : spdlog::level::info;
   if (reason.empty()) {
-    spdlog::info("run {}: {}", record.run_id, state);
+    spdlog::log(level, "run {}: {}", record.run_id, state);
   } else {
-    spdlog::info("run {}: {} ({})", record.run_id, state, reason);
+    spdlog::log(level, "run {}: {} ({})", record.run_id, state, reason);
   }
   events_(ev::run_state, json{{"run_id", record.run_id}, {"state", state}, {"reason", reason},
                               {"positions_done", record.positions_done}, {"positions", record.positions}});
@@ -1104,7 +1061,6 @@ void Sequencer::run_loop(RunRecord record, const std::function<void()>& started)
   } catch (const std::exception& e) {
     stop_axes_quietly();
     if (hw_.unit) (void)hw_.unit->stop();
-    spdlog::error("run {} faulted: {}", record.run_id, e.what());
     events_(ev::fault, json{{"run_id", record.run_id}, {"message", e.what()}});
     set_state(record, st::faulted, e.what());
   }

@@ -119,6 +119,7 @@ class Sequencer {
   // Stand operations (throw protocol::RpcError).
   void prepare_stand(bool home_if_needed);
   void home_axes();
+  drivers::WaitClock wait_clock();
   std::pair<double, double> move_and_wait(double alpha1_deg, double alpha2_deg);
   void start_move(double alpha1_deg, double alpha2_deg);
   std::pair<double, double> wait_in_position(double target1_deg, double target2_deg);

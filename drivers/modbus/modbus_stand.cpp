@@ -1,4 +1,4 @@
-// ModbusStand: the Stand lifecycle and commands over one I/O thread (see the header).
+// ModbusStand: the Stand's hardware steps over one I/O thread (see the header).
 #include "drivers/modbus/modbus_stand.hpp"
 
 #include <algorithm>
@@ -104,8 +104,7 @@ void ModbusStand::beat(ModbusLink& link) {
   if (!link.reopen_if_due()) return;
   const std::uint16_t counter = ++heartbeat_value_;
   if (auto written = link.write(config_.map.heartbeat, 1, &counter, "writing the heartbeat"); !written) {
-    if (is_link_loss(written) && (lifecycle_ == Lifecycle::inactive || lifecycle_ == Lifecycle::active))
-      lifecycle_ = Lifecycle::error;
+    if (is_link_loss(written)) link_lost();
     return;
   }
   ++heartbeats_;
@@ -124,8 +123,7 @@ Status ModbusStand::on_link(std::function<Status(ModbusLink&)> job) {
   }
   wake_.notify_all();
   Status result = done.get();
-  if (is_link_loss(result) && (lifecycle_ == Lifecycle::inactive || lifecycle_ == Lifecycle::active))
-    lifecycle_ = Lifecycle::error;
+  if (is_link_loss(result)) link_lost();
   return result;
 }
 
@@ -145,63 +143,31 @@ Status ModbusStand::open_and_arm(ModbusLink& link) {
   return Status::ok();
 }
 
-Status ModbusStand::configure() {
-  if (lifecycle_ != Lifecycle::unconfigured)
-    return Status::error(ErrorKind::not_allowed, "stand " + name_ + " is already configured (" +
-                                                     to_string(lifecycle_.load()) + ")");
-  std::uint16_t flags = 0;
-  auto opened = on_link([&](ModbusLink& link) {
-    if (auto armed = open_and_arm(link); !armed) return armed;
-    return link.read_input(config_.map.global_flags, 1, &flags, "reading the global flags");
-  });
+Status ModbusStand::on_configure() {
+  auto opened = on_link([&](ModbusLink& link) { return open_and_arm(link); });
   if (!opened) return opened;
   heartbeat_on_ = true;
-  // A latched e-stop is an error to recover from, found now rather than at the first move.
-  lifecycle_ = (flags & kGlobalEstop) ? Lifecycle::error : Lifecycle::inactive;
   return Status::ok();
 }
 
-Status ModbusStand::activate() {
-  if (lifecycle_ != Lifecycle::inactive)
-    return Status::error(lifecycle_ == Lifecycle::error ? ErrorKind::estop : ErrorKind::not_allowed,
-                         "stand " + name_ + " cannot be activated while " + to_string(lifecycle_.load()) +
-                             (lifecycle_ == Lifecycle::error ? " (e-stop latched or link lost): recover first" : ""));
+Result<bool> ModbusStand::on_read_estop_latched() {
   std::uint16_t flags = 0;
   auto read = on_link([&](ModbusLink& link) {
     return link.read_input(config_.map.global_flags, 1, &flags, "reading the global flags");
   });
   if (!read) return read;
-  if (flags & kGlobalEstop)
-    return Status::error(ErrorKind::estop, "stand " + name_ + " has its emergency stop latched: recover first");
-  lifecycle_ = Lifecycle::active;
-  return Status::ok();
+  return (flags & kGlobalEstop) != 0;
 }
 
-Status ModbusStand::deactivate() {
-  if (lifecycle_ != Lifecycle::active)
-    return Status::error(ErrorKind::not_allowed, "stand " + name_ + " is not active");
-  Status outer = stop(StandAxis::outer);
-  Status inner = stop(StandAxis::inner);
-  if (lifecycle_ == Lifecycle::active) lifecycle_ = Lifecycle::inactive;
-  return !outer ? outer : inner;
-}
-
-Status ModbusStand::cleanup() {
-  if (lifecycle_ == Lifecycle::active)
-    return Status::error(ErrorKind::not_allowed, "stand " + name_ + " is active: deactivate first");
+Status ModbusStand::on_cleanup() {
   heartbeat_on_ = false;
-  (void)on_link([](ModbusLink& link) {
+  return on_link([](ModbusLink& link) {
     link.close();
     return Status::ok();
   });
-  lifecycle_ = Lifecycle::unconfigured;
-  return Status::ok();
 }
 
-Status ModbusStand::recover() {
-  if (lifecycle_ != Lifecycle::error)
-    return Status::error(ErrorKind::not_allowed, "stand " + name_ + " is not in error (" +
-                                                     to_string(lifecycle_.load()) + ")");
+Status ModbusStand::on_recover() {
   auto recovered = on_link([this](ModbusLink& link) {
     if (auto armed = open_and_arm(link); !armed) return armed;
     const auto reset = static_cast<std::uint16_t>(GlobalCommand::reset);
@@ -209,15 +175,7 @@ Status ModbusStand::recover() {
   });
   if (!recovered) return recovered;
   heartbeat_on_ = true;
-  lifecycle_ = Lifecycle::inactive;
   return Status::ok();
-}
-
-Status ModbusStand::require_active(const char* what) const {
-  if (lifecycle_ == Lifecycle::active) return Status::ok();
-  return Status::error(ErrorKind::not_allowed, std::string("stand ") + name_ + " is " +
-                                                   to_string(lifecycle_.load()) + ": " + what +
-                                                   " needs it active");
 }
 
 Status ModbusStand::write_axis_command(StandAxis axis, AxisCommand command, const std::string& what) {
@@ -225,12 +183,11 @@ Status ModbusStand::write_axis_command(StandAxis axis, AxisCommand command, cons
   return on_link([&](ModbusLink& link) { return link.write(config_.map.axis(axis).command, 1, &value, what); });
 }
 
-Status ModbusStand::enable(StandAxis axis) {
-  if (auto ok = require_active("enable"); !ok) return ok;
+Status ModbusStand::on_enable(StandAxis axis) {
   if (auto w = write_axis_command(axis, AxisCommand::enable, "enabling the " + axis_text(axis)); !w) return w;
   const auto deadline = Clock::now() + std::chrono::duration<double>(config_.enable_timeout_s);
   for (;;) {
-    auto state = read_state(axis);
+    auto state = on_read_state(axis);
     if (!state) return state.status();
     if (state.value().enabled) return Status::ok();
     if (Clock::now() > deadline) {
@@ -244,19 +201,15 @@ Status ModbusStand::enable(StandAxis axis) {
   }
 }
 
-Status ModbusStand::disable(StandAxis axis) {
-  if (lifecycle_ == Lifecycle::unconfigured)
-    return Status::error(ErrorKind::not_allowed, "stand " + name_ + " is not configured");
+Status ModbusStand::on_disable(StandAxis axis) {
   return write_axis_command(axis, AxisCommand::disable, "disabling the " + axis_text(axis));
 }
 
-Status ModbusStand::home(StandAxis axis) {
-  if (auto ok = require_active("homing"); !ok) return ok;
+Status ModbusStand::on_home(StandAxis axis) {
   return write_axis_command(axis, AxisCommand::home, "starting the " + axis_text(axis) + " homing");
 }
 
-Status ModbusStand::move_to(StandAxis axis, double angle_deg) {
-  if (auto ok = require_active("a move"); !ok) return ok;
+Status ModbusStand::on_move_to(StandAxis axis, double angle_deg) {
   const RegisterMap& map = config_.map;
   const AxisRegisters& r = map.axis(axis);
   const std::string what = "commanding the " + axis_text(axis) + " move to " + format_deg(angle_deg);
@@ -281,24 +234,18 @@ Status ModbusStand::move_to(StandAxis axis, double angle_deg) {
   });
 }
 
-Status ModbusStand::stop(StandAxis axis) {
-  if (lifecycle_ == Lifecycle::unconfigured)
-    return Status::error(ErrorKind::not_allowed, "stand " + name_ + " is not configured");
+Status ModbusStand::on_stop(StandAxis axis) {
   return write_axis_command(axis, AxisCommand::stop, "stopping the " + axis_text(axis));
 }
 
-Status ModbusStand::emergency_stop() {
+Status ModbusStand::on_emergency_stop() {
   const auto value = static_cast<std::uint16_t>(GlobalCommand::emergency_stop);
-  auto written = on_link([&](ModbusLink& link) {
+  return on_link([&](ModbusLink& link) {
     return link.write(config_.map.global_command, 1, &value, "commanding the emergency stop");
   });
-  if (lifecycle_ != Lifecycle::unconfigured) lifecycle_ = Lifecycle::error;
-  return written;
 }
 
-Result<AxisState> ModbusStand::read_state(StandAxis axis) {
-  if (lifecycle_ == Lifecycle::unconfigured)
-    return Status::error(ErrorKind::not_allowed, "stand " + name_ + " is not configured");
+Result<AxisState> ModbusStand::on_read_state(StandAxis axis) {
   RawAxisStatus raw;
   auto read = on_link([&](ModbusLink& link) { return read_axis_status(link, config_.map, axis, raw); });
   if (!read) return read;
@@ -315,12 +262,6 @@ Result<AxisState> ModbusStand::read_state(StandAxis axis) {
   s.fault_code = raw.fault;
   if (raw.fault != 0 || s.mode == AxisMode::fault) s.fault_text = fault_text(raw.fault);
   return s;
-}
-
-Result<double> ModbusStand::read_angle_deg(StandAxis axis) {
-  auto state = read_state(axis);
-  if (!state) return state.status();
-  return state.value().angle_deg;
 }
 
 }  // namespace standcal::drivers::modbus

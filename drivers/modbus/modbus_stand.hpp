@@ -29,34 +29,31 @@ class ModbusStand final : public Stand {
   static Result<std::unique_ptr<ModbusStand>> create(const std::string& url, ModbusStandConfig config);
   ~ModbusStand() override;
 
-  Status configure() override;
-  Status activate() override;
-  Status deactivate() override;
-  Status cleanup() override;
-  Status recover() override;
-  Lifecycle lifecycle() const override { return lifecycle_.load(); }
-
-  Status enable(StandAxis axis) override;
-  Status disable(StandAxis axis) override;
-  Status home(StandAxis axis) override;
-  Status move_to(StandAxis axis, double angle_deg) override;
-  Status stop(StandAxis axis) override;
-  Status emergency_stop() override;
-
-  Result<AxisState> read_state(StandAxis axis) override;
-  Result<double> read_angle_deg(StandAxis axis) override;
   AxisRange range(StandAxis axis) const override { return config_.ranges[static_cast<int>(axis) - 1]; }
   std::string name() const override { return name_; }
 
   std::uint64_t heartbeats_written() const { return heartbeats_.load(); }  // for bring-up and tests
   int link_opens() const { return link_opens_.load(); }                     // 1 + reconnects so far
 
+ protected:
+  // The controller's steps over the link; drivers/stand/lifecycle.cpp decides when they run.
+  Status on_configure() override;
+  Result<bool> on_read_estop_latched() override;
+  Status on_cleanup() override;
+  Status on_recover() override;
+  Status on_enable(StandAxis axis) override;
+  Status on_disable(StandAxis axis) override;
+  Status on_home(StandAxis axis) override;
+  Status on_move_to(StandAxis axis, double angle_deg) override;
+  Status on_stop(StandAxis axis) override;
+  Status on_emergency_stop() override;
+  Result<AxisState> on_read_state(StandAxis axis) override;
+
  private:
   ModbusStand(ModbusUrl url, ModbusStandConfig config);
-  // Runs `job` on the I/O thread and returns its Status; lifecycle → error on link loss.
+  // Runs `job` on the I/O thread and returns its Status; reports a link loss (link_lost()).
   Status on_link(std::function<Status(ModbusLink&)> job);
   Status write_axis_command(StandAxis axis, AxisCommand command, const std::string& what);
-  Status require_active(const char* what) const;
   Status open_and_arm(ModbusLink& link);
   void io_loop();
   void beat(ModbusLink& link);
@@ -69,7 +66,6 @@ class ModbusStand final : public Stand {
   ModbusUrl url_;
   ModbusStandConfig config_;
   std::string name_;
-  std::atomic<Lifecycle> lifecycle_{Lifecycle::unconfigured};
   std::atomic<bool> heartbeat_on_{false};
   std::atomic<std::uint64_t> heartbeats_{0};  // writes that were answered
   // The value of the next heartbeat write. Advanced on every attempt, answered or not: a

@@ -35,79 +35,34 @@ void SimStand::settle_homing(Axis& a, double t_s) {
   }
 }
 
-Status SimStand::require_active(const char* what) const {
-  if (estop_) return Status::error(ErrorKind::estop, std::string("sim stand: emergency stop is latched; cannot ") + what);
-  if (lifecycle_ != Lifecycle::active)
-    return Status::error(ErrorKind::not_allowed,
-                         std::string("sim stand is ") + to_string(lifecycle_) + ", not active; cannot " + what);
-  return Status::ok();
-}
-
-Status SimStand::configure() {
+Result<bool> SimStand::on_read_estop_latched() {
   std::lock_guard lock(mutex_);
-  if (estop_) return Status::error(ErrorKind::estop, "sim stand: emergency stop is latched; reset it first");
-  if (lifecycle_ == Lifecycle::unconfigured) lifecycle_ = Lifecycle::inactive;
-  return Status::ok();
+  return estop_;
 }
 
-Status SimStand::activate() {
-  std::lock_guard lock(mutex_);
-  if (lifecycle_ != Lifecycle::inactive && lifecycle_ != Lifecycle::active)
-    return Status::error(ErrorKind::not_allowed, std::string("sim stand is ") + to_string(lifecycle_) +
-                                                     "; configure it before activating");
-  lifecycle_ = Lifecycle::active;
-  return Status::ok();
-}
-
-Status SimStand::deactivate() {
-  std::lock_guard lock(mutex_);
-  const double t = clock_->now_s();
-  for (Axis& a : axes_) freeze(a, t);
-  if (lifecycle_ == Lifecycle::active) lifecycle_ = Lifecycle::inactive;
-  return Status::ok();
-}
-
-Status SimStand::cleanup() {
-  std::lock_guard lock(mutex_);
-  if (lifecycle_ == Lifecycle::active)
-    return Status::error(ErrorKind::not_allowed, "sim stand is active; deactivate it first");
-  lifecycle_ = Lifecycle::unconfigured;
-  return Status::ok();
-}
-
-Status SimStand::recover() {
+Status SimStand::on_recover() {
   std::lock_guard lock(mutex_);
   estop_ = false;
-  lifecycle_ = Lifecycle::inactive;
   return Status::ok();
 }
 
-Lifecycle SimStand::lifecycle() const {
+Status SimStand::on_enable(StandAxis axis) {
   std::lock_guard lock(mutex_);
-  return lifecycle_;
-}
-
-Status SimStand::enable(StandAxis axis) {
-  std::lock_guard lock(mutex_);
-  if (Status s = require_active("enable an axis"); !s) return s;
   axis_of(axis).enabled = true;
   return Status::ok();
 }
 
-Status SimStand::disable(StandAxis axis) {
+Status SimStand::on_disable(StandAxis axis) {
   std::lock_guard lock(mutex_);
-  if (Status s = require_active("disable an axis"); !s) return s;
   Axis& a = axis_of(axis);
   freeze(a, clock_->now_s());
   a.enabled = false;
   return Status::ok();
 }
 
-Status SimStand::home(StandAxis axis) {
+Status SimStand::on_home(StandAxis axis) {
   std::lock_guard lock(mutex_);
-  if (Status s = require_active("home"); !s) return s;
   Axis& a = axis_of(axis);
-  if (!a.enabled) return Status::error(ErrorKind::not_allowed, std::string("sim stand axis ") + to_string(axis) + " is disabled; enable it first");
   const double t = clock_->now_s();
   freeze(a, t);
   a.target_deg = 0;
@@ -116,14 +71,11 @@ Status SimStand::home(StandAxis axis) {
   return Status::ok();
 }
 
-Status SimStand::move_to(StandAxis axis, double angle_deg) {
+Status SimStand::on_move_to(StandAxis axis, double angle_deg) {
   std::lock_guard lock(mutex_);
-  if (Status s = require_active("move"); !s) return s;
   Axis& a = axis_of(axis);
-  if (!a.enabled) return Status::error(ErrorKind::not_allowed, std::string("sim stand axis ") + to_string(axis) + " is disabled; enable it first");
   const double t = clock_->now_s();
   settle_homing(a, t);
-  if (!a.homed) return Status::error(ErrorKind::not_allowed, std::string("sim stand axis ") + to_string(axis) + " is not homed; home it first");
   const double now_deg = angle_at(a, t);
   const Result<double> target = path_target_deg(a.range, angle_deg, now_deg);
   if (!target) return target.status();
@@ -134,13 +86,13 @@ Status SimStand::move_to(StandAxis axis, double angle_deg) {
   return Status::ok();
 }
 
-Status SimStand::stop(StandAxis axis) {
+Status SimStand::on_stop(StandAxis axis) {
   std::lock_guard lock(mutex_);
   freeze(axis_of(axis), clock_->now_s());
   return Status::ok();
 }
 
-Status SimStand::emergency_stop() {
+Status SimStand::on_emergency_stop() {
   std::lock_guard lock(mutex_);
   const double t = clock_->now_s();
   for (Axis& a : axes_) {
@@ -148,14 +100,11 @@ Status SimStand::emergency_stop() {
     a.enabled = false;
   }
   estop_ = true;
-  lifecycle_ = Lifecycle::error;
   return Status::ok();
 }
 
-Result<AxisState> SimStand::read_state(StandAxis axis) {
+Result<AxisState> SimStand::on_read_state(StandAxis axis) {
   std::lock_guard lock(mutex_);
-  if (lifecycle_ == Lifecycle::unconfigured)
-    return Status::error(ErrorKind::not_allowed, "sim stand is unconfigured; nothing to read");
   Axis& a = axis_of(axis);
   const double t = clock_->now_s();
   settle_homing(a, t);
@@ -170,12 +119,6 @@ Result<AxisState> SimStand::read_state(StandAxis axis) {
   else if (a.commanded) s.mode = AxisMode::in_position;
   else s.mode = AxisMode::idle;
   return s;
-}
-
-Result<double> SimStand::read_angle_deg(StandAxis axis) {
-  Result<AxisState> s = read_state(axis);
-  if (!s) return s.status();
-  return s.value().angle_deg;
 }
 
 AxisRange SimStand::range(StandAxis axis) const { return axis_of(axis).range; }

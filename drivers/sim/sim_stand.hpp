@@ -1,7 +1,7 @@
 #pragma once
-// A simulated two-axis stand: constant-rate moves, homing to 0, the lifecycle and the
-// emergency stop of a real controller. Angles are what its angle sensors read; the
-// stand errors of calib's model act in the simulated unit (sim_unit.hpp).
+// A simulated two-axis stand: constant-rate moves, homing to 0 and the emergency-stop
+// latch of a real controller (the lifecycle is drivers/stand's). Angles are what its angle sensors
+// read; the stand errors of calib's model act in the simulated unit (sim_unit.hpp).
 #include <array>
 #include <memory>
 #include <mutex>
@@ -21,25 +21,25 @@ class SimStand : public Stand {
  public:
   SimStand(std::shared_ptr<const SimClock> clock, const SimStandConfig& config);
 
-  Status configure() override;
-  Status activate() override;
-  Status deactivate() override;
-  Status cleanup() override;
-  Status recover() override;
-  Lifecycle lifecycle() const override;
-  Status enable(StandAxis axis) override;
-  Status disable(StandAxis axis) override;
-  Status home(StandAxis axis) override;
-  Status move_to(StandAxis axis, double angle_deg) override;
-  Status stop(StandAxis axis) override;
-  Status emergency_stop() override;
-  Result<AxisState> read_state(StandAxis axis) override;
-  Result<double> read_angle_deg(StandAxis axis) override;
   AxisRange range(StandAxis axis) const override;
   std::string name() const override { return "sim"; }
 
   // Both angles (alpha1, alpha2) at simulated time t_s, for the simulated unit.
   std::array<double, 2> angles_at_deg(double t_s) const;
+
+ protected:
+  // The simulated controller's steps; drivers/stand/lifecycle.cpp decides when they run.
+  Status on_configure() override { return Status::ok(); }
+  Result<bool> on_read_estop_latched() override;
+  Status on_cleanup() override { return Status::ok(); }
+  Status on_recover() override;
+  Status on_enable(StandAxis axis) override;
+  Status on_disable(StandAxis axis) override;
+  Status on_home(StandAxis axis) override;
+  Status on_move_to(StandAxis axis, double angle_deg) override;
+  Status on_stop(StandAxis axis) override;
+  Status on_emergency_stop() override;
+  Result<AxisState> on_read_state(StandAxis axis) override;
 
  private:
   struct Axis {
@@ -56,15 +56,13 @@ class SimStand : public Stand {
   const Axis& axis_of(StandAxis axis) const { return axes_[axis == StandAxis::outer ? 0 : 1]; }
   double angle_at(const Axis& a, double t_s) const;
   bool arrived(const Axis& a, double t_s) const;
-  Status require_active(const char* what) const;
   void settle_homing(Axis& a, double t_s);
   void freeze(Axis& a, double t_s);
 
   std::shared_ptr<const SimClock> clock_;
   double rate_deg_s_;
   mutable std::mutex mutex_;
-  Lifecycle lifecycle_ = Lifecycle::unconfigured;
-  bool estop_ = false;
+  bool estop_ = false;  // the controller's latch: survives cleanup and configure
   std::array<Axis, 2> axes_;
 };
 

@@ -25,7 +25,8 @@ Status SimUnit::stop() {
 }
 
 Result<std::vector<AccelSample>> SimUnit::collect(double seconds) {
-  if (seconds <= 0) return Status::error(ErrorKind::invalid_argument, "collect needs seconds > 0");
+  if (!(seconds > 0))
+    return Status::error(ErrorKind::invalid_argument, "collect needs seconds > 0");  // NaN too
   {
     std::lock_guard lock(mutex_);
     if (!started_) return Status::error(ErrorKind::not_allowed, "sim unit is not started");

@@ -4,6 +4,7 @@
 #include <sys/epoll.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -96,6 +97,10 @@ Result<std::vector<AccelSample>> SocketCanUnit::collect(double seconds) {
     return Status::error(ErrorKind::link, "CAN controller of " + link_.name() +
                                               " is bus-off (no restart since); the accelerometer "
                                               "unit cannot be sampled");
+  // A silence already reported gives the unit a fresh silence timeout from this call:
+  // after a cable is plugged back, the next collect must not fail before a frame can come.
+  if (health_.silent)
+    last_unit_frame_mono_s_ = std::max(last_unit_frame_mono_s_, monotonic_now_s());
   const double start_real_s = realtime_now_s();     // samples before it are not ours
   const double deadline_s = monotonic_now_s() + seconds;
   bus_off_seen_ = false;  // from here a bus-off fails the call, restarted or not

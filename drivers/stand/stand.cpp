@@ -1,4 +1,5 @@
-// Shared code of every Stand backend: range normalisation and the in-position rule.
+// Shared code of every Stand backend: range normalisation and the in-position rule (the
+// lifecycle is in lifecycle.cpp).
 #include "drivers/stand.hpp"
 
 #include <chrono>
@@ -35,7 +36,13 @@ double seconds_since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-void sleep_s(double s) { std::this_thread::sleep_for(std::chrono::duration<double>(s)); }
+bool in_motion(const AxisState& s) {
+  return s.mode == AxisMode::moving || s.mode == AxisMode::homing;
+}
+
+bool in_window(const AxisRange& range, const AxisState& s, double target_deg, double window_deg) {
+  return std::abs(angle_error_deg(range, s.angle_deg, target_deg)) <= window_deg;
+}
 
 // A state that ends any wait at once, or ok.
 Status stopped_reason(const Stand& stand, StandAxis axis, const AxisState& state,
@@ -48,12 +55,34 @@ Status stopped_reason(const Stand& stand, StandAxis axis, const AxisState& state
                                                format_deg(state.angle_deg));
   if (state.estop)
     return Status::error(ErrorKind::estop, where + " is in emergency stop while " + doing);
-  if (state.stopped_by_heartbeat && state.mode != AxisMode::moving && state.mode != AxisMode::homing)
+  // The flag stays set until the next command; an axis moving again has had one.
+  if (state.stopped_by_heartbeat && !in_motion(state))
     return Status::error(ErrorKind::link, where + " was stopped by the controller (heartbeat lost) while " +
                                               doing + ", at " + format_deg(state.angle_deg));
   if (!state.enabled)
     return Status::error(ErrorKind::not_allowed, where + " is disabled while " + doing);
   return Status::ok();
+}
+
+// The time-out message: the first axis outside its window, where it is and what it does.
+Status not_in_position(const Stand& stand, std::span<const AxisTarget> targets,
+                       const std::vector<AxisState>& states, const InPositionRule& rule) {
+  char within[64];
+  std::snprintf(within, sizeof within, " within %g s: at ", rule.timeout_s);
+  std::size_t worst = 0;
+  for (std::size_t i = 0; i < targets.size(); ++i) {
+    if (!in_window(stand.range(targets[i].axis), states[i], targets[i].target_deg,
+                   rule.window_deg)) {
+      worst = i;
+      break;
+    }
+    if (in_motion(states[i])) worst = i;  // inside the window but still moving
+  }
+  const AxisTarget& t = targets[worst];
+  const AxisState& s = states[worst];
+  return Status::error(ErrorKind::timeout, axis_label(stand, t.axis) + " did not reach " +
+                                               format_deg(t.target_deg) + within +
+                                               format_deg(s.angle_deg) + ", " + to_string(s.mode));
 }
 
 }  // namespace
@@ -118,49 +147,88 @@ double angle_error_deg(const AxisRange& range, double a_deg, double b_deg) {
   return range.continuous ? wrap_deg(a_deg - b_deg) : a_deg - b_deg;
 }
 
-Result<double> wait_in_position(Stand& stand, StandAxis axis, double target_deg,
-                                const InPositionRule& rule) {
-  const AxisRange range = stand.range(axis);
+WaitClock steady_wait_clock() {
   const auto start = Clock::now();
-  std::string doing = "moving to " + format_deg(target_deg);
-  bool inside = false;
-  Clock::time_point inside_since{};
+  return {[start] { return seconds_since(start); },
+          [](double s) { std::this_thread::sleep_for(std::chrono::duration<double>(s)); }};
+}
+
+Result<std::vector<double>> wait_in_position(Stand& stand, std::span<const AxisTarget> targets,
+                                             const InPositionRule& rule, const WaitClock& clock) {
+  const double start_s = clock.now_s();
+  double inside_since_s = -1;  // < 0: not inside
+  std::vector<AxisState> states(targets.size());
   for (;;) {
-    auto state = stand.read_state(axis);
-    if (!state) return state.status();
-    const AxisState& s = state.value();
-    if (auto stopped = stopped_reason(stand, axis, s, doing); !stopped) return stopped;
-    const bool now_inside = std::abs(angle_error_deg(range, s.angle_deg, target_deg)) <= rule.window_deg;
-    if (now_inside && !inside) inside_since = Clock::now();
-    inside = now_inside;
-    if (inside && seconds_since(inside_since) >= rule.dwell_s) return s.angle_deg;
-    if (seconds_since(start) > rule.timeout_s) {
-      char text[64];
-      std::snprintf(text, sizeof text, " within %g s: at ", rule.timeout_s);
-      return Status::error(ErrorKind::timeout, axis_label(stand, axis) + " did not reach " +
-                                                   format_deg(target_deg) + text +
-                                                   format_deg(s.angle_deg) + ", " + to_string(s.mode));
+    bool inside = true;
+    for (std::size_t i = 0; i < targets.size(); ++i) {
+      const AxisTarget& t = targets[i];
+      auto state = stand.read_state(t.axis);
+      if (!state) return state.status();
+      states[i] = state.value();
+      if (auto stopped =
+              stopped_reason(stand, t.axis, states[i], "moving to " + format_deg(t.target_deg));
+          !stopped)
+        return stopped;
+      inside = inside && in_window(stand.range(t.axis), states[i], t.target_deg, rule.window_deg) &&
+               !in_motion(states[i]);
     }
-    sleep_s(rule.poll_s);
+    const double now_s = clock.now_s();
+    if (!inside) {
+      inside_since_s = -1;
+    } else if (inside_since_s < 0) {
+      inside_since_s = now_s;
+    }
+    if (inside && now_s - inside_since_s >= rule.dwell_s) {
+      std::vector<double> angles_deg;
+      for (const AxisState& s : states) angles_deg.push_back(s.angle_deg);
+      return angles_deg;
+    }
+    if (!inside && now_s - start_s > rule.timeout_s)
+      return not_in_position(stand, targets, states, rule);
+    clock.pause_s(rule.poll_s);
   }
 }
 
-Result<double> wait_homed(Stand& stand, StandAxis axis, double timeout_s, double poll_s) {
-  const auto start = Clock::now();
+Result<double> wait_in_position(Stand& stand, StandAxis axis, double target_deg,
+                                const InPositionRule& rule, const WaitClock& clock) {
+  const AxisTarget target{axis, target_deg};
+  auto reached = wait_in_position(stand, std::span<const AxisTarget>(&target, 1), rule, clock);
+  if (!reached) return reached.status();
+  return reached.value().front();
+}
+
+Result<std::vector<double>> wait_homed(Stand& stand, std::span<const StandAxis> axes,
+                                       double timeout_s, double poll_s, const WaitClock& clock) {
+  const double start_s = clock.now_s();
   for (;;) {
-    auto state = stand.read_state(axis);
-    if (!state) return state.status();
-    const AxisState& s = state.value();
-    if (auto stopped = stopped_reason(stand, axis, s, "homing"); !stopped) return stopped;
-    if (s.homed && s.mode != AxisMode::homing) return s.angle_deg;
-    if (seconds_since(start) > timeout_s) {
-      char text[64];
-      std::snprintf(text, sizeof text, " within %g s: at ", timeout_s);
-      return Status::error(ErrorKind::timeout, axis_label(stand, axis) + " did not finish homing" + text +
-                                                   format_deg(s.angle_deg) + ", " + to_string(s.mode));
+    std::vector<double> angles_deg;
+    bool done = true;
+    for (StandAxis axis : axes) {
+      auto state = stand.read_state(axis);
+      if (!state) return state.status();
+      const AxisState& s = state.value();
+      if (auto stopped = stopped_reason(stand, axis, s, "homing"); !stopped) return stopped;
+      const bool axis_done = s.homed && s.mode != AxisMode::homing;
+      done = done && axis_done;
+      angles_deg.push_back(s.angle_deg);
+      if (!axis_done && clock.now_s() - start_s > timeout_s) {
+        char text[64];
+        std::snprintf(text, sizeof text, " within %g s: at ", timeout_s);
+        return Status::error(ErrorKind::timeout,
+                             axis_label(stand, axis) + " did not finish homing" + text +
+                                 format_deg(s.angle_deg) + ", " + to_string(s.mode));
+      }
     }
-    sleep_s(poll_s);
+    if (done) return angles_deg;
+    clock.pause_s(poll_s);
   }
+}
+
+Result<double> wait_homed(Stand& stand, StandAxis axis, double timeout_s, double poll_s,
+                          const WaitClock& clock) {
+  auto homed = wait_homed(stand, std::span<const StandAxis>(&axis, 1), timeout_s, poll_s, clock);
+  if (!homed) return homed.status();
+  return homed.value().front();
 }
 
 }  // namespace standcal::drivers

@@ -57,6 +57,9 @@ TEST_F(StandOverRtu, EnableAndMoveOverTheSerialLine) {
   ASSERT_TRUE(stand->activate());
   ASSERT_TRUE(stand->enable(StandAxis::outer));
   ASSERT_TRUE(stand->enable(StandAxis::inner));
+  for (auto axis : {StandAxis::outer, StandAxis::inner}) ASSERT_TRUE(stand->home(axis));
+  const StandAxis axes[] = {StandAxis::outer, StandAxis::inner};
+  ASSERT_TRUE(wait_homed(*stand, axes, 20.0, 0.01));
   ASSERT_TRUE(stand->move_to(StandAxis::outer, 45.0));
   ASSERT_TRUE(stand->move_to(StandAxis::inner, -200.0));  // continuous: −200° is 160°
   const InPositionRule rule{0.001, 0.1, 20.0, 0.01};

@@ -22,6 +22,14 @@ TEST(StandCli, EnableMoveAndStatusAgainstTheEmulator) {
   const std::string url = "--url " + emulator.url();
   const CliRun enabled = standcal_stand(url + " enable");
   ASSERT_EQ(enabled.exit_code, 0) << enabled.output;
+  const CliRun unreferenced = standcal_stand(url + " --timeout-s 20 move 270 -45.5");
+  EXPECT_EQ(unreferenced.exit_code, 1) << "an axis that has not found its reference does not move";
+  EXPECT_NE(
+      unreferenced.output.find("outer axis is not homed: home it before moving the outer axis"),
+      std::string::npos)
+      << unreferenced.output;
+  const CliRun homed = standcal_stand(url + " --timeout-s 20 home");
+  ASSERT_EQ(homed.exit_code, 0) << homed.output;
   const CliRun moved = standcal_stand(url + " --timeout-s 20 move 270 -45.5");
   ASSERT_EQ(moved.exit_code, 0) << moved.output;
   double outer_deg = 0, inner_deg = 0;

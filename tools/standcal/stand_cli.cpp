@@ -6,6 +6,7 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -52,7 +53,7 @@ std::unique_ptr<drv::modbus::ModbusStand> open_stand(const StandOptions& o, bool
   return stand;
 }
 
-void print_angles(const double (&angles_deg)[2], const char* suffix) {
+void print_angles(const double* angles_deg, const char* suffix) {  // outer, inner
   std::printf("outer %.4f° inner %.4f°%s\n", angles_deg[0], angles_deg[1], suffix);
 }
 
@@ -96,26 +97,25 @@ void home(const StandOptions& o) {
   auto stand = open_stand(o, true);
   for (auto axis : kAxes) check(stand->home(axis));
   if (o.no_wait) return note_no_wait(o);
-  double reached[2];
-  for (int i = 0; i < 2; ++i) reached[i] = check(drv::wait_homed(*stand, kAxes[i], o.timeout_s));
-  print_angles(reached, " (homed)");
+  const std::vector<double> reached = check(drv::wait_homed(*stand, kAxes, o.timeout_s, 0.02));
+  print_angles(reached.data(), " (homed)");
   check(stand->deactivate());
 }
 
 void move(const StandOptions& o) {
   auto stand = open_stand(o, true);
   const double targets[2] = {o.a1_deg, o.a2_deg};
-  double normalised[2];
+  std::vector<drv::AxisTarget> normalised;
   for (int i = 0; i < 2; ++i) {
     const double now_deg = check(stand->read_angle_deg(kAxes[i]));
-    normalised[i] = check(drv::normalise_target_deg(stand->range(kAxes[i]), targets[i], now_deg));
+    normalised.push_back(
+        {kAxes[i], check(drv::normalise_target_deg(stand->range(kAxes[i]), targets[i], now_deg))});
     check(stand->move_to(kAxes[i], targets[i]));
   }
   if (o.no_wait) return note_no_wait(o);
   const drv::InPositionRule rule{o.window_deg, o.dwell_s, o.timeout_s, 0.02};
-  double reached[2];
-  for (int i = 0; i < 2; ++i) reached[i] = check(drv::wait_in_position(*stand, kAxes[i], normalised[i], rule));
-  print_angles(reached, "");
+  const std::vector<double> reached = check(drv::wait_in_position(*stand, normalised, rule));
+  print_angles(reached.data(), "");
   check(stand->deactivate());
 }
 
