@@ -4,6 +4,8 @@
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
+#include "calib/distributions.hpp"
+
 namespace standcal {
 
 namespace {
@@ -21,7 +23,7 @@ std::string format(const char* fmt, double a) {
 std::string chi2_verdict(const FitResult& fit) {
   if (fit.redundancy <= 0)
     return "not testable: no redundancy (the fit passes through every position)";
-  const double p = chi2_upper_tail(fit.chi2, fit.redundancy);
+  const double p = chi_square_upper_tail(fit.chi2, fit.redundancy);
   std::string text = format("%.2f", fit.chi2_dof) + " with " + std::to_string(fit.redundancy) +
                      " degrees of freedom (p = " + format("%.3f", p) + "): ";
   if (p < 0.001) return text + "the residuals are LARGER than the noise explains; the model "
@@ -89,13 +91,6 @@ void append_strong_correlations(std::string& out, const FitResult& fit) {
 ReportContext report_context(const Recording& rec, std::vector<PositionAverage> averages) {
   return {rec.source, rec.unit_serial, rec.program, rec.g_local_mps2, rec.g_from_header,
           rec.warnings, std::move(averages)};
-}
-
-double chi2_upper_tail(double chi2, int dof) {
-  if (dof <= 0) return std::nan("");
-  const double k = dof;
-  const double z = (std::cbrt(chi2 / k) - (1.0 - 2.0 / (9.0 * k))) / std::sqrt(2.0 / (9.0 * k));
-  return 0.5 * std::erfc(z / std::sqrt(2.0));
 }
 
 json noise_finding_json(const NoiseFinding& n) {

@@ -23,10 +23,6 @@ struct ReportContext {
 
 ReportContext report_context(const Recording& rec, std::vector<PositionAverage> averages);
 
-// Probability that chi2 with `dof` degrees of freedom exceeds `chi2` (Wilson-Hilferty;
-// accurate to ~0.01 for dof >= 3, which is all a consistency verdict needs).
-double chi2_upper_tail(double chi2, int dof);
-
 nlohmann::json fit_to_json(const FitResult& fit);
 // `noise` of the fit and diagnosis JSON: the noise model a result was weighted with.
 nlohmann::json noise_finding_json(const NoiseFinding& n);

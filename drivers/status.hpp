@@ -1,5 +1,6 @@
 #pragma once
-// The error type every driver call returns: the caller must look at it, and its
+// The error type every driver call returns: the caller must look at it ([[nodiscard]]:
+// a dropped one is a compile error; `(void)` says "deliberately ignored", with a reason), and its
 // message is written for a bench operator ("no reply from tcp://127.0.0.1:1502 unit 1
 // after 3 tries").
 #include <string>
@@ -20,7 +21,7 @@ enum class ErrorKind {
   invalid_argument,
 };
 
-struct Status {
+struct [[nodiscard]] Status {
   ErrorKind kind = ErrorKind::none;
   std::string message;
 
@@ -31,7 +32,7 @@ struct Status {
 
 // A value or the Status explaining why there is none.
 template <class T>
-class Result {
+class [[nodiscard]] Result {
  public:
   Result(T value) : v_(std::move(value)) {}             // NOLINT: implicit by design
   Result(Status error) : v_(std::move(error)) {}        // NOLINT: implicit by design

@@ -14,6 +14,8 @@ packages=(
   libplplot-dev libsqlite3-dev libpq-dev libxml2-dev
   # zlib's CRC-32: the compensation file's checksum, and the C example that checks it.
   zlib1g-dev
+  # Boost.Math (header-only): the exact χ² tail of the consistency verdicts.
+  libboost-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   socat
   # Man pages (docs/CMakeLists.txt): standcal(1) and standcald(8) from --help-all,

@@ -6,6 +6,7 @@
 #include <optional>
 #include <utility>
 
+#include "calib/distributions.hpp"
 #include "calib/report.hpp"
 #include "calib/units.hpp"
 
@@ -96,7 +97,9 @@ double press_gain(const LinearFit& before, const LinearFit& after) {
   return gain;
 }
 
-double consistency_p(double chi2, int dof) { return dof > 0 ? chi2_upper_tail(chi2, dof) : 1.0; }
+double consistency_p(double chi2, int dof) {
+  return dof > 0 ? chi_square_upper_tail(chi2, dof) : 1.0;
+}
 
 double bic_gain(double delta_chi2, int params, std::size_t n) {
   return delta_chi2 - params * std::log(static_cast<double>(n));

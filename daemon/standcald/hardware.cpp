@@ -97,7 +97,7 @@ Hardware make_hardware(const DaemonConfig& c) {
     hw.time_scale = c.sim.time_scale;
     hw.description = "sim (time x" + std::to_string(c.sim.time_scale) + ")";
 #else
-    unavailable(c, "stand.backend", "sim");
+    unavailable(c, c.stand_backend == "sim" ? "stand.backend" : "unit.backend", "sim");
 #endif
   }
   if (c.stand_backend == "modbus") {

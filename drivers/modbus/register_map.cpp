@@ -42,6 +42,25 @@ void read_address(const json& object, const char* key, std::uint16_t& out) {
   out = static_cast<std::uint16_t>(v.get<std::int64_t>());
 }
 
+// A whole number in [min, max]: json's get<int> would wrap 4294967297 to 1 (one try).
+void read_count(const json& object, const char* key, int min, int max, int& out) {
+  if (!object.contains(key)) return;
+  const json& v = object.at(key);
+  // Compared as unsigned when json holds it so: 2^64 - 1 is no int64.
+  const bool in_range =
+      v.is_number_integer() &&
+      (v.is_number_unsigned() ? v.get<std::uint64_t>() >= std::uint64_t(min) &&
+                                    v.get<std::uint64_t>() <= std::uint64_t(max)
+                              : v.get<std::int64_t>() >= min && v.get<std::int64_t>() <= max);
+  if (!in_range)
+    throw json::out_of_range::create(406,
+                                     std::string(key) + " must be a whole number " +
+                                         std::to_string(min) + ".." + std::to_string(max) +
+                                         ", got " + v.dump(),
+                                     nullptr);
+  out = static_cast<int>(v.get<std::int64_t>());
+}
+
 template <class T>
 void read_value(const json& object, const char* key, T& out) {
   if (object.contains(key)) out = object.at(key).get<T>();
@@ -88,7 +107,7 @@ std::string parse_timing(const json& j, LinkTiming& t) {
       !why.empty())
     return why;
   read_value(j, "timeout_s", t.timeout_s);
-  read_value(j, "tries", t.tries);
+  read_count(j, "tries", 1, 1000, t.tries);
   read_value(j, "backoff_first_s", t.backoff_first_s);
   read_value(j, "backoff_max_s", t.backoff_max_s);
   read_value(j, "heartbeat_period_s", t.heartbeat_period_s);

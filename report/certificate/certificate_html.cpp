@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <string>
 
+#include "calib/distributions.hpp"
 #include "calib/parameters.hpp"
 #include "calib/report.hpp"
 #include "report/certificate/certificate.hpp"
@@ -181,7 +182,7 @@ std::string chi2_sentence(const FitResult& fit) {
   if (fit.redundancy <= 0 || !std::isfinite(fit.chi2_dof))
     return "Not testable: the programme has no redundant positions, so the fit passes through every measurement "
            "and cannot reveal a wrong model.";
-  const double p = chi2_upper_tail(fit.chi2, fit.redundancy);
+  const double p = chi_square_upper_tail(fit.chi2, fit.redundancy);
   std::string s = "χ²/dof = " + fixed(fit.chi2_dof, 2) + " with " + std::to_string(fit.redundancy) +
                   " degrees of freedom (p = " + fixed(p, 3) + "): ";
   if (p < 1e-3) return s + "the residuals are larger than the measured noise explains; the model misses something.";

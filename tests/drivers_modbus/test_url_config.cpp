@@ -129,6 +129,16 @@ TEST(StandConfig, UnknownKeysAndBadValuesAreNamed) {
   auto type = parse_config(nlohmann::json::parse(R"({"timing": {"tries": "three"}})"));
   ASSERT_FALSE(type);
   EXPECT_EQ(type.status().kind, ErrorKind::invalid_argument);
+  // 2^32 + 1 once wrapped to one try (issue 18, item 7), as register addresses had.
+  for (const char* tries : {"4294967297", "-1", "0", "2.5", "1001"}) {
+    auto wrapped =
+        parse_config(nlohmann::json::parse(std::string(R"({"timing": {"tries": )") + tries + "}}"));
+    ASSERT_FALSE(wrapped) << tries;
+    EXPECT_NE(wrapped.status().message.find("tries must be a whole number 1..1000, got " +
+                                            std::string(tries)),
+              std::string::npos)
+        << wrapped.status().message;
+  }
   auto missing = load_config("/nonexistent/stand.json");
   ASSERT_FALSE(missing);
   EXPECT_NE(missing.status().message.find("cannot open /nonexistent/stand.json"), std::string::npos);

@@ -23,9 +23,8 @@ using Entry = int (*)(const std::uint8_t*, std::size_t);
 [[noreturn]] void throw_finding(const std::string& what) { throw standcal::fuzz::Finding{what}; }
 
 // Findings saved under fuzz/regressions/ whose fix is still open with the owner: the bulk
-// replay skips them and a  test below replays each. When the owner fixes one,
-// delete its line here and enable (or delete) its  test.
-// Saved findings not yet fixed (none: all three are fixed and replayed below).
+// replay skips them and a test of its own (below) names each. Empty today: every saved
+// finding is fixed and replayed by its test.
 const std::set<std::string> kOpenFindings = {};
 
 std::vector<std::uint8_t> read_file(const fs::path& path) {
@@ -73,8 +72,8 @@ class FuzzReplay : public ::testing::Test {
     }
   }
 
-  // One saved finding that is still open.
-  static void replay_open_finding(const std::string& target_and_file, Entry entry) {
+  // One saved finding, named by its test.
+  static void replay_finding(const std::string& target_and_file, Entry entry) {
     const fs::path file = fs::path(STANDCAL_FUZZ_DIR) / "regressions" / target_and_file;
     ASSERT_TRUE(fs::is_regular_file(file)) << file;
     const std::string finding = replay(entry, file);
@@ -99,33 +98,40 @@ TEST_F(FuzzReplay, JsonRpcRequest) { replay_target("jsonrpc_request", standcal_f
 TEST_F(FuzzReplay, DaemonConfig) { replay_target("daemon_config", standcal_fuzz_daemon_config); }
 #endif
 
-// Findings of 2026-11-21, fixed the same day: each replays its reproducers.
+// Findings of 2026-11-21, fixed the same day: each test replays its reproducers.
 //
 // drivers/modbus register_map.cpp read_address() converts with json::get<std::uint16_t>(),
 // which wraps out-of-range integers: a config naming register 65536 silently addresses
 // register 0, -1 addresses 65535 (the driver then writes motion commands to the wrong
 // register). Fails with "register outer.angle given as 65536 was accepted as address 0".
 TEST_F(FuzzReplay, ModbusConfigRegisterAddressWraps) {
-  replay_open_finding("modbus_config/register_address_65536_wraps_to_0.json", standcal_fuzz_modbus_config);
-  replay_open_finding("modbus_config/register_address_minus1_wraps_to_65535.json", standcal_fuzz_modbus_config);
+  replay_finding("modbus_config/register_address_65536_wraps_to_0.json",
+                 standcal_fuzz_modbus_config);
+  replay_finding("modbus_config/register_address_minus1_wraps_to_65535.json",
+                 standcal_fuzz_modbus_config);
 }
 // Same reader, a floating-point address out of range: undefined behaviour (float-cast-
-// overflow inside json::get<std::uint16_t>). clang's UBSan stops on it (the fuzz build);
-// g++ has no float-cast-overflow check, so here it shows as the accepted wrong address.
+// overflow inside json::get<std::uint16_t>). Only the sanitizer build can fail on it
+// (scripts/test.sh's asan build, clang with UBSan, which CI runs); under g++ the
+// conversion is not checked and a regression would replay without a visible failure.
 TEST_F(FuzzReplay, ModbusConfigRegisterAddressFloatOverflow) {
-  replay_open_finding("modbus_config/register_address_1e10_float_cast_overflow.json", standcal_fuzz_modbus_config);
+  replay_finding("modbus_config/register_address_1e10_float_cast_overflow.json",
+                 standcal_fuzz_modbus_config);
 }
 // drivers/socketcan frame_layout.cpp FrameLayout::from_json reads length/start_bit with
 // get<int>() and can_id with get<std::uint32_t>(): an integer length 4294967320 wraps to
 // 24 and is accepted (fails with "signals[0].length given as 4294967320 was accepted as
 // 24"); floating-point values out of range (can_id 1e20, start_bit 3e9) are undefined
-// behaviour that clang's UBSan reports in the fuzz build
-// (build/fuzz/standcal_fuzz_can_layout_json FILE); under g++ those two replay without a
-// visible failure, so they pass here even while open.
+// behaviour that only the sanitizer build can catch (scripts/test.sh's asan build, clang
+// with UBSan, run by CI; or build/fuzz/standcal_fuzz_can_layout_json FILE): under g++
+// those two cannot fail.
 TEST_F(FuzzReplay, CanLayoutNumbersWrap) {
-  replay_open_finding("can_layout_json/length_4294967320_wraps_to_24.json", standcal_fuzz_can_layout_json);
-  replay_open_finding("can_layout_json/can_id_1e20_float_cast_overflow.json", standcal_fuzz_can_layout_json);
-  replay_open_finding("can_layout_json/start_bit_3e9_float_cast_overflow.json", standcal_fuzz_can_layout_json);
+  replay_finding("can_layout_json/length_4294967320_wraps_to_24.json",
+                 standcal_fuzz_can_layout_json);
+  replay_finding("can_layout_json/can_id_1e20_float_cast_overflow.json",
+                 standcal_fuzz_can_layout_json);
+  replay_finding("can_layout_json/start_bit_3e9_float_cast_overflow.json",
+                 standcal_fuzz_can_layout_json);
 }
 
 // The harness itself: a broken property reaches the test as a failure naming it, so a
