@@ -10,7 +10,8 @@ namespace standcal {
 
 AllanAccumulator::AllanAccumulator(double sample_period_s, int points_per_decade)
     : sample_period_s_(sample_period_s), points_per_decade_(points_per_decade) {
-  if (!(sample_period_s > 0)) throw std::invalid_argument("Allan deviation: the sample period must be positive");
+  if (!(sample_period_s > 0))
+    throw std::invalid_argument("Allan deviation: the sample period must be positive");
   if (points_per_decade < 1)
     throw std::invalid_argument("Allan deviation: points per decade must be >= 1");
 }
@@ -134,9 +135,12 @@ double sample_period_s(const Recording& rec) {
   if (rec.sample_rate_hz > 0) return 1.0 / rec.sample_rate_hz;
   std::vector<double> dt;
   for (std::size_t k = 1; k < rec.samples.size(); ++k)
-    if (rec.samples[k].pos == rec.samples[k - 1].pos) dt.push_back(rec.samples[k].t_s - rec.samples[k - 1].t_s);
+    if (rec.samples[k].pos == rec.samples[k - 1].pos)
+      dt.push_back(rec.samples[k].t_s - rec.samples[k - 1].t_s);
   const std::optional<double> step = median_step_s(std::move(dt));
-  if (!step) throw std::runtime_error(rec.source + ": cannot tell the sample rate (no sample_rate_hz header)");
+  if (!step)
+    throw std::runtime_error(rec.source +
+                             ": cannot tell the sample rate (no sample_rate_hz header)");
   return *step;
 }
 

@@ -49,8 +49,9 @@ class AllanAccumulator {
 // sample_period_s (segments pool their second differences, so the static dwells of a
 // run can be combined). tau runs from one sample to a third of the longest segment,
 // about points_per_decade values per decade.
-std::vector<AllanPoint> overlapping_allan_deviation(const std::vector<std::vector<double>>& segments,
-                                                    double sample_period_s, int points_per_decade = 10);
+std::vector<AllanPoint> overlapping_allan_deviation(
+    const std::vector<std::vector<double>>& segments, double sample_period_s,
+    int points_per_decade = 10);
 
 struct NoiseFigures {
   // White noise N (unit/sqrt(Hz)): the slope -1/2 line read at tau = 1 s, so that the mean

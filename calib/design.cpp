@@ -54,8 +54,9 @@ Eigen::MatrixXd unit_covariance(const DesignBasis& basis, const Eigen::MatrixXd&
 }
 
 std::string unit_description(int i) {
-  static const std::array<const char*, kUnitParameterCount> words{
-      "bias x", "bias y", "bias z", "scale x", "scale y", "scale z", "gamma12", "gamma13", "gamma23"};
+  static const std::array<const char*, kUnitParameterCount> words{"bias x",  "bias y",  "bias z",
+                                                                  "scale x", "scale y", "scale z",
+                                                                  "gamma12", "gamma13", "gamma23"};
   return words[i];
 }
 
@@ -64,8 +65,8 @@ DesignBasis invariant_basis(const std::vector<StandPose>& poses) {
   basis.model = DesignModel::invariant;
   Eigen::MatrixXd h(static_cast<int>(poses.size()), kUnitParameterCount);
   for (std::size_t k = 0; k < poses.size(); ++k)
-    h.row(static_cast<int>(k)) = invariant_regressor(
-        up_vector(poses[k].alpha1_deg * kDegToRad, poses[k].alpha2_deg * kDegToRad, poses[k].mount));
+    h.row(static_cast<int>(k)) = invariant_regressor(up_vector(
+        poses[k].alpha1_deg * kDegToRad, poses[k].alpha2_deg * kDegToRad, poses[k].mount));
   // Keep parameters in order while they add a new direction (same rule as the full model).
   std::vector<int> kept;
   Eigen::MatrixXd q(h.rows(), 0);
@@ -93,7 +94,8 @@ DesignBasis invariant_basis(const std::vector<StandPose>& poses) {
   for (int j : kept) basis.parameter_names.emplace_back(kUnitParameterNames[j]);
   for (std::size_t k = 0; k < poses.size(); ++k) {
     Eigen::MatrixXd block(1, static_cast<int>(kept.size()));
-    for (std::size_t i = 0; i < kept.size(); ++i) block(0, static_cast<int>(i)) = h(static_cast<int>(k), kept[i]);
+    for (std::size_t i = 0; i < kept.size(); ++i)
+      block(0, static_cast<int>(i)) = h(static_cast<int>(k), kept[i]);
     basis.blocks.push_back(block);
   }
   for (int j = 0; j < kUnitParameterCount; ++j)
@@ -110,7 +112,8 @@ DesignBasis full_basis(const std::vector<StandPose>& poses, MountingModel mounti
   for (const auto& pose : poses) {
     const Eigen::MatrixXd jac = full_model_jacobian(layout, nominal, pose);
     Eigen::MatrixXd block(3, static_cast<int>(obs.kept.size()));
-    for (std::size_t i = 0; i < obs.kept.size(); ++i) block.col(static_cast<int>(i)) = jac.col(obs.kept[i]);
+    for (std::size_t i = 0; i < obs.kept.size(); ++i)
+      block.col(static_cast<int>(i)) = jac.col(obs.kept[i]);
     basis.blocks.push_back(block);
   }
   basis.parameter_names = obs.kept_combination_names;
@@ -128,7 +131,9 @@ double angle_distance_deg(double a, double b) { return std::abs(a - b); }
 
 }  // namespace
 
-std::string design_model_name(DesignModel m) { return m == DesignModel::invariant ? "invariant" : "full"; }
+std::string design_model_name(DesignModel m) {
+  return m == DesignModel::invariant ? "invariant" : "full";
+}
 
 std::array<double, kUnitParameterCount> AccuracyTarget::sigma_internal() const {
   std::array<double, kUnitParameterCount> out{};
@@ -174,7 +179,8 @@ AccuracyTarget parse_accuracy_target(const std::string& text) {
       expect_unit({"asec", "arcsec", "\""});
       t.gamma_arcsec = number;
     } else {
-      throw std::invalid_argument("target '" + item + "': unknown key '" + key + "' (bias, scale, gamma)");
+      throw std::invalid_argument("target '" + item + "': unknown key '" + key +
+                                  "' (bias, scale, gamma)");
     }
   }
   return t;
@@ -186,12 +192,14 @@ std::vector<StandPose> poses_of(const Program& program) {
   return poses;
 }
 
-DesignBasis design_basis(const std::vector<StandPose>& poses, DesignModel model, MountingModel mounting) {
+DesignBasis design_basis(const std::vector<StandPose>& poses, DesignModel model,
+                         MountingModel mounting) {
   if (poses.empty()) throw std::invalid_argument("the programme has no positions");
   return model == DesignModel::invariant ? invariant_basis(poses) : full_basis(poses, mounting);
 }
 
-BenchTime bench_time(const Program& program, const DesignSettings& settings, const std::vector<double>& dwell_s) {
+BenchTime bench_time(const Program& program, const DesignSettings& settings,
+                     const std::vector<double>& dwell_s) {
   BenchTime t;
   double a1 = 0, a2 = 0;
   std::optional<Mount> mount;
@@ -203,8 +211,9 @@ BenchTime bench_time(const Program& program, const DesignSettings& settings, con
     }
     mount = p.mount;
     // Both axes move at once: the longer of the two moves sets the time.
-    t.move_s += std::max(angle_distance_deg(p.alpha1_deg, a1), angle_distance_deg(p.alpha2_deg, a2)) /
-                settings.move_rate_deg_s;
+    t.move_s +=
+        std::max(angle_distance_deg(p.alpha1_deg, a1), angle_distance_deg(p.alpha2_deg, a2)) /
+        settings.move_rate_deg_s;
     a1 = p.alpha1_deg;
     a2 = p.alpha2_deg;
     t.settle_s += p.settle_s.value_or(settings.settle_s);
@@ -221,7 +230,8 @@ double d_criterion(const DesignBasis& basis, const std::vector<double>& weights)
   return det_cov > 0 ? std::pow(det_cov, -1.0 / kUnitParameterCount) : 0;
 }
 
-DesignEvaluation evaluate_design(const Program& program, DesignModel model, const DesignSettings& settings) {
+DesignEvaluation evaluate_design(const Program& program, DesignModel model,
+                                 const DesignSettings& settings) {
   DesignEvaluation ev;
   ev.program = program.name;
   ev.model = model;
@@ -239,9 +249,11 @@ DesignEvaluation evaluate_design(const Program& program, DesignModel model, cons
   const Eigen::MatrixXd cov = inverse_of(ev.information);
   for (int i = 0; i < kUnitParameterCount; ++i)
     if (basis.unit_column[i] >= 0)
-      ev.unit_sigma[i] = std::sqrt(cov(basis.unit_column[i], basis.unit_column[i])) * report_scale(i);
+      ev.unit_sigma[i] =
+          std::sqrt(cov(basis.unit_column[i], basis.unit_column[i])) * report_scale(i);
   ev.d_criterion = d_criterion(basis);
-  if (ev.d_criterion > 0) ev.a_criterion = unit_covariance(basis, information_of(basis, {})).trace();
+  if (ev.d_criterion > 0)
+    ev.a_criterion = unit_covariance(basis, information_of(basis, {})).trace();
   ev.time = bench_time(program, settings, ev.dwell_s);
   return ev;
 }
@@ -254,7 +266,8 @@ struct TargetLoad {
   int worst_parameter = -1;
 };
 
-TargetLoad target_load(const DesignBasis& basis, const std::array<double, kUnitParameterCount>& target,
+TargetLoad target_load(const DesignBasis& basis,
+                       const std::array<double, kUnitParameterCount>& target,
                        const std::vector<double>& w) {
   const Eigen::MatrixXd cov = inverse_of(information_of(basis, w));
   TargetLoad load;
@@ -271,7 +284,8 @@ TargetLoad target_load(const DesignBasis& basis, const std::array<double, kUnitP
 
 std::string first_unobservable(const DesignBasis& basis) {
   for (int i = 0; i < kUnitParameterCount; ++i)
-    if (basis.unit_column[i] < 0) return std::string(kUnitParameterNames[i]) + ": " + basis.unobservable_reason[i];
+    if (basis.unit_column[i] < 0)
+      return std::string(kUnitParameterNames[i]) + ": " + basis.unobservable_reason[i];
   return {};
 }
 
@@ -297,7 +311,8 @@ StackedRows stack_rows(const DesignBasis& basis) {
 // max over lambda (simplex) of min over w of sum_j lambda_j c_j(w): the inner problem is an
 // L-optimal design (multiplicative algorithm, optimum where every used pose has phi = 1),
 // the outer a multiplicative ascent of lambda towards the constraints that bind.
-std::vector<double> minimax_weights(const DesignBasis& basis, const std::array<double, kUnitParameterCount>& target,
+std::vector<double> minimax_weights(const DesignBasis& basis,
+                                    const std::array<double, kUnitParameterCount>& target,
                                     int iterations) {
   const int n = static_cast<int>(basis.blocks.size());
   const StackedRows stacked = stack_rows(basis);
@@ -314,7 +329,8 @@ std::vector<double> minimax_weights(const DesignBasis& basis, const std::array<d
     // The information matrix sum_k w_k B_k^T B_k (information_of) as one product.
     const Eigen::MatrixXd info = stacked.rows.transpose() * row_weight.asDiagonal() * stacked.rows;
     const Eigen::MatrixXd cov = inverse_of(info);
-    for (int j = 0; j < kUnitParameterCount; ++j) c[j] = cov(basis.unit_column[j], basis.unit_column[j]) / t2[j];
+    for (int j = 0; j < kUnitParameterCount; ++j)
+      c[j] = cov(basis.unit_column[j], basis.unit_column[j]) / t2[j];
     double worst = 0;
     for (int j = 0; j < kUnitParameterCount; ++j) worst = std::max(worst, c[j]);
     if (worst < best_load) {
@@ -379,8 +395,8 @@ DwellPlan allocated_dwell_for_target(const DesignBasis& basis, const AccuracyTar
   return plan;
 }
 
-double continuous_lower_bound_s(DesignModel model, const AccuracyTarget& target, const DesignSettings& settings,
-                                const StandLimits& limits) {
+double continuous_lower_bound_s(DesignModel model, const AccuracyTarget& target,
+                                const DesignSettings& settings, const StandLimits& limits) {
   const double step = model == DesignModel::invariant ? 5.0 : 10.0;
   std::vector<StandPose> candidates;
   std::map<std::array<long, 3>, bool> seen_up;  // the invariant model only sees u: one pose per u
@@ -388,7 +404,8 @@ double continuous_lower_bound_s(DesignModel model, const AccuracyTarget& target,
     for (double a2 : axis_grid_deg(limits.alpha2, step)) {
       if (model == DesignModel::invariant) {
         const Vec3 u = up_vector(a1 * kDegToRad, a2 * kDegToRad);
-        const std::array<long, 3> key{std::lround(u.x() * 1e6), std::lround(u.y() * 1e6), std::lround(u.z() * 1e6)};
+        const std::array<long, 3> key{std::lround(u.x() * 1e6), std::lround(u.y() * 1e6),
+                                      std::lround(u.z() * 1e6)};
         if (!seen_up.emplace(key, true).second) continue;
       }
       candidates.push_back({a1, a2, Mount::x});
@@ -397,7 +414,8 @@ double continuous_lower_bound_s(DesignModel model, const AccuracyTarget& target,
   const DesignBasis basis = design_basis(candidates, model);
   if (!first_unobservable(basis).empty()) return std::numeric_limits<double>::infinity();
   const auto t = target.sigma_internal();
-  const std::vector<double> w = minimax_weights(basis, t, model == DesignModel::invariant ? 1500 : 400);
+  const std::vector<double> w =
+      minimax_weights(basis, t, model == DesignModel::invariant ? 1500 : 400);
   const double n_g = settings.noise_density_ug_rthz * kUg;
   return n_g * n_g * target_load(basis, t, w).worst;
 }
@@ -414,10 +432,12 @@ struct Slot {
   double alpha2_deg = 0;
 };
 
-Eigen::MatrixXd pose_block(DesignModel model, const FullModelLayout& layout, const std::vector<int>& kept,
-                           double a1_deg, double a2_deg) {
-  if (model == DesignModel::invariant) return invariant_regressor(up_vector(a1_deg * kDegToRad, a2_deg * kDegToRad));
-  const Eigen::MatrixXd jac = full_model_jacobian(layout, Eigen::VectorXd::Zero(layout.size()), {a1_deg, a2_deg, Mount::x});
+Eigen::MatrixXd pose_block(DesignModel model, const FullModelLayout& layout,
+                           const std::vector<int>& kept, double a1_deg, double a2_deg) {
+  if (model == DesignModel::invariant)
+    return invariant_regressor(up_vector(a1_deg * kDegToRad, a2_deg * kDegToRad));
+  const Eigen::MatrixXd jac =
+      full_model_jacobian(layout, Eigen::VectorXd::Zero(layout.size()), {a1_deg, a2_deg, Mount::x});
   Eigen::MatrixXd block(3, static_cast<int>(kept.size()));
   for (std::size_t i = 0; i < kept.size(); ++i) block.col(static_cast<int>(i)) = jac.col(kept[i]);
   return block;
@@ -442,7 +462,9 @@ struct ExchangeProblem {
   std::vector<int> unit_cols;
   StandLimits limits;
 
-  Eigen::MatrixXd block(double a1, double a2) const { return pose_block(model, layout, kept, a1, a2); }
+  Eigen::MatrixXd block(double a1, double a2) const {
+    return pose_block(model, layout, kept, a1, a2);
+  }
 
   // log of the D-criterion on the unit parameters (nuisance marginalised).
   double log_d(const std::vector<Eigen::MatrixXd>& blocks) const {
@@ -476,13 +498,15 @@ ExchangeProblem make_problem(DesignModel model, const StandLimits& limits) {
   }
   // Parameters observable over the whole reachable stand define the full model to optimise.
   std::vector<StandPose> grid;
-  for (double a1 : axis_grid_deg(limits.alpha1, 30)) for (double a2 : axis_grid_deg(limits.alpha2, 30)) grid.push_back({a1, a2, Mount::x});
+  for (double a1 : axis_grid_deg(limits.alpha1, 30))
+    for (double a2 : axis_grid_deg(limits.alpha2, 30)) grid.push_back({a1, a2, Mount::x});
   pr.layout = full_model_layout(grid);
   const Observability obs = analyse_observability(pr.layout, grid);
   pr.kept = obs.kept;
   for (int i = 0; i < kUnitParameterCount; ++i) {
     const auto it = std::find(pr.kept.begin(), pr.kept.end(), i);
-    if (it == pr.kept.end()) throw std::runtime_error("the stand cannot observe " + unit_description(i));
+    if (it == pr.kept.end())
+      throw std::runtime_error("the stand cannot observe " + unit_description(i));
     pr.unit_cols.push_back(static_cast<int>(it - pr.kept.begin()));
   }
   return pr;
@@ -505,20 +529,22 @@ struct CandidateSet {
   int m = 1;
 };
 
-CandidateSet make_candidates(const ExchangeProblem& pr, std::vector<std::pair<double, double>> poses) {
+CandidateSet make_candidates(const ExchangeProblem& pr,
+                             std::vector<std::pair<double, double>> poses) {
   CandidateSet cs;
   cs.poses = std::move(poses);
   cs.m = pr.model == DesignModel::invariant ? 1 : 3;
   cs.stacked.resize(cs.m * static_cast<int>(cs.poses.size()), static_cast<int>(pr.kept.size()));
   for (std::size_t c = 0; c < cs.poses.size(); ++c)
-    cs.stacked.middleRows(cs.m * static_cast<int>(c), cs.m) = pr.block(cs.poses[c].first, cs.poses[c].second);
+    cs.stacked.middleRows(cs.m * static_cast<int>(c), cs.m) =
+        pr.block(cs.poses[c].first, cs.poses[c].second);
   return cs;
 }
 
 // log det(M - Gk^T Gk + Gc^T Gc) - log det(M) for every candidate c, by Sylvester's
 // identity on the 2m x 2m matrix I + S U^T M^-1 U, U = [Gk^T Gc^T], S = diag(-I, +I).
-Eigen::VectorXd exchange_gain(const Eigen::MatrixXd& m_full, const std::vector<int>& cols, const Eigen::MatrixXd& gk_full,
-                              const CandidateSet& cs) {
+Eigen::VectorXd exchange_gain(const Eigen::MatrixXd& m_full, const std::vector<int>& cols,
+                              const Eigen::MatrixXd& gk_full, const CandidateSet& cs) {
   const int p = static_cast<int>(cols.size());
   const bool all = p == m_full.cols();
   Eigen::MatrixXd m, gk, gc_subset;
@@ -556,7 +582,8 @@ Eigen::VectorXd exchange_gain(const Eigen::MatrixXd& m_full, const std::vector<i
     s.topRightCorner<3, 3>() = -ckc.transpose();
     s.bottomLeftCorner<3, 3>() = ckc;
     s.bottomRightCorner<3, 3>() =
-        Eigen::Matrix3d::Identity() + gc_minv.middleRows<3>(3 * c) * gc.middleRows<3>(3 * c).transpose();
+        Eigen::Matrix3d::Identity() +
+        gc_minv.middleRows<3>(3 * c) * gc.middleRows<3>(3 * c).transpose();
     const double det = s.determinant();
     gain[c] = det > 0 ? std::log(det) : -1e300;
   }
@@ -571,11 +598,14 @@ bool exchange_sweep(const ExchangeProblem& pr, ExchangeState& st, const Candidat
   std::vector<int> all_cols(pr.kept.size()), nuisance_cols;
   for (std::size_t i = 0; i < pr.kept.size(); ++i) all_cols[i] = static_cast<int>(i);
   for (int c : all_cols)
-    if (std::find(pr.unit_cols.begin(), pr.unit_cols.end(), c) == pr.unit_cols.end()) nuisance_cols.push_back(c);
+    if (std::find(pr.unit_cols.begin(), pr.unit_cols.end(), c) == pr.unit_cols.end())
+      nuisance_cols.push_back(c);
   for (std::size_t k = 0; k < st.slots.size(); ++k) {
     Slot& s = st.slots[k];
     if (s.free == FreeAxes::none) continue;
-    const CandidateSet& cs = s.free == FreeAxes::both ? both : s.free == FreeAxes::alpha1_only ? alpha1_line : alpha2_line;
+    const CandidateSet& cs = s.free == FreeAxes::both          ? both
+                             : s.free == FreeAxes::alpha1_only ? alpha1_line
+                                                               : alpha2_line;
     const int p = static_cast<int>(pr.kept.size());
     Eigen::MatrixXd m = Eigen::MatrixXd::Zero(p, p);
     for (const auto& b : st.blocks) m.noalias() += b.transpose() * b;
@@ -608,8 +638,10 @@ void polish(const ExchangeProblem& pr, ExchangeState& st, double start_step_deg)
           if (axis == 1 && s.free == FreeAxes::alpha1_only) continue;
           for (double sign : {+1.0, -1.0}) {
             Slot trial = s;
-            if (axis == 0) trial.alpha1_deg = clamp_to_range(s.alpha1_deg + sign * step, pr.limits.alpha1);
-            else trial.alpha2_deg = clamp_to_range(s.alpha2_deg + sign * step, pr.limits.alpha2);
+            if (axis == 0)
+              trial.alpha1_deg = clamp_to_range(s.alpha1_deg + sign * step, pr.limits.alpha1);
+            else
+              trial.alpha2_deg = clamp_to_range(s.alpha2_deg + sign * step, pr.limits.alpha2);
             const Eigen::MatrixXd old = st.blocks[k];
             st.blocks[k] = pr.block(trial.alpha1_deg, trial.alpha2_deg);
             const double v = pr.log_d(st.blocks);
@@ -634,12 +666,15 @@ std::vector<Slot> initial_slots(const OptimizeOptions& o, std::mt19937_64& rng) 
   };
   std::vector<Slot> slots;
   if (o.paper_structure) {
-    for (int i = 0; i < 5; ++i) slots.push_back({FreeAxes::alpha1_only, uniform(o.limits.alpha1), 0});
-    for (int i = 0; i < 3; ++i) slots.push_back({FreeAxes::alpha2_only, 0, uniform(o.limits.alpha2)});
+    for (int i = 0; i < 5; ++i)
+      slots.push_back({FreeAxes::alpha1_only, uniform(o.limits.alpha1), 0});
+    for (int i = 0; i < 3; ++i)
+      slots.push_back({FreeAxes::alpha2_only, 0, uniform(o.limits.alpha2)});
     slots.push_back({FreeAxes::none, 45, 90});
     return slots;
   }
-  for (int i = 0; i < o.positions; ++i) slots.push_back({FreeAxes::both, uniform(o.limits.alpha1), uniform(o.limits.alpha2)});
+  for (int i = 0; i < o.positions; ++i)
+    slots.push_back({FreeAxes::both, uniform(o.limits.alpha1), uniform(o.limits.alpha2)});
   return slots;
 }
 
@@ -664,8 +699,9 @@ std::vector<Slot> travel_order(std::vector<Slot> slots) {
 
 OptimizedProgram optimize_program(const OptimizeOptions& options) {
   if (!options.paper_structure && options.positions < kUnitParameterCount)
-    throw std::invalid_argument("a programme needs at least 9 positions for the nine unit parameters, got " +
-                                std::to_string(options.positions));
+    throw std::invalid_argument(
+        "a programme needs at least 9 positions for the nine unit parameters, got " +
+        std::to_string(options.positions));
   const ExchangeProblem pr = make_problem(options.model, options.limits);
   const double step = options.model == DesignModel::invariant ? 3.0 : 6.0;
   // Line candidates serve the paper structure's alpha1-only (alpha2 = 0) and alpha2-only
@@ -700,7 +736,8 @@ OptimizedProgram optimize_program(const OptimizeOptions& options) {
   polish(pr, best_state, step);
   best_log_d = pr.log_d(best_state.blocks);
 
-  best.program.name = options.paper_structure ? "d-optimal-paper-structure" : "d-optimal-" + std::to_string(options.positions);
+  best.program.name = options.paper_structure ? "d-optimal-paper-structure"
+                                              : "d-optimal-" + std::to_string(options.positions);
   auto wrap = [](double a, const AxisRange& r) {
     if (!r.continuous) return a;
     const double w = std::remainder(a, 360.0);  // (-180, 180]
@@ -710,7 +747,8 @@ OptimizedProgram optimize_program(const OptimizeOptions& options) {
     s.alpha1_deg = wrap(s.alpha1_deg, options.limits.alpha1);
     s.alpha2_deg = wrap(s.alpha2_deg, options.limits.alpha2);
   }
-  const std::vector<Slot> ordered = options.paper_structure ? best_state.slots : travel_order(best_state.slots);
+  const std::vector<Slot> ordered =
+      options.paper_structure ? best_state.slots : travel_order(best_state.slots);
   for (const Slot& s : ordered) {
     ProgramPosition p;
     p.alpha1_deg = s.alpha1_deg;

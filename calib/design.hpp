@@ -47,10 +47,11 @@ AccuracyTarget parse_accuracy_target(const std::string& text);
 struct DesignBasis {
   DesignModel model = DesignModel::invariant;
   std::vector<Eigen::MatrixXd> blocks;
-  std::vector<std::string> parameter_names;           // estimated parameters, column order
-  std::array<int, kUnitParameterCount> unit_column{};  // column of each unit parameter, -1 if not observable
+  std::vector<std::string> parameter_names;  // estimated parameters, column order
+  std::array<int, kUnitParameterCount>
+      unit_column{};  // column of each unit parameter, -1 if not observable
   std::array<std::string, kUnitParameterCount> unobservable_reason;
-  std::vector<std::string> notes;                     // what is unobservable or constrained, and why
+  std::vector<std::string> notes;  // what is unobservable or constrained, and why
   int columns() const { return static_cast<int>(parameter_names.size()); }
 };
 DesignBasis design_basis(const std::vector<StandPose>& poses, DesignModel model,
@@ -81,7 +82,8 @@ struct DesignEvaluation {
   std::vector<double> dwell_s;
   BenchTime time;
 };
-DesignEvaluation evaluate_design(const Program& program, DesignModel model, const DesignSettings& settings);
+DesignEvaluation evaluate_design(const Program& program, DesignModel model,
+                                 const DesignSettings& settings);
 
 // D-criterion of a basis with weights per pose (empty: one unit each): det(M_unit)^(1/9),
 // where M_unit is the information of the unit parameters with nuisance ones marginalised.
@@ -103,8 +105,8 @@ DwellPlan allocated_dwell_for_target(const DesignBasis& basis, const AccuracyTar
                                      const DesignSettings& settings);
 // The least total dwell any programme on this stand could need (continuous optimal design
 // over a grid of reachable poses, single mount).
-double continuous_lower_bound_s(DesignModel model, const AccuracyTarget& target, const DesignSettings& settings,
-                                const StandLimits& limits = {});
+double continuous_lower_bound_s(DesignModel model, const AccuracyTarget& target,
+                                const DesignSettings& settings, const StandLimits& limits = {});
 
 struct OptimizeOptions {
   int positions = 9;

@@ -51,10 +51,10 @@ struct FitResult {
   // estimated from the same residuals: the degrees of freedom of chi2.
   int redundancy = 0;
   double chi2 = 0;
-  double chi2_dof = 0;    // NaN when redundancy is zero
+  double chi2_dof = 0;  // NaN when redundancy is zero
   double residual_rms_g = 0;
   std::array<ParameterEstimate, kUnitParameterCount> unit;
-  Eigen::MatrixXd correlation;   // over the nine unit parameters, NaN rows for unobservable
+  Eigen::MatrixXd correlation;  // over the nine unit parameters, NaN rows for unobservable
   std::vector<PositionResidual> residuals;
   std::vector<StandEstimate> stand;  // full-vector only
   std::vector<std::string> notes;    // plain-language remarks (zero redundancy, ...)

@@ -17,11 +17,18 @@ namespace {
 // the alpha1 zero offset stands for the whole rotation about the outer axis (model.md),
 // the alpha2 zero offset is the first to give way to the mounting about the inner axis.
 enum StandSlot : int {
-  kLevellingX = 0, kAlpha1Offset, kSkewY, kAlpha1Scale, kAlpha2Scale, kLevellingZ, kSkewZ, kAlpha2Offset
+  kLevellingX = 0,
+  kAlpha1Offset,
+  kSkewY,
+  kAlpha1Scale,
+  kAlpha2Scale,
+  kLevellingZ,
+  kSkewZ,
+  kAlpha2Offset
 };
 
-FullModelParameter make_parameter(FullModelParameter::Kind kind, std::string name, std::string description,
-                                  std::string unit, double scale) {
+FullModelParameter make_parameter(FullModelParameter::Kind kind, std::string name,
+                                  std::string description, std::string unit, double scale) {
   FullModelParameter p;
   p.kind = kind;
   p.name = std::move(name);
@@ -33,13 +40,19 @@ FullModelParameter make_parameter(FullModelParameter::Kind kind, std::string nam
 
 void add_unit_parameters(FullModelLayout& layout) {
   static const std::array<const char*, kUnitParameterCount> descriptions{
-      "the bias of x", "the bias of y", "the bias of z",
-      "the scale-factor error of x", "the scale-factor error of y", "the scale-factor error of z",
-      "the non-orthogonality x–y", "the non-orthogonality x–z", "the non-orthogonality y–z"};
+      "the bias of x",
+      "the bias of y",
+      "the bias of z",
+      "the scale-factor error of x",
+      "the scale-factor error of y",
+      "the scale-factor error of z",
+      "the non-orthogonality x–y",
+      "the non-orthogonality x–z",
+      "the non-orthogonality y–z"};
   for (int i = 0; i < kUnitParameterCount; ++i) {
-    layout.parameters.push_back(make_parameter(FullModelParameter::Kind::unit, std::string(kUnitParameterNames[i]),
-                                               descriptions[i], std::string(kUnitParameterUnits[i]),
-                                               report_scale(i)));
+    layout.parameters.push_back(
+        make_parameter(FullModelParameter::Kind::unit, std::string(kUnitParameterNames[i]),
+                       descriptions[i], std::string(kUnitParameterUnits[i]), report_scale(i)));
   }
 }
 
@@ -47,10 +60,9 @@ void add_mounting_parameters(FullModelLayout& layout) {
   static const std::array<const char*, 3> axes{"x", "y", "z"};
   if (layout.mounting_model == MountingModel::common_fixture) {
     for (int a = 0; a < 3; ++a)
-      layout.parameters.push_back(make_parameter(FullModelParameter::Kind::mounting,
-                                                 std::string("mounting_psi_") + axes[a],
-                                                 std::string("the mounting misalignment about ") + axes[a],
-                                                 "arcsec", kRadToArcsec));
+      layout.parameters.push_back(make_parameter(
+          FullModelParameter::Kind::mounting, std::string("mounting_psi_") + axes[a],
+          std::string("the mounting misalignment about ") + axes[a], "arcsec", kRadToArcsec));
     return;
   }
   const bool several = layout.mounts.size() > 1;
@@ -59,8 +71,8 @@ void add_mounting_parameters(FullModelLayout& layout) {
       std::string description = std::string("the mounting misalignment about ") + axes[a];
       if (several) description += " (mount " + mount_name(m) + ")";
       layout.parameters.push_back(make_parameter(FullModelParameter::Kind::mounting,
-                                                 "mount_" + mount_name(m) + "_psi_" + axes[a], description,
-                                                 "arcsec", kRadToArcsec));
+                                                 "mount_" + mount_name(m) + "_psi_" + axes[a],
+                                                 description, "arcsec", kRadToArcsec));
     }
   }
 }
@@ -68,34 +80,39 @@ void add_mounting_parameters(FullModelLayout& layout) {
 void add_stand_parameters(FullModelLayout& layout) {
   using K = FullModelParameter::Kind;
   auto& ps = layout.parameters;
-  ps.push_back(make_parameter(K::stand, "levelling_x", "the levelling error about x_S", "arcsec", kRadToArcsec));
-  ps.push_back(make_parameter(K::stand, "alpha1_offset", "the zero offset of the outer-axis angle sensor",
-                              "arcsec", kRadToArcsec));
-  ps.push_back(make_parameter(K::stand, "skew_y", "the skew of the inner axis about y", "arcsec", kRadToArcsec));
-  ps.push_back(make_parameter(K::stand, "alpha1_scale", "the scale error of the outer-axis angle sensor", "ppm",
-                              1.0 / kPpm));
-  ps.push_back(make_parameter(K::stand, "alpha2_scale", "the scale error of the inner-axis angle sensor", "ppm",
-                              1.0 / kPpm));
-  ps.push_back(make_parameter(K::stand, "levelling_z", "the levelling error about z_S (the outer axis)", "arcsec",
+  ps.push_back(make_parameter(K::stand, "levelling_x", "the levelling error about x_S", "arcsec",
                               kRadToArcsec));
-  ps.push_back(make_parameter(K::stand, "skew_z", "the skew of the inner axis about the outer axis", "arcsec",
+  ps.push_back(make_parameter(K::stand, "alpha1_offset",
+                              "the zero offset of the outer-axis angle sensor", "arcsec",
                               kRadToArcsec));
-  ps.push_back(make_parameter(K::stand, "alpha2_offset", "the zero offset of the inner-axis angle sensor",
+  ps.push_back(make_parameter(K::stand, "skew_y", "the skew of the inner axis about y", "arcsec",
+                              kRadToArcsec));
+  ps.push_back(make_parameter(K::stand, "alpha1_scale",
+                              "the scale error of the outer-axis angle sensor", "ppm", 1.0 / kPpm));
+  ps.push_back(make_parameter(K::stand, "alpha2_scale",
+                              "the scale error of the inner-axis angle sensor", "ppm", 1.0 / kPpm));
+  ps.push_back(make_parameter(K::stand, "levelling_z",
+                              "the levelling error about z_S (the outer axis)", "arcsec",
+                              kRadToArcsec));
+  ps.push_back(make_parameter(K::stand, "skew_z", "the skew of the inner axis about the outer axis",
                               "arcsec", kRadToArcsec));
+  ps.push_back(make_parameter(K::stand, "alpha2_offset",
+                              "the zero offset of the inner-axis angle sensor", "arcsec",
+                              kRadToArcsec));
 }
 
 void add_antisymmetric_parameters(FullModelLayout& layout) {
   using K = FullModelParameter::Kind;
   // Gamma_antisymmetric = -[theta x]: the same first-order effect as a rotation theta.
   layout.parameters.push_back(make_parameter(K::gamma_antisymmetric, "gamma_antisymmetric_yz",
-                                             "the antisymmetric part of the non-orthogonality y–z", "arcsec",
-                                             kRadToArcsec));
+                                             "the antisymmetric part of the non-orthogonality y–z",
+                                             "arcsec", kRadToArcsec));
   layout.parameters.push_back(make_parameter(K::gamma_antisymmetric, "gamma_antisymmetric_xz",
-                                             "the antisymmetric part of the non-orthogonality x–z", "arcsec",
-                                             kRadToArcsec));
+                                             "the antisymmetric part of the non-orthogonality x–z",
+                                             "arcsec", kRadToArcsec));
   layout.parameters.push_back(make_parameter(K::gamma_antisymmetric, "gamma_antisymmetric_xy",
-                                             "the antisymmetric part of the non-orthogonality x–y", "arcsec",
-                                             kRadToArcsec));
+                                             "the antisymmetric part of the non-orthogonality x–y",
+                                             "arcsec", kRadToArcsec));
 }
 
 int mount_slot(const FullModelLayout& layout, Mount m) {
@@ -116,8 +133,10 @@ StandErrors stand_errors_from(const FullModelLayout& layout, const Eigen::Vector
   s.skew_y_rad = p[o + kSkewY];
   s.skew_z_rad = p[o + kSkewZ];
   for (std::size_t i = 0; i < layout.mounts.size(); ++i) {
-    const int slot = layout.mounting_model == MountingModel::common_fixture ? 0 : static_cast<int>(i);
-    s.mounting_rad[static_cast<int>(layout.mounts[i])] = p.segment<3>(layout.mounting_offset + 3 * slot);
+    const int slot =
+        layout.mounting_model == MountingModel::common_fixture ? 0 : static_cast<int>(i);
+    s.mounting_rad[static_cast<int>(layout.mounts[i])] =
+        p.segment<3>(layout.mounting_offset + 3 * slot);
   }
   return s;
 }
@@ -168,10 +187,11 @@ FullModelLayout full_model_layout(const std::vector<StandPose>& poses, MountingM
   return layout;
 }
 
-Vec3 full_model_output(const FullModelLayout& layout, const Eigen::VectorXd& p, const StandPose& pose) {
+Vec3 full_model_output(const FullModelLayout& layout, const Eigen::VectorXd& p,
+                       const StandPose& pose) {
   (void)mount_slot(layout, pose.mount);  // rejects a mount the layout has no parameters for
-  const Vec3 u_true = true_up_vector(pose.alpha1_deg * kDegToRad, pose.alpha2_deg * kDegToRad, pose.mount,
-                                     stand_errors_from(layout, p));
+  const Vec3 u_true = true_up_vector(pose.alpha1_deg * kDegToRad, pose.alpha2_deg * kDegToRad,
+                                     pose.mount, stand_errors_from(layout, p));
   return unit_output_g(unit_errors_from(layout, p), u_true);
 }
 
@@ -195,7 +215,8 @@ bool Observability::is_kept(int layout_index) const {
   return std::find(kept.begin(), kept.end(), layout_index) != kept.end();
 }
 
-Observability analyse_observability(const FullModelLayout& layout, const std::vector<StandPose>& poses,
+Observability analyse_observability(const FullModelLayout& layout,
+                                    const std::vector<StandPose>& poses,
                                     const std::vector<double>& weights, double tolerance) {
   const int n = layout.size();
   const int rows = 3 * static_cast<int>(poses.size());
@@ -212,8 +233,10 @@ Observability analyse_observability(const FullModelLayout& layout, const std::ve
     if (norms[j] < negligible) norms[j] = 0;
   Eigen::MatrixXd scaled = a;
   for (int j = 0; j < n; ++j)
-    if (norms[j] > 0) scaled.col(j) /= norms[j];
-    else scaled.col(j).setZero();
+    if (norms[j] > 0)
+      scaled.col(j) /= norms[j];
+    else
+      scaled.col(j).setZero();
 
   Observability obs;
   Eigen::JacobiSVD<Eigen::MatrixXd> svd(scaled);
@@ -230,7 +253,8 @@ Observability analyse_observability(const FullModelLayout& layout, const std::ve
     Eigen::VectorXd residual;
     if (norms[j] > 0) {
       residual = scaled.col(j) - basis * (basis.transpose() * scaled.col(j));
-      residual -= basis * (basis.transpose() * residual);  // second pass for numerical orthogonality
+      residual -=
+          basis * (basis.transpose() * residual);  // second pass for numerical orthogonality
       add = residual.norm() > std::sqrt(tolerance);
     }
     if (add) {
@@ -243,14 +267,17 @@ Observability analyse_observability(const FullModelLayout& layout, const std::ve
   }
 
   Eigen::MatrixXd kept_cols(rows, static_cast<int>(obs.kept.size()));
-  for (std::size_t i = 0; i < obs.kept.size(); ++i) kept_cols.col(static_cast<int>(i)) = a.col(obs.kept[i]);
-  obs.absorbed = Eigen::MatrixXd::Zero(static_cast<int>(obs.fixed.size()), static_cast<int>(obs.kept.size()));
+  for (std::size_t i = 0; i < obs.kept.size(); ++i)
+    kept_cols.col(static_cast<int>(i)) = a.col(obs.kept[i]);
+  obs.absorbed =
+      Eigen::MatrixXd::Zero(static_cast<int>(obs.fixed.size()), static_cast<int>(obs.kept.size()));
   const auto qr = kept_cols.colPivHouseholderQr();
   for (std::size_t f = 0; f < obs.fixed.size(); ++f) {
     const int j = obs.fixed[f];
     const FullModelParameter& par = layout.parameters[j];
     if (norms[j] == 0) {
-      obs.notes.push_back(par.description + " has no effect on any measurement of this programme: fixed to zero.");
+      obs.notes.push_back(par.description +
+                          " has no effect on any measurement of this programme: fixed to zero.");
       continue;
     }
     const Eigen::VectorXd coeff = qr.solve(Eigen::VectorXd(a.col(j)));
@@ -262,7 +289,8 @@ Observability analyse_observability(const FullModelLayout& layout, const std::ve
       obs.absorbed(static_cast<int>(f), static_cast<int>(i)) = coeff[static_cast<int>(i)];
       partners.push_back(layout.parameters[obs.kept[i]].description);
     }
-    obs.notes.push_back(par.description + " (" + par.name + ") is indistinguishable from " + join_words(partners) +
+    obs.notes.push_back(par.description + " (" + par.name + ") is indistinguishable from " +
+                        join_words(partners) +
                         " with this programme: fixed to zero, its effect is carried by " +
                         (partners.size() == 1 ? "that estimate." : "those estimates."));
   }
@@ -323,7 +351,8 @@ Eigen::MatrixXd covariance_from_jacobian(const Eigen::MatrixXd& jac) {
   const Eigen::VectorXd d = jac.colwise().norm().transpose().cwiseMax(1e-300);
   const Eigen::MatrixXd scaled = jac * d.cwiseInverse().asDiagonal();
   const Eigen::MatrixXd info = scaled.transpose() * scaled;
-  const Eigen::MatrixXd inv = info.ldlt().solve(Eigen::MatrixXd::Identity(info.rows(), info.cols()));
+  const Eigen::MatrixXd inv =
+      info.ldlt().solve(Eigen::MatrixXd::Identity(info.rows(), info.cols()));
   return d.cwiseInverse().asDiagonal() * inv * d.cwiseInverse().asDiagonal();
 }
 
@@ -381,7 +410,8 @@ Eigen::VectorXd solve_levenberg_marquardt(const WeightedProblem& problem, int ma
 
 }  // namespace
 
-std::string unit_unobservable_reason(const FullModelLayout& layout, const Observability& obs, int unit_parameter) {
+std::string unit_unobservable_reason(const FullModelLayout& layout, const Observability& obs,
+                                     int unit_parameter) {
   const auto it = std::find(obs.kept.begin(), obs.kept.end(), unit_parameter);
   const std::string& what = layout.parameters[unit_parameter].description;
   if (it == obs.kept.end())
@@ -390,7 +420,8 @@ std::string unit_unobservable_reason(const FullModelLayout& layout, const Observ
   const int i = static_cast<int>(it - obs.kept.begin());
   for (std::size_t f = 0; f < obs.fixed.size(); ++f) {
     if (obs.absorbed(static_cast<int>(f), i) == 0) continue;
-    if (layout.parameters[obs.fixed[f]].kind == FullModelParameter::Kind::gamma_antisymmetric) continue;
+    if (layout.parameters[obs.fixed[f]].kind == FullModelParameter::Kind::gamma_antisymmetric)
+      continue;
     std::string reason = "this programme cannot separate " + what + " from " +
                          layout.parameters[obs.fixed[f]].description + " (it would estimate " +
                          obs.kept_combination_names[static_cast<std::size_t>(i)] + ")";
@@ -408,13 +439,15 @@ void require_some_unit_parameter(const FullModelLayout& layout, const Observabil
                                  const std::vector<PositionAverage>& positions) {
   for (int i = 0; i < kUnitParameterCount; ++i)
     if (unit_unobservable_reason(layout, obs, i).empty()) return;
-  throw CannotFit("cannot fit (full vector): " + positions_for_unknowns(positions, static_cast<int>(layout.size())) +
+  throw CannotFit("cannot fit (full vector): " +
+                  positions_for_unknowns(positions, static_cast<int>(layout.size())) +
                   "; this programme cannot separate any of the unit's parameters from the stand's");
 }
 
 }  // namespace
 
-FitResult fit_full_vector(const std::vector<PositionAverage>& positions, const FullFitOptions& options) {
+FitResult fit_full_vector(const std::vector<PositionAverage>& positions,
+                          const FullFitOptions& options) {
   require_positions(positions, "cannot fit (full vector)");
   std::vector<StandPose> poses;
   std::vector<Vec3> measured, sigmas;
@@ -427,7 +460,8 @@ FitResult fit_full_vector(const std::vector<PositionAverage>& positions, const F
     weights.push_back(1.0 / s.mean());
   }
   const FullModelLayout layout = full_model_layout(poses, options.mounting);
-  const Observability obs = analyse_observability(layout, poses, weights, options.observability_tolerance);
+  const Observability obs =
+      analyse_observability(layout, poses, weights, options.observability_tolerance);
   require_some_unit_parameter(layout, obs, positions);
   WeightedProblem problem{layout, obs, poses, measured, sigmas, {}, {}};
   problem.noise_rows = full_vector_noise_rows(positions, options.sigma_floor_g);
@@ -454,7 +488,8 @@ FitResult fit_full_vector(const std::vector<PositionAverage>& positions, const F
   fit.parameters_estimated = static_cast<int>(obs.kept.size());
   fit.redundancy = 3 * fit.positions - fit.parameters_estimated - noise.parameters;
   fit.chi2 = r.squaredNorm();
-  fit.chi2_dof = fit.redundancy > 0 ? fit.chi2 / fit.redundancy : std::numeric_limits<double>::quiet_NaN();
+  fit.chi2_dof =
+      fit.redundancy > 0 ? fit.chi2 / fit.redundancy : std::numeric_limits<double>::quiet_NaN();
 
   double sum_sq = 0;
   for (std::size_t k = 0; k < poses.size(); ++k) {
@@ -487,7 +522,8 @@ FitResult fit_full_vector(const std::vector<PositionAverage>& positions, const F
     fit.unit[i].dof = widen.dof[slot[i]];
     for (int j = 0; j < kUnitParameterCount; ++j)
       if (slot[j] >= 0)
-        fit.correlation(i, j) = cov(slot[i], slot[j]) / std::sqrt(cov(slot[i], slot[i]) * cov(slot[j], slot[j]));
+        fit.correlation(i, j) =
+            cov(slot[i], slot[j]) / std::sqrt(cov(slot[i], slot[i]) * cov(slot[j], slot[j]));
   }
 
   for (std::size_t i = 0; i < obs.kept.size(); ++i) {
@@ -496,7 +532,8 @@ FitResult fit_full_vector(const std::vector<PositionAverage>& positions, const F
     StandEstimate e;
     e.name = obs.kept_combination_names[i];
     e.description = par.description;
-    if (e.name != par.name) e.description += " (with what it cannot be told apart from: " + e.name + ")";
+    if (e.name != par.name)
+      e.description += " (with what it cannot be told apart from: " + e.name + ")";
     e.value = q[static_cast<int>(i)] * par.report_scale;
     e.sigma = std::sqrt(cov(static_cast<int>(i), static_cast<int>(i))) *
               widen.factor[static_cast<int>(i)] * par.report_scale;
@@ -505,14 +542,16 @@ FitResult fit_full_vector(const std::vector<PositionAverage>& positions, const F
   }
 
   fit.notes = obs.notes;
-  fit.notes.push_back("gamma12, gamma13, gamma23 are the pair sums gamma_ij + gamma_ji; the antisymmetric part "
-                      "cannot be told from the mounting (model.md).");
+  fit.notes.push_back(
+      "gamma12, gamma13, gamma23 are the pair sums gamma_ij + gamma_ji; the antisymmetric part "
+      "cannot be told from the mounting (model.md).");
   if (fit.redundancy <= 0)
     fit.notes.push_back("zero redundancy: the fit is exact and cannot check the model.");
   return fit;
 }
 
-FitResult fit_full_vector(const std::vector<PositionAverage>& positions, const FitNoiseOptions& noise) {
+FitResult fit_full_vector(const std::vector<PositionAverage>& positions,
+                          const FitNoiseOptions& noise) {
   FullFitOptions options;
   options.noise = noise;
   return fit_full_vector(positions, options);

@@ -45,8 +45,9 @@ enum class MountingModel {
 // The parameter vector of the full model for the mountings a programme uses.
 struct FullModelLayout {
   MountingModel mounting_model = MountingModel::common_fixture;
-  std::vector<Mount> mounts;                  // in order of first use
-  std::vector<FullModelParameter> parameters; // unit (9), mounting (3 per mount), stand, antisymmetric gamma (3)
+  std::vector<Mount> mounts;  // in order of first use
+  std::vector<FullModelParameter>
+      parameters;  // unit (9), mounting (3 per mount), stand, antisymmetric gamma (3)
   int mounting_offset = 9;
   int stand_offset = 0;
   int antisymmetric_offset = 0;
@@ -58,7 +59,8 @@ FullModelLayout full_model_layout(const std::vector<StandPose>& poses,
                                   MountingModel mounting = MountingModel::common_fixture);
 
 // Predicted J (in g) at a commanded pose for a parameter vector of the layout (exact rotations).
-Vec3 full_model_output(const FullModelLayout& layout, const Eigen::VectorXd& p, const StandPose& pose);
+Vec3 full_model_output(const FullModelLayout& layout, const Eigen::VectorXd& p,
+                       const StandPose& pose);
 
 // d J / d p at p for one pose: 3 x layout.size(), central differences.
 Eigen::MatrixXd full_model_jacobian(const FullModelLayout& layout, const Eigen::VectorXd& p,
@@ -83,13 +85,15 @@ struct Observability {
 // structural observability of the programme. `weights` per pose (1 / sigma of J, any
 // positive numbers; empty = equal). tolerance: relative singular value / residual norm
 // below which a direction counts as unobservable.
-Observability analyse_observability(const FullModelLayout& layout, const std::vector<StandPose>& poses,
+Observability analyse_observability(const FullModelLayout& layout,
+                                    const std::vector<StandPose>& poses,
                                     const std::vector<double>& weights = {},
                                     double tolerance = 1e-6);
 
 // Why a unit parameter (0..8) cannot be reported for this programme, or empty when it can:
 // not kept, or kept only as a combination with a stand or mounting error.
-std::string unit_unobservable_reason(const FullModelLayout& layout, const Observability& obs, int unit_parameter);
+std::string unit_unobservable_reason(const FullModelLayout& layout, const Observability& obs,
+                                     int unit_parameter);
 
 struct FullFitOptions {
   int max_iterations = 50;
@@ -102,8 +106,10 @@ struct FullFitOptions {
 };
 
 // The full-vector estimate from per-position averages (model.md, "Full measurement model").
-FitResult fit_full_vector(const std::vector<PositionAverage>& positions, const FullFitOptions& options = {});
+FitResult fit_full_vector(const std::vector<PositionAverage>& positions,
+                          const FullFitOptions& options = {});
 // The same with every option at its default but the noise weighting.
-FitResult fit_full_vector(const std::vector<PositionAverage>& positions, const FitNoiseOptions& noise);
+FitResult fit_full_vector(const std::vector<PositionAverage>& positions,
+                          const FitNoiseOptions& noise);
 
 }  // namespace standcal

@@ -20,9 +20,9 @@ constexpr const char* kRegressorText[kUnitParameterCount] = {
     "u_x", "u_y", "u_z", "u_x^2", "u_y^2", "u_z^2", "u_x*u_y", "u_x*u_z", "u_y*u_z"};
 
 struct InvariantData {
-  MatrixXd H;     // n x 9 regressors
-  VectorXd y;     // delta_J_L per position, in g
-  VectorXd sigma; // its standard error
+  MatrixXd H;      // n x 9 regressors
+  VectorXd y;      // delta_J_L per position, in g
+  VectorXd sigma;  // its standard error
 };
 
 InvariantData invariant_data(const std::vector<PositionAverage>& positions) {
@@ -46,7 +46,8 @@ std::vector<std::string> unobservable_reasons(const InvariantData& d) {
     if (d.H.col(j).norm() < 1e-9 * std::sqrt(static_cast<double>(d.H.rows()))) {
       reasons[j] = std::string(kRegressorText[j]) +
                    " is zero at every position of this programme, so delta_J_L does not "
-                   "depend on " + std::string(kUnitParameterNames[j]);
+                   "depend on " +
+                   std::string(kUnitParameterNames[j]);
       A.col(j).setZero();
     } else {
       A.col(j).normalize();
@@ -203,13 +204,17 @@ FitResult fit_invariant_joint(const std::vector<PositionAverage>& positions,
   const std::vector<std::string> reasons = unobservable_reasons(d);
   std::vector<int> fitted;
   for (int j = 0; j < kUnitParameterCount; ++j) {
-    if (reasons[static_cast<std::size_t>(j)].empty()) fitted.push_back(j);
-    else r.unit[static_cast<std::size_t>(j)].unobservable_reason = reasons[static_cast<std::size_t>(j)];
+    if (reasons[static_cast<std::size_t>(j)].empty())
+      fitted.push_back(j);
+    else
+      r.unit[static_cast<std::size_t>(j)].unobservable_reason =
+          reasons[static_cast<std::size_t>(j)];
   }
   if (fitted.empty())
-    throw CannotFit("cannot fit: " + positions_for_unknowns(positions, kUnitParameterCount) +
-                    "; this programme separates none of the unit's parameters (each is unobservable or "
-                    "only part of a combination)");
+    throw CannotFit(
+        "cannot fit: " + positions_for_unknowns(positions, kUnitParameterCount) +
+        "; this programme separates none of the unit's parameters (each is unobservable or "
+        "only part of a combination)");
   std::vector<Eigen::Index> rows(positions.size());
   for (std::size_t k = 0; k < rows.size(); ++k) rows[k] = static_cast<Eigen::Index>(k);
   MatrixXd L = weighted_ls_map(d, rows, fitted);
@@ -231,9 +236,7 @@ FitResult fit_invariant_joint(const std::vector<PositionAverage>& positions,
 FitResult fit_paper_sequential(const std::vector<PositionAverage>& positions) {
   require_positions(positions, "cannot fit (paper-sequential)");
   const InvariantData d = invariant_data(positions);
-  const auto near_zero = [](double a_deg) {
-    return std::abs(std::remainder(a_deg, 360.0)) < 1e-6;
-  };
+  const auto near_zero = [](double a_deg) { return std::abs(std::remainder(a_deg, 360.0)) < 1e-6; };
   std::vector<Eigen::Index> step1, step2, step3;
   for (std::size_t k = 0; k < positions.size(); ++k) {
     const PositionAverage& p = positions[k];
@@ -241,9 +244,12 @@ FitResult fit_paper_sequential(const std::vector<PositionAverage>& positions) {
       throw std::runtime_error("paper-sequential applies to one mounting (x); position " +
                                std::to_string(p.pos) + " is mounted " + mount_name(p.mount));
     const auto ik = static_cast<Eigen::Index>(k);
-    if (near_zero(p.alpha2_cmd_deg)) step1.push_back(ik);
-    else if (near_zero(p.alpha1_cmd_deg)) step2.push_back(ik);
-    else step3.push_back(ik);
+    if (near_zero(p.alpha2_cmd_deg))
+      step1.push_back(ik);
+    else if (near_zero(p.alpha1_cmd_deg))
+      step2.push_back(ik);
+    else
+      step3.push_back(ik);
   }
   if (step1.size() < 5 || step2.size() < 3 || step3.empty())
     throw std::runtime_error(
@@ -269,7 +275,8 @@ FitResult fit_paper_sequential(const std::vector<PositionAverage>& positions) {
     }
     const MatrixXd P = weighted_ls_map(d, rows, cols);
     const MatrixXd step_map = P * R;
-    for (std::size_t c = 0; c < cols.size(); ++c) L.row(cols[c]) = step_map.row(static_cast<Eigen::Index>(c));
+    for (std::size_t c = 0; c < cols.size(); ++c)
+      L.row(cols[c]) = step_map.row(static_cast<Eigen::Index>(c));
     known.insert(known.end(), cols.begin(), cols.end());
   }
   FitResult r;

@@ -6,18 +6,25 @@ namespace standcal {
 
 std::string mount_name(Mount m) {
   switch (m) {
-    case Mount::x: return "x";
-    case Mount::y: return "y";
-    case Mount::z: return "z";
+    case Mount::x:
+      return "x";
+    case Mount::y:
+      return "y";
+    case Mount::z:
+      return "z";
   }
   return "?";
 }
 
 bool parse_mount(const std::string& text, Mount& out) {
-  if (text == "x") out = Mount::x;
-  else if (text == "y") out = Mount::y;
-  else if (text == "z") out = Mount::z;
-  else return false;
+  if (text == "x")
+    out = Mount::x;
+  else if (text == "y")
+    out = Mount::y;
+  else if (text == "z")
+    out = Mount::z;
+  else
+    return false;
   return true;
 }
 
@@ -57,9 +64,19 @@ Vec3 up_vector_table(double alpha1_rad, double alpha2_rad) {
 Mat3 mount_permutation(Mount m) {
   Mat3 p = Mat3::Zero();
   switch (m) {
-    case Mount::x: p.setIdentity(); break;
-    case Mount::y: p(0, 2) = 1; p(1, 0) = 1; p(2, 1) = 1; break;
-    case Mount::z: p(0, 1) = 1; p(1, 2) = 1; p(2, 0) = 1; break;
+    case Mount::x:
+      p.setIdentity();
+      break;
+    case Mount::y:
+      p(0, 2) = 1;
+      p(1, 0) = 1;
+      p(2, 1) = 1;
+      break;
+    case Mount::z:
+      p(0, 1) = 1;
+      p(1, 2) = 1;
+      p(2, 0) = 1;
+      break;
   }
   return p;
 }

@@ -39,8 +39,8 @@ Vec3 up_vector(double alpha1_rad, double alpha2_rad, Mount m = Mount::x);
 // The nine instrument errors. Gamma is kept as the six individual tilts gamma_ij
 // (input axis i towards axis j); gravity only reveals the pair sums (model.md).
 struct UnitErrors {
-  Vec3 bias_g = Vec3::Zero();   // Delta, in g
-  Vec3 scale = Vec3::Zero();    // delta k, dimensionless
+  Vec3 bias_g = Vec3::Zero();     // Delta, in g
+  Vec3 scale = Vec3::Zero();      // delta k, dimensionless
   Mat3 gamma_rad = Mat3::Zero();  // zero diagonal, off-diagonal gamma_ij
 
   // The pair sums gamma12, gamma13, gamma23 (rad).
@@ -56,14 +56,14 @@ struct UnitErrors {
 
 // Stand and mounting errors of model.md, all small angles in rad.
 struct StandErrors {
-  double levelling_x_rad = 0;   // levelling about x_S
-  double levelling_z_rad = 0;   // levelling about z_S
-  double alpha1_offset_rad = 0; // angle-sensor zero error of the outer axis
-  double alpha2_offset_rad = 0; // angle-sensor zero error of the inner axis
-  double alpha1_scale = 0;      // angle-sensor scale error of the outer axis
-  double alpha2_scale = 0;      // angle-sensor scale error of the inner axis
-  double skew_y_rad = 0;        // non-perpendicularity of inner vs outer axis, about y
-  double skew_z_rad = 0;        // ... about z (the outer axis)
+  double levelling_x_rad = 0;    // levelling about x_S
+  double levelling_z_rad = 0;    // levelling about z_S
+  double alpha1_offset_rad = 0;  // angle-sensor zero error of the outer axis
+  double alpha2_offset_rad = 0;  // angle-sensor zero error of the inner axis
+  double alpha1_scale = 0;       // angle-sensor scale error of the outer axis
+  double alpha2_scale = 0;       // angle-sensor scale error of the inner axis
+  double skew_y_rad = 0;         // non-perpendicularity of inner vs outer axis, about y
+  double skew_z_rad = 0;         // ... about z (the outer axis)
   std::array<Vec3, kMountCount> mounting_rad{Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
 };
 

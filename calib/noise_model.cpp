@@ -280,8 +280,9 @@ SigmaWidening widen_for_estimated_noise(
     const std::function<Eigen::VectorXd(const GaussMarkovNoise&)>& variances,
     const FitNoiseChoice& choice) {
   const VectorXd at_best = variances(choice.noise);
-  SigmaWidening w{VectorXd::Ones(at_best.size()),
-                  parameter_variance_dof(variances, at_best, choice.noise, choice.log_scale_information)};
+  SigmaWidening w{
+      VectorXd::Ones(at_best.size()),
+      parameter_variance_dof(variances, at_best, choice.noise, choice.log_scale_information)};
   // Averaged over the correlation times the run allows, each weighted by its likelihood.
   VectorXd averaged = VectorXd::Zero(at_best.size());
   double weights = 0;
@@ -356,8 +357,12 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
           "makes every sigma too small";
     }
   }
-  FitNoiseChoice choice{e.noise, weighted_below_bar ? GaussMarkovNoise{} : e.noise,
-                        noise_finding(e, positions), 0, {}, 0};
+  FitNoiseChoice choice{e.noise,
+                        weighted_below_bar ? GaussMarkovNoise{} : e.noise,
+                        noise_finding(e, positions),
+                        0,
+                        {},
+                        0};
   // Estimated and weighted for: its uncertainty widens the sigmas (a specified one is given).
   if (e.significant || weighted_below_bar) {
     choice.log_scale_information = e.log_scale_information;

@@ -12,13 +12,20 @@ namespace standcal {
 inline constexpr int kUnitParameterCount = 9;
 
 enum UnitParameter : int {
-  kBiasX = 0, kBiasY, kBiasZ, kScaleX, kScaleY, kScaleZ, kGamma12, kGamma13, kGamma23
+  kBiasX = 0,
+  kBiasY,
+  kBiasZ,
+  kScaleX,
+  kScaleY,
+  kScaleZ,
+  kGamma12,
+  kGamma13,
+  kGamma23
 };
 
 // JSON / report names, e.g. "bias_x", "gamma13".
 inline constexpr std::array<std::string_view, kUnitParameterCount> kUnitParameterNames{
-    "bias_x", "bias_y", "bias_z", "scale_x", "scale_y", "scale_z",
-    "gamma12", "gamma13", "gamma23"};
+    "bias_x", "bias_y", "bias_z", "scale_x", "scale_y", "scale_z", "gamma12", "gamma13", "gamma23"};
 
 // Report unit of each parameter.
 inline constexpr std::array<std::string_view, kUnitParameterCount> kUnitParameterUnits{

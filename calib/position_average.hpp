@@ -10,8 +10,8 @@
 namespace standcal {
 
 struct PositionAverage {
-  int pos = 0;                  // recording's position index
-  double alpha1_cmd_deg = 0;    // commanded stand angles
+  int pos = 0;                // recording's position index
+  double alpha1_cmd_deg = 0;  // commanded stand angles
   double alpha2_cmd_deg = 0;
   Mount mount = Mount::x;
   Vec3 mean_g = Vec3::Zero();            // J: mean specific force / g, per axis
@@ -19,11 +19,11 @@ struct PositionAverage {
   Vec3 sigma_g = Vec3::Zero();           // sample standard deviation, per axis (g)
   std::size_t samples = 0;               // samples used
   std::size_t outliers_rejected = 0;     // samples dropped by the outlier rule (any axis)
-  double t_start_s = 0;         // first and last sample time
+  double t_start_s = 0;                  // first and last sample time
   double t_end_s = 0;
-  double t_arrive_s = 0;        // when the stand reported in position
-  double temp_mean_c = 0;       // NaN when not measured
-  int approach = +1;            // approach direction (model.md hysteresis rule)
+  double t_arrive_s = 0;   // when the stand reported in position
+  double temp_mean_c = 0;  // NaN when not measured
+  int approach = +1;       // approach direction (model.md hysteresis rule)
 
   // The dwell's mid-time: when its mean is taken to have been measured (bias wander).
   double mid_time_s() const { return 0.5 * (t_start_s + t_end_s); }

@@ -155,8 +155,8 @@ Program load_program(const std::string& name_or_path, double paper9_alpha1_start
 nlohmann::json program_to_json(const Program& program) {
   nlohmann::json positions = nlohmann::json::array();
   for (const auto& p : program.positions) {
-    nlohmann::json j{{"alpha1_deg", p.alpha1_deg}, {"alpha2_deg", p.alpha2_deg},
-                     {"mount", mount_name(p.mount)}};
+    nlohmann::json j{
+        {"alpha1_deg", p.alpha1_deg}, {"alpha2_deg", p.alpha2_deg}, {"mount", mount_name(p.mount)}};
     if (p.dwell_s) j["dwell_s"] = *p.dwell_s;
     if (p.settle_s) j["settle_s"] = *p.settle_s;
     positions.push_back(j);

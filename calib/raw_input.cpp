@@ -611,8 +611,7 @@ class Reader {
           "the " + std::string(kRecordingFormat) + " format (fx_mps2, fy_mps2, fz_mps2 in m/s^2)";
     }
     for (const std::string& w : rec.warnings)
-      if (!(options_.g_mps2 && is_assumed_gravity_warning(w)))
-        out_.warnings.push_back(w);
+      if (!(options_.g_mps2 && is_assumed_gravity_warning(w))) out_.warnings.push_back(w);
     if (options_.g_mps2) {
       out_.g_mps2 = *options_.g_mps2;
       out_.g_given = true;

@@ -64,16 +64,27 @@ bool parse_int(std::string_view text, int& out) {
 }
 
 enum Column : int {
-  kT = 0, kPos, kA1Cmd, kA2Cmd, kA1, kA2, kFx, kFy, kFz, kTemp, kMountCol, kTArrive,
-  kApproach, kColumnKinds
+  kT = 0,
+  kPos,
+  kA1Cmd,
+  kA2Cmd,
+  kA1,
+  kA2,
+  kFx,
+  kFy,
+  kFz,
+  kTemp,
+  kMountCol,
+  kTArrive,
+  kApproach,
+  kColumnKinds
 };
 
 constexpr std::array<std::string_view, kColumnKinds> kColumnNames{
-    "t_s", "pos", "alpha1_cmd_deg", "alpha2_cmd_deg", "alpha1_deg", "alpha2_deg",
-    "fx_mps2", "fy_mps2", "fz_mps2", "temp_c", "mount", "t_arrive_s", "approach"};
+    "t_s",     "pos",     "alpha1_cmd_deg", "alpha2_cmd_deg", "alpha1_deg", "alpha2_deg", "fx_mps2",
+    "fy_mps2", "fz_mps2", "temp_c",         "mount",          "t_arrive_s", "approach"};
 constexpr int kRequiredColumns = 7;  // t_s, pos, both commanded angles, fx, fy, fz
-constexpr std::array<Column, kRequiredColumns> kRequired{kT, kPos, kA1Cmd, kA2Cmd,
-                                                          kFx, kFy, kFz};
+constexpr std::array<Column, kRequiredColumns> kRequired{kT, kPos, kA1Cmd, kA2Cmd, kFx, kFy, kFz};
 
 // Splits a line at commas into `fields` (views into the line). One pass over the bytes:
 // the fields are short, and a search call per field cost more than the scan (measured, as
@@ -163,8 +174,7 @@ class Parser {
 
   void parse_header_line(std::string_view line) {
     std::string_view body = line.substr(1);
-    if (body.empty() || body.front() != ' ')
-      fail(1, "header line must look like '# key: value'");
+    if (body.empty() || body.front() != ' ') fail(1, "header line must look like '# key: value'");
     body = trim(body);
     const std::size_t colon = body.find(':');
     if (colon == std::string_view::npos || colon == 0)
@@ -406,9 +416,9 @@ class Parser {
   void finish_header() {
     const std::string format = rec_.header_value("format");
     if (!seen_keys_.count("format"))
-      throw RecordingError(rec_.source, 1, 0,
-                           "required header '# format: " + std::string(kRecordingFormat) +
-                               "' is missing");
+      throw RecordingError(
+          rec_.source, 1, 0,
+          "required header '# format: " + std::string(kRecordingFormat) + "' is missing");
     if (format != kRecordingFormat)
       throw RecordingError(rec_.source, header_lines_.at("format"), 0,
                            "unsupported format '" + format + "' (this reader reads " +

@@ -45,7 +45,7 @@ struct RecordingColumns {
 };
 
 struct Recording {
-  std::string source;  // file name, for messages
+  std::string source;                                       // file name, for messages
   std::vector<std::pair<std::string, std::string>> header;  // every `# key: value`, in order
   double g_local_mps2 = kStandardGravity_mps2;
   bool g_from_header = false;

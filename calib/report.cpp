@@ -26,10 +26,14 @@ std::string chi2_verdict(const FitResult& fit) {
   const double p = chi_square_upper_tail(fit.chi2, fit.redundancy);
   std::string text = format("%.2f", fit.chi2_dof) + " with " + std::to_string(fit.redundancy) +
                      " degrees of freedom (p = " + format("%.3f", p) + "): ";
-  if (p < 0.001) return text + "the residuals are LARGER than the noise explains; the model "
-                               "misses something (run `standcal diagnose`)";
-  if (p > 0.999) return text + "the residuals are smaller than the noise predicts; the standard "
-                               "errors may be overstated";
+  if (p < 0.001)
+    return text +
+           "the residuals are LARGER than the noise explains; the model "
+           "misses something (run `standcal diagnose`)";
+  if (p > 0.999)
+    return text +
+           "the residuals are smaller than the noise predicts; the standard "
+           "errors may be overstated";
   return text + "consistent with the measured noise";
 }
 
@@ -56,8 +60,9 @@ void append_parameters(std::string& out, const FitResult& fit) {
 
 void append_residuals(std::string& out, const FitResult& fit, const ReportContext& ctx) {
   const bool per_axis = !fit.residuals.empty() && fit.residuals[0].residual_g.size() == 3;
-  out += per_axis ? "\nResiduals per position and axis (ug; measured J minus the model):\n"
-                  : "\nResiduals per position (ug; invariant residual = u.J - 1 minus the model):\n";
+  out += per_axis
+             ? "\nResiduals per position and axis (ug; measured J minus the model):\n"
+             : "\nResiduals per position (ug; invariant residual = u.J - 1 minus the model):\n";
   out += "  pos  alpha1    alpha2   mount  samples  axis  residual      sigma   res/sigma\n";
   for (std::size_t k = 0; k < fit.residuals.size(); ++k) {
     const PositionResidual& r = fit.residuals[k];
@@ -65,9 +70,10 @@ void append_residuals(std::string& out, const FitResult& fit, const ReportContex
     for (Eigen::Index c = 0; c < r.residual_g.size(); ++c) {
       char line[160];
       const char* axis = per_axis ? (c == 0 ? "x" : c == 1 ? "y" : "z") : "u";
-      std::snprintf(line, sizeof line, "  %3d %8.3f %9.3f   %s  %7zu   %s  %+9.3f  %9.3f   %+6.2f\n",
-                    r.pos, r.alpha1_cmd_deg, r.alpha2_cmd_deg, mount_name(r.mount).c_str(), samples,
-                    axis, r.residual_g[c] / kUg, r.sigma_g[c] / kUg, r.residual_g[c] / r.sigma_g[c]);
+      std::snprintf(line, sizeof line,
+                    "  %3d %8.3f %9.3f   %s  %7zu   %s  %+9.3f  %9.3f   %+6.2f\n", r.pos,
+                    r.alpha1_cmd_deg, r.alpha2_cmd_deg, mount_name(r.mount).c_str(), samples, axis,
+                    r.residual_g[c] / kUg, r.sigma_g[c] / kUg, r.residual_g[c] / r.sigma_g[c]);
       out += line;
     }
   }
@@ -89,8 +95,8 @@ void append_strong_correlations(std::string& out, const FitResult& fit) {
 }  // namespace
 
 ReportContext report_context(const Recording& rec, std::vector<PositionAverage> averages) {
-  return {rec.source, rec.unit_serial, rec.program, rec.g_local_mps2, rec.g_from_header,
-          rec.warnings, std::move(averages)};
+  return {rec.source,        rec.unit_serial, rec.program,        rec.g_local_mps2,
+          rec.g_from_header, rec.warnings,    std::move(averages)};
 }
 
 json noise_finding_json(const NoiseFinding& n) {
@@ -150,9 +156,12 @@ json fit_to_json(const FitResult& fit) {
       res.push_back(r.residual_g[c] / kUg);
       sig.push_back(r.sigma_g[c] / kUg);
     }
-    residuals.push_back({{"pos", r.pos}, {"alpha1_cmd_deg", r.alpha1_cmd_deg},
-                         {"alpha2_cmd_deg", r.alpha2_cmd_deg}, {"mount", mount_name(r.mount)},
-                         {"residual_ug", res}, {"sigma_ug", sig}});
+    residuals.push_back({{"pos", r.pos},
+                         {"alpha1_cmd_deg", r.alpha1_cmd_deg},
+                         {"alpha2_cmd_deg", r.alpha2_cmd_deg},
+                         {"mount", mount_name(r.mount)},
+                         {"residual_ug", res},
+                         {"sigma_ug", sig}});
   }
   json out{{"estimator", fit.estimator},
            {"positions", fit.positions},
@@ -171,8 +180,8 @@ json fit_to_json(const FitResult& fit) {
   if (!fit.stand.empty()) {
     json stand = json::object();
     for (const StandEstimate& s : fit.stand)
-      stand[s.name] = {{"value", s.value}, {"sigma", s.sigma}, {"unit", s.unit},
-                       {"description", s.description}};
+      stand[s.name] = {
+          {"value", s.value}, {"sigma", s.sigma}, {"unit", s.unit}, {"description", s.description}};
     out["stand"] = stand;
   }
   return out;
@@ -204,7 +213,8 @@ std::string noise_line(const NoiseFinding& n) {
 std::string format_report(const FitResult& fit, const ReportContext& ctx) {
   std::string out = "standcal calibration report\n===========================\n";
   out += "Recording:  " + ctx.source + "\n";
-  out += "Unit:       " + (ctx.unit_serial.empty() ? std::string("(no serial)") : ctx.unit_serial) + "\n";
+  out += "Unit:       " + (ctx.unit_serial.empty() ? std::string("(no serial)") : ctx.unit_serial) +
+         "\n";
   out += "Programme:  " + (ctx.program.empty() ? std::string("(not stated)") : ctx.program) + ", " +
          std::to_string(fit.positions) + " positions\n";
   out += "Gravity:    " + format("%.5f", ctx.g_local_mps2) + " m/s^2" +
@@ -219,7 +229,8 @@ std::string format_report(const FitResult& fit, const ReportContext& ctx) {
     out += "\nStand health (identifiable stand-error combinations):\n";
     for (const StandEstimate& s : fit.stand) {
       char line[120];
-      std::snprintf(line, sizeof line, "  %+10.2f +- %6.2f %-7s ", s.value, s.sigma, s.unit.c_str());
+      std::snprintf(line, sizeof line, "  %+10.2f +- %6.2f %-7s ", s.value, s.sigma,
+                    s.unit.c_str());
       out += line + s.name + "\n      " + s.description + "\n";
     }
   }

@@ -12,7 +12,7 @@ namespace standcal {
 
 // Where the fitted data came from, for the report header.
 struct ReportContext {
-  std::string source;       // recording path
+  std::string source;  // recording path
   std::string unit_serial;
   std::string program;
   double g_local_mps2 = kStandardGravity_mps2;

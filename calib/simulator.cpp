@@ -105,18 +105,22 @@ bool is_single_axis(const std::string& a) { return a == "x" || a == "y" || a == 
 ExtraEffect read_extra_effect(const json& item, const std::string& where) {
   const Keys k(item, where, {"id", "axis", "value", "unit", "tau_s", "phase_deg"});
   ExtraEffect e;
-  if (!k.has("id") || !k.at("id").is_string()) throw std::runtime_error(k.path("id") + ": must be a catalog id string");
+  if (!k.has("id") || !k.at("id").is_string())
+    throw std::runtime_error(k.path("id") + ": must be a catalog id string");
   e.id = k.at("id").get<std::string>();
   const std::string unit = extra_effect_unit(e.id);
   if (unit.empty())
-    throw std::runtime_error(k.path("id") + ": '" + e.id + "' is not an effect the simulator models");
-  if (!k.has("axis") || !k.at("axis").is_string()) throw std::runtime_error(k.path("axis") + ": must be a string");
+    throw std::runtime_error(k.path("id") + ": '" + e.id +
+                             "' is not an effect the simulator models");
+  if (!k.has("axis") || !k.at("axis").is_string())
+    throw std::runtime_error(k.path("axis") + ": must be a string");
   e.axis = k.at("axis").get<std::string>();
   const bool pair = e.id == "cross_coupling";
   const bool stand_axis = e.id == "angle_sensor_error";
   if (stand_axis) {
     if (e.axis != "alpha1" && e.axis != "alpha2")
-      throw std::runtime_error(k.path("axis") + ": '" + e.axis + "' is not a stand axis, \"alpha1\" or \"alpha2\"");
+      throw std::runtime_error(k.path("axis") + ": '" + e.axis +
+                               "' is not a stand axis, \"alpha1\" or \"alpha2\"");
   } else if (e.id == "stand_level_drift") {
     if (e.axis != "x" && e.axis != "z")
       throw std::runtime_error(k.path("axis") + ": '" + e.axis +
@@ -130,8 +134,10 @@ ExtraEffect read_extra_effect(const json& item, const std::string& where) {
   if (k.has("unit") && (!k.at("unit").is_string() || k.at("unit").get<std::string>() != unit))
     throw std::runtime_error(k.path("unit") + ": must be \"" + unit + "\" for " + e.id);
   k.number("tau_s", e.tau_s);
-  if (e.id == "settling_transient" && !(e.tau_s > 0)) throw std::runtime_error(k.path("tau_s") + ": must be > 0");
-  if (k.has("phase_deg") && !stand_axis) throw std::runtime_error(k.path("phase_deg") + ": only for angle_sensor_error");
+  if (e.id == "settling_transient" && !(e.tau_s > 0))
+    throw std::runtime_error(k.path("tau_s") + ": must be > 0");
+  if (k.has("phase_deg") && !stand_axis)
+    throw std::runtime_error(k.path("phase_deg") + ": only for angle_sensor_error");
   k.number("phase_deg", e.phase_deg);
   return e;
 }
@@ -164,7 +170,8 @@ int extra_effect_output_axis(const ExtraEffect& e) {
   return static_cast<int>(std::string("xyz").find(e.axis.empty() ? 'x' : e.axis[0]));
 }
 
-double angle_sensor_error_deg(const std::vector<ExtraEffect>& extra, int stand_axis, double alpha_deg) {
+double angle_sensor_error_deg(const std::vector<ExtraEffect>& extra, int stand_axis,
+                              double alpha_deg) {
   const std::string name = stand_axis == 1 ? "alpha1" : "alpha2";
   double error_deg = 0;
   for (const ExtraEffect& e : extra)
@@ -183,7 +190,8 @@ Vec3 level_drift_rad(const std::vector<ExtraEffect>& extra, double t_s) {
 
 double TemperatureProfile::delta_c(double t_s) const {
   double d = rate_c_per_h * t_s / 3600.0;
-  if (cycle_amplitude_c != 0 && cycle_period_s > 0) d += cycle_amplitude_c * std::sin(2 * kPi * t_s / cycle_period_s);
+  if (cycle_amplitude_c != 0 && cycle_period_s > 0)
+    d += cycle_amplitude_c * std::sin(2 * kPi * t_s / cycle_period_s);
   return d;
 }
 
@@ -194,7 +202,8 @@ double extra_effect_output_g(const ExtraEffect& e, const Vec3& J, double t_s, do
   if (e.id == "scale_nonlinearity_k2") return v * J[i] * J[i];
   if (e.id == "scale_nonlinearity_k3") return v * J[i] * J[i] * J[i];
   if (e.id == "scale_asymmetry") return v * J[i] * std::abs(J[i]);
-  if (e.id == "cross_coupling") return v * J[i] * J[static_cast<int>(std::string("xyz").find(e.axis[1]))];
+  if (e.id == "cross_coupling")
+    return v * J[i] * J[static_cast<int>(std::string("xyz").find(e.axis[1]))];
   if (e.id == "bias_temperature") return v * temp_delta_c;
   if (e.id == "scale_temperature") return v * temp_delta_c * J[i];
   if (e.id == "bias_drift") return v * t_s / 3600.0;
@@ -234,8 +243,12 @@ json base_truth_json(const TruthModel& t) {
        {{"bias_ug", vec_json(t.unit.bias_g, 1.0 / kUg)},
         {"scale_ppm", vec_json(t.unit.scale, 1.0 / kPpm)},
         {"gamma_arcsec",
-         {{"xy", g(0, 1) * as}, {"yx", g(1, 0) * as}, {"xz", g(0, 2) * as},
-          {"zx", g(2, 0) * as}, {"yz", g(1, 2) * as}, {"zy", g(2, 1) * as}}}}},
+         {{"xy", g(0, 1) * as},
+          {"yx", g(1, 0) * as},
+          {"xz", g(0, 2) * as},
+          {"zx", g(2, 0) * as},
+          {"yz", g(1, 2) * as},
+          {"zy", g(2, 1) * as}}}}},
       {"stand",
        {{"levelling_arcsec", {{"x", s.levelling_x_rad * as}, {"z", s.levelling_z_rad * as}}},
         {"angle_offset_arcsec",
@@ -266,7 +279,8 @@ json truth_to_json(const TruthModel& t) {
   if (!t.extra_physics.empty()) {
     json extra = json::array();
     for (const ExtraEffect& e : t.extra_physics) {
-      json item = {{"id", e.id}, {"axis", e.axis}, {"value", e.value}, {"unit", extra_effect_unit(e.id)}};
+      json item = {
+          {"id", e.id}, {"axis", e.axis}, {"value", e.value}, {"unit", extra_effect_unit(e.id)}};
       if (e.id == "settling_transient") item["tau_s"] = e.tau_s;
       if (e.id == "angle_sensor_error") item["phase_deg"] = e.phase_deg;
       extra.push_back(item);
@@ -282,8 +296,9 @@ json truth_to_json(const TruthModel& t) {
 }
 
 TruthModel truth_from_json(const json& doc, const std::string& source) {
-  const Keys top(doc, source,
-                 {"format", "g_local_mps2", "unit", "stand", "noise", "temperature", "extra_physics"});
+  const Keys top(
+      doc, source,
+      {"format", "g_local_mps2", "unit", "stand", "noise", "temperature", "extra_physics"});
   if (top.has("format") && top.at("format") != "standcal-model/1")
     throw std::runtime_error(source + ".format: expected \"standcal-model/1\"");
   TruthModel t;
@@ -322,9 +337,11 @@ TruthModel truth_from_json(const json& doc, const std::string& source) {
     k.number("noise_c", t.temperature.noise_c);
     k.number("cycle_amplitude_c", t.temperature.cycle_amplitude_c);
     k.number("cycle_period_s", t.temperature.cycle_period_s);
-    if (!(t.temperature.cycle_period_s > 0)) throw std::runtime_error(k.path("cycle_period_s") + ": must be > 0");
+    if (!(t.temperature.cycle_period_s > 0))
+      throw std::runtime_error(k.path("cycle_period_s") + ": must be > 0");
   }
-  if (top.has("extra_physics")) t.extra_physics = read_extra_physics(top.at("extra_physics"), top.path("extra_physics"));
+  if (top.has("extra_physics"))
+    t.extra_physics = read_extra_physics(top.at("extra_physics"), top.path("extra_physics"));
   return t;
 }
 
@@ -382,8 +399,10 @@ Vec3 UnitSimulator::specific_force_mps2(double t_s, double alpha1_cmd_deg, doubl
   if (!cached_ || level_drifts_ || alpha1_cmd_deg != cached_alpha1_deg_ ||
       alpha2_cmd_deg != cached_alpha2_deg_ || m != cached_mount_) {
     // A cyclic angle-sensor error moves the true angle away from the one the servo holds.
-    const double a1_deg = alpha1_cmd_deg + angle_sensor_error_deg(truth_.extra_physics, 1, alpha1_cmd_deg);
-    const double a2_deg = alpha2_cmd_deg + angle_sensor_error_deg(truth_.extra_physics, 2, alpha2_cmd_deg);
+    const double a1_deg =
+        alpha1_cmd_deg + angle_sensor_error_deg(truth_.extra_physics, 1, alpha1_cmd_deg);
+    const double a2_deg =
+        alpha2_cmd_deg + angle_sensor_error_deg(truth_.extra_physics, 2, alpha2_cmd_deg);
     StandErrors stand = truth_.stand;
     const Vec3 level_drift = level_drift_rad(truth_.extra_physics, t_s);
     stand.levelling_x_rad += level_drift.x();
@@ -401,7 +420,9 @@ Vec3 UnitSimulator::specific_force_mps2(double t_s, double alpha1_cmd_deg, doubl
     const double temp_delta_c = truth_.temperature.delta_c(t_s);  // noise-free T - start_c
     for (const ExtraEffect& e : truth_.extra_physics) {
       const int axis = extra_effect_output_axis(e);
-      if (axis >= 0) J[axis] += extra_effect_output_g(e, cached_J_g_, t_s, temp_delta_c, approach_, t_s - t_arrive_s_);
+      if (axis >= 0)
+        J[axis] +=
+            extra_effect_output_g(e, cached_J_g_, t_s, temp_delta_c, approach_, t_s - t_arrive_s_);
     }
   }
   for (int a = 0; a < 3; ++a) J[a] += sample_sigma_g_ * gauss_(rng_);
@@ -462,14 +483,15 @@ Recording simulate_run(const SimulationRequest& req) {
   double t_s = 0, a1 = 0, a2 = 0;
   for (std::size_t i = 0; i < program.positions.size(); ++i) {
     const ProgramPosition& p = program.positions[i];
-    if (std::find(remounts.begin(), remounts.end(), i) != remounts.end()) t_s += req.timing.remount_s;
+    if (std::find(remounts.begin(), remounts.end(), i) != remounts.end())
+      t_s += req.timing.remount_s;
     t_s += std::max(std::abs(p.alpha1_deg - a1), std::abs(p.alpha2_deg - a2)) /
            req.timing.move_rate_deg_s;
     const double t_arrive_s = t_s;
     const double t_first_s = t_arrive_s + p.settle_s.value_or(req.timing.settle_s);
     unit.set_position_context(approach[i], t_arrive_s);
-    const auto n = static_cast<long>(std::llround(p.dwell_s.value_or(req.timing.dwell_s) *
-                                                  req.timing.sample_rate_hz));
+    const auto n = static_cast<long>(
+        std::llround(p.dwell_s.value_or(req.timing.dwell_s) * req.timing.sample_rate_hz));
     for (long k = 0; k < n; ++k) {
       RecordingSample s;
       s.t_s = t_first_s + static_cast<double>(k) / req.timing.sample_rate_hz;

@@ -15,12 +15,12 @@
 namespace standcal {
 
 struct NoiseModel {
-  double density_ug_rthz = 10;        // white noise N; one sample has sigma N*sqrt(fs)
-  double bias_instability_ug = 0;     // first-order Gauss-Markov bias, steady-state sigma
+  double density_ug_rthz = 10;     // white noise N; one sample has sigma N*sqrt(fs)
+  double bias_instability_ug = 0;  // first-order Gauss-Markov bias, steady-state sigma
   double bias_instability_tau_s = 300;
-  double random_walk_ug_rthr = 0;     // bias random walk: sigma grows as K*sqrt(t / 1 h)
-  double quantization_ug = 0;         // output LSB, 0 = none
-  double angle_noise_arcsec = 0;      // noise of the recorded angle-sensor readings
+  double random_walk_ug_rthr = 0;  // bias random walk: sigma grows as K*sqrt(t / 1 h)
+  double quantization_ug = 0;      // output LSB, 0 = none
+  double angle_noise_arcsec = 0;   // noise of the recorded angle-sensor readings
 };
 
 struct TemperatureProfile {
@@ -48,14 +48,14 @@ struct TemperatureProfile {
 // scale_asymmetry is IEEE 1293's odd-quadratic K_oq a_i |a_i|; stand_level_drift turns the
 // stand's levelling error (model.md's C_eps) by value * t from t = 0.
 struct ExtraEffect {
-  std::string id;     // bias_temperature, bias_drift, hysteresis, settling_transient,
-                      // scale_nonlinearity_k2, scale_nonlinearity_k3, cross_coupling,
-                      // scale_temperature, angle_sensor_error, scale_asymmetry,
-                      // stand_level_drift
+  std::string id;  // bias_temperature, bias_drift, hysteresis, settling_transient,
+                   // scale_nonlinearity_k2, scale_nonlinearity_k3, cross_coupling,
+                   // scale_temperature, angle_sensor_error, scale_asymmetry,
+                   // stand_level_drift
   std::string axis;
-  double value = 0;   // ug/g2, ug/g3, ug/g2, ug/degC, ppm/degC, ug/h, ug, ug (amplitude), arcsec,
-                      // ug/g2, arcsec/h
-  double tau_s = 0;   // settling_transient only: time constant after arrival
+  double value = 0;  // ug/g2, ug/g3, ug/g2, ug/degC, ppm/degC, ug/h, ug, ug (amplitude), arcsec,
+                     // ug/g2, arcsec/h
+  double tau_s = 0;  // settling_transient only: time constant after arrival
   double phase_deg = 0;  // angle_sensor_error only
 };
 
@@ -70,7 +70,8 @@ double extra_effect_output_g(const ExtraEffect& e, const Vec3& J_nominal_g, doub
 int extra_effect_output_axis(const ExtraEffect& e);
 // The true-minus-read angle (deg) of stand axis 1 or 2 at reading alpha_deg from the
 // angle_sensor_error effects among `extra` (0 when there are none).
-double angle_sensor_error_deg(const std::vector<ExtraEffect>& extra, int stand_axis, double alpha_deg);
+double angle_sensor_error_deg(const std::vector<ExtraEffect>& extra, int stand_axis,
+                              double alpha_deg);
 // The levelling error (rad, about x_S and z_S; y is 0) the stand_level_drift effects among
 // `extra` have added by time t_s.
 Vec3 level_drift_rad(const std::vector<ExtraEffect>& extra, double t_s);

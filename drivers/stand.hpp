@@ -33,13 +33,13 @@ enum class AxisMode : std::uint8_t { disabled, idle, homing, moving, in_position
 
 struct AxisState {
   AxisMode mode = AxisMode::disabled;
-  double angle_deg = 0.0;            // actual angle, normalised into the axis range
-  bool enabled = false;              // drive powered and holding
-  bool homed = false;                // reference found since power-up
-  bool stopped_by_heartbeat = false; // controller stopped a motion: heartbeat lost
-  bool estop = false;                // emergency stop latched
-  int fault_code = 0;                // 0 = no fault; meaning in fault_text
-  std::string fault_text;            // e.g. "following error"
+  double angle_deg = 0.0;             // actual angle, normalised into the axis range
+  bool enabled = false;               // drive powered and holding
+  bool homed = false;                 // reference found since power-up
+  bool stopped_by_heartbeat = false;  // controller stopped a motion: heartbeat lost
+  bool estop = false;                 // emergency stop latched
+  int fault_code = 0;                 // 0 = no fault; meaning in fault_text
+  std::string fault_text;             // e.g. "following error"
 };
 
 // How far an axis may turn. A continuous axis (slip ring) turns freely and always takes

@@ -11,13 +11,13 @@ namespace standcal::drivers {
 
 enum class ErrorKind {
   none,
-  timeout,        // no reply / no frame within the allowed time
-  link,           // connection lost or cannot be opened
-  protocol,       // malformed reply, Modbus exception, bad frame
-  not_allowed,    // lifecycle forbids the call (e.g. motion while inactive)
-  limit,          // angle outside an axis range
-  fault,          // the device reports a fault
-  estop,          // emergency stop active
+  timeout,      // no reply / no frame within the allowed time
+  link,         // connection lost or cannot be opened
+  protocol,     // malformed reply, Modbus exception, bad frame
+  not_allowed,  // lifecycle forbids the call (e.g. motion while inactive)
+  limit,        // angle outside an axis range
+  fault,        // the device reports a fault
+  estop,        // emergency stop active
   invalid_argument,
 };
 
@@ -34,8 +34,8 @@ struct [[nodiscard]] Status {
 template <class T>
 class [[nodiscard]] Result {
  public:
-  Result(T value) : v_(std::move(value)) {}             // NOLINT: implicit by design
-  Result(Status error) : v_(std::move(error)) {}        // NOLINT: implicit by design
+  Result(T value) : v_(std::move(value)) {}       // NOLINT: implicit by design
+  Result(Status error) : v_(std::move(error)) {}  // NOLINT: implicit by design
   bool ok() const { return std::holds_alternative<T>(v_); }
   explicit operator bool() const { return ok(); }
   const T& value() const { return std::get<T>(v_); }

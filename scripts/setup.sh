@@ -24,6 +24,8 @@ packages=(
   # scripts/build.sh and the fuzzers use clang and lld: clang compiles this tree's
   # Eigen-heavy code in about half the CPU time of g++ (scripts/build.sh says more).
   clang-14 libclang-rt-14-dev lld-14
+  # scripts/test.sh checks the formatting (.clang-format) before it builds.
+  clang-format-14
   # `standcal certificate -o FILE.pdf` renders with WeasyPrint; the tests read the PDF back
   # with poppler's pdftotext and pdfinfo.
   weasyprint poppler-utils

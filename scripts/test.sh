@@ -23,6 +23,15 @@ fault_tests() {
   ctest --test-dir "$1/tests/faults" --output-on-failure -j 4 --timeout 600
 }
 
+# One formatter (.clang-format), checked before anything builds: a file it would change
+# fails the run, naming the file and line (`git clang-format-14` or `clang-format-14 -i`
+# mends it). Only in a git checkout: the file list is git's.
+if git -C "$root" rev-parse --is-inside-work-tree >/dev/null 2>&1; then
+  echo "=== format (clang-format-14 --dry-run -Werror) ===" >&2
+  git -C "$root" ls-files -z '*.cpp' '*.hpp' '*.c' '*.h' |
+    (cd "$root" && xargs -0 clang-format-14 --dry-run -Werror)
+fi
+
 for flavour in release asan; do
   echo "=== $flavour build ===" >&2
   "$root/scripts/build.sh" "$flavour"

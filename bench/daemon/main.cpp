@@ -78,7 +78,8 @@ std::vector<double> status_latencies(const std::string& socket, int clients, int
       for (int i = 0; i < requests; ++i) {
         const auto t0 = Clock::now();
         client.call("status");
-        per[static_cast<std::size_t>(c)].push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+        per[static_cast<std::size_t>(c)].push_back(
+            std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
       }
     });
   }
@@ -127,22 +128,27 @@ int main(int argc, char** argv) {
     std::printf("idle:        CPU %.2f %% of one core, RSS %.1f MB (3 s)\n", idle_cpu, idle_rss);
 
     auto lat = status_latencies(socket, clients, requests);
-    std::printf("status idle: %d clients x %d requests: p50 %.3f ms, p99 %.3f ms, max %.3f ms\n", clients, requests,
-                percentile(lat, 0.5), percentile(lat, 0.99), percentile(lat, 1.0));
+    std::printf("status idle: %d clients x %d requests: p50 %.3f ms, p99 %.3f ms, max %.3f ms\n",
+                clients, requests, percentile(lat, 0.5), percentile(lat, 0.99),
+                percentile(lat, 1.0));
 
     standcal::protocol::Client c(socket);
-    const auto run = c.call("run.start", {{"program", "paper9"}, {"unit_serial", "BENCH"}, {"dwell_s", 60}});
+    const auto run =
+        c.call("run.start", {{"program", "paper9"}, {"unit_serial", "BENCH"}, {"dwell_s", 60}});
     std::this_thread::sleep_for(300ms);
     const auto [run_cpu, run_rss] = measure(pid, 2.0);
-    std::printf("during run:  CPU %.2f %% of one core, peak RSS %.1f MB (time x%.0f)\n", run_cpu, run_rss, time_scale);
+    std::printf("during run:  CPU %.2f %% of one core, peak RSS %.1f MB (time x%.0f)\n", run_cpu,
+                run_rss, time_scale);
     lat = status_latencies(socket, clients, requests);
-    std::printf("status in run: %d clients x %d requests: p50 %.3f ms, p99 %.3f ms, max %.3f ms\n", clients, requests,
-                percentile(lat, 0.5), percentile(lat, 0.99), percentile(lat, 1.0));
+    std::printf("status in run: %d clients x %d requests: p50 %.3f ms, p99 %.3f ms, max %.3f ms\n",
+                clients, requests, percentile(lat, 0.5), percentile(lat, 0.99),
+                percentile(lat, 1.0));
     for (;;) {
       const auto s = c.call("run.status", {{"run_id", run["run_id"]}});
       const std::string st = s["state"];
       if (st != "running") {
-        std::printf("run ended %s; peak RSS after the fit %.1f MB\n", st.c_str(), usage_of(pid).rss_mb);
+        std::printf("run ended %s; peak RSS after the fit %.1f MB\n", st.c_str(),
+                    usage_of(pid).rss_mb);
         break;
       }
       std::this_thread::sleep_for(200ms);

@@ -33,10 +33,12 @@ std::string one_hour_recording() {
   req.timing.dwell_s = 112;
   req.timing.settle_s = 2;
   const Recording rec = simulate_run(req);
-  const std::string path = (std::filesystem::temp_directory_path() / "standcal_bench_diagnose_1h.csv").string();
+  const std::string path =
+      (std::filesystem::temp_directory_path() / "standcal_bench_diagnose_1h.csv").string();
   write_recording(rec, path);
-  std::printf("recording: diagnostic32, %zu samples over %.0f s at 100 Hz, %.1f MB -> %s\n", rec.samples.size(),
-              rec.samples.back().t_s, static_cast<double>(std::filesystem::file_size(path)) / 1e6, path.c_str());
+  std::printf("recording: diagnostic32, %zu samples over %.0f s at 100 Hz, %.1f MB -> %s\n",
+              rec.samples.size(), rec.samples.back().t_s,
+              static_cast<double>(std::filesystem::file_size(path)) / 1e6, path.c_str());
   return path;
 }
 
@@ -58,9 +60,11 @@ int main() {
   }
   std::size_t tested = 0;
   for (const auto& c : last.candidates) tested += c.testable ? 1 : 0;
-  std::printf("verdict %s, %zu findings (first: %s %s), %zu candidate tests (%zu testable)\n", last.verdict.c_str(),
-              last.findings.size(), last.findings.empty() ? "-" : last.findings.front().effect.c_str(),
-              last.findings.empty() ? "" : last.findings.front().axis.c_str(), last.candidates.size(), tested);
+  std::printf("verdict %s, %zu findings (first: %s %s), %zu candidate tests (%zu testable)\n",
+              last.verdict.c_str(), last.findings.size(),
+              last.findings.empty() ? "-" : last.findings.front().effect.c_str(),
+              last.findings.empty() ? "" : last.findings.front().axis.c_str(),
+              last.candidates.size(), tested);
   std::printf("median of %d runs:\n", kRepeats);
   std::printf("  read (CSV parse)         %7.3f s\n", median(read_s));
   std::printf("  diagnose_recording       %7.3f s\n", median(diagnose_s));

@@ -136,7 +136,8 @@ double ideal_noncentrality(const GeneratorTruth& truth, const GeneratorRun& run,
   t.g_local_mps2 = truth.g_local_mps2;
   const Recording clean = generate_recording(t, run, 0);
   const double means =
-      fit_full_vector(with_errors_of(average_positions(clean), noisy), white_noise_weighting()).chi2;
+      fit_full_vector(with_errors_of(average_positions(clean), noisy), white_noise_weighting())
+          .chi2;
   return means + within_dwell_chi2(clean, noisy);
 }
 

@@ -35,7 +35,8 @@ int main(int argc, char** argv) {
   o.can_emu_path = STANDCAL_CAN_EMU_PATH;
   const bool have_socat = std::filesystem::exists("/usr/bin/socat");
 
-  std::printf("%-22s %6s %9s %16s  %s\n", "fault", "tries", "survived", "positions lost", "state after the fault");
+  std::printf("%-22s %6s %9s %16s  %s\n", "fault", "tries", "survived", "positions lost",
+              "state after the fault");
   int all_tries = 0, all_survived = 0, all_lost = 0;
   const auto t0 = std::chrono::steady_clock::now();
   for (const FaultCase& c : all_cases()) {
@@ -52,7 +53,8 @@ int main(int argc, char** argv) {
       survived += t.survived ? 1 : 0;
       lost += t.positions_lost;
       ++states[t.state_after_fault.empty() ? "?" : t.state_after_fault];
-      if (!t.survived) std::fprintf(stderr, "  %s seed %u: %s\n", c.name.c_str(), seed + i, t.failure.c_str());
+      if (!t.survived)
+        std::fprintf(stderr, "  %s seed %u: %s\n", c.name.c_str(), seed + i, t.failure.c_str());
     }
     std::string state_text;
     for (const auto& [state, count] : states)
@@ -63,7 +65,8 @@ int main(int argc, char** argv) {
     all_survived += survived;
     all_lost += lost;
   }
-  const double took_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double took_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::printf("%-22s %6d %9d %16d  (%.0f s)\n", "all", all_tries, all_survived, all_lost, took_s);
   return all_survived == all_tries && all_lost == 0 ? 0 : 1;
 }

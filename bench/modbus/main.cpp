@@ -53,7 +53,8 @@ pid_t start_emulator(const std::string& path) {
 
 modbus_t* connect_raw() {
   auto url = mb::parse_url(g_url);
-  modbus_t* ctx = modbus_new_tcp_pi(url.value().host.c_str(), std::to_string(url.value().port).c_str());
+  modbus_t* ctx =
+      modbus_new_tcp_pi(url.value().host.c_str(), std::to_string(url.value().port).c_str());
   if (ctx == nullptr || modbus_connect(ctx) == -1) return nullptr;
   return ctx;
 }
@@ -63,7 +64,8 @@ void raw_read_status(benchmark::State& state) {
   if (ctx == nullptr) return state.SkipWithError("cannot connect to the emulator");
   std::uint16_t regs[6];
   for (auto _ : state) {
-    if (modbus_read_input_registers(ctx, 100, 6, regs) != 6) return state.SkipWithError(modbus_strerror(errno));
+    if (modbus_read_input_registers(ctx, 100, 6, regs) != 6)
+      return state.SkipWithError(modbus_strerror(errno));
     benchmark::DoNotOptimize(regs);
   }
   state.SetItemsProcessed(state.iterations());
@@ -76,7 +78,8 @@ void raw_write_command(benchmark::State& state) {
   if (ctx == nullptr) return state.SkipWithError("cannot connect to the emulator");
   const std::uint16_t block[4] = {0, 0, 0, 0};  // target 0, speed default, no command
   for (auto _ : state) {
-    if (modbus_write_registers(ctx, 100, 4, block) != 4) return state.SkipWithError(modbus_strerror(errno));
+    if (modbus_write_registers(ctx, 100, 4, block) != 4)
+      return state.SkipWithError(modbus_strerror(errno));
   }
   state.SetItemsProcessed(state.iterations());
   modbus_close(ctx);
@@ -85,7 +88,8 @@ void raw_write_command(benchmark::State& state) {
 
 void stand_read_state(benchmark::State& state) {
   auto stand = mb::ModbusStand::create(g_url, mb::ModbusStandConfig{});
-  if (!stand || !stand.value()->configure()) return state.SkipWithError("cannot configure the stand");
+  if (!stand || !stand.value()->configure())
+    return state.SkipWithError("cannot configure the stand");
   for (auto _ : state) {
     auto s = stand.value()->read_state(standcal::drivers::StandAxis::outer);
     if (!s) return state.SkipWithError(s.status().message.c_str());
@@ -113,7 +117,8 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "standcal-bench-modbus: cannot start %s\n", emulator.c_str());
     return 1;
   }
-  std::printf("emulator at %s (items_per_second = Modbus request round-trips per second)\n", g_url.c_str());
+  std::printf("emulator at %s (items_per_second = Modbus request round-trips per second)\n",
+              g_url.c_str());
   benchmark::Initialize(&argc, argv);
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();

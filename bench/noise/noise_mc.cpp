@@ -95,7 +95,8 @@ ScenarioResult run_scenario(const Setup& setup, const Scenario& scenario) {
   std::mutex mutex;
   auto worker = [&](int first, int stride) {
     std::vector<ZStats> local;  // from methods(), not out.stats, which others merge into
-    for (const Method& m : methods()) local.push_back({m.estimator, m.weighting, {}, {}, {}, {}, 0, 0, 0});
+    for (const Method& m : methods())
+      local.push_back({m.estimator, m.weighting, {}, {}, {}, {}, 0, 0, 0});
     for (int run = first; run < setup.runs; run += stride) {
       SimulationRequest req;
       req.program = setup.program;

@@ -94,7 +94,8 @@ double anon_of(const Sample& s) { return static_cast<double>(s.anon_kb); }
 double file_of(const Sample& s) { return static_cast<double>(s.file_kb); }
 double fds_of(const Sample& s) { return static_cast<double>(s.fds); }
 
-pid_t start_daemon(const std::string& dir, double time_scale, const std::string& daemon, const std::string& wrapper) {
+pid_t start_daemon(const std::string& dir, double time_scale, const std::string& daemon,
+                   const std::string& wrapper) {
   const pid_t pid = ::fork();
   if (pid == 0) {
     const std::string log = dir + "/standcald.log";
@@ -104,13 +105,15 @@ pid_t start_daemon(const std::string& dir, double time_scale, const std::string&
     const std::string state = dir + "/state";
     if (!wrapper.empty()) {
       // The shell execs the tool in this process, so the pid sampled is the tool's.
-      const std::string cmd = "exec " + wrapper + " '" + daemon + "' --sim --socket '" + socket + "' --state-dir '" +
-                              state + "' --time-scale " + ts + " --log-level warn";
+      const std::string cmd = "exec " + wrapper + " '" + daemon + "' --sim --socket '" + socket +
+                              "' --state-dir '" + state + "' --time-scale " + ts +
+                              " --log-level warn";
       ::execl("/bin/sh", "sh", "-c", cmd.c_str(), static_cast<char*>(nullptr));
       ::_exit(127);
     }
-    ::execl(daemon.c_str(), daemon.c_str(), "--sim", "--socket", socket.c_str(), "--state-dir", state.c_str(),
-            "--time-scale", ts.c_str(), "--log-level", "warn", static_cast<char*>(nullptr));
+    ::execl(daemon.c_str(), daemon.c_str(), "--sim", "--socket", socket.c_str(), "--state-dir",
+            state.c_str(), "--time-scale", ts.c_str(), "--log-level", "warn",
+            static_cast<char*>(nullptr));
     ::_exit(127);
   }
   return pid;
@@ -121,10 +124,11 @@ std::string one_run(const std::string& socket, int index, double dwell_s, bool l
   Client control(socket);
   Client subscriber(socket);
   subscriber.call("subscribe", {{"events", "all"}});
-  const std::string run_id = control.call("run.start", {{"program", "paper9"},
-                                                         {"unit_serial", "SOAK-" + std::to_string(index % 5)},
-                                                         {"dwell_s", dwell_s},
-                                                         {"settle_s", 1}})["run_id"];
+  const std::string run_id =
+      control.call("run.start", {{"program", "paper9"},
+                                 {"unit_serial", "SOAK-" + std::to_string(index % 5)},
+                                 {"dwell_s", dwell_s},
+                                 {"settle_s", 1}})["run_id"];
   std::string state = "running";
   const auto deadline = Clock::now() + 10min;
   while (Clock::now() < deadline) {
@@ -163,8 +167,10 @@ void trim_and_report(pid_t pid, const std::string& daemon_log) {
   const int status = std::system(cmd.c_str());
   std::this_thread::sleep_for(200ms);
   const long after_kb = rss_kb_of(pid), after_anon_kb = status_kb(pid, "RssAnon");
-  std::printf("soak: malloc_trim(0) through gdb (exit %d): RSS %ld kB -> %ld kB (%+ld kB), anon %ld kB -> %ld kB\n",
-              status, before_kb, after_kb, after_kb - before_kb, before_anon_kb, after_anon_kb);
+  std::printf(
+      "soak: malloc_trim(0) through gdb (exit %d): RSS %ld kB -> %ld kB (%+ld kB), anon %ld kB -> "
+      "%ld kB\n",
+      status, before_kb, after_kb, after_kb - before_kb, before_anon_kb, after_anon_kb);
   std::ifstream log(daemon_log);
   int totals = 0, lines_left = 0;  // the two lines after each "Total (incl. mmap):"
   for (std::string line; std::getline(log, line);) {
@@ -173,7 +179,8 @@ void trim_and_report(pid_t pid, const std::string& daemon_log) {
       lines_left = 2;
     } else if (lines_left > 0) {
       --lines_left;
-      std::printf("soak: malloc_stats, all arenas, %s trim: %s\n", totals == 1 ? "before" : "after", line.c_str());
+      std::printf("soak: malloc_stats, all arenas, %s trim: %s\n", totals == 1 ? "before" : "after",
+                  line.c_str());
     }
   }
 }
@@ -181,26 +188,35 @@ void trim_and_report(pid_t pid, const std::string& daemon_log) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"standcal-bench-soak: back-to-back simulated runs, printing the daemon's RSS and open fds"};
+  CLI::App app{
+      "standcal-bench-soak: back-to-back simulated runs, printing the daemon's RSS and open fds"};
   double minutes = 30, time_scale = 200, dwell_s = 10, sample_s = 10;
-  app.add_option("--minutes", minutes, "how long to run (default 30)")->check(CLI::Range(0.1, 24 * 60.0));
-  app.add_option("--time-scale", time_scale, "simulated time runs this many times faster (default 200)")
+  app.add_option("--minutes", minutes, "how long to run (default 30)")
+      ->check(CLI::Range(0.1, 24 * 60.0));
+  app.add_option("--time-scale", time_scale,
+                 "simulated time runs this many times faster (default 200)")
       ->check(CLI::Range(1.0, 10000.0));
-  app.add_option("--dwell-s", dwell_s, "dwell per position, simulated seconds (default 10)")->check(CLI::Range(0.5, 600.0));
-  app.add_option("--sample-s", sample_s, "seconds between samples (default 10)")->check(CLI::Range(0.5, 600.0));
+  app.add_option("--dwell-s", dwell_s, "dwell per position, simulated seconds (default 10)")
+      ->check(CLI::Range(0.5, 600.0));
+  app.add_option("--sample-s", sample_s, "seconds between samples (default 10)")
+      ->check(CLI::Range(0.5, 600.0));
   // 1 kB/run is 1 MB per thousand runs, about a year of a busy bench; the per-run state
   // the daemon must keep (a run's index entry) is far below it.
   double max_rss_kb_per_run = 1.0, max_fds_per_run = 0.01;
-  app.add_option("--max-rss-kb-per-run", max_rss_kb_per_run, "RSS slope still called flat (default 1.0 kB/run)");
-  app.add_option("--max-fds-per-run", max_fds_per_run, "fd slope still called flat (default 0.01 fd/run)");
+  app.add_option("--max-rss-kb-per-run", max_rss_kb_per_run,
+                 "RSS slope still called flat (default 1.0 kB/run)");
+  app.add_option("--max-fds-per-run", max_fds_per_run,
+                 "fd slope still called flat (default 0.01 fd/run)");
   std::string daemon = STANDCALD_PATH, wrapper;
   bool trim_at_end = false, no_runs_list = false;
   // runs.list answers with one page (100 runs by default); without it the soak shows what
   // the rest costs per run.
   app.add_flag("--no-runs-list", no_runs_list, "do not call runs.list after each run");
   app.add_option("--daemon", daemon, "the standcald binary (default: this build's)");
-  app.add_flag("--trim-at-end", trim_at_end, "call malloc_trim(0) in the daemon through gdb at the end, print RSS");
-  app.add_option("--daemon-wrapper", wrapper, "run standcald under this command, e.g. \"heaptrack -o /tmp/soak\"");
+  app.add_flag("--trim-at-end", trim_at_end,
+               "call malloc_trim(0) in the daemon through gdb at the end, print RSS");
+  app.add_option("--daemon-wrapper", wrapper,
+                 "run standcald under this command, e.g. \"heaptrack -o /tmp/soak\"");
   CLI11_PARSE(app, argc, argv);
 
   std::string dir = (std::filesystem::temp_directory_path() / "standcal-soak-XXXXXX").string();
@@ -219,20 +235,29 @@ int main(int argc, char** argv) {
         std::this_thread::sleep_for(20ms);
       }
     }
-    std::printf("soak: standcald pid %d, paper9 dwell %.1f s at time x%.0f, %.1f min, sample every %.1f s; "
-                "load average %s\n",
-                pid, dwell_s, time_scale, minutes, sample_s, load_average().c_str());
-    std::printf("%8s %6s %10s %10s %10s %6s\n", "t_min", "runs", "rss_kb", "anon_kb", "file_kb", "fds");
+    std::printf(
+        "soak: standcald pid %d, paper9 dwell %.1f s at time x%.0f, %.1f min, sample every %.1f s; "
+        "load average %s\n",
+        pid, dwell_s, time_scale, minutes, sample_s, load_average().c_str());
+    std::printf("%8s %6s %10s %10s %10s %6s\n", "t_min", "runs", "rss_kb", "anon_kb", "file_kb",
+                "fds");
     const auto t0 = Clock::now();
-    const auto end = t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double, std::ratio<60>>(minutes));
-    const auto sample_period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(sample_s));
+    const auto end = t0 + std::chrono::duration_cast<Clock::duration>(
+                              std::chrono::duration<double, std::ratio<60>>(minutes));
+    const auto sample_period =
+        std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(sample_s));
     auto next_sample = t0;
     int runs = 0, not_done = 0;
     auto sample = [&] {
-      Sample s{std::chrono::duration<double, std::ratio<60>>(Clock::now() - t0).count(), runs, rss_kb_of(pid),
-               status_kb(pid, "RssAnon"), status_kb(pid, "RssFile"), open_fds_of(pid)};
+      Sample s{std::chrono::duration<double, std::ratio<60>>(Clock::now() - t0).count(),
+               runs,
+               rss_kb_of(pid),
+               status_kb(pid, "RssAnon"),
+               status_kb(pid, "RssFile"),
+               open_fds_of(pid)};
       samples.push_back(s);
-      std::printf("%8.2f %6d %10ld %10ld %10ld %6ld\n", s.t_min, s.runs, s.rss_kb, s.anon_kb, s.file_kb, s.fds);
+      std::printf("%8.2f %6d %10ld %10ld %10ld %6ld\n", s.t_min, s.runs, s.rss_kb, s.anon_kb,
+                  s.file_kb, s.fds);
       std::fflush(stdout);
     };
     sample();
@@ -269,27 +294,35 @@ int main(int argc, char** argv) {
     stop = true;
     sampler.join();
     sample();
-    const auto [rss_min, rss_max] = std::minmax_element(samples.begin(), samples.end(),
-                                                        [](const Sample& a, const Sample& b) { return a.rss_kb < b.rss_kb; });
-    const auto fds_max = std::max_element(samples.begin(), samples.end(),
-                                          [](const Sample& a, const Sample& b) { return a.fds < b.fds; });
-    const std::vector<Sample> second_half(samples.begin() + static_cast<long>(samples.size() / 2), samples.end());
+    const auto [rss_min, rss_max] =
+        std::minmax_element(samples.begin(), samples.end(),
+                            [](const Sample& a, const Sample& b) { return a.rss_kb < b.rss_kb; });
+    const auto fds_max =
+        std::max_element(samples.begin(), samples.end(),
+                         [](const Sample& a, const Sample& b) { return a.fds < b.fds; });
+    const std::vector<Sample> second_half(samples.begin() + static_cast<long>(samples.size() / 2),
+                                          samples.end());
     const double rss_kb_per_run = slope(second_half, runs_of, rss_of);
     const double fds_per_run = slope(second_half, runs_of, fds_of);
     const bool rss_flat = rss_kb_per_run <= max_rss_kb_per_run;
     const bool fds_flat = fds_per_run <= max_fds_per_run;
-    std::printf("soak: %d runs in %.2f min (%d not done); load average at the end %s\n", runs, samples.back().t_min,
-                not_done, load_average().c_str());
-    std::printf("soak: RSS first %ld kB, last %ld kB, min %ld kB, peak %ld kB\n", samples.front().rss_kb,
-                samples.back().rss_kb, rss_min->rss_kb, rss_max->rss_kb);
-    std::printf("soak: open fds first %ld, last %ld, peak %ld\n", samples.front().fds, samples.back().fds, fds_max->fds);
-    std::printf("soak: second half (runs %d to %d, %zu samples): RSS %+.3f kB/run (anon %+.3f, file %+.3f), "
-                "fds %+.4f fds/run\n",
-                second_half.front().runs, second_half.back().runs, second_half.size(), rss_kb_per_run,
-                slope(second_half, runs_of, anon_of), slope(second_half, runs_of, file_of), fds_per_run);
-    std::printf("soak: verdict: RSS %s (%+.3f kB/run, threshold %.3f), fds %s (%+.4f fds/run, threshold %.4f)\n",
-                rss_flat ? "FLAT" : "NOT FLAT", rss_kb_per_run, max_rss_kb_per_run, fds_flat ? "FLAT" : "NOT FLAT",
-                fds_per_run, max_fds_per_run);
+    std::printf("soak: %d runs in %.2f min (%d not done); load average at the end %s\n", runs,
+                samples.back().t_min, not_done, load_average().c_str());
+    std::printf("soak: RSS first %ld kB, last %ld kB, min %ld kB, peak %ld kB\n",
+                samples.front().rss_kb, samples.back().rss_kb, rss_min->rss_kb, rss_max->rss_kb);
+    std::printf("soak: open fds first %ld, last %ld, peak %ld\n", samples.front().fds,
+                samples.back().fds, fds_max->fds);
+    std::printf(
+        "soak: second half (runs %d to %d, %zu samples): RSS %+.3f kB/run (anon %+.3f, file "
+        "%+.3f), "
+        "fds %+.4f fds/run\n",
+        second_half.front().runs, second_half.back().runs, second_half.size(), rss_kb_per_run,
+        slope(second_half, runs_of, anon_of), slope(second_half, runs_of, file_of), fds_per_run);
+    std::printf(
+        "soak: verdict: RSS %s (%+.3f kB/run, threshold %.3f), fds %s (%+.4f fds/run, threshold "
+        "%.4f)\n",
+        rss_flat ? "FLAT" : "NOT FLAT", rss_kb_per_run, max_rss_kb_per_run,
+        fds_flat ? "FLAT" : "NOT FLAT", fds_per_run, max_fds_per_run);
     if (trim_at_end) trim_and_report(pid, dir + "/standcald.log");
     if (not_done > 0) rc = 1;
     if (rc == 0 && !(rss_flat && fds_flat)) rc = 2;

@@ -104,7 +104,8 @@ std::vector<ResidualRow> residual_table(const std::vector<PositionAverage>& avg,
                     {}};
     for (std::size_t r = 0; r < before.row_position.size(); ++r)
       if (before.row_position[r] == static_cast<int>(k)) {
-        // Per-dwell whitening: what a person reads as "sigma" (decorrelated rows would mix positions).
+        // Per-dwell whitening: what a person reads as "sigma" (decorrelated rows would mix
+        // positions).
         row.before.push_back(before.y_white[static_cast<Eigen::Index>(r)]);
         row.after.push_back(after.y_white[static_cast<Eigen::Index>(r)]);
       }

@@ -93,11 +93,11 @@ struct CandidateTest {
   std::string reason;  // why not testable
   double value = 0, sigma = 0;
   double delta_chi2 = 0;
-  double delta_bic = 0;     // BIC(before) - BIC(after): positive favours the term
-  double press_gain = 0;    // held-out chi2 (leave-one-position-out) before - after
-  double tau_s = 0;         // settling transient only
-  int params = 1;           // parameters of the term (angle_sensor_error: 2, amplitude and phase)
-  double phase_deg = 0;     // angle_sensor_error only: true - read = value * sin(alpha + phase)
+  double delta_bic = 0;   // BIC(before) - BIC(after): positive favours the term
+  double press_gain = 0;  // held-out chi2 (leave-one-position-out) before - after
+  double tau_s = 0;       // settling transient only
+  int params = 1;         // parameters of the term (angle_sensor_error: 2, amplitude and phase)
+  double phase_deg = 0;   // angle_sensor_error only: true - read = value * sin(alpha + phase)
 };
 
 struct Finding {
@@ -107,7 +107,7 @@ struct Finding {
   double chi2_dof_before = 0, chi2_dof_after = 0;
   std::string absorbed_into;  // e.g. "bias_z (+23.1 ug)"
   std::string explanation;
-  double phase_deg = 0;       // angle_sensor_error only
+  double phase_deg = 0;  // angle_sensor_error only
 };
 
 struct ProposedPosition {
@@ -148,23 +148,24 @@ struct HonestyChecks {
   bool made = false;   // false: the verdict did not need them (or no redundancy)
   bool passed = true;  // residuals white, every term stable and plausible
   double family_alpha = 0;
-  std::vector<WhitenessCheck> whiteness;  // every test, in the order made
-  int worst = -1;                         // index of the smallest p
-  std::vector<StabilityCheck> stability;  // one per chosen term
-  std::vector<std::string> implausible;   // found values beyond their kind's plausible size
+  std::vector<WhitenessCheck> whiteness;    // every test, in the order made
+  int worst = -1;                           // index of the smallest p
+  std::vector<StabilityCheck> stability;    // one per chosen term
+  std::vector<std::string> implausible;     // found values beyond their kind's plausible size
   std::vector<std::string> not_explaining;  // catalog candidates tried that do not explain it
 };
 
 struct Diagnosis {
-  std::string verdict;  // consistent | explained | unexplained | insufficient_redundancy | ambiguous
-  std::string method;   // "full" (full-vector) or "joint" (invariant)
+  std::string
+      verdict;         // consistent | explained | unexplained | insufficient_redundancy | ambiguous
+  std::string method;  // "full" (full-vector) or "joint" (invariant)
   std::string source;
   FitResult baseline;
   FitResult final_fit;
   double baseline_p = 1, final_p = 1;  // P(chi2 > observed)
   double final_chi2_dof = 0;
   std::vector<StructureTest> structure;
-  std::vector<std::string> located;  // where the mismatch is, in words
+  std::vector<std::string> located;       // where the mismatch is, in words
   std::vector<CandidateTest> candidates;  // the first round: every candidate vs the baseline
   std::vector<Finding> findings;          // most significant first
   std::vector<std::string> not_tested;    // catalog ids not tested, with why
@@ -198,9 +199,9 @@ Diagnosis diagnose_without_angles(const RawInput& input, const NormCalibration& 
 // tolerance + 3 sigma of the fitted mounting angle. Infinite when a competitor is collinear.
 struct DiscriminationThreshold {
   std::string effect, axis, unit;
-  double tau_s = 0;                 // settling_transient: the time constant it is for
-  double threshold = 0;             // report unit
-  std::string nearest;              // "effect axis" of the competitor that sets it, or "noise"
+  double tau_s = 0;      // settling_transient: the time constant it is for
+  double threshold = 0;  // report unit
+  std::string nearest;   // "effect axis" of the competitor that sets it, or "noise"
 };
 // Thresholds of every testable candidate for the programme, timing, noise and temperature
 // profile of `reference` (an effect-free recording of it; only its design and standard

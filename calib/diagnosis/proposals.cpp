@@ -20,7 +20,8 @@ constexpr double kProposalStep_deg = 30;
 std::vector<ProposedPosition> grid_poses(const StandLimits& limits) {
   std::vector<ProposedPosition> out;
   for (double a1 : axis_grid_deg(limits.alpha1, kProposalStep_deg))
-    for (double a2 : axis_grid_deg(limits.alpha2, kProposalStep_deg)) out.push_back({a1, a2, 0, ""});
+    for (double a2 : axis_grid_deg(limits.alpha2, kProposalStep_deg))
+      out.push_back({a1, a2, 0, ""});
   return out;
 }
 

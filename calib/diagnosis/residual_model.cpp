@@ -135,7 +135,8 @@ class FullVectorModel : public ResidualModel {
   }
   std::unique_ptr<ResidualModel> refit(
       const std::vector<PositionAverage>& corrected) const override {
-    return std::make_unique<FullVectorModel>(corrected, fit_full_vector(corrected, white_noise_weighting()), design_);
+    return std::make_unique<FullVectorModel>(
+        corrected, fit_full_vector(corrected, white_noise_weighting()), design_);
   }
 
  private:

@@ -74,7 +74,8 @@ class Section {
     text(key, out);
     if (out.empty()) fail(key, "must not be empty (leave the key out for " + omit_means + ")");
   }
-  void choice(const std::string& key, std::string& out, std::initializer_list<const char*> allowed) {
+  void choice(const std::string& key, std::string& out,
+              std::initializer_list<const char*> allowed) {
     text(key, out);
     std::string list;
     for (const char* a : allowed) {
@@ -121,7 +122,8 @@ void read_range(Section* s, drivers::AxisRange& r) {
   std::string wrap = r.cable_wrap == drivers::CableWrap::centred ? "centred" : "nearest";
   s->choice("cable_wrap", wrap, {"nearest", "centred"});
   r.cable_wrap = wrap == "centred" ? drivers::CableWrap::centred : drivers::CableWrap::nearest;
-  if (!r.continuous && r.max_deg - r.min_deg < 1) s->fail("max_deg", "must exceed min_deg by at least 1 degree");
+  if (!r.continuous && r.max_deg - r.min_deg < 1)
+    s->fail("max_deg", "must exceed min_deg by at least 1 degree");
   s->reject_unknown();
 }
 
@@ -136,7 +138,8 @@ void read_mode(Section& s, unsigned& mode) {
   }
   mode = static_cast<unsigned>(std::stoul(text, nullptr, 8));
   if (mode > 0777) s.fail("mode", "must be at most \"0777\" (got \"" + text + "\")");
-  if ((mode & 0600) != 0600) s.fail("mode", "must give the owner (the daemon's user) read and write (got \"" + text + "\")");
+  if ((mode & 0600) != 0600)
+    s.fail("mode", "must give the owner (the daemon's user) read and write (got \"" + text + "\")");
 }
 
 void read_tcp(Section& s, DaemonConfig& c) {
@@ -146,8 +149,10 @@ void read_tcp(Section& s, DaemonConfig& c) {
   s.non_empty_text("token_file", c.tcp_token_file,
                    "no token: TCP clients may only read and send estop");
   in6_addr probe{};
-  if (::inet_pton(AF_INET, c.tcp_bind.c_str(), &probe) != 1 && ::inet_pton(AF_INET6, c.tcp_bind.c_str(), &probe) != 1) {
-    s.fail("bind", "must be a numeric IPv4 or IPv6 address such as \"127.0.0.1\" (got \"" + c.tcp_bind + "\")");
+  if (::inet_pton(AF_INET, c.tcp_bind.c_str(), &probe) != 1 &&
+      ::inet_pton(AF_INET6, c.tcp_bind.c_str(), &probe) != 1) {
+    s.fail("bind", "must be a numeric IPv4 or IPv6 address such as \"127.0.0.1\" (got \"" +
+                       c.tcp_bind + "\")");
   }
   // Off loopback anyone on the network can connect: refuse to start without a token.
   if (c.tcp_enabled && !is_loopback_address(c.tcp_bind) && c.tcp_token_file.empty()) {
@@ -182,9 +187,11 @@ void read_server(Section& top, DaemonConfig& c) {
   // Only the URL's form is checked here: a shared PostgreSQL server may be down while
   // the daemon starts; the records sink retries (docs/records.md).
   top.text("db", c.db_url);
-  if (!c.db_url.empty() && c.db_url.rfind("postgresql://", 0) != 0 && c.db_url.rfind("postgres://", 0) != 0 &&
-      c.db_url.rfind("sqlite://", 0) != 0 && c.db_url.front() != '/') {
-    top.fail("db", "must be postgresql://..., sqlite:///PATH or an absolute path of an SQLite file");
+  if (!c.db_url.empty() && c.db_url.rfind("postgresql://", 0) != 0 &&
+      c.db_url.rfind("postgres://", 0) != 0 && c.db_url.rfind("sqlite://", 0) != 0 &&
+      c.db_url.front() != '/') {
+    top.fail("db",
+             "must be postgresql://..., sqlite:///PATH or an absolute path of an SQLite file");
   }
   top.choice("log_level", c.log_level, {"trace", "debug", "info", "warn", "error"});
 }
@@ -197,7 +204,8 @@ void read_stand(Section& top, DaemonConfig& c) {
   s->text("id", c.stand_id);
   s->text("url", c.modbus_url);
   s->text("register_map", c.modbus_map_file);
-  if (c.stand_backend == "modbus" && c.modbus_url.empty()) s->fail("url", "is required for the modbus backend");
+  if (c.stand_backend == "modbus" && c.modbus_url.empty())
+    s->fail("url", "is required for the modbus backend");
   read_range(s->sub("outer").get(), c.outer);
   read_range(s->sub("inner").get(), c.inner);
   if (auto ip = s->sub("in_position")) {
@@ -312,14 +320,16 @@ void require_named_backends(const DaemonConfig& c) {
   if (!c.unit_backend_named) missing("unit.backend", "\"socketcan\" (with unit.interface)");
 }
 
-DaemonConfig sim_config(const std::string& socket_path, const std::string& state_dir, double time_scale) {
+DaemonConfig sim_config(const std::string& socket_path, const std::string& state_dir,
+                        double time_scale) {
   DaemonConfig c;
   c.source = "--sim";
   c.stand_backend_named = c.unit_backend_named = true;
   c.socket_path = socket_path;
   c.state_dir = state_dir;
   c.sim.time_scale = time_scale;
-  c.document = json{{"sim", {{"time_scale", time_scale}}}, {"socket", {{"path", socket_path}}},
+  c.document = json{{"sim", {{"time_scale", time_scale}}},
+                    {"socket", {{"path", socket_path}}},
                     {"state_dir", state_dir}};
   return c;
 }
@@ -336,17 +346,21 @@ std::string load_tcp_token(const DaemonConfig& config) {
   const std::string& path = config.tcp_token_file;
   const std::string where = config.source + ": tcp.token_file: " + path;
   struct stat st {};
-  if (::stat(path.c_str(), &st) != 0) throw ConfigError(where + ": cannot read it: " + std::strerror(errno));
+  if (::stat(path.c_str(), &st) != 0)
+    throw ConfigError(where + ": cannot read it: " + std::strerror(errno));
   if (!S_ISREG(st.st_mode)) throw ConfigError(where + ": is not a regular file");
   // Like ssh with its keys: a secret every local user can read protects nothing.
-  if ((st.st_mode & S_IROTH) != 0) throw ConfigError(where + ": is readable by every user; chmod 0640 (or 0600) it");
+  if ((st.st_mode & S_IROTH) != 0)
+    throw ConfigError(where + ": is readable by every user; chmod 0640 (or 0600) it");
   std::ifstream in(path);
   std::string token;
   if (!in || !std::getline(in, token)) throw ConfigError(where + ": cannot read it or it is empty");
-  while (!token.empty() && (token.back() == '\r' || token.back() == ' ' || token.back() == '\t')) token.pop_back();
+  while (!token.empty() && (token.back() == '\r' || token.back() == ' ' || token.back() == '\t'))
+    token.pop_back();
   if (token.size() < 16) {
-    throw ConfigError(where + ": the token must be at least 16 characters (e.g. `openssl rand -hex 16`); got " +
-                      std::to_string(token.size()));
+    throw ConfigError(
+        where + ": the token must be at least 16 characters (e.g. `openssl rand -hex 16`); got " +
+        std::to_string(token.size()));
   }
   return token;
 }

@@ -20,18 +20,18 @@ class ConfigError : public std::runtime_error {
 };
 
 struct SimSettings {
-  double time_scale = 1;         // simulated seconds per real second
+  double time_scale = 1;  // simulated seconds per real second
   std::uint64_t seed = 1;
   double move_rate_deg_s = 10;
-  std::string truth_file;        // standcal-model/1 JSON; empty = calib's default truth
+  std::string truth_file;  // standcal-model/1 JSON; empty = calib's default truth
 };
 
 // When a position's samples are good enough to keep (else re-measure, then fault).
 struct StabilityRule {
-  double sigma_limit_ug = 5000;       // per-axis sample sigma above this: too noisy
-  double trend_limit_ug = 2000;       // per-axis drift over the dwell (linear fit) above this
-  double min_sample_fraction = 0.9;   // fewer samples than this share of dwell x rate: incomplete
-  int remeasure_max = 2;              // re-measurements before the run faults
+  double sigma_limit_ug = 5000;      // per-axis sample sigma above this: too noisy
+  double trend_limit_ug = 2000;      // per-axis drift over the dwell (linear fit) above this
+  double min_sample_fraction = 0.9;  // fewer samples than this share of dwell x rate: incomplete
+  int remeasure_max = 2;             // re-measurements before the run faults
 };
 
 // Optional wait for thermal stability before the first position.
@@ -43,17 +43,18 @@ struct ThermalWait {
 };
 
 struct DaemonConfig {
-  std::string source = "(built-in defaults)";  // file the config came from
+  std::string source = "(built-in defaults)";          // file the config came from
   nlohmann::json document = nlohmann::json::object();  // as read, for the configuration hash
   // Server.
   std::string socket_path = paths::kSocket;
-  std::string socket_group;          // empty: leave the group of the socket file alone
-  unsigned socket_mode = 0660;       // socket.mode, given as an octal string ("0660")
-  bool tcp_enabled = false;          // TCP listener
-  int tcp_port = 0;                  // 0: any free port (logged)
-  std::string tcp_bind = "127.0.0.1";  // numeric IPv4/IPv6 address; not loopback: needs tcp_token_file
-  std::string tcp_token_file;        // the shared secret TCP clients send with `auth` (docs/security.md)
-  std::string control_group;         // access.control_group: empty = every Unix-socket peer may command
+  std::string socket_group;     // empty: leave the group of the socket file alone
+  unsigned socket_mode = 0660;  // socket.mode, given as an octal string ("0660")
+  bool tcp_enabled = false;     // TCP listener
+  int tcp_port = 0;             // 0: any free port (logged)
+  std::string tcp_bind =
+      "127.0.0.1";             // numeric IPv4/IPv6 address; not loopback: needs tcp_token_file
+  std::string tcp_token_file;  // the shared secret TCP clients send with `auth` (docs/security.md)
+  std::string control_group;   // access.control_group: empty = every Unix-socket peer may command
   int max_clients = 256;
   std::size_t client_queue_bytes = 1024 * 1024;  // unsent output per client before it is dropped
   // A request line begun but not ended within this is dropped with its connection, so a
@@ -63,7 +64,7 @@ struct DaemonConfig {
   // long is closed.
   double client_idle_timeout_s = 600;
   std::string state_dir = paths::kStateDir;
-  std::string db_url;                // records database (docs/records.md); empty: STATE/records.sqlite
+  std::string db_url;  // records database (docs/records.md); empty: STATE/records.sqlite
   std::string log_level = "info";
   // Hardware.
   std::string stand_backend = "sim";  // "sim" | "modbus"
@@ -73,11 +74,11 @@ struct DaemonConfig {
   bool stand_backend_named = false;
   bool unit_backend_named = false;
   std::string stand_id = "sim-stand";
-  std::string modbus_url;             // stand.url for "modbus"
-  std::string modbus_map_file;        // stand.register_map: a register-map JSON file (optional)
-  std::string can_interface = "can0"; // unit.interface for "socketcan"
-  std::string can_layout_file;        // unit.layout: a frame-layout JSON file (optional)
-  double sample_rate_hz = 100;        // unit.sample_rate_hz: the unit's output rate
+  std::string modbus_url;              // stand.url for "modbus"
+  std::string modbus_map_file;         // stand.register_map: a register-map JSON file (optional)
+  std::string can_interface = "can0";  // unit.interface for "socketcan"
+  std::string can_layout_file;         // unit.layout: a frame-layout JSON file (optional)
+  double sample_rate_hz = 100;         // unit.sample_rate_hz: the unit's output rate
   // unit.bias_instability_ug / _tau_s: the unit's known Gauss-Markov bias wander (data sheet,
   // earlier runs), which fits and diagnoses assume when a run alone does not show one; 0: none.
   double unit_bias_instability_ug = 0;
@@ -98,7 +99,7 @@ struct DaemonConfig {
   // the GUM uncertainty budget of its joint fit (docs/calibration.md "Uncertainty budget").
   std::string budget_file;
   std::optional<BudgetConfig> budget;
-  std::string program_library_dir;    // "NAME" -> DIR/NAME.json
+  std::string program_library_dir;  // "NAME" -> DIR/NAME.json
 };
 
 // Reads and checks a JSON config file; throws ConfigError("FILE: KEY: reason").
@@ -109,7 +110,8 @@ DaemonConfig parse_config(const nlohmann::json& doc, const std::string& source);
 // config that forgot its "stand" section must not calibrate a simulated stand.
 void require_named_backends(const DaemonConfig& config);
 // Built-in defaults with the simulated backend (standcald --sim).
-DaemonConfig sim_config(const std::string& socket_path, const std::string& state_dir, double time_scale);
+DaemonConfig sim_config(const std::string& socket_path, const std::string& state_dir,
+                        double time_scale);
 // Whether `address` (numeric IPv4 or IPv6) is a loopback address (127.0.0.0/8, ::1).
 bool is_loopback_address(const std::string& address);
 // Reads the TCP token from config.tcp_token_file; throws ConfigError naming the file when

@@ -37,7 +37,8 @@ std::string first_mount(const Recording& rec) {
 // The diagnosis is kept with the run (runs/<id>/diagnosis.json) so the lab has it after the
 // answer is gone; a full disk costs the copy, not the answer.
 void save_beside_recording(json& out, const std::string& recording_path) {
-  const std::string saved = (std::filesystem::path(recording_path).parent_path() / "diagnosis.json").string();
+  const std::string saved =
+      (std::filesystem::path(recording_path).parent_path() / "diagnosis.json").string();
   try {
     out["saved_path"] = saved;
     write_state_file(saved, out.dump(2) + "\n");
@@ -50,8 +51,8 @@ void save_beside_recording(json& out, const std::string& recording_path) {
 
 }  // namespace
 
-json diagnose_run(const json& run_status, const StandLimits& limits, const GaussMarkovNoise& specified_wander,
-                  bool with_report) {
+json diagnose_run(const json& run_status, const StandLimits& limits,
+                  const GaussMarkovNoise& specified_wander, bool with_report) {
   const std::string run_id = run_status.value("run_id", "");
   const std::string path = run_status.value("recording_path", "");
   Recording rec;
@@ -96,7 +97,8 @@ json diagnose_run(const json& run_status, const StandLimits& limits, const Gauss
 
 namespace {
 
-Outcome outcome_of(const DiagnoseJob& job, const std::string& worker_exe, std::atomic<pid_t>& child_pid) {
+Outcome outcome_of(const DiagnoseJob& job, const std::string& worker_exe,
+                   std::atomic<pid_t>& child_pid) {
   Outcome o;
   try {
     o.result = diagnose_in_child(job, worker_exe, kDiagnoseWorkerTimeout_s, child_pid);
@@ -105,7 +107,8 @@ Outcome outcome_of(const DiagnoseJob& job, const std::string& worker_exe, std::a
     o.error_message = e.what();
   } catch (const std::exception& e) {
     o.error_code = static_cast<int>(ErrorCode::internal_error);
-    o.error_message = "run " + job.run_status.value("run_id", "") + ": diagnosis failed: " + e.what();
+    o.error_message =
+        "run " + job.run_status.value("run_id", "") + ": diagnosis failed: " + e.what();
   }
   return o;
 }
@@ -148,7 +151,8 @@ void DiagnoseJobs::submit(const Sequencer& sequencer, const json& params, ReplyF
                    std::to_string(queue_.size()) + " diagnoses are waiting; try again shortly");
   }
   queue_.push_back(
-      {{std::move(status), sequencer.stand_limits(), sequencer.unit_bias_wander(), with_report}, std::move(reply)});
+      {{std::move(status), sequencer.stand_limits(), sequencer.unit_bias_wander(), with_report},
+       std::move(reply)});
   wake_.notify_one();
 }
 

@@ -233,7 +233,8 @@ int diagnose_worker_main() {
     const DiagnoseJob job = job_from_json(json::parse(input));
     const char* fault = std::getenv(kDiagnoseWorkerFaultEnv);
     if (fault != nullptr && std::string(fault) == "abort") std::abort();
-    answer = {{"result", diagnose_run(job.run_status, job.limits, job.specified_wander, job.with_report)}};
+    answer = {{"result",
+               diagnose_run(job.run_status, job.limits, job.specified_wander, job.with_report)}};
   } catch (const RpcError& e) {
     answer = error_answer(e.code(), e.what());
   } catch (const std::exception& e) {

@@ -18,8 +18,10 @@ namespace standcal::daemon {
 
 namespace {
 
-[[noreturn, maybe_unused]] void unavailable(const DaemonConfig& c, const std::string& key, const std::string& backend) {
-  throw ConfigError(c.source + ": " + key + ": backend \"" + backend + "\" is not built into this standcald");
+[[noreturn, maybe_unused]] void unavailable(const DaemonConfig& c, const std::string& key,
+                                            const std::string& backend) {
+  throw ConfigError(c.source + ": " + key + ": backend \"" + backend +
+                    "\" is not built into this standcald");
 }
 
 #ifdef STANDCAL_HAVE_MODBUS
@@ -111,7 +113,8 @@ Hardware make_hardware(const DaemonConfig& c) {
   if (c.unit_backend == "socketcan") {
 #ifdef STANDCAL_HAVE_SOCKETCAN
     hw.unit = make_can_unit(c);
-    hw.description += (hw.description.empty() ? "" : " + ") + std::string("socketcan ") + c.can_interface;
+    hw.description +=
+        (hw.description.empty() ? "" : " + ") + std::string("socketcan ") + c.can_interface;
 #else
     unavailable(c, "unit.backend", "socketcan");
 #endif

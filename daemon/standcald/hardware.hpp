@@ -19,7 +19,7 @@ struct Hardware {
   // Re-mounts the unit when the operator confirms a re-mount step; set only where no
   // person does it (the simulated backend).
   std::function<void(Mount)> simulated_remount;
-  double time_scale = 1;  // simulated seconds per real second (1 on real hardware)
+  double time_scale = 1;    // simulated seconds per real second (1 on real hardware)
   std::string description;  // "sim (time x100)", "modbus tcp://... + socketcan can0"
 };
 

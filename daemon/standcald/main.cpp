@@ -84,8 +84,8 @@ int run_daemon(const standcal::daemon::DaemonConfig& config) {
   const StateDirLock state_lock(config.state_dir);  // before the store marks runs interrupted
   RunStore store(config.state_dir);
   Hardware hardware = make_hardware(config);
-  spdlog::info("standcald {} starting: backend {}, state in {}", standcal::kVersion, hardware.description,
-               config.state_dir);
+  spdlog::info("standcald {} starting: backend {}, state in {}", standcal::kVersion,
+               hardware.description, config.state_dir);
   // The records sink outlives the sequencer that feeds it; the recording and result.json
   // stay the source of truth, the database is filled from them (and retried).
   RecordsSink records(config.state_dir, config.db_url);
@@ -151,7 +151,8 @@ int main(int argc, char** argv) {
   app.add_option("--state-dir", o.state_dir, "state directory (recordings, run index)");
   app.add_option("--time-scale", o.time_scale, "simulated time runs this many times faster (--sim)")
       ->check(CLI::Range(0.01, 100000.0));
-  app.add_option("--tcp-port", o.tcp_port, "also listen on 127.0.0.1:PORT (0: any free port, printed)")
+  app.add_option("--tcp-port", o.tcp_port,
+                 "also listen on 127.0.0.1:PORT (0: any free port, printed)")
       ->check(CLI::Range(0, 65535));
   app.add_option("--log-level", o.log_level, "trace, debug, info, warn, error");
   try {

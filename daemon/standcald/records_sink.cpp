@@ -93,10 +93,12 @@ records::CalibrationRecord RecordsSink::record_of_run(const std::string& run_id)
   const std::string path = (fs::path(state_dir_) / "runs" / run_id / "result.json").string();
   std::ifstream in(path);
   const json result = json::parse(in, nullptr, false);
-  if (result.is_discarded() || !result.is_object()) throw std::runtime_error("run " + run_id + ": cannot parse " + path);
+  if (result.is_discarded() || !result.is_object())
+    throw std::runtime_error("run " + run_id + ": cannot parse " + path);
   records::CalibrationRecord record = records::record_from_daemon_result(result);
   if (record.run_id.empty()) record.run_id = run_id;
-  if (record.unit_serial.empty()) throw std::runtime_error("run " + run_id + ": " + path + " names no unit serial");
+  if (record.unit_serial.empty())
+    throw std::runtime_error("run " + run_id + ": " + path + " names no unit serial");
   record.started_utc = records::canonical_utc(record.started_utc);
   if (!record.ended_utc.empty()) record.ended_utc = records::canonical_utc(record.ended_utc);
   return record;
@@ -135,8 +137,9 @@ RecordsSyncReport RecordsSink::sync_once() {
       break;
     }
   }
-  if (!report.error.empty()) spdlog::warn("{} ({} pending; retrying in {} s)", report.error, report.pending,
-                                          retry_interval_s_);
+  if (!report.error.empty())
+    spdlog::warn("{} ({} pending; retrying in {} s)", report.error, report.pending,
+                 retry_interval_s_);
   std::lock_guard lock(mutex_);
   report_ = report;
   return report;

@@ -23,10 +23,10 @@
 namespace standcal::daemon {
 
 struct RecordsSyncReport {
-  int recorded = 0;          // newly stored in this pass
-  int already_present = 0;   // stored before (by this or another run of the sink)
-  int pending = 0;           // finished runs still not in the database
-  std::string error;         // why the last attempt failed ("" after a good pass)
+  int recorded = 0;         // newly stored in this pass
+  int already_present = 0;  // stored before (by this or another run of the sink)
+  int pending = 0;          // finished runs still not in the database
+  std::string error;        // why the last attempt failed ("" after a good pass)
 };
 
 class RecordsSink {
@@ -67,7 +67,7 @@ class RecordsSink {
   std::unique_ptr<records::RecordsDb> db_;  // null while the database is unreachable
   std::set<std::string> recorded_;          // run ids known to be in the database
 
-  mutable std::mutex mutex_;                // guards the fields below
+  mutable std::mutex mutex_;  // guards the fields below
   std::condition_variable wake_cv_;
   bool woken_ = false;
   bool stopping_ = false;

@@ -72,7 +72,8 @@ std::string shortened_stem(const std::string& encoded, const std::string& unit_s
   std::size_t keep = kMaxIndexStemBytes - 17;
   while (keep > 0 && (encoded[keep - 1] == '%' || (keep > 1 && encoded[keep - 2] == '%'))) --keep;
   char hash[17];
-  std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(fnv1a_64(unit_serial)));
+  std::snprintf(hash, sizeof hash, "%016llx",
+                static_cast<unsigned long long>(fnv1a_64(unit_serial)));
   return encoded.substr(0, keep) + "~" + hash;
 }
 
@@ -148,9 +149,9 @@ json to_json(const RunRecord& r) {
 }
 
 RunSummary summary_of(const RunRecord& r) {
-  return RunSummary{r.run_id,         r.unit_serial,     r.program_name, r.state,
-                    r.positions,      r.positions_done,  r.started_utc,  r.ended_utc,
-                    !r.result_path.empty()};
+  return RunSummary{r.run_id,      r.unit_serial, r.program_name,
+                    r.state,       r.positions,   r.positions_done,
+                    r.started_utc, r.ended_utc,   !r.result_path.empty()};
 }
 
 RunRecord run_record_from_json(const json& j) {
@@ -188,7 +189,8 @@ RunStore::RunStore(std::string state_dir) : state_dir_(std::move(state_dir)) {
   fs::create_directories(fs::path(state_dir_) / "runs", ec);
   fs::create_directories(fs::path(state_dir_) / "units", ec);
   if (!fs::is_directory(fs::path(state_dir_) / "runs")) {
-    throw std::runtime_error("cannot create the state directory " + state_dir_ + ": " + ec.message());
+    throw std::runtime_error("cannot create the state directory " + state_dir_ + ": " +
+                             ec.message());
   }
   namespace st = protocol::run_state;
   for (const auto& entry : fs::directory_iterator(fs::path(state_dir_) / "runs")) {
@@ -200,7 +202,8 @@ RunStore::RunStore(std::string state_dir) : state_dir_(std::move(state_dir)) {
     RunRecord r = run_record_from_json(j);
     if (r.state == st::running || r.state == st::paused || r.state == st::waiting_operator) {
       r.state = st::interrupted;
-      r.reason = "standcald stopped during the run (crash, kill or power loss); run.resume continues it";
+      r.reason =
+          "standcald stopped during the run (crash, kill or power loss); run.resume continues it";
       write_state_file(run_dir(r.run_id) + "/run.json", to_json(r).dump(2) + "\n");
     }
     runs_.push_back(summary_of(r));
@@ -238,19 +241,22 @@ void RunStore::save(const RunRecord& r) {
   // Memory first: when the disk is full the file write throws, but run.status must still
   // tell the truth about the run (the file keeps the last state that could be written,
   // which a restart turns into `interrupted`).
-  auto it = std::find_if(runs_.begin(), runs_.end(), [&](const RunSummary& x) { return x.run_id == r.run_id; });
+  auto it = std::find_if(runs_.begin(), runs_.end(),
+                         [&](const RunSummary& x) { return x.run_id == r.run_id; });
   const bool is_new = it == runs_.end();
   if (is_new) {
     // Kept in run_id order (ids start with their UTC second), the order a restart
     // loads them in, so newest-first means the same before and after a restart.
-    auto pos = std::upper_bound(runs_.begin(), runs_.end(), r.run_id,
-                                [](const std::string& id, const RunSummary& x) { return id < x.run_id; });
+    auto pos =
+        std::upper_bound(runs_.begin(), runs_.end(), r.run_id,
+                         [](const std::string& id, const RunSummary& x) { return id < x.run_id; });
     runs_.insert(pos, summary_of(r));
   } else {
     *it = summary_of(r);
   }
   // Held in full: this run, and runs whose newest state only memory has.
-  std::erase_if(held_, [&](const HeldRecord& h) { return h.on_disk || h.record.run_id == r.run_id; });
+  std::erase_if(held_,
+                [&](const HeldRecord& h) { return h.on_disk || h.record.run_id == r.run_id; });
   held_.push_back(HeldRecord{r, false});
   write_state_file(run_dir(r.run_id) + "/run.json", to_json(r).dump(2) + "\n");
   held_.back().on_disk = true;
@@ -279,8 +285,9 @@ std::optional<RunRecord> RunStore::get_locked(const std::string& run_id) const {
   // Only ids of run id form that this store knows: a request's run_id must not name an
   // arbitrary path.
   if (!protocol::is_run_id(run_id)) return std::nullopt;
-  const bool known = std::binary_search(runs_.begin(), runs_.end(), run_id,
-                                        [](const auto& a, const auto& b) { return id_of(a) < id_of(b); });
+  const bool known =
+      std::binary_search(runs_.begin(), runs_.end(), run_id,
+                         [](const auto& a, const auto& b) { return id_of(a) < id_of(b); });
   if (!known) return std::nullopt;
   std::ifstream in(run_dir(run_id) + "/run.json");
   const json j = json::parse(in, nullptr, false);
@@ -292,8 +299,9 @@ RunPage RunStore::page(const RunPageQuery& q) const {
   std::lock_guard lock(mutex_);
   auto end = runs_.end();
   if (!q.before_run_id.empty()) {
-    end = std::lower_bound(runs_.begin(), runs_.end(), q.before_run_id,
-                           [](const RunSummary& r, const std::string& id) { return r.run_id < id; });
+    end =
+        std::lower_bound(runs_.begin(), runs_.end(), q.before_run_id,
+                         [](const RunSummary& r, const std::string& id) { return r.run_id < id; });
   }
   RunPage out;
   for (auto it = std::make_reverse_iterator(end); it != runs_.rend(); ++it) {
@@ -342,14 +350,15 @@ std::string fit_record_to_recording(RunRecord& r) {
     r.recording_bytes = 0;  // even the header is gone: the recording starts again
     r.header_bytes = 0;
   }
-  std::string note = "the recording " + r.recording_path + " was cut short (" + std::to_string(size) +
-         " bytes; power loss or a lost disk cache?): ";
+  std::string note = "the recording " + r.recording_path + " was cut short (" +
+                     std::to_string(size) + " bytes; power loss or a lost disk cache?): ";
   if (kept == had) {
     note += "no whole position lost";
   } else if (kept + 1 == had) {
     note += "position " + std::to_string(had) + " is measured again";
   } else {
-    note += "positions " + std::to_string(kept + 1) + " to " + std::to_string(had) + " are measured again";
+    note += "positions " + std::to_string(kept + 1) + " to " + std::to_string(had) +
+            " are measured again";
   }
   return note;
 }
@@ -357,7 +366,8 @@ std::string fit_record_to_recording(RunRecord& r) {
 RecordingFile::RecordingFile(std::string path, int fd, std::uint64_t length)
     : path_(std::move(path)), fd_(fd), length_(length) {}
 
-RecordingFile::RecordingFile(RecordingFile&& o) noexcept : path_(std::move(o.path_)), fd_(o.fd_), length_(o.length_) {
+RecordingFile::RecordingFile(RecordingFile&& o) noexcept
+    : path_(std::move(o.path_)), fd_(o.fd_), length_(o.length_) {
   o.fd_ = -1;
 }
 
@@ -393,7 +403,8 @@ RecordingFile RecordingFile::reopen(const std::string& path, std::uint64_t lengt
 
 std::uint64_t RecordingFile::append_durably(const std::string& text) {
   write_all(fd_, text, path_);
-  if (::fsync(fd_) != 0) throw std::runtime_error("cannot fsync the recording " + path_ + ": " + errno_text());
+  if (::fsync(fd_) != 0)
+    throw std::runtime_error("cannot fsync the recording " + path_ + ": " + errno_text());
   length_ += text.size();
   return length_;
 }

@@ -21,24 +21,24 @@ namespace standcal::daemon {
 struct RunRecord {
   std::string run_id;
   std::string unit_serial;
-  std::string unit_type;        // which acceptance limits apply (certificate); may be empty
+  std::string unit_type;  // which acceptance limits apply (certificate); may be empty
   std::string program_name;
-  nlohmann::json program;       // the normalised programme (calib's programme JSON)
+  nlohmann::json program;  // the normalised programme (calib's programme JSON)
   double dwell_s = 60;
   double settle_s = 5;
   std::string operator_name;
-  std::string state;            // protocol::run_state
-  std::string reason;           // why faulted / aborted / interrupted
+  std::string state;   // protocol::run_state
+  std::string reason;  // why faulted / aborted / interrupted
   int positions = 0;
-  int positions_done = 0;       // positions durably in the recording
-  std::uint64_t recording_bytes = 0;  // recording length covering positions_done
-  std::uint64_t header_bytes = 0;     // length of the header block alone
+  int positions_done = 0;                         // positions durably in the recording
+  std::uint64_t recording_bytes = 0;              // recording length covering positions_done
+  std::uint64_t header_bytes = 0;                 // length of the header block alone
   std::vector<std::uint64_t> position_end_bytes;  // recording length after each done position
-  double last_t_s = 0;          // last t_s written (the run clock resumes after it)
+  double last_t_s = 0;  // last t_s written (the run clock resumes after it)
   std::string started_utc;
   std::string ended_utc;
   std::string recording_path;
-  std::string result_path;      // empty until the fit is stored
+  std::string result_path;  // empty until the fit is stored
   std::string stand_id;
   std::string config_hash;
   std::string software_version;

@@ -27,10 +27,10 @@
 
 namespace standcal::daemon {
 
+using drivers::StandAxis;
 using nlohmann::json;
 using protocol::ErrorCode;
 using protocol::RpcError;
-using drivers::StandAxis;
 namespace m = protocol::method;
 namespace st = protocol::run_state;
 namespace ev = protocol::event;
@@ -38,8 +38,8 @@ namespace ev = protocol::event;
 namespace {
 
 constexpr StandAxis kAxes[] = {StandAxis::outer, StandAxis::inner};
-constexpr double kIdleRefreshReal_s = 1.0;     // idle: stand snapshot and heartbeat once a second
-constexpr double kCollectChunk_s = 1.0;        // unit time per collect() call: commands served between
+constexpr double kIdleRefreshReal_s = 1.0;  // idle: stand snapshot and heartbeat once a second
+constexpr double kCollectChunk_s = 1.0;     // unit time per collect() call: commands served between
 
 double now_real_s() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
@@ -47,11 +47,16 @@ double now_real_s() {
 
 ErrorCode code_for(drivers::ErrorKind kind) {
   switch (kind) {
-    case drivers::ErrorKind::limit: return ErrorCode::limit;
-    case drivers::ErrorKind::estop: return ErrorCode::estop_active;
-    case drivers::ErrorKind::invalid_argument: return ErrorCode::invalid_params;
-    case drivers::ErrorKind::not_allowed: return ErrorCode::invalid_state;
-    default: return ErrorCode::hardware_fault;
+    case drivers::ErrorKind::limit:
+      return ErrorCode::limit;
+    case drivers::ErrorKind::estop:
+      return ErrorCode::estop_active;
+    case drivers::ErrorKind::invalid_argument:
+      return ErrorCode::invalid_params;
+    case drivers::ErrorKind::not_allowed:
+      return ErrorCode::invalid_state;
+    default:
+      return ErrorCode::hardware_fault;
   }
 }
 
@@ -78,11 +83,15 @@ T check_wait(drivers::Result<T> r) {
 }
 
 json axis_json(StandAxis axis, const drivers::AxisState& s) {
-  return json{{"axis", drivers::to_string(axis)}, {"mode", drivers::to_string(s.mode)},
-              {"angle_deg", s.angle_deg},         {"enabled", s.enabled},
-              {"homed", s.homed},                 {"estop", s.estop},
+  return json{{"axis", drivers::to_string(axis)},
+              {"mode", drivers::to_string(s.mode)},
+              {"angle_deg", s.angle_deg},
+              {"enabled", s.enabled},
+              {"homed", s.homed},
+              {"estop", s.estop},
               {"stopped_by_heartbeat", s.stopped_by_heartbeat},
-              {"fault_code", s.fault_code},       {"fault_text", s.fault_text}};
+              {"fault_code", s.fault_code},
+              {"fault_text", s.fault_text}};
 }
 
 // Per-axis statistics of a position's samples (m/s^2; trend = drift over the dwell).
@@ -134,7 +143,10 @@ std::string axis_name(int a) { return a == 0 ? "x" : a == 1 ? "y" : "z"; }
 // --------------------------------------------------------------------------- plumbing
 
 Sequencer::Sequencer(DaemonConfig config, Hardware hardware, RunStore& store, EventFn events)
-    : config_(std::move(config)), hw_(std::move(hardware)), store_(store), events_(std::move(events)) {
+    : config_(std::move(config)),
+      hw_(std::move(hardware)),
+      store_(store),
+      events_(std::move(events)) {
   if (hw_.time_scale <= 0) hw_.time_scale = 1;
 }
 
@@ -143,7 +155,9 @@ Sequencer::~Sequencer() {
   join();
 }
 
-void Sequencer::start() { thread_ = std::thread([this] { thread_main(); }); }
+void Sequencer::start() {
+  thread_ = std::thread([this] { thread_main(); });
+}
 
 void Sequencer::join() {
   if (thread_.joinable()) thread_.join();
@@ -167,9 +181,9 @@ void Sequencer::request_shutdown() {
 }
 
 bool Sequencer::executes(const std::string& method) {
-  for (const char* name : {m::stand_enable, m::stand_disable, m::stand_home, m::stand_move, m::stand_stop,
-                           m::estop, m::estop_reset, m::unit_read, m::run_start, m::run_pause, m::run_resume,
-                           m::run_abort, m::operator_confirm}) {
+  for (const char* name : {m::stand_enable, m::stand_disable, m::stand_home, m::stand_move,
+                           m::stand_stop, m::estop, m::estop_reset, m::unit_read, m::run_start,
+                           m::run_pause, m::run_resume, m::run_abort, m::operator_confirm}) {
     if (method == name) return true;
   }
   return false;
@@ -206,7 +220,8 @@ void Sequencer::thread_main() {
   if (hw_.stand->lifecycle() == drivers::Lifecycle::active) (void)hw_.stand->deactivate();
   // Commands that arrived during shutdown still get an answer.
   std::lock_guard lock(queue_mutex_);
-  for (Command& c : queue_) c.reply(Outcome{nullptr, static_cast<int>(ErrorCode::busy), "standcald is shutting down"});
+  for (Command& c : queue_)
+    c.reply(Outcome{nullptr, static_cast<int>(ErrorCode::busy), "standcald is shutting down"});
   queue_.clear();
 }
 
@@ -236,7 +251,8 @@ void Sequencer::service() {
 
 void Sequencer::wait_real(double real_s, const std::function<bool()>& until) {
   const auto deadline = std::chrono::steady_clock::now() +
-                        std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(real_s));
+                        std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                            std::chrono::duration<double>(real_s));
   for (;;) {
     service();
     if (until && until()) return;
@@ -276,10 +292,12 @@ void Sequencer::handle(Command& cmd) {
     mode_ = Mode::idle;
     refresh_stand_snapshot();
     const bool estop = in.kind == Interrupt::estop;
-    cmd.reply(Outcome{nullptr, static_cast<int>(estop ? ErrorCode::estop_active : ErrorCode::invalid_state),
-                      method + " interrupted by " + (estop ? "an emergency stop" : in.kind == Interrupt::shutdown
-                                                                                        ? "daemon shutdown"
-                                                                                        : "stand.stop")});
+    cmd.reply(Outcome{nullptr,
+                      static_cast<int>(estop ? ErrorCode::estop_active : ErrorCode::invalid_state),
+                      method + " interrupted by " +
+                          (estop                            ? "an emergency stop"
+                           : in.kind == Interrupt::shutdown ? "daemon shutdown"
+                                                            : "stand.stop")});
     answer_deferred();
   } catch (const std::exception& e) {
     mode_ = Mode::idle;
@@ -442,8 +460,10 @@ json Sequencer::execute_idle(const Command& cmd) {
     p.only({"alpha1_deg", "alpha2_deg", "wait"});
     const double a1 = p.number("alpha1_deg"), a2 = p.number("alpha2_deg");
     const bool wait = p.optional_bool("wait", true);
-    if (!std::isfinite(a1) || !std::isfinite(a2)) throw RpcError(ErrorCode::invalid_params, "stand.move: angles must be finite");
-    if (estop_latched_) throw RpcError(ErrorCode::estop_active, "emergency stop is latched: send estop.reset first");
+    if (!std::isfinite(a1) || !std::isfinite(a2))
+      throw RpcError(ErrorCode::invalid_params, "stand.move: angles must be finite");
+    if (estop_latched_)
+      throw RpcError(ErrorCode::estop_active, "emergency stop is latched: send estop.reset first");
     if (hw_.stand->lifecycle() != drivers::Lifecycle::active) {
       throw RpcError(ErrorCode::invalid_state, "the stand is not enabled: send stand.enable first");
     }
@@ -467,7 +487,8 @@ json Sequencer::execute_idle(const Command& cmd) {
     if (hw_.stand->lifecycle() == drivers::Lifecycle::unconfigured) check(hw_.stand->configure());
     if (hw_.stand->lifecycle() == drivers::Lifecycle::error) check(hw_.stand->recover());
     estop_latched_ = false;
-    return json{{"estop", false}, {"message", "emergency stop reset: send stand.enable and stand.home"}};
+    return json{{"estop", false},
+                {"message", "emergency stop reset: send stand.enable and stand.home"}};
   }
   if (method == m::unit_read) {
     p.only({"seconds"});
@@ -489,11 +510,14 @@ json Sequencer::execute_idle(const Command& cmd) {
 
 // --------------------------------------------------------------------------- stand
 
-drivers::AxisState Sequencer::read_axis(StandAxis axis) { return check(hw_.stand->read_state(axis)); }
+drivers::AxisState Sequencer::read_axis(StandAxis axis) {
+  return check(hw_.stand->read_state(axis));
+}
 
 void Sequencer::prepare_stand(bool home_if_needed) {
   drivers::Stand& s = *hw_.stand;
-  if (estop_latched_) throw RpcError(ErrorCode::estop_active, "emergency stop is latched: send estop.reset first");
+  if (estop_latched_)
+    throw RpcError(ErrorCode::estop_active, "emergency stop is latched: send estop.reset first");
   if (s.lifecycle() == drivers::Lifecycle::error) {
     check(s.recover());
     // Let the driver's heartbeat run a few periods before the first move: a controller
@@ -536,10 +560,10 @@ void Sequencer::start_move(double alpha1_deg, double alpha2_deg) {
 }
 
 std::pair<double, double> Sequencer::move_and_wait(double alpha1_deg, double alpha2_deg) {
-  const double t1 = check(drivers::normalise_target_deg(hw_.stand->range(StandAxis::outer), alpha1_deg,
-                                                        read_axis(StandAxis::outer).angle_deg));
-  const double t2 = check(drivers::normalise_target_deg(hw_.stand->range(StandAxis::inner), alpha2_deg,
-                                                        read_axis(StandAxis::inner).angle_deg));
+  const double t1 = check(drivers::normalise_target_deg(
+      hw_.stand->range(StandAxis::outer), alpha1_deg, read_axis(StandAxis::outer).angle_deg));
+  const double t2 = check(drivers::normalise_target_deg(
+      hw_.stand->range(StandAxis::inner), alpha2_deg, read_axis(StandAxis::inner).angle_deg));
   start_move(alpha1_deg, alpha2_deg);
   return wait_in_position(t1, t2);
 }
@@ -590,7 +614,8 @@ void Sequencer::handle_emergency_stops() {
     std::optional<Command> estop;
     {
       std::lock_guard lock(queue_mutex_);
-      const auto it = std::find_if(queue_.begin(), queue_.end(), [](const Command& c) { return c.method == m::estop; });
+      const auto it = std::find_if(queue_.begin(), queue_.end(),
+                                   [](const Command& c) { return c.method == m::estop; });
       if (it == queue_.end()) return;
       estop = std::move(*it);
       queue_.erase(it);
@@ -617,15 +642,19 @@ void Sequencer::emergency_stop(const std::string& requested_by) {
   // Who pressed it is the first question afterwards.
   spdlog::warn("EMERGENCY STOP requested by {}", requested_by.empty() ? "a client" : requested_by);
   refresh_stand_snapshot();
-  events_(ev::fault, json{{"source", "estop"}, {"message", "emergency stop: both axes stopped and disabled"}});
-  if (!s) throw RpcError(ErrorCode::hardware_fault, "emergency stop could not be confirmed by the stand: " + s.message);
+  events_(ev::fault,
+          json{{"source", "estop"}, {"message", "emergency stop: both axes stopped and disabled"}});
+  if (!s)
+    throw RpcError(ErrorCode::hardware_fault,
+                   "emergency stop could not be confirmed by the stand: " + s.message);
 }
 
 void Sequencer::refresh_stand_snapshot() {
   json axes = json::array();
   for (StandAxis a : kAxes) {
     auto r = hw_.stand->read_state(a);
-    axes.push_back(r ? axis_json(a, r.value()) : json{{"axis", drivers::to_string(a)}, {"error", r.status().message}});
+    axes.push_back(r ? axis_json(a, r.value())
+                     : json{{"axis", drivers::to_string(a)}, {"error", r.status().message}});
   }
   const drivers::AccelUnitHealth h = hw_.unit->health();
   json unit{{"name", hw_.unit->name()},
@@ -732,7 +761,8 @@ json Sequencer::run_status(const std::string& run_id) const {
            {"has_result", !rec->result_path.empty()}};
   std::lock_guard lock(snapshot_mutex_);
   if (!progress_.is_null() && progress_.value("run_id", "") == id) {
-    for (const char* k : {"state", "position", "phase", "eta_s", "positions_done"}) out[k] = progress_[k];
+    for (const char* k : {"state", "position", "phase", "eta_s", "positions_done"})
+      out[k] = progress_[k];
   }
   return out;
 }
@@ -741,12 +771,14 @@ json Sequencer::run_result(const std::string& run_id) const {
   auto rec = store_.get(run_id);
   if (!rec) throw RpcError(ErrorCode::not_found, "no run " + run_id + " (see runs.list)");
   if (rec->result_path.empty()) {
-    throw RpcError(ErrorCode::not_found, "run " + run_id + " has no result yet (state " + rec->state + ")");
+    throw RpcError(ErrorCode::not_found,
+                   "run " + run_id + " has no result yet (state " + rec->state + ")");
   }
   std::ifstream in(rec->result_path);
   json doc = json::parse(in, nullptr, false);
   if (!in || doc.is_discarded()) {
-    throw RpcError(ErrorCode::internal_error, "the stored result " + rec->result_path + " cannot be read");
+    throw RpcError(ErrorCode::internal_error,
+                   "the stored result " + rec->result_path + " cannot be read");
   }
   return doc;
 }
@@ -787,7 +819,8 @@ StandLimits limits_of(const DaemonConfig& c) {
 StandLimits Sequencer::stand_limits() const { return limits_of(config_); }
 
 GaussMarkovNoise Sequencer::unit_bias_wander() const {
-  return {Vec3::Constant(config_.unit_bias_instability_ug * kUg), config_.unit_bias_instability_tau_s};
+  return {Vec3::Constant(config_.unit_bias_instability_ug * kUg),
+          config_.unit_bias_instability_tau_s};
 }
 
 namespace {
@@ -826,18 +859,22 @@ Program program_from_params(const json& spec, const DaemonConfig& config) {
       // A NUL would end the file name early at the system call.
       if (name.empty() || name.find_first_of(std::string("/\0", 2)) != std::string::npos ||
           name[0] == '.') {
-        throw RpcError(ErrorCode::invalid_params, "run.start: programme name \"" + name +
-                                                      "\" is not a library name (no paths; inline positions are allowed)");
+        throw RpcError(ErrorCode::invalid_params,
+                       "run.start: programme name \"" + name +
+                           "\" is not a library name (no paths; inline positions are allowed)");
       }
       const std::string path = config.program_library_dir + "/" + name + ".json";
       if (config.program_library_dir.empty() || !std::filesystem::exists(path)) {
-        throw RpcError(ErrorCode::not_found, "no programme \"" + name + "\": not paper9, classic24 or in the library" +
-                                                 (config.program_library_dir.empty() ? std::string(" (no library configured)")
-                                                                                     : " " + config.program_library_dir));
+        throw RpcError(
+            ErrorCode::not_found,
+            "no programme \"" + name + "\": not paper9, classic24 or in the library" +
+                (config.program_library_dir.empty() ? std::string(" (no library configured)")
+                                                    : " " + config.program_library_dir));
       }
       return load_program(path);
     }
-    if (spec.is_array()) return program_from_json(json{{"name", "inline"}, {"positions", spec}}, "run.start program");
+    if (spec.is_array())
+      return program_from_json(json{{"name", "inline"}, {"positions", spec}}, "run.start program");
     if (spec.is_object()) {
       json doc = spec;
       if (!doc.contains("name")) doc["name"] = "inline";
@@ -847,7 +884,8 @@ Program program_from_params(const json& spec, const DaemonConfig& config) {
     throw RpcError(ErrorCode::invalid_params, e.what());
   }
   throw RpcError(ErrorCode::invalid_params,
-                 "run.start: \"program\" must be a name or inline positions [{\"alpha1_deg\", \"alpha2_deg\"}, ...]");
+                 "run.start: \"program\" must be a name or inline positions [{\"alpha1_deg\", "
+                 "\"alpha2_deg\"}, ...]");
 }
 
 }  // namespace
@@ -866,7 +904,8 @@ json Sequencer::start_run(const json& params) {
   const std::string unit_type = p.optional_text("unit_type", limit::unit_type).value_or("");
   const std::string operator_name = p.optional_text("operator", limit::operator_name).value_or("");
   const json* spec = p.find("program");
-  if (spec == nullptr) throw RpcError(ErrorCode::invalid_params, "run.start: parameter \"program\" is required");
+  if (spec == nullptr)
+    throw RpcError(ErrorCode::invalid_params, "run.start: parameter \"program\" is required");
   Program program = program_from_params(*spec, config_);
   protocol::require_text_field("run.start: the programme's \"name\"", program.name,
                                limit::program_name);
@@ -881,7 +920,8 @@ json Sequencer::start_run(const json& params) {
     throw RpcError(ErrorCode::invalid_params, "run.start: \"dwell_s\" must be in (0, 36000]");
   if (!(settle >= 0 && settle <= kMaxSettle_s))
     throw RpcError(ErrorCode::invalid_params, "run.start: \"settle_s\" must be in [0, 3600]");
-  if (estop_latched_) throw RpcError(ErrorCode::estop_active, "emergency stop is latched: send estop.reset first");
+  if (estop_latched_)
+    throw RpcError(ErrorCode::estop_active, "emergency stop is latched: send estop.reset first");
 
   RunRecord r;
   r.run_id = store_.new_run_id(serial);
@@ -904,7 +944,8 @@ json Sequencer::start_run(const json& params) {
   store_.save(r);
   spdlog::info("run {} started: programme {} ({} positions), unit {}", r.run_id,
                protocol::printable(r.program_name), r.positions, protocol::printable(serial));
-  return json{{"run_id", r.run_id}, {"positions", r.positions}, {"recording_path", r.recording_path}};
+  return json{
+      {"run_id", r.run_id}, {"positions", r.positions}, {"recording_path", r.recording_path}};
 }
 
 json Sequencer::resume_run(const json& params) {
@@ -916,12 +957,15 @@ json Sequencer::resume_run(const json& params) {
     if (!rec) throw RpcError(ErrorCode::not_found, "no run " + *id + " (see runs.list)");
   } else {
     rec = store_.latest_resumable();
-    if (!rec) throw RpcError(ErrorCode::not_found, "no interrupted, faulted or paused run to resume");
+    if (!rec)
+      throw RpcError(ErrorCode::not_found, "no interrupted, faulted or paused run to resume");
   }
   if (rec->state != st::interrupted && rec->state != st::faulted && rec->state != st::paused) {
-    throw RpcError(ErrorCode::invalid_state, "run " + rec->run_id + " is " + rec->state + " and cannot be resumed");
+    throw RpcError(ErrorCode::invalid_state,
+                   "run " + rec->run_id + " is " + rec->state + " and cannot be resumed");
   }
-  if (estop_latched_) throw RpcError(ErrorCode::estop_active, "emergency stop is latched: send estop.reset first");
+  if (estop_latched_)
+    throw RpcError(ErrorCode::estop_active, "emergency stop is latched: send estop.reset first");
   try {
     // A run stored before the programme rules tightened (e.g. a dwell past the run limit)
     // is refused here, not by run_loop, which has already taken the stand.
@@ -930,8 +974,11 @@ json Sequencer::resume_run(const json& params) {
     throw RpcError(ErrorCode::invalid_state,
                    "run " + rec->run_id + " cannot be resumed: " + e.what());
   }
-  spdlog::info("run {} resumed at position {}/{}", rec->run_id, rec->positions_done + 1, rec->positions);
-  return json{{"run_id", rec->run_id}, {"position", rec->positions_done + 1}, {"positions", rec->positions}};
+  spdlog::info("run {} resumed at position {}/{}", rec->run_id, rec->positions_done + 1,
+               rec->positions);
+  return json{{"run_id", rec->run_id},
+              {"position", rec->positions_done + 1},
+              {"positions", rec->positions}};
 }
 
 double Sequencer::run_clock_s() const {
@@ -941,7 +988,8 @@ double Sequencer::run_clock_s() const {
 void Sequencer::set_state(RunRecord& record, const std::string& state, const std::string& reason) {
   record.state = state;
   record.reason = reason;
-  if (state == st::done || state == st::aborted || state == st::faulted || state == st::interrupted) {
+  if (state == st::done || state == st::aborted || state == st::faulted ||
+      state == st::interrupted) {
     record.ended_utc = utc_now_iso();
   }
   try {
@@ -962,15 +1010,19 @@ void Sequencer::set_state(RunRecord& record, const std::string& state, const std
   } else {
     spdlog::log(level, "run {}: {} ({})", record.run_id, state, reason);
   }
-  events_(ev::run_state, json{{"run_id", record.run_id}, {"state", state}, {"reason", reason},
-                              {"positions_done", record.positions_done}, {"positions", record.positions}});
+  events_(ev::run_state, json{{"run_id", record.run_id},
+                              {"state", state},
+                              {"reason", reason},
+                              {"positions_done", record.positions_done},
+                              {"positions", record.positions}});
 }
 
 void Sequencer::set_progress(const RunRecord& record, int index, const std::string& phase) {
   const int remaining = std::max(0, record.positions - index);
   const double per_position_real_s =
-      positions_timed_ > 0 ? mean_position_real_s_
-                           : real_time_s(record.dwell_s + record.settle_s + 10.0);  // 10 s: a typical move
+      positions_timed_ > 0
+          ? mean_position_real_s_
+          : real_time_s(record.dwell_s + record.settle_s + 10.0);  // 10 s: a typical move
   json progress{{"run_id", record.run_id},
                 {"state", record.state},
                 {"position", std::min(index + 1, record.positions)},
@@ -1000,13 +1052,15 @@ void Sequencer::run_loop(RunRecord record, const std::function<void()>& started)
     }
   }
   const bool fresh = record.recording_bytes == 0;
-  run_clock_base_s_ = fresh ? 0.0 : record.last_t_s + 1.0;  // resumed: time continues after the last row
+  run_clock_base_s_ =
+      fresh ? 0.0 : record.last_t_s + 1.0;  // resumed: time continues after the last row
   run_clock_start_real_s_ = now_real_s();
   last_t_s_ = record.last_t_s;
   positions_timed_ = 0;
   mean_position_real_s_ = 0;
-  mounted_ = (!fresh && uses_several_mounts(program)) ? std::nullopt
-                                                      : std::optional<Mount>(program.positions.front().mount);
+  mounted_ = (!fresh && uses_several_mounts(program))
+                 ? std::nullopt
+                 : std::optional<Mount>(program.positions.front().mount);
   if (fresh && hw_.simulated_remount) hw_.simulated_remount(program.positions.front().mount);
   set_state(record, st::running);
   started();
@@ -1020,7 +1074,8 @@ void Sequencer::run_loop(RunRecord record, const std::function<void()>& started)
         if (!file) {
           set_progress(record, index, "preparing");
           prepare_stand(true);
-          last_cmd_deg_ = {read_axis(StandAxis::outer).angle_deg, read_axis(StandAxis::inner).angle_deg};
+          last_cmd_deg_ = {read_axis(StandAxis::outer).angle_deg,
+                           read_axis(StandAxis::inner).angle_deg};
           if (fresh) {
             Recording header;
             header.set_header("g_local_mps2", number_text(record.g_local_mps2));
@@ -1033,7 +1088,8 @@ void Sequencer::run_loop(RunRecord record, const std::function<void()>& started)
             header.set_header("run_id", record.run_id);
             header.set_header("stand_id", record.stand_id);
             header.columns = recording_columns(program);
-            file.emplace(RecordingFile::create(record.recording_path, format_recording_header(header)));
+            file.emplace(
+                RecordingFile::create(record.recording_path, format_recording_header(header)));
             record.recording_bytes = file->length();
             record.header_bytes = file->length();
             record.position_end_bytes.clear();
@@ -1079,7 +1135,8 @@ void Sequencer::run_loop(RunRecord record, const std::function<void()>& started)
 bool Sequencer::wait_while_paused(RunRecord& record) {
   mode_ = Mode::run_paused;
   resume_requested_ = false;
-  set_state(record, st::paused, "paused by the operator; run.resume continues with the current position");
+  set_state(record, st::paused,
+            "paused by the operator; run.resume continues with the current position");
   set_progress(record, record.positions_done, "paused");
   answer_deferred(st::paused);
   for (;;) {
@@ -1107,10 +1164,12 @@ void Sequencer::finish_interrupted(RunRecord& record, Interrupt kind) {
       set_state(record, st::aborted, "aborted by the operator; the recorded positions are kept");
       break;
     case Interrupt::estop:
-      set_state(record, st::faulted, "emergency stop; estop.reset, then run.resume continues the run");
+      set_state(record, st::faulted,
+                "emergency stop; estop.reset, then run.resume continues the run");
       break;
     default:
-      set_state(record, st::interrupted, "standcald was stopped during the run; run.resume continues it");
+      set_state(record, st::interrupted,
+                "standcald was stopped during the run; run.resume continues it");
       break;
   }
 }
@@ -1120,8 +1179,8 @@ void Sequencer::wait_for_operator(RunRecord& record, const Program& program, int
   mode_ = Mode::run_waiting_operator;
   operator_confirmed_ = false;
   set_state(record, st::waiting_operator,
-            "re-mount the unit for mount " + mount_name(mount) + " (position " + std::to_string(index + 1) +
-                "), then send operator.confirm");
+            "re-mount the unit for mount " + mount_name(mount) + " (position " +
+                std::to_string(index + 1) + "), then send operator.confirm");
   set_progress(record, index, "waiting_operator");
   try {
     while (!operator_confirmed_) wait_real(1.0, [this] { return operator_confirmed_; });
@@ -1150,7 +1209,9 @@ void Sequencer::wait_thermal_stability(RunRecord& record) {
       t_mean += x.t_s;
       c_mean += x.temperature_c;
     }
-    if (n < 2) throw RpcError(ErrorCode::hardware_fault, "thermal wait is configured but the unit reports no temperature");
+    if (n < 2)
+      throw RpcError(ErrorCode::hardware_fault,
+                     "thermal wait is configured but the unit reports no temperature");
     t_mean /= n;
     c_mean /= n;
     double stt = 0, stc = 0;
@@ -1162,13 +1223,15 @@ void Sequencer::wait_thermal_stability(RunRecord& record) {
     const double rate_c_per_min = stt > 0 ? stc / stt * 60.0 : 0.0;
     if (std::abs(rate_c_per_min) < tw.rate_limit_c_per_min) return;
     if (run_clock_s() - start > tw.timeout_s) {
-      throw RpcError(ErrorCode::hardware_fault, "the unit temperature still changes by " + number_text(rate_c_per_min) +
-                                                    " °C/min after the thermal wait's " + number_text(tw.timeout_s) + " s");
+      throw RpcError(ErrorCode::hardware_fault,
+                     "the unit temperature still changes by " + number_text(rate_c_per_min) +
+                         " °C/min after the thermal wait's " + number_text(tw.timeout_s) + " s");
     }
   }
 }
 
-void Sequencer::measure_position(RunRecord& record, const Program& program, int index, RecordingFile& file) {
+void Sequencer::measure_position(RunRecord& record, const Program& program, int index,
+                                 RecordingFile& file) {
   const ProgramPosition& pp = program.positions[static_cast<std::size_t>(index)];
   const double started_real = now_real_s();
   if (!mounted_ || *mounted_ != pp.mount) wait_for_operator(record, program, index);
@@ -1177,16 +1240,22 @@ void Sequencer::measure_position(RunRecord& record, const Program& program, int 
   if (hw_.stand->lifecycle() != drivers::Lifecycle::active) {
     // The driver dropped to `error` (link lost after its retries) while the unit sampled.
     throw RpcError(ErrorCode::hardware_fault, "lost the link to the stand " + hw_.stand->name() +
-                                                  " during the run (" + drivers::to_string(hw_.stand->lifecycle()) +
+                                                  " during the run (" +
+                                                  drivers::to_string(hw_.stand->lifecycle()) +
                                                   "); run.resume reconnects and continues");
   }
   const auto [a1, a2] = move_and_wait(pp.alpha1_deg, pp.alpha2_deg);
   const double t_arrive = std::max(run_clock_s(), last_t_s_);
   const int approach = approach_directions({last_cmd_deg_, {pp.alpha1_deg, pp.alpha2_deg}})[1];
   last_cmd_deg_ = {pp.alpha1_deg, pp.alpha2_deg};
-  events_(ev::position_reached, json{{"run_id", record.run_id}, {"position", index + 1}, {"pos", index},
-                                     {"alpha1_cmd_deg", pp.alpha1_deg}, {"alpha2_cmd_deg", pp.alpha2_deg},
-                                     {"alpha1_deg", a1}, {"alpha2_deg", a2}, {"t_arrive_s", t_arrive}});
+  events_(ev::position_reached, json{{"run_id", record.run_id},
+                                     {"position", index + 1},
+                                     {"pos", index},
+                                     {"alpha1_cmd_deg", pp.alpha1_deg},
+                                     {"alpha2_cmd_deg", pp.alpha2_deg},
+                                     {"alpha1_deg", a1},
+                                     {"alpha2_deg", a2},
+                                     {"t_arrive_s", t_arrive}});
 
   const double settle = pp.settle_s.value_or(record.settle_s);
   const double dwell = pp.dwell_s.value_or(record.dwell_s);
@@ -1216,31 +1285,37 @@ void Sequencer::measure_position(RunRecord& record, const Program& program, int 
     if (samples.empty() && incomplete == 0) {
       // A dwell shorter than the unit's silence timeout ends before the driver calls the
       // unit silent: say what the operator should check.
-      problem = "no sample from the accelerometer unit " + hw_.unit->name() + " during the " + number_text(dwell) +
-                " s dwell (is it powered and on the bus?)";
-    } else if (samples.size() < 2 ||
-               static_cast<double>(samples.size()) < config_.stability.min_sample_fraction * expected) {
-      problem = "only " + std::to_string(samples.size()) + " of " + std::to_string(static_cast<long>(expected)) +
-                " expected samples (" + std::to_string(incomplete) + " incomplete)";
+      problem = "no sample from the accelerometer unit " + hw_.unit->name() + " during the " +
+                number_text(dwell) + " s dwell (is it powered and on the bus?)";
+    } else if (samples.size() < 2 || static_cast<double>(samples.size()) <
+                                         config_.stability.min_sample_fraction * expected) {
+      problem = "only " + std::to_string(samples.size()) + " of " +
+                std::to_string(static_cast<long>(expected)) + " expected samples (" +
+                std::to_string(incomplete) + " incomplete)";
     }
     for (int a = 0; a < 3 && problem.empty(); ++a) {
-      const double sigma_ug = stats.sigma_mps2[a] / g * 1e6, trend_ug = stats.trend_mps2[a] / g * 1e6;
+      const double sigma_ug = stats.sigma_mps2[a] / g * 1e6,
+                   trend_ug = stats.trend_mps2[a] / g * 1e6;
       if (sigma_ug > config_.stability.sigma_limit_ug) {
-        problem = "axis " + axis_name(a) + " noise " + number_text(sigma_ug) + " µg above the limit " +
-                  number_text(config_.stability.sigma_limit_ug) + " µg";
+        problem = "axis " + axis_name(a) + " noise " + number_text(sigma_ug) +
+                  " µg above the limit " + number_text(config_.stability.sigma_limit_ug) + " µg";
       } else if (std::abs(trend_ug) > config_.stability.trend_limit_ug) {
-        problem = "axis " + axis_name(a) + " drifted " + number_text(trend_ug) + " µg during the dwell (limit " +
-                  number_text(config_.stability.trend_limit_ug) + " µg)";
+        problem = "axis " + axis_name(a) + " drifted " + number_text(trend_ug) +
+                  " µg during the dwell (limit " + number_text(config_.stability.trend_limit_ug) +
+                  " µg)";
       }
     }
     if (problem.empty()) break;
     if (attempt >= config_.stability.remeasure_max) {
-      throw RpcError(ErrorCode::hardware_fault, "position " + std::to_string(index + 1) + " not stable after " +
-                                                    std::to_string(attempt + 1) + " measurements: " + problem);
+      throw RpcError(ErrorCode::hardware_fault,
+                     "position " + std::to_string(index + 1) + " not stable after " +
+                         std::to_string(attempt + 1) + " measurements: " + problem);
     }
     spdlog::warn("run {}: re-measuring position {}: {}", record.run_id, index + 1, problem);
-    events_(ev::fault, json{{"run_id", record.run_id}, {"position", index + 1},
-                            {"message", "re-measuring position " + std::to_string(index + 1) + ": " + problem}});
+    events_(ev::fault, json{{"run_id", record.run_id},
+                            {"position", index + 1},
+                            {"message", "re-measuring position " + std::to_string(index + 1) +
+                                            ": " + problem}});
   }
 
   // Rows on the run clock: the unit's own sample spacing, starting when sampling began.
@@ -1280,12 +1355,19 @@ void Sequencer::measure_position(RunRecord& record, const Program& program, int 
     sigma.push_back(stats.sigma_mps2[a] / record.g_local_mps2 * 1e6);
     trend.push_back(stats.trend_mps2[a] / record.g_local_mps2 * 1e6);
   }
-  events_(ev::position_averaged,
-          json{{"run_id", record.run_id}, {"position", index + 1}, {"pos", index}, {"samples", samples.size()},
-               {"mean_mps2", mean}, {"sigma_ug", sigma}, {"trend_ug", trend},
-               {"temp_c", std::isfinite(stats.temp_mean_c) ? json(stats.temp_mean_c) : json(nullptr)}});
+  events_(
+      ev::position_averaged,
+      json{{"run_id", record.run_id},
+           {"position", index + 1},
+           {"pos", index},
+           {"samples", samples.size()},
+           {"mean_mps2", mean},
+           {"sigma_ug", sigma},
+           {"trend_ug", trend},
+           {"temp_c", std::isfinite(stats.temp_mean_c) ? json(stats.temp_mean_c) : json(nullptr)}});
   const double took = now_real_s() - started_real;
-  mean_position_real_s_ = (mean_position_real_s_ * positions_timed_ + took) / (positions_timed_ + 1);
+  mean_position_real_s_ =
+      (mean_position_real_s_ * positions_timed_ + took) / (positions_timed_ + 1);
   ++positions_timed_;
   set_progress(record, index + 1, "moving");
 }
@@ -1364,18 +1446,13 @@ void Sequencer::finish_with_fit(RunRecord& record) {
   }
   record.ended_utc = utc_now_iso();
   result["recording_path"] = record.recording_path;
-  result["traceability"] = json{{"run_id", record.run_id},
-                                {"unit_serial", record.unit_serial},
-                                {"unit_type", record.unit_type},
-                                {"stand_id", record.stand_id},
-                                {"program", record.program_name},
-                                {"g_local_mps2", record.g_local_mps2},
-                                {"g_source", record.g_source},
-                                {"software_version", record.software_version},
-                                {"config_hash", record.config_hash},
-                                {"operator", record.operator_name},
-                                {"started_utc", record.started_utc},
-                                {"ended_utc", record.ended_utc}};
+  result["traceability"] =
+      json{{"run_id", record.run_id},           {"unit_serial", record.unit_serial},
+           {"unit_type", record.unit_type},     {"stand_id", record.stand_id},
+           {"program", record.program_name},    {"g_local_mps2", record.g_local_mps2},
+           {"g_source", record.g_source},       {"software_version", record.software_version},
+           {"config_hash", record.config_hash}, {"operator", record.operator_name},
+           {"started_utc", record.started_utc}, {"ended_utc", record.ended_utc}};
   result["recording_warnings"] = digest.recording.warnings;
   const std::string dir = store_.run_dir(record.run_id);
   if (joint.fit && config_.budget)

@@ -167,7 +167,7 @@ class Sequencer {
 
   // Sequencer-thread state.
   Mode mode_ = Mode::idle;
-  std::string busy_with_;          // what holds the hardware, for `busy` messages
+  std::string busy_with_;  // what holds the hardware, for `busy` messages
   Interrupt interrupt_ = Interrupt::none;
   std::vector<DeferredAnswer> deferred_answers_;
   bool resume_requested_ = false;

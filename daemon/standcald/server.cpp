@@ -44,8 +44,8 @@ RunPageQuery runs_list_query(const protocol::Params& p) {
   RunPageQuery q;
   q.unit_serial = p.optional_text("unit_serial", protocol::text_limit::unit_serial).value_or("");
   q.before_run_id = p.optional_text("before", protocol::text_limit::run_id).value_or("");
-  q.limit = static_cast<std::size_t>(
-      p.optional_integer("limit", 1, protocol::runs_list_max_limit).value_or(protocol::runs_list_default_limit));
+  q.limit = static_cast<std::size_t>(p.optional_integer("limit", 1, protocol::runs_list_max_limit)
+                                         .value_or(protocol::runs_list_default_limit));
   return q;
 }
 
@@ -56,8 +56,8 @@ double now_s() {
 sockaddr_un unix_address(const std::string& path) {
   sockaddr_un addr{};
   if (path.size() >= sizeof(addr.sun_path)) {
-    throw std::runtime_error("socket path too long (max " + std::to_string(sizeof(addr.sun_path) - 1) +
-                             " bytes): " + path);
+    throw std::runtime_error("socket path too long (max " +
+                             std::to_string(sizeof(addr.sun_path) - 1) + " bytes): " + path);
   }
   addr.sun_family = AF_UNIX;
   std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
@@ -68,7 +68,8 @@ sockaddr_un unix_address(const std::string& path) {
 void remove_stale_socket(const std::string& path) {
   struct stat st {};
   if (::lstat(path.c_str(), &st) != 0) return;
-  if (!S_ISSOCK(st.st_mode)) throw std::runtime_error(path + " exists and is not a socket; not replacing it");
+  if (!S_ISSOCK(st.st_mode))
+    throw std::runtime_error(path + " exists and is not a socket; not replacing it");
   const sockaddr_un addr = unix_address(path);
   const int probe = ::socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
   if (probe < 0) throw std::runtime_error("cannot check the socket " + path + ": " + errno_text());
@@ -89,8 +90,8 @@ void remove_stale_socket(const std::string& path) {
 
 const std::set<std::string>& known_events() {
   namespace ev = protocol::event;
-  static const std::set<std::string> names{ev::run_progress, ev::position_reached, ev::position_averaged,
-                                           ev::run_state, ev::fault};
+  static const std::set<std::string> names{ev::run_progress, ev::position_reached,
+                                           ev::position_averaged, ev::run_state, ev::fault};
   return names;
 }
 
@@ -112,7 +113,8 @@ std::vector<gid_t> peer_groups(int fd, uid_t uid, gid_t gid) {
   passwd pw{};
   passwd* found = nullptr;
   std::vector<char> buf(16384);
-  if (::getpwuid_r(uid, &pw, buf.data(), buf.size(), &found) != 0 || found == nullptr) return groups;
+  if (::getpwuid_r(uid, &pw, buf.data(), buf.size(), &found) != 0 || found == nullptr)
+    return groups;
   int n = 64;
   groups.assign(static_cast<std::size_t>(n), 0);
   if (::getgrouplist(pw.pw_name, gid, groups.data(), &n) < 0) {
@@ -170,23 +172,28 @@ bool is_open_method(const std::string& method) {
   return open.count(method) > 0;
 }
 
-std::optional<std::string> refuse_control(const std::string& method, const Peer& peer, const AccessPolicy& policy) {
+std::optional<std::string> refuse_control(const std::string& method, const Peer& peer,
+                                          const AccessPolicy& policy) {
   if (is_open_method(method)) return std::nullopt;
   const std::string refused = method + " not permitted: ";
   if (peer.tcp) {
     if (peer.token_accepted) return std::nullopt;
     if (!policy.tcp_token_configured) {
-      return refused + "this daemon has no tcp.token_file, so TCP clients may only read and send estop; "
-                       "use the Unix socket";
+      return refused +
+             "this daemon has no tcp.token_file, so TCP clients may only read and send estop; "
+             "use the Unix socket";
     }
-    return refused + "TCP clients get control only after {\"method\":\"auth\",\"params\":{\"token\":…}} "
-                     "with the daemon's token (tcp.token_file)";
+    return refused +
+           "TCP clients get control only after {\"method\":\"auth\",\"params\":{\"token\":…}} "
+           "with the daemon's token (tcp.token_file)";
   }
   if (policy.control_group.empty()) return std::nullopt;
-  if (!peer.credentials_known) return refused + "the daemon could not read the peer's credentials (SO_PEERCRED)";
+  if (!peer.credentials_known)
+    return refused + "the daemon could not read the peer's credentials (SO_PEERCRED)";
   if (peer.uid == 0 || peer.uid == policy.daemon_uid) return std::nullopt;
-  const bool member = peer.gid == policy.control_gid ||
-                      std::find(peer.groups.begin(), peer.groups.end(), policy.control_gid) != peer.groups.end();
+  const bool member =
+      peer.gid == policy.control_gid ||
+      std::find(peer.groups.begin(), peer.groups.end(), policy.control_gid) != peer.groups.end();
   if (member) return std::nullopt;
   return refused + "stand and run commands need membership of group \"" + policy.control_group +
          "\" (access.control_group); " + describe_peer(peer) +
@@ -205,7 +212,8 @@ bool tokens_equal(std::string_view supplied, std::string_view expected) {
 std::string describe_peer(const Peer& peer) {
   if (peer.tcp) return "tcp " + peer.address;
   if (!peer.credentials_known) return "a peer of unknown credentials";
-  return "uid " + std::to_string(peer.uid) + " gid " + std::to_string(peer.gid) + " pid " + std::to_string(peer.pid);
+  return "uid " + std::to_string(peer.uid) + " gid " + std::to_string(peer.gid) + " pid " +
+         std::to_string(peer.pid);
 }
 
 std::string describe_peer_process(const Peer& peer) {
@@ -229,7 +237,8 @@ std::optional<ClientSlot> slot_for_new_client(const SlotsTaken& taken, int max_c
   return std::nullopt;
 }
 
-Server::Server(const DaemonConfig& config, Sequencer& sequencer) : config_(config), sequencer_(sequencer) {
+Server::Server(const DaemonConfig& config, Sequencer& sequencer)
+    : config_(config), sequencer_(sequencer) {
   started_s_ = now_s();
   epoll_fd_ = ::epoll_create1(EPOLL_CLOEXEC);
   wake_fd_ = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
@@ -238,7 +247,8 @@ Server::Server(const DaemonConfig& config, Sequencer& sequencer) : config_(confi
   sigaddset(&mask, SIGTERM);
   sigaddset(&mask, SIGINT);
   signal_fd_ = ::signalfd(-1, &mask, SFD_NONBLOCK | SFD_CLOEXEC);
-  if (epoll_fd_ < 0 || wake_fd_ < 0 || signal_fd_ < 0) throw std::runtime_error("cannot set up the event loop: " + errno_text());
+  if (epoll_fd_ < 0 || wake_fd_ < 0 || signal_fd_ < 0)
+    throw std::runtime_error("cannot set up the event loop: " + errno_text());
   add_fd(wake_fd_, EPOLLIN);
   add_fd(signal_fd_, EPOLLIN);
   std::uint64_t watchdog_usec = 0;
@@ -287,7 +297,8 @@ void Server::add_fd(int fd, std::uint32_t events) {
   epoll_event ev{};
   ev.events = events;
   ev.data.fd = fd;
-  if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, fd, &ev) != 0) throw std::runtime_error("epoll_ctl: " + errno_text());
+  if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, fd, &ev) != 0)
+    throw std::runtime_error("epoll_ctl: " + errno_text());
 }
 
 void Server::open_listeners() {
@@ -301,15 +312,18 @@ void Server::resolve_access_policy() {
   policy_.control_group = config_.control_group;
   if (!config_.control_group.empty()) {
     const group* g = ::getgrnam(config_.control_group.c_str());
-    if (g == nullptr) throw ConfigError(config_.source + ": access.control_group: no group named \"" + config_.control_group + "\"");
+    if (g == nullptr)
+      throw ConfigError(config_.source + ": access.control_group: no group named \"" +
+                        config_.control_group + "\"");
     policy_.control_gid = g->gr_gid;
     spdlog::info("stand and run commands on the Unix socket: members of group {} (gid {}) only",
                  config_.control_group, policy_.control_gid);
   }
   // Checked here too (not only when the file is read): --tcp-port can enable TCP later.
-  if (config_.tcp_enabled && !is_loopback_address(config_.tcp_bind) && config_.tcp_token_file.empty()) {
-    throw ConfigError(config_.source + ": tcp.token_file: is required when tcp.bind (" + config_.tcp_bind +
-                      ") is not a loopback address (docs/security.md)");
+  if (config_.tcp_enabled && !is_loopback_address(config_.tcp_bind) &&
+      config_.tcp_token_file.empty()) {
+    throw ConfigError(config_.source + ": tcp.token_file: is required when tcp.bind (" +
+                      config_.tcp_bind + ") is not a loopback address (docs/security.md)");
   }
   if (config_.tcp_enabled && !config_.tcp_token_file.empty()) {
     tcp_token_ = load_tcp_token(config_);
@@ -321,13 +335,17 @@ void Server::resolve_access_policy() {
 // they decide who can connect at all.
 static void apply_socket_file_access(const DaemonConfig& config, const std::string& path) {
   if (::chmod(path.c_str(), config.socket_mode) != 0) {
-    throw std::runtime_error("cannot set mode " + fmt::format("{:04o}", config.socket_mode) + " on " + path + ": " + errno_text());
+    throw std::runtime_error("cannot set mode " + fmt::format("{:04o}", config.socket_mode) +
+                             " on " + path + ": " + errno_text());
   }
   if (!config.socket_group.empty()) {
     const group* g = ::getgrnam(config.socket_group.c_str());
-    if (g == nullptr) throw ConfigError(config.source + ": socket.group: no group named \"" + config.socket_group + "\"");
+    if (g == nullptr)
+      throw ConfigError(config.source + ": socket.group: no group named \"" + config.socket_group +
+                        "\"");
     if (::chown(path.c_str(), static_cast<uid_t>(-1), g->gr_gid) != 0) {
-      throw std::runtime_error("cannot give " + path + " to group " + config.socket_group + ": " + errno_text());
+      throw std::runtime_error("cannot give " + path + " to group " + config.socket_group + ": " +
+                               errno_text());
     }
   }
   spdlog::info("socket {}: mode {:04o}{}", path, config.socket_mode,
@@ -346,7 +364,8 @@ void Server::open_unix_listener() {
       spdlog::info("listening on the socket systemd passed (socket activation)");
       sockaddr_un bound{};
       socklen_t len = sizeof bound;
-      if (::getsockname(fd, reinterpret_cast<sockaddr*>(&bound), &len) == 0 && bound.sun_path[0] != '\0') {
+      if (::getsockname(fd, reinterpret_cast<sockaddr*>(&bound), &len) == 0 &&
+          bound.sun_path[0] != '\0') {
         apply_socket_file_access(config_, bound.sun_path);
       }
     }
@@ -363,12 +382,15 @@ void Server::open_unix_listener() {
     // Created owner-only, then opened up to the configured mode: nobody outside it can
     // connect between bind() and chmod(). (No other thread runs yet.)
     const mode_t old_umask = ::umask(0177);
-    const bool bound = unix_fd_ >= 0 && ::bind(unix_fd_, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) == 0;
+    const bool bound = unix_fd_ >= 0 && ::bind(unix_fd_, reinterpret_cast<const sockaddr*>(&addr),
+                                               sizeof(addr)) == 0;
     ::umask(old_umask);
-    if (!bound) throw std::runtime_error("cannot bind " + config_.socket_path + ": " + errno_text());
+    if (!bound)
+      throw std::runtime_error("cannot bind " + config_.socket_path + ": " + errno_text());
     remember_bound_socket_file();
     apply_socket_file_access(config_, config_.socket_path);
-    if (::listen(unix_fd_, 512) != 0) throw std::runtime_error("cannot listen on " + config_.socket_path + ": " + errno_text());
+    if (::listen(unix_fd_, 512) != 0)
+      throw std::runtime_error("cannot listen on " + config_.socket_path + ": " + errno_text());
     spdlog::info("listening on {}", config_.socket_path);
   }
   add_fd(unix_fd_, EPOLLIN);
@@ -381,7 +403,8 @@ void Server::open_tcp_listener() {
   hints.ai_socktype = SOCK_STREAM;
   addrinfo* found = nullptr;
   const std::string port = std::to_string(config_.tcp_port);
-  if (const int rc = ::getaddrinfo(config_.tcp_bind.c_str(), port.c_str(), &hints, &found); rc != 0 || found == nullptr) {
+  if (const int rc = ::getaddrinfo(config_.tcp_bind.c_str(), port.c_str(), &hints, &found);
+      rc != 0 || found == nullptr) {
     throw std::runtime_error("cannot listen on " + where + ": " + ::gai_strerror(rc));
   }
   sockaddr_storage addr{};
@@ -392,7 +415,8 @@ void Server::open_tcp_listener() {
   tcp_fd_ = ::socket(family, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
   const int one = 1;
   ::setsockopt(tcp_fd_, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
-  if (tcp_fd_ < 0 || ::bind(tcp_fd_, reinterpret_cast<const sockaddr*>(&addr), len) != 0 || ::listen(tcp_fd_, 512) != 0 ||
+  if (tcp_fd_ < 0 || ::bind(tcp_fd_, reinterpret_cast<const sockaddr*>(&addr), len) != 0 ||
+      ::listen(tcp_fd_, 512) != 0 ||
       ::getsockname(tcp_fd_, reinterpret_cast<sockaddr*>(&addr), &len) != 0) {
     throw std::runtime_error("cannot listen on " + where + ": " + errno_text());
   }
@@ -400,9 +424,10 @@ void Server::open_tcp_listener() {
                                        : reinterpret_cast<sockaddr_in*>(&addr)->sin_port);
   add_fd(tcp_fd_, EPOLLIN);
   const bool loopback = is_loopback_address(config_.tcp_bind);
-  spdlog::info("listening on tcp {}:{} ({}; control {})", config_.tcp_bind, tcp_port_,
-               loopback ? "loopback" : "NOT loopback: the token travels in clear text",
-               policy_.tcp_token_configured ? "after auth with the token" : "refused: no tcp.token_file");
+  spdlog::info(
+      "listening on tcp {}:{} ({}; control {})", config_.tcp_bind, tcp_port_,
+      loopback ? "loopback" : "NOT loopback: the token travels in clear text",
+      policy_.tcp_token_configured ? "after auth with the token" : "refused: no tcp.token_file");
 }
 
 void Server::post(std::function<void()> job) {
@@ -417,7 +442,8 @@ void Server::post(std::function<void()> job) {
 void Server::publish(const std::string& event, const json& params) {
   post([this, event, params] {
     if (event == protocol::event::run_state) {
-      sd_notifyf(0, "STATUS=run %s: %s", params.value("run_id", "").c_str(), params.value("state", "").c_str());
+      sd_notifyf(0, "STATUS=run %s: %s", params.value("run_id", "").c_str(),
+                 params.value("state", "").c_str());
     }
     const std::string line = protocol::make_notification(event, params);
     for (auto& [fd, c] : clients_) {
@@ -444,7 +470,8 @@ void Server::watchdog_tick() {
   if (beat != last_heartbeat_) {
     sd_notify(0, "WATCHDOG=1");
   } else {
-    spdlog::warn("the sequencer thread has not answered since the last watchdog tick; not pinging systemd");
+    spdlog::warn(
+        "the sequencer thread has not answered since the last watchdog tick; not pinging systemd");
   }
   last_heartbeat_ = beat;
 }
@@ -596,9 +623,11 @@ void Server::read_client(Client& c) {
     track_partial_request(c);
     if (c.fd >= 0 && (oversized || c.in.overflowed())) {
       send_line(c, protocol::make_error(nullptr, static_cast<int>(ErrorCode::invalid_request),
-                                        "request longer than " + std::to_string(protocol::kMaxRequestBytes) +
+                                        "request longer than " +
+                                            std::to_string(protocol::kMaxRequestBytes) +
                                             " bytes; closing the connection"));
-      spdlog::warn("client sent a request longer than {} bytes; closed", protocol::kMaxRequestBytes);
+      spdlog::warn("client sent a request longer than {} bytes; closed",
+                   protocol::kMaxRequestBytes);
       if (c.fd >= 0) {
         ::shutdown(c.fd, SHUT_WR);
         c.fd = -1;
@@ -656,10 +685,11 @@ void Server::handle_line(Client& c, const std::string& line) {
       const json id = req.id;
       const bool notification = req.is_notification;
       if (!notification) ++c.pending_replies;
-      diagnose_jobs_.submit(sequencer_, req.params, [this, serial, fd, id, notification](Outcome o) {
-        if (notification) return;
-        post([this, serial, fd, id, o = std::move(o)] { reply_later(serial, fd, id, o); });
-      });
+      diagnose_jobs_.submit(
+          sequencer_, req.params, [this, serial, fd, id, notification](Outcome o) {
+            if (notification) return;
+            post([this, serial, fd, id, o = std::move(o)] { reply_later(serial, fd, id, o); });
+          });
       return;
     } else if (Sequencer::executes(req.method)) {
       const std::uint64_t serial = c.serial;
@@ -676,13 +706,17 @@ void Server::handle_line(Client& c, const std::string& line) {
           describe_peer_process(c.peer));
       return;
     } else {
-      throw RpcError(ErrorCode::method_not_found, "unknown method \"" + req.method + "\" (see docs/protocol.md)");
+      throw RpcError(ErrorCode::method_not_found,
+                     "unknown method \"" + req.method + "\" (see docs/protocol.md)");
     }
     if (!req.is_notification) send_line(c, protocol::make_result(req.id, result));
   } catch (const RpcError& e) {
-    if (!req.is_notification) send_line(c, protocol::make_error(req.id, e.code(), e.what(), e.data()));
+    if (!req.is_notification)
+      send_line(c, protocol::make_error(req.id, e.code(), e.what(), e.data()));
   } catch (const std::exception& e) {
-    if (!req.is_notification) send_line(c, protocol::make_error(req.id, static_cast<int>(ErrorCode::internal_error), e.what()));
+    if (!req.is_notification)
+      send_line(
+          c, protocol::make_error(req.id, static_cast<int>(ErrorCode::internal_error), e.what()));
   }
   if (c.close_after_reply && c.fd >= 0) {
     ::shutdown(c.fd, SHUT_WR);
@@ -692,7 +726,8 @@ void Server::handle_line(Client& c, const std::string& line) {
 
 void Server::reply_later(std::uint64_t serial, int fd, const json& id, Outcome o) {
   auto it = clients_.find(fd);
-  if (it == clients_.end() || it->second->serial != serial || it->second->fd < 0) return;  // client gone
+  if (it == clients_.end() || it->second->serial != serial || it->second->fd < 0)
+    return;  // client gone
   Client& c = *it->second;
   send_line(c, o.error_code == 0 ? protocol::make_result(id, o.result)
                                  : protocol::make_error(id, o.error_code, o.error_message));
@@ -784,7 +819,9 @@ json Server::subscribe(Client& c, const json& params) {
     wanted.insert("*");
   } else if (ev->is_array()) {
     for (const json& e : *ev) {
-      if (!e.is_string()) throw RpcError(ErrorCode::invalid_params, "subscribe: \"events\" must be a list of event names");
+      if (!e.is_string())
+        throw RpcError(ErrorCode::invalid_params,
+                       "subscribe: \"events\" must be a list of event names");
       const std::string name = e.get<std::string>();
       if (name != "*" && !known_events().count(name)) {
         throw RpcError(ErrorCode::invalid_params, "subscribe: unknown event \"" + name + "\"");
@@ -792,7 +829,8 @@ json Server::subscribe(Client& c, const json& params) {
       wanted.insert(name);
     }
   } else {
-    throw RpcError(ErrorCode::invalid_params, "subscribe: \"events\" must be a list of event names or \"all\"");
+    throw RpcError(ErrorCode::invalid_params,
+                   "subscribe: \"events\" must be a list of event names or \"all\"");
   }
   c.events = wanted;
   json names = json::array();
@@ -811,12 +849,14 @@ json Server::authenticate(Client& c, const json& params) {
   p.only({"token"});
   const std::string token = p.string("token");
   if (!c.peer.tcp) {
-    throw RpcError(ErrorCode::invalid_state,
-                   "auth: only TCP clients authenticate; on the Unix socket your user and groups decide");
+    throw RpcError(
+        ErrorCode::invalid_state,
+        "auth: only TCP clients authenticate; on the Unix socket your user and groups decide");
   }
   if (!policy_.tcp_token_configured) {
-    throw RpcError(ErrorCode::not_permitted,
-                   "auth: this daemon has no tcp.token_file, so TCP clients may only read and send estop");
+    throw RpcError(
+        ErrorCode::not_permitted,
+        "auth: this daemon has no tcp.token_file, so TCP clients may only read and send estop");
   }
   if (!tokens_equal(token, tcp_token_)) {
     spdlog::warn("auth: wrong token from {}; connection closed", describe_peer(c.peer));
@@ -842,10 +882,12 @@ json Server::status(const Client& c) const {
                      {"tcp_port", tcp_port_ > 0 ? json(tcp_port_) : json(nullptr)}};
   // What this connection may do, so an operator can check their rights without moving anything.
   const auto refusal = refuse_control(m::stand_move, c.peer, policy_);
-  s["daemon"]["access"] = json{{"control_group", policy_.control_group.empty() ? json(nullptr) : json(policy_.control_group)},
-                               {"tcp_token", policy_.tcp_token_configured},
-                               {"peer", describe_peer(c.peer)},
-                               {"control", !refusal.has_value()}};
+  s["daemon"]["access"] =
+      json{{"control_group",
+            policy_.control_group.empty() ? json(nullptr) : json(policy_.control_group)},
+           {"tcp_token", policy_.tcp_token_configured},
+           {"peer", describe_peer(c.peer)},
+           {"control", !refusal.has_value()}};
   return s;
 }
 
@@ -866,7 +908,8 @@ void Server::send_line(Client& c, const std::string& line) {
 void Server::flush(Client& c) {
   std::size_t sent = 0;
   while (sent < c.out.size()) {
-    const ssize_t n = ::send(c.fd, c.out.data() + sent, c.out.size() - sent, MSG_NOSIGNAL | MSG_DONTWAIT);
+    const ssize_t n =
+        ::send(c.fd, c.out.data() + sent, c.out.size() - sent, MSG_NOSIGNAL | MSG_DONTWAIT);
     if (n < 0) {
       if (errno == EINTR) continue;
       if (errno != EAGAIN && errno != EWOULDBLOCK) {

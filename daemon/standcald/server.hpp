@@ -10,6 +10,7 @@
 // to them (root, the daemon's user, the control group; known at accept from SO_PEERCRED),
 // and past max_clients up to kEstopOnlySlots more connections may send one `estop` and
 // nothing else, so a flood of idle clients never blocks an emergency stop.
+#include <sys/types.h>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -20,7 +21,6 @@
 #include <set>
 #include <string>
 #include <string_view>
-#include <sys/types.h>
 #include <vector>
 
 #include "daemon/standcald/config.hpp"
@@ -45,16 +45,16 @@ struct Peer {
   pid_t pid = 0;
   uid_t uid = static_cast<uid_t>(-1);
   gid_t gid = static_cast<gid_t>(-1);
-  std::vector<gid_t> groups;  // supplementary groups of the peer process
-  std::string address;        // TCP: "127.0.0.1:53412"
-  std::string process;        // Unix socket: the peer's process name (/proc/PID/comm) at accept
+  std::vector<gid_t> groups;    // supplementary groups of the peer process
+  std::string address;          // TCP: "127.0.0.1:53412"
+  std::string process;          // Unix socket: the peer's process name (/proc/PID/comm) at accept
   bool token_accepted = false;  // TCP: sent the right token with `auth`
 };
 
 struct AccessPolicy {
-  std::string control_group;          // empty: every Unix-socket peer may command
-  gid_t control_gid = 0;              // control_group resolved at start
-  uid_t daemon_uid = 0;               // the daemon's own user always may
+  std::string control_group;  // empty: every Unix-socket peer may command
+  gid_t control_gid = 0;      // control_group resolved at start
+  uid_t daemon_uid = 0;       // the daemon's own user always may
   bool tcp_token_configured = false;
 };
 
@@ -64,7 +64,8 @@ struct AccessPolicy {
 bool is_open_method(const std::string& method);
 // Why `peer` may not call `method`, or nothing when it may. A pure function of its
 // arguments, so the tests can check every case without sockets.
-std::optional<std::string> refuse_control(const std::string& method, const Peer& peer, const AccessPolicy& policy);
+std::optional<std::string> refuse_control(const std::string& method, const Peer& peer,
+                                          const AccessPolicy& policy);
 // Compares a supplied token with the expected one in time that depends only on the
 // supplied length (no early exit on the first differing byte).
 bool tokens_equal(std::string_view supplied, std::string_view expected);

@@ -74,7 +74,8 @@ Status ModbusLink::open() {
     const int e = errno;
     modbus_close(ctx);
     modbus_free(ctx);
-    return Status::error(ErrorKind::link, "cannot switch " + url_.device + " to RS-485 mode: " + modbus_strerror(e));
+    return Status::error(ErrorKind::link,
+                         "cannot switch " + url_.device + " to RS-485 mode: " + modbus_strerror(e));
   }
   ctx_ = ctx;
   ++opens_;
@@ -98,13 +99,15 @@ Status ModbusLink::open_with_retries() {
     if (opened) return opened;
     reason = opened.message;
   }
-  return Status::error(ErrorKind::link, "no reply from " + name_ + " after " + std::to_string(timing_.tries) +
-                                            (timing_.tries == 1 ? " try" : " tries") + " (" + reason + ")");
+  return Status::error(ErrorKind::link,
+                       "no reply from " + name_ + " after " + std::to_string(timing_.tries) +
+                           (timing_.tries == 1 ? " try" : " tries") + " (" + reason + ")");
 }
 
 Status ModbusLink::reopen_if_due() {
   if (ctx_ != nullptr) return Status::ok();
-  if (Clock::now() < next_open_) return Status::error(ErrorKind::link, "link to " + name_ + " is down (back-off)");
+  if (Clock::now() < next_open_)
+    return Status::error(ErrorKind::link, "link to " + name_ + " is down (back-off)");
   return reopen_after_backoff();
 }
 
@@ -113,8 +116,10 @@ Status ModbusLink::reopen_after_backoff() {
   std::this_thread::sleep_until(next_open_);
   auto opened = open();
   if (!opened) {
-    backoff_s_ = backoff_s_ == 0.0 ? timing_.backoff_first_s : std::min(2 * backoff_s_, timing_.backoff_max_s);
-    next_open_ = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(backoff_s_));
+    backoff_s_ = backoff_s_ == 0.0 ? timing_.backoff_first_s
+                                   : std::min(2 * backoff_s_, timing_.backoff_max_s);
+    next_open_ = Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                    std::chrono::duration<double>(backoff_s_));
   }
   return opened;
 }
@@ -155,22 +160,29 @@ Status ModbusLink::call(const std::string& what, Op op) {
   if (ctx_ != nullptr) {
     close();
     backoff_s_ = timing_.backoff_first_s;
-    next_open_ = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(backoff_s_));
+    next_open_ = Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                    std::chrono::duration<double>(backoff_s_));
   }
-  return Status::error(last_kind, "no reply from " + name_ + " after " + std::to_string(timing_.tries) +
-                                      (timing_.tries == 1 ? " try" : " tries") + " (" + what + ": " +
-                                      last_reason + ")");
+  return Status::error(last_kind, "no reply from " + name_ + " after " +
+                                      std::to_string(timing_.tries) +
+                                      (timing_.tries == 1 ? " try" : " tries") + " (" + what +
+                                      ": " + last_reason + ")");
 }
 
-Status ModbusLink::read_input(std::uint16_t address, int count, std::uint16_t* dest, const std::string& what) {
-  return call(what, [&](modbus_t* ctx) { return modbus_read_input_registers(ctx, address, count, dest); });
+Status ModbusLink::read_input(std::uint16_t address, int count, std::uint16_t* dest,
+                              const std::string& what) {
+  return call(
+      what, [&](modbus_t* ctx) { return modbus_read_input_registers(ctx, address, count, dest); });
 }
 
-Status ModbusLink::read_holding(std::uint16_t address, int count, std::uint16_t* dest, const std::string& what) {
-  return call(what, [&](modbus_t* ctx) { return modbus_read_registers(ctx, address, count, dest); });
+Status ModbusLink::read_holding(std::uint16_t address, int count, std::uint16_t* dest,
+                                const std::string& what) {
+  return call(what,
+              [&](modbus_t* ctx) { return modbus_read_registers(ctx, address, count, dest); });
 }
 
-Status ModbusLink::write(std::uint16_t address, int count, const std::uint16_t* values, const std::string& what) {
+Status ModbusLink::write(std::uint16_t address, int count, const std::uint16_t* values,
+                         const std::string& what) {
   return call(what, [&](modbus_t* ctx) {
     return count == 1 ? modbus_write_register(ctx, address, values[0])
                       : modbus_write_registers(ctx, address, count, values);

@@ -21,15 +21,17 @@ class ModbusLink {
   ModbusLink(const ModbusLink&) = delete;
   ModbusLink& operator=(const ModbusLink&) = delete;
 
-  Status open();                 // opens now (ignoring back-off); closes a previous context first
-  Status open_with_retries();    // up to timing.tries opens with back-off between them
-  void close();                  // closes; the next request re-opens after the back-off
-  Status reopen_if_due();        // one open without waiting, if closed and the back-off has passed
+  Status open();               // opens now (ignoring back-off); closes a previous context first
+  Status open_with_retries();  // up to timing.tries opens with back-off between them
+  void close();                // closes; the next request re-opens after the back-off
+  Status reopen_if_due();      // one open without waiting, if closed and the back-off has passed
   bool is_open() const { return ctx_ != nullptr; }
   // Requests, each tried up to timing.tries times; `what` names the request in messages.
   Status read_input(std::uint16_t address, int count, std::uint16_t* dest, const std::string& what);
-  Status read_holding(std::uint16_t address, int count, std::uint16_t* dest, const std::string& what);
-  Status write(std::uint16_t address, int count, const std::uint16_t* values, const std::string& what);
+  Status read_holding(std::uint16_t address, int count, std::uint16_t* dest,
+                      const std::string& what);
+  Status write(std::uint16_t address, int count, const std::uint16_t* values,
+               const std::string& what);
   int opens() const { return opens_; }  // successful opens so far (first one included)
   const std::string& name() const { return name_; }
 

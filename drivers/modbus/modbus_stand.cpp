@@ -20,7 +20,9 @@ std::string format_deg(double a_deg) {
   return text;
 }
 
-bool is_link_loss(const Status& s) { return s.kind == ErrorKind::timeout || s.kind == ErrorKind::link; }
+bool is_link_loss(const Status& s) {
+  return s.kind == ErrorKind::timeout || s.kind == ErrorKind::link;
+}
 
 // An axis status block as read from the input registers.
 struct RawAxisStatus {
@@ -30,16 +32,19 @@ struct RawAxisStatus {
   std::uint16_t fault = 0;
 };
 
-Status read_axis_status(ModbusLink& link, const RegisterMap& map, StandAxis axis, RawAxisStatus& out) {
+Status read_axis_status(ModbusLink& link, const RegisterMap& map, StandAxis axis,
+                        RawAxisStatus& out) {
   const AxisRegisters& r = map.axis(axis);
   const int first = std::min({r.state, r.flags, r.angle, r.fault});
-  const int last = std::max({static_cast<int>(r.state), static_cast<int>(r.flags), r.angle + 1, static_cast<int>(r.fault)});
+  const int last = std::max({static_cast<int>(r.state), static_cast<int>(r.flags), r.angle + 1,
+                             static_cast<int>(r.fault)});
   std::vector<std::uint16_t> regs(static_cast<std::size_t>(last - first + 1));
   if (regs.size() > 125)
-    return Status::error(ErrorKind::invalid_argument, "stand config: the " + axis_text(axis) +
-                                                          " status registers span more than 125 registers");
-  auto read = link.read_input(static_cast<std::uint16_t>(first), static_cast<int>(regs.size()), regs.data(),
-                              "reading " + axis_text(axis) + " status");
+    return Status::error(
+        ErrorKind::invalid_argument,
+        "stand config: the " + axis_text(axis) + " status registers span more than 125 registers");
+  auto read = link.read_input(static_cast<std::uint16_t>(first), static_cast<int>(regs.size()),
+                              regs.data(), "reading " + axis_text(axis) + " status");
   if (!read) return read;
   out.state = regs[r.state - first];
   out.flags = regs[r.flags - first];
@@ -50,14 +55,18 @@ Status read_axis_status(ModbusLink& link, const RegisterMap& map, StandAxis axis
 
 }  // namespace
 
-Result<std::unique_ptr<ModbusStand>> ModbusStand::create(const std::string& url, ModbusStandConfig config) {
+Result<std::unique_ptr<ModbusStand>> ModbusStand::create(const std::string& url,
+                                                         ModbusStandConfig config) {
   auto parsed = parse_url(url);
   if (!parsed) return parsed.status();
-  return std::unique_ptr<ModbusStand>(new ModbusStand(std::move(parsed.value()), std::move(config)));
+  return std::unique_ptr<ModbusStand>(
+      new ModbusStand(std::move(parsed.value()), std::move(config)));
 }
 
 ModbusStand::ModbusStand(ModbusUrl url, ModbusStandConfig config)
-    : url_(std::move(url)), config_(std::move(config)), name_(describe(url_)),
+    : url_(std::move(url)),
+      config_(std::move(config)),
+      name_(describe(url_)),
       io_thread_([this] { io_loop(); }) {}
 
 ModbusStand::~ModbusStand() {
@@ -103,14 +112,17 @@ void ModbusStand::beat(ModbusLink& link) {
   // heartbeat never holds the I/O thread for long while the controller is away.
   if (!link.reopen_if_due()) return;
   const std::uint16_t counter = ++heartbeat_value_;
-  if (auto written = link.write(config_.map.heartbeat, 1, &counter, "writing the heartbeat"); !written) {
+  if (auto written = link.write(config_.map.heartbeat, 1, &counter, "writing the heartbeat");
+      !written) {
     if (is_link_loss(written)) link_lost();
     return;
   }
   ++heartbeats_;
   if (link.opens() != opens_before) {
-    const auto timeout_ms = static_cast<std::uint16_t>(std::lround(config_.timing.heartbeat_timeout_s * 1000));
-    (void)link.write(config_.map.heartbeat_timeout_ms, 1, &timeout_ms, "writing the heartbeat timeout");
+    const auto timeout_ms =
+        static_cast<std::uint16_t>(std::lround(config_.timing.heartbeat_timeout_s * 1000));
+    (void)link.write(config_.map.heartbeat_timeout_ms, 1, &timeout_ms,
+                     "writing the heartbeat timeout");
   }
 }
 
@@ -129,11 +141,15 @@ Status ModbusStand::on_link(std::function<Status(ModbusLink&)> job) {
 
 Status ModbusStand::open_and_arm(ModbusLink& link) {
   if (auto opened = link.open_with_retries(); !opened) return opened;
-  const auto timeout_ms = static_cast<std::uint16_t>(std::lround(config_.timing.heartbeat_timeout_s * 1000));
+  const auto timeout_ms =
+      static_cast<std::uint16_t>(std::lround(config_.timing.heartbeat_timeout_s * 1000));
   const std::uint16_t counter = ++heartbeat_value_;
-  if (auto w = link.write(config_.map.heartbeat_timeout_ms, 1, &timeout_ms, "writing the heartbeat timeout"); !w)
+  if (auto w = link.write(config_.map.heartbeat_timeout_ms, 1, &timeout_ms,
+                          "writing the heartbeat timeout");
+      !w)
     return w;
-  if (auto w = link.write(config_.map.heartbeat, 1, &counter, "writing the heartbeat"); !w) return w;
+  if (auto w = link.write(config_.map.heartbeat, 1, &counter, "writing the heartbeat"); !w)
+    return w;
   ++heartbeats_;
   // Read, never assume: both axes must answer before the stand counts as configured.
   for (StandAxis axis : {StandAxis::outer, StandAxis::inner}) {
@@ -178,13 +194,17 @@ Status ModbusStand::on_recover() {
   return Status::ok();
 }
 
-Status ModbusStand::write_axis_command(StandAxis axis, AxisCommand command, const std::string& what) {
+Status ModbusStand::write_axis_command(StandAxis axis, AxisCommand command,
+                                       const std::string& what) {
   const auto value = static_cast<std::uint16_t>(command);
-  return on_link([&](ModbusLink& link) { return link.write(config_.map.axis(axis).command, 1, &value, what); });
+  return on_link([&](ModbusLink& link) {
+    return link.write(config_.map.axis(axis).command, 1, &value, what);
+  });
 }
 
 Status ModbusStand::on_enable(StandAxis axis) {
-  if (auto w = write_axis_command(axis, AxisCommand::enable, "enabling the " + axis_text(axis)); !w) return w;
+  if (auto w = write_axis_command(axis, AxisCommand::enable, "enabling the " + axis_text(axis)); !w)
+    return w;
   const auto deadline = Clock::now() + std::chrono::duration<double>(config_.enable_timeout_s);
   for (;;) {
     auto state = on_read_state(axis);
@@ -192,10 +212,13 @@ Status ModbusStand::on_enable(StandAxis axis) {
     if (state.value().enabled) return Status::ok();
     if (Clock::now() > deadline) {
       const AxisState& s = state.value();
-      const std::string why = s.estop ? "emergency stop latched"
-                              : s.mode == AxisMode::fault ? "fault " + std::to_string(s.fault_code) + " (" + s.fault_text + ")"
-                                                          : to_string(s.mode);
-      return Status::error(ErrorKind::fault, "stand " + name_ + " " + axis_text(axis) + " did not enable: " + why);
+      const std::string why =
+          s.estop ? "emergency stop latched"
+          : s.mode == AxisMode::fault
+              ? "fault " + std::to_string(s.fault_code) + " (" + s.fault_text + ")"
+              : to_string(s.mode);
+      return Status::error(ErrorKind::fault,
+                           "stand " + name_ + " " + axis_text(axis) + " did not enable: " + why);
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
@@ -212,21 +235,26 @@ Status ModbusStand::on_home(StandAxis axis) {
 Status ModbusStand::on_move_to(StandAxis axis, double angle_deg) {
   const RegisterMap& map = config_.map;
   const AxisRegisters& r = map.axis(axis);
-  const std::string what = "commanding the " + axis_text(axis) + " move to " + format_deg(angle_deg);
+  const std::string what =
+      "commanding the " + axis_text(axis) + " move to " + format_deg(angle_deg);
   return on_link([&](ModbusLink& link) {
     RawAxisStatus now;
     if (auto read = read_axis_status(link, map, axis, now); !read) return read;
     // The path is planned from the controller's raw angle so a continuous axis takes the
     // shorter way without unwinding the turns it has counted.
-    auto target = path_target_deg(range(axis), angle_deg, counts_to_angle_deg(map, now.angle_counts));
-    if (!target) return Status::error(target.status().kind, "stand " + name_ + " " + axis_text(axis) + ": " +
-                                                                 target.status().message);
+    auto target =
+        path_target_deg(range(axis), angle_deg, counts_to_angle_deg(map, now.angle_counts));
+    if (!target)
+      return Status::error(target.status().kind, "stand " + name_ + " " + axis_text(axis) + ": " +
+                                                     target.status().message);
     auto counts = angle_to_counts(map, target.value());
     if (!counts) return counts.status();
     std::uint16_t block[4] = {0, 0, 0, static_cast<std::uint16_t>(AxisCommand::move)};
     put_i32(block, counts.value(), map.word_order);
-    block[2] = static_cast<std::uint16_t>(std::clamp(std::lround(config_.speed_dps / map.speed_lsb_dps), 0L, 65535L));
-    if (r.speed == r.target + 2 && r.command == r.target + 3) return link.write(r.target, 4, block, what);
+    block[2] = static_cast<std::uint16_t>(
+        std::clamp(std::lround(config_.speed_dps / map.speed_lsb_dps), 0L, 65535L));
+    if (r.speed == r.target + 2 && r.command == r.target + 3)
+      return link.write(r.target, 4, block, what);
     // Scattered registers: target and speed first, the command that acts on them last.
     if (auto w = link.write(r.target, 2, block, what); !w) return w;
     if (auto w = link.write(r.speed, 1, &block[2], what); !w) return w;
@@ -247,14 +275,17 @@ Status ModbusStand::on_emergency_stop() {
 
 Result<AxisState> ModbusStand::on_read_state(StandAxis axis) {
   RawAxisStatus raw;
-  auto read = on_link([&](ModbusLink& link) { return read_axis_status(link, config_.map, axis, raw); });
+  auto read =
+      on_link([&](ModbusLink& link) { return read_axis_status(link, config_.map, axis, raw); });
   if (!read) return read;
   if (raw.state > static_cast<std::uint16_t>(StateCode::fault))
     return Status::error(ErrorKind::protocol, "stand " + name_ + " " + axis_text(axis) +
-                                                  " reports an unknown state code " + std::to_string(raw.state));
+                                                  " reports an unknown state code " +
+                                                  std::to_string(raw.state));
   AxisState s;
   s.mode = static_cast<AxisMode>(raw.state);
-  s.angle_deg = normalise_reading_deg(range(axis), counts_to_angle_deg(config_.map, raw.angle_counts));
+  s.angle_deg =
+      normalise_reading_deg(range(axis), counts_to_angle_deg(config_.map, raw.angle_counts));
   s.enabled = raw.flags & kFlagEnabled;
   s.homed = raw.flags & kFlagHomed;
   s.stopped_by_heartbeat = raw.flags & kFlagStoppedByHeartbeat;

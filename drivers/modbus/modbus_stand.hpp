@@ -26,14 +26,17 @@ namespace standcal::drivers::modbus {
 class ModbusStand final : public Stand {
  public:
   // Checks the URL; opens nothing until configure().
-  static Result<std::unique_ptr<ModbusStand>> create(const std::string& url, ModbusStandConfig config);
+  static Result<std::unique_ptr<ModbusStand>> create(const std::string& url,
+                                                     ModbusStandConfig config);
   ~ModbusStand() override;
 
-  AxisRange range(StandAxis axis) const override { return config_.ranges[static_cast<int>(axis) - 1]; }
+  AxisRange range(StandAxis axis) const override {
+    return config_.ranges[static_cast<int>(axis) - 1];
+  }
   std::string name() const override { return name_; }
 
   std::uint64_t heartbeats_written() const { return heartbeats_.load(); }  // for bring-up and tests
-  int link_opens() const { return link_opens_.load(); }                     // 1 + reconnects so far
+  int link_opens() const { return link_opens_.load(); }                    // 1 + reconnects so far
 
  protected:
   // The controller's steps over the link; drivers/stand/lifecycle.cpp decides when they run.

@@ -33,9 +33,9 @@ std::string unknown_key(const json& object, std::string_view where,
 void read_address(const json& object, const char* key, std::uint16_t& out) {
   if (!object.contains(key)) return;
   const json& v = object.at(key);
-  if (!v.is_number_integer() || (v.is_number_unsigned() ? v.get<std::uint64_t>() > 65535
-                                                         : v.get<std::int64_t>() < 0 ||
-                                                               v.get<std::int64_t>() > 65535))
+  if (!v.is_number_integer() ||
+      (v.is_number_unsigned() ? v.get<std::uint64_t>() > 65535
+                              : v.get<std::int64_t>() < 0 || v.get<std::int64_t>() > 65535))
     throw json::out_of_range::create(
         406, std::string("register ") + key + " must be a whole number 0..65535, got " + v.dump(),
         nullptr);
@@ -67,8 +67,9 @@ void read_value(const json& object, const char* key, T& out) {
 }
 
 std::string parse_axis_registers(const json& j, const std::string& where, AxisRegisters& r) {
-  if (auto why = unknown_key(j, where, {"target", "speed", "command", "state", "flags", "angle",
-                                        "fault", "command_count"});
+  if (auto why = unknown_key(
+          j, where,
+          {"target", "speed", "command", "state", "flags", "angle", "fault", "command_count"});
       !why.empty())
     return why;
   read_address(j, "target", r.target);
@@ -83,8 +84,9 @@ std::string parse_axis_registers(const json& j, const std::string& where, AxisRe
 }
 
 std::string parse_registers(const json& j, RegisterMap& map) {
-  if (auto why = unknown_key(j, "registers", {"heartbeat", "heartbeat_timeout_ms", "global_command",
-                                              "global_flags", "map_version", "outer", "inner"});
+  if (auto why = unknown_key(j, "registers",
+                             {"heartbeat", "heartbeat_timeout_ms", "global_command", "global_flags",
+                              "map_version", "outer", "inner"});
       !why.empty())
     return why;
   read_address(j, "heartbeat", map.heartbeat);
@@ -93,17 +95,22 @@ std::string parse_registers(const json& j, RegisterMap& map) {
   read_address(j, "global_flags", map.global_flags);
   read_address(j, "map_version", map.map_version);
   if (j.contains("outer")) {
-    if (auto why = parse_axis_registers(j.at("outer"), "registers.outer", map.axes[0]); !why.empty()) return why;
+    if (auto why = parse_axis_registers(j.at("outer"), "registers.outer", map.axes[0]);
+        !why.empty())
+      return why;
   }
   if (j.contains("inner")) {
-    if (auto why = parse_axis_registers(j.at("inner"), "registers.inner", map.axes[1]); !why.empty()) return why;
+    if (auto why = parse_axis_registers(j.at("inner"), "registers.inner", map.axes[1]);
+        !why.empty())
+      return why;
   }
   return {};
 }
 
 std::string parse_timing(const json& j, LinkTiming& t) {
-  if (auto why = unknown_key(j, "timing", {"timeout_s", "tries", "backoff_first_s", "backoff_max_s",
-                                           "heartbeat_period_s", "heartbeat_timeout_s"});
+  if (auto why = unknown_key(j, "timing",
+                             {"timeout_s", "tries", "backoff_first_s", "backoff_max_s",
+                              "heartbeat_period_s", "heartbeat_timeout_s"});
       !why.empty())
     return why;
   read_value(j, "timeout_s", t.timeout_s);
@@ -112,24 +119,29 @@ std::string parse_timing(const json& j, LinkTiming& t) {
   read_value(j, "backoff_max_s", t.backoff_max_s);
   read_value(j, "heartbeat_period_s", t.heartbeat_period_s);
   read_value(j, "heartbeat_timeout_s", t.heartbeat_timeout_s);
-  if (t.timeout_s <= 0 || t.tries < 1 || t.backoff_first_s < 0 || t.backoff_max_s < t.backoff_first_s ||
-      t.heartbeat_period_s <= 0 || t.heartbeat_timeout_s < 0 || t.heartbeat_timeout_s > 65.535)
+  if (t.timeout_s <= 0 || t.tries < 1 || t.backoff_first_s < 0 ||
+      t.backoff_max_s < t.backoff_first_s || t.heartbeat_period_s <= 0 ||
+      t.heartbeat_timeout_s < 0 || t.heartbeat_timeout_s > 65.535)
     return "timing: need timeout_s > 0, tries >= 1, 0 <= backoff_first_s <= backoff_max_s, "
            "heartbeat_period_s > 0, 0 <= heartbeat_timeout_s <= 65.535";
   return {};
 }
 
 std::string parse_range(const json& j, const std::string& where, AxisRange& r) {
-  if (auto why = unknown_key(j, where, {"continuous", "min_deg", "max_deg", "cable_wrap"}); !why.empty())
+  if (auto why = unknown_key(j, where, {"continuous", "min_deg", "max_deg", "cable_wrap"});
+      !why.empty())
     return why;
   read_value(j, "continuous", r.continuous);
   read_value(j, "min_deg", r.min_deg);
   read_value(j, "max_deg", r.max_deg);
   if (j.contains("cable_wrap")) {
     const auto policy = j.at("cable_wrap").get<std::string>();
-    if (policy == "nearest") r.cable_wrap = CableWrap::nearest;
-    else if (policy == "centred") r.cable_wrap = CableWrap::centred;
-    else return where + ".cable_wrap must be \"nearest\" or \"centred\"";
+    if (policy == "nearest")
+      r.cable_wrap = CableWrap::nearest;
+    else if (policy == "centred")
+      r.cable_wrap = CableWrap::centred;
+    else
+      return where + ".cable_wrap must be \"nearest\" or \"centred\"";
   }
   if (!r.continuous && !(r.min_deg < r.max_deg)) return where + ": need min_deg < max_deg";
   return {};
@@ -137,19 +149,24 @@ std::string parse_range(const json& j, const std::string& where, AxisRange& r) {
 
 std::string parse_all(const json& j, ModbusStandConfig& c) {
   if (!j.is_object()) return "the top level must be a JSON object";
-  if (auto why = unknown_key(j, "the top level", {"word_order", "angle_lsb_deg", "speed_lsb_dps", "registers",
-                                                  "timing", "axes", "speed_dps", "enable_timeout_s"});
+  if (auto why = unknown_key(j, "the top level",
+                             {"word_order", "angle_lsb_deg", "speed_lsb_dps", "registers", "timing",
+                              "axes", "speed_dps", "enable_timeout_s"});
       !why.empty())
     return why;
   if (j.contains("word_order")) {
     const auto order = j.at("word_order").get<std::string>();
-    if (order == "high_first") c.map.word_order = WordOrder::high_first;
-    else if (order == "low_first") c.map.word_order = WordOrder::low_first;
-    else return "word_order must be \"high_first\" or \"low_first\"";
+    if (order == "high_first")
+      c.map.word_order = WordOrder::high_first;
+    else if (order == "low_first")
+      c.map.word_order = WordOrder::low_first;
+    else
+      return "word_order must be \"high_first\" or \"low_first\"";
   }
   read_value(j, "angle_lsb_deg", c.map.angle_lsb_deg);
   read_value(j, "speed_lsb_dps", c.map.speed_lsb_dps);
-  if (!(c.map.angle_lsb_deg > 0) || !(c.map.speed_lsb_dps > 0)) return "angle_lsb_deg and speed_lsb_dps must be > 0";
+  if (!(c.map.angle_lsb_deg > 0) || !(c.map.speed_lsb_dps > 0))
+    return "angle_lsb_deg and speed_lsb_dps must be > 0";
   read_value(j, "speed_dps", c.speed_dps);
   read_value(j, "enable_timeout_s", c.enable_timeout_s);
   if (j.contains("registers")) {
@@ -162,10 +179,12 @@ std::string parse_all(const json& j, ModbusStandConfig& c) {
     const json& axes = j.at("axes");
     if (auto why = unknown_key(axes, "axes", {"outer", "inner"}); !why.empty()) return why;
     if (axes.contains("outer")) {
-      if (auto why = parse_range(axes.at("outer"), "axes.outer", c.ranges[0]); !why.empty()) return why;
+      if (auto why = parse_range(axes.at("outer"), "axes.outer", c.ranges[0]); !why.empty())
+        return why;
     }
     if (axes.contains("inner")) {
-      if (auto why = parse_range(axes.at("inner"), "axes.inner", c.ranges[1]); !why.empty()) return why;
+      if (auto why = parse_range(axes.at("inner"), "axes.inner", c.ranges[1]); !why.empty())
+        return why;
     }
   }
   return {};
@@ -177,7 +196,8 @@ int max_address(std::initializer_list<int> addresses) { return std::max(addresse
 
 int RegisterMap::holding_size() const {
   int top = max_address({heartbeat, heartbeat_timeout_ms, global_command});
-  for (const auto& a : axes) top = std::max({top, a.target + 1, static_cast<int>(a.speed), static_cast<int>(a.command)});
+  for (const auto& a : axes)
+    top = std::max({top, a.target + 1, static_cast<int>(a.speed), static_cast<int>(a.command)});
   return top + 1;
 }
 
@@ -191,12 +211,18 @@ int RegisterMap::input_size() const {
 
 const char* fault_text(int code) {
   switch (code) {
-    case 0: return "no fault";
-    case kFaultFollowing: return "following error: the axis does not follow the command (stuck or blocked)";
-    case kFaultSoftLimit: return "soft limit reached";
-    case kFaultDrive: return "drive fault";
-    case kFaultHoming: return "homing failed: reference not found";
-    default: return "unknown fault code (see the controller's manual)";
+    case 0:
+      return "no fault";
+    case kFaultFollowing:
+      return "following error: the axis does not follow the command (stuck or blocked)";
+    case kFaultSoftLimit:
+      return "soft limit reached";
+    case kFaultDrive:
+      return "drive fault";
+    case kFaultHoming:
+      return "homing failed: reference not found";
+    default:
+      return "unknown fault code (see the controller's manual)";
   }
 }
 
@@ -218,12 +244,15 @@ Result<std::int32_t> angle_to_counts(const RegisterMap& map, double angle_deg) {
   const double counts = std::round(angle_deg / map.angle_lsb_deg);
   if (!std::isfinite(counts) || counts > std::numeric_limits<std::int32_t>::max() ||
       counts < std::numeric_limits<std::int32_t>::min())
-    return Status::error(ErrorKind::invalid_argument,
-                         "angle " + std::to_string(angle_deg) + "° does not fit the 32-bit angle register");
+    return Status::error(
+        ErrorKind::invalid_argument,
+        "angle " + std::to_string(angle_deg) + "° does not fit the 32-bit angle register");
   return static_cast<std::int32_t>(counts);
 }
 
-double counts_to_angle_deg(const RegisterMap& map, std::int32_t counts) { return counts * map.angle_lsb_deg; }
+double counts_to_angle_deg(const RegisterMap& map, std::int32_t counts) {
+  return counts * map.angle_lsb_deg;
+}
 
 Result<ModbusStandConfig> parse_config(const nlohmann::json& json) {
   ModbusStandConfig config;

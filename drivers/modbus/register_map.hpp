@@ -36,12 +36,12 @@ struct RegisterMap {
   std::uint16_t heartbeat_timeout_ms = 1;  // 0 disables the controller's watchdog
   std::uint16_t global_command = 2;        // GlobalCommand
   // Input registers.
-  std::uint16_t global_flags = 0;          // GlobalFlag bits
-  std::uint16_t map_version = 1;           // kMapVersion
+  std::uint16_t global_flags = 0;  // GlobalFlag bits
+  std::uint16_t map_version = 1;   // kMapVersion
   std::array<AxisRegisters, 2> axes{AxisRegisters{100, 102, 103, 100, 101, 102, 104, 105},
                                     AxisRegisters{200, 202, 203, 200, 201, 202, 204, 205}};
-  double angle_lsb_deg = 0.0001;   // one count of a 32-bit angle
-  double speed_lsb_dps = 0.01;     // one count of the 16-bit speed
+  double angle_lsb_deg = 0.0001;  // one count of a 32-bit angle
+  double speed_lsb_dps = 0.01;    // one count of the 16-bit speed
   WordOrder word_order = WordOrder::high_first;
 
   const AxisRegisters& axis(StandAxis a) const { return axes[static_cast<int>(a) - 1]; }
@@ -53,11 +53,25 @@ struct RegisterMap {
 inline constexpr std::uint16_t kMapVersion = 1;
 
 // Axis command register values. The controller clears the register when it has acted.
-enum class AxisCommand : std::uint16_t { none = 0, enable = 1, disable = 2, home = 3, move = 4, stop = 5 };
+enum class AxisCommand : std::uint16_t {
+  none = 0,
+  enable = 1,
+  disable = 2,
+  home = 3,
+  move = 4,
+  stop = 5
+};
 // Global command register values.
 enum class GlobalCommand : std::uint16_t { none = 0, emergency_stop = 1, reset = 2 };
 // Axis state register values; the order of AxisMode.
-enum class StateCode : std::uint16_t { disabled = 0, idle = 1, homing = 2, moving = 3, in_position = 4, fault = 5 };
+enum class StateCode : std::uint16_t {
+  disabled = 0,
+  idle = 1,
+  homing = 2,
+  moving = 3,
+  in_position = 4,
+  fault = 5
+};
 // Axis flag bits.
 inline constexpr std::uint16_t kFlagEnabled = 1u << 0;
 inline constexpr std::uint16_t kFlagHomed = 1u << 1;
@@ -96,7 +110,7 @@ struct ModbusStandConfig {
   RegisterMap map;
   LinkTiming timing;
   std::array<AxisRange, 2> ranges{AxisRange{}, AxisRange{}};
-  double speed_dps = 10.0;      // commanded speed of moves; 0 leaves the controller's default
+  double speed_dps = 10.0;        // commanded speed of moves; 0 leaves the controller's default
   double enable_timeout_s = 2.0;  // how long enable() waits for the drive to report enabled
 };
 

@@ -52,7 +52,8 @@ std::string apply_query(ModbusUrl& url, std::string_view query) {
     query = amp == std::string_view::npos ? std::string_view{} : query.substr(amp + 1);
     const auto eq = item.find('=');
     if (eq == std::string_view::npos) return "option '" + std::string(item) + "' has no '='";
-    if (auto why = apply_option(url, item.substr(0, eq), item.substr(eq + 1)); !why.empty()) return why;
+    if (auto why = apply_option(url, item.substr(0, eq), item.substr(eq + 1)); !why.empty())
+      return why;
   }
   return {};
 }
@@ -78,7 +79,8 @@ Result<ModbusUrl> parse_url(const std::string& text) {
   url.text = text;
   std::string_view rest = text;
   const auto question = rest.find('?');
-  const std::string_view query = question == std::string_view::npos ? std::string_view{} : rest.substr(question + 1);
+  const std::string_view query =
+      question == std::string_view::npos ? std::string_view{} : rest.substr(question + 1);
   rest = rest.substr(0, question);
   std::string why;
   if (rest.starts_with("tcp://")) {
@@ -88,9 +90,12 @@ Result<ModbusUrl> parse_url(const std::string& text) {
     url.transport = ModbusUrl::Transport::rtu;
     url.device = std::string(rest.substr(4));
     if (url.device.starts_with("//")) url.device.erase(0, 2);  // rtu:///dev/x also names /dev/x
-    if (url.device.empty() || url.device[0] != '/') why = "rtu needs a device path, e.g. rtu:/dev/ttyUSB0";
+    if (url.device.empty() || url.device[0] != '/')
+      why = "rtu needs a device path, e.g. rtu:/dev/ttyUSB0";
   } else {
-    why = "unknown scheme (use tcp://HOST:PORT?unit=1 or rtu:/dev/ttyUSB0?baud=115200&parity=N&unit=1)";
+    why =
+        "unknown scheme (use tcp://HOST:PORT?unit=1 or "
+        "rtu:/dev/ttyUSB0?baud=115200&parity=N&unit=1)";
   }
   if (why.empty()) why = apply_query(url, query);
   if (!why.empty()) return bad(text, why);

@@ -9,7 +9,8 @@ SimBackend make_sim_backend(const SimBackendConfig& config) {
   auto clock = std::make_shared<const SimClock>(config.time_scale);
   auto stand = std::make_shared<SimStand>(
       clock, SimStandConfig{config.outer, config.inner, config.move_rate_deg_s});
-  auto unit = std::make_shared<SimUnit>(clock, stand, config.truth, config.seed, config.sample_rate_hz);
+  auto unit =
+      std::make_shared<SimUnit>(clock, stand, config.truth, config.seed, config.sample_rate_hz);
   SimBackend backend;
   backend.stand = stand;
   backend.unit = unit;

@@ -113,11 +113,16 @@ Result<AxisState> SimStand::on_read_state(StandAxis axis) {
   s.enabled = a.enabled;
   s.homed = a.homed;
   s.estop = estop_;
-  if (!a.enabled) s.mode = AxisMode::disabled;
-  else if (a.homing) s.mode = AxisMode::homing;
-  else if (a.commanded && !arrived(a, t)) s.mode = AxisMode::moving;
-  else if (a.commanded) s.mode = AxisMode::in_position;
-  else s.mode = AxisMode::idle;
+  if (!a.enabled)
+    s.mode = AxisMode::disabled;
+  else if (a.homing)
+    s.mode = AxisMode::homing;
+  else if (a.commanded && !arrived(a, t))
+    s.mode = AxisMode::moving;
+  else if (a.commanded)
+    s.mode = AxisMode::in_position;
+  else
+    s.mode = AxisMode::idle;
   return s;
 }
 

@@ -37,7 +37,8 @@ Result<std::vector<AccelSample>> SimUnit::collect(double seconds) {
   if (silent_) {
     health_.silent = true;
     return Status::error(ErrorKind::timeout, "no data from the accelerometer unit (sim) for " +
-                                                 std::to_string(seconds) + " s: the unit is silent");
+                                                 std::to_string(seconds) +
+                                                 " s: the unit is silent");
   }
   health_.silent = false;
   // Samples on a fixed grid: continue it, or restart it when the caller paused.

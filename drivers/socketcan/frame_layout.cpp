@@ -24,7 +24,8 @@ namespace {
 // A layout number must be a whole number inside its field's range: converting a larger
 // or fractional JSON number would wrap or be undefined (fuzz/regressions/can_layout_json).
 long long whole_number(const nlohmann::json& v, const char* key, long long lo, long long hi) {
-  if (v.is_number_integer() && !(v.is_number_unsigned() && v.get<std::uint64_t>() > static_cast<std::uint64_t>(hi))) {
+  if (v.is_number_integer() &&
+      !(v.is_number_unsigned() && v.get<std::uint64_t>() > static_cast<std::uint64_t>(hi))) {
     const long long n = v.get<long long>();
     if (n >= lo && n <= hi) return n;
   }

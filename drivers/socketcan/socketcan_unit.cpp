@@ -101,7 +101,7 @@ Result<std::vector<AccelSample>> SocketCanUnit::collect(double seconds) {
   // after a cable is plugged back, the next collect must not fail before a frame can come.
   if (health_.silent)
     last_unit_frame_mono_s_ = std::max(last_unit_frame_mono_s_, monotonic_now_s());
-  const double start_real_s = realtime_now_s();     // samples before it are not ours
+  const double start_real_s = realtime_now_s();  // samples before it are not ours
   const double deadline_s = monotonic_now_s() + seconds;
   bus_off_seen_ = false;  // from here a bus-off fails the call, restarted or not
   for (;;) {

@@ -57,8 +57,9 @@ Status stopped_reason(const Stand& stand, StandAxis axis, const AxisState& state
     return Status::error(ErrorKind::estop, where + " is in emergency stop while " + doing);
   // The flag stays set until the next command; an axis moving again has had one.
   if (state.stopped_by_heartbeat && !in_motion(state))
-    return Status::error(ErrorKind::link, where + " was stopped by the controller (heartbeat lost) while " +
-                                              doing + ", at " + format_deg(state.angle_deg));
+    return Status::error(ErrorKind::link,
+                         where + " was stopped by the controller (heartbeat lost) while " + doing +
+                             ", at " + format_deg(state.angle_deg));
   if (!state.enabled)
     return Status::error(ErrorKind::not_allowed, where + " is disabled while " + doing);
   return Status::ok();
@@ -91,22 +92,32 @@ const char* to_string(StandAxis axis) { return axis == StandAxis::outer ? "outer
 
 const char* to_string(AxisMode mode) {
   switch (mode) {
-    case AxisMode::disabled: return "disabled";
-    case AxisMode::idle: return "idle";
-    case AxisMode::homing: return "homing";
-    case AxisMode::moving: return "moving";
-    case AxisMode::in_position: return "in_position";
-    case AxisMode::fault: return "fault";
+    case AxisMode::disabled:
+      return "disabled";
+    case AxisMode::idle:
+      return "idle";
+    case AxisMode::homing:
+      return "homing";
+    case AxisMode::moving:
+      return "moving";
+    case AxisMode::in_position:
+      return "in_position";
+    case AxisMode::fault:
+      return "fault";
   }
   return "unknown";
 }
 
 const char* to_string(Lifecycle lifecycle) {
   switch (lifecycle) {
-    case Lifecycle::unconfigured: return "unconfigured";
-    case Lifecycle::inactive: return "inactive";
-    case Lifecycle::active: return "active";
-    case Lifecycle::error: return "error";
+    case Lifecycle::unconfigured:
+      return "unconfigured";
+    case Lifecycle::inactive:
+      return "inactive";
+    case Lifecycle::active:
+      return "active";
+    case Lifecycle::error:
+      return "error";
   }
   return "unknown";
 }
@@ -124,12 +135,13 @@ Result<double> normalise_target_deg(const AxisRange& range, double angle_deg, do
       range.cable_wrap == CableWrap::nearest ? current_deg : 0.5 * (range.min_deg + range.max_deg);
   double best = std::numeric_limits<double>::quiet_NaN();
   for (double candidate = lowest; candidate <= range.max_deg + kEdge_deg; candidate += 360.0) {
-    if (std::isnan(best) || std::abs(candidate - reference) < std::abs(best - reference)) best = candidate;
+    if (std::isnan(best) || std::abs(candidate - reference) < std::abs(best - reference))
+      best = candidate;
   }
   if (std::isnan(best))
-    return Status::error(ErrorKind::limit, "angle " + format_deg(angle_deg) + " is outside the range [" +
-                                               format_deg(range.min_deg) + ", " +
-                                               format_deg(range.max_deg) + "]");
+    return Status::error(ErrorKind::limit,
+                         "angle " + format_deg(angle_deg) + " is outside the range [" +
+                             format_deg(range.min_deg) + ", " + format_deg(range.max_deg) + "]");
   return best;
 }
 

@@ -22,7 +22,8 @@ namespace {
 // A CAN FD layout: extended id, Intel order, 32-bit forces in mg, 12-bit counter.
 can::FrameLayout fd_layout() {
   std::vector<can::SignalSpec> signals;
-  const can::SignalRole forces[] = {can::SignalRole::force_x, can::SignalRole::force_y, can::SignalRole::force_z};
+  const can::SignalRole forces[] = {can::SignalRole::force_x, can::SignalRole::force_y,
+                                    can::SignalRole::force_z};
   for (int i = 0; i < 3; ++i) {
     can::SignalSpec s;
     s.name = "f" + std::to_string(i);
@@ -56,7 +57,9 @@ can::FrameLayout fd_layout() {
   temp.unit = "degC";
   signals.push_back(temp);
   auto layout = can::FrameLayout::from_signals(std::move(signals));
-  if (!layout) standcal::fuzz::report_finding("can_frames: the harness's FD layout is invalid: " + layout.status().message);
+  if (!layout)
+    standcal::fuzz::report_finding("can_frames: the harness's FD layout is invalid: " +
+                                   layout.status().message);
   return layout.value();
 }
 
@@ -71,13 +74,13 @@ std::uint32_t read_le32(const std::uint8_t* p) {
          static_cast<std::uint32_t>(p[2]) << 16 | static_cast<std::uint32_t>(p[3]) << 24;
 }
 
-void check_order(const std::vector<standcal::drivers::AccelSample>& out, std::size_t from, bool& have_last,
-                 std::uint64_t& last_counter) {
+void check_order(const std::vector<standcal::drivers::AccelSample>& out, std::size_t from,
+                 bool& have_last, std::uint64_t& last_counter) {
   for (std::size_t i = from; i < out.size(); ++i) {
     if (have_last)
       standcal::fuzz::require(out[i].counter > last_counter,
-                              "can_frames: sample counter " + std::to_string(out[i].counter) + " delivered after " +
-                                  std::to_string(last_counter));
+                              "can_frames: sample counter " + std::to_string(out[i].counter) +
+                                  " delivered after " + std::to_string(last_counter));
     have_last = true;
     last_counter = out[i].counter;
   }
@@ -89,7 +92,8 @@ int standcal_fuzz_can_frames(const std::uint8_t* data, std::size_t size) {
   if (size < 1) return 0;
   return standcal::fuzz::expect_no_exceptions("can_frames", [&] {
     const can::FrameLayout& layout = pick_layout(data[0]);
-    can::SampleJoiner joiner(layout.counter_modulus(), static_cast<std::uint32_t>((data[0] >> 1) & 0x0F));
+    can::SampleJoiner joiner(layout.counter_modulus(),
+                             static_cast<std::uint32_t>((data[0] >> 1) & 0x0F));
     std::vector<standcal::drivers::AccelSample> out;
     bool have_last = false;
     std::uint64_t last_counter = 0;
@@ -113,9 +117,10 @@ int standcal_fuzz_can_frames(const std::uint8_t* data, std::size_t size) {
       t_s += 0.001;
     }
     const auto& c = joiner.counters();
-    standcal::fuzz::require(c.samples == out.size(), "can_frames: the joiner's sample count " +
-                                                         std::to_string(c.samples) + " differs from the " +
-                                                         std::to_string(out.size()) + " samples delivered");
+    standcal::fuzz::require(c.samples == out.size(),
+                            "can_frames: the joiner's sample count " + std::to_string(c.samples) +
+                                " differs from the " + std::to_string(out.size()) +
+                                " samples delivered");
     joiner.reset();
   });
 }

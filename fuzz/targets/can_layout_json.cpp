@@ -24,8 +24,9 @@ void check_numbers_kept(const nlohmann::json& doc, const can::FrameLayout& layou
     const auto check = [&](const char* key, int value) {
       if (!given[i].is_object() || !given[i].contains(key) || !given[i][key].is_number()) return;
       standcal::fuzz::require(given[i][key].get<double>() == value,
-                              "can_layout_json: signals[" + std::to_string(i) + "]." + key + " given as " +
-                                  given[i][key].dump() + " was accepted as " + std::to_string(value));
+                              "can_layout_json: signals[" + std::to_string(i) + "]." + key +
+                                  " given as " + given[i][key].dump() + " was accepted as " +
+                                  std::to_string(value));
     };
     check("start_bit", kept[i].start_bit);
     check("length", kept[i].length);

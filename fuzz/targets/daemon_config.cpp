@@ -12,6 +12,7 @@ int standcal_fuzz_daemon_config(const std::uint8_t* data, std::size_t size) {
   if (doc.is_discarded()) return 0;  // not JSON: load_config rejects it before parse_config
   return standcal::fuzz::expect_only_runtime_errors("daemon_config", [&] {
     const standcal::daemon::DaemonConfig config = standcal::daemon::parse_config(doc, "fuzz-input");
-    standcal::fuzz::require(!standcal::daemon::config_hash(config).empty(), "daemon_config: empty config hash");
+    standcal::fuzz::require(!standcal::daemon::config_hash(config).empty(),
+                            "daemon_config: empty config hash");
   });
 }

@@ -50,7 +50,8 @@ int expect_only_runtime_errors(const char* target, Body&& body) {
   } catch (const std::runtime_error&) {
     // Documented rejection of bad input.
   } catch (const std::exception& e) {
-    report_finding(std::string(target) + ": unexpected exception " + typeid(e).name() + ": " + e.what());
+    report_finding(std::string(target) + ": unexpected exception " + typeid(e).name() + ": " +
+                   e.what());
   } catch (...) {
     report_finding(std::string(target) + ": unexpected exception of unknown type");
   }
@@ -69,7 +70,8 @@ int expect_no_exceptions(const char* target, Body&& body) {
     report_finding(std::string(target) + ": exception " + typeid(e).name() +
                    " escaped a Result-returning reader: " + e.what());
   } catch (...) {
-    report_finding(std::string(target) + ": exception of unknown type escaped a Result-returning reader");
+    report_finding(std::string(target) +
+                   ": exception of unknown type escaped a Result-returning reader");
   }
   return 0;
 }

@@ -23,30 +23,51 @@ using nlohmann::json;
 namespace {
 
 void check_answer(const std::string& line, const json& id) {
-  standcal::fuzz::require(line.find('\n') == std::string::npos, "jsonrpc_request: an answer contains a newline");
+  standcal::fuzz::require(line.find('\n') == std::string::npos,
+                          "jsonrpc_request: an answer contains a newline");
   const json answer = json::parse(line, nullptr, /*allow_exceptions=*/false);
-  standcal::fuzz::require(!answer.is_discarded(), "jsonrpc_request: an answer is not valid JSON: " + line);
-  standcal::fuzz::require(answer.contains("id") && answer["id"] == id, "jsonrpc_request: an answer lost the id");
+  standcal::fuzz::require(!answer.is_discarded(),
+                          "jsonrpc_request: an answer is not valid JSON: " + line);
+  standcal::fuzz::require(answer.contains("id") && answer["id"] == id,
+                          "jsonrpc_request: an answer lost the id");
 }
 
 // Typed parameter access as the daemon's methods do it; RpcError is the documented rejection.
 void access_params(const rpc::Request& req) {
   const rpc::Params p(req.params, req.method);
-  const char* keys[] = {"axis", "angle_deg", "program", "run_id", "events", "dwell_s", "follow", "limit"};
+  const char* keys[] = {"axis",   "angle_deg", "program", "run_id",
+                        "events", "dwell_s",   "follow",  "limit"};
   for (const char* key : keys) {
-    try { (void)p.optional_number(key); } catch (const rpc::RpcError&) {}
-    try { (void)p.optional_integer(key, 1, 1000); } catch (const rpc::RpcError&) {}
-    try { (void)p.optional_string(key); } catch (const rpc::RpcError&) {}
-    try { (void)p.optional_bool(key, false); } catch (const rpc::RpcError&) {}
+    try {
+      (void)p.optional_number(key);
+    } catch (const rpc::RpcError&) {
+    }
+    try {
+      (void)p.optional_integer(key, 1, 1000);
+    } catch (const rpc::RpcError&) {
+    }
+    try {
+      (void)p.optional_string(key);
+    } catch (const rpc::RpcError&) {
+    }
+    try {
+      (void)p.optional_bool(key, false);
+    } catch (const rpc::RpcError&) {
+    }
   }
-  try { p.only({"axis", "angle_deg"}); } catch (const rpc::RpcError&) {}
+  try {
+    p.only({"axis", "angle_deg"});
+  } catch (const rpc::RpcError&) {
+  }
 }
 
 void handle(const std::string& line) {
-  standcal::fuzz::require(line.find('\n') == std::string::npos, "jsonrpc_request: a framed line contains a newline");
+  standcal::fuzz::require(line.find('\n') == std::string::npos,
+                          "jsonrpc_request: a framed line contains a newline");
   const auto parsed = rpc::parse_request(line);
   if (const auto* bad = std::get_if<rpc::BadRequest>(&parsed)) {
-    check_answer(rpc::make_error(bad->id, bad->error.code(), bad->error.what(), bad->error.data()), bad->id);
+    check_answer(rpc::make_error(bad->id, bad->error.code(), bad->error.what(), bad->error.data()),
+                 bad->id);
     return;
   }
   const auto& req = std::get<rpc::Request>(parsed);

@@ -15,12 +15,14 @@ using nlohmann::json;
 namespace {
 
 // The address the file gave for `key` must be the one the map holds.
-void check_address(const json& section, const char* key, std::uint16_t parsed, const std::string& where) {
+void check_address(const json& section, const char* key, std::uint16_t parsed,
+                   const std::string& where) {
   if (!section.is_object() || !section.contains(key) || !section[key].is_number()) return;
   const double given = section[key].get<double>();
   standcal::fuzz::require(given == static_cast<double>(parsed),
-                          "modbus_config: register " + where + key + " given as " + section[key].dump() +
-                              " was accepted as address " + std::to_string(parsed));
+                          "modbus_config: register " + where + key + " given as " +
+                              section[key].dump() + " was accepted as address " +
+                              std::to_string(parsed));
 }
 
 void check_axis(const json& registers, const char* name, const modbus::AxisRegisters& a) {
@@ -41,8 +43,9 @@ void check_sizes(const modbus::RegisterMap& map) {
   const int holding = map.holding_size();
   const int input = map.input_size();
   auto covered = [](int address, int size, const char* what) {
-    standcal::fuzz::require(address < size, std::string("modbus_config: table size ") + std::to_string(size) +
-                                                " does not cover " + what + " at " + std::to_string(address));
+    standcal::fuzz::require(address < size, std::string("modbus_config: table size ") +
+                                                std::to_string(size) + " does not cover " + what +
+                                                " at " + std::to_string(address));
   };
   covered(map.heartbeat, holding, "heartbeat");
   covered(map.global_command, holding, "global_command");

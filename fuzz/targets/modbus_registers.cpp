@@ -28,13 +28,16 @@ void check_pair(const modbus::RegisterMap& map, const std::uint16_t words[2]) {
   const std::int32_t counts = modbus::get_i32(words, map.word_order);
   std::uint16_t again[2] = {0, 0};
   modbus::put_i32(again, counts, map.word_order);
-  standcal::fuzz::require(again[0] == words[0] && again[1] == words[1], "modbus_registers: put_i32(get_i32(w)) != w");
+  standcal::fuzz::require(again[0] == words[0] && again[1] == words[1],
+                          "modbus_registers: put_i32(get_i32(w)) != w");
   const double angle_deg = modbus::counts_to_angle_deg(map, counts);
   const auto back = modbus::angle_to_counts(map, angle_deg);
-  standcal::fuzz::require(static_cast<bool>(back), "modbus_registers: angle " + std::to_string(angle_deg) +
-                                                       " read from the controller cannot be commanded back");
-  standcal::fuzz::require(back.value() == counts, "modbus_registers: counts " + std::to_string(counts) +
-                                                      " -> angle -> counts gave " + std::to_string(back.value()));
+  standcal::fuzz::require(static_cast<bool>(back),
+                          "modbus_registers: angle " + std::to_string(angle_deg) +
+                              " read from the controller cannot be commanded back");
+  standcal::fuzz::require(back.value() == counts,
+                          "modbus_registers: counts " + std::to_string(counts) +
+                              " -> angle -> counts gave " + std::to_string(back.value()));
 }
 
 }  // namespace
@@ -51,10 +54,12 @@ int standcal_fuzz_modbus_registers(const std::uint8_t* data, std::size_t size) {
       std::memcpy(words, data + i, sizeof words);
       check_pair(map, words);
       // The fault-code register is a raw word too.
-      standcal::fuzz::require(modbus::fault_text(words[0]) != nullptr, "modbus_registers: fault_text gave null");
+      standcal::fuzz::require(modbus::fault_text(words[0]) != nullptr,
+                              "modbus_registers: fault_text gave null");
       // An exception reply reaches the driver as an errno value: a system errno, or
       // libmodbus's MODBUS_ENOBASE + the exception code the controller sent (one byte).
-      const int error_number = (words[1] & 1) ? MODBUS_ENOBASE + (words[0] & 0xFF) : words[0] & 0xFFF;
+      const int error_number =
+          (words[1] & 1) ? MODBUS_ENOBASE + (words[0] & 0xFF) : words[0] & 0xFFF;
       (void)modbus::exception_text(error_number);
     }
   });

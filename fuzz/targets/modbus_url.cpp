@@ -15,8 +15,10 @@ int standcal_fuzz_modbus_url(const std::uint8_t* data, std::size_t size) {
     const auto url = modbus::parse_url(text);
     if (!url) return;
     const modbus::ModbusUrl& u = url.value();
-    standcal::fuzz::require(u.port >= 0 && u.port <= 65535, "modbus_url: accepted port " + std::to_string(u.port));
-    standcal::fuzz::require(u.unit >= 0 && u.unit <= 247, "modbus_url: accepted unit " + std::to_string(u.unit));
+    standcal::fuzz::require(u.port >= 0 && u.port <= 65535,
+                            "modbus_url: accepted port " + std::to_string(u.port));
+    standcal::fuzz::require(u.unit >= 0 && u.unit <= 247,
+                            "modbus_url: accepted unit " + std::to_string(u.unit));
     if (u.transport == modbus::ModbusUrl::Transport::rtu)
       standcal::fuzz::require(u.parity == 'N' || u.parity == 'E' || u.parity == 'O',
                               std::string("modbus_url: accepted parity '") + u.parity + "'");

@@ -14,8 +14,10 @@ int standcal_fuzz_model_json(const std::uint8_t* data, std::size_t size) {
     try {
       (void)standcal::truth_from_json(standcal::truth_to_json(truth), "fuzz-rewritten");
     } catch (const std::runtime_error& e) {
-      standcal::fuzz::report_finding(std::string("model_json: a model that was read cannot be read back after "
-                                                 "writing it: ") + e.what());
+      standcal::fuzz::report_finding(
+          std::string("model_json: a model that was read cannot be read back after "
+                      "writing it: ") +
+          e.what());
     }
   });
 }

@@ -21,9 +21,11 @@ standcal::StandLimits limited_stand() {
 }
 
 void check_round_trip(const standcal::Program& program) {
-  const standcal::Program again = standcal::program_from_json(standcal::program_to_json(program), "fuzz-rewritten");
-  standcal::fuzz::require(again.positions.size() == program.positions.size(),
-                          "program_json: program_to_json/program_from_json changed the number of positions");
+  const standcal::Program again =
+      standcal::program_from_json(standcal::program_to_json(program), "fuzz-rewritten");
+  standcal::fuzz::require(
+      again.positions.size() == program.positions.size(),
+      "program_json: program_to_json/program_from_json changed the number of positions");
 }
 
 void check_limits(const standcal::Program& program) {
@@ -55,7 +57,8 @@ void check_normalised(const standcal::Program& asked, const standcal::StandLimit
 
 int standcal_fuzz_program_json(const std::uint8_t* data, std::size_t size) {
   const auto doc = nlohmann::json::parse(data, data + size, nullptr, /*allow_exceptions=*/false);
-  if (doc.is_discarded()) return 0;  // not JSON: the file loader rejects it before program_from_json
+  if (doc.is_discarded())
+    return 0;  // not JSON: the file loader rejects it before program_from_json
   return standcal::fuzz::expect_only_runtime_errors("program_json", [&] {
     const standcal::Program program = standcal::program_from_json(doc, "fuzz-input");
     check_round_trip(program);

@@ -21,22 +21,27 @@ void check_round_trip(const standcal::Recording& first) {
   try {
     second = standcal::parse_recording(text, "fuzz-rewritten");
   } catch (const std::runtime_error& e) {
-    standcal::fuzz::report_finding(std::string("recording: a recording that was read cannot be read back after "
-                                               "writing it: ") + e.what());
+    standcal::fuzz::report_finding(
+        std::string("recording: a recording that was read cannot be read back after "
+                    "writing it: ") +
+        e.what());
   }
-  standcal::fuzz::require(second.samples.size() == first.samples.size(),
-                          "recording: writing and reading back changed the number of samples from " +
-                              std::to_string(first.samples.size()) + " to " + std::to_string(second.samples.size()));
+  standcal::fuzz::require(
+      second.samples.size() == first.samples.size(),
+      "recording: writing and reading back changed the number of samples from " +
+          std::to_string(first.samples.size()) + " to " + std::to_string(second.samples.size()));
   for (std::size_t i = 0; i < first.samples.size(); ++i)
-    standcal::fuzz::require(second.samples[i].pos == first.samples[i].pos,
-                            "recording: writing and reading back changed pos of sample " + std::to_string(i));
+    standcal::fuzz::require(
+        second.samples[i].pos == first.samples[i].pos,
+        "recording: writing and reading back changed pos of sample " + std::to_string(i));
 }
 
 }  // namespace
 
 int standcal_fuzz_recording(const std::uint8_t* data, std::size_t size) {
   return standcal::fuzz::expect_only_runtime_errors("recording", [&] {
-    const standcal::Recording rec = standcal::parse_recording(standcal::fuzz::as_text(data, size), "fuzz-input");
+    const standcal::Recording rec =
+        standcal::parse_recording(standcal::fuzz::as_text(data, size), "fuzz-input");
     check_round_trip(rec);
   });
 }

@@ -25,7 +25,8 @@ std::string errno_text() { return std::strerror(errno); }
 
 int connect_unix(const std::string& path) {
   sockaddr_un addr{};
-  if (path.size() >= sizeof(addr.sun_path)) throw std::runtime_error("socket path too long: " + path);
+  if (path.size() >= sizeof(addr.sun_path))
+    throw std::runtime_error("socket path too long: " + path);
   addr.sun_family = AF_UNIX;
   std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
   const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
@@ -41,7 +42,8 @@ int connect_unix(const std::string& path) {
 
 int connect_tcp(const std::string& host_port) {
   const auto colon = host_port.rfind(':');
-  if (colon == std::string::npos) throw std::runtime_error("TCP endpoint needs HOST:PORT: " + host_port);
+  if (colon == std::string::npos)
+    throw std::runtime_error("TCP endpoint needs HOST:PORT: " + host_port);
   const auto port = parse_tcp_port(std::string_view(host_port).substr(colon + 1));
   if (!port)
     throw std::runtime_error("TCP endpoint " + host_port +
@@ -103,7 +105,8 @@ void Client::send_raw(const std::string& bytes) {
     const ssize_t n = ::send(fd_, bytes.data() + off, bytes.size() - off, MSG_NOSIGNAL);
     if (n < 0) {
       if (errno == EINTR) continue;
-      throw std::runtime_error("lost the connection to standcald at " + endpoint_ + ": " + errno_text());
+      throw std::runtime_error("lost the connection to standcald at " + endpoint_ + ": " +
+                               errno_text());
     }
     off += static_cast<std::size_t>(n);
   }
@@ -113,7 +116,8 @@ std::optional<std::string> Client::read_line(milliseconds timeout) {
   const auto deadline = std::chrono::steady_clock::now() + timeout;
   for (;;) {
     if (auto line = in_.next_line()) return line;
-    const auto left = std::chrono::duration_cast<milliseconds>(deadline - std::chrono::steady_clock::now());
+    const auto left =
+        std::chrono::duration_cast<milliseconds>(deadline - std::chrono::steady_clock::now());
     if (left.count() <= 0) return std::nullopt;
     pollfd p{fd_, POLLIN, 0};
     const int r = ::poll(&p, 1, static_cast<int>(left.count()));
@@ -124,7 +128,8 @@ std::optional<std::string> Client::read_line(milliseconds timeout) {
     if (n == 0) throw std::runtime_error("standcald at " + endpoint_ + " closed the connection");
     if (n < 0) {
       if (errno == EINTR || errno == EAGAIN) continue;
-      throw std::runtime_error("lost the connection to standcald at " + endpoint_ + ": " + errno_text());
+      throw std::runtime_error("lost the connection to standcald at " + endpoint_ + ": " +
+                               errno_text());
     }
     in_.append(std::string_view(buf, static_cast<std::size_t>(n)));
   }
@@ -146,7 +151,8 @@ std::optional<json> Client::next_notification(milliseconds timeout) {
   }
   const auto deadline = std::chrono::steady_clock::now() + timeout;
   for (;;) {
-    const auto left = std::chrono::duration_cast<milliseconds>(deadline - std::chrono::steady_clock::now());
+    const auto left =
+        std::chrono::duration_cast<milliseconds>(deadline - std::chrono::steady_clock::now());
     auto msg = next_message(std::max(left, milliseconds(0)));
     if (!msg) return std::nullopt;
     if (!msg->contains("id")) return msg;
@@ -158,10 +164,12 @@ json Client::call(const std::string& method_name, const json& params, millisecon
   send_raw(make_request(id, method_name, params) + "\n");
   const auto deadline = std::chrono::steady_clock::now() + timeout;
   for (;;) {
-    const auto left = std::chrono::duration_cast<milliseconds>(deadline - std::chrono::steady_clock::now());
+    const auto left =
+        std::chrono::duration_cast<milliseconds>(deadline - std::chrono::steady_clock::now());
     auto msg = next_message(std::max(left, milliseconds(0)));
-    if (!msg) throw std::runtime_error("no answer from standcald to " + method_name + " within " +
-                                       std::to_string(timeout.count() / 1000) + " s");
+    if (!msg)
+      throw std::runtime_error("no answer from standcald to " + method_name + " within " +
+                               std::to_string(timeout.count() / 1000) + " s");
     if (!msg->contains("id")) {
       notifications_.push_back(std::move(*msg));
       continue;

@@ -24,7 +24,8 @@ class Client {
  public:
   // Connects to "/path/to.sock" or "tcp://127.0.0.1:PORT" and reads the greeting; throws
   // std::runtime_error naming the endpoint when it cannot.
-  explicit Client(const std::string& endpoint, std::chrono::milliseconds timeout = std::chrono::seconds(10));
+  explicit Client(const std::string& endpoint,
+                  std::chrono::milliseconds timeout = std::chrono::seconds(10));
   ~Client();
   Client(const Client&) = delete;
   Client& operator=(const Client&) = delete;
@@ -34,7 +35,8 @@ class Client {
 
   // Sends a request and waits for its answer: the result, or throws RpcError with the
   // daemon's code and message; std::runtime_error when the connection fails or times out.
-  nlohmann::json call(const std::string& method, const nlohmann::json& params = nlohmann::json::object(),
+  nlohmann::json call(const std::string& method,
+                      const nlohmann::json& params = nlohmann::json::object(),
                       std::chrono::milliseconds timeout = std::chrono::seconds(30));
   // Sends raw bytes (tests of malformed input).
   void send_raw(const std::string& bytes);

@@ -55,7 +55,8 @@ inline ExitCode diagnosis_exit_code(std::string_view verdict) {
 // Whether a status of `standcal diagnose` is one of its verdicts (what diagnosis_exit_code
 // gives), not a failure to diagnose.
 inline bool is_diagnosis_answer(int status) {
-  for (ExitCode c : {ExitCode::success, ExitCode::verdict_indeterminate, ExitCode::unexplained_mismatch})
+  for (ExitCode c :
+       {ExitCode::success, ExitCode::verdict_indeterminate, ExitCode::unexplained_mismatch})
     if (status == exit_status(c)) return true;
   return false;
 }

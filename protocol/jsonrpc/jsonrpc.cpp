@@ -10,20 +10,34 @@ using nlohmann::json;
 
 const char* error_code_name(int code) {
   switch (static_cast<ErrorCode>(code)) {
-    case ErrorCode::parse_error: return "parse error";
-    case ErrorCode::invalid_request: return "invalid request";
-    case ErrorCode::method_not_found: return "method not found";
-    case ErrorCode::invalid_params: return "invalid params";
-    case ErrorCode::internal_error: return "internal error";
-    case ErrorCode::busy: return "busy";
-    case ErrorCode::not_homed: return "not homed";
-    case ErrorCode::limit: return "limit";
-    case ErrorCode::estop_active: return "estop active";
-    case ErrorCode::hardware_fault: return "hardware fault";
-    case ErrorCode::not_found: return "not found";
-    case ErrorCode::invalid_state: return "invalid state";
-    case ErrorCode::too_many_clients: return "too many clients";
-    case ErrorCode::not_permitted: return "not permitted";
+    case ErrorCode::parse_error:
+      return "parse error";
+    case ErrorCode::invalid_request:
+      return "invalid request";
+    case ErrorCode::method_not_found:
+      return "method not found";
+    case ErrorCode::invalid_params:
+      return "invalid params";
+    case ErrorCode::internal_error:
+      return "internal error";
+    case ErrorCode::busy:
+      return "busy";
+    case ErrorCode::not_homed:
+      return "not homed";
+    case ErrorCode::limit:
+      return "limit";
+    case ErrorCode::estop_active:
+      return "estop active";
+    case ErrorCode::hardware_fault:
+      return "hardware fault";
+    case ErrorCode::not_found:
+      return "not found";
+    case ErrorCode::invalid_state:
+      return "invalid state";
+    case ErrorCode::too_many_clients:
+      return "too many clients";
+    case ErrorCode::not_permitted:
+      return "not permitted";
   }
   return "error";
 }
@@ -117,12 +131,13 @@ std::string printable(std::string_view text) {
 std::string make_error(const json& id, int code, const std::string& message, const json& data) {
   json err{{"code", code}, {"message", message}};
   if (!data.is_null()) err["data"] = data;
-  return json{{"jsonrpc", "2.0"}, {"id", id}, {"error", err}}.dump(-1, ' ', false, json::error_handler_t::replace);
+  return json{{"jsonrpc", "2.0"}, {"id", id}, {"error", err}}.dump(-1, ' ', false,
+                                                                   json::error_handler_t::replace);
 }
 
 std::string make_notification(const std::string& method, const json& params) {
-  return json{{"jsonrpc", "2.0"}, {"method", method}, {"params", params}}.dump(-1, ' ', false,
-                                                                               json::error_handler_t::replace);
+  return json{{"jsonrpc", "2.0"}, {"method", method}, {"params", params}}.dump(
+      -1, ' ', false, json::error_handler_t::replace);
 }
 
 void Params::wrong(const char* key, const char* expected) const {
@@ -150,15 +165,17 @@ std::optional<double> Params::optional_number(const char* key) const {
   return number(key);
 }
 
-std::optional<std::int64_t> Params::optional_integer(const char* key, std::int64_t min, std::int64_t max) const {
+std::optional<std::int64_t> Params::optional_integer(const char* key, std::int64_t min,
+                                                     std::int64_t max) const {
   const json* v = find(key);
   if (v == nullptr) return std::nullopt;
-  const std::string range = "a whole number from " + std::to_string(min) + " to " + std::to_string(max);
+  const std::string range =
+      "a whole number from " + std::to_string(min) + " to " + std::to_string(max);
   if (!v->is_number()) wrong(key, range.c_str());
   const double x = v->get<double>();
   if (!(x >= static_cast<double>(min) && x <= static_cast<double>(max)) || x != std::floor(x)) {
-    throw RpcError(ErrorCode::invalid_params, method_ + ": parameter \"" + key + "\" must be " + range + ", not " +
-                                                  v->dump());
+    throw RpcError(ErrorCode::invalid_params,
+                   method_ + ": parameter \"" + key + "\" must be " + range + ", not " + v->dump());
   }
   return static_cast<std::int64_t>(x);
 }
@@ -195,7 +212,8 @@ void Params::only(std::initializer_list<const char*> allowed) const {
     bool known = false;
     for (const char* a : allowed) known = known || it.key() == a;
     if (!known) {
-      throw RpcError(ErrorCode::invalid_params, method_ + ": unknown parameter \"" + it.key() + "\"");
+      throw RpcError(ErrorCode::invalid_params,
+                     method_ + ": unknown parameter \"" + it.key() + "\"");
     }
   }
 }

@@ -2,8 +2,8 @@
 // JSON-RPC 2.0 as standcald speaks it (docs/protocol.md): one JSON object per line, an
 // `id` echoed back, error objects with the standard codes plus the application codes
 // below, and notifications (no `id`) for the greeting and events.
-#include <nlohmann/json.hpp>
 #include <cstdint>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -30,7 +30,8 @@ enum class ErrorCode : int {
   not_found = -32006,       // no such run / programme
   invalid_state = -32007,   // not possible now (pause with no run, resume a finished run)
   too_many_clients = -32008,
-  not_permitted = -32009,   // refused by access control (docs/security.md): control needs group or `auth`
+  not_permitted =
+      -32009,  // refused by access control (docs/security.md): control needs group or `auth`
 };
 
 // Short name of a code ("busy", "parse error"), for CLI output and logs.
@@ -78,7 +79,8 @@ struct BadRequest {
 std::variant<Request, BadRequest> parse_request(std::string_view line);
 
 // Serialised messages, each one line WITHOUT the trailing newline.
-std::string make_request(const nlohmann::json& id, const std::string& method, const nlohmann::json& params);
+std::string make_request(const nlohmann::json& id, const std::string& method,
+                         const nlohmann::json& params);
 std::string make_result(const nlohmann::json& id, const nlohmann::json& result);
 std::string make_error(const nlohmann::json& id, int code, const std::string& message,
                        const nlohmann::json& data = nullptr);
@@ -87,11 +89,13 @@ std::string make_notification(const std::string& method, const nlohmann::json& p
 // Typed access to `params`, throwing RpcError(invalid_params) that names the parameter.
 class Params {
  public:
-  Params(const nlohmann::json& params, std::string method) : p_(params), method_(std::move(method)) {}
+  Params(const nlohmann::json& params, std::string method)
+      : p_(params), method_(std::move(method)) {}
   double number(const char* key) const;
   std::optional<double> optional_number(const char* key) const;
   // A whole number (5 or 5.0, not 5.5) within [min, max]; the error names the range.
-  std::optional<std::int64_t> optional_integer(const char* key, std::int64_t min, std::int64_t max) const;
+  std::optional<std::int64_t> optional_integer(const char* key, std::int64_t min,
+                                               std::int64_t max) const;
   std::string string(const char* key) const;
   std::optional<std::string> optional_string(const char* key) const;
   // A text field: one line of printable text of at most `max_chars` characters (UTF-8

@@ -25,7 +25,8 @@ inline constexpr const char* run_diagnose = "run.diagnose";  // answered from a 
 inline constexpr const char* runs_list = "runs.list";
 inline constexpr const char* operator_confirm = "operator.confirm";
 inline constexpr const char* subscribe = "subscribe";
-inline constexpr const char* auth = "auth";  // {token}: a TCP client asks for control (docs/security.md)
+inline constexpr const char* auth =
+    "auth";  // {token}: a TCP client asks for control (docs/security.md)
 }  // namespace method
 
 // runs.list pages: how many runs an answer holds when `limit` is not given, and at most.
@@ -45,10 +46,10 @@ inline constexpr std::size_t run_id =
 
 // Event notifications (method = the event name), sent to clients that subscribed.
 namespace event {
-inline constexpr const char* run_progress = "run.progress";          // position i/N, phase, ETA
+inline constexpr const char* run_progress = "run.progress";  // position i/N, phase, ETA
 inline constexpr const char* position_reached = "run.position_reached";
 inline constexpr const char* position_averaged = "run.position_averaged";  // mean, sigma per axis
-inline constexpr const char* run_state = "run.state";                // state changes
+inline constexpr const char* run_state = "run.state";                      // state changes
 inline constexpr const char* fault = "fault";
 }  // namespace event
 

@@ -1,10 +1,10 @@
 #include "records/db/records_db.hpp"
 
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
-#include <cctype>
 #include <stdexcept>
 
 #include "calib/parameters.hpp"
@@ -79,8 +79,10 @@ const Migration kMigrations[] = {
 static_assert(std::size(kMigrations) == kSchemaVersion, "one migration per schema version");
 
 constexpr const char* kColumns =
-    "run_id, unit_serial, unit_type, stand_id, g_source, g_local_mps2, software_version, config_hash, "
-    "operator_name, started_utc, ended_utc, program_name, recording_path, method, result_json, verdict, "
+    "run_id, unit_serial, unit_type, stand_id, g_source, g_local_mps2, software_version, "
+    "config_hash, "
+    "operator_name, started_utc, ended_utc, program_name, recording_path, method, result_json, "
+    "verdict, "
     "origin, recorded_utc, assessment_json, diagnosis_verdict";
 
 std::string number_text(double v) {
@@ -147,20 +149,24 @@ CalibrationRecord record_from_row(const SqlRow& row) {
 // The nine parameters of a fit JSON as rows of calibration_parameters.
 void write_parameters(SqlSession& s, const std::string& run_id, const json& result) {
   s.exec("DELETE FROM calibration_parameters WHERE run_id = $1", {run_id});
-  const json params = result.is_object() ? result.value("parameters", json::object()) : json::object();
+  const json params =
+      result.is_object() ? result.value("parameters", json::object()) : json::object();
   for (std::size_t j = 0; j < kUnitParameterNames.size(); ++j) {
     const std::string name(kUnitParameterNames[j]);
     if (!params.contains(name)) continue;
     const json& p = params[name];
-    s.exec("INSERT INTO calibration_parameters (run_id, name, unit, value, sigma) VALUES ($1, $2, $3, $4, $5)",
-           {run_id, name, std::string(kUnitParameterUnits[j]), optional_number(p.value("value", json())),
-            optional_number(p.value("sigma", json()))});
+    s.exec(
+        "INSERT INTO calibration_parameters (run_id, name, unit, value, sigma) VALUES ($1, $2, $3, "
+        "$4, $5)",
+        {run_id, name, std::string(kUnitParameterUnits[j]),
+         optional_number(p.value("value", json())), optional_number(p.value("sigma", json()))});
   }
 }
 
 void backfill_parameters(SqlSession& s) {
   for (const SqlRow& row : s.exec("SELECT run_id, result_json FROM calibrations").rows) {
-    write_parameters(s, row.at(0).value_or(""), json::parse(row.at(1).value_or("{}"), nullptr, false));
+    write_parameters(s, row.at(0).value_or(""),
+                     json::parse(row.at(1).value_or("{}"), nullptr, false));
   }
 }
 
@@ -195,15 +201,16 @@ class SqlRecordsDb final : public RecordsDb {
 
   int migrate_to(int version) override {
     if (version < 0 || version > kSchemaVersion) {
-      throw std::runtime_error("no records schema version " + std::to_string(version) + " (this build knows 1.." +
-                               std::to_string(kSchemaVersion) + ")");
+      throw std::runtime_error("no records schema version " + std::to_string(version) +
+                               " (this build knows 1.." + std::to_string(kSchemaVersion) + ")");
     }
     for (;;) {
       // One version per transaction, under the writers' lock: a bench that migrates at
       // the same time waits, then finds the work done.
       const bool more = in_transaction(*s_, [&] {
         s_->exec_script(
-            "CREATE TABLE IF NOT EXISTS schema_version (version INTEGER PRIMARY KEY, description TEXT NOT NULL, "
+            "CREATE TABLE IF NOT EXISTS schema_version (version INTEGER PRIMARY KEY, description "
+            "TEXT NOT NULL, "
             "applied_utc TEXT NOT NULL)");
         const int have = current_version(*s_);
         if (have > kSchemaVersion) {
@@ -215,8 +222,9 @@ class SqlRecordsDb final : public RecordsDb {
         const Migration& m = kMigrations[have];
         s_->exec_script(m.sql);
         if (m.data_step != nullptr) m.data_step(*s_);
-        s_->exec("INSERT INTO schema_version (version, description, applied_utc) VALUES ($1, $2, $3)",
-                 {std::to_string(m.version), std::string(m.description), utc_now_iso()});
+        s_->exec(
+            "INSERT INTO schema_version (version, description, applied_utc) VALUES ($1, $2, $3)",
+            {std::to_string(m.version), std::string(m.description), utc_now_iso()});
         return true;
       });
       if (!more) break;
@@ -237,9 +245,10 @@ class SqlRecordsDb final : public RecordsDb {
   bool insert(const CalibrationRecord& r) override {
     require_current();
     return in_transaction(*s_, [&] {
-      const auto res = s_->exec(std::string("INSERT INTO calibrations (") + kColumns + ") VALUES (" + placeholders() +
-                                    ") ON CONFLICT (run_id) DO NOTHING",
-                                record_params(checked(r)));
+      const auto res =
+          s_->exec(std::string("INSERT INTO calibrations (") + kColumns + ") VALUES (" +
+                       placeholders() + ") ON CONFLICT (run_id) DO NOTHING",
+                   record_params(checked(r)));
       if (res.affected == 0) return false;
       write_parameters(*s_, r.run_id, r.result);
       return true;
@@ -249,31 +258,34 @@ class SqlRecordsDb final : public RecordsDb {
   void upsert(const CalibrationRecord& r) override {
     require_current();
     std::string update;
-    for (const char* col : {"unit_serial", "unit_type", "stand_id", "g_source", "g_local_mps2", "software_version",
-                            "config_hash", "operator_name", "started_utc", "ended_utc", "program_name",
-                            "recording_path", "method", "result_json", "verdict", "origin", "assessment_json",
-                            "diagnosis_verdict"}) {
+    for (const char* col : {"unit_serial", "unit_type", "stand_id", "g_source", "g_local_mps2",
+                            "software_version", "config_hash", "operator_name", "started_utc",
+                            "ended_utc", "program_name", "recording_path", "method", "result_json",
+                            "verdict", "origin", "assessment_json", "diagnosis_verdict"}) {
       update += std::string(update.empty() ? "" : ", ") + col + " = excluded." + col;
     }
     in_transaction(*s_, [&] {
-      s_->exec(std::string("INSERT INTO calibrations (") + kColumns + ") VALUES (" + placeholders() +
-                   ") ON CONFLICT (run_id) DO UPDATE SET " + update,
+      s_->exec(std::string("INSERT INTO calibrations (") + kColumns + ") VALUES (" +
+                   placeholders() + ") ON CONFLICT (run_id) DO UPDATE SET " + update,
                record_params(checked(r)));
       write_parameters(*s_, r.run_id, r.result);
       return true;
     });
   }
 
-  bool set_verdict(const std::string& run_id, const std::string& verdict, const json& assessment) override {
+  bool set_verdict(const std::string& run_id, const std::string& verdict,
+                   const json& assessment) override {
     require_current();
-    const auto res = s_->exec("UPDATE calibrations SET verdict = $1, assessment_json = $2 WHERE run_id = $3",
-                              {verdict, assessment.is_null() ? SqlValue() : SqlValue(assessment.dump()), run_id});
+    const auto res = s_->exec(
+        "UPDATE calibrations SET verdict = $1, assessment_json = $2 WHERE run_id = $3",
+        {verdict, assessment.is_null() ? SqlValue() : SqlValue(assessment.dump()), run_id});
     return res.affected > 0;
   }
 
   std::optional<CalibrationRecord> get(const std::string& run_id) override {
     require_current();
-    const auto res = s_->exec(std::string("SELECT ") + kColumns + " FROM calibrations WHERE run_id = $1", {run_id});
+    const auto res = s_->exec(
+        std::string("SELECT ") + kColumns + " FROM calibrations WHERE run_id = $1", {run_id});
     if (res.rows.empty()) return std::nullopt;
     return record_from_row(res.rows[0]);
   }
@@ -284,14 +296,16 @@ class SqlRecordsDb final : public RecordsDb {
     std::vector<SqlValue> params;
     auto add = [&](const std::string& condition, const std::string& value) {
       params.push_back(value);
-      where += (where.empty() ? " WHERE " : " AND ") + condition + " $" + std::to_string(params.size());
+      where +=
+          (where.empty() ? " WHERE " : " AND ") + condition + " $" + std::to_string(params.size());
     };
     if (!f.unit_serial.empty()) add("unit_serial =", f.unit_serial);
     if (!f.unit_type.empty()) add("unit_type =", f.unit_type);
     if (!f.since_utc.empty()) add("started_utc >=", canonical_utc(f.since_utc));
     if (!f.until_utc.empty()) add("started_utc <=", canonical_utc(f.until_utc, true));
     if (!f.verdict.empty()) add("verdict =", f.verdict == "none" ? std::string() : f.verdict);
-    std::string sql = std::string("SELECT ") + kColumns + " FROM calibrations" + where + " ORDER BY started_utc, run_id";
+    std::string sql = std::string("SELECT ") + kColumns + " FROM calibrations" + where +
+                      " ORDER BY started_utc, run_id";
     if (f.limit > 0) sql += " LIMIT " + std::to_string(f.limit);
     std::vector<CalibrationRecord> out;
     for (const SqlRow& row : s_->exec(sql, params).rows) out.push_back(record_from_row(row));
@@ -307,8 +321,10 @@ class SqlRecordsDb final : public RecordsDb {
 
   static const CalibrationRecord& checked(const CalibrationRecord& r) {
     if (r.run_id.empty()) throw std::runtime_error("a calibration record needs a run id");
-    if (r.unit_serial.empty()) throw std::runtime_error("calibration " + r.run_id + " has no unit serial");
-    if (r.started_utc.empty()) throw std::runtime_error("calibration " + r.run_id + " has no start time");
+    if (r.unit_serial.empty())
+      throw std::runtime_error("calibration " + r.run_id + " has no unit serial");
+    if (r.started_utc.empty())
+      throw std::runtime_error("calibration " + r.run_id + " has no start time");
     return r;
   }
 
@@ -317,9 +333,10 @@ class SqlRecordsDb final : public RecordsDb {
     if (checked_current_) return;
     const int have = schema_version();
     if (have != kSchemaVersion) {
-      throw std::runtime_error("the records database " + location() + " has schema version " + std::to_string(have) +
-                               ", this standcal needs " + std::to_string(kSchemaVersion) +
-                               (have < kSchemaVersion ? ": migrate it first (it is done on open by standcal)" : ""));
+      throw std::runtime_error(
+          "the records database " + location() + " has schema version " + std::to_string(have) +
+          ", this standcal needs " + std::to_string(kSchemaVersion) +
+          (have < kSchemaVersion ? ": migrate it first (it is done on open by standcal)" : ""));
     }
     checked_current_ = true;
   }
@@ -328,7 +345,9 @@ class SqlRecordsDb final : public RecordsDb {
   bool checked_current_ = false;
 };
 
-bool starts_with(const std::string& s, const std::string& prefix) { return s.rfind(prefix, 0) == 0; }
+bool starts_with(const std::string& s, const std::string& prefix) {
+  return s.rfind(prefix, 0) == 0;
+}
 
 // "mysql://…": a URL of a kind we do not speak (rather than a file named so).
 bool has_url_scheme(const std::string& s) {
@@ -336,7 +355,8 @@ bool has_url_scheme(const std::string& s) {
   if (colon == std::string::npos || colon == 0) return false;
   for (std::size_t i = 0; i < colon; ++i) {
     const char c = s[i];
-    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '+' && c != '.' && c != '-') return false;
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '+' && c != '.' && c != '-')
+      return false;
   }
   return true;
 }
@@ -344,7 +364,9 @@ bool has_url_scheme(const std::string& s) {
 }  // namespace
 
 std::unique_ptr<RecordsDb> open_records_db(const std::string& url, OpenMode mode) {
-  if (url.empty()) throw std::runtime_error("no records database given (a path, sqlite:///PATH or postgresql://…)");
+  if (url.empty())
+    throw std::runtime_error(
+        "no records database given (a path, sqlite:///PATH or postgresql://…)");
   if (starts_with(url, "postgresql://") || starts_with(url, "postgres://")) {
     return std::make_unique<SqlRecordsDb>(detail::open_postgres_session(url));
   }
@@ -354,7 +376,8 @@ std::unique_ptr<RecordsDb> open_records_db(const std::string& url, OpenMode mode
   } else if (starts_with(path, "sqlite:")) {
     path = path.substr(7);
   } else if (has_url_scheme(path)) {
-    throw std::runtime_error("records database " + url + ": unknown kind (use a path, sqlite:///PATH or postgresql://…)");
+    throw std::runtime_error("records database " + url +
+                             ": unknown kind (use a path, sqlite:///PATH or postgresql://…)");
   }
   if (path.empty()) throw std::runtime_error("records database " + url + ": no file path");
   return std::make_unique<SqlRecordsDb>(
@@ -367,7 +390,9 @@ std::unique_ptr<RecordsDb> open_and_migrate(const std::string& url, OpenMode mod
   return db;
 }
 
-std::string default_db_url(const std::string& state_dir) { return "sqlite://" + state_dir + "/records.sqlite"; }
+std::string default_db_url(const std::string& state_dir) {
+  return "sqlite://" + state_dir + "/records.sqlite";
+}
 
 namespace {
 
@@ -406,7 +431,8 @@ std::optional<long> zone_offset_s(const std::string& s, std::size_t& pos) {
 
 std::string canonical_utc(const std::string& text, bool end_of_day) {
   const auto bad = [&text] {
-    return std::runtime_error("'" + text + "' is not a date or UTC time (use 2026-11-21 or 2026-11-21T22:15:00Z)");
+    return std::runtime_error(
+        "'" + text + "' is not a date or UTC time (use 2026-11-21 or 2026-11-21T22:15:00Z)");
   };
   std::size_t pos = 0;
   std::tm tm{};
@@ -424,9 +450,11 @@ std::string canonical_utc(const std::string& text, bool end_of_day) {
     minute = digits_at(text, pos, 2);
     second = take(text, pos, ":") ? digits_at(text, pos, 2) : 0;
     if (take(text, pos, ".")) {
-      while (pos < text.size() && text[pos] >= '0' && text[pos] <= '9') ++pos;  // whole seconds kept
+      while (pos < text.size() && text[pos] >= '0' && text[pos] <= '9')
+        ++pos;  // whole seconds kept
     }
-    if (hour < 0 || hour > 23 || !colon || minute < 0 || minute > 59 || second < 0 || second > 60) throw bad();
+    if (hour < 0 || hour > 23 || !colon || minute < 0 || minute > 59 || second < 0 || second > 60)
+      throw bad();
   }
   const std::optional<long> offset = zone_offset_s(text, pos);
   if (!offset || pos != text.size()) throw bad();

@@ -20,11 +20,11 @@ inline constexpr int kSchemaVersion = 2;
 
 // One calibration of one unit. Times are UTC ISO-8601 "2026-11-21T22:15:00Z".
 struct CalibrationRecord {
-  std::string run_id;            // daemon run id, or "import-…" for imported recordings
+  std::string run_id;  // daemon run id, or "import-…" for imported recordings
   std::string unit_serial;
-  std::string unit_type;         // "" when not known (limits are per unit type)
+  std::string unit_type;  // "" when not known (limits are per unit type)
   std::string stand_id;
-  std::string g_source;          // where the local g came from (traceability)
+  std::string g_source;  // where the local g came from (traceability)
   double g_local_mps2 = 0;
   std::string software_version;
   std::string config_hash;
@@ -33,14 +33,14 @@ struct CalibrationRecord {
   std::string ended_utc;
   std::string program_name;
   std::string recording_path;
-  std::string method;            // estimator: "joint", "paper-sequential", "full"
-  nlohmann::json result;         // the fit as `standcal fit --json` emits it (object)
-  std::string verdict;           // records::outcome_name of the overall conformity ("pass",
-                                 // "indeterminate", "fail"), or "" (not assessed)
-  nlohmann::json assessment;     // the limits' per-parameter decision, null when none
+  std::string method;         // estimator: "joint", "paper-sequential", "full"
+  nlohmann::json result;      // the fit as `standcal fit --json` emits it (object)
+  std::string verdict;        // records::outcome_name of the overall conformity ("pass",
+                              // "indeterminate", "fail"), or "" (not assessed)
+  nlohmann::json assessment;  // the limits' per-parameter decision, null when none
   std::optional<std::string> diagnosis_verdict;  // model-mismatch diagnosis, if one ran
-  std::string origin;            // "daemon" or "import" (how it reached the database)
-  std::string recorded_utc;      // when the database first stored it (set by the database)
+  std::string origin;        // "daemon" or "import" (how it reached the database)
+  std::string recorded_utc;  // when the database first stored it (set by the database)
 };
 
 // Filters for list(); empty fields do not filter. since/until accept "2026-11-21" or a
@@ -48,10 +48,10 @@ struct CalibrationRecord {
 struct RecordFilter {
   std::string unit_serial;
   std::string unit_type;
-  std::string since_utc;         // started_utc >= since
-  std::string until_utc;         // started_utc <= until
-  std::string verdict;           // a verdict ("pass", "fail", …), or "none" for not assessed
-  int limit = 0;                 // 0: no limit
+  std::string since_utc;  // started_utc >= since
+  std::string until_utc;  // started_utc <= until
+  std::string verdict;    // a verdict ("pass", "fail", …), or "none" for not assessed
+  int limit = 0;          // 0: no limit
 };
 
 class RecordsDb {

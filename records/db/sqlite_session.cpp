@@ -55,7 +55,8 @@ class SqliteSession final : public SqlSession {
   SqlResult exec(const std::string& sql, const std::vector<SqlValue>& params) override {
     sqlite3_stmt* stmt = nullptr;
     const std::string text = numbered_parameters(sql);
-    if (sqlite3_prepare_v2(db_, text.c_str(), static_cast<int>(text.size()), &stmt, nullptr) != SQLITE_OK) {
+    if (sqlite3_prepare_v2(db_, text.c_str(), static_cast<int>(text.size()), &stmt, nullptr) !=
+        SQLITE_OK) {
       fail("cannot prepare a statement");
     }
     try {
@@ -83,15 +84,17 @@ class SqliteSession final : public SqlSession {
 
  private:
   [[noreturn]] void fail(const std::string& what) const {
-    throw std::runtime_error("records database " + path_ + ": " + what + ": " + sqlite3_errmsg(db_));
+    throw std::runtime_error("records database " + path_ + ": " + what + ": " +
+                             sqlite3_errmsg(db_));
   }
 
   void bind(sqlite3_stmt* stmt, const std::vector<SqlValue>& params) const {
     for (std::size_t i = 0; i < params.size(); ++i) {
       const int index = static_cast<int>(i) + 1;
-      const int rc = params[i] ? sqlite3_bind_text(stmt, index, params[i]->c_str(),
-                                                   static_cast<int>(params[i]->size()), SQLITE_TRANSIENT)
-                               : sqlite3_bind_null(stmt, index);
+      const int rc = params[i]
+                         ? sqlite3_bind_text(stmt, index, params[i]->c_str(),
+                                             static_cast<int>(params[i]->size()), SQLITE_TRANSIENT)
+                         : sqlite3_bind_null(stmt, index);
       if (rc != SQLITE_OK) fail("cannot bind parameter " + std::to_string(index));
     }
   }

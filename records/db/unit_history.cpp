@@ -17,7 +17,8 @@ std::optional<double> number_at(const json& p, const char* key) {
 
 ParameterPoint point_of(const CalibrationRecord& r, const std::string& name) {
   ParameterPoint pt{r.run_id, r.started_utc, std::nullopt, std::nullopt};
-  if (r.result.is_object() && r.result.contains("parameters") && r.result["parameters"].contains(name)) {
+  if (r.result.is_object() && r.result.contains("parameters") &&
+      r.result["parameters"].contains(name)) {
     const json& p = r.result["parameters"][name];
     pt.value = number_at(p, "value");
     pt.sigma = number_at(p, "sigma");
@@ -47,7 +48,8 @@ std::vector<ParameterChange> changes_of(const std::vector<ParameterPoint>& point
 
 }  // namespace
 
-UnitHistory unit_history(const std::string& unit_serial, std::vector<CalibrationRecord> calibrations, double k) {
+UnitHistory unit_history(const std::string& unit_serial,
+                         std::vector<CalibrationRecord> calibrations, double k) {
   UnitHistory h;
   h.unit_serial = unit_serial;
   h.k = k;

@@ -14,7 +14,7 @@ namespace standcal::records {
 struct ParameterPoint {
   std::string run_id;
   std::string started_utc;
-  std::optional<double> value;   // empty: not observable in that programme
+  std::optional<double> value;  // empty: not observable in that programme
   std::optional<double> sigma;
 };
 
@@ -22,30 +22,30 @@ struct ParameterPoint {
 struct ParameterChange {
   std::string from_run_id;
   std::string to_run_id;
-  double delta = 0;              // later - earlier, report unit
-  double combined_sigma = 0;     // sqrt(σ_earlier² + σ_later²)
-  bool ageing = false;           // |delta| > k · combined_sigma
+  double delta = 0;           // later - earlier, report unit
+  double combined_sigma = 0;  // sqrt(σ_earlier² + σ_later²)
+  bool ageing = false;        // |delta| > k · combined_sigma
 };
 
 struct ParameterHistory {
-  std::string name;              // "bias_x", … (calib/parameters.hpp order)
-  std::string unit;              // "ug", "ppm", "arcsec"
+  std::string name;                      // "bias_x", … (calib/parameters.hpp order)
+  std::string unit;                      // "ug", "ppm", "arcsec"
   std::vector<ParameterPoint> points;    // oldest first
   std::vector<ParameterChange> changes;  // consecutive observed pairs
 };
 
 struct UnitHistory {
   std::string unit_serial;
-  double k = 2;                  // coverage factor used for the ageing flag
+  double k = 2;                                 // coverage factor used for the ageing flag
   std::vector<CalibrationRecord> calibrations;  // oldest first
   std::vector<ParameterHistory> parameters;     // the nine unit parameters
-  int ageing_flags = 0;          // changes flagged over all parameters
+  int ageing_flags = 0;                         // changes flagged over all parameters
 };
 
 // `calibrations` in time order (RecordsDb::history gives them so). A change is flagged
 // as ageing when |Δ| > k · sqrt(σ₁² + σ₂²): with k = 2 an unchanged unit is flagged by
 // chance about 5 % of the time per parameter and pair.
-UnitHistory unit_history(const std::string& unit_serial, std::vector<CalibrationRecord> calibrations,
-                         double k = 2);
+UnitHistory unit_history(const std::string& unit_serial,
+                         std::vector<CalibrationRecord> calibrations, double k = 2);
 
 }  // namespace standcal::records

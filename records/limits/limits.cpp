@@ -16,7 +16,8 @@ using nlohmann::json;
 // The per-axis parameter names, and the group names that set all three axes at once.
 constexpr std::array<std::string_view, 3> kGroupNames{"bias", "scale", "gamma"};
 
-[[noreturn]] void bad_key(const std::string& source, const std::string& key, const std::string& why) {
+[[noreturn]] void bad_key(const std::string& source, const std::string& key,
+                          const std::string& why) {
   throw std::runtime_error(source + ": " + key + ": " + why);
 }
 
@@ -48,12 +49,15 @@ void reject_unknown_keys(const json& obj, std::initializer_list<std::string_view
   }
 }
 
-ParameterLimit parse_parameter_limit(const json& j, const std::string& source, const std::string& key) {
+ParameterLimit parse_parameter_limit(const json& j, const std::string& source,
+                                     const std::string& key) {
   require_object(j, source, key);
   reject_unknown_keys(j, {"max_abs", "max_sigma"}, source, key + ".");
   ParameterLimit limit;
-  if (j.contains("max_abs")) limit.max_abs = positive_number(j["max_abs"], source, key + ".max_abs");
-  if (j.contains("max_sigma")) limit.max_sigma = positive_number(j["max_sigma"], source, key + ".max_sigma");
+  if (j.contains("max_abs"))
+    limit.max_abs = positive_number(j["max_abs"], source, key + ".max_abs");
+  if (j.contains("max_sigma"))
+    limit.max_sigma = positive_number(j["max_sigma"], source, key + ".max_sigma");
   return limit;
 }
 
@@ -75,7 +79,8 @@ std::optional<int> group_index(std::string_view name) {
   return std::nullopt;
 }
 
-void parse_parameters(const json& j, UnitTypeLimits& limits, const std::string& source, const std::string& key) {
+void parse_parameters(const json& j, UnitTypeLimits& limits, const std::string& source,
+                      const std::string& key) {
   require_object(j, source, key);
   std::array<ParameterLimit, 3> groups;
   std::array<std::optional<ParameterLimit>, kUnitParameterCount> axes;
@@ -87,7 +92,8 @@ void parse_parameters(const json& j, UnitTypeLimits& limits, const std::string& 
       axes[static_cast<std::size_t>(*p)] = parse_parameter_limit(value, source, where);
     } else {
       bad_key(source, where,
-              "unknown parameter (expected bias, scale, gamma or one of bias_x, bias_y, bias_z, scale_x, "
+              "unknown parameter (expected bias, scale, gamma or one of bias_x, bias_y, bias_z, "
+              "scale_x, "
               "scale_y, scale_z, gamma12, gamma13, gamma23)");
     }
   }
@@ -108,9 +114,11 @@ UnitTypeLimits parse_unit_type(const std::string& name, const json& j, const std
     if (!j["description"].is_string()) bad_key(source, key + ".description", "must be a string");
     limits.description = j["description"].get<std::string>();
   }
-  if (!j.contains("parameters")) bad_key(source, key + ".parameters", "missing (the limits of the unit parameters)");
+  if (!j.contains("parameters"))
+    bad_key(source, key + ".parameters", "missing (the limits of the unit parameters)");
   parse_parameters(j["parameters"], limits, source, key + ".parameters");
-  if (j.contains("max_chi2_dof")) limits.max_chi2_dof = positive_number(j["max_chi2_dof"], source, key + ".max_chi2_dof");
+  if (j.contains("max_chi2_dof"))
+    limits.max_chi2_dof = positive_number(j["max_chi2_dof"], source, key + ".max_chi2_dof");
   return limits;
 }
 
@@ -124,11 +132,16 @@ Outcome combine(Outcome a, Outcome b) {
   // Severity order for one parameter: fail > indeterminate (incl. not measured) > pass.
   auto rank = [](Outcome o) {
     switch (o) {
-      case Outcome::fail: return 4;
-      case Outcome::not_evaluated: return 3;
-      case Outcome::indeterminate: return 2;
-      case Outcome::pass: return 1;
-      case Outcome::no_limit: return 0;
+      case Outcome::fail:
+        return 4;
+      case Outcome::not_evaluated:
+        return 3;
+      case Outcome::indeterminate:
+        return 2;
+      case Outcome::pass:
+        return 1;
+      case Outcome::no_limit:
+        return 0;
     }
     return 0;
   };
@@ -151,17 +164,20 @@ std::string coverage_text(double k) {
 std::string value_explanation(const ParameterConformity& c, double k) {
   const LimitDecision& d = c.value_decision;
   const std::string u = " " + symbol(c.unit);
-  const std::string numbers = "|" + number(*c.value) + "|" + u + " with U = " + number(*c.expanded_uncertainty) + u +
-                              " (k = " + coverage_text(k) + ") against the limit " + number(*c.limit.max_abs) + u;
+  const std::string numbers =
+      "|" + number(*c.value) + "|" + u + " with U = " + number(*c.expanded_uncertainty) + u +
+      " (k = " + coverage_text(k) + ") against the limit " + number(*c.limit.max_abs) + u;
   switch (d.outcome) {
     case Outcome::pass:
-      return numbers + ": inside even with the uncertainty added, " + number(d.guarded_margin) + u + " to spare";
+      return numbers + ": inside even with the uncertainty added, " + number(d.guarded_margin) + u +
+             " to spare";
     case Outcome::fail:
       return numbers + ": outside even with the uncertainty subtracted, by " +
              number(-(d.margin + *c.expanded_uncertainty)) + u;
     case Outcome::indeterminate:
       return numbers + ": the limit lies within value ± U; the value itself is " +
-             (d.value_within_limit ? "inside" : "outside") + " the limit by " + number(std::abs(d.margin)) + u;
+             (d.value_within_limit ? "inside" : "outside") + " the limit by " +
+             number(std::abs(d.margin)) + u;
     default:
       return numbers;
   }
@@ -220,14 +236,16 @@ ModelCheckConformity assess_model_check(const FitResult& fit, const UnitTypeLimi
     m.explanation = "no chi2/dof limit set";
   } else if (!m.chi2_dof) {
     m.outcome = Outcome::not_evaluated;
-    m.explanation = "not evaluated: the programme has no redundant positions, so the fit passes through every "
-                    "position and cannot show a wrong model";
+    m.explanation =
+        "not evaluated: the programme has no redundant positions, so the fit passes through every "
+        "position and cannot show a wrong model";
   } else {
     m.outcome = *m.chi2_dof <= *m.max_chi2_dof ? Outcome::pass : Outcome::fail;
     m.explanation = "chi2/dof " + number(*m.chi2_dof) + " with " + std::to_string(m.redundancy) +
                     " degrees of freedom against the limit " + number(*m.max_chi2_dof) +
-                    (m.outcome == Outcome::pass ? ": the model describes the data"
-                                                : ": the residuals exceed the noise, the model misses something");
+                    (m.outcome == Outcome::pass
+                         ? ": the model describes the data"
+                         : ": the residuals exceed the noise, the model misses something");
   }
   return m;
 }
@@ -235,12 +253,16 @@ ModelCheckConformity assess_model_check(const FitResult& fit, const UnitTypeLimi
 std::string overall_sentence(Outcome o) {
   switch (o) {
     case Outcome::pass:
-      return "PASS: every limited parameter is inside its limit even after allowing for its expanded uncertainty.";
+      return "PASS: every limited parameter is inside its limit even after allowing for its "
+             "expanded uncertainty.";
     case Outcome::fail:
-      return "FAIL: at least one check is outside its limit even after allowing for the uncertainty.";
+      return "FAIL: at least one check is outside its limit even after allowing for the "
+             "uncertainty.";
     case Outcome::indeterminate:
-      return "INDETERMINATE: no check fails, but for at least one parameter the limit lies within value ± U (or the "
-             "parameter was not measured), so conformity cannot be stated. The unit is not certified as conforming; "
+      return "INDETERMINATE: no check fails, but for at least one parameter the limit lies within "
+             "value ± U (or the "
+             "parameter was not measured), so conformity cannot be stated. The unit is not "
+             "certified as conforming; "
              "re-calibrate with longer dwells or more positions to reduce U.";
     default:
       return "No limits apply: values are reported without a conformity statement.";
@@ -256,20 +278,25 @@ const UnitTypeLimits& LimitsConfig::for_unit_type(const std::string& unit_type) 
   std::string known;
   for (const auto& [name, limits] : unit_types) known += (known.empty() ? "" : ", ") + name;
   if (unit_type.empty())
-    throw std::runtime_error(source + ": several unit types (" + known + "); say which one with --unit-type");
-  throw std::runtime_error(source + ": no limits for unit type '" + unit_type + "' (known: " + known + ")");
+    throw std::runtime_error(source + ": several unit types (" + known +
+                             "); say which one with --unit-type");
+  throw std::runtime_error(source + ": no limits for unit type '" + unit_type +
+                           "' (known: " + known + ")");
 }
 
 LimitsConfig limits_from_json(const json& doc, const std::string& source) {
   if (!doc.is_object()) throw std::runtime_error(source + ": must be a JSON object");
   reject_unknown_keys(doc, {"format", "coverage_factor", "unit_types"}, source, "");
   if (!doc.contains("format") || doc["format"] != std::string(kLimitsFormat))
-    bad_key(source, "format", "must be \"" + std::string(kLimitsFormat) + "\"" +
-                                  (doc.contains("format") ? " (got " + shown(doc["format"]) + ")" : " (missing)"));
+    bad_key(source, "format",
+            "must be \"" + std::string(kLimitsFormat) + "\"" +
+                (doc.contains("format") ? " (got " + shown(doc["format"]) + ")" : " (missing)"));
   LimitsConfig config;
   config.source = source;
-  if (doc.contains("coverage_factor")) config.coverage_factor = positive_number(doc["coverage_factor"], source, "coverage_factor");
-  if (!doc.contains("unit_types")) bad_key(source, "unit_types", "missing (one entry per unit type)");
+  if (doc.contains("coverage_factor"))
+    config.coverage_factor = positive_number(doc["coverage_factor"], source, "coverage_factor");
+  if (!doc.contains("unit_types"))
+    bad_key(source, "unit_types", "missing (one entry per unit type)");
   require_object(doc["unit_types"], source, "unit_types");
   if (doc["unit_types"].empty()) bad_key(source, "unit_types", "must name at least one unit type");
   for (const auto& [name, value] : doc["unit_types"].items())
@@ -293,11 +320,16 @@ LimitsConfig load_limits(const std::string& path) {
 
 std::string outcome_name(Outcome o) {
   switch (o) {
-    case Outcome::pass: return "pass";
-    case Outcome::indeterminate: return "indeterminate";
-    case Outcome::fail: return "fail";
-    case Outcome::not_evaluated: return "not_evaluated";
-    case Outcome::no_limit: return "no_limit";
+    case Outcome::pass:
+      return "pass";
+    case Outcome::indeterminate:
+      return "indeterminate";
+    case Outcome::fail:
+      return "fail";
+    case Outcome::not_evaluated:
+      return "not_evaluated";
+    case Outcome::no_limit:
+      return "no_limit";
   }
   return "no_limit";
 }
@@ -310,9 +342,12 @@ LimitDecision decide(double value, double expanded_uncertainty, double limit) {
   d.margin = limit - magnitude;
   d.guarded_margin = limit - (magnitude + U);
   d.value_within_limit = magnitude <= limit + tolerance;
-  if (magnitude + U <= limit + tolerance) d.outcome = Outcome::pass;
-  else if (magnitude - U > limit + tolerance) d.outcome = Outcome::fail;
-  else d.outcome = Outcome::indeterminate;
+  if (magnitude + U <= limit + tolerance)
+    d.outcome = Outcome::pass;
+  else if (magnitude - U > limit + tolerance)
+    d.outcome = Outcome::fail;
+  else
+    d.outcome = Outcome::indeterminate;
   return d;
 }
 

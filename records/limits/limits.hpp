@@ -75,17 +75,17 @@ struct LimitDecision {
 LimitDecision decide(double value, double expanded_uncertainty, double limit);
 
 struct ParameterConformity {
-  int parameter = 0;        // calib/parameters.hpp index
-  std::string name;         // "bias_x"
-  std::string unit;         // "ug"
-  std::optional<double> value;  // report units
-  std::optional<double> sigma;  // 1 sigma
+  int parameter = 0;                           // calib/parameters.hpp index
+  std::string name;                            // "bias_x"
+  std::string unit;                            // "ug"
+  std::optional<double> value;                 // report units
+  std::optional<double> sigma;                 // 1 sigma
   std::optional<double> expanded_uncertainty;  // U = k * sigma
   ParameterLimit limit;
-  LimitDecision value_decision;  // |value| against max_abs
+  LimitDecision value_decision;               // |value| against max_abs
   Outcome sigma_outcome = Outcome::no_limit;  // sigma against max_sigma (pass/fail only)
   Outcome outcome = Outcome::no_limit;        // the parameter's combined outcome
-  std::string explanation;  // one sentence with the numbers
+  std::string explanation;                    // one sentence with the numbers
 };
 
 struct ModelCheckConformity {

@@ -31,16 +31,17 @@ struct CertificateTraceability {
   std::string g_source;          // where the local gravity value came from
   double g_local_mps2 = kStandardGravity_mps2;
   std::string recording_path;
-  std::string origin;            // "standcald run record" or "imported recording"
+  std::string origin;  // "standcald run record" or "imported recording"
 };
 
 // A model-mismatch diagnosis (calib/diagnosis/diagnosis.hpp), reduced to what a certificate
 // shows.
 struct CertificateDiagnosis {
-  std::string verdict;  // consistent | explained | unexplained | insufficient_redundancy | ambiguous
+  std::string
+      verdict;  // consistent | explained | unexplained | insufficient_redundancy | ambiguous
   std::vector<std::string> summary;
   std::vector<std::string> located;
-  std::string origin;   // "run for this certificate" or the diagnosis.json path
+  std::string origin;  // "run for this certificate" or the diagnosis.json path
 };
 
 struct CertificateInput {
@@ -54,9 +55,9 @@ struct CertificateInput {
   std::optional<UncertaintyBudget> budget;  // the GUM budget, with --budget
   std::optional<records::ConformityReport> conformity;
   std::optional<CertificateDiagnosis> diagnosis;
-  std::vector<std::string> warnings;   // recording warnings, missing traceability, ...
+  std::vector<std::string> warnings;  // recording warnings, missing traceability, ...
   double coverage_factor = records::kDefaultCoverageFactor;
-  std::string issued_utc;              // when the certificate was made
+  std::string issued_utc;  // when the certificate was made
   std::string issuing_software_version;
   std::optional<LabIdentity> lab;  // who issues it (--lab)
   std::string certificate_number;
@@ -64,16 +65,16 @@ struct CertificateInput {
 
 // What `standcal certificate` was asked for.
 struct CertificateRequest {
-  std::string state_dir;       // with run_id: STATE/runs/RUN_ID/{run.json,recording.csv,result.json}
+  std::string state_dir;  // with run_id: STATE/runs/RUN_ID/{run.json,recording.csv,result.json}
   std::string run_id;
-  std::string recording_path;  // instead: an imported / offline recording
-  std::string limits_path;     // optional standcal-limits/1 file
-  std::string budget_path;     // optional standcal-budget/1 file: the type B inputs
-  std::string lab_path;        // optional standcal-lab/1 file: who issues and signs
+  std::string recording_path;      // instead: an imported / offline recording
+  std::string limits_path;         // optional standcal-limits/1 file
+  std::string budget_path;         // optional standcal-budget/1 file: the type B inputs
+  std::string lab_path;            // optional standcal-lab/1 file: who issues and signs
   std::string certificate_number;  // default: default_certificate_number()
-  std::string unit_type;       // which limits apply (default: run.json's unit_type or the only one)
+  std::string unit_type;  // which limits apply (default: run.json's unit_type or the only one)
   std::string method = "joint";  // certified estimator: joint | full
-  bool diagnose = false;       // run the diagnosis now (else use RUN_DIR/diagnosis.json if present)
+  bool diagnose = false;  // run the diagnosis now (else use RUN_DIR/diagnosis.json if present)
 };
 
 // Loads the run (or recording), refits it, applies the limits and the diagnosis. Throws
@@ -81,7 +82,8 @@ struct CertificateRequest {
 CertificateInput prepare_certificate(const CertificateRequest& request);
 
 // Reduces a diagnose_to_json() document (e.g. RUN_DIR/diagnosis.json).
-CertificateDiagnosis certificate_diagnosis_from_json(const nlohmann::json& doc, const std::string& origin);
+CertificateDiagnosis certificate_diagnosis_from_json(const nlohmann::json& doc,
+                                                     const std::string& origin);
 
 // The certificate page.
 std::string render_certificate_html(const CertificateInput& input);

@@ -34,19 +34,26 @@ const std::string kPrintStyle =
 
 std::string plain_name(int p) {
   static const char* names[kUnitParameterCount] = {
-      "Bias (zero offset), x axis",          "Bias (zero offset), y axis",          "Bias (zero offset), z axis",
-      "Scale-factor error, x axis",          "Scale-factor error, y axis",          "Scale-factor error, z axis",
-      "Non-orthogonality, x–y axis pair",    "Non-orthogonality, x–z axis pair",    "Non-orthogonality, y–z axis pair"};
+      "Bias (zero offset), x axis",       "Bias (zero offset), y axis",
+      "Bias (zero offset), z axis",       "Scale-factor error, x axis",
+      "Scale-factor error, y axis",       "Scale-factor error, z axis",
+      "Non-orthogonality, x–y axis pair", "Non-orthogonality, x–z axis pair",
+      "Non-orthogonality, y–z axis pair"};
   return names[p];
 }
 
 std::string outcome_label(Outcome o) {
   switch (o) {
-    case Outcome::pass: return "PASS";
-    case Outcome::fail: return "FAIL";
-    case Outcome::indeterminate: return "INDETERMINATE";
-    case Outcome::not_evaluated: return "NOT MEASURED";
-    case Outcome::no_limit: return "no limit";
+    case Outcome::pass:
+      return "PASS";
+    case Outcome::fail:
+      return "FAIL";
+    case Outcome::indeterminate:
+      return "INDETERMINATE";
+    case Outcome::not_evaluated:
+      return "NOT MEASURED";
+    case Outcome::no_limit:
+      return "no limit";
   }
   return "";
 }
@@ -54,7 +61,8 @@ std::string outcome_label(Outcome o) {
 std::string or_unknown(const std::string& s) { return s.empty() ? "(not recorded)" : s; }
 
 std::string field(const std::string& id, const std::string& label, const std::string& value) {
-  return "<dt>" + html_escape(label) + "</dt><dd data-field=\"" + id + "\">" + html_escape(value) + "</dd>\n";
+  return "<dt>" + html_escape(label) + "</dt><dd data-field=\"" + id + "\">" + html_escape(value) +
+         "</dd>\n";
 }
 
 std::string how_to_read(const CertificateInput& in) {
@@ -93,13 +101,15 @@ std::string how_to_read(const CertificateInput& in) {
 
 std::string verdict_section(const CertificateInput& in) {
   if (!in.conformity)
-    return "<p id=\"verdict\" class=\"verdict\" data-outcome=\"no_limit\">No acceptance limits were applied: the "
+    return "<p id=\"verdict\" class=\"verdict\" data-outcome=\"no_limit\">No acceptance limits "
+           "were applied: the "
            "values below are measured results without a pass/fail statement.</p>\n";
   const records::ConformityReport& c = *in.conformity;
   const std::string o = records::outcome_name(c.overall);
-  return "<p id=\"verdict\" class=\"verdict " + o + "\" data-outcome=\"" + o + "\">Result: " +
-         outcome_label(c.overall) + "</p>\n<p>" + html_escape(c.overall_text) + " Limits for unit type <b>" +
-         html_escape(c.unit_type) + "</b> from <code>" + html_escape(c.limits_source) + "</code>.</p>\n";
+  return "<p id=\"verdict\" class=\"verdict " + o + "\" data-outcome=\"" + o +
+         "\">Result: " + outcome_label(c.overall) + "</p>\n<p>" + html_escape(c.overall_text) +
+         " Limits for unit type <b>" + html_escape(c.unit_type) + "</b> from <code>" +
+         html_escape(c.limits_source) + "</code>.</p>\n";
 }
 
 std::string traceability_section(const CertificateInput& in) {
@@ -118,25 +128,32 @@ std::string traceability_section(const CertificateInput& in) {
   out += field("run_id", "Run", or_unknown(t.run_id));
   out += field("recording", "Recording (raw data)", or_unknown(t.recording_path));
   out += field("origin", "Taken from", t.origin);
-  out += field("issued", "Certificate issued (UTC)", in.issued_utc + " by standcal " + in.issuing_software_version);
+  out += field("issued", "Certificate issued (UTC)",
+               in.issued_utc + " by standcal " + in.issuing_software_version);
   return out + "</dl>\n";
 }
 
 std::string programme_section(const CertificateInput& in) {
-  std::string out = "<h2>How it was measured</h2>\n<p>Programme <b>" + html_escape(or_unknown(in.program_name)) +
-                    "</b>: the stand turned the unit into the " + std::to_string(in.positions.size()) +
-                    " orientations below and recorded its outputs at rest in each. The parameters were estimated "
-                    "with the <b>" + html_escape(in.fit.estimator) + "</b> method from " +
-                    std::to_string(in.fit.positions) + " positions; redundancy (positions beyond the minimum) " +
-                    std::to_string(in.fit.redundancy) + ".</p>\n";
-  out += "<table id=\"positions\">\n<tr><th>position</th><th>outer axis α1 (°)</th><th>inner axis α2 (°)</th>"
-         "<th>mounting</th><th>samples</th><th>dwell (s)</th><th>temperature (°C)</th></tr>\n";
+  std::string out =
+      "<h2>How it was measured</h2>\n<p>Programme <b>" + html_escape(or_unknown(in.program_name)) +
+      "</b>: the stand turned the unit into the " + std::to_string(in.positions.size()) +
+      " orientations below and recorded its outputs at rest in each. The parameters were estimated "
+      "with the <b>" +
+      html_escape(in.fit.estimator) + "</b> method from " + std::to_string(in.fit.positions) +
+      " positions; redundancy (positions beyond the minimum) " + std::to_string(in.fit.redundancy) +
+      ".</p>\n";
+  out +=
+      "<table id=\"positions\">\n<tr><th>position</th><th>outer axis α1 (°)</th><th>inner axis α2 "
+      "(°)</th>"
+      "<th>mounting</th><th>samples</th><th>dwell (s)</th><th>temperature (°C)</th></tr>\n";
   for (const PositionAverage& p : in.positions) {
     out += "<tr><td class=\"num\">" + std::to_string(p.pos + 1) + "</td><td class=\"num\">" +
-           fixed(p.alpha1_cmd_deg, 2) + "</td><td class=\"num\">" + fixed(p.alpha2_cmd_deg, 2) + "</td><td>" +
-           html_escape(mount_name(p.mount)) + "</td><td class=\"num\">" + std::to_string(p.samples) +
-           "</td><td class=\"num\">" + fixed(p.t_end_s - p.t_start_s, 1) + "</td><td class=\"num\">" +
-           (std::isfinite(p.temp_mean_c) ? fixed(p.temp_mean_c, 2) : std::string("—")) + "</td></tr>\n";
+           fixed(p.alpha1_cmd_deg, 2) + "</td><td class=\"num\">" + fixed(p.alpha2_cmd_deg, 2) +
+           "</td><td>" + html_escape(mount_name(p.mount)) + "</td><td class=\"num\">" +
+           std::to_string(p.samples) + "</td><td class=\"num\">" +
+           fixed(p.t_end_s - p.t_start_s, 1) + "</td><td class=\"num\">" +
+           (std::isfinite(p.temp_mean_c) ? fixed(p.temp_mean_c, 2) : std::string("—")) +
+           "</td></tr>\n";
   }
   return out + "</table>\n";
 }
@@ -155,38 +172,47 @@ std::string parameter_row(const CertificateInput& in, int p) {
   const records::ParameterConformity* c = conformity_of(in, p);
   const Outcome outcome = c ? c->outcome : Outcome::no_limit;
   const std::string o = records::outcome_name(outcome);
-  std::string row = "<tr data-parameter=\"" + name + "\" data-outcome=\"" + o + "\"><td>" + html_escape(plain_name(p)) +
-                    "<br><code>" + name + "</code></td>";
+  std::string row = "<tr data-parameter=\"" + name + "\" data-outcome=\"" + o + "\"><td>" +
+                    html_escape(plain_name(p)) + "<br><code>" + name + "</code></td>";
   if (e.value && e.sigma) {
     const double value = *e.value * report_scale(p);
     const double U =
         in.budget ? in.budget->parameters[static_cast<std::size_t>(p)].expanded * report_scale(p)
                   : in.coverage_factor * std::abs(*e.sigma * report_scale(p));
-    row += "<td class=\"num value\">" + fixed(value, 2, true) + "</td><td class=\"num U\">± " + fixed(U, 2) +
-           "</td><td>" + unit + "</td>";
+    row += "<td class=\"num value\">" + fixed(value, 2, true) + "</td><td class=\"num U\">± " +
+           fixed(U, 2) + "</td><td>" + unit + "</td>";
   } else {
     row += "<td class=\"value\" colspan=\"2\">not measured</td><td>" + unit + "</td>";
   }
   std::string limit = "—", margin = "—";
   if (c && c->limit.max_abs) limit = "|value| ≤ " + fixed(*c->limit.max_abs, 1);
-  if (c && c->limit.max_sigma) limit += (limit == "—" ? "" : "<br>") + std::string("σ ≤ ") + fixed(*c->limit.max_sigma, 1);
+  if (c && c->limit.max_sigma)
+    limit += (limit == "—" ? "" : "<br>") + std::string("σ ≤ ") + fixed(*c->limit.max_sigma, 1);
   if (c && c->value && c->limit.max_abs) margin = fixed(c->value_decision.guarded_margin, 2, true);
-  row += "<td class=\"num limit\">" + limit + "</td><td class=\"num margin\">" + margin + "</td><td class=\"outcome " + o +
-         "\">" + outcome_label(outcome) + "</td><td class=\"explanation\">" +
-         html_escape(c ? c->explanation : e.value ? std::string() : "not measured: " + e.unobservable_reason) +
+  row += "<td class=\"num limit\">" + limit + "</td><td class=\"num margin\">" + margin +
+         "</td><td class=\"outcome " + o + "\">" + outcome_label(outcome) +
+         "</td><td class=\"explanation\">" +
+         html_escape(c         ? c->explanation
+                     : e.value ? std::string()
+                               : "not measured: " + e.unobservable_reason) +
          "</td></tr>\n";
   return row;
 }
 
 std::string chi2_sentence(const FitResult& fit) {
   if (fit.redundancy <= 0 || !std::isfinite(fit.chi2_dof))
-    return "Not testable: the programme has no redundant positions, so the fit passes through every measurement "
+    return "Not testable: the programme has no redundant positions, so the fit passes through "
+           "every measurement "
            "and cannot reveal a wrong model.";
   const double p = chi_square_upper_tail(fit.chi2, fit.redundancy);
   std::string s = "χ²/dof = " + fixed(fit.chi2_dof, 2) + " with " + std::to_string(fit.redundancy) +
                   " degrees of freedom (p = " + fixed(p, 3) + "): ";
-  if (p < 1e-3) return s + "the residuals are larger than the measured noise explains; the model misses something.";
-  if (p > 0.999) return s + "the residuals are smaller than the noise predicts; uncertainties may be overstated.";
+  if (p < 1e-3)
+    return s +
+           "the residuals are larger than the measured noise explains; the model misses something.";
+  if (p > 0.999)
+    return s +
+           "the residuals are smaller than the noise predicts; uncertainties may be overstated.";
   return s + "consistent with the measured noise.";
 }
 
@@ -201,8 +227,8 @@ std::string results_section(const CertificateInput& in) {
       "<th>why</th></tr>\n";
   for (int p = 0; p < kUnitParameterCount; ++p) out += parameter_row(in, p);
   out += "</table>\n";
-  out += "<p id=\"model-check\"><b>Model check.</b> Residual rms " + fixed(in.fit.residual_rms_g / kUg, 3) +
-         " µg. " + html_escape(chi2_sentence(in.fit));
+  out += "<p id=\"model-check\"><b>Model check.</b> Residual rms " +
+         fixed(in.fit.residual_rms_g / kUg, 3) + " µg. " + html_escape(chi2_sentence(in.fit));
   if (in.conformity && in.conformity->model_check.outcome != Outcome::no_limit)
     out += " Limit: " + html_escape(in.conformity->model_check.explanation) + " (" +
            (in.conformity->model_check.outcome == Outcome::not_evaluated
@@ -302,15 +328,19 @@ std::string budget_section(const CertificateInput& in) {
 
 std::string compensation_section(const CertificateInput& in) {
   const Compensation& c = in.compensation;
-  std::string out = "<h2>Compensation to load into the navigation system</h2>\n<p>The navigation computer turns the "
-                    "unit's raw outputs f<sub>raw</sub> (m/s², converted with the nominal scale factors) into "
-                    "corrected specific force with <b>f = M · (f<sub>raw</sub> − b)</b>:</p>\n"
-                    "<table id=\"compensation\">\n<tr><th></th><th>x</th><th>y</th><th>z</th></tr>\n<tr><th>b (m/s²)</th>";
+  std::string out =
+      "<h2>Compensation to load into the navigation system</h2>\n<p>The navigation computer turns "
+      "the "
+      "unit's raw outputs f<sub>raw</sub> (m/s², converted with the nominal scale factors) into "
+      "corrected specific force with <b>f = M · (f<sub>raw</sub> − b)</b>:</p>\n"
+      "<table id=\"compensation\">\n<tr><th></th><th>x</th><th>y</th><th>z</th></tr>\n<tr><th>b "
+      "(m/s²)</th>";
   for (int i = 0; i < 3; ++i) out += "<td class=\"num\">" + fixed(c.bias[i], 9, true) + "</td>";
   out += "</tr>\n";
   for (int r = 0; r < 3; ++r) {
     out += "<tr><th>M row " + std::to_string(r + 1) + "</th>";
-    for (int k = 0; k < 3; ++k) out += "<td class=\"num\">" + fixed(c.matrix(r, k), 12, true) + "</td>";
+    for (int k = 0; k < 3; ++k)
+      out += "<td class=\"num\">" + fixed(c.matrix(r, k), 12, true) + "</td>";
     out += "</tr>\n";
   }
   out += "</table>\n<p>g = " + fixed(c.g_local_mps2, 5) +
@@ -349,28 +379,33 @@ std::string figure_html(const std::string& id, const plot::Figure& f, const std:
 }
 
 std::string residuals_section(const CertificateInput& in) {
-  std::string out = "<h2>Residuals: how well the model fits each position</h2>\n<p>A residual is what the unit "
-                    "read minus what the fitted model predicts, in µg. Bars are ±1 standard error of the dwell "
-                    "average. Residuals scattered around zero, mostly within their bars, mean the model explains "
-                    "the measurements; a pattern (a trend, one position far out) means something the model leaves "
-                    "out, which the diagnosis section looks for.</p>\n";
+  std::string out =
+      "<h2>Residuals: how well the model fits each position</h2>\n<p>A residual is what the unit "
+      "read minus what the fitted model predicts, in µg. Bars are ±1 standard error of the dwell "
+      "average. Residuals scattered around zero, mostly within their bars, mean the model explains "
+      "the measurements; a pattern (a trend, one position far out) means something the model "
+      "leaves "
+      "out, which the diagnosis section looks for.</p>\n";
   if (in.invariant && !in.invariant->residuals.empty()) {
     plot::Figure f;
     f.panel_height_px = 260;
-    f.panels.push_back(residual_panel("Along gravity (the invariant measurement u.J - 1), per position", *in.invariant, 0));
-    out += figure_html("residuals-invariant", f,
-                       "Residual of the measurement along gravity, per position (the quantity the nine parameters "
-                       "are estimated from). With no redundant positions they are zero by construction.");
+    f.panels.push_back(residual_panel(
+        "Along gravity (the invariant measurement u.J - 1), per position", *in.invariant, 0));
+    out += figure_html(
+        "residuals-invariant", f,
+        "Residual of the measurement along gravity, per position (the quantity the nine parameters "
+        "are estimated from). With no redundant positions they are zero by construction.");
   }
   if (in.full && !in.full->residuals.empty() && in.full->residuals.front().residual_g.size() == 3) {
     plot::Figure f;
     f.panel_height_px = 220;
     const char* axes[3] = {"x", "y", "z"};
     for (Eigen::Index a = 0; a < 3; ++a)
-      f.panels.push_back(residual_panel(std::string(axes[a]) + " accelerometer, per position (full-vector fit)",
-                                        *in.full, a));
+      f.panels.push_back(residual_panel(
+          std::string(axes[a]) + " accelerometer, per position (full-vector fit)", *in.full, a));
     out += figure_html("residuals-axes", f,
-                       "Residual of each accelerometer axis per position, from the full-vector fit, which also uses "
+                       "Residual of each accelerometer axis per position, from the full-vector "
+                       "fit, which also uses "
                        "the components across gravity and estimates the stand's own errors.");
   }
   return out;
@@ -379,11 +414,14 @@ std::string residuals_section(const CertificateInput& in) {
 std::string diagnosis_section(const CertificateInput& in) {
   std::string out = "<h2>Diagnosis of model mismatch</h2>\n";
   if (!in.diagnosis)
-    return out + "<p id=\"diagnosis\" data-verdict=\"not_run\">No diagnosis was run for this calibration "
-                 "(<code>standcal certificate --diagnose</code> runs one).</p>\n";
+    return out +
+           "<p id=\"diagnosis\" data-verdict=\"not_run\">No diagnosis was run for this calibration "
+           "(<code>standcal certificate --diagnose</code> runs one).</p>\n";
   const CertificateDiagnosis& d = *in.diagnosis;
-  out += "<div id=\"diagnosis\" data-verdict=\"" + html_escape(d.verdict) + "\"><p>The diagnosis tests whether the "
-         "residuals are only noise and, if not, which physics missing from the model explains them. Verdict: <b>" +
+  out += "<div id=\"diagnosis\" data-verdict=\"" + html_escape(d.verdict) +
+         "\"><p>The diagnosis tests whether the "
+         "residuals are only noise and, if not, which physics missing from the model explains "
+         "them. Verdict: <b>" +
          html_escape(d.verdict) + "</b> (from " + html_escape(d.origin) + ").</p>\n<ul>\n";
   for (const std::string& s : d.summary) out += "<li>" + html_escape(s) + "</li>\n";
   for (const std::string& s : d.located) out += "<li>" + html_escape(s) + "</li>\n";

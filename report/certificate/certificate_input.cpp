@@ -30,7 +30,8 @@ json read_json_file(const fs::path& path, const char* what) {
   try {
     return json::parse(text.str());
   } catch (const json::parse_error& e) {
-    throw std::runtime_error(path.string() + ": the " + what + " is not valid JSON (" + e.what() + ")");
+    throw std::runtime_error(path.string() + ": the " + what + " is not valid JSON (" + e.what() +
+                             ")");
   }
 }
 
@@ -56,12 +57,14 @@ LoadedRun load_state_run(const CertificateRequest& req) {
   run.run_dir = fs::path(req.state_dir) / "runs" / req.run_id;
   const fs::path record_path = run.run_dir / "run.json";
   if (!fs::exists(record_path))
-    throw std::runtime_error("no run " + req.run_id + " in " + req.state_dir + " (" + record_path.string() +
+    throw std::runtime_error("no run " + req.run_id + " in " + req.state_dir + " (" +
+                             record_path.string() +
                              " does not exist; `standcal run list` shows the runs)");
   const json record = read_json_file(record_path, "run record");
   const std::string state = string_key(record, "state");
   if (state != "done")
-    throw std::runtime_error("run " + req.run_id + " is '" + state + "', not done: only a finished run gets a " +
+    throw std::runtime_error("run " + req.run_id + " is '" + state +
+                             "', not done: only a finished run gets a " +
                              "certificate (certify its recording with --recording to override)");
   CertificateTraceability& t = run.trace;
   t.origin = "standcald run record (" + record_path.string() + ")";
@@ -85,7 +88,8 @@ LoadedRun load_state_run(const CertificateRequest& req) {
   if (record.contains("g_local_mps2") && record["g_local_mps2"].is_number() &&
       std::abs(record["g_local_mps2"].get<double>() - t.g_local_mps2) > 1e-9)
     run.recording.warnings.push_back("run.json says g = " + record["g_local_mps2"].dump() +
-                                     " m/s^2 but the recording header says " + std::to_string(t.g_local_mps2) +
+                                     " m/s^2 but the recording header says " +
+                                     std::to_string(t.g_local_mps2) +
                                      "; the recording's value was used");
   return run;
 }
@@ -114,25 +118,31 @@ LoadedRun load_recording_only(const CertificateRequest& req) {
 void note_missing_traceability(CertificateInput& in) {
   const CertificateTraceability& t = in.trace;
   const std::pair<const char*, const std::string*> fields[] = {
-      {"unit serial", &t.unit_serial},           {"stand id", &t.stand_id},
-      {"operator", &t.operator_name},            {"date", &t.started_utc},
-      {"software version", &t.software_version}, {"configuration hash", &t.config_hash},
+      {"unit serial", &t.unit_serial},
+      {"stand id", &t.stand_id},
+      {"operator", &t.operator_name},
+      {"date", &t.started_utc},
+      {"software version", &t.software_version},
+      {"configuration hash", &t.config_hash},
       {"source of g", &t.g_source}};
   for (const auto& [name, value] : fields)
-    if (value->empty()) in.warnings.push_back(std::string("the ") + name + " is not recorded for this calibration");
+    if (value->empty())
+      in.warnings.push_back(std::string("the ") + name + " is not recorded for this calibration");
 }
 
 }  // namespace
 
 CertificateDiagnosis certificate_diagnosis_from_json(const json& doc, const std::string& origin) {
   if (!doc.is_object() || !doc.contains("verdict") || !doc["verdict"].is_string())
-    throw std::runtime_error(origin + ": verdict: missing (not a `standcal diagnose --json` document)");
+    throw std::runtime_error(origin +
+                             ": verdict: missing (not a `standcal diagnose --json` document)");
   CertificateDiagnosis d;
   d.origin = origin;
   d.verdict = doc["verdict"].get<std::string>();
   for (const char* key : {"summary", "located"}) {
     if (!doc.contains(key)) continue;
-    if (!doc[key].is_array()) throw std::runtime_error(origin + ": " + key + ": must be a list of sentences");
+    if (!doc[key].is_array())
+      throw std::runtime_error(origin + ": " + key + ": must be a list of sentences");
     auto& into = std::string(key) == "summary" ? d.summary : d.located;
     for (const json& s : doc[key])
       if (s.is_string()) into.push_back(s.get<std::string>());
@@ -142,7 +152,8 @@ CertificateDiagnosis certificate_diagnosis_from_json(const json& doc, const std:
 
 CertificateInput prepare_certificate(const CertificateRequest& req) {
   if (req.run_id.empty() == req.recording_path.empty())
-    throw std::runtime_error("give either a RUN_ID (with --state-dir) or --recording FILE, not both or neither");
+    throw std::runtime_error(
+        "give either a RUN_ID (with --state-dir) or --recording FILE, not both or neither");
   if (req.method != "joint" && req.method != "full")
     throw std::runtime_error("unknown method '" + req.method + "' (joint, full)");
   LoadedRun run = req.run_id.empty() ? load_recording_only(req) : load_state_run(req);
@@ -166,9 +177,11 @@ CertificateInput prepare_certificate(const CertificateRequest& req) {
   try {
     in.full = fit_full_vector(in.positions);
   } catch (const std::exception& e) {
-    in.warnings.push_back(std::string("no per-axis residuals: the full-vector fit failed (") + e.what() + ")");
+    in.warnings.push_back(std::string("no per-axis residuals: the full-vector fit failed (") +
+                          e.what() + ")");
   }
-  if (req.method == "full" && !in.full) throw std::runtime_error("--method full: the full-vector fit failed");
+  if (req.method == "full" && !in.full)
+    throw std::runtime_error("--method full: the full-vector fit failed");
   in.fit = req.method == "full" ? *in.full : *in.invariant;
   in.compensation = make_compensation(in.fit, in.trace.g_local_mps2);
   const CertificateTraceability& t = in.trace;
@@ -201,10 +214,12 @@ CertificateInput prepare_certificate(const CertificateRequest& req) {
                                                in.budget ? &*in.budget : nullptr);
   }
 
-  const fs::path stored_diagnosis = run.run_dir.empty() ? fs::path() : run.run_dir / "diagnosis.json";
+  const fs::path stored_diagnosis =
+      run.run_dir.empty() ? fs::path() : run.run_dir / "diagnosis.json";
   if (req.diagnose) {
     const Diagnosis d = diagnose_recording(run.recording);
-    in.diagnosis = CertificateDiagnosis{d.verdict, d.summary, d.located, "run for this certificate"};
+    in.diagnosis =
+        CertificateDiagnosis{d.verdict, d.summary, d.located, "run for this certificate"};
   } else if (!stored_diagnosis.empty() && fs::exists(stored_diagnosis)) {
     in.diagnosis = certificate_diagnosis_from_json(read_json_file(stored_diagnosis, "diagnosis"),
                                                    stored_diagnosis.string());

@@ -14,13 +14,18 @@ namespace standcal::report {
 
 namespace {
 
-std::string parameter_name(int p) { return std::string(kUnitParameterNames[static_cast<std::size_t>(p)]); }
-std::string parameter_unit(int p) { return unit_symbol(kUnitParameterUnits[static_cast<std::size_t>(p)]); }
+std::string parameter_name(int p) {
+  return std::string(kUnitParameterNames[static_cast<std::size_t>(p)]);
+}
+std::string parameter_unit(int p) {
+  return unit_symbol(kUnitParameterUnits[static_cast<std::size_t>(p)]);
+}
 
 std::vector<const HistoryCalibration*> by_date(const UnitHistory& h, std::vector<double>& days) {
   std::vector<std::pair<double, const HistoryCalibration*>> dated;
   for (const HistoryCalibration& c : h.calibrations) dated.emplace_back(utc_days(c.date_utc), &c);
-  std::stable_sort(dated.begin(), dated.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::stable_sort(dated.begin(), dated.end(),
+                   [](const auto& a, const auto& b) { return a.first < b.first; });
   std::vector<const HistoryCalibration*> out;
   days.clear();
   for (const auto& [d, c] : dated) {
@@ -39,7 +44,8 @@ std::string date_only(const std::string& iso) {
   return buf;
 }
 
-plot::Figure parameter_figure(const UnitHistory& h, const std::vector<const HistoryCalibration*>& cals,
+plot::Figure parameter_figure(const UnitHistory& h,
+                              const std::vector<const HistoryCalibration*>& cals,
                               const std::vector<double>& days, int p) {
   plot::Series s;
   s.label = "value ± U (k = " + compact(h.coverage_factor) + ")";
@@ -54,7 +60,8 @@ plot::Figure parameter_figure(const UnitHistory& h, const std::vector<const Hist
   plot::Panel panel;
   panel.title = parameter_name(p) + " of " + h.unit_serial;
   panel.x_label = "days since the first calibration";
-  panel.y_label = parameter_name(p) + " (" + std::string(kUnitParameterUnits[static_cast<std::size_t>(p)]) + ")";
+  panel.y_label = parameter_name(p) + " (" +
+                  std::string(kUnitParameterUnits[static_cast<std::size_t>(p)]) + ")";
   panel.y_reference = 0.0;
   panel.series.push_back(std::move(s));
   plot::Figure f;
@@ -65,20 +72,23 @@ plot::Figure parameter_figure(const UnitHistory& h, const std::vector<const Hist
 }
 
 std::string calibration_table(const std::vector<const HistoryCalibration*>& cals, double k) {
-  std::string out = "<table id=\"calibrations\">\n<tr><th>date (UTC)</th><th>run</th><th>verdict</th>";
+  std::string out =
+      "<table id=\"calibrations\">\n<tr><th>date (UTC)</th><th>run</th><th>verdict</th>";
   for (int p = 0; p < kUnitParameterCount; ++p)
     out += "<th>" + html_escape(parameter_name(p)) + " (" + parameter_unit(p) + ")</th>";
   out += "</tr>\n";
   for (const HistoryCalibration* c : cals) {
-    out += "<tr data-run=\"" + html_escape(c->run_id) + "\"><td>" + html_escape(date_only(c->date_utc)) + "</td><td>" +
-           html_escape(c->run_id) + "</td><td class=\"" + html_escape(c->verdict) + "\">" +
+    out += "<tr data-run=\"" + html_escape(c->run_id) + "\"><td>" +
+           html_escape(date_only(c->date_utc)) + "</td><td>" + html_escape(c->run_id) +
+           "</td><td class=\"" + html_escape(c->verdict) + "\">" +
            html_escape(c->verdict.empty() ? "—" : c->verdict) + "</td>";
     for (const HistoryValue& v : c->parameters) {
       if (!v.value) {
         out += "<td>not measured</td>";
         continue;
       }
-      out += "<td class=\"num\">" + fixed(*v.value, 1, true) + (v.sigma ? " ± " + fixed(k * *v.sigma, 1) : "") + "</td>";
+      out += "<td class=\"num\">" + fixed(*v.value, 1, true) +
+             (v.sigma ? " ± " + fixed(k * *v.sigma, 1) : "") + "</td>";
     }
     out += "</tr>\n";
   }
@@ -86,15 +96,19 @@ std::string calibration_table(const std::vector<const HistoryCalibration*>& cals
 }
 
 std::string drift_section(const std::vector<HistoryDrift>& drifts, double k) {
-  std::string out = "<h2>Changes between calibrations</h2>\n<p>A change is flagged when it exceeds " + compact(k) +
-                    " times its combined standard uncertainty √(σ₁² + σ₂²): more than measurement noise explains, "
-                    "so the unit itself has probably changed (ageing, a shock, a repair) or one calibration is "
-                    "wrong.</p>\n";
-  if (drifts.empty()) return out + "<p id=\"drifts\" class=\"pass\">No change beyond the uncertainty.</p>\n";
+  std::string out =
+      "<h2>Changes between calibrations</h2>\n<p>A change is flagged when it exceeds " +
+      compact(k) +
+      " times its combined standard uncertainty √(σ₁² + σ₂²): more than measurement noise "
+      "explains, "
+      "so the unit itself has probably changed (ageing, a shock, a repair) or one calibration is "
+      "wrong.</p>\n";
+  if (drifts.empty())
+    return out + "<p id=\"drifts\" class=\"pass\">No change beyond the uncertainty.</p>\n";
   out += "<ul id=\"drifts\">\n";
   for (const HistoryDrift& d : drifts)
-    out += "<li class=\"fail\" data-parameter=\"" + html_escape(parameter_name(d.parameter)) + "\">" + html_escape(d.text) +
-           "</li>\n";
+    out += "<li class=\"fail\" data-parameter=\"" + html_escape(parameter_name(d.parameter)) +
+           "\">" + html_escape(d.text) + "</li>\n";
   return out + "</ul>\n";
 }
 
@@ -104,12 +118,14 @@ double utc_days(const std::string& iso) {
   int y = 0, mo = 0, d = 0, h = 0, mi = 0, s = 0;
   char tail = 0;
   // The daemon writes "2026-11-21T22:36:38Z"; run ids carry "20261121T223638Z".
-  const bool parsed = std::sscanf(iso.c_str(), "%4d-%2d-%2dT%2d:%2d:%2d%c", &y, &mo, &d, &h, &mi, &s, &tail) == 7 ||
-                      std::sscanf(iso.c_str(), "%4d%2d%2dT%2d%2d%2d%c", &y, &mo, &d, &h, &mi, &s, &tail) == 7;
+  const bool parsed =
+      std::sscanf(iso.c_str(), "%4d-%2d-%2dT%2d:%2d:%2d%c", &y, &mo, &d, &h, &mi, &s, &tail) == 7 ||
+      std::sscanf(iso.c_str(), "%4d%2d%2dT%2d%2d%2d%c", &y, &mo, &d, &h, &mi, &s, &tail) == 7;
   if (!parsed || tail != 'Z' || mo < 1 || mo > 12 || d < 1 || d > 31 || h > 23 || mi > 59 || s > 60)
     throw std::runtime_error("history: '" + iso + "' is not a UTC date like 2026-11-21T22:36:38Z");
   using namespace std::chrono;
-  const year_month_day ymd{year{y}, month{static_cast<unsigned>(mo)}, day{static_cast<unsigned>(d)}};
+  const year_month_day ymd{year{y}, month{static_cast<unsigned>(mo)},
+                           day{static_cast<unsigned>(d)}};
   if (!ymd.ok()) throw std::runtime_error("history: '" + iso + "' is not a calendar date");
   return sys_days{ymd}.time_since_epoch().count() + (h * 3600.0 + mi * 60.0 + s) / 86400.0;
 }
@@ -134,10 +150,10 @@ std::vector<HistoryDrift> find_drifts(const UnitHistory& h) {
         d.change_sigma = std::hypot(*now.sigma, *before.sigma);
         d.days = days[i] - days[*previous];
         if (std::abs(d.change) > h.coverage_factor * d.change_sigma) {
-          d.text = parameter_name(p) + " changed by " + fixed(d.change, 1, true) + " " + parameter_unit(p) + " in " +
-                   fixed(d.days, 0) + " days (" + d.from_run_id + " → " + d.to_run_id + "), " +
-                   fixed(std::abs(d.change) / d.change_sigma, 1) + " times its combined σ of " +
-                   fixed(d.change_sigma, 1) + " " + parameter_unit(p);
+          d.text = parameter_name(p) + " changed by " + fixed(d.change, 1, true) + " " +
+                   parameter_unit(p) + " in " + fixed(d.days, 0) + " days (" + d.from_run_id +
+                   " → " + d.to_run_id + "), " + fixed(std::abs(d.change) / d.change_sigma, 1) +
+                   " times its combined σ of " + fixed(d.change_sigma, 1) + " " + parameter_unit(p);
           out.push_back(std::move(d));
         }
       }
@@ -153,16 +169,23 @@ std::string render_history_html(const UnitHistory& h) {
   const double k = h.coverage_factor;
   std::string out = html_page_start("Calibration history of " + h.unit_serial);
   out += "<h1>Calibration history of unit " + html_escape(h.unit_serial) + "</h1>\n";
-  out += "<p>Unit type: " + html_escape(h.unit_type.empty() ? "(not recorded)" : h.unit_type) + ". " +
-         std::to_string(cals.size()) + " calibration(s)" +
-         (cals.empty() ? std::string(".") : ", from " + date_only(cals.front()->date_utc) + " to " +
-                                                date_only(cals.back()->date_utc) + " UTC.") +
+  out += "<p>Unit type: " + html_escape(h.unit_type.empty() ? "(not recorded)" : h.unit_type) +
+         ". " + std::to_string(cals.size()) + " calibration(s)" +
+         (cals.empty() ? std::string(".")
+                       : ", from " + date_only(cals.front()->date_utc) + " to " +
+                             date_only(cals.back()->date_utc) + " UTC.") +
          "</p>\n";
-  out += "<p class=\"howto\"><b>How to read this page.</b> Every calibration of this unit measured its nine "
-         "instrument errors: bias (zero offset, µg), scale-factor error (ppm) and non-orthogonality of the axis "
-         "pairs (″, arc-seconds). The plots show each of them over time; the bars are the expanded uncertainty "
-         "U = " + compact(k) + "σ. A healthy unit gives points that agree within their bars. A steady trend is ageing; "
-         "a jump is a shock, a repair or a faulty calibration.</p>\n";
+  out +=
+      "<p class=\"howto\"><b>How to read this page.</b> Every calibration of this unit measured "
+      "its nine "
+      "instrument errors: bias (zero offset, µg), scale-factor error (ppm) and non-orthogonality "
+      "of the axis "
+      "pairs (″, arc-seconds). The plots show each of them over time; the bars are the expanded "
+      "uncertainty "
+      "U = " +
+      compact(k) +
+      "σ. A healthy unit gives points that agree within their bars. A steady trend is ageing; "
+      "a jump is a shock, a repair or a faulty calibration.</p>\n";
   if (cals.empty()) return out + "<p>No calibrations recorded.</p>\n" + html_page_end();
   out += "<h2>Calibrations (value ± U)</h2>\n" + calibration_table(cals, k);
   out += drift_section(find_drifts(h), k);
@@ -171,8 +194,9 @@ std::string render_history_html(const UnitHistory& h) {
     out += "<figure data-parameter=\"" + html_escape(parameter_name(p)) + "\">\n";
     out += plot::render_svg_inline(parameter_figure(h, cals, days, p),
                                    "parameter" + std::to_string(p));
-    out += "\n<figcaption>" + html_escape(parameter_name(p)) + " (" + parameter_unit(p) + ") against days since " +
-           html_escape(date_only(cals.front()->date_utc)) + " UTC; bars ±U.</figcaption>\n</figure>\n";
+    out += "\n<figcaption>" + html_escape(parameter_name(p)) + " (" + parameter_unit(p) +
+           ") against days since " + html_escape(date_only(cals.front()->date_utc)) +
+           " UTC; bars ±U.</figcaption>\n</figure>\n";
   }
   return out + html_page_end();
 }

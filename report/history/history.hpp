@@ -27,9 +27,9 @@ struct HistoryCalibration {
 
 struct UnitHistory {
   std::string unit_serial;
-  std::string unit_type;                     // may be empty
+  std::string unit_type;                         // may be empty
   std::vector<HistoryCalibration> calibrations;  // any order; sorted by date when drawn
-  double coverage_factor = 2.0;              // error bars are ±U = ±k·sigma
+  double coverage_factor = 2.0;                  // error bars are ±U = ±k·sigma
 };
 
 // A change between two successive calibrations bigger than k times its combined sigma.

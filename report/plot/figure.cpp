@@ -25,8 +25,8 @@ std::mutex plplot_mutex;
 // cmap0 slots: 0 background, 1 axes and text, 2 shaded spans, 3 reference line, 4 grid,
 // 5.. series colours (colour-blind-safe Tableau order).
 constexpr int kBackground = 0, kInk = 1, kSpan = 2, kReference = 3, kGrid = 4, kFirstSeries = 5;
-constexpr int kSeriesPalette[][3] = {{31, 119, 180}, {214, 39, 40}, {44, 160, 44},
-                                      {255, 127, 14}, {148, 103, 189}, {140, 86, 75}};
+constexpr int kSeriesPalette[][3] = {{31, 119, 180}, {214, 39, 40},   {44, 160, 44},
+                                     {255, 127, 14}, {148, 103, 189}, {140, 86, 75}};
 constexpr double kPointScale = 0.6;
 constexpr int kPaletteSize = static_cast<int>(std::size(kSeriesPalette));
 constexpr const char* kPointGlyph = "\u25CF";  // filled circle, drawn as text by the svg device
@@ -62,9 +62,9 @@ void validate(const Figure& figure) {
   for (const Panel& panel : figure.panels) {
     for (const Series& s : panel.series) {
       if (s.x.size() != s.y.size()) {
-        throw std::runtime_error("plot: panel \"" + panel.title + "\", series \"" + s.label + "\": " +
-                                 std::to_string(s.x.size()) + " x values but " + std::to_string(s.y.size()) +
-                                 " y values");
+        throw std::runtime_error("plot: panel \"" + panel.title + "\", series \"" + s.label +
+                                 "\": " + std::to_string(s.x.size()) + " x values but " +
+                                 std::to_string(s.y.size()) + " y values");
       }
       if (!s.y_sigma.empty() && s.y_sigma.size() != s.y.size()) {
         throw std::runtime_error("plot: panel \"" + panel.title + "\", series \"" + s.label +
@@ -316,7 +316,8 @@ void draw_panel(const Panel& panel) {
 class ScratchFile {
  public:
   ScratchFile() {
-    std::string pattern = (std::filesystem::temp_directory_path() / "standcal-plot-XXXXXX").string();
+    std::string pattern =
+        (std::filesystem::temp_directory_path() / "standcal-plot-XXXXXX").string();
     const int fd = mkstemp(pattern.data());
     if (fd < 0) throw std::runtime_error("plot: cannot create a temporary file in " + pattern);
     ::close(fd);
@@ -366,7 +367,8 @@ std::string decode_character_references(const std::string& svg) {
       continue;
     }
     const unsigned long code = std::strtoul(svg.substr(i + 3, end - i - 3).c_str(), nullptr, 16);
-    const bool xml_special = code == '&' || code == '<' || code == '>' || code == '"' || code == '\'';
+    const bool xml_special =
+        code == '&' || code == '<' || code == '>' || code == '"' || code == '\'';
     if (code == 0 || xml_special || code > 0x10FFFF) {
       out.append(svg, i, end + 1 - i);
     } else {
@@ -436,7 +438,8 @@ std::string render_svg(const Figure& figure) {
   }
   std::string svg = decode_character_references(read_all(scratch.path()));
   if (svg.find("<svg") == std::string::npos) {
-    throw std::runtime_error("plot: PLplot's svg device wrote no drawing (" + std::to_string(svg.size()) + " bytes)");
+    throw std::runtime_error("plot: PLplot's svg device wrote no drawing (" +
+                             std::to_string(svg.size()) + " bytes)");
   }
   return svg;
 }

@@ -71,7 +71,8 @@ TEST(Averaging, RefusesAPositionWithoutTwoSamples) {
 
 TEST(ApproachRule, FollowsModelMd) {
   // first from (0,0); larger |delta| decides; ties to alpha1; no move gives +1.
-  const auto d = approach_directions({{-10, 5}, {-10, 20}, {-30, 20}, {-20, 30}, {-20, 30}, {0, 10}});
+  const auto d =
+      approach_directions({{-10, 5}, {-10, 20}, {-30, 20}, {-20, 30}, {-20, 30}, {0, 10}});
   EXPECT_EQ(d, (std::vector<int>{-1, +1, -1, +1, +1, +1}));
 }
 

@@ -23,7 +23,8 @@ class Cli : public ::testing::Test {
  protected:
   void SetUp() override {
     dir_ = fs::temp_directory_path() /
-           ("standcal_cli_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+           ("standcal_cli_" +
+            std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
     fs::remove_all(dir_);
     fs::create_directories(dir_);
   }
@@ -33,8 +34,10 @@ class Cli : public ::testing::Test {
 };
 
 TEST_F(Cli, SimulateThenFitJsonHasTheStableShape) {
-  ASSERT_EQ(run_cli("simulate --program paper9 --seed 5 --dwell-s 10 -o " + path("r.csv") + " --truth " +
-                path("t.json")).exit_code, 0);
+  ASSERT_EQ(run_cli("simulate --program paper9 --seed 5 --dwell-s 10 -o " + path("r.csv") +
+                    " --truth " + path("t.json"))
+                .exit_code,
+            0);
   const CliRun fit = run_cli("fit " + path("r.csv") + " --json");
   ASSERT_EQ(fit.exit_code, 0) << fit.output;
   const auto j = nlohmann::json::parse(fit.output);
@@ -52,10 +55,13 @@ TEST_F(Cli, SimulateThenFitJsonHasTheStableShape) {
   EXPECT_EQ(j["parameters"]["scale_z"]["unit"], "ppm");
   EXPECT_EQ(j["parameters"]["gamma13"]["unit"], "arcsec");
   // The truth file holds what the simulator used, and re-simulating it is identical.
-  ASSERT_EQ(run_cli("simulate --program paper9 --seed 5 --dwell-s 10 -o " + path("r2.csv") + " --model " +
-                path("t.json")).exit_code, 0);
+  ASSERT_EQ(run_cli("simulate --program paper9 --seed 5 --dwell-s 10 -o " + path("r2.csv") +
+                    " --model " + path("t.json"))
+                .exit_code,
+            0);
   std::ifstream a(path("r.csv")), b(path("r2.csv"));
-  EXPECT_EQ(std::string(std::istreambuf_iterator<char>(a), {}), std::string(std::istreambuf_iterator<char>(b), {}));
+  EXPECT_EQ(std::string(std::istreambuf_iterator<char>(a), {}),
+            std::string(std::istreambuf_iterator<char>(b), {}));
 }
 
 TEST_F(Cli, ClassicProgrammeReportsGammaAsNullWithAReason) {
@@ -64,13 +70,15 @@ TEST_F(Cli, ClassicProgrammeReportsGammaAsNullWithAReason) {
   ASSERT_EQ(fit.exit_code, 0) << fit.output;
   const auto j = nlohmann::json::parse(fit.output);
   EXPECT_TRUE(j["parameters"]["gamma12"]["value"].is_null());
-  EXPECT_NE(j["parameters"]["gamma12"]["unobservable_reason"].get<std::string>().find("u_x*u_y"), std::string::npos);
+  EXPECT_NE(j["parameters"]["gamma12"]["unobservable_reason"].get<std::string>().find("u_x*u_y"),
+            std::string::npos);
   EXPECT_EQ(j["redundancy"], 18);
 }
 
 TEST_F(Cli, TextReportSaysWhatABenchEngineerNeeds) {
   ASSERT_EQ(run_cli("simulate --program paper9 --dwell-s 5 -o " + path("r.csv")).exit_code, 0);
-  const CliRun fit = run_cli("fit " + path("r.csv") + " --method paper-sequential --compensation " + path("comp"));
+  const CliRun fit =
+      run_cli("fit " + path("r.csv") + " --method paper-sequential --compensation " + path("comp"));
   ASSERT_EQ(fit.exit_code, 0) << fit.output;
   EXPECT_NE(fit.output.find("Estimator:  paper-sequential"), std::string::npos);
   EXPECT_NE(fit.output.find("Zero redundancy"), std::string::npos);
@@ -84,13 +92,15 @@ TEST_F(Cli, TextReportSaysWhatABenchEngineerNeeds) {
 }
 
 TEST_F(Cli, BadRecordingFailsNamingLineAndWritesNothing) {
-  std::ofstream(path("bad.csv")) << "# format: standcal-recording/1\n"
-                                    "t_s,pos,alpha1_cmd_deg,alpha2_cmd_deg,fx_mps2,fy_mps2,fz_mps2\n"
-                                    "0,0,0,0,0,9.8,0\n"
-                                    "0.01,0,0,0,0,nine,0\n";
+  std::ofstream(path("bad.csv"))
+      << "# format: standcal-recording/1\n"
+         "t_s,pos,alpha1_cmd_deg,alpha2_cmd_deg,fx_mps2,fy_mps2,fz_mps2\n"
+         "0,0,0,0,0,9.8,0\n"
+         "0.01,0,0,0,0,nine,0\n";
   const CliRun fit = run_cli("fit " + path("bad.csv") + " --compensation " + path("comp"));
   EXPECT_NE(fit.exit_code, 0);
-  EXPECT_NE(fit.output.find("bad.csv:4: column 6: column 'fy_mps2': 'nine' is not a number"), std::string::npos)
+  EXPECT_NE(fit.output.find("bad.csv:4: column 6: column 'fy_mps2': 'nine' is not a number"),
+            std::string::npos)
       << fit.output;
   EXPECT_FALSE(fs::exists(path("comp.json")));
 }
@@ -119,7 +129,6 @@ TEST_F(Cli, FullVectorFitAddsStandHealth) {
   EXPECT_FALSE(j["stand"].empty());
 }
 
-
 // A unit serial with a newline would inject a header line ("# mount: y") into the
 // recording: the recording writer refuses it, naming the key, and nothing is written.
 TEST_F(Cli, SimulateRefusesAUnitSerialThatWouldInjectAHeaderLine) {
@@ -142,16 +151,18 @@ TEST_F(Cli, SimulateRefusesDwellAndSettleTimesPastTheRunLimits) {
   EXPECT_FALSE(fs::exists(path("r.csv")));
 }
 
-
 // Issue 21: the fit states the noise model it weighted with — the wander between dwells and
 // the Allan figures of the raw samples within them — and weights for a wander that is there.
 TEST_F(Cli, FitStatesItsNoiseModelAndWeightsForTheWanderOfTheRun) {
-  ASSERT_EQ(run_cli("simulate --program classic24 --seed 3 --dwell-s 10 -o " + path("white.csv") + " --truth " +
-                    path("t.json")).exit_code, 0);
+  ASSERT_EQ(run_cli("simulate --program classic24 --seed 3 --dwell-s 10 -o " + path("white.csv") +
+                    " --truth " + path("t.json"))
+                .exit_code,
+            0);
   const CliRun white = run_cli("fit " + path("white.csv") + " --method full --json");
   ASSERT_EQ(white.exit_code, 0) << white.output;
   const auto w = nlohmann::json::parse(white.output)["noise"];
-  EXPECT_EQ(w["bias_instability"], false) << w.dump(2);  // no wander finding (it may be weighted for)
+  EXPECT_EQ(w["bias_instability"], false)
+      << w.dump(2);  // no wander finding (it may be weighted for)
   // The simulator's white density is 10 ug/rtHz on every axis.
   for (const char* axis : {"x", "y", "z"})
     EXPECT_NEAR(w["allan"]["axes"][axis]["white_density_ug_rthz"].get<double>(), 10.0, 1.5) << axis;
@@ -161,21 +172,26 @@ TEST_F(Cli, FitStatesItsNoiseModelAndWeightsForTheWanderOfTheRun) {
   std::ifstream(path("t.json")) >> truth;
   truth["noise"]["bias_instability_ug"] = 30;  // about 10x a 10 s dwell mean's white error
   std::ofstream(path("wander.json")) << truth.dump(2);
-  ASSERT_EQ(run_cli("simulate --program classic24 --seed 3 --dwell-s 10 -o " + path("wander.csv") + " --model " +
-                    path("wander.json")).exit_code, 0);
+  ASSERT_EQ(run_cli("simulate --program classic24 --seed 3 --dwell-s 10 -o " + path("wander.csv") +
+                    " --model " + path("wander.json"))
+                .exit_code,
+            0);
   const CliRun fit = run_cli("fit " + path("wander.csv") + " --method full --json");
   ASSERT_EQ(fit.exit_code, 0) << fit.output;
   const auto j = nlohmann::json::parse(fit.output);
   EXPECT_EQ(j["noise"]["model"], "gauss_markov") << j["noise"].dump(2);
   EXPECT_EQ(j["noise"]["bias_instability"], true);
   EXPECT_EQ(j["noise"]["source"], "estimated");
-  const CliRun as_white = run_cli("fit " + path("wander.csv") + " --method full --noise white --json");
+  const CliRun as_white =
+      run_cli("fit " + path("wander.csv") + " --method full --noise white --json");
   ASSERT_EQ(as_white.exit_code, 0) << as_white.output;
   const auto jw = nlohmann::json::parse(as_white.output);
   EXPECT_EQ(jw["noise"]["model"], "white");
   // Weighted for the wander, the biases' sigmas are several times the white ones.
   for (const char* p : {"bias_x", "bias_y", "bias_z"})
-    EXPECT_GT(j["parameters"][p]["sigma"].get<double>(), 3 * jw["parameters"][p]["sigma"].get<double>()) << p;
+    EXPECT_GT(j["parameters"][p]["sigma"].get<double>(),
+              3 * jw["parameters"][p]["sigma"].get<double>())
+        << p;
 }
 
 // Issue 16: a recording from another tool, without angles, through the same commands.

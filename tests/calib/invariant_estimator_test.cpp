@@ -28,7 +28,8 @@ void expect_within_report_units(const FitResult& fit, const Eigen::Matrix<double
                                 double tol_ug, double tol_ppm, double tol_arcsec) {
   const double tol[3] = {tol_ug * kUg, tol_ppm * kPpm, tol_arcsec * kArcsecToRad};
   for (int j = 0; j < 9; ++j) {
-    ASSERT_TRUE(fit.unit[static_cast<std::size_t>(j)].value) << kUnitParameterNames[static_cast<std::size_t>(j)];
+    ASSERT_TRUE(fit.unit[static_cast<std::size_t>(j)].value)
+        << kUnitParameterNames[static_cast<std::size_t>(j)];
     EXPECT_NEAR(*fit.unit[static_cast<std::size_t>(j)].value, truth[j], tol[j / 3])
         << kUnitParameterNames[static_cast<std::size_t>(j)];
   }
@@ -87,7 +88,9 @@ TEST(InvariantJoint, ClassicProgrammeReportsGammaUnobservableNotNumbers) {
   EXPECT_EQ(fit.parameters_estimated, 6);
   EXPECT_EQ(fit.redundancy, 18);
   const auto truth = true_parameters(default_truth().unit);
-  for (int j = 0; j < 6; ++j) EXPECT_NEAR(*fit.unit[static_cast<std::size_t>(j)].value, truth[j], 5 * *fit.unit[static_cast<std::size_t>(j)].sigma);
+  for (int j = 0; j < 6; ++j)
+    EXPECT_NEAR(*fit.unit[static_cast<std::size_t>(j)].value, truth[j],
+                5 * *fit.unit[static_cast<std::size_t>(j)].sigma);
 }
 
 TEST(InvariantJoint, NamesCombinationsWhenPositionsAreTooFew) {
@@ -96,7 +99,8 @@ TEST(InvariantJoint, NamesCombinationsWhenPositionsAreTooFew) {
   const Program flat = program_of("flat5", {{0, 0}, {72, 0}, {144, 0}, {216, 0}, {288, 0}});
   const FitResult fit = fit_invariant_joint(simulate_averages(flat, default_truth()));
   for (int j : {kBiasZ, kScaleZ, kGamma13, kGamma23})
-    EXPECT_FALSE(fit.unit[static_cast<std::size_t>(j)].value) << kUnitParameterNames[static_cast<std::size_t>(j)];
+    EXPECT_FALSE(fit.unit[static_cast<std::size_t>(j)].value)
+        << kUnitParameterNames[static_cast<std::size_t>(j)];
   EXPECT_EQ(fit.parameters_estimated, 5);
 }
 
@@ -121,12 +125,15 @@ TEST_P(SilentMountingBias, MatchesTheClosedFormAndLeavesAPerfectFit) {
   const FitResult fit = fit_invariant_joint(simulate_averages(redundant18(), truth));
 
   const double c = 1.0 - std::cos(phi_rad);
-  const Vec3 expected_dk(-c * (1 - n.x() * n.x()), -c * (1 - n.y() * n.y()), -c * (1 - n.z() * n.z()));
+  const Vec3 expected_dk(-c * (1 - n.x() * n.x()), -c * (1 - n.y() * n.y()),
+                         -c * (1 - n.z() * n.z()));
   const Vec3 expected_gamma(2 * c * n.x() * n.y(), 2 * c * n.x() * n.z(), 2 * c * n.y() * n.z());
   for (int i = 0; i < 3; ++i) {
     EXPECT_NEAR(*fit.unit[static_cast<std::size_t>(kScaleX + i)].value, expected_dk[i], 0.1 * kPpm);
-    EXPECT_NEAR(*fit.unit[static_cast<std::size_t>(kGamma12 + i)].value, expected_gamma[i], 0.1 * kPpm);
-    EXPECT_NEAR(*fit.unit[static_cast<std::size_t>(kBiasX + i)].value, truth.unit.bias_g[i], 0.01 * kUg);
+    EXPECT_NEAR(*fit.unit[static_cast<std::size_t>(kGamma12 + i)].value, expected_gamma[i],
+                0.1 * kPpm);
+    EXPECT_NEAR(*fit.unit[static_cast<std::size_t>(kBiasX + i)].value, truth.unit.bias_g[i],
+                0.01 * kUg);
   }
   EXPECT_LT(fit.residual_rms_g, 1e-3 * kUg);  // the fit is perfect: nothing shows the error
   // ... and the error is not small: at 2 deg it is ~600 ppm in total.
@@ -135,4 +142,5 @@ TEST_P(SilentMountingBias, MatchesTheClosedFormAndLeavesAPerfectFit) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(TenArcminAndTwoDegrees, SilentMountingBias, ::testing::Values(10.0, 120.0));
+INSTANTIATE_TEST_SUITE_P(TenArcminAndTwoDegrees, SilentMountingBias,
+                         ::testing::Values(10.0, 120.0));

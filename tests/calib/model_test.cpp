@@ -85,7 +85,8 @@ TEST(InvariantMeasurement, IsBlindToSmallStandErrorsToFirstOrder) {
   for (double a1 : {10.0, 100.0})
     for (double a2 : {20.0, 250.0}) {
       const Vec3 u = up_vector(a1 * kDegToRad, a2 * kDegToRad);
-      const Vec3 J = unit_output_g(ideal, true_up_vector(a1 * kDegToRad, a2 * kDegToRad, Mount::x, stand));
+      const Vec3 J =
+          unit_output_g(ideal, true_up_vector(a1 * kDegToRad, a2 * kDegToRad, Mount::x, stand));
       EXPECT_LT(std::abs(delta_J_L(u, J)), 2e-6);  // second order of ~6e-4 rad
       EXPECT_GT((J - u).norm(), 1e-4);             // while the vector itself moves by ~1e-3
     }

@@ -32,7 +32,8 @@ NormalisedErrors run_monte_carlo(const Program& program,
   const auto x_true = true_parameters(truth.unit);
   NormalisedErrors e;
   for (int run = 0; run < kRuns; ++run) {
-    const FitResult r = fit(simulate_averages(program, truth, 1000 + static_cast<std::uint64_t>(run), 4));
+    const FitResult r =
+        fit(simulate_averages(program, truth, 1000 + static_cast<std::uint64_t>(run), 4));
     for (int j = 0; j < 9; ++j) {
       const auto& p = r.unit[static_cast<std::size_t>(j)];
       const double z = (*p.value - x_true[j]) / *p.sigma;

@@ -93,7 +93,8 @@ TEST(AxisRange, UnreachableAngleIsAnErrorNamingPositionAndAxis) {
     normalise_program(paper9(), limits);
     FAIL() << "paper9 needs alpha2 = 122.5";
   } catch (const ProgramError& e) {
-    EXPECT_NE(std::string(e.what()).find("paper9: position 7 of 9: alpha2 = 122.5"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("paper9: position 7 of 9: alpha2 = 122.5"),
+              std::string::npos);
     EXPECT_NE(std::string(e.what()).find("inner axis range"), std::string::npos);
   }
 }

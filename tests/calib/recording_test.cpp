@@ -26,8 +26,10 @@ const std::string kHeader =
     "# unit_serial: AU-0042\n";
 const std::string kColumns =
     "t_s,pos,alpha1_cmd_deg,alpha2_cmd_deg,alpha1_deg,alpha2_deg,fx_mps2,fy_mps2,fz_mps2,temp_c\n";
-const std::string kRow0 = "5.000,0,0.0000,0.0000,0.000012,-0.000210,0.000421,9.816702,-0.000217,23.05\n";
-const std::string kRow1 = "5.010,0,0.0000,0.0000,0.000012,-0.000210,0.000425,9.816700,-0.000219,23.05\n";
+const std::string kRow0 =
+    "5.000,0,0.0000,0.0000,0.000012,-0.000210,0.000421,9.816702,-0.000217,23.05\n";
+const std::string kRow1 =
+    "5.010,0,0.0000,0.0000,0.000012,-0.000210,0.000425,9.816700,-0.000219,23.05\n";
 const std::string kRow2 = "20.000,1,90.0000,0.0000,,,9.816702,0.000421,-0.000217,\n";
 
 // The error message of parsing `text`, or "" when it parses.
@@ -67,7 +69,8 @@ TEST(RecordingReader, ALeadingUtf8ByteOrderMarkIsSkipped) {
 }
 
 TEST(RecordingReader, FindsColumnsByNameInAnyOrder) {
-  const std::string text = kHeader + "fz_mps2,fy_mps2,fx_mps2,pos,t_s,alpha2_cmd_deg,alpha1_cmd_deg\n" +
+  const std::string text = kHeader +
+                           "fz_mps2,fy_mps2,fx_mps2,pos,t_s,alpha2_cmd_deg,alpha1_cmd_deg\n" +
                            "3,2,1,0,0.5,20,10\n";
   const Recording r = parse_recording(text, "rec.csv");
   EXPECT_EQ(r.samples[0].f_mps2, Vec3(1, 2, 3));
@@ -83,12 +86,14 @@ TEST(RecordingReader, IntegerAndDecimalHeaderNumbersAreTheSame) {
 }
 
 TEST(RecordingReader, KeepsUnknownHeaderKeysAndIgnoresThem) {
-  const Recording r = parse_recording(kHeader + "# operator: Ivanova\n" + kColumns + kRow0, "rec.csv");
+  const Recording r =
+      parse_recording(kHeader + "# operator: Ivanova\n" + kColumns + kRow0, "rec.csv");
   EXPECT_EQ(r.header_value("operator"), "Ivanova");
 }
 
 TEST(RecordingReader, MissingGravityAssumesStandardWithAWarning) {
-  const Recording r = parse_recording("# format: standcal-recording/1\n" + kColumns + kRow0, "rec.csv");
+  const Recording r =
+      parse_recording("# format: standcal-recording/1\n" + kColumns + kRow0, "rec.csv");
   EXPECT_DOUBLE_EQ(r.g_local_mps2, 9.80665);
   ASSERT_EQ(r.warnings.size(), 1u);
   EXPECT_NE(r.warnings[0].find("9.80665"), std::string::npos);
@@ -112,31 +117,36 @@ TEST(RecordingReader, CompleteLastLineWithoutNewlineIsStillDropped) {
 }
 
 TEST(RecordingErrors, MissingFormatHeader) {
-  EXPECT_NE(error_of("# g_local_mps2: 9.8\n" + kColumns + kRow0).find("'# format: standcal-recording/1' is missing"),
+  EXPECT_NE(error_of("# g_local_mps2: 9.8\n" + kColumns + kRow0)
+                .find("'# format: standcal-recording/1' is missing"),
             std::string::npos);
 }
 
 TEST(RecordingErrors, UnsupportedFormat) {
-  EXPECT_NE(error_of("# format: other/2\n" + kColumns + kRow0).find("rec.csv:1: unsupported format 'other/2'"),
+  EXPECT_NE(error_of("# format: other/2\n" + kColumns + kRow0)
+                .find("rec.csv:1: unsupported format 'other/2'"),
             std::string::npos);
 }
 
 TEST(RecordingErrors, MissingColumnIsNamed) {
   const std::string cols = "t_s,pos,alpha1_cmd_deg,alpha2_cmd_deg,fx_mps2,fz_mps2\n";
-  EXPECT_NE(error_of(kHeader + cols + "0,0,0,0,1,2\n").find("rec.csv:6: required column 'fy_mps2' is missing"),
+  EXPECT_NE(error_of(kHeader + cols + "0,0,0,0,1,2\n")
+                .find("rec.csv:6: required column 'fy_mps2' is missing"),
             std::string::npos);
 }
 
 TEST(RecordingErrors, NonNumberNamesLineAndColumn) {
-  const std::string bad = "5.020,0,0.0000,0.0000,0.000012,-0.000210,0.000421,9.81x,-0.000217,23.05\n";
+  const std::string bad =
+      "5.020,0,0.0000,0.0000,0.000012,-0.000210,0.000421,9.81x,-0.000217,23.05\n";
   EXPECT_NE(error_of(kHeader + kColumns + kRow0 + bad + kRow2)
                 .find("rec.csv:8: column 8: column 'fy_mps2': '9.81x' is not a number"),
             std::string::npos);
 }
 
 TEST(RecordingErrors, TimeGoingBackwards) {
-  EXPECT_NE(error_of(kHeader + kColumns + kRow1 + kRow0).find("rec.csv:8: column 1: t_s goes backwards"),
-            std::string::npos);
+  EXPECT_NE(
+      error_of(kHeader + kColumns + kRow1 + kRow0).find("rec.csv:8: column 1: t_s goes backwards"),
+      std::string::npos);
 }
 
 TEST(RecordingErrors, PositionBlockNotContiguous) {
@@ -154,10 +164,13 @@ TEST(RecordingErrors, WrongFieldCount) {
 TEST(RecordingErrors, BadPositionIndexApproachMountAndHeaderNumber) {
   EXPECT_NE(error_of(kHeader + kColumns + "5.0,-1,0,0,,,0,9.8,0,\n").find("not a position index"),
             std::string::npos);
-  const std::string cols = "t_s,pos,alpha1_cmd_deg,alpha2_cmd_deg,fx_mps2,fy_mps2,fz_mps2,approach,mount\n";
-  EXPECT_NE(error_of(kHeader + cols + "5,0,0,0,0,9.8,0,2,x\n").find("column 8: column 'approach': '2' must be +1 or -1"),
+  const std::string cols =
+      "t_s,pos,alpha1_cmd_deg,alpha2_cmd_deg,fx_mps2,fy_mps2,fz_mps2,approach,mount\n";
+  EXPECT_NE(error_of(kHeader + cols + "5,0,0,0,0,9.8,0,2,x\n")
+                .find("column 8: column 'approach': '2' must be +1 or -1"),
             std::string::npos);
-  EXPECT_NE(error_of(kHeader + cols + "5,0,0,0,0,9.8,0,1,w\n").find("column 9: column 'mount': 'w' is not x, y or z"),
+  EXPECT_NE(error_of(kHeader + cols + "5,0,0,0,0,9.8,0,1,w\n")
+                .find("column 9: column 'mount': 'w' is not x, y or z"),
             std::string::npos);
   EXPECT_NE(error_of("# format: standcal-recording/1\n# settle_s: five\n" + kColumns + kRow0)
                 .find("rec.csv:2: header 'settle_s': 'five' is not a number"),
@@ -166,7 +179,8 @@ TEST(RecordingErrors, BadPositionIndexApproachMountAndHeaderNumber) {
 
 TEST(RecordingErrors, CommandedAngleChangingInsideABlock) {
   const std::string moved = "5.020,0,0.5000,0.0000,,,0.1,9.8,0.1,\n";
-  EXPECT_NE(error_of(kHeader + kColumns + kRow0 + moved).find("commanded angles change inside position 0"),
+  EXPECT_NE(error_of(kHeader + kColumns + kRow0 + moved)
+                .find("commanded angles change inside position 0"),
             std::string::npos);
 }
 
@@ -179,7 +193,8 @@ TEST(RecordingWriter, RoundTripsASimulatedRunExactlyEnough) {
   req.program = classic24();
   req.timing.dwell_s = 0.5;
   const Recording original = simulate_run(req);
-  const std::string path = (std::filesystem::temp_directory_path() / "standcal_roundtrip.csv").string();
+  const std::string path =
+      (std::filesystem::temp_directory_path() / "standcal_roundtrip.csv").string();
   write_recording(original, path);
   const Recording back = read_recording(path);
   std::filesystem::remove(path);
@@ -208,7 +223,8 @@ TEST(RecordingWriter, WritesIntoAPipeInsteadOfReplacingIt) {
   req.program = paper9();
   req.timing.dwell_s = 0.2;
   const Recording rec = simulate_run(req);
-  const auto fifo = std::filesystem::temp_directory_path() / ("standcal_fifo_" + std::to_string(::getpid()));
+  const auto fifo =
+      std::filesystem::temp_directory_path() / ("standcal_fifo_" + std::to_string(::getpid()));
   std::filesystem::remove(fifo);
   ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
   std::string received;

@@ -58,7 +58,8 @@ TEST(Simulator, NoiseFreeOutputIsTheFullModel) {
   TruthModel truth = default_truth();
   truth.noise.density_ug_rthz = 0;
   const Recording rec = simulate(one_position(30, 70), truth);
-  const Vec3 J = unit_output_g(truth.unit, true_up_vector(30 * kDegToRad, 70 * kDegToRad, Mount::x, truth.stand));
+  const Vec3 J = unit_output_g(
+      truth.unit, true_up_vector(30 * kDegToRad, 70 * kDegToRad, Mount::x, truth.stand));
   EXPECT_LT((rec.samples[10].f_mps2 / truth.g_local_mps2 - J).norm(), 1e-15);
 }
 
@@ -84,8 +85,10 @@ TEST(Simulator, RandomWalkGrowsWithTheSquareRootOfTime) {
   double sum_sq = 0;
   constexpr int kSeeds = 300;
   for (int seed = 0; seed < kSeeds; ++seed) {
-    const Recording rec = simulate(one_position(0, 0), truth, timing, static_cast<std::uint64_t>(seed));
-    const double drift_g = (rec.samples.back().f_mps2.x() - rec.samples.front().f_mps2.x()) / truth.g_local_mps2;
+    const Recording rec =
+        simulate(one_position(0, 0), truth, timing, static_cast<std::uint64_t>(seed));
+    const double drift_g =
+        (rec.samples.back().f_mps2.x() - rec.samples.front().f_mps2.x()) / truth.g_local_mps2;
     sum_sq += drift_g * drift_g;
   }
   // Over 3599 s the walk spreads 30 ug * sqrt(3599/3600); 300 seeds estimate it to ~4 %.

@@ -22,7 +22,8 @@ inline TruthModel noise_free(TruthModel t) {
   return t;
 }
 
-inline std::vector<PositionAverage> simulate_averages(const Program& program, const TruthModel& truth,
+inline std::vector<PositionAverage> simulate_averages(const Program& program,
+                                                      const TruthModel& truth,
                                                       std::uint64_t seed = 1, double dwell_s = 2) {
   SimulationRequest req;
   req.program = program;

@@ -34,7 +34,8 @@ class CertificateCli : public ::testing::Test {
   void SetUp() override {
     run_dir_ = write_done_run(state_.path(), "20261121T223638Z-AU-0042",
                               simulated_recording("AU-0042", default_truth(), 11, "paper9", 4));
-    write_text(state_.file("limits.json"), R"({"format": "standcal-limits/1", "unit_types": {"QA-2000": {
+    write_text(state_.file("limits.json"),
+               R"({"format": "standcal-limits/1", "unit_types": {"QA-2000": {
         "parameters": {"bias": {"max_abs": 100}, "scale": {"max_abs": 300}, "gamma": {"max_abs": 60}}}}})");
   }
   TempDir state_;
@@ -59,7 +60,8 @@ TEST_F(CertificateCli, WritesTheCertificateOfARunInTheStateDirectory) {
   // Either fail or indeterminate, never pass; and the verdict follows the worst.
   EXPECT_NE(page.text("//tr[@data-parameter='scale_z']/@data-outcome"), "pass");
   EXPECT_NE(page.text("//*[@id='verdict']/@data-outcome"), "pass");
-  EXPECT_EQ(page.text("//tr[@data-parameter='bias_x']/@data-outcome"), "pass") << "45 ug against 100 ug";
+  EXPECT_EQ(page.text("//tr[@data-parameter='bias_x']/@data-outcome"), "pass")
+      << "45 ug against 100 ug";
 }
 
 // Issue 20: with --budget the certificate carries the GUM budget, and the results' U and
@@ -181,8 +183,8 @@ TEST_F(CertificatePdf, RendersAnA4PdfWhoseTextHasTheNumberOnEveryPage) {
 
 TEST_F(CertificateCli, CertifiesAnImportedRecording) {
   const std::filesystem::path out = state_.file("imported.html");
-  const CommandResult r =
-      run_cli("certificate --recording " + (run_dir_ / "recording.csv").string() + " -o " + out.string());
+  const CommandResult r = run_cli("certificate --recording " +
+                                  (run_dir_ / "recording.csv").string() + " -o " + out.string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const HtmlDocument page(read_text(out));
   EXPECT_EQ(page.text("//dl[@id='traceability']/dd[@data-field='unit_serial']"), "AU-0042");
@@ -191,7 +193,8 @@ TEST_F(CertificateCli, CertifiesAnImportedRecording) {
 
 TEST_F(CertificateCli, ExplainsAWrongRequestInOneLine) {
   const std::string out = state_.file("x.html");
-  CommandResult r = run_cli("certificate 20990101T000000Z-NO-SUCH-RUN --state-dir " + state_.path() + " -o " + out);
+  CommandResult r = run_cli("certificate 20990101T000000Z-NO-SUCH-RUN --state-dir " +
+                            state_.path() + " -o " + out);
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.output.find("no run 20990101T000000Z-NO-SUCH-RUN in"), std::string::npos) << r.output;
   r = run_cli("certificate NO-SUCH-RUN --state-dir " + state_.path() + " -o " + out);
@@ -201,7 +204,8 @@ TEST_F(CertificateCli, ExplainsAWrongRequestInOneLine) {
   r = run_cli("certificate 20261121T223638Z-AU-0042 --state-dir " + state_.path() + " --limits " +
               state_.file("limits.json") + " --unit-type QA-9 -o " + out);
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_NE(r.output.find("no limits for unit type 'QA-9' (known: QA-2000)"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("no limits for unit type 'QA-9' (known: QA-2000)"), std::string::npos)
+      << r.output;
 
   write_text(state_.file("lab.json"),
              R"({"format": "standcal-lab/1", "name": "Lab", "signatories": [{"name": "A"}]})");
@@ -217,7 +221,8 @@ TEST_F(CertificateCli, ExplainsAWrongRequestInOneLine) {
   EXPECT_EQ(r.exit_code, 2) << r.output;  // a usage error, refused by the option's check
   EXPECT_NE(r.output.find("1 to 64 letters, digits"), std::string::npos) << r.output;
 
-  r = run_cli("certificate 20261121T223638Z-AU-0042 --state-dir " + state_.path() + " -o " + state_.path());
+  r = run_cli("certificate 20261121T223638Z-AU-0042 --state-dir " + state_.path() + " -o " +
+              state_.path());
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.output.find(state_.path() + ": is a directory"), std::string::npos) << r.output;
 }

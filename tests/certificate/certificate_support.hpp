@@ -15,8 +15,9 @@
 
 namespace standcal::test {
 
-inline Recording simulated_recording(const std::string& serial, const TruthModel& truth, std::uint64_t seed,
-                                     const std::string& program = "paper9", double dwell_s = 10) {
+inline Recording simulated_recording(const std::string& serial, const TruthModel& truth,
+                                     std::uint64_t seed, const std::string& program = "paper9",
+                                     double dwell_s = 10) {
   SimulationRequest req;
   req.program = load_program(program);
   req.truth = truth;
@@ -35,8 +36,9 @@ inline void write_text(const std::filesystem::path& path, const std::string& tex
 }
 
 // Writes STATE/runs/RUN_ID as the daemon does once a run is done.
-inline std::filesystem::path write_done_run(const std::filesystem::path& state_dir, const std::string& run_id,
-                                            Recording rec, const std::string& state = "done") {
+inline std::filesystem::path write_done_run(const std::filesystem::path& state_dir,
+                                            const std::string& run_id, Recording rec,
+                                            const std::string& state = "done") {
   const std::filesystem::path dir = state_dir / "runs" / run_id;
   std::filesystem::create_directories(dir);
   rec.set_header("run_id", run_id);

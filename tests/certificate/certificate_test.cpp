@@ -23,11 +23,14 @@ using report::CertificateRequest;
 
 constexpr const char* kRunId = "20261121T223638Z-AU-0042";
 
-std::string row(const std::string& parameter) { return "//table[@id='parameters']//tr[@data-parameter='" + parameter + "']"; }
+std::string row(const std::string& parameter) {
+  return "//table[@id='parameters']//tr[@data-parameter='" + parameter + "']";
+}
 
 double number_in(std::string text) {
   for (const char* junk : {"±", " "}) {
-    for (std::size_t at; (at = text.find(junk)) != std::string::npos;) text.erase(at, std::string(junk).size());
+    for (std::size_t at; (at = text.find(junk)) != std::string::npos;)
+      text.erase(at, std::string(junk).size());
   }
   return std::stod(text);
 }
@@ -41,8 +44,12 @@ class CertificateOfSimulatedRun : public ::testing::Test {
   }
 
   // Report-unit value and sigma of the independent fit.
-  double value(int p) const { return *reference_.unit[static_cast<std::size_t>(p)].value * report_scale(p); }
-  double sigma(int p) const { return *reference_.unit[static_cast<std::size_t>(p)].sigma * report_scale(p); }
+  double value(int p) const {
+    return *reference_.unit[static_cast<std::size_t>(p)].value * report_scale(p);
+  }
+  double sigma(int p) const {
+    return *reference_.unit[static_cast<std::size_t>(p)].sigma * report_scale(p);
+  }
 
   // Limits placed around the measured values so that each outcome must appear:
   // bias_x well inside (pass), bias_y at |value| (inside, but within U: indeterminate),
@@ -79,7 +86,9 @@ class CertificateOfSimulatedRun : public ::testing::Test {
 
 TEST_F(CertificateOfSimulatedRun, CarriesTheTraceability) {
   const HtmlDocument page(report::render_certificate_html(report::prepare_certificate(request())));
-  auto field = [&](const std::string& id) { return page.text("//dl[@id='traceability']/dd[@data-field='" + id + "']"); };
+  auto field = [&](const std::string& id) {
+    return page.text("//dl[@id='traceability']/dd[@data-field='" + id + "']");
+  };
   EXPECT_EQ(field("unit_serial"), "AU-0042");
   EXPECT_EQ(field("stand_id"), "stand-B2");
   EXPECT_EQ(field("operator"), "I. Petrova");
@@ -148,11 +157,14 @@ TEST_F(CertificateOfSimulatedRun, DrawsResidualPlotsPerPositionAndAxis) {
 
 TEST_F(CertificateOfSimulatedRun, ReportsTheStoredDiagnosisWhenOneWasRun) {
   {
-    const HtmlDocument page(report::render_certificate_html(report::prepare_certificate(request())));
+    const HtmlDocument page(
+        report::render_certificate_html(report::prepare_certificate(request())));
     EXPECT_EQ(page.text("//*[@id='diagnosis']/@data-verdict"), "not_run");
   }
-  write_text(run_dir_ / "diagnosis.json",
-             json{{"verdict", "explained"}, {"summary", {"bias_drift on z: +12.0 ug/h"}}, {"located", json::array()}}.dump());
+  write_text(run_dir_ / "diagnosis.json", json{{"verdict", "explained"},
+                                               {"summary", {"bias_drift on z: +12.0 ug/h"}},
+                                               {"located", json::array()}}
+                                              .dump());
   const HtmlDocument page(report::render_certificate_html(report::prepare_certificate(request())));
   EXPECT_EQ(page.text("//*[@id='diagnosis']/@data-verdict"), "explained");
   EXPECT_NE(page.text("//*[@id='diagnosis']").find("bias_drift on z"), std::string::npos);
@@ -174,7 +186,8 @@ TEST_F(CertificateOfSimulatedRun, ImportedRecordingNamesWhatIsNotRecorded) {
   EXPECT_EQ(in.trace.stand_id, "stand-B2") << "from the recording header";
   const HtmlDocument page(report::render_certificate_html(in));
   EXPECT_EQ(page.text("//dl[@id='traceability']/dd[@data-field='operator']"), "(not recorded)");
-  EXPECT_NE(page.text("//ul[@id='remarks']").find("the operator is not recorded"), std::string::npos);
+  EXPECT_NE(page.text("//ul[@id='remarks']").find("the operator is not recorded"),
+            std::string::npos);
 }
 
 TEST_F(CertificateOfSimulatedRun, RefusesAnUnfinishedRunOrAMissingOne) {
@@ -215,7 +228,8 @@ TEST(CertificateOfClassic24, LimitedParametersTheProgrammeCannotMeasureMakeItInd
   truth.stand.mounting_rad[1] = truth.stand.mounting_rad[2] = truth.stand.mounting_rad[0];
   const Recording rec = simulated_recording("AU-0043", truth, 3, "classic24", 2);
   write_done_run(state.path(), "20261121T230000Z-AU-0043", rec);
-  write_text(state.file("limits.json"), R"({"format": "standcal-limits/1", "unit_types": {"QA-2000": {
+  write_text(state.file("limits.json"),
+             R"({"format": "standcal-limits/1", "unit_types": {"QA-2000": {
       "parameters": {"bias": {"max_abs": 500}, "scale": {"max_abs": 2000}, "gamma": {"max_abs": 60}}}}})");
   CertificateRequest r;
   r.state_dir = state.path();
@@ -241,7 +255,8 @@ TEST_F(CertificateOfSimulatedRun, EscapesTextFromTheRecords) {
   r.run_id = "20261122T020000Z-AU-X";
   const std::string html = report::render_certificate_html(report::prepare_certificate(r));
   EXPECT_EQ(html.find("<script>"), std::string::npos);
-  EXPECT_EQ(HtmlDocument(html).text("//dl[@id='traceability']/dd[@data-field='unit_serial']"), "AU<script>");
+  EXPECT_EQ(HtmlDocument(html).text("//dl[@id='traceability']/dd[@data-field='unit_serial']"),
+            "AU<script>");
 }
 
 }  // namespace

@@ -22,18 +22,22 @@ UnitHistory drifting_unit() {
   UnitHistory h;
   h.unit_serial = "AU-0042";
   h.unit_type = "QA-2000";
-  const char* dates[] = {"2026-01-10T09:00:00Z", "20260209T090000Z", "2026-03-11T09:00:00Z", "2026-04-10T09:00:00Z"};
+  const char* dates[] = {"2026-01-10T09:00:00Z", "20260209T090000Z", "2026-03-11T09:00:00Z",
+                         "2026-04-10T09:00:00Z"};
   for (int i = 0; i < 4; ++i) {
     TruthModel truth = default_truth();
     truth.unit.bias_g.x() += 40 * i * kUg;
-    const FitResult fit = fit_invariant_joint(average_positions(simulated_recording("AU-0042", truth, 100 + i)));
+    const FitResult fit =
+        fit_invariant_joint(average_positions(simulated_recording("AU-0042", truth, 100 + i)));
     report::HistoryCalibration c;
     c.run_id = "run-" + std::to_string(i + 1);
     c.date_utc = dates[i];
     c.verdict = "pass";
     for (int p = 0; p < kUnitParameterCount; ++p) {
-      c.parameters[static_cast<std::size_t>(p)].value = *fit.unit[static_cast<std::size_t>(p)].value * report_scale(p);
-      c.parameters[static_cast<std::size_t>(p)].sigma = *fit.unit[static_cast<std::size_t>(p)].sigma * report_scale(p);
+      c.parameters[static_cast<std::size_t>(p)].value =
+          *fit.unit[static_cast<std::size_t>(p)].value * report_scale(p);
+      c.parameters[static_cast<std::size_t>(p)].sigma =
+          *fit.unit[static_cast<std::size_t>(p)].sigma * report_scale(p);
     }
     h.calibrations.push_back(c);
   }
@@ -61,7 +65,8 @@ TEST(UnitHistory, FlagsTheInjectedDriftAtEveryStep) {
 TEST(UnitHistory, PageHasATableTheDriftsAndOnePlotPerParameter) {
   const test::HtmlDocument page(report::render_history_html(drifting_unit()));
   EXPECT_EQ(page.count("//table[@id='calibrations']//tr[@data-run]"), 4u);
-  const std::vector<std::string> order = page.texts("//table[@id='calibrations']//tr[@data-run]/@data-run");
+  const std::vector<std::string> order =
+      page.texts("//table[@id='calibrations']//tr[@data-run]/@data-run");
   EXPECT_EQ(order, (std::vector<std::string>{"run-1", "run-2", "run-3", "run-4"}));
   EXPECT_EQ(page.count("//ul[@id='drifts']/li[@data-parameter='bias_x']"), 3u);
   EXPECT_EQ(page.count("//figure[@data-parameter]//svg"), 9u);
@@ -75,7 +80,8 @@ TEST(UnitHistory, ReadsBothUtcStampFormsAndRejectsOthers) {
   EXPECT_DOUBLE_EQ(report::utc_days("20261121T223638Z"), report::utc_days("2026-11-21T22:36:38Z"));
   EXPECT_THROW(report::utc_days("21.11.2026"), std::runtime_error);
   EXPECT_THROW(report::utc_days("2026-02-30T00:00:00Z"), std::runtime_error);
-  EXPECT_THROW(report::utc_days("2026-11-21T22:36:38"), std::runtime_error) << "no Z: not known to be UTC";
+  EXPECT_THROW(report::utc_days("2026-11-21T22:36:38"), std::runtime_error)
+      << "no Z: not known to be UTC";
 }
 
 TEST(UnitHistory, UnmeasuredParametersAreShownNotPlottedAsZero) {

@@ -25,9 +25,10 @@ class HtmlDocument {
   // The text content of every node the XPath expression selects (attributes: their value).
   std::vector<std::string> texts(const std::string& xpath) const {
     std::unique_ptr<xmlXPathContext, decltype(&xmlXPathFreeContext)> ctx(xmlXPathNewContext(doc_),
-                                                                        xmlXPathFreeContext);
+                                                                         xmlXPathFreeContext);
     std::unique_ptr<xmlXPathObject, decltype(&xmlXPathFreeObject)> result(
-        xmlXPathEvalExpression(reinterpret_cast<const xmlChar*>(xpath.c_str()), ctx.get()), xmlXPathFreeObject);
+        xmlXPathEvalExpression(reinterpret_cast<const xmlChar*>(xpath.c_str()), ctx.get()),
+        xmlXPathFreeObject);
     if (!result) throw std::runtime_error("bad XPath: " + xpath);
     std::vector<std::string> out;
     if (!result->nodesetval) return out;
@@ -43,7 +44,8 @@ class HtmlDocument {
   std::string text(const std::string& xpath) const {
     const std::vector<std::string> all = texts(xpath);
     if (all.size() != 1)
-      throw std::runtime_error(xpath + ": selects " + std::to_string(all.size()) + " nodes, expected 1");
+      throw std::runtime_error(xpath + ": selects " + std::to_string(all.size()) +
+                               " nodes, expected 1");
     return all.front();
   }
 

@@ -14,9 +14,9 @@
 #include <fstream>
 #include <functional>
 
+#include "config_support.hpp"
 #include "daemon/standcald/config.hpp"
 #include "daemon/standcald/server.hpp"
-#include "config_support.hpp"
 #include "daemon_process.hpp"
 
 using namespace standcal;
@@ -61,10 +61,11 @@ Peer tcp_peer(bool token_accepted) {
   return p;
 }
 
-const std::vector<std::string> kReadOnly{"status", "run.status", "run.result", "runs.list", "subscribe", "hello"};
-const std::vector<std::string> kControl{"stand.enable", "stand.disable", "stand.home", "stand.move",
-                                        "stand.stop",   "estop.reset",   "unit.read",  "run.start",
-                                        "run.pause",    "run.resume",    "run.abort",  "operator.confirm"};
+const std::vector<std::string> kReadOnly{"status",    "run.status", "run.result",
+                                         "runs.list", "subscribe",  "hello"};
+const std::vector<std::string> kControl{
+    "stand.enable", "stand.disable", "stand.home", "stand.move", "stand.stop", "estop.reset",
+    "unit.read",    "run.start",     "run.pause",  "run.resume", "run.abort",  "operator.confirm"};
 
 }  // namespace
 
@@ -97,7 +98,8 @@ TEST(AccessDecision, ControlMethodsNeedTheControlGroupOnTheUnixSocket) {
     EXPECT_NE(refusal->find("access.control_group"), std::string::npos) << *refusal;
     EXPECT_NE(refusal->find("uid 1000 gid 1000"), std::string::npos) << *refusal;
 
-    EXPECT_FALSE(refuse_control(method, unix_peer(1000, 1000, {27, kOperatorsGid}), policy)) << "supplementary";
+    EXPECT_FALSE(refuse_control(method, unix_peer(1000, 1000, {27, kOperatorsGid}), policy))
+        << "supplementary";
     EXPECT_FALSE(refuse_control(method, unix_peer(1000, kOperatorsGid), policy)) << "primary group";
     EXPECT_FALSE(refuse_control(method, unix_peer(0, 0), policy)) << "root";
     EXPECT_FALSE(refuse_control(method, unix_peer(990, 990), policy)) << "the daemon's own user";
@@ -114,7 +116,8 @@ TEST(AccessDecision, APeerWhoseCredentialsAreUnknownIsRefusedControl) {
 
 TEST(AccessDecision, WithoutAControlGroupEveryUnixPeerMayCommand) {
   AccessPolicy open;  // no control_group: the socket file's mode and group are the only gate
-  for (const auto& method : kControl) EXPECT_FALSE(refuse_control(method, unix_peer(1000, 1000), open)) << method;
+  for (const auto& method : kControl)
+    EXPECT_FALSE(refuse_control(method, unix_peer(1000, 1000), open)) << method;
 }
 
 TEST(AccessDecision, TcpClientsGetControlOnlyWithTheToken) {
@@ -143,11 +146,11 @@ TEST(AccessDecision, AMethodNobodyListedAsReadOnlyIsAControlMethod) {
 TEST(AccessDecision, TokensCompareWhole) {
   const std::string token = "3f9c1a7e5b2d4c6e8a0b1c2d3e4f5a6b";
   EXPECT_TRUE(tokens_equal(token, token));
-  EXPECT_FALSE(tokens_equal(token.substr(0, 31) + "c", token));   // last character differs
-  EXPECT_FALSE(tokens_equal(token.substr(0, 16), token));          // a prefix
-  EXPECT_FALSE(tokens_equal(token + token, token));                // the token twice
+  EXPECT_FALSE(tokens_equal(token.substr(0, 31) + "c", token));  // last character differs
+  EXPECT_FALSE(tokens_equal(token.substr(0, 16), token));        // a prefix
+  EXPECT_FALSE(tokens_equal(token + token, token));              // the token twice
   EXPECT_FALSE(tokens_equal("", token));
-  EXPECT_FALSE(tokens_equal("", ""));                              // no token configured: nothing matches
+  EXPECT_FALSE(tokens_equal("", ""));  // no token configured: nothing matches
 }
 
 // --- The config keys --------------------------------------------------------------------
@@ -157,7 +160,8 @@ TEST(AccessConfig, ReadsTheAccessKeys) {
     "socket": {"path": "/tmp/x.sock", "group": "standcal", "mode": "0640"},
     "tcp": {"enabled": true, "port": 4871, "bind": "0.0.0.0", "token_file": "/etc/standcal/tcp.token"},
     "access": {"control_group": "standcal-operators"},
-    "client_queue_bytes": 131072})"), "lab.json");
+    "client_queue_bytes": 131072})"),
+                                      "lab.json");
   EXPECT_EQ(c.socket_mode, 0640u);
   EXPECT_EQ(c.tcp_bind, "0.0.0.0");
   EXPECT_EQ(c.tcp_token_file, "/etc/standcal/tcp.token");
@@ -170,24 +174,32 @@ TEST(AccessConfig, ReadsTheAccessKeys) {
 }
 
 TEST(AccessConfig, BadAccessKeysAreErrorsNamingTheKey) {
-  EXPECT_NE(config_error(json::parse(R"({"socket": {"mode": 660}})")).find("socket.mode: must be a string"),
+  EXPECT_NE(config_error(json::parse(R"({"socket": {"mode": 660}})"))
+                .find("socket.mode: must be a string"),
             std::string::npos);
-  EXPECT_NE(config_error(json::parse(R"({"socket": {"mode": "0968"}})")).find("socket.mode: must be an octal string"),
+  EXPECT_NE(config_error(json::parse(R"({"socket": {"mode": "0968"}})"))
+                .find("socket.mode: must be an octal string"),
             std::string::npos);
-  EXPECT_NE(config_error(json::parse(R"({"socket": {"mode": "0066"}})")).find("socket.mode: must give the owner"),
+  EXPECT_NE(config_error(json::parse(R"({"socket": {"mode": "0066"}})"))
+                .find("socket.mode: must give the owner"),
             std::string::npos);
-  EXPECT_NE(config_error(json::parse(R"({"tcp": {"bind": "localhost"}})")).find("tcp.bind: must be a numeric"),
+  EXPECT_NE(config_error(json::parse(R"({"tcp": {"bind": "localhost"}})"))
+                .find("tcp.bind: must be a numeric"),
             std::string::npos);
   // Off loopback without a token the daemon refuses to start.
-  const std::string open_tcp = config_error(json::parse(R"({"tcp": {"enabled": true, "bind": "0.0.0.0"}})"));
-  EXPECT_NE(open_tcp.find("lab.json: tcp.token_file: is required when tcp.bind (0.0.0.0) is not a loopback"),
+  const std::string open_tcp =
+      config_error(json::parse(R"({"tcp": {"enabled": true, "bind": "0.0.0.0"}})"));
+  EXPECT_NE(open_tcp.find(
+                "lab.json: tcp.token_file: is required when tcp.bind (0.0.0.0) is not a loopback"),
             std::string::npos)
       << open_tcp;
   EXPECT_EQ(config_error(json::parse(R"({"tcp": {"enabled": true, "bind": "::1"}})")), "");
   EXPECT_EQ(config_error(json::parse(R"({"tcp": {"enabled": true, "bind": "127.0.0.2"}})")), "");
-  EXPECT_NE(config_error(json::parse(R"({"access": {"control_grp": "x"}})")).find("access.control_grp: unknown key"),
+  EXPECT_NE(config_error(json::parse(R"({"access": {"control_grp": "x"}})"))
+                .find("access.control_grp: unknown key"),
             std::string::npos);
-  EXPECT_NE(config_error(json::parse(R"({"client_queue_bytes": 100})")).find("client_queue_bytes: must be between"),
+  EXPECT_NE(config_error(json::parse(R"({"client_queue_bytes": 100})"))
+                .find("client_queue_bytes: must be between"),
             std::string::npos);
 }
 
@@ -208,7 +220,8 @@ TEST(AccessConfig, AnEmptyControlGroupIsAnErrorNamingTheKey) {
 }
 
 TEST(AccessConfig, TheExampleConfigIsValid) {
-  const auto example = std::filesystem::path(STANDCAL_SOURCE_DIR) / "systemd/standcald.example.json";
+  const auto example =
+      std::filesystem::path(STANDCAL_SOURCE_DIR) / "systemd/standcald.example.json";
   const DaemonConfig c = load_config(example.string());
   EXPECT_EQ(c.socket_mode, 0660u);
   EXPECT_EQ(c.control_group, "standcal-ops");
@@ -240,7 +253,8 @@ TEST(AccessConfig, TheTokenFileMustBeLongAndNotReadableByEveryone) {
     load_tcp_token(c);
     ADD_FAILURE() << "a world-readable token file was accepted";
   } catch (const ConfigError& e) {
-    EXPECT_NE(std::string(e.what()).find("is readable by every user"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("is readable by every user"), std::string::npos)
+        << e.what();
   }
   std::ofstream(c.tcp_token_file) << "short\n";
   ::chmod(c.tcp_token_file.c_str(), 0600);
@@ -290,8 +304,8 @@ json as_nobody(const std::vector<gid_t>& groups, const std::function<json()>& bo
     ::close(pipe_fds[0]);
     const Unprivileged who = nobody();
     json answer;
-    if (::setgroups(groups.size(), groups.data()) != 0 || ::setgid(who.gid) != 0 || ::setuid(who.uid) != 0 ||
-        ::getuid() != who.uid) {
+    if (::setgroups(groups.size(), groups.data()) != 0 || ::setgid(who.gid) != 0 ||
+        ::setuid(who.uid) != 0 || ::getuid() != who.uid) {
       answer = json{{"failure", "could not drop privileges"}};
     } else {
       try {
@@ -307,7 +321,8 @@ json as_nobody(const std::vector<gid_t>& groups, const std::function<json()>& bo
   ::close(pipe_fds[1]);
   std::string text;
   char buf[4096];
-  for (ssize_t n; (n = ::read(pipe_fds[0], buf, sizeof buf)) > 0;) text.append(buf, static_cast<std::size_t>(n));
+  for (ssize_t n; (n = ::read(pipe_fds[0], buf, sizeof buf)) > 0;)
+    text.append(buf, static_cast<std::size_t>(n));
   ::close(pipe_fds[0]);
   int status = 0;
   ::waitpid(pid, &status, 0);
@@ -330,7 +345,8 @@ std::unique_ptr<DaemonProcess> start_daemon(const TempDir& dir, json config) {
   config["state_dir"] = dir.path() + "/state";
   const std::string file = dir.path() + "/standcald.json";
   std::ofstream(file) << config.dump(2);
-  auto d = std::make_unique<DaemonProcess>(dir.path(), std::vector<std::string>{"--config", file, "--sim", "--time-scale", "100"});
+  auto d = std::make_unique<DaemonProcess>(
+      dir.path(), std::vector<std::string>{"--config", file, "--sim", "--time-scale", "100"});
   d->wait_ready(dir.path() + "/standcald.sock");
   return d;
 }
@@ -342,9 +358,11 @@ int tcp_port_of(const DaemonProcess& d) {
   return at == std::string::npos ? 0 : std::atoi(log.c_str() + at + marker.size());
 }
 
-#define REQUIRE_ROOT_AND_TEST_GROUP()                                                               \
-  if (::geteuid() != 0) GTEST_SKIP() << "needs root: the test drops a child process to user nobody"; \
-  if (!test_group_gid(kTestGroup)) GTEST_SKIP() << "needs the group \"" << kTestGroup << "\" (Debian base)";
+#define REQUIRE_ROOT_AND_TEST_GROUP()                                            \
+  if (::geteuid() != 0)                                                          \
+    GTEST_SKIP() << "needs root: the test drops a child process to user nobody"; \
+  if (!test_group_gid(kTestGroup))                                               \
+    GTEST_SKIP() << "needs the group \"" << kTestGroup << "\" (Debian base)";
 
 }  // namespace
 
@@ -380,7 +398,8 @@ TEST(DaemonAccess, AControlGroupRefusesOthersMotionButLeavesReadingAndEstopOpen)
   TempDir dir;
   ::chmod(dir.path().c_str(), 0755);
   // Everyone may connect (0666); only the control group may command.
-  auto daemon = start_daemon(dir, json{{"socket", {{"mode", "0666"}}}, {"access", {{"control_group", kTestGroup}}}});
+  auto daemon = start_daemon(
+      dir, json{{"socket", {{"mode", "0666"}}}, {"access", {{"control_group", kTestGroup}}}});
   const std::string socket = dir.path() + "/standcald.sock";
 
   const json outsider = as_nobody({}, [&socket] {
@@ -400,7 +419,8 @@ TEST(DaemonAccess, AControlGroupRefusesOthersMotionButLeavesReadingAndEstopOpen)
   EXPECT_TRUE(outsider["runs.list"].contains("result")) << outsider.dump();
   EXPECT_TRUE(outsider["subscribe"].contains("result")) << outsider.dump();
   for (const char* refused : {"stand.enable", "run.start", "estop.reset"}) {
-    EXPECT_EQ(outsider[refused]["code"], static_cast<int>(protocol::ErrorCode::not_permitted)) << outsider.dump();
+    EXPECT_EQ(outsider[refused]["code"], static_cast<int>(protocol::ErrorCode::not_permitted))
+        << outsider.dump();
     const std::string message = outsider[refused].value("message", "");
     EXPECT_NE(message.find(std::string(refused) + " not permitted"), std::string::npos) << message;
     EXPECT_NE(message.find(std::string("\"") + kTestGroup + "\""), std::string::npos) << message;
@@ -433,7 +453,9 @@ TEST(DaemonAccess, TcpOffLoopbackNeedsTheTokenForControlAndAWrongTokenClosesTheC
   std::ofstream(token_file) << token << "\n";
   ::chmod(token_file.c_str(), 0600);
   auto daemon = start_daemon(
-      dir, json{{"tcp", {{"enabled", true}, {"port", 0}, {"bind", "0.0.0.0"}, {"token_file", token_file}}}});
+      dir,
+      json{{"tcp",
+            {{"enabled", true}, {"port", 0}, {"bind", "0.0.0.0"}, {"token_file", token_file}}}});
   const int port = tcp_port_of(*daemon);
   ASSERT_GT(port, 0) << daemon->log();
   const std::string endpoint = "tcp://127.0.0.1:" + std::to_string(port);
@@ -441,7 +463,8 @@ TEST(DaemonAccess, TcpOffLoopbackNeedsTheTokenForControlAndAWrongTokenClosesTheC
   Client reader(endpoint);
   EXPECT_EQ(reader.call("status")["daemon"]["access"]["control"], false);
   const json refused = outcome(reader, "stand.enable");
-  EXPECT_EQ(refused["code"], static_cast<int>(protocol::ErrorCode::not_permitted)) << refused.dump();
+  EXPECT_EQ(refused["code"], static_cast<int>(protocol::ErrorCode::not_permitted))
+      << refused.dump();
   EXPECT_NE(refused.value("message", "").find("auth"), std::string::npos) << refused.dump();
   EXPECT_EQ(outcome(reader, "estop")["result"]["estop"], true);  // never restricted
 
@@ -449,7 +472,8 @@ TEST(DaemonAccess, TcpOffLoopbackNeedsTheTokenForControlAndAWrongTokenClosesTheC
   const json wrong = outcome(guesser, "auth", {{"token", token.substr(0, 31) + "0"}});
   EXPECT_EQ(wrong["code"], static_cast<int>(protocol::ErrorCode::not_permitted)) << wrong.dump();
   EXPECT_NE(wrong.value("message", "").find("wrong token"), std::string::npos) << wrong.dump();
-  EXPECT_THROW(guesser.call("status", json::object(), 10s), std::exception) << "the connection stays open";
+  EXPECT_THROW(guesser.call("status", json::object(), 10s), std::exception)
+      << "the connection stays open";
 
   Client operator_client(endpoint);
   EXPECT_EQ(operator_client.call("auth", {{"token", token}})["control"], true);
@@ -457,8 +481,10 @@ TEST(DaemonAccess, TcpOffLoopbackNeedsTheTokenForControlAndAWrongTokenClosesTheC
   EXPECT_EQ(operator_client.call("stand.enable")["enabled"], true);
   EXPECT_EQ(operator_client.call("status")["daemon"]["access"]["control"], true);
   // The token belongs to that connection only.
-  EXPECT_EQ(outcome(reader, "stand.disable")["code"], static_cast<int>(protocol::ErrorCode::not_permitted));
-  EXPECT_NE(daemon->log().find("auth: wrong token from tcp 127.0.0.1:"), std::string::npos) << daemon->log();
+  EXPECT_EQ(outcome(reader, "stand.disable")["code"],
+            static_cast<int>(protocol::ErrorCode::not_permitted));
+  EXPECT_NE(daemon->log().find("auth: wrong token from tcp 127.0.0.1:"), std::string::npos)
+      << daemon->log();
 }
 
 TEST(DaemonAccess, LoopbackTcpWithoutATokenIsReadOnlyPlusEstop) {
@@ -469,9 +495,12 @@ TEST(DaemonAccess, LoopbackTcpWithoutATokenIsReadOnlyPlusEstop) {
   Client c("tcp://127.0.0.1:" + std::to_string(port));
   EXPECT_EQ(c.call("runs.list")["runs"].size(), 0u);
   const json refused = outcome(c, "run.start", {{"program", "paper9"}, {"unit_serial", "AU-T"}});
-  EXPECT_EQ(refused["code"], static_cast<int>(protocol::ErrorCode::not_permitted)) << refused.dump();
-  EXPECT_NE(refused.value("message", "").find("no tcp.token_file"), std::string::npos) << refused.dump();
-  EXPECT_EQ(outcome(c, "auth", {{"token", "0123456789abcdef"}})["code"], static_cast<int>(protocol::ErrorCode::not_permitted));
+  EXPECT_EQ(refused["code"], static_cast<int>(protocol::ErrorCode::not_permitted))
+      << refused.dump();
+  EXPECT_NE(refused.value("message", "").find("no tcp.token_file"), std::string::npos)
+      << refused.dump();
+  EXPECT_EQ(outcome(c, "auth", {{"token", "0123456789abcdef"}})["code"],
+            static_cast<int>(protocol::ErrorCode::not_permitted));
   EXPECT_EQ(outcome(c, "estop")["result"]["estop"], true);
   // The Unix socket (root here, no control group) still commands.
   Client local(dir.path() + "/standcald.sock");
@@ -487,7 +516,8 @@ TEST(DaemonAccess, TheDaemonRefusesToStartOffLoopbackWithoutAUsableToken) {
                                 {"tcp", {{"enabled", true}, {"bind", "0.0.0.0"}}}}
                                .dump();
     DaemonProcess d(dir.path(), {"--config", file, "--sim"});
-    EXPECT_TRUE(exits_with_message(d, "tcp.token_file: is required when tcp.bind (0.0.0.0) is not a loopback address"))
+    EXPECT_TRUE(exits_with_message(
+        d, "tcp.token_file: is required when tcp.bind (0.0.0.0) is not a loopback address"))
         << d.log();
   }
   {
@@ -496,10 +526,11 @@ TEST(DaemonAccess, TheDaemonRefusesToStartOffLoopbackWithoutAUsableToken) {
     std::ofstream(token_file) << "9d2f6c1b8e4a7d3c5b0e9f1a2c4d6e8f\n";
     ::chmod(token_file.c_str(), 0644);
     const std::string file = dir.path() + "/standcald.json";
-    std::ofstream(file) << json{{"socket", {{"path", dir.path() + "/s.sock"}}},
-                                {"state_dir", dir.path() + "/state"},
-                                {"tcp", {{"enabled", true}, {"bind", "0.0.0.0"}, {"token_file", token_file}}}}
-                               .dump();
+    std::ofstream(file)
+        << json{{"socket", {{"path", dir.path() + "/s.sock"}}},
+                {"state_dir", dir.path() + "/state"},
+                {"tcp", {{"enabled", true}, {"bind", "0.0.0.0"}, {"token_file", token_file}}}}
+               .dump();
     DaemonProcess d(dir.path(), {"--config", file, "--sim"});
     EXPECT_TRUE(exits_with_message(d, "is readable by every user")) << d.log();
   }
@@ -511,6 +542,8 @@ TEST(DaemonAccess, TheDaemonRefusesToStartOffLoopbackWithoutAUsableToken) {
                                 {"access", {{"control_group", "no-such-group-standcal"}}}}
                                .dump();
     DaemonProcess d(dir.path(), {"--config", file, "--sim"});
-    EXPECT_TRUE(exits_with_message(d, "access.control_group: no group named \"no-such-group-standcal\"")) << d.log();
+    EXPECT_TRUE(
+        exits_with_message(d, "access.control_group: no group named \"no-such-group-standcal\""))
+        << d.log();
   }
 }

@@ -13,8 +13,8 @@ using nlohmann::json;
 using protocol::Client;
 using protocol::RpcError;
 using test::DaemonProcess;
-using test::TempDir;
 using test::socket_of;
+using test::TempDir;
 
 namespace {
 
@@ -51,30 +51,40 @@ TEST(DaemonBadInput, ErrorsGoToTheSenderAndOthersAreServed) {
   EXPECT_EQ(r["error"]["code"], -32700);
   EXPECT_TRUE(r["id"].is_null());
 
-  bad.send_raw(R"({"jsonrpc":"2.0","id":1,"method":"no.such.method"})" "\n");
+  bad.send_raw(R"({"jsonrpc":"2.0","id":1,"method":"no.such.method"})"
+               "\n");
   r = next_reply(bad);
   EXPECT_EQ(r["error"]["code"], -32601);
   EXPECT_EQ(r["id"], 1);
 
-  bad.send_raw(R"({"jsonrpc":"2.0","id":2,"method":"stand.move","params":{"alpha1_deg":"ninety","alpha2_deg":0}})" "\n");
+  bad.send_raw(
+      R"({"jsonrpc":"2.0","id":2,"method":"stand.move","params":{"alpha1_deg":"ninety","alpha2_deg":0}})"
+      "\n");
   r = next_reply(bad);
   EXPECT_EQ(r["error"]["code"], -32602);
   EXPECT_NE(r["error"]["message"].get<std::string>().find("alpha1_deg"), std::string::npos);
 
-  bad.send_raw(R"({"jsonrpc":"2.0","id":3,"method":"run.start","params":{"program":"paper9","unit_serial":42}})" "\n");
+  bad.send_raw(
+      R"({"jsonrpc":"2.0","id":3,"method":"run.start","params":{"program":"paper9","unit_serial":42}})"
+      "\n");
   r = next_reply(bad);
   EXPECT_EQ(r["error"]["code"], -32602);
 
-  bad.send_raw(R"({"id":4,"method":"status"})" "\n");
+  bad.send_raw(R"({"id":4,"method":"status"})"
+               "\n");
   r = next_reply(bad);
   EXPECT_EQ(r["error"]["code"], -32600);
 
-  bad.send_raw(R"({"jsonrpc":"2.0","id":5,"method":"status","params":{"verbose":true}})" "\n");
+  bad.send_raw(R"({"jsonrpc":"2.0","id":5,"method":"status","params":{"verbose":true}})"
+               "\n");
   r = next_reply(bad);
   EXPECT_EQ(r["error"]["code"], -32602);
 
   // A notification (no id) gets no answer; the next request's answer comes next.
-  bad.send_raw(R"({"jsonrpc":"2.0","method":"status"})" "\n" R"({"jsonrpc":"2.0","id":6,"method":"status"})" "\n");
+  bad.send_raw(R"({"jsonrpc":"2.0","method":"status"})"
+               "\n"
+               R"({"jsonrpc":"2.0","id":6,"method":"status"})"
+               "\n");
   r = next_reply(bad);
   EXPECT_EQ(r["id"], 6);
 
@@ -107,7 +117,9 @@ TEST(DaemonBadInput, AClientThatNeverReadsIsDroppedWithoutStallingOthers) {
   Client stuck(socket_of(dir));
   // Many requests, never reading a single answer.
   std::string burst;
-  for (int i = 0; i < 200; ++i) burst += R"({"jsonrpc":"2.0","id":1,"method":"status"})" "\n";
+  for (int i = 0; i < 200; ++i)
+    burst += R"({"jsonrpc":"2.0","id":1,"method":"status"})"
+             "\n";
   bool dropped = false;
   for (int round = 0; round < 200 && !dropped; ++round) {
     pollfd p{stuck.fd(), POLLOUT, 0};
@@ -235,7 +247,8 @@ TEST(DaemonBadInput, ANulInAValueIsKeptEscapedInTheErrorMessage) {
   json r = next_reply(c);
   // A run id is a text field (checked at the boundary): the error names the NUL and where.
   EXPECT_EQ(r["error"]["code"], -32602) << r.dump();
-  EXPECT_NE(r["error"]["message"].get<std::string>().find("U+0000 at character 3"), std::string::npos)
+  EXPECT_NE(r["error"]["message"].get<std::string>().find("U+0000 at character 3"),
+            std::string::npos)
       << r.dump();
   c.send_raw(R"({"jsonrpc":"2.0","id":2,"method":"no\u0000such"})"
              "\n");

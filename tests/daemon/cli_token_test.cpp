@@ -20,7 +20,8 @@ namespace {
 
 constexpr const char* kToken = "5be1c0de9a7f4e2d8c3b6a1f0e9d8c7b";
 
-std::string write_token_file(const TempDir& dir, const std::string& name, const std::string& text, mode_t mode) {
+std::string write_token_file(const TempDir& dir, const std::string& name, const std::string& text,
+                             mode_t mode) {
   const std::string path = dir.path() + "/" + name;
   std::ofstream(path) << text;
   ::chmod(path.c_str(), mode);
@@ -31,14 +32,17 @@ std::string write_token_file(const TempDir& dir, const std::string& name, const 
 class TokenDaemon {
  public:
   explicit TokenDaemon(const TempDir& dir) {
-    const std::string token_file = write_token_file(dir, "daemon.token", std::string(kToken) + "\n", 0600);
+    const std::string token_file =
+        write_token_file(dir, "daemon.token", std::string(kToken) + "\n", 0600);
     const std::string config = dir.path() + "/standcald.json";
-    std::ofstream(config) << json{{"socket", {{"path", dir.path() + "/standcald.sock"}}},
-                                  {"state_dir", dir.path() + "/state"},
-                                  {"tcp", {{"enabled", true}, {"port", 0}, {"bind", "0.0.0.0"}, {"token_file", token_file}}}}
-                                 .dump(2);
-    daemon_ = std::make_unique<DaemonProcess>(dir.path(),
-                                              std::vector<std::string>{"--config", config, "--sim", "--time-scale", "100"});
+    std::ofstream(config)
+        << json{{"socket", {{"path", dir.path() + "/standcald.sock"}}},
+                {"state_dir", dir.path() + "/state"},
+                {"tcp",
+                 {{"enabled", true}, {"port", 0}, {"bind", "0.0.0.0"}, {"token_file", token_file}}}}
+               .dump(2);
+    daemon_ = std::make_unique<DaemonProcess>(
+        dir.path(), std::vector<std::string>{"--config", config, "--sim", "--time-scale", "100"});
     daemon_->wait_ready(dir.path() + "/standcald.sock");
     const std::string log = daemon_->log();
     const std::string marker = "standcald: tcp port ";
@@ -63,7 +67,8 @@ TEST(CliTokenFile, TheRightTokenGivesControlOverTcp) {
   // Written by an editor on Windows: the CRLF line end is not part of the token.
   const std::string token = write_token_file(dir, "op.token", std::string(kToken) + "\r\n", 0600);
 
-  const CommandOutcome status = standcal_cli("status --json " + daemon.tcp() + " --token-file " + token);
+  const CommandOutcome status =
+      standcal_cli("status --json " + daemon.tcp() + " --token-file " + token);
   ASSERT_EQ(status.exit_code, 0) << status.output;
   EXPECT_EQ(json::parse(status.output)["daemon"]["access"]["control"], true) << status.output;
 
@@ -71,7 +76,8 @@ TEST(CliTokenFile, TheRightTokenGivesControlOverTcp) {
   const CommandOutcome without = standcal_cli("estop --reset " + daemon.tcp());
   EXPECT_EQ(without.exit_code, 1) << without.output;
   EXPECT_NE(without.output.find("not permitted"), std::string::npos) << without.output;
-  const CommandOutcome with = standcal_cli("estop --reset --json " + daemon.tcp() + " --token-file " + token);
+  const CommandOutcome with =
+      standcal_cli("estop --reset --json " + daemon.tcp() + " --token-file " + token);
   ASSERT_EQ(with.exit_code, 0) << with.output;
   EXPECT_EQ(json::parse(with.output)["estop"], false) << with.output;
 }
@@ -106,13 +112,15 @@ TEST(CliTokenFile, AWrongTokenIsReportedAsARefusedToken) {
   TempDir dir;
   TokenDaemon daemon(dir);
   ASSERT_GT(daemon.port(), 0) << daemon.log();
-  const std::string wrong = write_token_file(dir, "old.token", "0000000000000000000000000000dead\n", 0600);
+  const std::string wrong =
+      write_token_file(dir, "old.token", "0000000000000000000000000000dead\n", 0600);
   const CommandOutcome r = standcal_cli("status " + daemon.tcp() + " --token-file " + wrong);
   EXPECT_EQ(r.exit_code, 1) << r.output;
   EXPECT_NE(r.output.find("refused the token from " + wrong), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("wrong token"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("not permitted"), std::string::npos) << r.output;
-  EXPECT_NE(daemon.log().find("auth: wrong token from tcp 127.0.0.1:"), std::string::npos) << daemon.log();
+  EXPECT_NE(daemon.log().find("auth: wrong token from tcp 127.0.0.1:"), std::string::npos)
+      << daemon.log();
 }
 
 TEST(CliTokenFile, AFileOthersMayReadIsRefusedBeforeConnecting) {
@@ -120,7 +128,8 @@ TEST(CliTokenFile, AFileOthersMayReadIsRefusedBeforeConnecting) {
   TokenDaemon daemon(dir);
   ASSERT_GT(daemon.port(), 0) << daemon.log();
   for (const mode_t mode : {0640, 0604, 0620}) {
-    const std::string file = write_token_file(dir, "shared.token", std::string(kToken) + "\n", mode);
+    const std::string file =
+        write_token_file(dir, "shared.token", std::string(kToken) + "\n", mode);
     const CommandOutcome r = standcal_cli("status " + daemon.tcp() + " --token-file " + file);
     EXPECT_EQ(r.exit_code, 1) << r.output;
     char expected[64];
@@ -128,7 +137,8 @@ TEST(CliTokenFile, AFileOthersMayReadIsRefusedBeforeConnecting) {
     EXPECT_NE(r.output.find(expected), std::string::npos) << r.output;
     EXPECT_NE(r.output.find("chmod 600 " + file), std::string::npos) << r.output;
   }
-  EXPECT_EQ(daemon.log().find("auth:"), std::string::npos) << "the token was sent anyway:\n" << daemon.log();
+  EXPECT_EQ(daemon.log().find("auth:"), std::string::npos) << "the token was sent anyway:\n"
+                                                           << daemon.log();
 }
 
 TEST(CliTokenFile, UnusableTokenFilesAndOptionsAreClearErrors) {
@@ -136,15 +146,18 @@ TEST(CliTokenFile, UnusableTokenFilesAndOptionsAreClearErrors) {
   const std::string empty = write_token_file(dir, "empty.token", "\n", 0600);
   const CommandOutcome r1 = standcal_cli("status --tcp 127.0.0.1:9 --token-file " + empty);
   EXPECT_EQ(r1.exit_code, 1) << r1.output;
-  EXPECT_NE(r1.output.find("the token file " + empty + " is empty"), std::string::npos) << r1.output;
+  EXPECT_NE(r1.output.find("the token file " + empty + " is empty"), std::string::npos)
+      << r1.output;
 
-  const CommandOutcome r2 = standcal_cli("status --tcp 127.0.0.1:9 --token-file " + dir.path() + "/missing.token");
+  const CommandOutcome r2 =
+      standcal_cli("status --tcp 127.0.0.1:9 --token-file " + dir.path() + "/missing.token");
   EXPECT_EQ(r2.exit_code, 1) << r2.output;
   EXPECT_NE(r2.output.find("cannot open the token file"), std::string::npos) << r2.output;
 
   // The token goes with `auth`, which only TCP clients send.
   const std::string token = write_token_file(dir, "op.token", std::string(kToken) + "\n", 0600);
-  const CommandOutcome r3 = standcal_cli("status --socket " + dir.path() + "/s.sock --token-file " + token);
+  const CommandOutcome r3 =
+      standcal_cli("status --socket " + dir.path() + "/s.sock --token-file " + token);
   EXPECT_NE(r3.exit_code, 0) << r3.output;
   EXPECT_NE(r3.output.find("--token-file requires --tcp"), std::string::npos) << r3.output;
 }

@@ -78,14 +78,20 @@ TEST(DaemonConfig, TheBudgetFileIsReadAtStart) {
 }
 
 TEST(DaemonConfig, ErrorsNameTheKeyAndTheReason) {
-  EXPECT_EQ(config_error(json{{"run", {{"dwell_s", "long"}}}}), "lab.json: run.dwell_s: must be a number");
-  EXPECT_NE(config_error(json{{"stand", {{"backend", "canopen"}}}}).find("stand.backend: must be one of"),
+  EXPECT_EQ(config_error(json{{"run", {{"dwell_s", "long"}}}}),
+            "lab.json: run.dwell_s: must be a number");
+  EXPECT_NE(
+      config_error(json{{"stand", {{"backend", "canopen"}}}}).find("stand.backend: must be one of"),
+      std::string::npos);
+  EXPECT_NE(config_error(json{{"stand", {{"inner", {{"max_dg", 10}}}}}})
+                .find("stand.inner.max_dg: unknown key"),
             std::string::npos);
-  EXPECT_NE(config_error(json{{"stand", {{"inner", {{"max_dg", 10}}}}}}).find("stand.inner.max_dg: unknown key"),
+  EXPECT_NE(config_error(json{{"max_clients", 10}}).find("max_clients: must be between 256"),
             std::string::npos);
-  EXPECT_NE(config_error(json{{"max_clients", 10}}).find("max_clients: must be between 256"), std::string::npos);
-  EXPECT_NE(config_error(json{{"stand", {{"backend", "modbus"}}}}).find("stand.url: is required"), std::string::npos);
-  EXPECT_NE(config_error(json{{"run", {{"g_local_mps2", 98.1}}}}).find("run.g_local_mps2"), std::string::npos);
+  EXPECT_NE(config_error(json{{"stand", {{"backend", "modbus"}}}}).find("stand.url: is required"),
+            std::string::npos);
+  EXPECT_NE(config_error(json{{"run", {{"g_local_mps2", 98.1}}}}).find("run.g_local_mps2"),
+            std::string::npos);
   // stand.id goes into every recording header: one printable line.
   EXPECT_EQ(config_error(json{{"stand", {{"id", "bench-1\n# mount: y"}}}}),
             "lab.json: stand.id: must be printable text on one line: it contains the control "
@@ -103,7 +109,8 @@ TEST(DaemonConfig, TheConfigHashFollowsTheContent) {
 TEST(DaemonProcessStart, ABadConfigFailsAtStartNamingTheKey) {
   standcal::test::TempDir dir;
   const std::string file = dir.path() + "/bad.json";
-  std::ofstream(file) << R"({"state_dir": ")" << dir.path() << R"(/state", "run": {"settle_s": -4}})";
+  std::ofstream(file) << R"({"state_dir": ")" << dir.path()
+                      << R"(/state", "run": {"settle_s": -4}})";
   standcal::test::DaemonProcess d(dir.path(), {"--config", file});
   EXPECT_EQ(exit_code_at_start(d), 1);
   EXPECT_NE(d.log().find("run.settle_s: must be between 0 and 3600"), std::string::npos) << d.log();

@@ -2,8 +2,8 @@
 // Test helper: a real standcald process in its own temporary directory, with its own
 // socket; killed (and the directory removed) when the helper goes out of scope.
 #include <fcntl.h>
-#include <sys/prctl.h>
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -33,9 +33,9 @@ class DaemonProcess {
   // Starts `standcald ARGS...` with stderr going to DIR/standcald.log; waits until the
   // socket answers (or the process exits).
   // `binary` and `log_name` let tests start the emulators the same way.
-  DaemonProcess(const std::string& dir, std::vector<std::string> args, std::vector<std::string> env = {},
-                const std::string& binary = STANDCALD_PATH, const std::string& log_name = "standcald.log",
-                const std::string& stdout_name = "")
+  DaemonProcess(const std::string& dir, std::vector<std::string> args,
+                std::vector<std::string> env = {}, const std::string& binary = STANDCALD_PATH,
+                const std::string& log_name = "standcald.log", const std::string& stdout_name = "")
       : dir_(dir) {
     log_path_ = dir + "/" + log_name;
     const std::string stdout_path = stdout_name.empty() ? log_path_ : dir + "/" + stdout_name;
@@ -59,8 +59,9 @@ class DaemonProcess {
   // The simulated backend at `time_scale`, socket DIR/standcald.sock, state DIR/state.
   static std::unique_ptr<DaemonProcess> sim(const std::string& dir, double time_scale,
                                             std::vector<std::string> extra = {}) {
-    std::vector<std::string> args{"--sim", "--socket", dir + "/standcald.sock", "--state-dir", dir + "/state",
-                                  "--time-scale", std::to_string(time_scale)};
+    std::vector<std::string> args{
+        "--sim",        "--socket",     dir + "/standcald.sock",   "--state-dir",
+        dir + "/state", "--time-scale", std::to_string(time_scale)};
     args.insert(args.end(), extra.begin(), extra.end());
     auto d = std::make_unique<DaemonProcess>(dir, args);
     d->wait_ready(dir + "/standcald.sock");
@@ -80,7 +81,8 @@ class DaemonProcess {
       if (exited()) throw std::runtime_error("standcald exited at start:\n" + log());
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
-    throw std::runtime_error("standcald did not answer on " + socket_path + " within 20 s:\n" + log());
+    throw std::runtime_error("standcald did not answer on " + socket_path + " within 20 s:\n" +
+                             log());
   }
 
   // Sends `sig` and waits for the exit (SIGKILL after 20 s); returns the wait status.

@@ -20,8 +20,8 @@ using nlohmann::json;
 using protocol::Client;
 using protocol::RpcError;
 using test::DaemonProcess;
-using test::TempDir;
 using test::socket_of;
+using test::TempDir;
 
 namespace {
 
@@ -203,14 +203,22 @@ TEST(DaemonDiagnose, CliWritesTheReportAndRunsTheProposedPositions) {
 TEST(DaemonDiagnose, ProposedPositionsLieInsideTheConfiguredStandRanges) {
   TempDir dir;
   const std::string config = dir.path() + "/standcald.json";
-  std::ofstream(config) << json{{"stand", {{"outer", {{"min_deg", -100}, {"max_deg", 100}}}}}}.dump(2);
+  std::ofstream(config) << json{{"stand", {{"outer", {{"min_deg", -100}, {"max_deg", 100}}}}}}.dump(
+      2);
   auto daemon = DaemonProcess::sim(dir.path(), 300, {"--config", config});
   Client c(socket_of(dir));
   json program = json::array();
-  for (auto [a1, a2] : {std::pair{0.0, 0.0}, {72.0, 0.0}, {-72.0, 0.0}, {0.0, 57.5}, {0.0, 122.5}, {0.0, 270.0},
-                        {45.0, 90.0}, {-45.0, 90.0}})
+  for (auto [a1, a2] : {std::pair{0.0, 0.0},
+                        {72.0, 0.0},
+                        {-72.0, 0.0},
+                        {0.0, 57.5},
+                        {0.0, 122.5},
+                        {0.0, 270.0},
+                        {45.0, 90.0},
+                        {-45.0, 90.0}})
     program.push_back({{"alpha1_deg", a1}, {"alpha2_deg", a2}});
-  const std::string id = run_to_end(c, json{{"name", "limited"}, {"positions", program}}, "AU-D4", 20);
+  const std::string id =
+      run_to_end(c, json{{"name", "limited"}, {"positions", program}}, "AU-D4", 20);
   const json d = c.call("run.diagnose", {{"run_id", id}}, 300s);
   ASSERT_FALSE(d["proposed_positions"].empty()) << d.dump();
   for (const json& p : d["proposed_positions"]) {
@@ -244,17 +252,21 @@ TEST(DaemonDiagnose, ARunWithFewPositionsIsAClearAnswerNotACrash) {
   TempDir dir;
   auto daemon = DaemonProcess::sim(dir.path(), 300);
   Client c(socket_of(dir));
-  const std::string id = c.call(
-      "run.start", {{"program", "paper9"}, {"unit_serial", "AU-D5"}, {"dwell_s", 20}, {"settle_s", 1}})["run_id"];
-  test::wait_run(c, id, [](const json& s) { return s.value("positions_done", 0) >= 2; }, 120s);
+  const std::string id = c.call("run.start", {{"program", "paper9"},
+                                              {"unit_serial", "AU-D5"},
+                                              {"dwell_s", 20},
+                                              {"settle_s", 1}})["run_id"];
+  test::wait_run(
+      c, id, [](const json& s) { return s.value("positions_done", 0) >= 2; }, 120s);
   c.call("run.abort", {{"run_id", id}});
   const json s = test::wait_run(c, id, test::finished, 60s);
   const int done = s["positions_done"];
   ASSERT_GE(done, 2) << s.dump();
   const auto [code, message] = error_of([&] { c.call("run.diagnose", {{"run_id", id}}, 120s); });
   EXPECT_EQ(code, -32007) << message;
-  EXPECT_NE(message.find("cannot check the model: " + std::to_string(done) + " positions for 9 unknowns"),
-            std::string::npos)
+  EXPECT_NE(
+      message.find("cannot check the model: " + std::to_string(done) + " positions for 9 unknowns"),
+      std::string::npos)
       << message;
   EXPECT_FALSE(daemon->exited()) << daemon->log();
   EXPECT_EQ(c.call("run.status", {{"run_id", id}})["run_id"], id);
@@ -265,16 +277,19 @@ TEST(DaemonDiagnose, ARunWithFewPositionsIsAClearAnswerNotACrash) {
 // is an error answer naming the signal, and the daemon keeps serving the stand.
 TEST(DaemonDiagnose, ADiagnosisThatCrashesDoesNotTakeTheDaemonDown) {
   TempDir dir;
-  std::vector<std::string> args{"--sim", "--socket", socket_of(dir), "--state-dir", dir.path() + "/state",
-                                "--time-scale", "300"};
+  std::vector<std::string> args{
+      "--sim",        "--socket", socket_of(dir), "--state-dir", dir.path() + "/state",
+      "--time-scale", "300"};
   DaemonProcess daemon(dir.path(), args, {"STANDCALD_FAULT_DIAGNOSE_WORKER=abort"});
   daemon.wait_ready(socket_of(dir));
   Client c(socket_of(dir));
   const std::string id = run_to_end(c, "paper9", "AU-D6", 5);
   const auto [code, message] = error_of([&] { c.call("run.diagnose", {{"run_id", id}}, 120s); });
   EXPECT_EQ(code, -32603) << message;
-  EXPECT_NE(message.find("died of signal " + std::to_string(SIGABRT)), std::string::npos) << message;
-  EXPECT_NE(message.find("the daemon, the stand and the run are unaffected"), std::string::npos) << message;
+  EXPECT_NE(message.find("died of signal " + std::to_string(SIGABRT)), std::string::npos)
+      << message;
+  EXPECT_NE(message.find("the daemon, the stand and the run are unaffected"), std::string::npos)
+      << message;
   EXPECT_FALSE(daemon.exited()) << daemon.log();
   EXPECT_EQ(c.call("run.status", {{"run_id", id}})["state"], "done");
   // The stand still obeys an emergency stop.

@@ -51,16 +51,19 @@ StandEmulatorDaemon moving_stand_emulator(const TempDir& dir, std::vector<std::s
                                           double past_deg) {
   StandEmulatorDaemon d;
   emu_args.insert(emu_args.begin(), {"--listen", "tcp://127.0.0.1:0"});
-  d.emulator = std::make_unique<DaemonProcess>(dir.path(), emu_args, std::vector<std::string>{},
-                                               STANDCAL_STAND_EMU_PATH, "stand-emu.log", "stand-emu.out");
+  d.emulator =
+      std::make_unique<DaemonProcess>(dir.path(), emu_args, std::vector<std::string>{},
+                                      STANDCAL_STAND_EMU_PATH, "stand-emu.log", "stand-emu.out");
   const std::string url = wait_for_line(dir.path() + "/stand-emu.out", 20s);
-  if (url.empty()) throw std::runtime_error("the stand emulator printed no URL:\n" + d.emulator->log());
+  if (url.empty())
+    throw std::runtime_error("the stand emulator printed no URL:\n" + d.emulator->log());
   const json config{{"socket", {{"path", dir.path() + "/standcald.sock"}}},
                     {"state_dir", dir.path() + "/state"},
                     {"stand", {{"backend", "modbus"}, {"url", url}}},
                     {"unit", {{"backend", "sim"}}}};
   std::ofstream(dir.path() + "/standcald.json") << config.dump(2);
-  d.daemon = std::make_unique<DaemonProcess>(dir.path(), std::vector<std::string>{"--config", dir.path() + "/standcald.json"});
+  d.daemon = std::make_unique<DaemonProcess>(
+      dir.path(), std::vector<std::string>{"--config", dir.path() + "/standcald.json"});
   d.daemon->wait_ready(dir.path() + "/standcald.sock");
   Client c(dir.path() + "/standcald.sock");
   c.call("stand.enable");
@@ -69,7 +72,8 @@ StandEmulatorDaemon moving_stand_emulator(const TempDir& dir, std::vector<std::s
   const auto deadline = std::chrono::steady_clock::now() + 30s;
   while (c.call("status")["stand"]["axes"][0].value("angle_deg", 0.0) < past_deg) {
     if (std::chrono::steady_clock::now() > deadline)
-      throw std::runtime_error("the outer axis did not pass " + std::to_string(past_deg) + " deg:\n" + d.daemon->log());
+      throw std::runtime_error("the outer axis did not pass " + std::to_string(past_deg) +
+                               " deg:\n" + d.daemon->log());
     std::this_thread::sleep_for(50ms);
   }
   return d;
@@ -89,11 +93,12 @@ TEST(DaemonEmulators, Paper9RunOnTheModbusStandAndCanUnitEmulators) {
   DaemonProcess can_emu(dir.path(), {"--fd", std::to_string(pair[0]), "--rate-hz", "100"}, {},
                         STANDCAL_CAN_EMU_PATH, "can-emu.log");
 
-  const json config{{"socket", {{"path", dir.path() + "/standcald.sock"}}},
-                    {"state_dir", dir.path() + "/state"},
-                    {"stand", {{"backend", "modbus"}, {"url", url}, {"id", "emu-stand"}}},
-                    {"unit", {{"backend", "socketcan"}, {"interface", "fd:" + std::to_string(pair[1])}}},
-                    {"run", {{"settle_s", 0.1}, {"dwell_s", 1}}}};
+  const json config{
+      {"socket", {{"path", dir.path() + "/standcald.sock"}}},
+      {"state_dir", dir.path() + "/state"},
+      {"stand", {{"backend", "modbus"}, {"url", url}, {"id", "emu-stand"}}},
+      {"unit", {{"backend", "socketcan"}, {"interface", "fd:" + std::to_string(pair[1])}}},
+      {"run", {{"settle_s", 0.1}, {"dwell_s", 1}}}};
   std::ofstream(dir.path() + "/standcald.json") << config.dump(2);
   DaemonProcess daemon(dir.path(), {"--config", dir.path() + "/standcald.json"});
   ::close(pair[0]);
@@ -101,7 +106,8 @@ TEST(DaemonEmulators, Paper9RunOnTheModbusStandAndCanUnitEmulators) {
   daemon.wait_ready(dir.path() + "/standcald.sock");
 
   Client c(dir.path() + "/standcald.sock");
-  const std::string run_id = c.call("run.start", {{"program", "paper9"}, {"unit_serial", "AU-EMU"}})["run_id"];
+  const std::string run_id =
+      c.call("run.start", {{"program", "paper9"}, {"unit_serial", "AU-EMU"}})["run_id"];
   json s;
   const auto deadline = std::chrono::steady_clock::now() + 120s;
   while (std::chrono::steady_clock::now() < deadline) {

@@ -26,7 +26,7 @@ using test::TempDir;
 namespace {
 
 constexpr int kFastSubscribers = 40;
-constexpr int kRequesters = 22;  // + 1 slow subscriber + 1 controlling client = 64 clients
+constexpr int kRequesters = 22;      // + 1 slow subscriber + 1 controlling client = 64 clients
 constexpr int kProgramRepeats = 12;  // paper9 twelve times over: 108 positions, ~540 events
 
 // One event as a line that must be identical for every subscriber.
@@ -72,9 +72,12 @@ void follow(Client& c, SubscriberLog& log, std::chrono::steady_clock::time_point
 
 // Everything a requester checks in one round: each answer comes, and is the right kind.
 void request_round(Client& c, const std::string& run_id) {
-  if (c.call("status", json::object(), 30s)["daemon"]["protocol"] != "1") throw std::runtime_error("status: bad answer");
-  if (!c.call("run.status", {{"run_id", run_id}}, 30s).contains("state")) throw std::runtime_error("run.status: no state");
-  if (!c.call("runs.list", json::object(), 30s)["runs"].is_array()) throw std::runtime_error("runs.list: no runs");
+  if (c.call("status", json::object(), 30s)["daemon"]["protocol"] != "1")
+    throw std::runtime_error("status: bad answer");
+  if (!c.call("run.status", {{"run_id", run_id}}, 30s).contains("state"))
+    throw std::runtime_error("run.status: no state");
+  if (!c.call("runs.list", json::object(), 30s)["runs"].is_array())
+    throw std::runtime_error("runs.list: no runs");
   try {
     c.call("operator.confirm", json::object(), 30s);  // through the sequencer's queue
     throw std::runtime_error("operator.confirm succeeded with nothing waiting");
@@ -115,10 +118,11 @@ TEST(DaemonLoad, SixtyFourClientsDuringARunSubscribersSeeEveryEventAndASlowOneIs
   // The smallest per-client queue the config allows, so the slow subscriber overflows it
   // within one run's events.
   const std::string config = dir.path() + "/standcald.json";
-  std::ofstream(config) << json{{"socket", {{"path", socket}}},
-                                {"state_dir", dir.path() + "/state"},
-                                {"client_queue_bytes", 65536}}
-                               .dump();
+  std::ofstream(config) << json{
+      {"socket", {{"path", socket}}},
+      {"state_dir", dir.path() + "/state"},
+      {"client_queue_bytes",
+       65536}}.dump();
   DaemonProcess daemon(dir.path(), {"--config", config, "--sim", "--time-scale", "1000"});
   daemon.wait_ready(socket);
 
@@ -138,9 +142,9 @@ TEST(DaemonLoad, SixtyFourClientsDuringARunSubscribersSeeEveryEventAndASlowOneIs
   const int positions = static_cast<int>(program["positions"].size());
   const auto t0 = std::chrono::steady_clock::now();
   const std::string run_id = control.call("run.start", {{"program", program},
-                                                         {"unit_serial", "AU-LOAD"},
-                                                         {"dwell_s", 1},
-                                                         {"settle_s", 0.2}})["run_id"];
+                                                        {"unit_serial", "AU-LOAD"},
+                                                        {"dwell_s", 1},
+                                                        {"settle_s", 0.2}})["run_id"];
   const auto deadline = t0 + 120s;  // generous: a few seconds on an idle machine
 
   std::vector<SubscriberLog> logs(kFastSubscribers);
@@ -150,7 +154,9 @@ TEST(DaemonLoad, SixtyFourClientsDuringARunSubscribersSeeEveryEventAndASlowOneIs
   std::vector<std::string> requester_failures;
   std::vector<std::thread> threads;
   for (int i = 0; i < kFastSubscribers; ++i) {
-    threads.emplace_back([&, i] { follow(*fast[static_cast<std::size_t>(i)], logs[static_cast<std::size_t>(i)], deadline); });
+    threads.emplace_back([&, i] {
+      follow(*fast[static_cast<std::size_t>(i)], logs[static_cast<std::size_t>(i)], deadline);
+    });
   }
   for (int i = 0; i < kRequesters; ++i) {
     threads.emplace_back([&, i] {
@@ -191,21 +197,27 @@ TEST(DaemonLoad, SixtyFourClientsDuringARunSubscribersSeeEveryEventAndASlowOneIs
     EXPECT_TRUE(log.saw_end) << "subscriber " << i;
     EXPECT_EQ(log.reached, expected) << "subscriber " << i << ": run.position_reached";
     EXPECT_EQ(log.averaged, expected) << "subscriber " << i << ": run.position_averaged";
-    EXPECT_EQ(log.keys, logs[0].keys) << "subscriber " << i << " saw a different event stream than subscriber 0";
+    EXPECT_EQ(log.keys, logs[0].keys)
+        << "subscriber " << i << " saw a different event stream than subscriber 0";
   }
 
   // The slow subscriber was dropped, with a notice in the log and in the status.
   std::size_t slow_bytes = 0;
-  EXPECT_TRUE(closed_by_daemon(slow.fd(), 10s, slow_bytes)) << "the slow subscriber is still connected";
+  EXPECT_TRUE(closed_by_daemon(slow.fd(), 10s, slow_bytes))
+      << "the slow subscriber is still connected";
   const json daemon_status = control.call("status")["daemon"];
   EXPECT_EQ(daemon_status["dropped_clients"], 1) << "only the slow subscriber may be dropped";
-  const std::string notice = "dropped uid " + std::to_string(::geteuid()) + " gid " + std::to_string(::getegid()) +
-                             " pid " + std::to_string(::getpid()) + ": it stopped reading";
+  const std::string notice = "dropped uid " + std::to_string(::geteuid()) + " gid " +
+                             std::to_string(::getegid()) + " pid " + std::to_string(::getpid()) +
+                             ": it stopped reading";
   EXPECT_NE(daemon.log().find(notice), std::string::npos) << daemon.log();
 
-  std::printf("[load] %d positions, %zu events (%zu bytes) per subscriber, run %.2f s, %ld requests answered "
-              "meanwhile by %d requesters, %d subscribers kept up, 1 slow subscriber dropped after %zu bytes had "
-              "reached it\n",
-              positions, logs[0].keys.size(), logs[0].bytes, run_s, requests_answered.load(), kRequesters,
-              kFastSubscribers, slow_bytes);
+  std::printf(
+      "[load] %d positions, %zu events (%zu bytes) per subscriber, run %.2f s, %ld requests "
+      "answered "
+      "meanwhile by %d requesters, %d subscribers kept up, 1 slow subscriber dropped after %zu "
+      "bytes had "
+      "reached it\n",
+      positions, logs[0].keys.size(), logs[0].bytes, run_s, requests_answered.load(), kRequesters,
+      kFastSubscribers, slow_bytes);
 }

@@ -19,7 +19,8 @@ int error_code_of(std::string_view line) {
 }  // namespace
 
 TEST(JsonRpc, ParsesARequestWithNamedParams) {
-  auto r = parse_request(R"({"jsonrpc":"2.0","id":7,"method":"stand.move","params":{"alpha1_deg":90}})");
+  auto r =
+      parse_request(R"({"jsonrpc":"2.0","id":7,"method":"stand.move","params":{"alpha1_deg":90}})");
   ASSERT_TRUE(std::holds_alternative<Request>(r));
   const Request& req = std::get<Request>(r);
   EXPECT_EQ(req.id, 7);
@@ -37,7 +38,7 @@ TEST(JsonRpc, ANotificationHasNoId) {
 TEST(JsonRpc, RejectsBadRequestsWithTheStandardCodes) {
   EXPECT_EQ(error_code_of("{not json"), -32700);
   EXPECT_EQ(error_code_of("[1,2]"), -32600);
-  EXPECT_EQ(error_code_of(R"({"id":1,"method":"status"})"), -32600);             // no jsonrpc
+  EXPECT_EQ(error_code_of(R"({"id":1,"method":"status"})"), -32600);  // no jsonrpc
   EXPECT_EQ(error_code_of(R"({"jsonrpc":"1.0","id":1,"method":"status"})"), -32600);
   EXPECT_EQ(error_code_of(R"({"jsonrpc":"2.0","id":1,"method":5})"), -32600);
   EXPECT_EQ(error_code_of(R"({"jsonrpc":"2.0","id":{"a":1},"method":"status"})"), -32600);
@@ -112,7 +113,8 @@ TEST(JsonRpc, AnIntegerParameterMustBeWholeAndInRange) {
       ADD_FAILURE() << key << " accepted";
     } catch (const RpcError& e) {
       EXPECT_EQ(e.code(), -32602);
-      EXPECT_NE(std::string(e.what()).find(std::string("\"") + key + "\" must be a whole number from 1 to 10"),
+      EXPECT_NE(std::string(e.what()).find(std::string("\"") + key +
+                                           "\" must be a whole number from 1 to 10"),
                 std::string::npos)
           << e.what();
     }

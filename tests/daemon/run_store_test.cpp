@@ -62,8 +62,7 @@ std::string long_serial(const std::string& character, const std::string& last) {
 TEST(RunStore, EverySerialHasItsOwnUnitIndexAndPlainSerialsKeepTheirFileNames) {
   TempDir dir;
   const std::vector<std::string> serials{
-      "a/b",    std::string("a\0b", 3), "a_b", "AU,1", "AU\t1", "AU_1", "AU%2C1", ".hidden",
-      "AU-0042",
+      "a/b", std::string("a\0b", 3), "a_b", "AU,1", "AU\t1", "AU_1", "AU%2C1", ".hidden", "AU-0042",
       // 64 characters of 4 bytes each (the longest serial the protocol takes): encoded
       // whole they would pass a file name's 255 bytes; two that differ only at the end.
       long_serial("\xF0\x90\x8D\x88", "A"), long_serial("\xF0\x90\x8D\x88", "B")};

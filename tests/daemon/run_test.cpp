@@ -21,9 +21,9 @@ using nlohmann::json;
 using protocol::Client;
 using protocol::RpcError;
 using test::DaemonProcess;
-using test::TempDir;
-using test::socket_of;
 using test::finished;
+using test::socket_of;
+using test::TempDir;
 using test::wait_run;
 
 namespace {
@@ -61,8 +61,11 @@ TEST(DaemonRun, FullPaper9RunOverTheSocket) {
   Client events(socket_of(dir));
   events.call("subscribe", {{"events", "all"}});
 
-  const json started = c.call("run.start", {{"program", "paper9"}, {"unit_serial", "AU-0042"}, {"dwell_s", 30},
-                                            {"settle_s", 2}, {"operator", "test"}});
+  const json started = c.call("run.start", {{"program", "paper9"},
+                                            {"unit_serial", "AU-0042"},
+                                            {"dwell_s", 30},
+                                            {"settle_s", 2},
+                                            {"operator", "test"}});
   const std::string run_id = started["run_id"];
   EXPECT_EQ(started["positions"], 9);
   const json final_status = wait_run(c, run_id, finished);
@@ -117,8 +120,11 @@ TEST(DaemonRun, FullPaper9RunOverTheSocket) {
   // The estimates find the simulator's truth (noise: about 1 µg per bias at this dwell).
   const TruthModel truth = default_truth();
   for (int i = 0; i < 3; ++i) {
-    const json& p = result["parameters"][std::string(kUnitParameterNames[static_cast<std::size_t>(i)])];
-    EXPECT_NEAR(p["value"].get<double>(), truth.unit.bias_g[i] / kUg, 8 * p["sigma"].get<double>() + 2) << i;
+    const json& p =
+        result["parameters"][std::string(kUnitParameterNames[static_cast<std::size_t>(i)])];
+    EXPECT_NEAR(p["value"].get<double>(), truth.unit.bias_g[i] / kUg,
+                8 * p["sigma"].get<double>() + 2)
+        << i;
   }
 
   // The run index for the unit lists it.
@@ -142,8 +148,11 @@ TEST(DaemonRun, TheFitsAssumeTheUnitsConfiguredBiasWander) {
   DaemonProcess daemon(dir.path(), {"--config", file, "--sim", "--time-scale", "300"});
   daemon.wait_ready(socket_of(dir));
   Client c(socket_of(dir));
-  const json started = c.call("run.start", {{"program", "paper9"}, {"unit_serial", "AU-7"}, {"dwell_s", 10},
-                                            {"settle_s", 1}, {"operator", "test"}});
+  const json started = c.call("run.start", {{"program", "paper9"},
+                                            {"unit_serial", "AU-7"},
+                                            {"dwell_s", 10},
+                                            {"settle_s", 1},
+                                            {"operator", "test"}});
   const json final_status = wait_run(c, started["run_id"], finished);
   ASSERT_EQ(final_status["state"], "done") << final_status.dump() << daemon.log();
   const json noise = c.call("run.result", {{"run_id", started["run_id"]}})["noise"];
@@ -160,8 +169,12 @@ TEST(DaemonRun, KillNineMidRunThenResumeRecordsEveryPositionOnce) {
   {
     auto daemon = DaemonProcess::sim(dir.path(), 100);
     Client c(socket_of(dir));
-    run_id = c.call("run.start", {{"program", "paper9"}, {"unit_serial", "AU-7"}, {"dwell_s", 40}, {"settle_s", 1}})["run_id"];
-    wait_run(c, run_id, [](const json& s) { return s["positions_done"].get<int>() >= 3 || finished(s); });
+    run_id = c.call("run.start", {{"program", "paper9"},
+                                  {"unit_serial", "AU-7"},
+                                  {"dwell_s", 40},
+                                  {"settle_s", 1}})["run_id"];
+    wait_run(c, run_id,
+             [](const json& s) { return s["positions_done"].get<int>() >= 3 || finished(s); });
     daemon->kill_now(SIGKILL);  // mid-run: the socket file and the recording stay as they were
   }
   auto daemon = DaemonProcess::sim(dir.path(), 100);  // replaces the stale socket
@@ -194,10 +207,17 @@ TEST(DaemonRun, OneRunAtATimeAndTheStandIsBusyDuringIt) {
   TempDir dir;
   auto daemon = DaemonProcess::sim(dir.path(), 50);
   Client c(socket_of(dir));
-  const std::string run_id = c.call("run.start", {{"program", "paper9"}, {"unit_serial", "AU-1"}, {"dwell_s", 60}})["run_id"];
+  const std::string run_id = c.call(
+      "run.start", {{"program", "paper9"}, {"unit_serial", "AU-1"}, {"dwell_s", 60}})["run_id"];
   Client other(socket_of(dir));
-  EXPECT_EQ(error_code_of([&] { other.call("run.start", {{"program", "paper9"}, {"unit_serial", "AU-2"}}); }), -32001);
-  EXPECT_EQ(error_code_of([&] { other.call("stand.move", {{"alpha1_deg", 10}, {"alpha2_deg", 0}}); }), -32001);
+  EXPECT_EQ(error_code_of([&] {
+              other.call("run.start", {{"program", "paper9"}, {"unit_serial", "AU-2"}});
+            }),
+            -32001);
+  EXPECT_EQ(error_code_of([&] {
+              other.call("stand.move", {{"alpha1_deg", 10}, {"alpha2_deg", 0}});
+            }),
+            -32001);
   EXPECT_EQ(error_code_of([&] { other.call("unit.read", {{"seconds", 1}}); }), -32001);
   const json status = other.call("status");
   EXPECT_EQ(status["run"]["run_id"], run_id);
@@ -210,11 +230,13 @@ TEST(DaemonRun, PauseLeavesTheStandStoppedAndResumeCompletesTheRun) {
   TempDir dir;
   auto daemon = DaemonProcess::sim(dir.path(), 200);
   Client c(socket_of(dir));
-  const std::string run_id =
-      c.call("run.start", {{"program", "paper9"}, {"unit_serial", "AU-3"}, {"dwell_s", 30}, {"settle_s", 1}})["run_id"];
+  const std::string run_id = c.call(
+      "run.start",
+      {{"program", "paper9"}, {"unit_serial", "AU-3"}, {"dwell_s", 30}, {"settle_s", 1}})["run_id"];
   wait_run(c, run_id, [](const json& s) { return s.value("positions_done", 0) >= 2; });
   c.call("run.pause");
-  const json paused = wait_run(c, run_id, [](const json& s) { return s.value("state", "") == "paused"; });
+  const json paused =
+      wait_run(c, run_id, [](const json& s) { return s.value("state", "") == "paused"; });
   const int done_at_pause = paused["positions_done"];
   std::this_thread::sleep_for(300ms);
   const json still = c.call("run.status", {{"run_id", run_id}});
@@ -237,8 +259,10 @@ TEST(DaemonRun, EstopFromAnyClientStopsTheRunAndLatches) {
   TempDir dir;
   auto daemon = DaemonProcess::sim(dir.path(), 50);
   Client c(socket_of(dir));
-  const std::string run_id = c.call("run.start", {{"program", "paper9"}, {"unit_serial", "AU-4"}, {"dwell_s", 60}})["run_id"];
-  wait_run(c, run_id, [](const json& s) { return s["phase"] == "moving" || s["phase"] == "sampling"; });
+  const std::string run_id = c.call(
+      "run.start", {{"program", "paper9"}, {"unit_serial", "AU-4"}, {"dwell_s", 60}})["run_id"];
+  wait_run(c, run_id,
+           [](const json& s) { return s["phase"] == "moving" || s["phase"] == "sampling"; });
   Client other(socket_of(dir));
   const json stopped = other.call("estop", json::object(), 5s);
   EXPECT_EQ(stopped["estop"], true);
@@ -246,7 +270,10 @@ TEST(DaemonRun, EstopFromAnyClientStopsTheRunAndLatches) {
   EXPECT_EQ(s["state"], "faulted");
   EXPECT_NE(s["reason"].get<std::string>().find("emergency stop"), std::string::npos);
   EXPECT_EQ(c.call("status")["stand"]["estop_latched"], true);
-  EXPECT_EQ(error_code_of([&] { c.call("stand.move", {{"alpha1_deg", 1}, {"alpha2_deg", 1}}); }), -32004);
+  EXPECT_EQ(error_code_of([&] {
+              c.call("stand.move", {{"alpha1_deg", 1}, {"alpha2_deg", 1}});
+            }),
+            -32004);
   EXPECT_EQ(error_code_of([&] { c.call("run.resume"); }), -32004);
   c.call("estop.reset");
   c.call("stand.enable");
@@ -338,7 +365,8 @@ TEST(DaemonRun, SigtermStopsTheStandAndLeavesTheRunResumable) {
   {
     auto daemon = DaemonProcess::sim(dir.path(), 100);
     Client c(socket_of(dir));
-    run_id = c.call("run.start", {{"program", "paper9"}, {"unit_serial", "AU-5"}, {"dwell_s", 30}})["run_id"];
+    run_id = c.call("run.start",
+                    {{"program", "paper9"}, {"unit_serial", "AU-5"}, {"dwell_s", 30}})["run_id"];
     wait_run(c, run_id, [](const json& s) { return s["positions_done"].get<int>() >= 1; });
     const int status = daemon->kill_now(SIGTERM);
     EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << daemon->log();
@@ -356,11 +384,14 @@ TEST(DaemonRun, Classic24WaitsForTheOperatorAtEachRemount) {
   TempDir dir;
   auto daemon = DaemonProcess::sim(dir.path(), 500);
   Client c(socket_of(dir));
-  const std::string run_id =
-      c.call("run.start", {{"program", "classic24"}, {"unit_serial", "AU-6"}, {"dwell_s", 10}, {"settle_s", 1}})["run_id"];
+  const std::string run_id = c.call("run.start", {{"program", "classic24"},
+                                                  {"unit_serial", "AU-6"},
+                                                  {"dwell_s", 10},
+                                                  {"settle_s", 1}})["run_id"];
   int confirmations = 0;
   for (;;) {
-    const json s = wait_run(c, run_id, [](const json& x) { return x["state"] == "waiting_operator" || finished(x); });
+    const json s = wait_run(
+        c, run_id, [](const json& x) { return x["state"] == "waiting_operator" || finished(x); });
     if (s["state"] != "waiting_operator") {
       ASSERT_EQ(s["state"], "done") << s.dump() << daemon->log();
       break;
@@ -381,24 +412,42 @@ TEST(DaemonRun, UnknownRunsAndBadProgrammesAreClearErrors) {
   auto daemon = DaemonProcess::sim(dir.path(), 100);
   Client c(socket_of(dir));
   EXPECT_EQ(error_code_of([&] { c.call("run.result", {{"run_id", "nope"}}); }), -32006);
-  EXPECT_EQ(error_code_of([&] { c.call("run.start", {{"program", "paper10"}, {"unit_serial", "AU"}}); }), -32006);
-  EXPECT_EQ(error_code_of([&] { c.call("run.start", {{"program", "../etc/passwd"}, {"unit_serial", "AU"}}); }), -32602);
+  EXPECT_EQ(error_code_of([&] {
+              c.call("run.start", {{"program", "paper10"}, {"unit_serial", "AU"}});
+            }),
+            -32006);
+  EXPECT_EQ(error_code_of([&] {
+              c.call("run.start", {{"program", "../etc/passwd"}, {"unit_serial", "AU"}});
+            }),
+            -32602);
   EXPECT_EQ(error_code_of([&] { c.call("run.start", {{"program", "paper9"}}); }), -32602);
   EXPECT_EQ(error_code_of([&] { c.call("run.resume"); }), -32006);
   EXPECT_EQ(error_code_of([&] { c.call("run.pause"); }), -32007);
-  EXPECT_EQ(error_code_of([&] { c.call("stand.move", {{"alpha1_deg", 1}, {"alpha2_deg", 2}}); }), -32007);  // not enabled
+  EXPECT_EQ(error_code_of([&] {
+              c.call("stand.move", {{"alpha1_deg", 1}, {"alpha2_deg", 2}});
+            }),
+            -32007);  // not enabled
   c.call("stand.enable");
-  EXPECT_EQ(error_code_of([&] { c.call("stand.move", {{"alpha1_deg", 1}, {"alpha2_deg", 2}}); }), -32002);  // not homed
+  EXPECT_EQ(error_code_of([&] {
+              c.call("stand.move", {{"alpha1_deg", 1}, {"alpha2_deg", 2}});
+            }),
+            -32002);  // not homed
   c.call("stand.home", json::object(), 60s);
-  EXPECT_EQ(error_code_of([&] { c.call("stand.move", {{"alpha1_deg", "ninety"}, {"alpha2_deg", 2}}); }), -32602);
+  EXPECT_EQ(error_code_of([&] {
+              c.call("stand.move", {{"alpha1_deg", "ninety"}, {"alpha2_deg", 2}});
+            }),
+            -32602);
   EXPECT_EQ(error_code_of([&] { c.call("unit.read", {{"seconds", -1}}); }), -32602);
   const json read = c.call("unit.read", {{"seconds", 2}});
   EXPECT_NEAR(read["samples"].get<double>(), 200, 5);
   EXPECT_NEAR(read["axes"]["y"]["mean_mps2"].get<double>(), 9.81, 0.05);  // y up at (0, 0)
   // Inline positions run like a named programme.
-  const json inline_run = c.call("run.start", {{"program", json::array({{{"alpha1_deg", 0}, {"alpha2_deg", 0}},
-                                                                         {{"alpha1_deg", 90}, {"alpha2_deg", 0}}})},
-                                               {"unit_serial", "AU-8"}, {"dwell_s", 5}, {"settle_s", 0}});
+  const json inline_run =
+      c.call("run.start", {{"program", json::array({{{"alpha1_deg", 0}, {"alpha2_deg", 0}},
+                                                    {{"alpha1_deg", 90}, {"alpha2_deg", 0}}})},
+                           {"unit_serial", "AU-8"},
+                           {"dwell_s", 5},
+                           {"settle_s", 0}});
   const json s = wait_run(c, inline_run["run_id"], finished);
   EXPECT_EQ(s["positions_done"], 2);
 }
@@ -407,8 +456,10 @@ TEST(DaemonCli, RunStartWaitPrintsTheResultOfARunThroughTheDaemon) {
   TempDir dir;
   auto daemon = DaemonProcess::sim(dir.path(), 300);
   // The spellings before --unit-serial, --dwell-s and --settle-s still work (scripts).
-  const test::CommandOutcome run = test::standcal_cli("run start paper9 --unit AU-CLI --unit-type QA-7 --dwell 20 "
-                                                  "--settle 1 --wait --json --socket " + socket_of(dir));
+  const test::CommandOutcome run = test::standcal_cli(
+      "run start paper9 --unit AU-CLI --unit-type QA-7 --dwell 20 "
+      "--settle 1 --wait --json --socket " +
+      socket_of(dir));
   ASSERT_EQ(run.exit_code, 0) << run.output;
   // --json --wait prints the events as they come, then the result (pretty-printed, last).
   const auto start = run.output.rfind("\n{\n");
@@ -435,9 +486,9 @@ TEST(DaemonCli, RunStartWaitPrintsTheResultOfARunThroughTheDaemon) {
       "QA-7": {"parameters": {"bias": {"max_abs": 1000}}},
       "QA-8": {"parameters": {"bias": {"max_abs": 1}}}}})";
   const std::string cert = dir.path() + "/cert.html";
-  const test::CommandOutcome certificate = test::standcal_cli("certificate " + status["run_id"].get<std::string>() +
-                                                          " --state-dir " + dir.path() + "/state --limits " + limits +
-                                                          " -o " + cert);
+  const test::CommandOutcome certificate =
+      test::standcal_cli("certificate " + status["run_id"].get<std::string>() + " --state-dir " +
+                         dir.path() + "/state --limits " + limits + " -o " + cert);
   ASSERT_EQ(certificate.exit_code, 0) << certificate.output;
   std::ifstream in(cert);
   const std::string html(std::istreambuf_iterator<char>(in), {});

@@ -27,9 +27,10 @@ TEST(DaemonSystemd, NotifiesReadyAndPingsTheWatchdog) {
   timeval tv{0, 200000};
   ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
 
-  DaemonProcess d(dir.path(),
-                  {"--sim", "--socket", dir.path() + "/standcald.sock", "--state-dir", dir.path() + "/state"},
-                  {"NOTIFY_SOCKET=" + notify_path, "WATCHDOG_USEC=400000"});
+  DaemonProcess d(
+      dir.path(),
+      {"--sim", "--socket", dir.path() + "/standcald.sock", "--state-dir", dir.path() + "/state"},
+      {"NOTIFY_SOCKET=" + notify_path, "WATCHDOG_USEC=400000"});
   bool ready = false;
   int pings = 0;
   const auto deadline = std::chrono::steady_clock::now() + 20s;

@@ -56,7 +56,8 @@ TEST(DesignOptimize, GlobalNinePositionsBeatThePaper) {
   ASSERT_EQ(best.program.positions.size(), 9u);
   const double gain = best.d_criterion / best.paper9_d_criterion;
   // Issue 3 quotes about 14 %; the criterion is re-evaluated from the programme returned.
-  const double recomputed = d_criterion(design_basis(poses_of(best.program), DesignModel::invariant));
+  const double recomputed =
+      d_criterion(design_basis(poses_of(best.program), DesignModel::invariant));
   EXPECT_NEAR(recomputed, best.d_criterion, 1e-9 * best.d_criterion);
   EXPECT_GT(gain, 1.12);
   EXPECT_LT(gain, 1.17);
@@ -108,18 +109,21 @@ TEST(DesignDwell, PaperProgramDwellForTheIssueTarget) {
 
   // The allocated dwells really meet the target, and only just.
   Program timed = paper9();
-  for (std::size_t k = 0; k < timed.positions.size(); ++k) timed.positions[k].dwell_s = allocated.dwell_s[k];
+  for (std::size_t k = 0; k < timed.positions.size(); ++k)
+    timed.positions[k].dwell_s = allocated.dwell_s[k];
   const DesignEvaluation ev = evaluate_design(timed, DesignModel::invariant, settings);
   const auto t = target.sigma_internal();
   double worst = 0;
-  for (int i = 0; i < kUnitParameterCount; ++i) worst = std::max(worst, *ev.unit_sigma[i] / (t[i] * report_scale(i)));
+  for (int i = 0; i < kUnitParameterCount; ++i)
+    worst = std::max(worst, *ev.unit_sigma[i] / (t[i] * report_scale(i)));
   EXPECT_NEAR(worst, 1.0, 1e-6);
 }
 
 // Monte Carlo: the scatter of the estimates matches evaluate's predicted sigma (600 runs:
 // the sample standard deviation is within about 3 % (1 sigma) of the truth, so 10 % holds).
 template <class Fit>
-void expect_scatter_matches_prediction(const Program& program, DesignModel model, Fit fit, const char* what) {
+void expect_scatter_matches_prediction(const Program& program, DesignModel model, Fit fit,
+                                       const char* what) {
   DesignSettings settings;
   settings.dwell_s = 25;
   const DesignEvaluation ev = evaluate_design(program, model, settings);
@@ -141,7 +145,8 @@ void expect_scatter_matches_prediction(const Program& program, DesignModel model
     for (auto& pa : noisy)
       for (int a = 0; a < 3; ++a) pa.mean_g[a] += sigma_g * gauss(rng);
     const FitResult r = fit(noisy);
-    for (int i = 0; i < kUnitParameterCount; ++i) estimates[i].push_back(*r.unit[i].value * report_scale(i));
+    for (int i = 0; i < kUnitParameterCount; ++i)
+      estimates[i].push_back(*r.unit[i].value * report_scale(i));
   }
   for (int i = 0; i < kUnitParameterCount; ++i) {
     double mean = 0, var = 0;
@@ -170,7 +175,9 @@ TEST(DesignEvaluate, PredictedSigmaMatchesFullEstimatorScatter) {
   STANDCAL_STATISTICAL_TEST();
   expect_scatter_matches_prediction(
       paper9(), DesignModel::full,
-      [](const std::vector<PositionAverage>& a) { return fit_full_vector(a, white_noise_weighting()); },
+      [](const std::vector<PositionAverage>& a) {
+        return fit_full_vector(a, white_noise_weighting());
+      },
       "full");
 }
 

@@ -38,7 +38,8 @@ StandErrors rough_stand(double mounting_deg) {
 
 std::array<double, kUnitParameterCount> truth_values(const UnitErrors& u) {
   const Vec3 g = u.gamma_pair_sums_rad();
-  return {u.bias_g.x(), u.bias_g.y(), u.bias_g.z(), u.scale.x(), u.scale.y(), u.scale.z(), g.x(), g.y(), g.z()};
+  return {u.bias_g.x(), u.bias_g.y(), u.bias_g.z(), u.scale.x(), u.scale.y(),
+          u.scale.z(),  g.x(),        g.y(),        g.z()};
 }
 
 bool has_note_containing(const FitResult& fit, const std::string& text) {
@@ -69,7 +70,8 @@ TEST(FullEstimator, RecoversUnitAndStandExactlyWithoutNoise) {
 
 TEST(FullEstimator, StandHealthNamesTheRotationAboutTheOuterAxis) {
   const StandErrors stand = rough_stand(0.5);
-  const FitResult fit = fit_full_vector(synthetic_averages(poses_of(paper9()), typical_unit(), stand, 0.0));
+  const FitResult fit =
+      fit_full_vector(synthetic_averages(poses_of(paper9()), typical_unit(), stand, 0.0));
   // Levelling about z_S, the skew about the outer axis and the alpha1 zero are one rotation.
   const StandEstimate* outer = stand_entry(fit, "alpha1_offset + levelling_z + skew_z");
   ASSERT_NE(outer, nullptr);
@@ -100,14 +102,16 @@ TEST(FullEstimator, TwoDegreeMountingWithinThreeSigmaWhereInvariantFails) {
     const FitResult invariant = fit_invariant_joint(averages);
     double worst_invariant_in_sigma = 0;
     for (int i = 0; i < kUnitParameterCount; ++i) {
-      ASSERT_TRUE(full.unit[i].value && full.unit[i].sigma) << program.name << " " << kUnitParameterNames[i];
+      ASSERT_TRUE(full.unit[i].value && full.unit[i].sigma)
+          << program.name << " " << kUnitParameterNames[i];
       const double err = *full.unit[i].value - truth[i];
       EXPECT_LT(std::abs(err), 3 * *full.unit[i].sigma)
-          << program.name << " " << kUnitParameterNames[i] << ": error " << err * report_scale(i) << " "
-          << kUnitParameterUnits[i] << ", sigma " << *full.unit[i].sigma * report_scale(i);
+          << program.name << " " << kUnitParameterNames[i] << ": error " << err * report_scale(i)
+          << " " << kUnitParameterUnits[i] << ", sigma " << *full.unit[i].sigma * report_scale(i);
       if (invariant.unit[i].value && invariant.unit[i].sigma)
-        worst_invariant_in_sigma = std::max(worst_invariant_in_sigma,
-                                            std::abs(*invariant.unit[i].value - truth[i]) / *full.unit[i].sigma);
+        worst_invariant_in_sigma =
+            std::max(worst_invariant_in_sigma,
+                     std::abs(*invariant.unit[i].value - truth[i]) / *full.unit[i].sigma);
     }
     // model.md: a 2 deg mounting moves delta k by up to ~600 ppm; sigma here is ~1 ppm.
     EXPECT_GT(worst_invariant_in_sigma, 100.0) << program.name;
@@ -115,22 +119,28 @@ TEST(FullEstimator, TwoDegreeMountingWithinThreeSigmaWhereInvariantFails) {
 }
 
 TEST(FullEstimator, PaperProgramNamesWhatItCannotSeparate) {
-  const FitResult fit = fit_full_vector(synthetic_averages(poses_of(paper9()), typical_unit(), StandErrors{}, 0.0));
+  const FitResult fit =
+      fit_full_vector(synthetic_averages(poses_of(paper9()), typical_unit(), StandErrors{}, 0.0));
+  EXPECT_TRUE(has_note_containing(fit,
+                                  "the antisymmetric part of the non-orthogonality x–y "
+                                  "(gamma_antisymmetric_xy) is indistinguishable "
+                                  "from the mounting misalignment about z"));
   EXPECT_TRUE(has_note_containing(
-      fit, "the antisymmetric part of the non-orthogonality x–y (gamma_antisymmetric_xy) is indistinguishable "
-           "from the mounting misalignment about z"));
-  EXPECT_TRUE(has_note_containing(fit, "(alpha2_offset) is indistinguishable from the mounting misalignment about x"));
-  EXPECT_TRUE(has_note_containing(fit, "(levelling_z) is indistinguishable from the zero offset of the outer-axis"));
+      fit, "(alpha2_offset) is indistinguishable from the mounting misalignment about x"));
+  EXPECT_TRUE(has_note_containing(
+      fit, "(levelling_z) is indistinguishable from the zero offset of the outer-axis"));
   for (int i = 0; i < kUnitParameterCount; ++i) EXPECT_TRUE(fit.unit[i].value.has_value()) << i;
   EXPECT_EQ(fit.redundancy, 27 - fit.parameters_estimated);
 }
 
 TEST(FullEstimator, ClassicProgramNeedsARigidFixtureForGamma) {
-  const auto averages = synthetic_averages(poses_of(classic24()), typical_unit(), StandErrors{}, 0.0);
+  const auto averages =
+      synthetic_averages(poses_of(classic24()), typical_unit(), StandErrors{}, 0.0);
   const FitResult rigid = fit_full_vector(averages);
   for (int i = 0; i < kUnitParameterCount; ++i) EXPECT_TRUE(rigid.unit[i].value.has_value()) << i;
   // With the inner axis vertical, turning it is a rotation about gravity: no effect.
-  EXPECT_TRUE(has_note_containing(rigid, "the zero offset of the inner-axis angle sensor has no effect"));
+  EXPECT_TRUE(
+      has_note_containing(rigid, "the zero offset of the inner-axis angle sensor has no effect"));
 
   FullFitOptions per_mount;
   per_mount.mounting = MountingModel::per_mount;
@@ -142,7 +152,8 @@ TEST(FullEstimator, ClassicProgramNeedsARigidFixtureForGamma) {
       EXPECT_NE(loose.unit[i].unobservable_reason.find("mounting misalignment"), std::string::npos);
     }
   }
-  EXPECT_TRUE(has_note_containing(loose, "(mount_y_psi_z) is indistinguishable from the non-orthogonality x–y"));
+  EXPECT_TRUE(has_note_containing(
+      loose, "(mount_y_psi_z) is indistinguishable from the non-orthogonality x–y"));
   // Per-mount misalignments appear in the stand report (mount z's horizontal ones are
   // folded into those of x and y and into gamma, about its vertical axis it has no effect).
   for (const std::string mount : {"x", "y"}) {
@@ -161,7 +172,8 @@ namespace {
 TEST(FullEstimator, TooFewPositionsGiveReasonsNotNumbers) {
   auto poses = poses_of(paper9());
   poses.resize(6);
-  const FitResult fit = fit_full_vector(testing::synthetic_averages(poses, testing::typical_unit(), StandErrors{}, 1e-6));
+  const FitResult fit = fit_full_vector(
+      testing::synthetic_averages(poses, testing::typical_unit(), StandErrors{}, 1e-6));
   int reported = 0;
   for (int i = 0; i < kUnitParameterCount; ++i) {
     if (fit.unit[i].value) {
@@ -180,10 +192,13 @@ TEST(FullEstimator, NothingToFitIsRefusedWithTheCounts) {
   auto poses = poses_of(paper9());
   poses.resize(3);
   try {
-    (void)fit_full_vector(testing::synthetic_averages(poses, testing::typical_unit(), StandErrors{}, 1e-6));
+    (void)fit_full_vector(
+        testing::synthetic_averages(poses, testing::typical_unit(), StandErrors{}, 1e-6));
     FAIL() << "three positions along one circle were fitted";
   } catch (const CannotFit& e) {
-    EXPECT_NE(std::string(e.what()).find("cannot fit (full vector): 3 positions for"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("cannot fit (full vector): 3 positions for"),
+              std::string::npos)
+        << e.what();
   }
   EXPECT_THROW(fit_full_vector({}), CannotFit);
 }

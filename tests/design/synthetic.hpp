@@ -13,7 +13,8 @@
 namespace standcal::testing {
 
 // One average per pose: J = model + N(0, sigma_g) per axis (sigma_g = 0: noise-free).
-inline std::vector<PositionAverage> synthetic_averages(const std::vector<StandPose>& poses, const UnitErrors& unit,
+inline std::vector<PositionAverage> synthetic_averages(const std::vector<StandPose>& poses,
+                                                       const UnitErrors& unit,
                                                        const StandErrors& stand, double sigma_g,
                                                        std::mt19937_64* rng = nullptr) {
   std::normal_distribution<double> gauss(0.0, 1.0);
@@ -25,7 +26,8 @@ inline std::vector<PositionAverage> synthetic_averages(const std::vector<StandPo
     pa.alpha1_cmd_deg = pose.alpha1_deg;
     pa.alpha2_cmd_deg = pose.alpha2_deg;
     pa.mount = pose.mount;
-    const Vec3 u = true_up_vector(pose.alpha1_deg * kDegToRad, pose.alpha2_deg * kDegToRad, pose.mount, stand);
+    const Vec3 u =
+        true_up_vector(pose.alpha1_deg * kDegToRad, pose.alpha2_deg * kDegToRad, pose.mount, stand);
     pa.mean_g = unit_output_g(unit, u);
     if (rng != nullptr)
       for (int a = 0; a < 3; ++a) pa.mean_g[a] += sigma_g * gauss(*rng);

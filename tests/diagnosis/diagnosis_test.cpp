@@ -8,8 +8,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "calib/averaging.hpp"
 #include "calib/diagnosis/diagnosis.hpp"
@@ -25,7 +25,8 @@ namespace {
 using blind::print;
 using blind::simulate;
 
-TruthModel with_effect(const std::string& id, const std::string& axis, double value, double tau_s = 0) {
+TruthModel with_effect(const std::string& id, const std::string& axis, double value,
+                       double tau_s = 0) {
   TruthModel t = default_truth();
   t.extra_physics.push_back({id, axis, value, tau_s});
   return t;
@@ -43,7 +44,8 @@ struct Concealed {
   double value, tau_s;
 };
 
-Diagnosis expect_found(const Concealed& c, std::uint64_t seed, const DiagnoseOptions& options = {}) {
+Diagnosis expect_found(const Concealed& c, std::uint64_t seed,
+                       const DiagnoseOptions& options = {}) {
   TruthModel t = with_effect(c.id, c.axis, c.value, c.tau_s);
   if (c.id == "bias_temperature" || c.id == "scale_temperature") t.temperature.rate_c_per_h = 20;
   const Diagnosis d = diagnose_recording(simulate(diagnostic32(), t, seed), options);
@@ -55,7 +57,8 @@ Diagnosis expect_found(const Concealed& c, std::uint64_t seed, const DiagnoseOpt
   const Finding& f = d.findings.front();
   EXPECT_EQ(f.effect, c.id);
   EXPECT_EQ(f.axis, c.axis);
-  EXPECT_LT(std::abs(f.value - c.value), 3 * f.sigma) << f.value << " +- " << f.sigma << " truth " << c.value;
+  EXPECT_LT(std::abs(f.value - c.value), 3 * f.sigma)
+      << f.value << " +- " << f.sigma << " truth " << c.value;
   EXPECT_EQ(d.verdict, "explained");
   return d;
 }
@@ -154,7 +157,8 @@ TEST(DiagnosisBlind, ImplausibleValueIsNotExplained) {
   ASSERT_EQ(d.checks.implausible.size(), 1u);
   EXPECT_NE(d.checks.implausible[0].find("scale_asymmetry y"), std::string::npos);
   bool said = false;
-  for (const std::string& s : d.summary) said = said || s.find("Not explained:") != std::string::npos;
+  for (const std::string& s : d.summary)
+    said = said || s.find("Not explained:") != std::string::npos;
   EXPECT_TRUE(said);
 }
 
@@ -218,14 +222,16 @@ TEST(DiagnosisBlind, CleanRecordingsAreConsistent) {
 }
 
 TEST(DiagnosisBlind, Paper9HasInsufficientRedundancy) {
-  const Diagnosis d = diagnose_recording(simulate(paper9(), with_effect("scale_nonlinearity_k2", "z", -34), 5));
+  const Diagnosis d =
+      diagnose_recording(simulate(paper9(), with_effect("scale_nonlinearity_k2", "z", -34), 5));
   print(d);
   EXPECT_EQ(d.verdict, "insufficient_redundancy");
   EXPECT_FALSE(d.proposed_positions.empty());
 }
 
 TEST(DiagnosisBlind, K2OnZReportsAbsorptionAndJson) {
-  const Diagnosis d = diagnose_recording(simulate(diagnostic32(), with_effect("scale_nonlinearity_k2", "z", -34), 31));
+  const Diagnosis d = diagnose_recording(
+      simulate(diagnostic32(), with_effect("scale_nonlinearity_k2", "z", -34), 31));
   const nlohmann::json j = diagnose_to_json(d);
   EXPECT_EQ(j["verdict"], "explained");
   EXPECT_EQ(j["method"], "full");
@@ -236,7 +242,8 @@ TEST(DiagnosisBlind, K2OnZReportsAbsorptionAndJson) {
   EXPECT_GT(j["baseline"]["chi2_dof"].get<double>(), 2.0);
   EXPECT_LT(j["final"]["chi2_dof"].get<double>(), 1.6);
   EXPECT_TRUE(j["final"]["parameters"].is_object());
-  EXPECT_NE(j["findings"][0]["explanation"].get<std::string>().find("It had been absorbed into"), std::string::npos);
+  EXPECT_NE(j["findings"][0]["explanation"].get<std::string>().find("It had been absorbed into"),
+            std::string::npos);
   EXPECT_EQ(j["model"]["extra_physics"][0]["id"], "scale_nonlinearity_k2");
 }
 
@@ -254,7 +261,8 @@ double projection_chi2_dof(const Recording& a, const Recording& b) {
 }
 
 TEST(DiagnosisBlind, AugmentedModelReproducesTheRecording) {
-  const Recording rec = simulate(diagnostic32(), with_effect("scale_nonlinearity_k2", "z", -34), 41);
+  const Recording rec =
+      simulate(diagnostic32(), with_effect("scale_nonlinearity_k2", "z", -34), 41);
   const Diagnosis d = diagnose_recording(rec);
   ASSERT_EQ(d.verdict, "explained");
   TruthModel augmented = truth_from_json(truth_to_json(d.model), "augmented");
@@ -262,8 +270,10 @@ TEST(DiagnosisBlind, AugmentedModelReproducesTheRecording) {
   without.extra_physics.clear();
   const double with_chi2 = projection_chi2_dof(rec, simulate(diagnostic32(), augmented, 42));
   const double without_chi2 = projection_chi2_dof(rec, simulate(diagnostic32(), without, 42));
-  std::printf("recording vs re-simulation, delta_J_L chi2/position: augmented %.2f, without the finding %.2f\n",
-              with_chi2, without_chi2);
+  std::printf(
+      "recording vs re-simulation, delta_J_L chi2/position: augmented %.2f, without the finding "
+      "%.2f\n",
+      with_chi2, without_chi2);
   EXPECT_LT(with_chi2, 2.0);
   EXPECT_GT(without_chi2, 2 * with_chi2);
 }
@@ -291,9 +301,13 @@ TEST(DiagnoseCli, SimulateWithModelThenDiagnoseJsonReportAndModelOut) {
     save_truth(t, dir + "/model.json");
   }
   const std::string cli = STANDCAL_CLI_PATH;
-  const std::string sim = cli + " simulate --program " + dir + "/prog.json --model " + dir + "/model.json --seed 7 --dwell-s 10 --settle-s 2 -o " + dir + "/rec.csv 2>/dev/null";
+  const std::string sim = cli + " simulate --program " + dir + "/prog.json --model " + dir +
+                          "/model.json --seed 7 --dwell-s 10 --settle-s 2 -o " + dir +
+                          "/rec.csv 2>/dev/null";
   ASSERT_EQ(std::system(sim.c_str()), 0);
-  const std::string diag = cli + " diagnose " + dir + "/rec.csv --json --report " + dir + "/report.html --model-out " + dir + "/aug.json > " + dir + "/out.json 2>/dev/null";
+  const std::string diag = cli + " diagnose " + dir + "/rec.csv --json --report " + dir +
+                           "/report.html --model-out " + dir + "/aug.json > " + dir +
+                           "/out.json 2>/dev/null";
   ASSERT_EQ(std::system(diag.c_str()), 0);
   const nlohmann::json j = nlohmann::json::parse(slurp(dir + "/out.json"));
   EXPECT_EQ(j["verdict"], "explained");
@@ -305,13 +319,15 @@ TEST(DiagnoseCli, SimulateWithModelThenDiagnoseJsonReportAndModelOut) {
   ASSERT_EQ(aug.extra_physics.size(), 1u);
   EXPECT_EQ(aug.extra_physics[0].id, "bias_drift");
   // The augmented model is accepted by `standcal simulate --model`.
-  const std::string resim = cli + " simulate --program " + dir + "/prog.json --model " + dir + "/aug.json --dwell-s 1 -o " + dir + "/re.csv 2>/dev/null";
+  const std::string resim = cli + " simulate --program " + dir + "/prog.json --model " + dir +
+                            "/aug.json --dwell-s 1 -o " + dir + "/re.csv 2>/dev/null";
   EXPECT_EQ(std::system(resim.c_str()), 0);
   std::filesystem::remove_all(dir);
 }
 
 TEST(DiagnoseCli, MissingRecordingFailsWithOneLineReason) {
-  const std::string cmd = std::string(STANDCAL_CLI_PATH) + " diagnose /nonexistent/rec.csv > /dev/null 2>&1";
+  const std::string cmd =
+      std::string(STANDCAL_CLI_PATH) + " diagnose /nonexistent/rec.csv > /dev/null 2>&1";
   EXPECT_NE(std::system(cmd.c_str()), 0);
 }
 

@@ -44,7 +44,8 @@ TEST(ExtraPhysicsJson, RoundTrip) {
 
 TEST(ExtraPhysicsJson, RejectsBadEntries) {
   nlohmann::json j = truth_to_json(default_truth());
-  j["extra_physics"] = {{{"id", "scale_nonlinearity_k2"}, {"axis", "z"}, {"value", 1}, {"colour", "red"}}};
+  j["extra_physics"] = {
+      {{"id", "scale_nonlinearity_k2"}, {"axis", "z"}, {"value", 1}, {"colour", "red"}}};
   EXPECT_THROW(truth_from_json(j, "m"), std::runtime_error);
   j["extra_physics"] = {{{"id", "warp_drive"}, {"axis", "z"}, {"value", 1}}};
   EXPECT_THROW(truth_from_json(j, "m"), std::runtime_error);
@@ -125,7 +126,8 @@ TEST(ExtraPhysicsSimulator, AngleSensorErrorTurnsTheUpVector) {
   t.noise = NoiseModel{};
   t.noise.density_ug_rthz = 0;
   TruthModel e = t;
-  e.extra_physics.push_back({"angle_sensor_error", "alpha2", 10, 0, 0});  // 10 * sin(90 deg) at alpha2 = 90
+  e.extra_physics.push_back(
+      {"angle_sensor_error", "alpha2", 10, 0, 0});  // 10 * sin(90 deg) at alpha2 = 90
   UnitSimulator plain(t, 1, 100), with(e, 1, 100);
   const Vec3 f0 = plain.specific_force_mps2(1.0, 0, 90, Mount::x) / t.g_local_mps2;
   const Vec3 f1 = with.specific_force_mps2(1.0, 0, 90, Mount::x) / t.g_local_mps2;
@@ -200,7 +202,8 @@ TEST(ExtraPhysicsSimulator, EmptyExtraPhysicsLeavesTheRunUnchanged) {
   req.truth.extra_physics.push_back({"bias_drift", "x", 0.0, 0});
   const Recording b = simulate_run(req);
   ASSERT_EQ(a.samples.size(), b.samples.size());
-  for (std::size_t i = 0; i < a.samples.size(); ++i) ASSERT_EQ(a.samples[i].f_mps2, b.samples[i].f_mps2);
+  for (std::size_t i = 0; i < a.samples.size(); ++i)
+    ASSERT_EQ(a.samples[i].f_mps2, b.samples[i].f_mps2);
   EXPECT_TRUE(a.header_value("temp_ref_c").empty());
   EXPECT_FALSE(b.header_value("temp_ref_c").empty());
 }

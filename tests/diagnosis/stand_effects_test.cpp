@@ -51,19 +51,23 @@ Diagnosis expect_stand_effect_found(const ExtraEffect& e, const std::string& uni
 // Cyclic (once per revolution) angle-sensor error: the true angle is the reading +
 // value * sin(alpha + phase). Sizes are 4-5x the discrimination thresholds that
 // bench_diagnosis_harness prints for diagnostic32 (1.8 arcsec alpha1, 2.2 arcsec alpha2).
-void expect_angle_error_found(const std::string& stand_axis, double amplitude_arcsec, double phase_deg, std::uint64_t seed) {
+void expect_angle_error_found(const std::string& stand_axis, double amplitude_arcsec,
+                              double phase_deg, std::uint64_t seed) {
   const Diagnosis d = expect_stand_effect_found(
       {"angle_sensor_error", stand_axis, amplitude_arcsec, 0, phase_deg}, "arcsec", seed);
   ASSERT_FALSE(d.findings.empty());
   const Finding& f = d.findings.front();
   // The phase, within what the amplitude's sigma allows (sigma_phase ~ sigma / amplitude).
-  EXPECT_LT(std::abs(std::remainder(f.phase_deg - phase_deg, 360.0)), 3 * f.sigma / amplitude_arcsec * kRadToDeg + 1);
+  EXPECT_LT(std::abs(std::remainder(f.phase_deg - phase_deg, 360.0)),
+            3 * f.sigma / amplitude_arcsec * kRadToDeg + 1);
   EXPECT_NEAR(truth_from_json(truth_to_json(d.model), "augmented").extra_physics.front().phase_deg,
               f.phase_deg, 1e-9);
 }
 
 TEST(DiagnosisBlind, AngleSensorErrorOnOuterAxis) { expect_angle_error_found("alpha1", 8, 30, 51); }
-TEST(DiagnosisBlind, AngleSensorErrorOnInnerAxis) { expect_angle_error_found("alpha2", 9, -120, 52); }
+TEST(DiagnosisBlind, AngleSensorErrorOnInnerAxis) {
+  expect_angle_error_found("alpha2", 9, -120, 52);
+}
 
 // The stand's base level drifting linearly in time (thermal, foundation): the horizontal
 // components show a tilt growing with time. Sizes are 4-5x the discrimination thresholds the
@@ -141,7 +145,8 @@ void expect_large_mounting_found(int axis, double psi_arcmin, std::uint64_t seed
   // What gravity can see: the mounting composed with the antisymmetric non-orthogonality
   // (and, about the inner axis x, with the inner-axis angle zero).
   const double visible_arcmin = identifiable_mounting_rad(t)[axis] / kArcminToRad;
-  EXPECT_LT(std::abs(f.value - visible_arcmin), 3 * f.sigma) << f.value << " +- " << f.sigma << " truth " << visible_arcmin;
+  EXPECT_LT(std::abs(f.value - visible_arcmin), 3 * f.sigma)
+      << f.value << " +- " << f.sigma << " truth " << visible_arcmin;
   EXPECT_NEAR(f.value, psi_arcmin, 1.0);  // the combination is within an arcminute of psi itself
   EXPECT_NE(f.explanation.find("invariant method"), std::string::npos);
   EXPECT_EQ(d.verdict, "explained");
@@ -164,7 +169,8 @@ TEST(DiagnosisBlind, NormalMountingIsTestedButNotAFinding) {
     }
   EXPECT_EQ(tested, 3);
   EXPECT_EQ(d.verdict, "consistent");
-  for (const std::string& s : d.not_tested) EXPECT_EQ(s.find("angle_sensor_error"), std::string::npos) << s;
+  for (const std::string& s : d.not_tested)
+    EXPECT_EQ(s.find("angle_sensor_error"), std::string::npos) << s;
 }
 
 bool inside(double angle_deg, const AxisRange& r) {
@@ -182,7 +188,8 @@ TEST(DiagnosisProposals, RespectTheStandLimits) {
   opt.limits.alpha2 = {false, -10, 120};
   bool free_leaves_range = false;
   for (const ProposedPosition& p : free.proposed_positions)
-    free_leaves_range = free_leaves_range || !inside(p.alpha1_deg, opt.limits.alpha1) || !inside(p.alpha2_deg, opt.limits.alpha2);
+    free_leaves_range = free_leaves_range || !inside(p.alpha1_deg, opt.limits.alpha1) ||
+                        !inside(p.alpha2_deg, opt.limits.alpha2);
   EXPECT_TRUE(free_leaves_range);
   const Diagnosis limited = diagnose_recording(rec, opt);
   ASSERT_EQ(limited.verdict, "insufficient_redundancy");
@@ -239,7 +246,8 @@ TEST(DiagnosisThresholds, FiniteOnDiagnostic32InfiniteForTemperatureUnderARamp) 
   t.temperature.cycle_amplitude_c = 0;
   bool drift_limited = false;
   for (const auto& th : discrimination_thresholds(simulate(diagnostic32(), t, 59)))
-    if (th.effect == "bias_temperature") drift_limited = drift_limited || th.threshold > 1e3 || !std::isfinite(th.threshold);
+    if (th.effect == "bias_temperature")
+      drift_limited = drift_limited || th.threshold > 1e3 || !std::isfinite(th.threshold);
   EXPECT_TRUE(drift_limited);
 }
 

@@ -65,7 +65,8 @@ TEST_F(CanEmu, TiltedUnitReadsTheModelOutputWithTheConfiguredNoise) {
     const auto s = stats(samples, a);
     const double sigma_mean_g = sigma_sample_g / std::sqrt(static_cast<double>(samples.size()));
     EXPECT_NEAR(s.mean / kStandardGravity_mps2, expected_g[a], 5 * sigma_mean_g) << "axis " << a;
-    EXPECT_NEAR(s.sigma / kStandardGravity_mps2, sigma_sample_g, 0.25 * sigma_sample_g) << "axis " << a;
+    EXPECT_NEAR(s.sigma / kStandardGravity_mps2, sigma_sample_g, 0.25 * sigma_sample_g)
+        << "axis " << a;
   }
   for (std::size_t i = 1; i < samples.size(); ++i)
     ASSERT_EQ(samples[i].counter, samples[i - 1].counter + 1);
@@ -101,7 +102,8 @@ TEST_F(CanEmu, InjectedLossDuplicationAndReorderingShowInTheHealthCounters) {
   for (std::size_t i = 1; i < samples.size(); ++i)
     ASSERT_GT(samples[i].counter, samples[i - 1].counter);
   const double sigma_g = 5e-6 * std::sqrt(500.0);
-  for (const auto& s : samples) ASSERT_NEAR(s.force_mps2[2] / kStandardGravity_mps2, 1.0, 8 * sigma_g);
+  for (const auto& s : samples)
+    ASSERT_NEAR(s.force_mps2[2] / kStandardGravity_mps2, 1.0, 8 * sigma_g);
 }
 
 TEST_F(CanEmu, CounterWrapThroughTheEmulator) {

@@ -25,7 +25,8 @@ double realtime_s() {
 }
 
 std::array<double, 3> force_of(std::uint64_t n) {
-  return {1e-3 * kStandardGravity_mps2 * static_cast<double>(n), -0.5 * kStandardGravity_mps2, kStandardGravity_mps2};
+  return {1e-3 * kStandardGravity_mps2 * static_cast<double>(n), -0.5 * kStandardGravity_mps2,
+          kStandardGravity_mps2};
 }
 
 class CanTransport : public ::testing::Test {
@@ -356,7 +357,10 @@ TEST(CanTransportFd, CanFdFramesCarryAllThreeAxes) {
   {
     DelayedWriter w(kWriterDelay_s, [&] {
       for (std::uint64_t n = 0; n < 3; ++n) {
-        const auto f = layout.value().encode({0.1 * kStandardGravity_mps2, 0.2 * kStandardGravity_mps2, -0.3 * kStandardGravity_mps2}, 30.0, n);
+        const auto f =
+            layout.value().encode({0.1 * kStandardGravity_mps2, 0.2 * kStandardGravity_mps2,
+                                   -0.3 * kStandardGravity_mps2},
+                                  30.0, n);
         ASSERT_EQ(f.size(), 1U);
         ASSERT_EQ(f[0].len, 16);  // 16 bytes: only CAN FD carries it
         pair.send_fd(f[0].can_id, f[0].data.data(), f[0].len);

@@ -80,7 +80,8 @@ EmulatorProcess::EmulatorProcess(const std::string& listen, const std::vector<st
 }
 
 PtyPair::PtyPair(const std::string& directory)
-    : a_(directory + "/emu-tty"), b_(directory + "/drv-tty"),
+    : a_(directory + "/emu-tty"),
+      b_(directory + "/drv-tty"),
       socat_({"socat", "pty,raw,echo=0,link=" + a_, "pty,raw,echo=0,link=" + b_}) {
   for (int i = 0; i < 500 && !ready_; ++i) {
     ready_ = std::filesystem::exists(a_) && std::filesystem::exists(b_);

@@ -80,7 +80,8 @@ TEST_F(StandOverRtu, CorruptedFramesAreRetriedWithinTheBound) {
   inject("corrupt 20\n");
   auto lost = stand->read_state(StandAxis::outer);
   ASSERT_FALSE(lost);
-  EXPECT_NE(lost.status().message.find("no reply from rtu:" + pty->driver_end() + " unit 3 after 3 tries"),
+  EXPECT_NE(lost.status().message.find("no reply from rtu:" + pty->driver_end() +
+                                       " unit 3 after 3 tries"),
             std::string::npos)
       << lost.status().message;
   EXPECT_NE(lost.status().message.find("CRC"), std::string::npos) << lost.status().message;
@@ -92,7 +93,8 @@ TEST_F(StandOverRtu, ExceptionReplyOverRtuCarriesCodeAndMeaning) {
   inject("exception 4\n");
   auto failed = stand->read_state(StandAxis::inner);
   ASSERT_FALSE(failed);
-  EXPECT_NE(failed.status().message.find("modbus exception 4 (server device failure)"), std::string::npos)
+  EXPECT_NE(failed.status().message.find("modbus exception 4 (server device failure)"),
+            std::string::npos)
       << failed.status().message;
   inject("");
   EXPECT_TRUE(stand->read_state(StandAxis::inner));
@@ -103,14 +105,16 @@ TEST_F(StandOverRtu, OtherUnitIdGetsNoReply) {
   auto configured = stand->configure();
   ASSERT_FALSE(configured);
   EXPECT_EQ(configured.kind, ErrorKind::timeout);
-  EXPECT_NE(configured.message.find("unit 4 after 3 tries"), std::string::npos) << configured.message;
+  EXPECT_NE(configured.message.find("unit 4 after 3 tries"), std::string::npos)
+      << configured.message;
 }
 
 TEST_F(StandOverRtu, Rs485ModeOnAPortWithoutItFailsClearly) {
   auto stand = connect("baud=115200&parity=N&unit=3&rs485=1");
   auto configured = stand->configure();
   ASSERT_FALSE(configured);
-  EXPECT_NE(configured.message.find("cannot switch " + pty->driver_end() + " to RS-485 mode"), std::string::npos)
+  EXPECT_NE(configured.message.find("cannot switch " + pty->driver_end() + " to RS-485 mode"),
+            std::string::npos)
       << configured.message;
 }
 

@@ -124,7 +124,8 @@ TEST_F(StandOverTcp, ContinuousAxisCrossesPlusMinus180TheShortWay) {
   ASSERT_TRUE(stand->move_to(StandAxis::outer, -170.0));
   double nearest_to_zero_deg = 180.0;
   for (int i = 0; i < 200 && state(StandAxis::outer).mode != AxisMode::in_position; ++i) {
-    nearest_to_zero_deg = std::min(nearest_to_zero_deg, std::abs(state(StandAxis::outer).angle_deg));
+    nearest_to_zero_deg =
+        std::min(nearest_to_zero_deg, std::abs(state(StandAxis::outer).angle_deg));
     sleep_s(0.005);
   }
   auto reached = wait_in_position(*stand, StandAxis::outer, -170.0, kRule);
@@ -152,7 +153,8 @@ TEST_F(StandOverTcp, ControllerSoftLimitComesBackAsExceptionWithMeaning) {
   auto refused = stand->move_to(StandAxis::inner, 60.0);
   ASSERT_FALSE(refused);
   EXPECT_EQ(refused.kind, ErrorKind::protocol);
-  EXPECT_NE(refused.message.find("modbus exception 3 (illegal data value)"), std::string::npos) << refused.message;
+  EXPECT_NE(refused.message.find("modbus exception 3 (illegal data value)"), std::string::npos)
+      << refused.message;
   EXPECT_EQ(stand->lifecycle(), Lifecycle::active) << "an exception is an answer, not a lost link";
 }
 
@@ -209,7 +211,8 @@ TEST_F(StandOverTcp, StuckAxisFaultsWithFollowingErrorAndEnableClearsIt) {
   auto reached = wait_in_position(*stand, StandAxis::outer, 100.0, kRule);
   ASSERT_FALSE(reached);
   EXPECT_EQ(reached.status().kind, ErrorKind::fault);
-  EXPECT_NE(reached.status().message.find("code 1 (following error"), std::string::npos) << reached.status().message;
+  EXPECT_NE(reached.status().message.find("code 1 (following error"), std::string::npos)
+      << reached.status().message;
   const AxisState faulted = state(StandAxis::outer);
   EXPECT_EQ(faulted.mode, AxisMode::fault);
   EXPECT_NEAR(faulted.angle_deg, before_deg, 0.001) << "a stuck axis does not move";
@@ -269,8 +272,9 @@ TEST_F(StandOverTcp, RepliesLaterThanTheTimeoutGiveNoReplyAfterTriesThenRecover)
   auto lost = stand->read_state(StandAxis::outer);
   ASSERT_FALSE(lost);
   EXPECT_EQ(lost.status().kind, ErrorKind::timeout);
-  EXPECT_NE(lost.status().message.find("no reply from " + emulator->url() + " unit 1 after 3 tries"),
-            std::string::npos)
+  EXPECT_NE(
+      lost.status().message.find("no reply from " + emulator->url() + " unit 1 after 3 tries"),
+      std::string::npos)
       << lost.status().message;
   EXPECT_EQ(stand->lifecycle(), Lifecycle::error);
   auto refused = stand->activate();
@@ -307,11 +311,12 @@ TEST_F(StandOverTcp, ExceptionRepliesAreReportedWithCodeAndMeaning) {
   auto busy = stand->read_state(StandAxis::inner);
   ASSERT_FALSE(busy);
   EXPECT_EQ(busy.status().kind, ErrorKind::protocol);
-  EXPECT_NE(busy.status().message.find("modbus exception 6 (server device busy) from " + emulator->url() +
-                                       " unit 1 while reading inner axis status"),
+  EXPECT_NE(busy.status().message.find("modbus exception 6 (server device busy) from " +
+                                       emulator->url() + " unit 1 while reading inner axis status"),
             std::string::npos)
       << busy.status().message;
-  EXPECT_EQ(stand->lifecycle(), Lifecycle::inactive) << "an exception is an answer, not a lost link";
+  EXPECT_EQ(stand->lifecycle(), Lifecycle::inactive)
+      << "an exception is an answer, not a lost link";
   EXPECT_EQ(stand->link_opens(), 1) << "an exception does not re-open the link";
   inject("");
   EXPECT_TRUE(stand->read_state(StandAxis::inner));
@@ -387,7 +392,8 @@ TEST(StandOverTcpWithoutServer, NobodyListeningGivesNoReplyAfterTries) {
   auto configured = stand.value()->configure();
   ASSERT_FALSE(configured);
   EXPECT_EQ(configured.kind, ErrorKind::link);
-  EXPECT_NE(configured.message.find("no reply from " + url + " unit 1 after 3 tries"), std::string::npos)
+  EXPECT_NE(configured.message.find("no reply from " + url + " unit 1 after 3 tries"),
+            std::string::npos)
       << configured.message;
   EXPECT_EQ(stand.value()->lifecycle(), Lifecycle::unconfigured);
 }

@@ -15,7 +15,9 @@ namespace {
 
 using CliRun = test::CommandOutcome;
 
-CliRun standcal_stand(const std::string& arguments) { return test::standcal_cli("stand " + arguments); }
+CliRun standcal_stand(const std::string& arguments) {
+  return test::standcal_cli("stand " + arguments);
+}
 
 TEST(StandCli, EnableMoveAndStatusAgainstTheEmulator) {
   EmulatorProcess emulator("tcp://127.0.0.1:0", {"--time-scale", "10"});
@@ -33,7 +35,8 @@ TEST(StandCli, EnableMoveAndStatusAgainstTheEmulator) {
   const CliRun moved = standcal_stand(url + " --timeout-s 20 move 270 -45.5");
   ASSERT_EQ(moved.exit_code, 0) << moved.output;
   double outer_deg = 0, inner_deg = 0;
-  ASSERT_EQ(std::sscanf(moved.output.c_str(), "outer %lf° inner %lf°", &outer_deg, &inner_deg), 2) << moved.output;
+  ASSERT_EQ(std::sscanf(moved.output.c_str(), "outer %lf° inner %lf°", &outer_deg, &inner_deg), 2)
+      << moved.output;
   EXPECT_NEAR(outer_deg, -90.0, 0.001);  // the angles reached, read with encoder noise
   EXPECT_NEAR(inner_deg, -45.5, 0.001);
   const CliRun status = standcal_stand(url + " status --json");
@@ -52,7 +55,8 @@ TEST(StandCli, NoServerExitsNonZeroWithOneLine) {
   }
   const CliRun run = standcal_stand("--url " + url + " status");
   EXPECT_EQ(run.exit_code, 1);
-  EXPECT_EQ(run.output.rfind("standcal: no reply from " + url + " unit 1 after 3 tries", 0), 0u) << run.output;
+  EXPECT_EQ(run.output.rfind("standcal: no reply from " + url + " unit 1 after 3 tries", 0), 0u)
+      << run.output;
   EXPECT_EQ(run.output.find('\n'), run.output.size() - 1) << "one line: " << run.output;
 }
 

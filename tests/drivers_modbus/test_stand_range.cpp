@@ -30,7 +30,7 @@ TEST(AxisRangeNormalisation, LimitedPlusMinus180TakesEquivalentAngle) {
   const AxisRange range = limited(-180.0, 180.0);
   EXPECT_DOUBLE_EQ(normalised(range, 270.0), -90.0);
   EXPECT_DOUBLE_EQ(normalised(range, -300.0), 60.0);
-  EXPECT_DOUBLE_EQ(normalised(range, 180.0, 170.0), 180.0);   // both edges equivalent: nearest wins
+  EXPECT_DOUBLE_EQ(normalised(range, 180.0, 170.0), 180.0);  // both edges equivalent: nearest wins
   EXPECT_DOUBLE_EQ(normalised(range, 180.0, -170.0), -180.0);
 }
 
@@ -68,7 +68,8 @@ TEST(AxisRangePath, ContinuousAxisTakesTheShorterWayFromItsCountedTurns) {
   const AxisRange continuous{};
   EXPECT_DOUBLE_EQ(path_target_deg(continuous, -170.0, 170.0).value(), 190.0);
   EXPECT_DOUBLE_EQ(path_target_deg(continuous, 0.0, 730.0).value(), 720.0);
-  EXPECT_NEAR(path_target_deg(continuous, 90.0, -90.0 + 1e-6).value(), 90.0, 1e-9);  // just under half a turn: forward
+  EXPECT_NEAR(path_target_deg(continuous, 90.0, -90.0 + 1e-6).value(), 90.0,
+              1e-9);  // just under half a turn: forward
 }
 
 TEST(AxisRangePath, LimitedAxisGoesStraightInsideTheRange) {

@@ -58,7 +58,8 @@ TEST(StandUrl, ErrorsNameTheUrlAndTheWrongPart) {
     auto url = parse_url(c.url);
     ASSERT_FALSE(url) << c.url;
     EXPECT_EQ(url.status().kind, ErrorKind::invalid_argument);
-    EXPECT_NE(url.status().message.find(std::string("'") + c.url + "'"), std::string::npos) << url.status().message;
+    EXPECT_NE(url.status().message.find(std::string("'") + c.url + "'"), std::string::npos)
+        << url.status().message;
     EXPECT_NE(url.status().message.find(c.reason), std::string::npos) << url.status().message;
   }
 }
@@ -118,12 +119,14 @@ TEST(StandConfig, ReadsEveryKindOfKey) {
 TEST(StandConfig, UnknownKeysAndBadValuesAreNamed) {
   auto stray = parse_config(nlohmann::json::parse(R"({"registers": {"outer": {"taget": 1}}})"));
   ASSERT_FALSE(stray);
-  EXPECT_NE(stray.status().message.find("unknown key 'taget' in registers.outer"), std::string::npos)
+  EXPECT_NE(stray.status().message.find("unknown key 'taget' in registers.outer"),
+            std::string::npos)
       << stray.status().message;
   auto order = parse_config(nlohmann::json::parse(R"({"word_order": "middle"})"));
   ASSERT_FALSE(order);
   EXPECT_NE(order.status().message.find("word_order"), std::string::npos);
-  auto range = parse_config(nlohmann::json::parse(R"({"axes": {"inner": {"continuous": false, "min_deg": 10, "max_deg": 0}}})"));
+  auto range = parse_config(nlohmann::json::parse(
+      R"({"axes": {"inner": {"continuous": false, "min_deg": 10, "max_deg": 0}}})"));
   ASSERT_FALSE(range);
   EXPECT_NE(range.status().message.find("axes.inner: need min_deg < max_deg"), std::string::npos);
   auto type = parse_config(nlohmann::json::parse(R"({"timing": {"tries": "three"}})"));
@@ -141,7 +144,8 @@ TEST(StandConfig, UnknownKeysAndBadValuesAreNamed) {
   }
   auto missing = load_config("/nonexistent/stand.json");
   ASSERT_FALSE(missing);
-  EXPECT_NE(missing.status().message.find("cannot open /nonexistent/stand.json"), std::string::npos);
+  EXPECT_NE(missing.status().message.find("cannot open /nonexistent/stand.json"),
+            std::string::npos);
 }
 
 }  // namespace

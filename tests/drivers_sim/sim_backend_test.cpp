@@ -36,7 +36,8 @@ Result<double> move(Stand& stand, StandAxis axis, double angle_deg) {
   rule.timeout_s = 20;
   rule.poll_s = 0.002;
   const Result<double> target = path_target_deg(stand.range(axis), angle_deg, 0);
-  return wait_in_position(stand, axis, normalise_reading_deg(stand.range(axis), target.value()), rule);
+  return wait_in_position(stand, axis, normalise_reading_deg(stand.range(axis), target.value()),
+                          rule);
 }
 
 }  // namespace

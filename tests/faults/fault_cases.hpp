@@ -15,7 +15,7 @@ namespace standcal::faults {
 
 struct FaultCase {
   std::string name;
-  std::string what;           // one line for the table
+  std::string what;  // one line for the table
   bool rtu = false;
   // The run's state right after the fault: "faulted", "interrupted" (the daemon died and
   // was restarted) or "done" (the fault was absorbed: retries, duplicates ignored).
@@ -25,9 +25,11 @@ struct FaultCase {
   // Starts the fault (the run is in progress, `done_at_start` positions recorded).
   // May return the positions that must survive when the fault itself destroys data
   // (power loss); otherwise the durable recording after the fault is the reference.
-  std::function<std::optional<std::map<int, std::string>>(Rig&, const std::string& run_id, std::mt19937& rng)> inject;
-  std::function<void(Rig&)> clear;  // the operator fixed the cause
-  int inject_after_positions = 2;    // < 0: seeded in 0..8
+  std::function<std::optional<std::map<int, std::string>>(Rig&, const std::string& run_id,
+                                                          std::mt19937& rng)>
+      inject;
+  std::function<void(Rig&)> clear;          // the operator fixed the cause
+  int inject_after_positions = 2;           // < 0: seeded in 0..8
   std::function<void(Rig&)> before_resume;  // what else the operator fixes after checking the stand
 };
 
@@ -123,12 +125,14 @@ inline Trial run_trial(RigOptions options, const FaultCase& c, unsigned seed) {
     out.state_after_fault = s["state"];
     out.reason = detail::reason_of(s);
     if (s["state"] != c.expect) {
-      out.failure = "state " + s["state"].get<std::string>() + ", expected " + c.expect + " (" + out.reason + ")";
+      out.failure = "state " + s["state"].get<std::string>() + ", expected " + c.expect + " (" +
+                    out.reason + ")";
       return out;
     }
     if (c.expect == "faulted" && !c.reason_has.empty()) {
       bool named = false;
-      for (const auto& word : c.reason_has) named = named || out.reason.find(word) != std::string::npos;
+      for (const auto& word : c.reason_has)
+        named = named || out.reason.find(word) != std::string::npos;
       if (!named) {
         out.failure = "the reason does not name the fault: " + out.reason;
         return out;
@@ -137,7 +141,8 @@ inline Trial run_trial(RigOptions options, const FaultCase& c, unsigned seed) {
     // Whether on disk the run is as truthful as run.status (a restart would read it).
     const json disk = rig.run_json(run_id);
     if (disk["state"] != c.expect) {
-      out.failure = "run.json says " + disk["state"].get<std::string>() + ", run.status " + c.expect;
+      out.failure =
+          "run.json says " + disk["state"].get<std::string>() + ", run.status " + c.expect;
       return out;
     }
     if (c.clear) c.clear(rig);
@@ -145,7 +150,8 @@ inline Trial run_trial(RigOptions options, const FaultCase& c, unsigned seed) {
       out.failure = "after the fault: " + why;
       return out;
     }
-    const auto before = must_survive ? *must_survive : position_blocks(rig.durable_recording(run_id));
+    const auto before =
+        must_survive ? *must_survive : position_blocks(rig.durable_recording(run_id));
     if (c.before_resume) c.before_resume(rig);
     if (c.expect != "done") {
       rig.call("run.resume", {{"run_id", run_id}});  // answers once the run is running again
@@ -196,7 +202,9 @@ inline auto can(std::string lines) {
 // During a dwell, so the unit is being sampled when the fault hits.
 inline auto can_while_sampling(std::string lines) {
   return [lines](Rig& rig, const std::string& run_id, std::mt19937&) -> Injected {
-    rig.wait_status(run_id, [](const json& s) { return s["state"] != "running" || s["phase"] == "sampling"; }, 30s);
+    rig.wait_status(
+        run_id, [](const json& s) { return s["state"] != "running" || s["phase"] == "sampling"; },
+        30s);
     rig.set_can_faults(lines);
     return std::nullopt;
   };
@@ -211,17 +219,20 @@ inline Injected disk_full(Rig& rig, const std::string& run_id, std::mt19937&) {
   const std::uint64_t per_position = (bytes - header) / static_cast<std::uint64_t>(done);
   // Only the soft limit: raising it again ("the disk was freed") needs no privilege.
   rlimit lim{static_cast<rlim_t>(bytes + per_position * 3 / 2), RLIM_INFINITY};
-  if (::prlimit(rig.daemon_pid(), RLIMIT_FSIZE, &lim, nullptr) != 0) throw std::runtime_error("prlimit failed");
+  if (::prlimit(rig.daemon_pid(), RLIMIT_FSIZE, &lim, nullptr) != 0)
+    throw std::runtime_error("prlimit failed");
   return std::nullopt;
 }
 inline void disk_freed(Rig& rig) {
   rlimit lim{RLIM_INFINITY, RLIM_INFINITY};
-  if (::prlimit(rig.daemon_pid(), RLIMIT_FSIZE, &lim, nullptr) != 0) throw std::runtime_error("prlimit failed");
+  if (::prlimit(rig.daemon_pid(), RLIMIT_FSIZE, &lim, nullptr) != 0)
+    throw std::runtime_error("prlimit failed");
 }
 
 // SIGKILL after a seeded 0..0.8 s more (the run was `inject_after_positions` in).
 inline Injected sigkill(Rig& rig, const std::string&, std::mt19937& rng) {
-  std::this_thread::sleep_for(std::chrono::milliseconds(std::uniform_int_distribution<int>(0, 800)(rng)));
+  std::this_thread::sleep_for(
+      std::chrono::milliseconds(std::uniform_int_distribution<int>(0, 800)(rng)));
   rig.kill_daemon(SIGKILL);
   return std::nullopt;
 }
@@ -251,7 +262,8 @@ inline Injected power_loss(Rig& rig, const std::string& run_id, std::mt19937& rn
 // from the daemon ends that move.
 inline inject::Injected timeout_mid_move(Rig& rig, const std::string& run_id, std::mt19937&) {
   rig.set_stand_faults("slow outer 1000\nslow inner 1000");
-  rig.wait_status(run_id, [](const json& s) { return s["state"] != "running" || s["phase"] == "moving"; }, 30s);
+  rig.wait_status(
+      run_id, [](const json& s) { return s["state"] != "running" || s["phase"] == "moving"; }, 30s);
   std::this_thread::sleep_for(300ms);
   rig.set_stand_faults("slow outer 1000\nslow inner 1000\ndelay_ms 3000");
   return std::nullopt;
@@ -266,53 +278,186 @@ inline void clear_all(Rig& rig) {
 // Every fault of issue 7.
 inline std::vector<FaultCase> all_cases() {
   std::vector<FaultCase> v;
-  v.push_back({"modbus_timeout", "stand replies 3 s late (driver timeout 1 s x 3 tries)", false, "faulted",
-               {"no reply", "lost the link"}, false, inject::stand("delay_ms 3000"), clear_all, 2, {}});
+  v.push_back({"modbus_timeout",
+               "stand replies 3 s late (driver timeout 1 s x 3 tries)",
+               false,
+               "faulted",
+               {"no reply", "lost the link"},
+               false,
+               inject::stand("delay_ms 3000"),
+               clear_all,
+               2,
+               {}});
   {
-    FaultCase c{"modbus_timeout_mid_move", "replies 3 s late while both axes crawl through a move", false,
-                "faulted", {"no reply", "lost the link"}, false, timeout_mid_move,
+    FaultCase c{"modbus_timeout_mid_move",
+                "replies 3 s late while both axes crawl through a move",
+                false,
+                "faulted",
+                {"no reply", "lost the link"},
+                false,
+                timeout_mid_move,
                 [](Rig& rig) {
-                  rig.set_stand_faults("slow outer 1000\nslow inner 1000");  // the link is back, the axes still slow
+                  rig.set_stand_faults(
+                      "slow outer 1000\nslow inner 1000");  // the link is back, the axes still slow
                   std::this_thread::sleep_for(150ms);
                 },
-                1, clear_all};
+                1,
+                clear_all};
     v.push_back(c);
   }
-  v.push_back({"modbus_exception", "every stand request answered with exception 4", false, "faulted",
-               {"exception"}, false, inject::stand("exception 4"), clear_all, 2, {}});
-  v.push_back({"tcp_drop_once", "the stand closes the TCP connection once", false, "done", {}, false,
-               inject::stand("drop 1"), clear_all, 2, {}});
-  v.push_back({"tcp_drop_persistent", "the stand closes every TCP connection", false, "faulted",
-               {"no reply", "lost the link", "connect"}, false, inject::stand("drop 1000000"), clear_all, 2, {}});
-  v.push_back({"rtu_crc_once", "RTU: two replies with a bad CRC (socat pty pair)", true, "done", {}, false,
-               inject::stand("corrupt 2"), clear_all, 2, {}});
-  v.push_back({"rtu_crc_persistent", "RTU: every reply with a bad CRC", true, "faulted",
-               {"CRC", "no reply", "lost the link"}, false, inject::stand("corrupt 1000000"), clear_all, 2, {}});
-  v.push_back({"stuck_axis", "outer axis does not follow (following error)", false, "faulted",
-               {"faulted", "did not reach"}, false, inject::stand("stuck outer"), clear_all, 2, {}});
-  v.push_back({"slow_axis", "both axes 200x slower than their limits", false, "faulted", {"did not reach"}, false,
-               inject::stand("slow outer 200\nslow inner 200"), clear_all, 2, {}});
-  v.push_back({"overshoot", "drives settle 0.05 deg past the target yet report in position", false, "faulted",
-               {"did not reach"}, false, inject::stand("overshoot outer 0.05\novershoot inner 0.05"), clear_all, 2, {}});
-  v.push_back({"can_silence", "the unit sends nothing", false, "faulted", {"no CAN frame", "no sample"}, false,
-               inject::can_while_sampling("silence"), clear_all, 2, {}});
-  v.push_back({"can_bus_off", "bus-off during a dwell, controller restarts after 1.5 s", false, "faulted",
-               {"bus-off", "no CAN frame", "no sample"}, false, inject::can_while_sampling("bus_off 1500"),
+  v.push_back({"modbus_exception",
+               "every stand request answered with exception 4",
+               false,
+               "faulted",
+               {"exception"},
+               false,
+               inject::stand("exception 4"),
+               clear_all,
+               2,
+               {}});
+  v.push_back({"tcp_drop_once",
+               "the stand closes the TCP connection once",
+               false,
+               "done",
+               {},
+               false,
+               inject::stand("drop 1"),
+               clear_all,
+               2,
+               {}});
+  v.push_back({"tcp_drop_persistent",
+               "the stand closes every TCP connection",
+               false,
+               "faulted",
+               {"no reply", "lost the link", "connect"},
+               false,
+               inject::stand("drop 1000000"),
+               clear_all,
+               2,
+               {}});
+  v.push_back({"rtu_crc_once",
+               "RTU: two replies with a bad CRC (socat pty pair)",
+               true,
+               "done",
+               {},
+               false,
+               inject::stand("corrupt 2"),
+               clear_all,
+               2,
+               {}});
+  v.push_back({"rtu_crc_persistent",
+               "RTU: every reply with a bad CRC",
+               true,
+               "faulted",
+               {"CRC", "no reply", "lost the link"},
+               false,
+               inject::stand("corrupt 1000000"),
+               clear_all,
+               2,
+               {}});
+  v.push_back({"stuck_axis",
+               "outer axis does not follow (following error)",
+               false,
+               "faulted",
+               {"faulted", "did not reach"},
+               false,
+               inject::stand("stuck outer"),
+               clear_all,
+               2,
+               {}});
+  v.push_back({"slow_axis",
+               "both axes 200x slower than their limits",
+               false,
+               "faulted",
+               {"did not reach"},
+               false,
+               inject::stand("slow outer 200\nslow inner 200"),
+               clear_all,
+               2,
+               {}});
+  v.push_back({"overshoot",
+               "drives settle 0.05 deg past the target yet report in position",
+               false,
+               "faulted",
+               {"did not reach"},
+               false,
+               inject::stand("overshoot outer 0.05\novershoot inner 0.05"),
+               clear_all,
+               2,
+               {}});
+  v.push_back({"can_silence",
+               "the unit sends nothing",
+               false,
+               "faulted",
+               {"no CAN frame", "no sample"},
+               false,
+               inject::can_while_sampling("silence"),
+               clear_all,
+               2,
+               {}});
+  v.push_back({"can_bus_off",
+               "bus-off during a dwell, controller restarts after 1.5 s",
+               false,
+               "faulted",
+               {"bus-off", "no CAN frame", "no sample"},
+               false,
+               inject::can_while_sampling("bus_off 1500"),
                [](Rig& rig) {
                  clear_all(rig);
                  std::this_thread::sleep_for(1500ms);  // the operator resumes once the bus is back
                },
-               2, {}});
-  v.push_back({"can_missing_frames", "half of all CAN frames lost", false, "faulted", {"expected samples"}, false,
-               inject::can("loss 0.5"), clear_all, 2, {}});
-  v.push_back({"can_duplicate_frames", "30 % of CAN frames sent twice", false, "done", {}, false,
-               inject::can("duplicate 0.3"), clear_all, 2, {}});
-  v.push_back({"disk_full", "recording file size limit (RLIMIT_FSIZE) reached mid-run", false, "faulted",
-               {"File too large", "No space"}, true, inject::disk_full, inject::disk_freed, 2, {}});
-  v.push_back({"sigkill", "SIGKILL of standcald at a seeded point of the run", false, "interrupted", {}, false,
-               inject::sigkill, {}, -1, {}});
-  v.push_back({"power_loss", "SIGKILL + recording cut at a seeded byte", false, "interrupted", {}, false,
-               inject::power_loss, {}, -1, {}});
+               2,
+               {}});
+  v.push_back({"can_missing_frames",
+               "half of all CAN frames lost",
+               false,
+               "faulted",
+               {"expected samples"},
+               false,
+               inject::can("loss 0.5"),
+               clear_all,
+               2,
+               {}});
+  v.push_back({"can_duplicate_frames",
+               "30 % of CAN frames sent twice",
+               false,
+               "done",
+               {},
+               false,
+               inject::can("duplicate 0.3"),
+               clear_all,
+               2,
+               {}});
+  v.push_back({"disk_full",
+               "recording file size limit (RLIMIT_FSIZE) reached mid-run",
+               false,
+               "faulted",
+               {"File too large", "No space"},
+               true,
+               inject::disk_full,
+               inject::disk_freed,
+               2,
+               {}});
+  v.push_back({"sigkill",
+               "SIGKILL of standcald at a seeded point of the run",
+               false,
+               "interrupted",
+               {},
+               false,
+               inject::sigkill,
+               {},
+               -1,
+               {}});
+  v.push_back({"power_loss",
+               "SIGKILL + recording cut at a seeded byte",
+               false,
+               "interrupted",
+               {},
+               false,
+               inject::power_loss,
+               {},
+               -1,
+               {}});
   return v;
 }
 

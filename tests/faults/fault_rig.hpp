@@ -55,8 +55,8 @@ inline void write_text(const std::string& path, const std::string& text) {
 }
 
 struct ChildSetup {
-  std::vector<int> close_fds;     // fds of the parent this child must not keep
-  bool ignore_sigxfsz = false;    // a size-limited file then gives EFBIG, as a full disk gives ENOSPC
+  std::vector<int> close_fds;   // fds of the parent this child must not keep
+  bool ignore_sigxfsz = false;  // a size-limited file then gives EFBIG, as a full disk gives ENOSPC
 };
 
 // A child process, killed (SIGKILL) when this goes out of scope.
@@ -148,7 +148,8 @@ inline std::map<int, std::string> position_blocks(const std::string& text) {
 }
 
 // How many of the position blocks of `before` are missing or changed in `after`.
-inline int positions_lost(const std::map<int, std::string>& before, const std::map<int, std::string>& after) {
+inline int positions_lost(const std::map<int, std::string>& before,
+                          const std::map<int, std::string>& after) {
   int lost = 0;
   for (const auto& [pos, rows] : before) {
     auto it = after.find(pos);
@@ -180,14 +181,16 @@ inline bool every_position_once(const std::string& text, int n, std::string& why
       return false;
     }
     if (pos != current + 1) {
-      why = "position " + std::to_string(pos + 1) + " follows position " + std::to_string(current + 1);
+      why = "position " + std::to_string(pos + 1) + " follows position " +
+            std::to_string(current + 1);
       return false;
     }
     seen[static_cast<std::size_t>(pos)] = true;
     current = pos;
   }
   if (current != n - 1) {
-    why = "the recording ends after position " + std::to_string(current + 1) + " of " + std::to_string(n);
+    why = "the recording ends after position " + std::to_string(current + 1) + " of " +
+          std::to_string(n);
     return false;
   }
   return true;
@@ -197,19 +200,20 @@ struct RigOptions {
   std::string daemon_path;
   std::string stand_emu_path;
   std::string can_emu_path;
-  bool rtu = false;           // the stand over RTU through a socat pty pair
+  bool rtu = false;  // the stand over RTU through a socat pty pair
   double can_rate_hz = 200;
   double dwell_s = 0.3;
   double settle_s = 0.05;
   std::string program = "paper9";
-  std::string work_dir;       // empty: a fresh temporary directory, removed at the end
+  std::string work_dir;  // empty: a fresh temporary directory, removed at the end
 };
 
 class Rig {
  public:
   explicit Rig(RigOptions o) : o_(std::move(o)) {
     if (o_.work_dir.empty()) {
-      std::string tmpl = (std::filesystem::temp_directory_path() / "standcal-faults-XXXXXX").string();
+      std::string tmpl =
+          (std::filesystem::temp_directory_path() / "standcal-faults-XXXXXX").string();
       if (::mkdtemp(tmpl.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
       dir_ = tmpl;
       own_dir_ = true;
@@ -250,18 +254,19 @@ class Rig {
     daemon_.reset();
     can_emu_.reset();
     int pair[2];
-    if (::socketpair(AF_UNIX, SOCK_SEQPACKET, 0, pair) != 0) throw std::runtime_error("socketpair failed");
+    if (::socketpair(AF_UNIX, SOCK_SEQPACKET, 0, pair) != 0)
+      throw std::runtime_error("socketpair failed");
     can_emu_ = std::make_unique<Child>(
         std::vector<std::string>{o_.can_emu_path, "--fd", std::to_string(pair[0]), "--rate-hz",
-                                 std::to_string(o_.can_rate_hz), "--control", can_control(), "--seed",
-                                 std::to_string(++starts_)},
+                                 std::to_string(o_.can_rate_hz), "--control", can_control(),
+                                 "--seed", std::to_string(++starts_)},
         dir_ + "/can-emu.log", dir_ + "/can-emu.log", ChildSetup{{pair[1]}, false});
     json config = config_;
     config["unit"]["interface"] = "fd:" + std::to_string(pair[1]);
     write_text(dir_ + "/standcald.json", config.dump(2));
-    daemon_ = std::make_unique<Child>(std::vector<std::string>{o_.daemon_path, "--config", dir_ + "/standcald.json"},
-                                      dir_ + "/standcald.log", dir_ + "/standcald.log",
-                                      ChildSetup{{pair[0]}, ignore_sigxfsz});
+    daemon_ = std::make_unique<Child>(
+        std::vector<std::string>{o_.daemon_path, "--config", dir_ + "/standcald.json"},
+        dir_ + "/standcald.log", dir_ + "/standcald.log", ChildSetup{{pair[0]}, ignore_sigxfsz});
     ::close(pair[0]);
     ::close(pair[1]);
     const auto deadline = std::chrono::steady_clock::now() + 30s;
@@ -305,11 +310,15 @@ class Rig {
     return s;
   }
   json wait_not_running(const std::string& run_id, std::chrono::seconds timeout = 60s) {
-    return wait_status(run_id, [](const json& s) { return s["state"] != "running"; }, timeout);
+    return wait_status(
+        run_id, [](const json& s) { return s["state"] != "running"; }, timeout);
   }
   json wait_positions(const std::string& run_id, int n, std::chrono::seconds timeout = 60s) {
     return wait_status(
-        run_id, [n](const json& s) { return s["state"] != "running" || s["positions_done"].get<int>() >= n; },
+        run_id,
+        [n](const json& s) {
+          return s["state"] != "running" || s["positions_done"].get<int>() >= n;
+        },
         timeout);
   }
 
@@ -348,7 +357,8 @@ class Rig {
         const auto later = stand_registers();
         bool still = later.size() == 2;
         for (std::size_t i = 0; still && i < 2; ++i)
-          still = later[i].stopped() && std::labs(later[i].angle_counts - axes[i].angle_counts) <= 5;
+          still =
+              later[i].stopped() && std::labs(later[i].angle_counts - axes[i].angle_counts) <= 5;
         if (still) return true;
       }
       if (std::chrono::steady_clock::now() > deadline) {
@@ -371,16 +381,19 @@ class Rig {
                                    "pty,raw,echo=0,link=" + dir_ + "/drv-tty"},
           dir_ + "/socat.log", dir_ + "/socat.log");
       const auto deadline = std::chrono::steady_clock::now() + 10s;
-      while (!(std::filesystem::exists(dir_ + "/emu-tty") && std::filesystem::exists(dir_ + "/drv-tty"))) {
-        if (std::chrono::steady_clock::now() > deadline) throw std::runtime_error("socat made no pty pair");
+      while (!(std::filesystem::exists(dir_ + "/emu-tty") &&
+               std::filesystem::exists(dir_ + "/drv-tty"))) {
+        if (std::chrono::steady_clock::now() > deadline)
+          throw std::runtime_error("socat made no pty pair");
         std::this_thread::sleep_for(20ms);
       }
       listen = "rtu:" + dir_ + "/emu-tty?baud=115200&parity=N&unit=1";
       drive_url = "rtu:" + dir_ + "/drv-tty?baud=115200&parity=N&unit=1";
     }
     stand_emu_ = std::make_unique<Child>(
-        std::vector<std::string>{o_.stand_emu_path, "--listen", listen, "--time-scale", "25", "--control",
-                                 stand_control(), "--status-file", dir_ + "/stand-status"},
+        std::vector<std::string>{o_.stand_emu_path, "--listen", listen, "--time-scale", "25",
+                                 "--control", stand_control(), "--status-file",
+                                 dir_ + "/stand-status"},
         dir_ + "/stand-emu.out", dir_ + "/stand-emu.log");
     const auto deadline = std::chrono::steady_clock::now() + 20s;
     for (;;) {
@@ -392,7 +405,8 @@ class Rig {
         return;
       }
       if (std::chrono::steady_clock::now() > deadline || stand_emu_->exited())
-        throw std::runtime_error("standcal-stand-emu did not start: " + read_text(dir_ + "/stand-emu.log"));
+        throw std::runtime_error("standcal-stand-emu did not start: " +
+                                 read_text(dir_ + "/stand-emu.log"));
       std::this_thread::sleep_for(20ms);
     }
   }
@@ -400,13 +414,14 @@ class Rig {
   void write_config() {
     // Timeouts so a fault shows within a few seconds; the stand emulator runs
     // 25x faster than real time, the unit at 200 Hz.
-    const json map{{"timing",
-                    {{"timeout_s", 1.0},  // generous: a busy 2-core CI machine must not time out by itself
-                     {"tries", 3},
-                     {"backoff_first_s", 0.05},
-                     {"backoff_max_s", 0.4},
-                     {"heartbeat_period_s", 0.1},
-                     {"heartbeat_timeout_s", 3.0}}}};
+    const json map{
+        {"timing",
+         {{"timeout_s", 1.0},  // generous: a busy 2-core CI machine must not time out by itself
+          {"tries", 3},
+          {"backoff_first_s", 0.05},
+          {"backoff_max_s", 0.4},
+          {"heartbeat_period_s", 0.1},
+          {"heartbeat_timeout_s", 3.0}}}};
     write_text(dir_ + "/stand-map.json", map.dump(2));
     config_ = json{{"socket", {{"path", socket_path()}}},
                    {"state_dir", state_dir()},

@@ -28,7 +28,8 @@ void expect_survives(const std::string& name, unsigned seed = 1) {
   if (c.rtu && !std::filesystem::exists("/usr/bin/socat")) GTEST_SKIP() << "socat is not installed";
   RigOptions o = rig_options();
   // FAULTS_KEEP_DIR=/tmp/x keeps each trial's logs, config and recording there.
-  if (const char* keep = std::getenv("FAULTS_KEEP_DIR")) o.work_dir = std::string(keep) + "/" + name + "-" + std::to_string(seed);
+  if (const char* keep = std::getenv("FAULTS_KEEP_DIR"))
+    o.work_dir = std::string(keep) + "/" + name + "-" + std::to_string(seed);
   const Trial t = run_trial(o, c, seed);
   EXPECT_TRUE(t.survived) << name << " seed " << seed << ": " << t.failure;
   EXPECT_EQ(t.positions_lost, 0);
@@ -40,14 +41,22 @@ void expect_survives(const std::string& name, unsigned seed = 1) {
 }  // namespace
 
 TEST(Faults, ModbusTimeoutFaultsTheRunAndResumeCompletesIt) { expect_survives("modbus_timeout"); }
-TEST(Faults, ModbusTimeoutDuringAMoveStopsTheAxesOnceTheLinkIsBack) { expect_survives("modbus_timeout_mid_move"); }
-TEST(Faults, ModbusExceptionFaultsTheRunAndResumeCompletesIt) { expect_survives("modbus_exception"); }
-TEST(Faults, OneDroppedTcpConnectionIsRetriedAndTheRunCompletes) { expect_survives("tcp_drop_once"); }
+TEST(Faults, ModbusTimeoutDuringAMoveStopsTheAxesOnceTheLinkIsBack) {
+  expect_survives("modbus_timeout_mid_move");
+}
+TEST(Faults, ModbusExceptionFaultsTheRunAndResumeCompletesIt) {
+  expect_survives("modbus_exception");
+}
+TEST(Faults, OneDroppedTcpConnectionIsRetriedAndTheRunCompletes) {
+  expect_survives("tcp_drop_once");
+}
 TEST(Faults, APersistentlyDroppedConnectionFaultsTheRunAndResumeCompletesIt) {
   expect_survives("tcp_drop_persistent");
 }
 TEST(Faults, TwoRtuCrcErrorsAreRetriedAndTheRunCompletes) { expect_survives("rtu_crc_once"); }
-TEST(Faults, PersistentRtuCrcErrorsFaultTheRunAndResumeCompletesIt) { expect_survives("rtu_crc_persistent"); }
+TEST(Faults, PersistentRtuCrcErrorsFaultTheRunAndResumeCompletesIt) {
+  expect_survives("rtu_crc_persistent");
+}
 TEST(Faults, StuckAxisFaultsTheRunAndResumeCompletesIt) { expect_survives("stuck_axis"); }
 TEST(Faults, SlowAxisFaultsTheRunAndResumeCompletesIt) { expect_survives("slow_axis"); }
 TEST(Faults, OvershootIsNeverRecordedAsInPosition) { expect_survives("overshoot"); }

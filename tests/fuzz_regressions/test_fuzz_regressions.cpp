@@ -36,7 +36,8 @@ std::vector<fs::path> files_under(const fs::path& dir) {
   std::vector<fs::path> files;
   if (!fs::is_directory(dir)) return files;
   for (const auto& e : fs::directory_iterator(dir))
-    if (e.is_regular_file() && e.path().filename().string().front() != '.') files.push_back(e.path());
+    if (e.is_regular_file() && e.path().filename().string().front() != '.')
+      files.push_back(e.path());
   std::sort(files.begin(), files.end());
   return files;
 }
@@ -85,14 +86,20 @@ TEST_F(FuzzReplay, Recording) { replay_target("recording", standcal_fuzz_recordi
 TEST_F(FuzzReplay, ProgramJson) { replay_target("program_json", standcal_fuzz_program_json); }
 TEST_F(FuzzReplay, ModelJson) { replay_target("model_json", standcal_fuzz_model_json); }
 TEST_F(FuzzReplay, Diagnosis) { replay_target("diagnosis", standcal_fuzz_diagnosis); }
-TEST_F(FuzzReplay, CanLayoutJson) { replay_target("can_layout_json", standcal_fuzz_can_layout_json); }
+TEST_F(FuzzReplay, CanLayoutJson) {
+  replay_target("can_layout_json", standcal_fuzz_can_layout_json);
+}
 TEST_F(FuzzReplay, CanLayoutDbc) { replay_target("can_layout_dbc", standcal_fuzz_can_layout_dbc); }
 TEST_F(FuzzReplay, CanFrames) { replay_target("can_frames", standcal_fuzz_can_frames); }
 TEST_F(FuzzReplay, ModbusUrl) { replay_target("modbus_url", standcal_fuzz_modbus_url); }
 TEST_F(FuzzReplay, ModbusConfig) { replay_target("modbus_config", standcal_fuzz_modbus_config); }
-TEST_F(FuzzReplay, ModbusRegisters) { replay_target("modbus_registers", standcal_fuzz_modbus_registers); }
+TEST_F(FuzzReplay, ModbusRegisters) {
+  replay_target("modbus_registers", standcal_fuzz_modbus_registers);
+}
 #ifdef STANDCAL_FUZZ_HAVE_JSONRPC
-TEST_F(FuzzReplay, JsonRpcRequest) { replay_target("jsonrpc_request", standcal_fuzz_jsonrpc_request); }
+TEST_F(FuzzReplay, JsonRpcRequest) {
+  replay_target("jsonrpc_request", standcal_fuzz_jsonrpc_request);
+}
 #endif
 #ifdef STANDCAL_FUZZ_HAVE_DAEMON
 TEST_F(FuzzReplay, DaemonConfig) { replay_target("daemon_config", standcal_fuzz_daemon_config); }

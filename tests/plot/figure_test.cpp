@@ -25,8 +25,13 @@ Figure residual_figure() {
   panel.y_label = "residual (ug)";
   panel.y_reference = 0.0;
   panel.highlight.push_back({100.0, 140.0});
-  Series before{"baseline", {0, 57.5, 122.5, 270}, {3.0, -12.0, 15.0, -2.0}, {1.0, 1.0, 1.0, 1.0}, SeriesStyle::points};
-  Series after{"with K2", {0, 57.5, 122.5, 270}, {0.5, -0.4, 0.2, 0.1}, {}, SeriesStyle::points_and_line};
+  Series before{"baseline",
+                {0, 57.5, 122.5, 270},
+                {3.0, -12.0, 15.0, -2.0},
+                {1.0, 1.0, 1.0, 1.0},
+                SeriesStyle::points};
+  Series after{
+      "with K2", {0, 57.5, 122.5, 270}, {0.5, -0.4, 0.2, 0.1}, {}, SeriesStyle::points_and_line};
   panel.series = {before, after};
   return Figure{{panel, panel}, 640, 240};
 }
@@ -62,18 +67,27 @@ TEST(Figure, InlineSvgIdsCarryTheirPrefix) {
 
 TEST(Figure, LogAxesSkipNonPositivePointsInsteadOfFailing) {
   Panel allan{"Allan deviation, x", "tau (s)", "sigma (ug)", true, true, {}, {}, {}};
-  allan.series.push_back({"x", {0.0, 1, 10, 100}, {-1.0, 10, 3.2, 1.1}, {}, SeriesStyle::points_and_line});
+  allan.series.push_back(
+      {"x", {0.0, 1, 10, 100}, {-1.0, 10, 3.2, 1.1}, {}, SeriesStyle::points_and_line});
   const std::string svg = render_svg(Figure{{allan}, 500, 300});
   EXPECT_NE(svg.find("Allan deviation, x"), std::string::npos);
 }
 
 TEST(Figure, HashInTextIsDrawnLiterallyNotAsPlplotEscape) {
-  Panel panel{"position #9", "x", "y", false, false, {{"", {1, 2}, {1, 2}, {}, SeriesStyle::line}}, {}, {}};
+  Panel panel{
+      "position #9", "x", "y", false, false, {{"", {1, 2}, {1, 2}, {}, SeriesStyle::line}}, {}, {}};
   EXPECT_NE(render_svg(Figure{{panel}, 400, 200}).find("position #9"), std::string::npos);
 }
 
 TEST(Figure, MismatchedSeriesLengthsNameThePanelAndSeries) {
-  Panel panel{"temperature", "T (degC)", "r (ug)", false, false, {{"y axis", {1, 2, 3}, {1, 2}, {}, SeriesStyle::points}}, {}, {}};
+  Panel panel{"temperature",
+              "T (degC)",
+              "r (ug)",
+              false,
+              false,
+              {{"y axis", {1, 2, 3}, {1, 2}, {}, SeriesStyle::points}},
+              {},
+              {}};
   try {
     render_svg(Figure{{panel}, 400, 200});
     FAIL() << "a series with 3 x and 2 y values was drawn";

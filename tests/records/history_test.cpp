@@ -13,10 +13,12 @@ CalibrationRecord calibration(int i, const std::string& url) {
   TruthModel truth = default_truth();
   const int drift_steps = i >= 3 ? i - 2 : 0;
   truth.unit.bias_g.x() += drift_steps * kDriftPerCalibration_ug * kUg;
-  const Recording rec = test::simulate_calibration(truth, "AU-0042", 100 + static_cast<std::uint64_t>(i));
+  const Recording rec =
+      test::simulate_calibration(truth, "AU-0042", 100 + static_cast<std::uint64_t>(i));
   const std::string started = "2026-0" + std::to_string(i + 1) + "-15T09:00:00Z";
   const std::string run_id = "2026-0" + std::to_string(i + 1) + "-AU-0042";
-  CalibrationRecord r = record_from_daemon_result(test::daemon_result(rec, run_id, started, "/rec/" + run_id));
+  CalibrationRecord r =
+      record_from_daemon_result(test::daemon_result(rec, run_id, started, "/rec/" + run_id));
   auto db = open_and_migrate(url);
   db->insert(r);
   return r;
@@ -41,7 +43,8 @@ TEST(UnitHistory, AnInjectedBiasDriftIsFlaggedAsAgeingAndTheStableParametersAreN
     EXPECT_NEAR(ch.delta, injected, 4 * ch.combined_sigma) << "change " << c;
     // ... which is far smaller than the drift, so the drift is unmistakable.
     EXPECT_LT(ch.combined_sigma, kDriftPerCalibration_ug / 5);
-    EXPECT_EQ(ch.ageing, injected > 0) << "change " << c << ": delta " << ch.delta << " ± " << ch.combined_sigma;
+    EXPECT_EQ(ch.ageing, injected > 0)
+        << "change " << c << ": delta " << ch.delta << " ± " << ch.combined_sigma;
   }
   // The other eight parameters did not change; at k = 2 chance flags are rare (the seeds
   // are fixed, so this is deterministic).
@@ -58,10 +61,14 @@ TEST(UnitHistory, UnobservableValuesAreSkippedNotCompared) {
     CalibrationRecord r;
     r.run_id = id;
     r.started_utc = t;
-    r.result = {{"parameters", {{"gamma23", {{"value", value}, {"sigma", value.is_null() ? nlohmann::json() : nlohmann::json(1.0)}}}}}};
+    r.result = {{"parameters",
+                 {{"gamma23",
+                   {{"value", value},
+                    {"sigma", value.is_null() ? nlohmann::json() : nlohmann::json(1.0)}}}}}};
     return r;
   };
-  const UnitHistory h = unit_history("U", {rec("a", "1", 10.0), rec("b", "2", nullptr), rec("c", "3", 13.0)}, 2);
+  const UnitHistory h =
+      unit_history("U", {rec("a", "1", 10.0), rec("b", "2", nullptr), rec("c", "3", 13.0)}, 2);
   const ParameterHistory& g23 = h.parameters[8];
   ASSERT_EQ(g23.name, "gamma23");
   ASSERT_EQ(g23.points.size(), 3u);
@@ -71,7 +78,10 @@ TEST(UnitHistory, UnobservableValuesAreSkippedNotCompared) {
   EXPECT_EQ(g23.changes[0].to_run_id, "c");
   EXPECT_DOUBLE_EQ(g23.changes[0].delta, 3.0);
   EXPECT_TRUE(g23.changes[0].ageing);  // 3 > 2 · sqrt(2)
-  EXPECT_FALSE(unit_history("U", {rec("a", "1", 10.0), rec("c", "3", 12.0)}, 2).parameters[8].changes[0].ageing);
+  EXPECT_FALSE(unit_history("U", {rec("a", "1", 10.0), rec("c", "3", 12.0)}, 2)
+                   .parameters[8]
+                   .changes[0]
+                   .ageing);
 }
 
 }  // namespace

@@ -33,8 +33,9 @@ class ImportTest : public ::testing::Test {
 TEST_F(ImportTest, ImportReFitsStoresTraceabilityAndIsIdempotent) {
   const std::string a = recording("a.csv", "AU-0100", 1);
   const std::string b = recording("b.csv", "AU-0101", 2);
-  test::CommandOutcome r = standcal_cli("import " + a + " " + b + " --db " + db_ +
-                             " --unit-type NAV-3 --stand-id old-bench --started 2025-06-01T10:00:00Z");
+  test::CommandOutcome r =
+      standcal_cli("import " + a + " " + b + " --db " + db_ +
+                   " --unit-type NAV-3 --stand-id old-bench --started 2025-06-01T10:00:00Z");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("2 of 2 recordings imported"), std::string::npos) << r.output;
 
@@ -83,8 +84,8 @@ TEST_F(ImportTest, HistoryAndRecordsShowAnAgeingUnitAndFilterByDate) {
   for (int i = 0; i < 3; ++i) {
     const std::string path = recording("cal" + std::to_string(i) + ".csv", "AU-0300",
                                        static_cast<std::uint64_t>(10 + i), shifts_ug[i]);
-    const test::CommandOutcome r = standcal_cli("import " + path + " --db " + db_ + " --started 2026-0" +
-                                     std::to_string(i + 1) + "-10");
+    const test::CommandOutcome r = standcal_cli(
+        "import " + path + " --db " + db_ + " --started 2026-0" + std::to_string(i + 1) + "-10");
     ASSERT_EQ(r.exit_code, 0) << r.output;
   }
   test::CommandOutcome h = standcal_cli("history AU-0300 --db " + db_);
@@ -113,7 +114,8 @@ TEST_F(ImportTest, HistoryAndRecordsShowAnAgeingUnitAndFilterByDate) {
   EXPECT_NE(html.find("AU-0300"), std::string::npos);
   EXPECT_NE(html.find("bias_x"), std::string::npos);
 
-  const test::CommandOutcome list = standcal_cli("records --db " + db_ + " --since 2026-02-01 --until 2026-03-10");
+  const test::CommandOutcome list =
+      standcal_cli("records --db " + db_ + " --since 2026-02-01 --until 2026-03-10");
   ASSERT_EQ(list.exit_code, 0) << list.output;
   EXPECT_NE(list.output.find("2026-02-10T00:00:00Z"), std::string::npos) << list.output;
   EXPECT_NE(list.output.find("2026-03-10T00:00:00Z"), std::string::npos) << list.output;
@@ -141,7 +143,7 @@ TEST_F(ImportTest, ABadRecordingIsNamedAndNothingIsHalfStored) {
 TEST_F(ImportTest, ReadingCommandsDoNotCreateAMissingDatabase) {
   const std::string missing = dir_.path() + "/missing.sqlite";
   for (const std::string& command : {"records --db " + missing, "history AU-0100 --db " + missing,
-                                    "records --db sqlite://" + missing}) {
+                                     "records --db sqlite://" + missing}) {
     const test::CommandOutcome r = standcal_cli(command);
     EXPECT_EQ(r.exit_code, 1) << command << ": " << r.output;
     EXPECT_NE(r.output.find("no such database: " + missing), std::string::npos)

@@ -6,9 +6,9 @@
 // says why and the tests GTEST_SKIP with it.
 #include <fcntl.h>
 #include <glob.h>
+#include <grp.h>
 #include <libpq-fe.h>
 #include <netinet/in.h>
-#include <grp.h>
 #include <pwd.h>
 #include <signal.h>
 #include <sys/prctl.h>
@@ -36,7 +36,8 @@ class PostgresServer {
       // initdb's shell steps write to /dev/null; a regular file there (left by a tool
       // that replaced it) makes them fail for the postgres user.
       if (!std::filesystem::is_character_file("/dev/null")) {
-        throw std::runtime_error("/dev/null is not a character device on this machine (mknod -m 666 /dev/null c 1 3)");
+        throw std::runtime_error(
+            "/dev/null is not a character device on this machine (mknod -m 666 /dev/null c 1 3)");
       }
       dir_ = make_dir();
       init_cluster();
@@ -93,8 +94,8 @@ class PostgresServer {
   // Starts the server on the same port and data; waits until it accepts connections.
   void start() {
     pid_ = spawn({bin_ + "/postgres", "-D", dir_ + "/data", "-p", std::to_string(port_), "-k", dir_,
-                  "-c", "listen_addresses=127.0.0.1", "-c", "fsync=off", "-c", "synchronous_commit=off",
-                  "-c", "full_page_writes=off"},
+                  "-c", "listen_addresses=127.0.0.1", "-c", "fsync=off", "-c",
+                  "synchronous_commit=off", "-c", "full_page_writes=off"},
                  dir_ + "/server.log");
     const std::string probe = url("postgres");
     for (int i = 0; i < 600; ++i) {  // up to 60 s
@@ -113,12 +114,14 @@ class PostgresServer {
     glob_t g{};
     std::vector<std::string> dirs;
     if (::glob("/usr/lib/postgresql/*/bin/initdb", 0, nullptr, &g) == 0) {
-      for (std::size_t i = 0; i < g.gl_pathc; ++i) dirs.push_back(std::filesystem::path(g.gl_pathv[i]).parent_path());
+      for (std::size_t i = 0; i < g.gl_pathc; ++i)
+        dirs.push_back(std::filesystem::path(g.gl_pathv[i]).parent_path());
     }
     ::globfree(&g);
     if (dirs.empty()) {
-      throw std::runtime_error("no PostgreSQL server installed (/usr/lib/postgresql/*/bin/initdb; "
-                               "apt-get install postgresql)");
+      throw std::runtime_error(
+          "no PostgreSQL server installed (/usr/lib/postgresql/*/bin/initdb; "
+          "apt-get install postgresql)");
     }
     std::sort(dirs.begin(), dirs.end());
     return dirs.back();
@@ -128,7 +131,8 @@ class PostgresServer {
   void choose_user() {
     if (::geteuid() != 0) return;
     const passwd* pw = ::getpwnam("postgres");
-    if (pw == nullptr) throw std::runtime_error("running as root and there is no `postgres` user to run the server");
+    if (pw == nullptr)
+      throw std::runtime_error("running as root and there is no `postgres` user to run the server");
     uid_ = pw->pw_uid;
     gid_ = pw->pw_gid;
   }
@@ -137,13 +141,14 @@ class PostgresServer {
     choose_user();
     std::string tmpl = (std::filesystem::temp_directory_path() / "standcal-pg-XXXXXX").string();
     if (::mkdtemp(tmpl.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
-    if (uid_ && ::chown(tmpl.c_str(), *uid_, *gid_) != 0) throw std::runtime_error("cannot chown " + tmpl);
+    if (uid_ && ::chown(tmpl.c_str(), *uid_, *gid_) != 0)
+      throw std::runtime_error("cannot chown " + tmpl);
     return tmpl;
   }
 
   void init_cluster() {
-    const pid_t pid = spawn({bin_ + "/initdb", "-D", dir_ + "/data", "-U", "standcal", "--auth=trust",
-                             "--no-sync", "-E", "UTF8", "--locale=C"},
+    const pid_t pid = spawn({bin_ + "/initdb", "-D", dir_ + "/data", "-U", "standcal",
+                             "--auth=trust", "--no-sync", "-E", "UTF8", "--locale=C"},
                             dir_ + "/initdb.log");
     int status = 0;
     ::waitpid(pid, &status, 0);
@@ -158,7 +163,8 @@ class PostgresServer {
     std::vector<std::string> lines;
     for (std::string line; std::getline(in, line);) lines.push_back(line);
     std::string out;
-    for (std::size_t i = lines.size() > 4 ? lines.size() - 4 : 0; i < lines.size(); ++i) out += lines[i] + " | ";
+    for (std::size_t i = lines.size() > 4 ? lines.size() - 4 : 0; i < lines.size(); ++i)
+      out += lines[i] + " | ";
     return out.empty() ? "(no output)" : out;
   }
 
@@ -184,7 +190,8 @@ class PostgresServer {
       const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
       ::dup2(fd, 1);
       ::dup2(fd, 2);
-      if (uid_ && (::setgroups(0, nullptr) != 0 || ::setgid(*gid_) != 0 || ::setuid(*uid_) != 0)) ::_exit(126);
+      if (uid_ && (::setgroups(0, nullptr) != 0 || ::setgid(*gid_) != 0 || ::setuid(*uid_) != 0))
+        ::_exit(126);
       // After setuid: changing credentials clears the parent-death signal.
       ::prctl(PR_SET_PDEATHSIG, SIGKILL);  // never outlive a crashed test
       std::vector<char*> argv;

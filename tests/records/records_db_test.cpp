@@ -14,7 +14,8 @@ namespace {
 using nlohmann::json;
 using test::postgres;
 
-CalibrationRecord sample_record(const std::string& run_id, const std::string& serial, const std::string& started) {
+CalibrationRecord sample_record(const std::string& run_id, const std::string& serial,
+                                const std::string& started) {
   CalibrationRecord r;
   r.run_id = run_id;
   r.unit_serial = serial;
@@ -31,9 +32,13 @@ CalibrationRecord sample_record(const std::string& run_id, const std::string& se
   r.recording_path = "/var/lib/standcal/runs/" + run_id + "/recording.csv";
   r.method = "joint";
   r.result = json{{"estimator", "joint"},
-                  {"parameters", {{"bias_x", {{"value", 12.5}, {"sigma", 0.75}, {"unit", "ug"}}},
-                                  {"gamma23", {{"value", nullptr}, {"sigma", nullptr}, {"unit", "arcsec"},
-                                               {"unobservable_reason", "not in this programme"}}}}},
+                  {"parameters",
+                   {{"bias_x", {{"value", 12.5}, {"sigma", 0.75}, {"unit", "ug"}}},
+                    {"gamma23",
+                     {{"value", nullptr},
+                      {"sigma", nullptr},
+                      {"unit", "arcsec"},
+                      {"unobservable_reason", "not in this programme"}}}}},
                   {"chi2_dof", 1.03}};
   r.origin = "daemon";
   return r;
@@ -116,7 +121,8 @@ TEST_P(RecordsDbTest, MigrateBuildsTheNewestSchemaOnceAndAgainIsANoOp) {
 
 TEST_P(RecordsDbTest, ARecordRoundTripsWithEveryField) {
   auto db = open_and_migrate(url_);
-  CalibrationRecord in = sample_record("20261121T223638Z-AU-0042", "AU-0042", "2026-11-21T22:36:38Z");
+  CalibrationRecord in =
+      sample_record("20261121T223638Z-AU-0042", "AU-0042", "2026-11-21T22:36:38Z");
   in.diagnosis_verdict = "model adequate";
   in.assessment = json{{"rule", "simple acceptance, k = 2"}, {"bias_x", "pass"}};
   in.verdict = "pass";
@@ -189,7 +195,9 @@ TEST_P(RecordsDbTest, AVersion1DatabaseIsMigratedKeepingItsCalibrations) {
     ASSERT_EQ(old->migrate_to(1), 1);
   }
   // What a standcal of schema 1 wrote: no assessment, no per-parameter rows.
-  raw_exec(url_, R"(INSERT INTO calibrations (run_id, unit_serial, started_utc, result_json, recorded_utc, verdict)
+  raw_exec(
+      url_,
+      R"(INSERT INTO calibrations (run_id, unit_serial, started_utc, result_json, recorded_utc, verdict)
     VALUES ('old-run', 'AU-7', '2025-03-01T10:00:00Z',
             '{"estimator":"joint","parameters":{"bias_x":{"value":-40.5,"sigma":1.5,"unit":"ug"},"scale_y":{"value":120,"sigma":3,"unit":"ppm"}}}',
             '2025-03-01T11:00:00Z', 'pass'))");
@@ -204,37 +212,50 @@ TEST_P(RecordsDbTest, AVersion1DatabaseIsMigratedKeepingItsCalibrations) {
   EXPECT_FALSE(r->diagnosis_verdict.has_value());
   EXPECT_EQ(r->result["parameters"]["bias_x"]["value"], -40.5);
   // The data step of version 2 filled the per-parameter table from the stored results.
-  EXPECT_EQ(raw_scalar(url_, "SELECT COUNT(*) FROM calibration_parameters WHERE run_id = 'old-run'"), "2");
-  EXPECT_EQ(std::stod(raw_scalar(url_, "SELECT value FROM calibration_parameters WHERE run_id = 'old-run' AND name = 'bias_x'")),
-            -40.5);
-  EXPECT_EQ(std::stod(raw_scalar(url_, "SELECT sigma FROM calibration_parameters WHERE run_id = 'old-run' AND name = 'scale_y'")),
+  EXPECT_EQ(
+      raw_scalar(url_, "SELECT COUNT(*) FROM calibration_parameters WHERE run_id = 'old-run'"),
+      "2");
+  EXPECT_EQ(
+      std::stod(raw_scalar(
+          url_,
+          "SELECT value FROM calibration_parameters WHERE run_id = 'old-run' AND name = 'bias_x'")),
+      -40.5);
+  EXPECT_EQ(std::stod(raw_scalar(url_,
+                                 "SELECT sigma FROM calibration_parameters WHERE run_id = "
+                                 "'old-run' AND name = 'scale_y'")),
             3.0);
-  EXPECT_EQ(raw_scalar(url_, "SELECT COUNT(*) FROM schema_version"), std::to_string(kSchemaVersion));
+  EXPECT_EQ(raw_scalar(url_, "SELECT COUNT(*) FROM schema_version"),
+            std::to_string(kSchemaVersion));
 }
 
 TEST_P(RecordsDbTest, TwoBenchesMigratingAtOnceApplyEachVersionOnce) {
   std::vector<std::thread> benches;
   std::vector<int> versions(4, -1);
   for (int i = 0; i < 4; ++i) {
-    benches.emplace_back([&, i] { versions[static_cast<std::size_t>(i)] = open_records_db(url_)->migrate(); });
+    benches.emplace_back(
+        [&, i] { versions[static_cast<std::size_t>(i)] = open_records_db(url_)->migrate(); });
   }
   for (auto& t : benches) t.join();
   for (int v : versions) EXPECT_EQ(v, kSchemaVersion);
   auto db = open_and_migrate(url_);
   // Applying a version twice would have failed on its CREATE TABLE / ADD COLUMN, or
   // left two rows for it.
-  EXPECT_EQ(raw_scalar(url_, "SELECT COUNT(*) FROM schema_version"), std::to_string(kSchemaVersion));
+  EXPECT_EQ(raw_scalar(url_, "SELECT COUNT(*) FROM schema_version"),
+            std::to_string(kSchemaVersion));
   EXPECT_TRUE(db->insert(sample_record("r", "AU-1", "2026-11-01")));
 }
 
 TEST_P(RecordsDbTest, ADatabaseNewerThanThisStandcalIsRefused) {
   auto db = open_and_migrate(url_);
-  raw_exec(url_, "INSERT INTO schema_version (version, description, applied_utc) VALUES (99, 'future', '2030-01-01T00:00:00Z')");
+  raw_exec(url_,
+           "INSERT INTO schema_version (version, description, applied_utc) VALUES (99, 'future', "
+           "'2030-01-01T00:00:00Z')");
   try {
     open_records_db(url_)->migrate();
     FAIL() << "a newer schema must be refused";
   } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("newer than this standcal"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("newer than this standcal"), std::string::npos)
+        << e.what();
   }
 }
 
@@ -249,10 +270,13 @@ TEST(RecordsDbOpen, AnUnreachablePostgresServerIsAClearErrorNamingIt) {
     FAIL() << "nothing listens on port 1";
   } catch (const std::runtime_error& e) {
     const std::string what = e.what();
-    EXPECT_NE(what.find("cannot reach the records database postgresql://standcal:***@127.0.0.1:1/records"),
-              std::string::npos)
+    EXPECT_NE(
+        what.find(
+            "cannot reach the records database postgresql://standcal:***@127.0.0.1:1/records"),
+        std::string::npos)
         << what;
-    EXPECT_EQ(what.find("secret"), std::string::npos) << "the password must not be printed: " << what;
+    EXPECT_EQ(what.find("secret"), std::string::npos)
+        << "the password must not be printed: " << what;
   }
 }
 
@@ -263,7 +287,9 @@ TEST(RecordsDbOpen, BadLocationsAreClearErrors) {
     open_records_db("sqlite:///nonexistent-dir-for-standcal/records.sqlite");
     FAIL();
   } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("/nonexistent-dir-for-standcal/records.sqlite"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("/nonexistent-dir-for-standcal/records.sqlite"),
+              std::string::npos)
+        << e.what();
   }
 }
 

@@ -16,12 +16,14 @@ namespace {
 using records::open_and_migrate;
 
 // A finished run as standcald leaves it: STATE/runs/ID/{recording.csv,result.json}.
-nlohmann::json finish_run(const std::string& state_dir, const std::string& run_id, std::uint64_t seed) {
+nlohmann::json finish_run(const std::string& state_dir, const std::string& run_id,
+                          std::uint64_t seed) {
   const std::string dir = state_dir + "/runs/" + run_id;
   std::filesystem::create_directories(dir);
   const Recording rec = test::simulate_calibration(default_truth(), "AU-0042", seed);
   write_recording(rec, dir + "/recording.csv");
-  const nlohmann::json result = test::daemon_result(rec, run_id, "2026-11-21T22:36:38Z", dir + "/recording.csv");
+  const nlohmann::json result =
+      test::daemon_result(rec, run_id, "2026-11-21T22:36:38Z", dir + "/recording.csv");
   std::ofstream(dir + "/result.json") << result.dump(2) << "\n";
   return result;
 }
@@ -48,7 +50,9 @@ TEST(RecordsSink, ARunFinishedWhileTheDatabaseIsUnreachableIsRecordedWhenItIsBac
   RecordsSyncReport r = sink.sync_once();
   EXPECT_EQ(r.recorded, 0);
   EXPECT_EQ(r.pending, 1);
-  EXPECT_NE(r.error.find("20261121T223638Z-AU-0042 not yet in the records database"), std::string::npos) << r.error;
+  EXPECT_NE(r.error.find("20261121T223638Z-AU-0042 not yet in the records database"),
+            std::string::npos)
+      << r.error;
   EXPECT_TRUE(std::filesystem::exists(state + "/runs/20261121T223638Z-AU-0042/result.json"));
 
   std::filesystem::create_directories(dir.path() + "/share");  // the share is back
@@ -77,10 +81,11 @@ TEST(RecordsSink, TheBackgroundSinkRecordsAFinishedRunWhenToldAndPendingOnesAtSt
   test::TempDir dir;
   const std::string state = dir.path() + "/state";
   finish_run(state, "20261120T080000Z-AU-0042", 2);  // from before the sink ran
-  RecordsSink sink(state, "");  // default: SQLite in the state directory
+  RecordsSink sink(state, "");                       // default: SQLite in the state directory
   EXPECT_EQ(sink.db_url(), "sqlite://" + state + "/records.sqlite");
   sink.start();
-  ASSERT_TRUE(eventually([&] { return sink.last_report().recorded == 1; })) << sink.last_report().error;
+  ASSERT_TRUE(eventually([&] { return sink.last_report().recorded == 1; }))
+      << sink.last_report().error;
 
   finish_run(state, "20261121T223638Z-AU-0042", 3);
   sink.on_event("run.progress", {{"state", "running"}});  // not the end of a run: ignored
@@ -111,16 +116,18 @@ TEST(RecordsSinkPostgres, APostgresServerDownAtRunEndIsRetriedUntilItIsBack) {
   RecordsSink sink(state, url, 0.2);  // retry every 0.2 s
   sink.start();
 
-  pg.stop();  // the lab server goes down ...
+  pg.stop();                                         // the lab server goes down ...
   finish_run(state, "20261121T223638Z-AU-0042", 5);  // ... as the run ends
   sink.on_event("run.state", {{"state", "done"}});
-  ASSERT_TRUE(eventually([&] { return sink.last_report().pending == 1 && !sink.last_report().error.empty(); }));
+  ASSERT_TRUE(eventually(
+      [&] { return sink.last_report().pending == 1 && !sink.last_report().error.empty(); }));
   EXPECT_NE(sink.last_report().error.find("cannot reach the records database"), std::string::npos)
       << sink.last_report().error;
 
   pg.start();  // ... and comes back: the retry records the run without any event
-  ASSERT_TRUE(eventually([&] { return sink.last_report().pending == 0 && sink.last_report().error.empty(); }))
-      << sink.last_report().error;
+  ASSERT_TRUE(eventually([&] {
+    return sink.last_report().pending == 0 && sink.last_report().error.empty();
+  })) << sink.last_report().error;
   sink.stop();
   const auto stored = open_and_migrate(url)->get("20261121T223638Z-AU-0042");
   ASSERT_TRUE(stored.has_value());

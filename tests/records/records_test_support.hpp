@@ -25,14 +25,16 @@ inline PostgresServer& postgres() {
   return *server;
 }
 
-#define STANDCAL_REQUIRE_POSTGRES()                                                                  \
-  do {                                                                                               \
-    if (!::standcal::test::postgres().skip_reason().empty())                                         \
-      GTEST_SKIP() << "PostgreSQL test server could not start: " << ::standcal::test::postgres().skip_reason(); \
+#define STANDCAL_REQUIRE_POSTGRES()                               \
+  do {                                                            \
+    if (!::standcal::test::postgres().skip_reason().empty())      \
+      GTEST_SKIP() << "PostgreSQL test server could not start: "  \
+                   << ::standcal::test::postgres().skip_reason(); \
   } while (0)
 
 // A short paper9 run of `truth` (10 s dwell: seconds to simulate, µg-level σ).
-inline Recording simulate_calibration(const TruthModel& truth, const std::string& serial, std::uint64_t seed) {
+inline Recording simulate_calibration(const TruthModel& truth, const std::string& serial,
+                                      std::uint64_t seed) {
   SimulationRequest req;
   req.program = paper9();
   req.truth = truth;
@@ -44,15 +46,21 @@ inline Recording simulate_calibration(const TruthModel& truth, const std::string
 }
 
 // What standcald stores as result.json at the end of a run (sequencer's finish_with_fit).
-inline nlohmann::json daemon_result(const Recording& rec, const std::string& run_id, const std::string& started_utc,
+inline nlohmann::json daemon_result(const Recording& rec, const std::string& run_id,
+                                    const std::string& started_utc,
                                     const std::string& recording_path) {
   nlohmann::json result = fit_to_json(fit_invariant_joint(average_positions(rec)));
   result["recording_path"] = recording_path;
-  result["traceability"] = {{"run_id", run_id},           {"unit_serial", rec.unit_serial},
-                            {"stand_id", "bench-2"},      {"program", rec.program},
-                            {"g_local_mps2", rec.g_local_mps2}, {"g_source", "survey 2024, 9.81625 ± 0.00002"},
-                            {"software_version", "0.1.0"}, {"config_hash", "c0ffee"},
-                            {"operator", "A. Lovelace"},   {"started_utc", started_utc},
+  result["traceability"] = {{"run_id", run_id},
+                            {"unit_serial", rec.unit_serial},
+                            {"stand_id", "bench-2"},
+                            {"program", rec.program},
+                            {"g_local_mps2", rec.g_local_mps2},
+                            {"g_source", "survey 2024, 9.81625 ± 0.00002"},
+                            {"software_version", "0.1.0"},
+                            {"config_hash", "c0ffee"},
+                            {"operator", "A. Lovelace"},
+                            {"started_utc", started_utc},
                             {"ended_utc", started_utc}};
   result["recording_warnings"] = rec.warnings;
   return result;

@@ -34,12 +34,14 @@ json example_config() {
 }
 
 // A fit whose report-unit values and sigmas are given directly (µg, ppm, arcsec).
-FitResult fit_with(const std::array<double, 9>& values, const std::array<double, 9>& sigmas, int redundancy = 0,
-                   double chi2_dof = NAN) {
+FitResult fit_with(const std::array<double, 9>& values, const std::array<double, 9>& sigmas,
+                   int redundancy = 0, double chi2_dof = NAN) {
   FitResult fit;
   for (int p = 0; p < kUnitParameterCount; ++p) {
-    fit.unit[static_cast<std::size_t>(p)].value = values[static_cast<std::size_t>(p)] / report_scale(p);
-    fit.unit[static_cast<std::size_t>(p)].sigma = sigmas[static_cast<std::size_t>(p)] / report_scale(p);
+    fit.unit[static_cast<std::size_t>(p)].value =
+        values[static_cast<std::size_t>(p)] / report_scale(p);
+    fit.unit[static_cast<std::size_t>(p)].sigma =
+        sigmas[static_cast<std::size_t>(p)] / report_scale(p);
   }
   fit.redundancy = redundancy;
   fit.chi2_dof = chi2_dof;
@@ -102,7 +104,8 @@ TEST(LimitsAssess, BoundaryAfterUnitConversionStillPasses) {
 TEST(LimitsAssess, EachOutcomeAndTheOverallVerdict) {
   const UnitTypeLimits limits = limits_from_json(example_config(), "x").for_unit_type("");
   // bias_x pass, bias_y indeterminate, bias_z (own limit 150) pass at 130 ± 5.
-  FitResult fit = fit_with({50, -95, 130, 100, -200, 10, 20, -30, 5}, {5, 5, 5, 10, 10, 10, 2, 2, 2});
+  FitResult fit =
+      fit_with({50, -95, 130, 100, -200, 10, 20, -30, 5}, {5, 5, 5, 10, 10, 10, 2, 2, 2});
   ConformityReport r = assess_conformity(fit, limits);
   EXPECT_EQ(r.parameters[0].outcome, Outcome::pass);
   EXPECT_EQ(r.parameters[1].outcome, Outcome::indeterminate);
@@ -121,7 +124,8 @@ TEST(LimitsAssess, EachOutcomeAndTheOverallVerdict) {
   fit = fit_with({50, 10, 130, 100, -200, 10, 20, -30, 5}, {5, 5, 5, 10, 10, 10, 2, 2, 2});
   r = assess_conformity(fit, limits);
   EXPECT_EQ(r.overall, Outcome::pass);
-  EXPECT_EQ(r.model_check.outcome, Outcome::not_evaluated) << "no redundancy: chi2 cannot be tested";
+  EXPECT_EQ(r.model_check.outcome, Outcome::not_evaluated)
+      << "no redundancy: chi2 cannot be tested";
 }
 
 TEST(LimitsAssess, SigmaAboveItsLimitFailsEvenWhenTheValueIsSmall) {
@@ -135,10 +139,13 @@ TEST(LimitsAssess, SigmaAboveItsLimitFailsEvenWhenTheValueIsSmall) {
 
 TEST(LimitsAssess, ModelCheckFailsWhenChi2PerDofExceedsTheLimit) {
   const UnitTypeLimits limits = limits_from_json(example_config(), "x").for_unit_type("QA-2000");
-  EXPECT_EQ(assess_conformity(fit_with({}, {1, 1, 1, 1, 1, 1, 1, 1, 1}, 15, 4.2), limits).model_check.outcome,
+  EXPECT_EQ(assess_conformity(fit_with({}, {1, 1, 1, 1, 1, 1, 1, 1, 1}, 15, 4.2), limits)
+                .model_check.outcome,
             Outcome::fail);
-  EXPECT_EQ(assess_conformity(fit_with({}, {1, 1, 1, 1, 1, 1, 1, 1, 1}, 15, 4.2), limits).overall, Outcome::fail);
-  EXPECT_EQ(assess_conformity(fit_with({}, {1, 1, 1, 1, 1, 1, 1, 1, 1}, 15, 1.1), limits).overall, Outcome::pass);
+  EXPECT_EQ(assess_conformity(fit_with({}, {1, 1, 1, 1, 1, 1, 1, 1, 1}, 15, 4.2), limits).overall,
+            Outcome::fail);
+  EXPECT_EQ(assess_conformity(fit_with({}, {1, 1, 1, 1, 1, 1, 1, 1, 1}, 15, 1.1), limits).overall,
+            Outcome::pass);
 }
 
 TEST(LimitsAssess, UnmeasuredLimitedParameterMakesTheVerdictIndeterminate) {
@@ -153,8 +160,8 @@ TEST(LimitsAssess, UnmeasuredLimitedParameterMakesTheVerdictIndeterminate) {
 
 TEST(LimitsAssess, JsonCarriesTheRuleAndEveryOutcome) {
   const UnitTypeLimits limits = limits_from_json(example_config(), "x").for_unit_type("QA-2000");
-  const json j = conformity_to_json(
-      assess_conformity(fit_with({50, -95, 130, 0, 0, 0, 0, 0, 0}, {5, 5, 5, 1, 1, 1, 1, 1, 1}), limits));
+  const json j = conformity_to_json(assess_conformity(
+      fit_with({50, -95, 130, 0, 0, 0, 0, 0, 0}, {5, 5, 5, 1, 1, 1, 1, 1, 1}), limits));
   EXPECT_EQ(j["parameters"]["bias_y"]["outcome"], "indeterminate");
   EXPECT_EQ(j["parameters"]["bias_x"]["outcome"], "pass");
   EXPECT_NEAR(j["parameters"]["bias_x"]["guarded_margin"].get<double>(), 40.0, 1e-9);
@@ -175,23 +182,28 @@ TEST(LimitsConfig, BadConfigsAreNamedByKey) {
   json doc = example_config();
   doc["unit_types"]["QA-2000"]["parameters"]["bias"]["max_abs"] = -3;
   EXPECT_EQ(config_error(doc),
-            "lab-limits.json: unit_types.QA-2000.parameters.bias.max_abs: must be a positive number (got -3)");
+            "lab-limits.json: unit_types.QA-2000.parameters.bias.max_abs: must be a positive "
+            "number (got -3)");
 
   doc = example_config();
   doc["unit_types"]["QA-2000"]["parameters"]["bais_x"] = json{{"max_abs", 1}};
-  EXPECT_NE(config_error(doc).find("unit_types.QA-2000.parameters.bais_x: unknown parameter"), std::string::npos);
+  EXPECT_NE(config_error(doc).find("unit_types.QA-2000.parameters.bais_x: unknown parameter"),
+            std::string::npos);
 
   doc = example_config();
   doc["unit_types"]["QA-2000"]["parameters"]["scale"]["max_abz"] = 1;
-  EXPECT_NE(config_error(doc).find("unit_types.QA-2000.parameters.scale.max_abz: unknown key"), std::string::npos);
+  EXPECT_NE(config_error(doc).find("unit_types.QA-2000.parameters.scale.max_abz: unknown key"),
+            std::string::npos);
 
   doc = example_config();
   doc["unit_types"]["QA-2000"]["max_chi2_dof"] = "3";
-  EXPECT_NE(config_error(doc).find("max_chi2_dof: must be a positive number (got \"3\")"), std::string::npos);
+  EXPECT_NE(config_error(doc).find("max_chi2_dof: must be a positive number (got \"3\")"),
+            std::string::npos);
 
   doc = example_config();
   doc["format"] = "standcal-limits/2";
-  EXPECT_NE(config_error(doc).find("lab-limits.json: format: must be \"standcal-limits/1\""), std::string::npos);
+  EXPECT_NE(config_error(doc).find("lab-limits.json: format: must be \"standcal-limits/1\""),
+            std::string::npos);
 
   doc = example_config();
   doc["unit_types"]["QA-2000"].erase("parameters");
@@ -199,7 +211,8 @@ TEST(LimitsConfig, BadConfigsAreNamedByKey) {
 
   doc = example_config();
   doc["unit_types"] = json::object();
-  EXPECT_NE(config_error(doc).find("unit_types: must name at least one unit type"), std::string::npos);
+  EXPECT_NE(config_error(doc).find("unit_types: must name at least one unit type"),
+            std::string::npos);
 }
 
 TEST(LimitsConfig, UnknownUnitTypeListsTheKnownOnes) {
@@ -210,7 +223,8 @@ TEST(LimitsConfig, UnknownUnitTypeListsTheKnownOnes) {
     config.for_unit_type("QA-9");
     FAIL() << "an unknown unit type must be an error";
   } catch (const std::runtime_error& e) {
-    EXPECT_STREQ(e.what(), "lab-limits.json: no limits for unit type 'QA-9' (known: QA-2000, QA-3000)");
+    EXPECT_STREQ(e.what(),
+                 "lab-limits.json: no limits for unit type 'QA-9' (known: QA-2000, QA-3000)");
   }
   EXPECT_THROW(config.for_unit_type(""), std::runtime_error) << "two types: the caller must choose";
 }

@@ -79,9 +79,9 @@ TEST(NoisePlot, CliDrawsEveryAxisWithItsReadings) {
                                     ("standcal-noise-plot-" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   write_recording(static_recording(), (dir / "static.csv").string());
-  const std::string cmd = std::string(STANDCAL_CLI_PATH) + " noise " + (dir / "static.csv").string() +
-                          " --json --plot " + (dir / "allan.svg").string() + " > " +
-                          (dir / "noise.json").string();
+  const std::string cmd = std::string(STANDCAL_CLI_PATH) + " noise " +
+                          (dir / "static.csv").string() + " --json --plot " +
+                          (dir / "allan.svg").string() + " > " + (dir / "noise.json").string();
   ASSERT_EQ(std::system(cmd.c_str()), 0);
   const std::string svg = read_text(dir / "allan.svg");
   const nlohmann::json j = nlohmann::json::parse(read_text(dir / "noise.json"));

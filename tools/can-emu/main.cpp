@@ -16,8 +16,8 @@
 #include <cstdio>
 #include <fstream>
 #include <optional>
-#include <sstream>
 #include <random>
+#include <sstream>
 #include <string>
 #include <vector>
 

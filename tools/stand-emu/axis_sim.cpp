@@ -14,12 +14,17 @@ using drivers::modbus::kFlagHomed;
 using drivers::modbus::kFlagStoppedByHeartbeat;
 
 AxisSim::AxisSim(AxisModel model, double start_deg, unsigned seed)
-    : model_(model), rng_(seed), x_(start_deg), p_(start_deg), goal_(start_deg),
+    : model_(model),
+      rng_(seed),
+      x_(start_deg),
+      p_(start_deg),
+      goal_(start_deg),
       reference_deg_(-model.unhomed_offset_deg) {}
 
 Refusal AxisSim::check(AxisCommand command, double target_deg) const {
   const bool motion = command == AxisCommand::move || command == AxisCommand::home;
-  if (estop_ && command != AxisCommand::none && command != AxisCommand::stop && command != AxisCommand::disable)
+  if (estop_ && command != AxisCommand::none && command != AxisCommand::stop &&
+      command != AxisCommand::disable)
     return Refusal::cannot_now;
   if (motion && (!enabled_ || fault_ != 0)) return Refusal::cannot_now;
   if (command == AxisCommand::move && ((model_.soft_min_deg && target_deg < *model_.soft_min_deg) ||
@@ -31,7 +36,8 @@ Refusal AxisSim::check(AxisCommand command, double target_deg) const {
 void AxisSim::command(AxisCommand command, double target_deg, double speed_dps) {
   ++command_count_;
   switch (command) {
-    case AxisCommand::none: break;
+    case AxisCommand::none:
+      break;
     case AxisCommand::enable:
       if (estop_) break;
       fault_ = 0;

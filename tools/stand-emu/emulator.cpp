@@ -33,9 +33,11 @@ std::runtime_error failure(const std::string& what) {
 
 }  // namespace
 
-Emulator::Emulator(EmulatorOptions options) : options_(std::move(options)), faults_(options_.faults) {
+Emulator::Emulator(EmulatorOptions options)
+    : options_(std::move(options)), faults_(options_.faults) {
   for (int i = 0; i < 2; ++i)
-    sims_.emplace_back(options_.axes[static_cast<std::size_t>(i)], options_.start_deg[static_cast<std::size_t>(i)],
+    sims_.emplace_back(options_.axes[static_cast<std::size_t>(i)],
+                       options_.start_deg[static_cast<std::size_t>(i)],
                        options_.seed + static_cast<unsigned>(i));
 }
 
@@ -54,7 +56,8 @@ std::string Emulator::open() {
   const auto& map = options_.map;
   mapping_ = modbus_mapping_new(0, 0, map.holding_size(), map.input_size());
   if (mapping_ == nullptr) throw failure("cannot allocate the register tables");
-  mapping_->tab_registers[map.heartbeat_timeout_ms] = static_cast<std::uint16_t>(options_.heartbeat_timeout_ms);
+  mapping_->tab_registers[map.heartbeat_timeout_ms] =
+      static_cast<std::uint16_t>(options_.heartbeat_timeout_ms);
   mapping_->tab_input_registers[map.map_version] = drivers::modbus::kMapVersion;
   if (url.transport == ModbusUrl::Transport::tcp) {
     ctx_ = modbus_new_tcp(url.host.c_str(), url.port);
@@ -151,11 +154,15 @@ void Emulator::watch_heartbeat() {
     heartbeat_lost_ = false;
   }
   const int timeout_ms = mapping_->tab_registers[options_.map.heartbeat_timeout_ms];
-  if (timeout_ms == 0 || heartbeat_lost_ || now - last_beat_ <= std::chrono::milliseconds(timeout_ms)) return;
+  if (timeout_ms == 0 || heartbeat_lost_ ||
+      now - last_beat_ <= std::chrono::milliseconds(timeout_ms))
+    return;
   heartbeat_lost_ = true;
   bool stopped = false;
   for (auto& s : sims_) stopped = s.stop_for_heartbeat_loss() || stopped;
-  if (stopped) std::fprintf(stderr, "standcal-stand-emu: no heartbeat for %d ms: motion stopped\n", timeout_ms);
+  if (stopped)
+    std::fprintf(stderr, "standcal-stand-emu: no heartbeat for %d ms: motion stopped\n",
+                 timeout_ms);
 }
 
 void Emulator::publish() {
@@ -187,7 +194,8 @@ void Emulator::poll_control_file() {
   std::vector<std::string> lines;
   for (std::string line; std::getline(text, line);) lines.push_back(line);
   std::string error;
-  if (!parse_faults(lines, faults_, error)) std::fprintf(stderr, "standcal-stand-emu: %s\n", error.c_str());
+  if (!parse_faults(lines, faults_, error))
+    std::fprintf(stderr, "standcal-stand-emu: %s\n", error.c_str());
 }
 
 // What a test asks the controller without being a Modbus master itself (an RTU line has
@@ -259,7 +267,8 @@ bool Emulator::serve_one(int fd) {
 int Emulator::refusal_exception(const std::uint8_t* query, int length) {
   const int header = modbus_get_header_length(ctx_);
   const int function = query[header];
-  std::vector<std::uint16_t> holding(mapping_->tab_registers, mapping_->tab_registers + mapping_->nb_registers);
+  std::vector<std::uint16_t> holding(mapping_->tab_registers,
+                                     mapping_->tab_registers + mapping_->nb_registers);
   std::vector<int> written;
   const auto write = [&](int address, std::uint16_t value) {
     if (address >= 0 && address < mapping_->nb_registers) {
@@ -277,9 +286,12 @@ int Emulator::refusal_exception(const std::uint8_t* query, int length) {
   } else {
     return 0;
   }
-  const auto was_written = [&](int address) { return std::find(written.begin(), written.end(), address) != written.end(); };
+  const auto was_written = [&](int address) {
+    return std::find(written.begin(), written.end(), address) != written.end();
+  };
   const auto& map = options_.map;
-  if (was_written(map.global_command) && holding[map.global_command] > static_cast<std::uint16_t>(GlobalCommand::reset))
+  if (was_written(map.global_command) &&
+      holding[map.global_command] > static_cast<std::uint16_t>(GlobalCommand::reset))
     return MODBUS_EXCEPTION_ILLEGAL_DATA_VALUE;
   const int timeout_ms = holding[map.heartbeat_timeout_ms];
   const bool heartbeat_stale = timeout_ms > 0 && !was_written(map.heartbeat) &&
@@ -288,15 +300,20 @@ int Emulator::refusal_exception(const std::uint8_t* query, int length) {
     const AxisRegisters& r = map.axes[static_cast<std::size_t>(i)];
     if (!was_written(r.command)) continue;
     const std::uint16_t command = holding[r.command];
-    if (command > static_cast<std::uint16_t>(AxisCommand::stop)) return MODBUS_EXCEPTION_ILLEGAL_DATA_VALUE;
+    if (command > static_cast<std::uint16_t>(AxisCommand::stop))
+      return MODBUS_EXCEPTION_ILLEGAL_DATA_VALUE;
     const auto axis_command = static_cast<AxisCommand>(command);
     const bool motion = axis_command == AxisCommand::move || axis_command == AxisCommand::home;
     if (motion && heartbeat_stale) return MODBUS_EXCEPTION_SLAVE_OR_SERVER_FAILURE;
-    const double target_deg = drivers::modbus::counts_to_angle_deg(map, drivers::modbus::get_i32(&holding[r.target], map.word_order));
+    const double target_deg = drivers::modbus::counts_to_angle_deg(
+        map, drivers::modbus::get_i32(&holding[r.target], map.word_order));
     switch (sim(i).check(axis_command, target_deg)) {
-      case Refusal::none: break;
-      case Refusal::cannot_now: return MODBUS_EXCEPTION_SLAVE_OR_SERVER_FAILURE;
-      case Refusal::bad_value: return MODBUS_EXCEPTION_ILLEGAL_DATA_VALUE;
+      case Refusal::none:
+        break;
+      case Refusal::cannot_now:
+        return MODBUS_EXCEPTION_SLAVE_OR_SERVER_FAILURE;
+      case Refusal::bad_value:
+        return MODBUS_EXCEPTION_ILLEGAL_DATA_VALUE;
     }
   }
   return 0;
@@ -308,8 +325,10 @@ void Emulator::act_on_commands() {
   for (int i = 0; i < 2; ++i) {
     const AxisRegisters& r = map.axes[static_cast<std::size_t>(i)];
     if (holding[r.command] == 0) continue;
-    const double target_deg = drivers::modbus::counts_to_angle_deg(map, drivers::modbus::get_i32(&holding[r.target], map.word_order));
-    sim(i).command(static_cast<AxisCommand>(holding[r.command]), target_deg, holding[r.speed] * map.speed_lsb_dps);
+    const double target_deg = drivers::modbus::counts_to_angle_deg(
+        map, drivers::modbus::get_i32(&holding[r.target], map.word_order));
+    sim(i).command(static_cast<AxisCommand>(holding[r.command]), target_deg,
+                   holding[r.speed] * map.speed_lsb_dps);
     holding[r.command] = 0;  // acted on
   }
   const auto global = static_cast<GlobalCommand>(holding[map.global_command]);

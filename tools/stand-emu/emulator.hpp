@@ -6,8 +6,8 @@
 #include <modbus.h>
 
 #include <array>
-#include <csignal>
 #include <chrono>
+#include <csignal>
 #include <string>
 #include <vector>
 
@@ -23,11 +23,11 @@ struct EmulatorOptions {
   drivers::modbus::RegisterMap map;
   std::array<AxisModel, 2> axes;
   std::array<double, 2> start_deg{12.5, -33.0};
-  double time_scale = 1.0;            // simulated seconds per wall-clock second
-  int heartbeat_timeout_ms = 1000;    // initial value of the watchdog register
+  double time_scale = 1.0;          // simulated seconds per wall-clock second
+  int heartbeat_timeout_ms = 1000;  // initial value of the watchdog register
   Faults faults;
-  std::string control_file;           // re-read when it changes; empty: none
-  std::string status_file;            // the axes' registers, rewritten every 50 ms; empty: none
+  std::string control_file;  // re-read when it changes; empty: none
+  std::string status_file;   // the axes' registers, rewritten every 50 ms; empty: none
   unsigned seed = 1;
 };
 
@@ -51,7 +51,7 @@ class Emulator {
   void publish();
   void poll_control_file();
   void write_status_file();
-  bool serve_one(int fd);                       // false: close this connection
+  bool serve_one(int fd);  // false: close this connection
   int refusal_exception(const std::uint8_t* query, int length);
   void act_on_commands();
   void send_corrupted(const std::uint8_t* query, int length);

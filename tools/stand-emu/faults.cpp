@@ -8,9 +8,12 @@ namespace standcal::emu {
 namespace {
 
 bool axis_index(const std::string& name, int& index) {
-  if (name == "outer" || name == "1") index = 0;
-  else if (name == "inner" || name == "2") index = 1;
-  else return false;
+  if (name == "outer" || name == "1")
+    index = 0;
+  else if (name == "inner" || name == "2")
+    index = 1;
+  else
+    return false;
   return true;
 }
 
@@ -29,7 +32,8 @@ bool parse_line(const std::string& line, Faults& f) {
     f.slow[static_cast<std::size_t>(axis)] = factor;
   } else if (word == "overshoot") {
     double deg = 0;
-    if (!(in >> axis_name >> deg) || !axis_index(axis_name, axis) || !(deg >= 0.0 && deg <= 4.0)) return false;
+    if (!(in >> axis_name >> deg) || !axis_index(axis_name, axis) || !(deg >= 0.0 && deg <= 4.0))
+      return false;
     f.overshoot_deg[static_cast<std::size_t>(axis)] = deg;
   } else if (word == "delay_ms") {
     if (!(in >> f.delay_ms) || f.delay_ms < 0) return false;

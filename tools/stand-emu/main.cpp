@@ -27,8 +27,8 @@ void apply_soft_limit(const std::string& text, std::array<standcal::emu::AxisMod
   std::string axis;
   double low = 0, high = 0;
   char colon = 0;
-  if (!std::getline(in, axis, ':') || !(in >> low >> colon >> high) || colon != ':' || low >= high ||
-      (axis != "outer" && axis != "inner"))
+  if (!std::getline(in, axis, ':') || !(in >> low >> colon >> high) || colon != ':' ||
+      low >= high || (axis != "outer" && axis != "inner"))
     throw std::runtime_error("bad --soft-limit '" + text + "' (use outer:-90:90)");
   auto& model = axes[axis == "outer" ? 0 : 1];
   model.soft_min_deg = low;
@@ -44,9 +44,11 @@ int main(int argc, char** argv) {
   std::vector<std::string> soft_limits, fault_lines;
   standcal::emu::EmulatorOptions options;
   double max_speed_dps = 30.0, accel_dps2 = 90.0, noise_deg = 0.00003;
-  app.add_option("--listen", listen, "tcp://IP:PORT (port 0: any free port) or rtu:/dev/tty...?baud=..&unit=..")
+  app.add_option("--listen", listen,
+                 "tcp://IP:PORT (port 0: any free port) or rtu:/dev/tty...?baud=..&unit=..")
       ->required();
-  app.add_option("--config", config_path, "stand config JSON: its register map and scaling are served");
+  app.add_option("--config", config_path,
+                 "stand config JSON: its register map and scaling are served");
   app.add_option("--time-scale", options.time_scale,
                  "simulated seconds per real second (speeds up motion)")
       ->check(standcal::cli_checks::kPositive);
@@ -58,13 +60,17 @@ int main(int argc, char** argv) {
       ->check(standcal::cli_checks::kNonNegative);
   app.add_option("--start-outer-deg", options.start_deg[0], "outer axis angle at power-up");
   app.add_option("--start-inner-deg", options.start_deg[1], "inner axis angle at power-up");
-  app.add_option("--soft-limit", soft_limits, "AXIS:MIN:MAX soft limits of commanded angles, e.g. inner:-170:170");
-  app.add_option("--heartbeat-timeout-ms", options.heartbeat_timeout_ms, "initial watchdog timeout (0: off)")
+  app.add_option("--soft-limit", soft_limits,
+                 "AXIS:MIN:MAX soft limits of commanded angles, e.g. inner:-170:170");
+  app.add_option("--heartbeat-timeout-ms", options.heartbeat_timeout_ms,
+                 "initial watchdog timeout (0: off)")
       ->check(CLI::Range(0, 65535));
   app.add_option("--fault", fault_lines,
-                 "inject a fault: 'stuck AXIS', 'slow AXIS F', 'overshoot AXIS DEG', 'drive_fault AXIS', 'delay_ms N [N]', "
+                 "inject a fault: 'stuck AXIS', 'slow AXIS F', 'overshoot AXIS DEG', 'drive_fault "
+                 "AXIS', 'delay_ms N [N]', "
                  "'exception CODE [N]', 'drop [N]', 'corrupt [N]'");
-  app.add_option("--control", control, "control file of fault lines, re-read when it changes (replaces --fault)");
+  app.add_option("--control", control,
+                 "control file of fault lines, re-read when it changes (replaces --fault)");
   app.add_option("--status-file", options.status_file,
                  "write the axes' state, flags, angle and fault registers here every 50 ms");
   app.add_option("--seed", options.seed, "seed of the encoder noise");
@@ -84,7 +90,8 @@ int main(int argc, char** argv) {
     }
     for (const auto& text : soft_limits) apply_soft_limit(text, options.axes);
     std::string error;
-    if (!standcal::emu::parse_faults(fault_lines, options.faults, error)) throw std::runtime_error(error);
+    if (!standcal::emu::parse_faults(fault_lines, options.faults, error))
+      throw std::runtime_error(error);
     options.control_file = control;
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);

@@ -82,7 +82,8 @@ FitResult fit_with(const FitOptions& o, const std::string& method,
   if (method == "full") {
     FullFitOptions full;
     full.noise = noise_weighting(o);
-    full.mounting = o.mounting == "per-mount" ? MountingModel::per_mount : MountingModel::common_fixture;
+    full.mounting =
+        o.mounting == "per-mount" ? MountingModel::per_mount : MountingModel::common_fixture;
     return fit_full_vector(averages, full);
   }
   throw std::runtime_error("unknown fit method '" + method +

@@ -129,8 +129,8 @@ void run_certificate(const CertificateCliOptions& o) {
   const report::CertificateInput input = report::prepare_certificate(o.request);
   const std::string html = report::render_certificate_html(input);
   write_certificate(o.output, ends_with(o.output, ".pdf") ? render_pdf(html) : html);
-  const std::string verdict =
-      input.conformity ? records::outcome_name(input.conformity->overall) : std::string("no limits applied");
+  const std::string verdict = input.conformity ? records::outcome_name(input.conformity->overall)
+                                               : std::string("no limits applied");
   if (input.conformity) set_exit_code(conformity_exit_code(input.conformity->overall));
   std::fprintf(stderr, "certificate for %s written to %s (%s); certificate number %s\n",
                input.trace.unit_serial.empty() ? "(no serial)" : input.trace.unit_serial.c_str(),
@@ -140,18 +140,21 @@ void run_certificate(const CertificateCliOptions& o) {
 void add_certificate_commands(CLI::App& app) {
   auto opts = std::make_shared<CertificateCliOptions>();
   opts->request.state_dir = paths::kStateDir;  // the daemon's default
-  CLI::App* cmd = app.add_subcommand("certificate", "write the calibration certificate of a run (HTML)");
+  CLI::App* cmd =
+      app.add_subcommand("certificate", "write the calibration certificate of a run (HTML)");
   cmd->add_option("run_id", opts->request.run_id, "run id (STATE/runs/RUN_ID); or use --recording");
   cmd->add_option("--state-dir", opts->request.state_dir, "the daemon's state directory")
       ->capture_default_str();
-  cmd->add_option("--recording", opts->request.recording_path,
-                  "certify an imported / offline recording (standcal-recording/1 CSV) instead of a run")
+  cmd->add_option(
+         "--recording", opts->request.recording_path,
+         "certify an imported / offline recording (standcal-recording/1 CSV) instead of a run")
       ->check(CLI::ExistingFile);
   cmd->add_option(
          "-o,--output", opts->output,
          "certificate to write (.html, or .pdf rendered by WeasyPrint; - for standard output)")
       ->required();
-  cmd->add_option("--limits", opts->request.limits_path, "acceptance limits (standcal-limits/1 JSON)")
+  cmd->add_option("--limits", opts->request.limits_path,
+                  "acceptance limits (standcal-limits/1 JSON)")
       ->check(CLI::ExistingFile);
   cmd->add_option(
          "--budget", opts->request.budget_path,
@@ -175,8 +178,9 @@ void add_certificate_commands(CLI::App& app) {
   cmd->add_option("--method", opts->request.method, "certified estimator: joint (invariant) | full")
       ->check(CLI::IsMember({"joint", "full"}))
       ->capture_default_str();
-  cmd->add_flag("--diagnose", opts->request.diagnose,
-                "run the model-mismatch diagnosis now (else RUN_DIR/diagnosis.json is used if present)");
+  cmd->add_flag(
+      "--diagnose", opts->request.diagnose,
+      "run the model-mismatch diagnosis now (else RUN_DIR/diagnosis.json is used if present)");
   cmd->callback([opts] { run_certificate(*opts); });
 }
 

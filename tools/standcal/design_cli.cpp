@@ -69,16 +69,22 @@ void add_design_flags(CLI::App* cmd, DesignFlags& f) {
   cmd->add_option("--noise-density-ug-rthz", f.settings.noise_density_ug_rthz,
                   "white noise density of the unit, ug/sqrt(Hz) (see `standcal noise`)")
       ->capture_default_str();
-  cmd->add_option("--settle-s", f.settings.settle_s, "settle time per position, s")->capture_default_str();
-  cmd->add_option("--move-rate-deg-s", f.settings.move_rate_deg_s, "stand slew rate, deg/s")->capture_default_str();
-  cmd->add_option("--remount-s", f.settings.remount_s, "operator time per re-mount, s")->capture_default_str();
-  cmd->add_option("--model", f.model,
-                  "invariant | full | auto (invariant unless it cannot see every parameter, e.g. classic24)")
+  cmd->add_option("--settle-s", f.settings.settle_s, "settle time per position, s")
       ->capture_default_str();
-  cmd->add_option("--mounting", f.mounting,
-                  "full model: common (unit in one rigid fixture) | per-mount (independent re-mount errors)")
+  cmd->add_option("--move-rate-deg-s", f.settings.move_rate_deg_s, "stand slew rate, deg/s")
       ->capture_default_str();
-  cmd->add_option("--limits", f.limits, "stand ranges, e.g. alpha1=-180:180,alpha2=-90:270 (default: continuous)");
+  cmd->add_option("--remount-s", f.settings.remount_s, "operator time per re-mount, s")
+      ->capture_default_str();
+  cmd->add_option(
+         "--model", f.model,
+         "invariant | full | auto (invariant unless it cannot see every parameter, e.g. classic24)")
+      ->capture_default_str();
+  cmd->add_option(
+         "--mounting", f.mounting,
+         "full model: common (unit in one rigid fixture) | per-mount (independent re-mount errors)")
+      ->capture_default_str();
+  cmd->add_option("--limits", f.limits,
+                  "stand ranges, e.g. alpha1=-180:180,alpha2=-90:270 (default: continuous)");
   cmd->add_flag("--json", f.json, "machine-readable output");
 }
 
@@ -99,7 +105,8 @@ AxisRange parse_axis_range(const std::string& item, const std::string& text) {
       !whole_number(std::string_view(text).substr(colon + 1), r.max_deg))
     throw std::runtime_error("--limits '" + item +
                              "': expected MIN:MAX in degrees or 'continuous'");
-  if (!(r.max_deg > r.min_deg)) throw std::runtime_error("--limits '" + item + "': MAX must exceed MIN");
+  if (!(r.max_deg > r.min_deg))
+    throw std::runtime_error("--limits '" + item + "': MAX must exceed MIN");
   return r;
 }
 
@@ -112,7 +119,8 @@ StandLimits parse_limits(const std::string& text) {
     const auto eq = item.find('=');
     const std::string key = item.substr(0, eq);
     if (eq == std::string::npos || (key != "alpha1" && key != "alpha2"))
-      throw std::runtime_error("--limits '" + item + "': expected alpha1=MIN:MAX or alpha2=MIN:MAX");
+      throw std::runtime_error("--limits '" + item +
+                               "': expected alpha1=MIN:MAX or alpha2=MIN:MAX");
     (key == "alpha1" ? limits.alpha1 : limits.alpha2) = parse_axis_range(item, item.substr(eq + 1));
   }
   return limits;
@@ -128,11 +136,13 @@ MountingModel parse_mounting(const std::string& text) {
 DesignModel choose_model(const Program& program, const std::string& requested, std::string& note) {
   if (requested == "invariant") return DesignModel::invariant;
   if (requested == "full") return DesignModel::full;
-  if (requested != "auto") throw std::runtime_error("--model '" + requested + "': expected invariant, full or auto");
+  if (requested != "auto")
+    throw std::runtime_error("--model '" + requested + "': expected invariant, full or auto");
   const DesignBasis inv = design_basis(poses_of(program), DesignModel::invariant);
   for (int i = 0; i < kUnitParameterCount; ++i) {
     if (inv.unit_column[i] < 0) {
-      note = program.name + " is evaluated with the full model: the invariant model cannot see its " +
+      note = program.name +
+             " is evaluated with the full model: the invariant model cannot see its " +
              std::string(kUnitParameterNames[i]) + " (" + inv.unobservable_reason[i] + ")";
       return DesignModel::full;
     }
@@ -141,13 +151,14 @@ DesignModel choose_model(const Program& program, const std::string& requested, s
 }
 
 json time_json(const BenchTime& t) {
-  return {{"move_s", t.move_s}, {"settle_s", t.settle_s}, {"dwell_s", t.dwell_s},
+  return {{"move_s", t.move_s},     {"settle_s", t.settle_s},   {"dwell_s", t.dwell_s},
           {"remounts", t.remounts}, {"remount_s", t.remount_s}, {"total_s", t.total_s()}};
 }
 
 std::string format_time(const BenchTime& t) {
   char buf[256];
-  std::snprintf(buf, sizeof buf, "%.0f s (moves %.0f s + settle %.0f s + dwell %.0f s + %d re-mount(s) %.0f s)",
+  std::snprintf(buf, sizeof buf,
+                "%.0f s (moves %.0f s + settle %.0f s + dwell %.0f s + %d re-mount(s) %.0f s)",
                 t.total_s(), t.move_s, t.settle_s, t.dwell_s, t.remounts, t.remount_s);
   return buf;
 }
@@ -167,8 +178,12 @@ void run_evaluate(const EvaluateOptions& o) {
   json params = json::object();
   for (int i = 0; i < kUnitParameterCount; ++i) {
     const std::string name(kUnitParameterNames[i]);
-    if (ev.unit_sigma[i]) params[name] = {{"sigma", *ev.unit_sigma[i]}, {"unit", kUnitParameterUnits[i]}};
-    else params[name] = {{"sigma", nullptr}, {"unit", kUnitParameterUnits[i]}, {"reason", ev.unobservable_reason[i]}};
+    if (ev.unit_sigma[i])
+      params[name] = {{"sigma", *ev.unit_sigma[i]}, {"unit", kUnitParameterUnits[i]}};
+    else
+      params[name] = {{"sigma", nullptr},
+                      {"unit", kUnitParameterUnits[i]},
+                      {"reason", ev.unobservable_reason[i]}};
   }
   std::vector<std::string> notes = ev.notes;
   if (!model_note.empty()) notes.insert(notes.begin(), model_note);
@@ -179,32 +194,46 @@ void run_evaluate(const EvaluateOptions& o) {
       for (int c = 0; c < ev.information.cols(); ++c) row.push_back(ev.information(r, c));
       info.push_back(row);
     }
-    print_json({{"program", program.name}, {"positions", program.positions.size()},
-                {"model", design_model_name(model)}, {"noise_density_ug_rthz", settings.noise_density_ug_rthz},
-                {"dwell_s", ev.dwell_s}, {"parameters", params}, {"d_criterion", ev.d_criterion},
+    print_json({{"program", program.name},
+                {"positions", program.positions.size()},
+                {"model", design_model_name(model)},
+                {"noise_density_ug_rthz", settings.noise_density_ug_rthz},
+                {"dwell_s", ev.dwell_s},
+                {"parameters", params},
+                {"d_criterion", ev.d_criterion},
                 {"a_criterion", ev.a_criterion},
-                {"information", {{"parameters", ev.parameter_names}, {"units", "internal (g, 1, rad), per g^2"},
-                                 {"matrix", info}}},
-                {"notes", notes}, {"bench_time", time_json(ev.time)}});
+                {"information",
+                 {{"parameters", ev.parameter_names},
+                  {"units", "internal (g, 1, rad), per g^2"},
+                  {"matrix", info}}},
+                {"notes", notes},
+                {"bench_time", time_json(ev.time)}});
     return;
   }
-  std::printf("programme %s: %zu positions, %s model, noise %.3g ug/sqrt(Hz), settle %.3g s, move %.3g deg/s\n",
-              program.name.c_str(), program.positions.size(), design_model_name(model).c_str(),
-              settings.noise_density_ug_rthz, settings.settle_s, settings.move_rate_deg_s);
-  std::printf("\npredicted 1 sigma for the dwells given (first position %.3g s):\n", ev.dwell_s.front());
+  std::printf(
+      "programme %s: %zu positions, %s model, noise %.3g ug/sqrt(Hz), settle %.3g s, move %.3g "
+      "deg/s\n",
+      program.name.c_str(), program.positions.size(), design_model_name(model).c_str(),
+      settings.noise_density_ug_rthz, settings.settle_s, settings.move_rate_deg_s);
+  std::printf("\npredicted 1 sigma for the dwells given (first position %.3g s):\n",
+              ev.dwell_s.front());
   for (int i = 0; i < kUnitParameterCount; ++i) {
     if (ev.unit_sigma[i])
-      std::printf("  %-8s %10.3f %s\n", std::string(kUnitParameterNames[i]).c_str(), *ev.unit_sigma[i],
-                  std::string(kUnitParameterUnits[i]).c_str());
+      std::printf("  %-8s %10.3f %s\n", std::string(kUnitParameterNames[i]).c_str(),
+                  *ev.unit_sigma[i], std::string(kUnitParameterUnits[i]).c_str());
     else
       std::printf("  %-8s %10s  %s\n", std::string(kUnitParameterNames[i]).c_str(), "-",
                   ev.unobservable_reason[i].c_str());
   }
-  std::printf("\nD-criterion det(M_unit)^(1/9) = %.5g, A-criterion trace(M_unit^-1) = %.5g\n", ev.d_criterion,
-              ev.a_criterion);
-  std::printf("  (per unit measurement variance, one measurement per position; larger D / smaller A is better)\n");
+  std::printf("\nD-criterion det(M_unit)^(1/9) = %.5g, A-criterion trace(M_unit^-1) = %.5g\n",
+              ev.d_criterion, ev.a_criterion);
+  std::printf(
+      "  (per unit measurement variance, one measurement per position; larger D / smaller A is "
+      "better)\n");
   std::printf("bench time: %s\n", format_time(ev.time).c_str());
-  std::printf("\ninformation matrix (parameters in g, 1 and rad; for these dwells and noise), rows/columns:\n ");
+  std::printf(
+      "\ninformation matrix (parameters in g, 1 and rad; for these dwells and noise), "
+      "rows/columns:\n ");
   for (const auto& n : ev.parameter_names) std::printf(" %s;", n.c_str());
   std::printf("\n");
   // Entries at rounding level of the largest are exact zeros of the design: print them so.
@@ -233,8 +262,8 @@ struct ProgrammeDwell {
   BenchTime equal_time, allocated_time;
 };
 
-ProgrammeDwell dwell_for(const Program& program, const std::string& requested_model, const AccuracyTarget& target,
-                         const DesignSettings& settings) {
+ProgrammeDwell dwell_for(const Program& program, const std::string& requested_model,
+                         const AccuracyTarget& target, const DesignSettings& settings) {
   ProgrammeDwell d;
   d.name = program.name;
   d.model = choose_model(program, requested_model, d.note);
@@ -256,33 +285,39 @@ json dwell_json(const ProgrammeDwell& d) {
     j["reason"] = d.equal.reason;
     return j;
   }
-  j["equal"] = {{"dwell_per_position_s", d.equal.dwell_s.front()}, {"total_dwell_s", d.equal.total_dwell_s},
-                {"limiting_parameter", d.equal.limiting_parameter}, {"bench_time", time_json(d.equal_time)}};
-  j["allocated"] = {{"dwell_s", d.allocated.dwell_s}, {"total_dwell_s", d.allocated.total_dwell_s},
+  j["equal"] = {{"dwell_per_position_s", d.equal.dwell_s.front()},
+                {"total_dwell_s", d.equal.total_dwell_s},
+                {"limiting_parameter", d.equal.limiting_parameter},
+                {"bench_time", time_json(d.equal_time)}};
+  j["allocated"] = {{"dwell_s", d.allocated.dwell_s},
+                    {"total_dwell_s", d.allocated.total_dwell_s},
                     {"bench_time", time_json(d.allocated_time)}};
   return j;
 }
 
 void print_dwell_row(const ProgrammeDwell& d) {
   if (!d.equal.feasible) {
-    std::printf("  %-28s %-9s cannot reach the target: %s\n", d.name.c_str(), design_model_name(d.model).c_str(),
-                d.equal.reason.c_str());
+    std::printf("  %-28s %-9s cannot reach the target: %s\n", d.name.c_str(),
+                design_model_name(d.model).c_str(), d.equal.reason.c_str());
     return;
   }
-  std::printf("  %-28s %-9s %8.1f %8.1f (%-8s) %8.1f %8.0f %8.0f\n", d.name.c_str(), design_model_name(d.model).c_str(),
-              d.equal.dwell_s.front(), d.equal.total_dwell_s, d.equal.limiting_parameter.c_str(),
-              d.allocated.total_dwell_s, d.equal_time.total_s(), d.allocated_time.total_s());
+  std::printf("  %-28s %-9s %8.1f %8.1f (%-8s) %8.1f %8.0f %8.0f\n", d.name.c_str(),
+              design_model_name(d.model).c_str(), d.equal.dwell_s.front(), d.equal.total_dwell_s,
+              d.equal.limiting_parameter.c_str(), d.allocated.total_dwell_s, d.equal_time.total_s(),
+              d.allocated_time.total_s());
 }
 
 void print_dwell_header(const AccuracyTarget& t, const DesignSettings& s) {
-  std::printf("target 1 sigma: bias %.3g ug, scale %.3g ppm, gamma %.3g arcsec; noise %.3g ug/sqrt(Hz); settle %.3g s, "
-              "move %.3g deg/s, re-mount %.3g s\n\n",
-              t.bias_ug, t.scale_ppm, t.gamma_arcsec, s.noise_density_ug_rthz, s.settle_s, s.move_rate_deg_s,
-              s.remount_s);
-  std::printf("  %-28s %-9s %8s %8s %10s %8s %8s %8s\n", "programme", "model", "dwell/pos", "equal", "(limiting)",
-              "alloc", "bench=", "bench~");
-  std::printf("  %-28s %-9s %8s %8s %10s %8s %8s %8s\n", "", "", "s", "total s", "", "total s", "equal s",
-              "alloc s");
+  std::printf(
+      "target 1 sigma: bias %.3g ug, scale %.3g ppm, gamma %.3g arcsec; noise %.3g ug/sqrt(Hz); "
+      "settle %.3g s, "
+      "move %.3g deg/s, re-mount %.3g s\n\n",
+      t.bias_ug, t.scale_ppm, t.gamma_arcsec, s.noise_density_ug_rthz, s.settle_s,
+      s.move_rate_deg_s, s.remount_s);
+  std::printf("  %-28s %-9s %8s %8s %10s %8s %8s %8s\n", "programme", "model", "dwell/pos", "equal",
+              "(limiting)", "alloc", "bench=", "bench~");
+  std::printf("  %-28s %-9s %8s %8s %10s %8s %8s %8s\n", "", "", "s", "total s", "", "total s",
+              "equal s", "alloc s");
 }
 
 void run_optimize(const OptimizeCliOptions& o) {
@@ -294,10 +329,13 @@ void run_optimize(const OptimizeCliOptions& o) {
   if (o.flags.model != "full" && o.flags.model != "invariant" && o.flags.model != "auto")
     throw std::runtime_error("--model '" + o.flags.model + "': expected invariant or full");
   if (!o.structure.empty() && o.structure != "paper")
-    throw std::runtime_error("--structure '" + o.structure + "': the only structure known is 'paper'");
+    throw std::runtime_error("--structure '" + o.structure +
+                             "': the only structure known is 'paper'");
   opt.paper_structure = o.structure == "paper";
-  if (!o.flags.limits.empty()) opt.limits = parse_limits(o.flags.limits);
-  else opt.limits.alpha1.continuous = opt.limits.alpha2.continuous = true;
+  if (!o.flags.limits.empty())
+    opt.limits = parse_limits(o.flags.limits);
+  else
+    opt.limits.alpha1.continuous = opt.limits.alpha2.continuous = true;
   opt.restarts = o.restarts;
   opt.seed = o.seed;
   const OptimizedProgram best = optimize_program(opt);
@@ -319,14 +357,22 @@ void run_optimize(const OptimizeCliOptions& o) {
     json positions = json::array();
     for (std::size_t k = 0; k < best.program.positions.size(); ++k) {
       const auto& p = best.program.positions[k];
-      positions.push_back({{"alpha1_deg", p.alpha1_deg}, {"alpha2_deg", p.alpha2_deg},
-                           {"allocated_dwell_s", k < dwell.allocated.dwell_s.size() ? dwell.allocated.dwell_s[k] : 0.0}});
+      positions.push_back(
+          {{"alpha1_deg", p.alpha1_deg},
+           {"alpha2_deg", p.alpha2_deg},
+           {"allocated_dwell_s",
+            k < dwell.allocated.dwell_s.size() ? dwell.allocated.dwell_s[k] : 0.0}});
     }
-    print_json({{"program", best.program.name}, {"model", model_name}, {"structure", o.structure.empty() ? "none" : o.structure},
-                {"positions", positions}, {"d_criterion", best.d_criterion},
-                {"paper9_d_criterion", best.paper9_d_criterion}, {"gain_vs_paper9", gain},
+    print_json({{"program", best.program.name},
+                {"model", model_name},
+                {"structure", o.structure.empty() ? "none" : o.structure},
+                {"positions", positions},
+                {"d_criterion", best.d_criterion},
+                {"paper9_d_criterion", best.paper9_d_criterion},
+                {"gain_vs_paper9", gain},
                 {"gain_per_position_vs_paper9", per_position_gain},
-                {"dwell_for_target", dwell_json(dwell)}, {"paper9_dwell_for_target", dwell_json(paper)}});
+                {"dwell_for_target", dwell_json(dwell)},
+                {"paper9_dwell_for_target", dwell_json(paper)}});
     return;
   }
   std::printf("D-optimal programme (%s model%s, %zu positions):\n", model_name.c_str(),
@@ -340,13 +386,15 @@ void run_optimize(const OptimizeCliOptions& o) {
   std::printf("\nD-criterion det^(1/9) = %.5f; paper9: %.5f; gain %+.1f %%\n", best.d_criterion,
               best.paper9_d_criterion, 100 * (gain - 1));
   if (best.program.positions.size() != paper9().positions.size())
-    std::printf("  per position (information per measurement, fair for different counts): %+.1f %%\n",
-                100 * (per_position_gain - 1));
+    std::printf(
+        "  per position (information per measurement, fair for different counts): %+.1f %%\n",
+        100 * (per_position_gain - 1));
   std::printf("\n");
   print_dwell_header(target, settings);
   print_dwell_row(paper);
   print_dwell_row(dwell);
-  if (!o.program_out.empty()) std::printf("\nprogramme with allocated dwells written to %s\n", o.program_out.c_str());
+  if (!o.program_out.empty())
+    std::printf("\nprogramme with allocated dwells written to %s\n", o.program_out.c_str());
 }
 
 void run_compare(const CompareOptions& o) {
@@ -354,8 +402,10 @@ void run_compare(const CompareOptions& o) {
   settings.mounting = parse_mounting(o.flags.mounting);
   const AccuracyTarget target = parse_accuracy_target(o.target);
   StandLimits limits;
-  if (!o.flags.limits.empty()) limits = parse_limits(o.flags.limits);
-  else limits.alpha1.continuous = limits.alpha2.continuous = true;
+  if (!o.flags.limits.empty())
+    limits = parse_limits(o.flags.limits);
+  else
+    limits.alpha1.continuous = limits.alpha2.continuous = true;
   std::vector<Program> programs;
   for (const auto& name : o.programs) programs.push_back(load_program(name));
   if (o.with_optimal > 0) {
@@ -368,10 +418,14 @@ void run_compare(const CompareOptions& o) {
   for (const auto& p : programs) rows.push_back(dwell_for(p, o.flags.model, target, settings));
   std::map<DesignModel, double> bound;
   for (const auto& r : rows)
-    if (!bound.count(r.model)) bound[r.model] = continuous_lower_bound_s(r.model, target, settings, limits);
+    if (!bound.count(r.model))
+      bound[r.model] = continuous_lower_bound_s(r.model, target, settings, limits);
 
   if (o.flags.json) {
-    json j = {{"target", {{"bias_ug", target.bias_ug}, {"scale_ppm", target.scale_ppm}, {"gamma_arcsec", target.gamma_arcsec}}},
+    json j = {{"target",
+               {{"bias_ug", target.bias_ug},
+                {"scale_ppm", target.scale_ppm},
+                {"gamma_arcsec", target.gamma_arcsec}}},
               {"noise_density_ug_rthz", settings.noise_density_ug_rthz}};
     for (const auto& r : rows) j["programs"].push_back(dwell_json(r));
     for (const auto& [m, s] : bound) j["lower_bound_total_dwell_s"][design_model_name(m)] = s;
@@ -380,12 +434,15 @@ void run_compare(const CompareOptions& o) {
   }
   print_dwell_header(target, settings);
   for (const auto& r : rows) print_dwell_row(r);
-  std::printf("\nlower bound (continuous optimal design over the stand's reachable poses, one mount):\n");
+  std::printf(
+      "\nlower bound (continuous optimal design over the stand's reachable poses, one mount):\n");
   for (const auto& [m, s] : bound)
     std::printf("  %-9s model: %.1f s of total dwell\n", design_model_name(m).c_str(), s);
   for (const auto& r : rows)
     if (!r.note.empty()) std::printf("note: %s\n", r.note.c_str());
-  std::printf("(bench= / bench~: total bench time with equal / allocated dwells, moves, settle and re-mounts)\n");
+  std::printf(
+      "(bench= / bench~: total bench time with equal / allocated dwells, moves, settle and "
+      "re-mounts)\n");
 }
 
 // ---- noise ---------------------------------------------------------------------------
@@ -405,8 +462,8 @@ void run_noise(const NoiseOptions& o) {
     std::ostringstream out;
     out << "tau_s,adev_x_ug,adev_y_ug,adev_z_ug\n";
     for (std::size_t i = 0; i < curves[0].size(); ++i)
-      out << curves[0][i].tau_s << "," << curves[0][i].deviation << "," << curves[1][i].deviation << ","
-          << curves[2][i].deviation << "\n";
+      out << curves[0][i].tau_s << "," << curves[0][i].deviation << "," << curves[1][i].deviation
+          << "," << curves[2][i].deviation << "\n";
     write_file_atomically(o.curve_out, out.str(), "the Allan curve");
   }
   if (!o.plot_out.empty()) {
@@ -420,7 +477,8 @@ void run_noise(const NoiseOptions& o) {
     json j = {{"recording", o.recording}, {"sample_period_s", tau0}, {"segments", allan.segments}};
     for (int a = 0; a < 3; ++a) {
       json curve = json::array();
-      for (const auto& p : curves[a]) curve.push_back({{"tau_s", p.tau_s}, {"adev_ug", p.deviation}});
+      for (const auto& p : curves[a])
+        curve.push_back({{"tau_s", p.tau_s}, {"adev_ug", p.deviation}});
       j["axes"][axis_names[a]] = {{"noise_density_ug_rthz", opt(figures[a].white_density)},
                                   {"bias_instability_ug", opt(figures[a].bias_instability)},
                                   {"bias_instability_tau_s", figures[a].bias_instability_tau_s},
@@ -432,60 +490,82 @@ void run_noise(const NoiseOptions& o) {
   }
   std::printf("%s: %zu samples every %.4g s in %zu static segment(s)\n", o.recording.c_str(),
               digest.samples, tau0, allan.segments);
-  std::printf("  %-4s %22s %26s %22s\n", "axis", "noise density ug/rtHz", "bias instability ug (tau)", "random walk ug/rt(s)");
+  std::printf("  %-4s %22s %26s %22s\n", "axis", "noise density ug/rtHz",
+              "bias instability ug (tau)", "random walk ug/rt(s)");
   auto cell = [](const std::optional<double>& v) {
     char b[32];
-    if (v) std::snprintf(b, sizeof b, "%.3g", *v);
-    else std::snprintf(b, sizeof b, "not seen");
+    if (v)
+      std::snprintf(b, sizeof b, "%.3g", *v);
+    else
+      std::snprintf(b, sizeof b, "not seen");
     return std::string(b);
   };
   for (int a = 0; a < 3; ++a) {
     char tau[32] = "";
-    if (figures[a].bias_instability) std::snprintf(tau, sizeof tau, " (%.3g s)", figures[a].bias_instability_tau_s);
+    if (figures[a].bias_instability)
+      std::snprintf(tau, sizeof tau, " (%.3g s)", figures[a].bias_instability_tau_s);
     std::printf("  %-4s %22s %26s %22s\n", axis_names[a], cell(figures[a].white_density).c_str(),
-                (cell(figures[a].bias_instability) + tau).c_str(), cell(figures[a].random_walk).c_str());
+                (cell(figures[a].bias_instability) + tau).c_str(),
+                cell(figures[a].random_walk).c_str());
   }
   std::printf("use the noise density with `standcal design ... --noise-density-ug-rthz N`\n");
 }
 
 void add_design_commands(CLI::App& app) {
-  CLI::App* design = app.add_subcommand("design", "experiment design: evaluate, optimise and compare programmes");
+  CLI::App* design =
+      app.add_subcommand("design", "experiment design: evaluate, optimise and compare programmes");
   design->require_subcommand(1);
 
   auto ev = std::make_shared<EvaluateOptions>();
-  CLI::App* evaluate = design->add_subcommand("evaluate", "predicted accuracy, criteria and bench time of a programme");
-  evaluate->add_option("program", ev->program, "paper9, classic24 or a programme JSON file")->required();
-  evaluate->add_option("--dwell-s", ev->flags.settings.dwell_s, "dwell per position unless the programme says")
+  CLI::App* evaluate = design->add_subcommand(
+      "evaluate", "predicted accuracy, criteria and bench time of a programme");
+  evaluate->add_option("program", ev->program, "paper9, classic24 or a programme JSON file")
+      ->required();
+  evaluate
+      ->add_option("--dwell-s", ev->flags.settings.dwell_s,
+                   "dwell per position unless the programme says")
       ->capture_default_str();
   add_design_flags(evaluate, ev->flags);
   evaluate->callback([ev] { run_evaluate(*ev); });
 
   auto op = std::make_shared<OptimizeCliOptions>();
-  CLI::App* optimize = design->add_subcommand("optimize", "D-optimal programme over the stand's reachable angles");
+  CLI::App* optimize =
+      design->add_subcommand("optimize", "D-optimal programme over the stand's reachable angles");
   optimize->add_option("--positions", op->positions, "number of positions")->capture_default_str();
-  optimize->add_option("--structure", op->structure, "paper: 5 at alpha2=0, 3 at alpha1=0, one at (45, 90)");
-  optimize->add_option("--restarts", op->restarts, "random starts of the exchange algorithm")->capture_default_str();
+  optimize->add_option("--structure", op->structure,
+                       "paper: 5 at alpha2=0, 3 at alpha1=0, one at (45, 90)");
+  optimize->add_option("--restarts", op->restarts, "random starts of the exchange algorithm")
+      ->capture_default_str();
   optimize->add_option("--seed", op->seed, "seed of the random starts")->capture_default_str();
-  optimize->add_option("--target", op->target, "target 1 sigma for the dwell allocation")->capture_default_str();
-  optimize->add_option("-o,--program-out", op->program_out, "write the programme (with allocated dwells) as JSON");
+  optimize->add_option("--target", op->target, "target 1 sigma for the dwell allocation")
+      ->capture_default_str();
+  optimize->add_option("-o,--program-out", op->program_out,
+                       "write the programme (with allocated dwells) as JSON");
   add_design_flags(optimize, op->flags);
   optimize->callback([op] { run_optimize(*op); });
 
   auto cp = std::make_shared<CompareOptions>();
-  CLI::App* compare = design->add_subcommand("compare", "dwell and bench time each programme needs for a target");
-  compare->add_option("programs", cp->programs, "paper9, classic24 or programme JSON files")->required();
-  compare->add_option("--target", cp->target, "target 1 sigma, e.g. bias=2ug,scale=2ppm,gamma=1asec")
+  CLI::App* compare =
+      design->add_subcommand("compare", "dwell and bench time each programme needs for a target");
+  compare->add_option("programs", cp->programs, "paper9, classic24 or programme JSON files")
+      ->required();
+  compare
+      ->add_option("--target", cp->target, "target 1 sigma, e.g. bias=2ug,scale=2ppm,gamma=1asec")
       ->capture_default_str();
-  compare->add_option("--with-optimal", cp->with_optimal, "also the D-optimal programme with this many positions");
+  compare->add_option("--with-optimal", cp->with_optimal,
+                      "also the D-optimal programme with this many positions");
   add_design_flags(compare, cp->flags);
   compare->callback([cp] { run_compare(*cp); });
 
   auto no = std::make_shared<NoiseOptions>();
-  CLI::App* noise = app.add_subcommand("noise", "Allan deviation of a static recording: noise density, bias instability");
+  CLI::App* noise = app.add_subcommand(
+      "noise", "Allan deviation of a static recording: noise density, bias instability");
   noise->add_option("recording", no->recording, "recording CSV (standcal-recording/1)")->required();
   noise->add_flag("--json", no->json, "machine-readable output");
-  noise->add_option("--curve", no->curve_out, "write the Allan deviation curve as CSV (tau_s, adev per axis in ug)");
-  noise->add_option("--plot", no->plot_out, "draw the Allan deviation of each axis (log-log, SVG) to FILE");
+  noise->add_option("--curve", no->curve_out,
+                    "write the Allan deviation curve as CSV (tau_s, adev per axis in ug)");
+  noise->add_option("--plot", no->plot_out,
+                    "draw the Allan deviation of each axis (log-log, SVG) to FILE");
   noise->callback([no] { run_noise(*no); });
 }
 

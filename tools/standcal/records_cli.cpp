@@ -103,14 +103,16 @@ std::string start_of(const ImportOptions& o, const Recording& rec, const std::st
 CalibrationRecord import_record(const ImportOptions& o, const std::string& path) {
   const std::string text = file_text(path);
   const Recording rec = parse_recording(text, path);
-  if (rec.unit_serial.empty()) throw std::runtime_error(path + ": the recording names no unit_serial");
+  if (rec.unit_serial.empty())
+    throw std::runtime_error(path + ": the recording names no unit_serial");
   std::vector<std::string> warnings = rec.warnings;
   const FitResult fit = fit_by_method(o.method, average_positions(rec));
   CalibrationRecord r;
   const std::string header_run = rec.header_value("run_id");
   // A daemon recording keeps its run id (re-importing it is a no-op); others get one
   // from their content.
-  r.run_id = header_run.empty() ? "import-" + rec.unit_serial + "-" + fingerprint(text) : header_run;
+  r.run_id =
+      header_run.empty() ? "import-" + rec.unit_serial + "-" + fingerprint(text) : header_run;
   r.unit_serial = rec.unit_serial;
   r.unit_type = o.unit_type;
   r.stand_id = !o.stand_id.empty() ? o.stand_id : rec.header_value("stand_id");
@@ -145,7 +147,8 @@ void run_import(const ImportOptions& o) {
                 inserted ? "imported" : "already in the database, unchanged", r.unit_serial.c_str(),
                 r.started_utc.c_str(), r.method.c_str());
   }
-  std::printf("%d of %zu recordings imported into %s\n", stored, o.recordings.size(), db->location().c_str());
+  std::printf("%d of %zu recordings imported into %s\n", stored, o.recordings.size(),
+              db->location().c_str());
 }
 
 // ---- history -----------------------------------------------------------------------
@@ -162,12 +165,18 @@ json history_to_json(const records::UnitHistory& h) {
   for (const records::ParameterHistory& p : h.parameters) {
     json points = json::array(), changes = json::array();
     for (const auto& pt : p.points)
-      points.push_back({{"run_id", pt.run_id}, {"started_utc", pt.started_utc},
-                        {"value", pt.value ? json(*pt.value) : json()}, {"sigma", pt.sigma ? json(*pt.sigma) : json()}});
+      points.push_back({{"run_id", pt.run_id},
+                        {"started_utc", pt.started_utc},
+                        {"value", pt.value ? json(*pt.value) : json()},
+                        {"sigma", pt.sigma ? json(*pt.sigma) : json()}});
     for (const auto& c : p.changes)
-      changes.push_back({{"from_run_id", c.from_run_id}, {"to_run_id", c.to_run_id}, {"delta", c.delta},
-                         {"combined_sigma", c.combined_sigma}, {"ageing", c.ageing}});
-    params.push_back({{"name", p.name}, {"unit", p.unit}, {"points", points}, {"changes", changes}});
+      changes.push_back({{"from_run_id", c.from_run_id},
+                         {"to_run_id", c.to_run_id},
+                         {"delta", c.delta},
+                         {"combined_sigma", c.combined_sigma},
+                         {"ageing", c.ageing}});
+    params.push_back(
+        {{"name", p.name}, {"unit", p.unit}, {"points", points}, {"changes", changes}});
   }
   json cals = json::array();
   for (const CalibrationRecord& r : h.calibrations) {
@@ -175,20 +184,24 @@ json history_to_json(const records::UnitHistory& h) {
     j.erase("result");  // the parameters are above; `standcal records --json` has it whole
     cals.push_back(j);
   }
-  return {{"unit_serial", h.unit_serial}, {"k", h.k}, {"ageing_flags", h.ageing_flags},
+  return {{"unit_serial", h.unit_serial},
+          {"k", h.k},
+          {"ageing_flags", h.ageing_flags},
           {"ageing_rule", "|delta| > k * sqrt(sigma_before^2 + sigma_after^2)"},
-          {"calibrations", cals}, {"parameters", params}};
+          {"calibrations", cals},
+          {"parameters", params}};
 }
 
 void print_history(const records::UnitHistory& h) {
   std::printf("unit %s: %zu calibration%s\n", h.unit_serial.c_str(), h.calibrations.size(),
               h.calibrations.size() == 1 ? "" : "s");
   for (const CalibrationRecord& r : h.calibrations) {
-    std::printf("  %s  %-34s stand %-12s %-16s verdict %s\n", r.started_utc.c_str(), r.run_id.c_str(),
-                r.stand_id.empty() ? "?" : r.stand_id.c_str(), r.method.c_str(),
+    std::printf("  %s  %-34s stand %-12s %-16s verdict %s\n", r.started_utc.c_str(),
+                r.run_id.c_str(), r.stand_id.empty() ? "?" : r.stand_id.c_str(), r.method.c_str(),
                 r.verdict.empty() ? "not assessed" : r.verdict.c_str());
   }
-  std::printf("ageing: a change between consecutive calibrations beyond k·sqrt(σ1² + σ2²), k = %g\n", h.k);
+  std::printf(
+      "ageing: a change between consecutive calibrations beyond k·sqrt(σ1² + σ2²), k = %g\n", h.k);
   for (const records::ParameterHistory& p : h.parameters) {
     std::printf("%s [%s]\n", p.name.c_str(), p.unit.c_str());
     for (std::size_t i = 0; i < p.points.size(); ++i) {
@@ -198,10 +211,12 @@ void print_history(const records::UnitHistory& h) {
         if (c.to_run_id != pt.run_id) continue;
         char buf[96];
         std::snprintf(buf, sizeof buf, "  Δ %+.3f (%.1f σ)%s", c.delta,
-                      c.combined_sigma > 0 ? std::abs(c.delta) / c.combined_sigma : 0.0, c.ageing ? "  AGEING" : "");
+                      c.combined_sigma > 0 ? std::abs(c.delta) / c.combined_sigma : 0.0,
+                      c.ageing ? "  AGEING" : "");
         change = buf;
       }
-      std::printf("  %s  %-24s%s\n", pt.started_utc.c_str(), value_text(pt.value, pt.sigma).c_str(), change.c_str());
+      std::printf("  %s  %-24s%s\n", pt.started_utc.c_str(), value_text(pt.value, pt.sigma).c_str(),
+                  change.c_str());
     }
   }
   std::printf("%d change%s flagged as ageing\n", h.ageing_flags, h.ageing_flags == 1 ? "" : "s");
@@ -214,11 +229,12 @@ void print_records(const std::vector<CalibrationRecord>& list) {
     std::printf("no calibrations match\n");
     return;
   }
-  std::printf("%-20s  %-34s %-12s %-10s %-12s %-16s %s\n", "started (UTC)", "run id", "unit", "type", "stand",
-              "method", "verdict");
+  std::printf("%-20s  %-34s %-12s %-10s %-12s %-16s %s\n", "started (UTC)", "run id", "unit",
+              "type", "stand", "method", "verdict");
   for (const CalibrationRecord& r : list) {
-    std::printf("%-20s  %-34s %-12s %-10s %-12s %-16s %s\n", r.started_utc.c_str(), r.run_id.c_str(),
-                r.unit_serial.c_str(), r.unit_type.empty() ? "-" : r.unit_type.c_str(),
+    std::printf("%-20s  %-34s %-12s %-10s %-12s %-16s %s\n", r.started_utc.c_str(),
+                r.run_id.c_str(), r.unit_serial.c_str(),
+                r.unit_type.empty() ? "-" : r.unit_type.c_str(),
                 r.stand_id.empty() ? "-" : r.stand_id.c_str(), r.method.c_str(),
                 r.verdict.empty() ? "not assessed" : r.verdict.c_str());
   }
@@ -227,14 +243,20 @@ void print_records(const std::vector<CalibrationRecord>& list) {
 
 void add_import_command(CLI::App& app) {
   auto o = std::make_shared<ImportOptions>();
-  auto* cmd = app.add_subcommand("import", "re-fit recordings (from before the database, or another bench) "
-                                           "and store them in the records database");
-  cmd->add_option("recordings", o->recordings, "recordings (standcal-recording/1 CSV)")->required()->check(CLI::ExistingFile);
+  auto* cmd = app.add_subcommand("import",
+                                 "re-fit recordings (from before the database, or another bench) "
+                                 "and store them in the records database");
+  cmd->add_option("recordings", o->recordings, "recordings (standcal-recording/1 CSV)")
+      ->required()
+      ->check(CLI::ExistingFile);
   add_db_option(cmd, o->db);
   cmd->add_option("--unit-type", o->unit_type, "the units' type (limits are per type)");
-  cmd->add_option("--stand-id", o->stand_id, "the stand that recorded them (default: the recording's stand_id)");
-  cmd->add_option("--operator", o->operator_name, "who ran them (default: the recording's operator)");
-  cmd->add_option("--started", o->started_utc, "when they ran, UTC (default: the recording's started_utc, else the file time)");
+  cmd->add_option("--stand-id", o->stand_id,
+                  "the stand that recorded them (default: the recording's stand_id)");
+  cmd->add_option("--operator", o->operator_name,
+                  "who ran them (default: the recording's operator)");
+  cmd->add_option("--started", o->started_utc,
+                  "when they ran, UTC (default: the recording's started_utc, else the file time)");
   cmd->add_option("--method", o->method, "joint | paper-sequential | full")->capture_default_str();
   cmd->callback([o] { run_import(*o); });
 }
@@ -271,14 +293,16 @@ void add_history_command(CLI::App& app) {
   auto as_json = std::make_shared<bool>(false);
   auto k = std::make_shared<double>(2.0);
   auto plot = std::make_shared<std::string>();
-  auto* cmd = app.add_subcommand("history", "every calibration of one unit, each parameter over time, ageing flagged");
+  auto* cmd = app.add_subcommand(
+      "history", "every calibration of one unit, each parameter over time, ageing flagged");
   cmd->add_option("serial", *serial, "unit serial")->required();
   add_db_option(cmd, *db);
   cmd->add_option("--k", *k, "flag a change beyond k combined σ")
       ->capture_default_str()
       ->check(cli_checks::kPositive);
   cmd->add_flag("--json", *as_json, "machine-readable output");
-  cmd->add_option("--plot", *plot, "also write an HTML page plotting each parameter over time (±k·σ)");
+  cmd->add_option("--plot", *plot,
+                  "also write an HTML page plotting each parameter over time (±k·σ)");
   cmd->callback([=] {
     auto d =
         records::open_and_migrate(db->empty() ? default_db() : *db, records::OpenMode::existing);
@@ -298,9 +322,11 @@ void add_records_command(CLI::App& app) {
   auto f = std::make_shared<records::RecordFilter>();
   auto db = std::make_shared<std::string>();
   auto as_json = std::make_shared<bool>(false);
-  auto* cmd = app.add_subcommand("records", "calibrations in the records database, oldest first, filtered");
+  auto* cmd =
+      app.add_subcommand("records", "calibrations in the records database, oldest first, filtered");
   add_db_option(cmd, *db);
-  cmd->add_option("--since", f->since_utc, "from this date or UTC time (2026-11-01, 2026-11-01T08:00:00Z)");
+  cmd->add_option("--since", f->since_utc,
+                  "from this date or UTC time (2026-11-01, 2026-11-01T08:00:00Z)");
   cmd->add_option("--until", f->until_utc, "up to this date (whole day) or UTC time");
   cmd->add_option("--unit-serial,--serial", f->unit_serial, "only this unit");
   cmd->add_option("--unit-type", f->unit_type, "only this unit type");

@@ -30,14 +30,14 @@ namespace {
 using nlohmann::json;
 using namespace std::chrono_literals;
 
-
 // Calls a method; daemon errors become the one-line reason main() prints.
 json call(protocol::Client& c, const std::string& method, const json& params = json::object(),
           std::chrono::milliseconds timeout = 30s) {
   try {
     return c.call(method, params, timeout);
   } catch (const protocol::RpcError& e) {
-    throw std::runtime_error(method + ": " + e.what() + " (" + protocol::error_code_name(e.code()) + ")");
+    throw std::runtime_error(method + ": " + e.what() + " (" + protocol::error_code_name(e.code()) +
+                             ")");
   }
 }
 
@@ -54,16 +54,19 @@ std::string duration_text(double s) {
 }
 
 std::string progress_line(const json& p) {
-  const int pos = p.value("position", 0), n = p.value("positions", 0), done = p.value("positions_done", 0);
+  const int pos = p.value("position", 0), n = p.value("positions", 0),
+            done = p.value("positions_done", 0);
   const int width = 20;
   const int filled = n > 0 ? done * width / n : 0;
   std::string bar = "[" + std::string(static_cast<std::size_t>(filled), '#') +
                     std::string(static_cast<std::size_t>(width - filled), '.') + "]";
   char buf[256];
-  const std::string phase = p.contains("phase") && p["phase"].is_string() ? p["phase"].get<std::string>()
-                            : p.contains("state") && p["state"].is_string() ? p["state"].get<std::string>()
-                                                                            : "";
-  std::snprintf(buf, sizeof buf, "%s position %d/%d  %-16s ETA %s", bar.c_str(), pos, n, phase.c_str(),
+  const std::string phase =
+      p.contains("phase") && p["phase"].is_string()   ? p["phase"].get<std::string>()
+      : p.contains("state") && p["state"].is_string() ? p["state"].get<std::string>()
+                                                      : "";
+  std::snprintf(buf, sizeof buf, "%s position %d/%d  %-16s ETA %s", bar.c_str(), pos, n,
+                phase.c_str(),
                 p["eta_s"].is_number() ? duration_text(p["eta_s"].get<double>()).c_str() : "?");
   return buf;
 }
@@ -75,22 +78,26 @@ bool terminal_state(const std::string& s) {
 void print_status(const json& s) {
   const json& d = s["daemon"];
   std::printf("standcald %s (protocol %s), up %s, %d client(s)\n", d.value("version", "?").c_str(),
-              d.value("protocol", "?").c_str(), duration_text(d.value("uptime_s", 0.0)).c_str(), d.value("clients", 0));
+              d.value("protocol", "?").c_str(), duration_text(d.value("uptime_s", 0.0)).c_str(),
+              d.value("clients", 0));
   const json& b = s.value("backend", json::object());
   std::printf("backend: %s%s\n", b.value("description", "?").c_str(),
               b.value("simulated", false) ? "  (SIMULATED: not a real stand or unit)" : "");
   const json& st = s["stand"];
   std::printf("stand %s (%s): %s%s\n", st.value("id", "").c_str(), st.value("name", "").c_str(),
-              st.value("lifecycle", "?").c_str(), st.value("estop_latched", false) ? ", EMERGENCY STOP LATCHED" : "");
+              st.value("lifecycle", "?").c_str(),
+              st.value("estop_latched", false) ? ", EMERGENCY STOP LATCHED" : "");
   for (const json& a : st.value("axes", json::array())) {
     if (a.contains("error")) {
-      std::printf("  %-6s %s\n", a.value("axis", "").c_str(), a["error"].get<std::string>().c_str());
+      std::printf("  %-6s %s\n", a.value("axis", "").c_str(),
+                  a["error"].get<std::string>().c_str());
       continue;
     }
-    std::printf("  %-6s %-11s %11.4f°  %s %s%s\n", a.value("axis", "").c_str(), a.value("mode", "").c_str(),
-                a.value("angle_deg", 0.0), a.value("enabled", false) ? "enabled" : "disabled",
-                a.value("homed", false) ? "homed" : "not homed",
-                a.value("fault_text", "").empty() ? "" : (" fault: " + a.value("fault_text", "")).c_str());
+    std::printf(
+        "  %-6s %-11s %11.4f°  %s %s%s\n", a.value("axis", "").c_str(), a.value("mode", "").c_str(),
+        a.value("angle_deg", 0.0), a.value("enabled", false) ? "enabled" : "disabled",
+        a.value("homed", false) ? "homed" : "not homed",
+        a.value("fault_text", "").empty() ? "" : (" fault: " + a.value("fault_text", "")).c_str());
   }
   const json& u = st.value("unit", json::object());
   std::printf("unit %s: %s, %llu samples, %llu incomplete\n", u.value("name", "").c_str(),
@@ -98,8 +105,8 @@ void print_status(const json& s) {
               static_cast<unsigned long long>(u.value("samples", 0ULL)),
               static_cast<unsigned long long>(u.value("incomplete_samples", 0ULL)));
   if (s["run"].is_object()) {
-    std::printf("run %s: %s  %s\n", s["run"].value("run_id", "").c_str(), s["run"].value("state", "").c_str(),
-                progress_line(s["run"]).c_str());
+    std::printf("run %s: %s  %s\n", s["run"].value("run_id", "").c_str(),
+                s["run"].value("state", "").c_str(), progress_line(s["run"]).c_str());
   } else {
     std::printf("no run in progress\n");
   }
@@ -141,7 +148,8 @@ void print_result(const json& r) {
       const json& p = it.value();
       if (p["value"].is_number()) {
         std::printf("  %-8s %12.3f ± %8.3f %s\n", it.key().c_str(), p["value"].get<double>(),
-                    p["sigma"].is_number() ? p["sigma"].get<double>() : NAN, p.value("unit", "").c_str());
+                    p["sigma"].is_number() ? p["sigma"].get<double>() : NAN,
+                    p.value("unit", "").c_str());
       } else {
         std::printf("  %-8s not observable\n", it.key().c_str());
       }
@@ -149,12 +157,13 @@ void print_result(const json& r) {
   }
   const json& t = r.value("traceability", json::object());
   std::printf("\nrun %s, unit %s, stand %s, operator %s\n", t.value("run_id", "").c_str(),
-              t.value("unit_serial", "").c_str(), t.value("stand_id", "").c_str(), t.value("operator", "").c_str());
+              t.value("unit_serial", "").c_str(), t.value("stand_id", "").c_str(),
+              t.value("operator", "").c_str());
   std::printf("started %s, ended %s, standcal %s, config %s\n", t.value("started_utc", "").c_str(),
               t.value("ended_utc", "").c_str(), t.value("software_version", "").c_str(),
               t.value("config_hash", "").c_str());
-  std::printf("g = %.6f m/s² (%s)\nrecording: %s\n", t.value("g_local_mps2", 0.0), t.value("g_source", "").c_str(),
-              path.c_str());
+  std::printf("g = %.6f m/s² (%s)\nrecording: %s\n", t.value("g_local_mps2", 0.0),
+              t.value("g_source", "").c_str(), path.c_str());
 }
 
 // Follows a run's events until it ends; returns its final state.
@@ -205,13 +214,16 @@ struct DiagnoseArgs {
 };
 
 void print_diagnosis(const json& d) {
-  std::printf("run %s: verdict %s\n", d.value("run_id", "").c_str(), d.value("verdict", "?").c_str());
-  for (const json& s : d.value("summary", json::array())) std::printf("  %s\n", s.get<std::string>().c_str());
+  std::printf("run %s: verdict %s\n", d.value("run_id", "").c_str(),
+              d.value("verdict", "?").c_str());
+  for (const json& s : d.value("summary", json::array()))
+    std::printf("  %s\n", s.get<std::string>().c_str());
   std::printf("where:\n");
-  for (const json& s : d.value("located", json::array())) std::printf("  %s\n", s.get<std::string>().c_str());
+  for (const json& s : d.value("located", json::array()))
+    std::printf("  %s\n", s.get<std::string>().c_str());
   for (const json& p : d.value("proposed_positions", json::array()))
-    std::printf("proposed position: alpha1 %.0f deg, alpha2 %.0f deg (%s)\n", p.value("alpha1_deg", 0.0),
-                p.value("alpha2_deg", 0.0), p.value("why", "").c_str());
+    std::printf("proposed position: alpha1 %.0f deg, alpha2 %.0f deg (%s)\n",
+                p.value("alpha1_deg", 0.0), p.value("alpha2_deg", 0.0), p.value("why", "").c_str());
 }
 
 // "The daemon can run those positions on request": the proposed positions as an inline
@@ -219,19 +231,23 @@ void print_diagnosis(const json& d) {
 json follow_up_run(protocol::Client& c, const json& d, const DiagnoseArgs& a) {
   const json& proposed = d["proposed_positions"];
   if (!proposed.is_array() || proposed.empty()) {
-    throw std::runtime_error("run " + a.run_id + ": the diagnosis (verdict " + d.value("verdict", "?") +
+    throw std::runtime_error("run " + a.run_id + ": the diagnosis (verdict " +
+                             d.value("verdict", "?") +
                              ") proposes no positions, so there is no follow-up run to start");
   }
   json positions = json::array();
   for (const json& p : proposed)
-    positions.push_back({{"alpha1_deg", p["alpha1_deg"]}, {"alpha2_deg", p["alpha2_deg"]}, {"mount", d.value("mount", "x")}});
+    positions.push_back({{"alpha1_deg", p["alpha1_deg"]},
+                         {"alpha2_deg", p["alpha2_deg"]},
+                         {"mount", d.value("mount", "x")}});
   json params{{"program", {{"name", "follow-up of " + a.run_id}, {"positions", positions}}},
               {"unit_serial", d.value("unit_serial", "")}};
   if (a.dwell_s > 0) params["dwell_s"] = a.dwell_s;
   if (a.settle_s >= 0) params["settle_s"] = a.settle_s;
   if (!a.op.empty()) params["operator"] = a.op;
   // Same unit, same type: the follow-up's certificate applies the same limits.
-  if (const std::string unit_type = d.value("unit_type", ""); !unit_type.empty()) params["unit_type"] = unit_type;
+  if (const std::string unit_type = d.value("unit_type", ""); !unit_type.empty())
+    params["unit_type"] = unit_type;
   return call(c, protocol::method::run_start, params);
 }
 
@@ -243,7 +259,8 @@ void run_diagnose(const DaemonOptions& o, const DiagnoseArgs& a) {
   // A diagnosis takes seconds (a long recording, a busy bench PC): wait generously.
   json d = call(c, protocol::method::run_diagnose, params, std::chrono::minutes(5));
   if (!a.report.empty()) {
-    if (!d["report_html"].is_string()) throw std::runtime_error("run " + a.run_id + ": " + d.value("report_note", "no report"));
+    if (!d["report_html"].is_string())
+      throw std::runtime_error("run " + a.run_id + ": " + d.value("report_note", "no report"));
     write_file_atomically(a.report, d["report_html"].get<std::string>(), "the report");
     std::fprintf(stderr, "report written to %s\n", a.report.c_str());
   }
@@ -332,9 +349,9 @@ void print_runs(const json& r, const RunsArgs& a) {
   if (r["runs"].empty()) std::printf("no runs\n");
   for (const json& x : r["runs"]) {
     std::printf("%-32s %-10s %-10s %-12s %2d/%-2d %s%s\n", x.value("run_id", "").c_str(),
-                x.value("unit_serial", "").c_str(), x.value("program", "").c_str(), x.value("state", "").c_str(),
-                x.value("positions_done", 0), x.value("positions", 0), x.value("started_utc", "").c_str(),
-                x.value("has_result", false) ? "  result" : "");
+                x.value("unit_serial", "").c_str(), x.value("program", "").c_str(),
+                x.value("state", "").c_str(), x.value("positions_done", 0), x.value("positions", 0),
+                x.value("started_utc", "").c_str(), x.value("has_result", false) ? "  result" : "");
   }
   if (r.value("more", false) && !r["runs"].empty()) {
     const std::string unit = a.unit.empty() ? "" : " --unit-serial " + a.unit;
@@ -350,7 +367,8 @@ void add_runs(CLI::App& app) {
   add_daemon_options(cmd, *o);
   cmd->add_option("--unit-serial,--unit", a->unit, "only this unit's runs");
   cmd->add_option("--before", a->before, "only runs older than this run id (the next page)");
-  cmd->add_option("--limit", a->limit, "runs per page (default: the daemon's, 100; with --all, 1000)")
+  cmd->add_option("--limit", a->limit,
+                  "runs per page (default: the daemon's, 100; with --all, 1000)")
       ->check(CLI::Range(1, protocol::runs_list_max_limit));
   cmd->add_flag("--all", a->all, "every run, fetched page by page");
   cmd->callback([o, a] {
@@ -387,15 +405,18 @@ void add_run(CLI::App& app) {
     bool wait = false;
   };
   auto sa = std::make_shared<StartArgs>();
-  auto* start = run->add_subcommand("start", "start a run: PROGRAM is paper9, classic24 or a library name");
+  auto* start =
+      run->add_subcommand("start", "start a run: PROGRAM is paper9, classic24 or a library name");
   add_daemon_options(start, *so);
   start->add_option("program", sa->program, "paper9 | classic24 | a library name")->required();
   start->add_option("--unit-serial,--unit", sa->unit, "serial number of the unit on the stand")
       ->required();
-  start->add_option("--unit-type", sa->unit_type, "the unit's type: which acceptance limits its certificate uses");
+  start->add_option("--unit-type", sa->unit_type,
+                    "the unit's type: which acceptance limits its certificate uses");
   add_run_timing_options(start, sa->dwell_s, sa->settle_s, "");
   start->add_option("--operator", sa->op, "who runs it, for traceability");
-  start->add_flag("--wait", sa->wait, "follow the run with a live progress line; print the report at the end");
+  start->add_flag("--wait", sa->wait,
+                  "follow the run with a live progress line; print the report at the end");
   start->callback([so, sa] {
     const auto connection = connect_daemon(*so);
     protocol::Client& c = *connection;
@@ -410,12 +431,13 @@ void add_run(CLI::App& app) {
       if (so->json) {
         std::cout << r.dump(2) << "\n";
       } else {
-        std::printf("run %s started (%d positions); follow it with `standcal run watch`\n", id.c_str(),
-                    r.value("positions", 0));
+        std::printf("run %s started (%d positions); follow it with `standcal run watch`\n",
+                    id.c_str(), r.value("positions", 0));
       }
       return;
     }
-    if (!so->json) std::printf("run %s started (%d positions)\n", id.c_str(), r.value("positions", 0));
+    if (!so->json)
+      std::printf("run %s started (%d positions)\n", id.c_str(), r.value("positions", 0));
     const std::string state = watch(c, id, so->json);
     if (state != "done") throw std::runtime_error("run " + id + " ended " + state);
     const json result = call(c, protocol::method::run_result, {{"run_id", id}});
@@ -437,7 +459,8 @@ void add_run(CLI::App& app) {
     const json s = call(c, protocol::method::run_status,
                         watch_id->empty() ? json::object() : json{{"run_id", *watch_id}});
     const std::string state = watch(c, s["run_id"], wo->json);
-    if (!wo->json) std::printf("run %s is %s\n", s["run_id"].get<std::string>().c_str(), state.c_str());
+    if (!wo->json)
+      std::printf("run %s is %s\n", s["run_id"].get<std::string>().c_str(), state.c_str());
   });
 
   auto ro = std::make_shared<DaemonOptions>();
@@ -462,10 +485,12 @@ void add_run(CLI::App& app) {
 
   auto dgo = std::make_shared<DaemonOptions>();
   auto da = std::make_shared<DiagnoseArgs>();
-  auto* diagnose = run->add_subcommand("diagnose", "where a run's recording and the model disagree (docs/diagnosis.md)");
+  auto* diagnose = run->add_subcommand(
+      "diagnose", "where a run's recording and the model disagree (docs/diagnosis.md)");
   add_daemon_options(diagnose, *dgo);
   diagnose->add_option("run_id", da->run_id, "run id (see `standcal runs`)")->required();
-  diagnose->add_option("--report", da->report, "write the HTML report with plots to FILE (docs/report.md)");
+  diagnose->add_option("--report", da->report,
+                       "write the HTML report with plots to FILE (docs/report.md)");
   diagnose->add_flag("--run-proposed", da->run_proposed,
                      "start a follow-up run of the proposed positions on the same unit");
   add_run_timing_options(diagnose, da->dwell_s, da->settle_s, "follow-up run: ");
@@ -502,7 +527,8 @@ void add_run(CLI::App& app) {
         std::printf("run %s: %s  %s\n", r.value("run_id", "").c_str(), r.value("state", "").c_str(),
                     progress_line(r).c_str());
       } else {
-        std::printf("run %s: %s\n", r.value("run_id", "").c_str(), r.value("state", r.contains("confirmed") ? "confirmed" : "ok").c_str());
+        std::printf("run %s: %s\n", r.value("run_id", "").c_str(),
+                    r.value("state", r.contains("confirmed") ? "confirmed" : "ok").c_str());
       }
     });
   }

@@ -1,5 +1,6 @@
 // `standcal stand`: bring-up commands for an engineer wiring a new stand over Modbus.
-//   standcal stand --url URL status [--json] | enable | home | move A1_DEG A2_DEG | stop | estop | reset
+//   standcal stand --url URL status [--json] | enable | home | move A1_DEG A2_DEG | stop | estop |
+//   reset
 // home and move wait (the driver's I/O thread keeps the heartbeat alive meanwhile) and
 // print the angles reached; --no-wait returns once the controller accepted the command.
 #include <cstdio>
@@ -69,14 +70,18 @@ void print_status(const StandOptions& o) {
       if (s.fault_code != 0) std::printf(" fault %d (%s)", s.fault_code, s.fault_text.c_str());
       std::printf("\n");
     }
-    axes[drv::to_string(axis)] = {{"mode", drv::to_string(s.mode)},   {"angle_deg", s.angle_deg},
-                                  {"enabled", s.enabled},              {"homed", s.homed},
+    axes[drv::to_string(axis)] = {{"mode", drv::to_string(s.mode)},
+                                  {"angle_deg", s.angle_deg},
+                                  {"enabled", s.enabled},
+                                  {"homed", s.homed},
                                   {"stopped_by_heartbeat", s.stopped_by_heartbeat},
-                                  {"estop", s.estop},                  {"fault_code", s.fault_code},
+                                  {"estop", s.estop},
+                                  {"fault_code", s.fault_code},
                                   {"fault_text", s.fault_text}};
   }
   if (o.json) {
-    const nlohmann::json out = {{"class", "STAND"}, {"url", o.url}, {"stand", stand->name()}, {"axes", axes}};
+    const nlohmann::json out = {
+        {"class", "STAND"}, {"url", o.url}, {"stand", stand->name()}, {"axes", axes}};
     std::printf("%s\n", out.dump().c_str());
   }
 }
@@ -88,9 +93,10 @@ void enable(const StandOptions& o) {
 }
 
 void note_no_wait(const StandOptions& o) {
-  std::printf("accepted; not waiting. Note: the controller stops this motion when the heartbeat "
-              "timeout (config timing.heartbeat_timeout_s%s) passes after this command exits.\n",
-              o.config_path.empty() ? ", default 1 s" : "");
+  std::printf(
+      "accepted; not waiting. Note: the controller stops this motion when the heartbeat "
+      "timeout (config timing.heartbeat_timeout_s%s) passes after this command exits.\n",
+      o.config_path.empty() ? ", default 1 s" : "");
 }
 
 void home(const StandOptions& o) {
@@ -141,27 +147,41 @@ void add_stand_commands(CLI::App& app) {
   auto options = std::make_shared<StandOptions>();
   auto* stand = app.add_subcommand("stand", "bring-up of a stand controller over Modbus");
   stand->require_subcommand(1);
-  stand->add_option("--url", options->url, "tcp://HOST:PORT?unit=1 or rtu:/dev/ttyUSB0?baud=115200&parity=N&unit=1&rs485=1")
+  stand
+      ->add_option("--url", options->url,
+                   "tcp://HOST:PORT?unit=1 or rtu:/dev/ttyUSB0?baud=115200&parity=N&unit=1&rs485=1")
       ->required();
-  stand->add_option("--config", options->config_path, "stand config JSON (register map, timing, axis ranges)");
+  stand->add_option("--config", options->config_path,
+                    "stand config JSON (register map, timing, axis ranges)");
   stand->add_option("--timeout-s", options->timeout_s, "how long home/move wait");
   stand->add_option("--window-deg", options->window_deg, "in-position window");
   stand->add_option("--dwell-s", options->dwell_s, "in-position dwell");
   auto* status = stand->add_subcommand("status", "mode, angle, flags and fault of both axes");
   status->add_flag("--json", options->json, "one JSON object on one line");
   status->callback([options] { print_status(*options); });
-  stand->add_subcommand("enable", "activate and enable both axes")->callback([options] { enable(*options); });
+  stand->add_subcommand("enable", "activate and enable both axes")->callback([options] {
+    enable(*options);
+  });
   auto* home_cmd = stand->add_subcommand("home", "home both axes and wait");
-  home_cmd->add_flag("--no-wait", options->no_wait, "return once the controller accepted the command");
+  home_cmd->add_flag("--no-wait", options->no_wait,
+                     "return once the controller accepted the command");
   home_cmd->callback([options] { home(*options); });
-  auto* move_cmd = stand->add_subcommand("move", "move outer to A1_DEG and inner to A2_DEG and wait");
+  auto* move_cmd =
+      stand->add_subcommand("move", "move outer to A1_DEG and inner to A2_DEG and wait");
   move_cmd->add_option("A1_DEG", options->a1_deg, "outer axis angle α1")->required();
   move_cmd->add_option("A2_DEG", options->a2_deg, "inner axis angle α2")->required();
-  move_cmd->add_flag("--no-wait", options->no_wait, "return once the controller accepted the command");
+  move_cmd->add_flag("--no-wait", options->no_wait,
+                     "return once the controller accepted the command");
   move_cmd->callback([options] { move(*options); });
-  stand->add_subcommand("stop", "controlled stop of both axes")->callback([options] { stop(*options); });
-  stand->add_subcommand("estop", "emergency stop of both axes")->callback([options] { estop(*options); });
-  stand->add_subcommand("reset", "clear a latched emergency stop")->callback([options] { reset(*options); });
+  stand->add_subcommand("stop", "controlled stop of both axes")->callback([options] {
+    stop(*options);
+  });
+  stand->add_subcommand("estop", "emergency stop of both axes")->callback([options] {
+    estop(*options);
+  });
+  stand->add_subcommand("reset", "clear a latched emergency stop")->callback([options] {
+    reset(*options);
+  });
 }
 
 }  // namespace
