@@ -238,22 +238,6 @@ Estimator budget_estimator(const std::string& method, const FitResult& nominal,
   throw std::invalid_argument("budget_estimator: unknown method " + method);
 }
 
-double student_t_975(double dof) {
-  if (!std::isfinite(dof) || dof > 1e6) return 1.959964;
-  // GUM Table G.2 below 4 (nu < 1 taken as 1); Cornish-Fisher's expansion in 1/nu above,
-  // within 0.006 of the table (0.001 at nu = 4).
-  if (dof <= 1) return 12.71;
-  if (dof <= 2) return 12.71 + (4.30 - 12.71) * (1 / 1.0 - 1 / dof) / (1 / 1.0 - 1 / 2.0);
-  if (dof <= 3) return 4.30 + (3.18 - 4.30) * (1 / 2.0 - 1 / dof) / (1 / 2.0 - 1 / 3.0);
-  if (dof <= 4) return 3.18 + (2.78 - 3.18) * (1 / 3.0 - 1 / dof) / (1 / 3.0 - 1 / 4.0);
-  const double z = 1.959964, z2 = z * z, n = dof;
-  const double g1 = (z2 + 1) * z / 4;
-  const double g2 = ((5 * z2 + 16) * z2 + 3) * z / 96;
-  const double g3 = (((3 * z2 + 19) * z2 + 17) * z2 - 15) * z / 384;
-  const double g4 = ((((79 * z2 + 776) * z2 + 1482) * z2 - 1920) * z2 - 945) * z / 92160;
-  return z + g1 / n + g2 / (n * n) + g3 / (n * n * n) + g4 / (n * n * n * n);
-}
-
 UncertaintyBudget evaluate_budget(const std::vector<PositionAverage>& positions,
                                   const FitResult& fit, const Estimator& estimator,
                                   const BudgetConfig& config, const std::string& unit_type,

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "calib/distributions.hpp"
 #include "calib/fit_result.hpp"
 #include "calib/full_estimator.hpp"
 #include "calib/parameters.hpp"
@@ -109,9 +110,6 @@ UncertaintyBudget evaluate_budget(const std::vector<PositionAverage>& positions,
                                   const FitResult& fit, const Estimator& estimator,
                                   const BudgetConfig& config, const std::string& unit_type,
                                   double g_local_mps2);
-
-// Student's t quantile for a two-sided 95 % interval (t_0.975), GUM Table G.2 to 0.002.
-double student_t_975(double dof);
 
 nlohmann::json budget_to_json(const UncertaintyBudget& budget);
 // The text report's lines: each parameter's u_c, nu_eff, k and U, and what is not budgeted.
