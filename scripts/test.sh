@@ -16,6 +16,13 @@ export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 # The rest run two per core: many of them wait on a daemon, an emulator or a socket
 # (measured on 2 cores, Release: 37 s of CPU in 55 s at -j2, 33 s of wall time at -j4;
 # ASan+UBSan: 93 s at -j4, 114-122 s at -j2).
+# Each phase says how long it took (the whole run is to stay well under 15 minutes on
+# this 2-core machine: README).
+phase_start=$SECONDS
+phase_done() {
+  echo "--- $1: $((SECONDS - phase_start)) s (total $SECONDS s)" >&2
+  phase_start=$SECONDS
+}
 main_tests() {
   ctest --test-dir "$1" -LE '^faults$' --output-on-failure -j "$((2 * $(nproc)))" --timeout 600
 }
@@ -30,13 +37,16 @@ if git -C "$root" rev-parse --is-inside-work-tree >/dev/null 2>&1; then
   echo "=== format (clang-format-14 --dry-run -Werror) ===" >&2
   git -C "$root" ls-files -z '*.cpp' '*.hpp' '*.c' '*.h' |
     (cd "$root" && xargs -0 clang-format-14 --dry-run -Werror)
+  phase_done format
 fi
 
 for flavour in release asan; do
   echo "=== $flavour build ===" >&2
   "$root/scripts/build.sh" "$flavour"
+  phase_done "$flavour build"
   echo "=== $flavour tests (all but faults) ===" >&2
   main_tests "$root/build/$flavour"
+  phase_done "$flavour tests"
 done
 
 echo "=== fault-injection tests, release and asan together ===" >&2
@@ -46,6 +56,7 @@ release_faults=$!
 rc=0
 fault_tests "$root/build/asan" || rc=1
 wait "$release_faults" || rc=1
+phase_done "fault-injection tests"
 echo "--- release fault-injection tests ($release_log) ---"
 cat "$release_log"
 exit "$rc"

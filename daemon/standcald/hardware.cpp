@@ -95,8 +95,9 @@ Hardware make_hardware(const DaemonConfig& c) {
     drivers::SimBackend sim = drivers::make_sim_backend(sc);
     if (c.stand_backend == "sim") hw.stand = sim.stand;
     if (c.unit_backend == "sim") hw.unit = sim.unit;
-    if (c.stand_backend == "sim" && c.unit_backend == "sim") hw.simulated_remount = sim.remount;
-    hw.time_scale = c.sim.time_scale;
+    if (c.stand_backend == "sim" && c.unit_backend == "sim") hw.remount = sim.remount;
+    // A real stand and a simulated unit do not share a clock: time runs at 1x.
+    if (c.stand_backend == "sim") hw.clock = sim.clock;
     hw.description = "sim (time x" + std::to_string(c.sim.time_scale) + ")";
 #else
     unavailable(c, c.stand_backend == "sim" ? "stand.backend" : "unit.backend", "sim");
@@ -119,8 +120,6 @@ Hardware make_hardware(const DaemonConfig& c) {
     unavailable(c, "unit.backend", "socketcan");
 #endif
   }
-  // A real stand and a simulated unit do not share a clock: time runs at 1x.
-  if (c.stand_backend != "sim") hw.time_scale = 1;
   return hw;
 }
 

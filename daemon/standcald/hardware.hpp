@@ -9,6 +9,7 @@
 #include "calib/model.hpp"
 #include "daemon/standcald/config.hpp"
 #include "drivers/accel_unit.hpp"
+#include "drivers/clock.hpp"
 #include "drivers/stand.hpp"
 
 namespace standcal::daemon {
@@ -16,10 +17,13 @@ namespace standcal::daemon {
 struct Hardware {
   std::shared_ptr<drivers::Stand> stand;
   std::shared_ptr<drivers::AccelUnit> unit;
-  // Re-mounts the unit when the operator confirms a re-mount step; set only where no
-  // person does it (the simulated backend).
-  std::function<void(Mount)> simulated_remount;
-  double time_scale = 1;    // simulated seconds per real second (1 on real hardware)
+  // The stand's clock: settle and dwell times, in-position time-outs and the run clock are
+  // read on it (the simulated backend's runs faster than real time).
+  std::shared_ptr<const drivers::Clock> clock = drivers::steady_clock();
+  // What the backend does once the unit is mounted as `mount` (the run's first mount, and
+  // each re-mount the operator confirms): the simulated unit takes the new attitude; on
+  // real hardware a person has re-mounted it and there is nothing to do.
+  std::function<void(Mount)> remount = [](Mount) {};
   std::string description;  // "sim (time x100)", "modbus tcp://... + socketcan can0"
 };
 

@@ -17,12 +17,14 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <thread>
 #include <vector>
 
 #include "calib/noise_model.hpp"
 #include "calib/programs.hpp"
 #include "daemon/standcald/config.hpp"
+#include "daemon/standcald/dwell.hpp"
 #include "daemon/standcald/hardware.hpp"
 #include "daemon/standcald/run_store.hpp"
 
@@ -69,8 +71,10 @@ class Sequencer {
   // The unit's configured bias wander (unit.bias_instability_ug), white when none.
   GaussMarkovNoise unit_bias_wander() const;
 
-  // Whether `method` is one this class executes (the server answers unknown ones).
-  static bool executes(const std::string& method);
+  // Whether this class has a handler for `method` (method_table.hpp routes here every
+  // method whose executor is the sequencer; tests/daemon's MethodTable cases check both).
+  static bool handles(std::string_view method);
+  static std::vector<std::string_view> handled_methods();
 
  private:
   struct Command {
@@ -93,28 +97,50 @@ class Sequencer {
     nlohmann::json result;
   };
 
+  // How the sequencer answers one method (kBindings, sequencer.cpp): `at_any_time` first,
+  // even while a run holds the stand (true: answered or deferred; false: not its case);
+  // then, on an idle sequencer, `command` (a stand command that holds the stand until it
+  // answers) or `run` (answers once the run is running, then runs it).
+  using AnyTimeHandler = bool (Sequencer::*)(Command&);
+  using CommandHandler = nlohmann::json (Sequencer::*)(const Command&);
+  using RunHandler = nlohmann::json (Sequencer::*)(const nlohmann::json& params);
+  struct Binding {
+    std::string_view method;
+    AnyTimeHandler at_any_time;
+    CommandHandler command;
+    RunHandler run;
+  };
+  static const Binding kBindings[];
+  static const Binding* binding(std::string_view method);
+
   void thread_main();
   void handle(Command& cmd);
-  // estop, stand.stop and the run-targeted methods while a run holds the stand; false
-  // for every other command.
-  bool handle_at_any_time(Command& cmd);
+  bool run_held() const;
+  bool estop_at_any_time(Command& cmd);
   // The run a run-targeted command names when it is not the active run (the caller
   // refuses it: acting on the active run instead would pause, abort or confirm a run the
   // operator did not mean); -32006 when no such run exists.
   std::optional<std::string> named_other_run(const Command& cmd) const;
-  void act_on_active_run(Command& cmd);  // run.pause, run.abort, operator.confirm
-  void resume_active_run(Command& cmd);  // run.resume of the paused run
-  void stand_stop(Command& cmd);
+  bool act_on_active_run(Command& cmd);  // run.pause, run.abort, operator.confirm
+  bool resume_active_run(Command& cmd);  // run.resume of the paused run
+  bool stand_stop(Command& cmd);
   void defer_answer(Command& cmd, nlohmann::json result);
   void answer_deferred(const std::string& run_state = {});
-  nlohmann::json execute_command(const Command& cmd);
-  nlohmann::json execute_idle(const Command& cmd);
+  nlohmann::json execute_command(const Command& cmd, CommandHandler handler);
   void raise_interrupt(Interrupt kind);
   // Takes pending commands; throws Interrupted when one asked to interrupt.
   void service();
   // Waits `real_s` seconds of real time, serving commands meanwhile; returns early once
   // `until` (checked after each command) holds.
   void wait_real(double real_s, const std::function<bool()>& until = {});
+
+  // Stand and unit commands (sequencer_stand.cpp).
+  nlohmann::json enable_stand(const Command& cmd);
+  nlohmann::json disable_stand(const Command& cmd);
+  nlohmann::json home_stand(const Command& cmd);
+  nlohmann::json move_stand(const Command& cmd);
+  nlohmann::json reset_estop(const Command& cmd);
+  nlohmann::json read_unit(const Command& cmd);
 
   // Stand operations (throw protocol::RpcError).
   void prepare_stand(bool home_if_needed);
@@ -135,13 +161,25 @@ class Sequencer {
   std::vector<drivers::AccelSample> collect(double seconds);
   void refresh_stand_snapshot();
 
-  // Runs.
+  // Runs (sequencer_run.cpp).
   nlohmann::json start_run(const nlohmann::json& params);
   nlohmann::json resume_run(const nlohmann::json& params);
   // Runs (or continues) `record`; `started` is called once the run is `running`, so the
   // run.start/run.resume answer never reaches a client before run.status says so.
   void run_loop(RunRecord record, const std::function<void()>& started);
   void measure_position(RunRecord& record, const Program& program, int index, RecordingFile& file);
+  struct Arrival {
+    std::pair<double, double> reached_deg;  // angles read back in position
+    double t_arrive_s = 0;                  // run clock
+    int approach = 0;                       // approach direction (calib/averaging.hpp)
+  };
+  Arrival arrive_at(const RunRecord& record, const ProgramPosition& pp, int index);
+  struct SampledDwell {
+    std::vector<drivers::AccelSample> samples;
+    DwellAverage average;
+    double t_first_s = 0;  // run clock at the first sample
+  };
+  SampledDwell sample_stable_dwell(const RunRecord& record, int index, double dwell_s);
   void wait_for_operator(RunRecord& record, const Program& program, int index);
   void wait_thermal_stability(RunRecord& record);
   bool wait_while_paused(RunRecord& record);
@@ -149,9 +187,8 @@ class Sequencer {
   void finish_with_fit(RunRecord& record);
   void set_state(RunRecord& record, const std::string& state, const std::string& reason = {});
   void set_progress(const RunRecord& record, int position, const std::string& phase);
+  // Seconds on the stand's clock since the run began (continuing a resumed run's time).
   double run_clock_s() const;
-  double stand_time_s(double real_s) const { return real_s * hw_.time_scale; }
-  double real_time_s(double stand_s) const { return stand_s / hw_.time_scale; }
 
   DaemonConfig config_;
   Hardware hw_;
@@ -174,7 +211,7 @@ class Sequencer {
   bool operator_confirmed_ = false;
   bool estop_latched_ = false;
   double run_clock_base_s_ = 0;
-  double run_clock_start_real_s_ = 0;
+  double run_clock_start_s_ = 0;  // hw_.clock->now_s() when run_clock_base_s_ was taken
   double last_t_s_ = 0;
   std::pair<double, double> last_cmd_deg_{0, 0};
   std::optional<Mount> mounted_;     // how the unit is believed mounted; empty: ask the operator

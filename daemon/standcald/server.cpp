@@ -26,6 +26,7 @@
 #include <stdexcept>
 
 #include "daemon/standcald/errno_text.hpp"
+#include "daemon/standcald/method_table.hpp"
 #include "protocol/jsonrpc/jsonrpc.hpp"
 #include "protocol/jsonrpc/methods.hpp"
 #include "standcal/version.hpp"
@@ -166,10 +167,8 @@ Peer tcp_peer(int fd) {
 }  // namespace
 
 bool is_open_method(const std::string& method) {
-  static const std::set<std::string> open{m::hello,      m::status,    m::run_status,
-                                          m::run_result, m::runs_list, m::subscribe,
-                                          m::estop,      m::auth,      m::run_diagnose};
-  return open.count(method) > 0;
+  const MethodSpec* spec = find_method(method);
+  return spec != nullptr && spec->access == Access::anyone;
 }
 
 std::optional<std::string> refuse_control(const std::string& method, const Peer& peer,
@@ -639,6 +638,48 @@ void Server::read_client(Client& c) {
   }
 }
 
+// The methods the socket thread answers itself (method_table.hpp: executor server).
+json Server::answer_here(Client& c, const protocol::Request& req) {
+  protocol::Params p(req.params, req.method);
+  if (req.method == m::status) {
+    p.only({});
+    return status(c);
+  }
+  if (req.method == m::run_status) {
+    p.only({"run_id"});
+    return sequencer_.run_status(
+        p.optional_text("run_id", protocol::text_limit::run_id).value_or(""));
+  }
+  if (req.method == m::run_result) {
+    p.only({"run_id"});
+    return sequencer_.run_result(p.string("run_id"));
+  }
+  if (req.method == m::runs_list) return sequencer_.runs_list(runs_list_query(p));
+  if (req.method == m::subscribe) return subscribe(c, req.params);
+  if (req.method == m::auth) return authenticate(c, req.params);
+  throw std::logic_error("method_table.cpp routes " + req.method +
+                         " to the socket thread, which has no handler for it");
+}
+
+// A method another thread answers: the diagnosis worker (run.diagnose, diagnose_job.hpp)
+// or the sequencer; the answer comes back through post() to this client, if still there.
+void Server::hand_on(Client& c, const protocol::Request& req, Executor executor) {
+  const std::uint64_t serial = c.serial;
+  const int fd = c.fd;
+  const json id = req.id;
+  const bool notification = req.is_notification;
+  if (!notification) ++c.pending_replies;
+  ReplyFn reply = [this, serial, fd, id, notification](Outcome o) {
+    if (notification) return;
+    post([this, serial, fd, id, o = std::move(o)] { reply_later(serial, fd, id, o); });
+  };
+  if (executor == Executor::diagnose_worker) {
+    diagnose_jobs_.submit(sequencer_, req.params, std::move(reply));
+  } else {
+    sequencer_.submit(req.method, req.params, std::move(reply), describe_peer_process(c.peer));
+  }
+}
+
 void Server::handle_line(Client& c, const std::string& line) {
   if (line.find_first_not_of(" \t\r") == std::string::npos) return;  // blank lines are ignored
   ++requests_;
@@ -651,64 +692,28 @@ void Server::handle_line(Client& c, const std::string& line) {
   c.last_activity_s = now_s();
   if (refuse_on_estop_only_slot(c, req)) return;
   try {
-    json result;
-    protocol::Params p(req.params, req.method);
     if (req.positional_params) {
       throw RpcError(ErrorCode::invalid_params,
                      req.method +
                          ": \"params\" must be an object of named parameters "
                          "(no standcald method takes positional ones)");
     }
+    // A name standcald does not have is said so to anyone (docs/protocol.md lists them all);
+    // the access rule is for the methods it has.
+    const MethodSpec* spec = find_method(req.method);
+    if (spec == nullptr) {
+      throw RpcError(ErrorCode::method_not_found,
+                     "unknown method \"" + req.method + "\" (see docs/protocol.md)");
+    }
     if (auto refusal = refuse_control(req.method, c.peer, policy_)) {
       spdlog::info("refused {} from {}", protocol::printable(req.method), describe_peer(c.peer));
       throw RpcError(ErrorCode::not_permitted, *refusal);
     }
-    if (req.method == m::status) {
-      p.only({});
-      result = status(c);
-    } else if (req.method == m::run_status) {
-      p.only({"run_id"});
-      result = sequencer_.run_status(
-          p.optional_text("run_id", protocol::text_limit::run_id).value_or(""));
-    } else if (req.method == m::run_result) {
-      p.only({"run_id"});
-      result = sequencer_.run_result(p.string("run_id"));
-    } else if (req.method == m::runs_list) {
-      result = sequencer_.runs_list(runs_list_query(p));
-    } else if (req.method == m::subscribe) {
-      result = subscribe(c, req.params);
-    } else if (req.method == m::auth) {
-      result = authenticate(c, req.params);
-    } else if (req.method == m::run_diagnose) {  // computed on a worker thread (diagnose_job.hpp)
-      const std::uint64_t serial = c.serial;
-      const int fd = c.fd;
-      const json id = req.id;
-      const bool notification = req.is_notification;
-      if (!notification) ++c.pending_replies;
-      diagnose_jobs_.submit(
-          sequencer_, req.params, [this, serial, fd, id, notification](Outcome o) {
-            if (notification) return;
-            post([this, serial, fd, id, o = std::move(o)] { reply_later(serial, fd, id, o); });
-          });
+    if (spec->executor != Executor::server) {
+      hand_on(c, req, spec->executor);
       return;
-    } else if (Sequencer::executes(req.method)) {
-      const std::uint64_t serial = c.serial;
-      const int fd = c.fd;
-      const json id = req.id;
-      const bool notification = req.is_notification;
-      if (!notification) ++c.pending_replies;
-      sequencer_.submit(
-          req.method, req.params,
-          [this, serial, fd, id, notification](Outcome o) {
-            if (notification) return;
-            post([this, serial, fd, id, o = std::move(o)] { reply_later(serial, fd, id, o); });
-          },
-          describe_peer_process(c.peer));
-      return;
-    } else {
-      throw RpcError(ErrorCode::method_not_found,
-                     "unknown method \"" + req.method + "\" (see docs/protocol.md)");
     }
+    const json result = answer_here(c, req);
     if (!req.is_notification) send_line(c, protocol::make_result(req.id, result));
   } catch (const RpcError& e) {
     if (!req.is_notification)

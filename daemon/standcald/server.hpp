@@ -25,6 +25,7 @@
 
 #include "daemon/standcald/config.hpp"
 #include "daemon/standcald/diagnose_job.hpp"
+#include "daemon/standcald/method_table.hpp"
 #include "daemon/standcald/pid_lock.hpp"
 #include "daemon/standcald/sequencer.hpp"
 #include "protocol/jsonrpc/jsonrpc.hpp"
@@ -137,6 +138,8 @@ class Server {
   void accept_clients(int listen_fd);
   void read_client(Client& c);
   void handle_line(Client& c, const std::string& line);
+  nlohmann::json answer_here(Client& c, const protocol::Request& req);
+  void hand_on(Client& c, const protocol::Request& req, Executor executor);
   void send_line(Client& c, const std::string& line);
   void flush(Client& c);
   void reply_later(std::uint64_t serial, int fd, const nlohmann::json& id, Outcome outcome);

@@ -14,6 +14,7 @@ SimBackend make_sim_backend(const SimBackendConfig& config) {
   SimBackend backend;
   backend.stand = stand;
   backend.unit = unit;
+  backend.clock = clock;
   backend.remount = [unit](Mount m) { unit->remount(m); };
   backend.set_unit_silent = [unit](bool silent) { unit->set_silent(silent); };
   return backend;

@@ -7,6 +7,7 @@
 
 #include "calib/simulator.hpp"
 #include "drivers/accel_unit.hpp"
+#include "drivers/clock.hpp"
 #include "drivers/stand.hpp"
 
 namespace standcal::drivers {
@@ -24,6 +25,7 @@ struct SimBackendConfig {
 struct SimBackend {
   std::shared_ptr<Stand> stand;
   std::shared_ptr<AccelUnit> unit;
+  std::shared_ptr<const Clock> clock;  // the one both run on
   // The simulated operator re-mounting the unit (classic24's re-mount steps). Empty on
   // real hardware, where a person does it.
   std::function<void(Mount)> remount;

@@ -12,7 +12,7 @@ namespace standcal::drivers {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
+using SteadyClock = std::chrono::steady_clock;
 
 // Wraps into [-180, 180), exactly: std::remainder is exact for every finite angle, where
 // a - 360 * floor(...) loses it all for a huge one (1e308 gave 0 instead of -64).
@@ -32,8 +32,8 @@ std::string axis_label(const Stand& stand, StandAxis axis) {
          to_string(axis) + ")";
 }
 
-double seconds_since(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
+double seconds_since(SteadyClock::time_point start) {
+  return std::chrono::duration<double>(SteadyClock::now() - start).count();
 }
 
 bool in_motion(const AxisState& s) {
@@ -160,7 +160,7 @@ double angle_error_deg(const AxisRange& range, double a_deg, double b_deg) {
 }
 
 WaitClock steady_wait_clock() {
-  const auto start = Clock::now();
+  const auto start = SteadyClock::now();
   return {[start] { return seconds_since(start); },
           [](double s) { std::this_thread::sleep_for(std::chrono::duration<double>(s)); }};
 }

@@ -1,0 +1,611 @@
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+
+#include "calib/averaging.hpp"
+#include "calib/recording.hpp"
+#include "calib/utc_time.hpp"
+#include "daemon/standcald/dwell.hpp"
+#include "daemon/standcald/run_result.hpp"
+#include "daemon/standcald/sequencer.hpp"
+#include "daemon/standcald/sequencer_detail.hpp"
+#include "protocol/jsonrpc/methods.hpp"
+#include "protocol/jsonrpc/text.hpp"
+#include "standcal/version.hpp"
+
+// The sequencer's runs: run.start and run.resume, the run loop (per position: re-mount,
+// move, settle, dwell, stability check, record), pause and interrupt, and the fit at the
+// end (run_result.hpp).
+namespace standcal::daemon {
+
+using drivers::StandAxis;
+using nlohmann::json;
+using protocol::ErrorCode;
+using protocol::RpcError;
+using namespace detail;
+namespace m = protocol::method;
+namespace st = protocol::run_state;
+namespace ev = protocol::event;
+
+// --------------------------------------------------------------------------- runs
+
+namespace {
+
+StandLimits limits_of(const DaemonConfig& c) {
+  StandLimits l;
+  l.alpha1 = AxisRange{c.outer.continuous, c.outer.min_deg, c.outer.max_deg};
+  l.alpha2 = AxisRange{c.inner.continuous, c.inner.min_deg, c.inner.max_deg};
+  return l;
+}
+
+}  // namespace
+
+StandLimits Sequencer::stand_limits() const { return limits_of(config_); }
+
+GaussMarkovNoise Sequencer::unit_bias_wander() const {
+  return {Vec3::Constant(config_.unit_bias_instability_ug * kUg),
+          config_.unit_bias_instability_tau_s};
+}
+
+namespace {
+
+bool uses_several_mounts(const Program& p) {
+  for (const auto& pos : p.positions) {
+    if (pos.mount != p.positions.front().mount) return true;
+  }
+  return false;
+}
+
+RecordingColumns recording_columns(const Program& p) {
+  RecordingColumns c;
+  c.alpha_measured = true;
+  c.temp = true;
+  c.mount = uses_several_mounts(p);
+  c.t_arrive = true;
+  c.approach = true;
+  return c;
+}
+
+Program program_from_params(const json& spec, const DaemonConfig& config) {
+  try {
+    if (spec.is_string()) {
+      const std::string name = spec.get<std::string>();
+      protocol::require_text_field("run.start: parameter \"program\"", name,
+                                   protocol::text_limit::program_name);
+      if (name == "paper9" || name == "classic24") return load_program(name);
+      // A NUL would end the file name early at the system call.
+      if (name.empty() || name.find_first_of(std::string("/\0", 2)) != std::string::npos ||
+          name[0] == '.') {
+        throw RpcError(ErrorCode::invalid_params,
+                       "run.start: programme name \"" + name +
+                           "\" is not a library name (no paths; inline positions are allowed)");
+      }
+      const std::string path = config.program_library_dir + "/" + name + ".json";
+      if (config.program_library_dir.empty() || !std::filesystem::exists(path)) {
+        throw RpcError(
+            ErrorCode::not_found,
+            "no programme \"" + name + "\": not paper9, classic24 or in the library" +
+                (config.program_library_dir.empty() ? std::string(" (no library configured)")
+                                                    : " " + config.program_library_dir));
+      }
+      return load_program(path);
+    }
+    if (spec.is_array())
+      return program_from_json(json{{"name", "inline"}, {"positions", spec}}, "run.start program");
+    if (spec.is_object()) {
+      json doc = spec;
+      if (!doc.contains("name")) doc["name"] = "inline";
+      return program_from_json(doc, "run.start program");
+    }
+  } catch (const ProgramError& e) {
+    throw RpcError(ErrorCode::invalid_params, e.what());
+  }
+  throw RpcError(ErrorCode::invalid_params,
+                 "run.start: \"program\" must be a name or inline positions [{\"alpha1_deg\", "
+                 "\"alpha2_deg\"}, ...]");
+}
+
+}  // namespace
+
+json Sequencer::start_run(const json& params) {
+  protocol::Params p(params, m::run_start);
+  p.only({"program", "dwell_s", "settle_s", "unit_serial", "unit_type", "operator"});
+  // Text fields go into the recording header, run.json and the records database: each
+  // one line of printable text, counted in characters (protocol/jsonrpc/text.hpp).
+  namespace limit = protocol::text_limit;
+  const std::string serial = p.optional_text("unit_serial", limit::unit_serial).value_or("");
+  if (serial.empty()) {
+    throw RpcError(ErrorCode::invalid_params,
+                   "run.start: parameter \"unit_serial\" is required (1 to 64 characters)");
+  }
+  const std::string unit_type = p.optional_text("unit_type", limit::unit_type).value_or("");
+  const std::string operator_name = p.optional_text("operator", limit::operator_name).value_or("");
+  const json* spec = p.find("program");
+  if (spec == nullptr)
+    throw RpcError(ErrorCode::invalid_params, "run.start: parameter \"program\" is required");
+  Program program = program_from_params(*spec, config_);
+  protocol::require_text_field("run.start: the programme's \"name\"", program.name,
+                               limit::program_name);
+  try {
+    program = normalise_program(program, limits_of(config_));
+  } catch (const ProgramError& e) {
+    throw RpcError(ErrorCode::limit, e.what());
+  }
+  const double dwell = p.optional_number("dwell_s").value_or(config_.dwell_s);
+  const double settle = p.optional_number("settle_s").value_or(config_.settle_s);
+  if (!(dwell > 0 && dwell <= kMaxDwell_s))
+    throw RpcError(ErrorCode::invalid_params, "run.start: \"dwell_s\" must be in (0, 36000]");
+  if (!(settle >= 0 && settle <= kMaxSettle_s))
+    throw RpcError(ErrorCode::invalid_params, "run.start: \"settle_s\" must be in [0, 3600]");
+  if (estop_latched_)
+    throw RpcError(ErrorCode::estop_active, "emergency stop is latched: send estop.reset first");
+
+  RunRecord r;
+  r.run_id = store_.new_run_id(serial);
+  r.unit_serial = serial;
+  r.unit_type = unit_type;
+  r.program_name = program.name;
+  r.program = program_to_json(program);
+  r.dwell_s = dwell;
+  r.settle_s = settle;
+  r.operator_name = operator_name;
+  r.state = st::running;
+  r.positions = static_cast<int>(program.positions.size());
+  r.started_utc = utc_now_iso();
+  r.recording_path = store_.run_dir(r.run_id) + "/recording.csv";
+  r.stand_id = config_.stand_id;
+  r.config_hash = config_hash(config_);
+  r.software_version = kVersion;
+  r.g_source = config_.g_source;
+  r.g_local_mps2 = config_.g_local_mps2;
+  store_.save(r);
+  spdlog::info("run {} started: programme {} ({} positions), unit {}", r.run_id,
+               protocol::printable(r.program_name), r.positions, protocol::printable(serial));
+  return json{
+      {"run_id", r.run_id}, {"positions", r.positions}, {"recording_path", r.recording_path}};
+}
+
+json Sequencer::resume_run(const json& params) {
+  protocol::Params p(params, m::run_resume);
+  p.only({"run_id"});
+  std::optional<RunRecord> rec;
+  if (auto id = p.optional_text("run_id", protocol::text_limit::run_id)) {
+    rec = store_.get(*id);
+    if (!rec) throw RpcError(ErrorCode::not_found, "no run " + *id + " (see runs.list)");
+  } else {
+    rec = store_.latest_resumable();
+    if (!rec)
+      throw RpcError(ErrorCode::not_found, "no interrupted, faulted or paused run to resume");
+  }
+  if (rec->state != st::interrupted && rec->state != st::faulted && rec->state != st::paused) {
+    throw RpcError(ErrorCode::invalid_state,
+                   "run " + rec->run_id + " is " + rec->state + " and cannot be resumed");
+  }
+  if (estop_latched_)
+    throw RpcError(ErrorCode::estop_active, "emergency stop is latched: send estop.reset first");
+  try {
+    // A run stored before the programme rules tightened (e.g. a dwell past the run limit)
+    // is refused here, not by run_loop, which has already taken the stand.
+    (void)program_from_json(rec->program, rec->run_id);
+  } catch (const ProgramError& e) {
+    throw RpcError(ErrorCode::invalid_state,
+                   "run " + rec->run_id + " cannot be resumed: " + e.what());
+  }
+  spdlog::info("run {} resumed at position {}/{}", rec->run_id, rec->positions_done + 1,
+               rec->positions);
+  return json{{"run_id", rec->run_id},
+              {"position", rec->positions_done + 1},
+              {"positions", rec->positions}};
+}
+
+double Sequencer::run_clock_s() const {
+  return run_clock_base_s_ + (hw_.clock->now_s() - run_clock_start_s_);
+}
+
+void Sequencer::set_state(RunRecord& record, const std::string& state, const std::string& reason) {
+  record.state = state;
+  record.reason = reason;
+  if (state == st::done || state == st::aborted || state == st::faulted ||
+      state == st::interrupted) {
+    record.ended_utc = utc_now_iso();
+  }
+  try {
+    store_.save(record);  // the in-memory state is updated even when the file cannot be
+  } catch (const std::exception& e) {
+    // Disk full: run.status still answers from memory; after a restart the run is
+    // `interrupted` (the last state on disk was an active one) and resumable.
+    spdlog::error("run {}: cannot store the state {}: {}", record.run_id, state, e.what());
+  }
+  {
+    std::lock_guard lock(snapshot_mutex_);
+    if (progress_.is_object()) progress_["state"] = state;
+  }
+  // The one log line of a state change; a fault is logged here once, at error level.
+  const auto level = state == st::faulted ? spdlog::level::err : spdlog::level::info;
+  if (reason.empty()) {
+    spdlog::log(level, "run {}: {}", record.run_id, state);
+  } else {
+    spdlog::log(level, "run {}: {} ({})", record.run_id, state, reason);
+  }
+  events_(ev::run_state, json{{"run_id", record.run_id},
+                              {"state", state},
+                              {"reason", reason},
+                              {"positions_done", record.positions_done},
+                              {"positions", record.positions}});
+}
+
+void Sequencer::set_progress(const RunRecord& record, int index, const std::string& phase) {
+  const int remaining = std::max(0, record.positions - index);
+  const double per_position_real_s =
+      positions_timed_ > 0 ? mean_position_real_s_
+                           : hw_.clock->real_seconds(record.dwell_s + record.settle_s +
+                                                     10.0);  // 10 s: a typical move
+  json progress{{"run_id", record.run_id},
+                {"state", record.state},
+                {"position", std::min(index + 1, record.positions)},
+                {"positions", record.positions},
+                {"positions_done", record.positions_done},
+                {"phase", phase},
+                {"eta_s", remaining * per_position_real_s}};
+  {
+    std::lock_guard lock(snapshot_mutex_);
+    progress_ = progress;
+  }
+  events_(ev::run_progress, progress);
+}
+
+void Sequencer::run_loop(RunRecord record, const std::function<void()>& started) {
+  mode_ = Mode::run_active;
+  interrupt_ = Interrupt::none;
+  {
+    std::lock_guard lock(snapshot_mutex_);
+    active_run_id_ = record.run_id;
+  }
+  const Program program = program_from_json(record.program, record.run_id);
+  if (record.recording_bytes > 0) {
+    if (const std::string note = fit_record_to_recording(record); !note.empty()) {
+      spdlog::warn("run {}: {}", record.run_id, note);
+      events_(ev::fault, json{{"run_id", record.run_id}, {"message", note}});
+    }
+  }
+  const bool fresh = record.recording_bytes == 0;
+  run_clock_base_s_ =
+      fresh ? 0.0 : record.last_t_s + 1.0;  // resumed: time continues after the last row
+  run_clock_start_s_ = hw_.clock->now_s();
+  last_t_s_ = record.last_t_s;
+  positions_timed_ = 0;
+  mean_position_real_s_ = 0;
+  mounted_ = (!fresh && uses_several_mounts(program))
+                 ? std::nullopt
+                 : std::optional<Mount>(program.positions.front().mount);
+  if (fresh) hw_.remount(program.positions.front().mount);
+  set_state(record, st::running);
+  started();
+
+  std::optional<RecordingFile> file;
+  int index = record.positions_done;
+  bool finished = false;
+  try {
+    for (;;) {
+      try {
+        if (!file) {
+          set_progress(record, index, "preparing");
+          prepare_stand(true);
+          last_cmd_deg_ = {read_axis(StandAxis::outer).angle_deg,
+                           read_axis(StandAxis::inner).angle_deg};
+          if (fresh) {
+            Recording header;
+            header.set_header("g_local_mps2", number_text(record.g_local_mps2));
+            header.set_header("settle_s", number_text(record.settle_s));
+            header.set_header("sample_rate_hz", number_text(config_.sample_rate_hz));
+            header.set_header("unit_serial", record.unit_serial);
+            if (!record.unit_type.empty()) header.set_header("unit_type", record.unit_type);
+            header.set_header("program", record.program_name);
+            header.set_header("started_utc", record.started_utc);
+            header.set_header("run_id", record.run_id);
+            header.set_header("stand_id", record.stand_id);
+            header.columns = recording_columns(program);
+            file.emplace(
+                RecordingFile::create(record.recording_path, format_recording_header(header)));
+            record.recording_bytes = file->length();
+            record.header_bytes = file->length();
+            record.position_end_bytes.clear();
+            store_.save(record);
+          } else {
+            file.emplace(RecordingFile::reopen(record.recording_path, record.recording_bytes));
+          }
+          if (config_.thermal.enabled && record.positions_done == 0) wait_thermal_stability(record);
+        }
+        if (index >= record.positions) break;
+        measure_position(record, program, index, *file);
+        ++index;
+      } catch (const Interrupted& in) {
+        stop_axes_and_wait();  // before the state changes: its answer says the stand stopped
+        if (in.kind == Interrupt::pause) {
+          if (wait_while_paused(record)) continue;
+        } else {
+          finish_interrupted(record, in.kind);
+        }
+        finished = true;
+        break;
+      }
+    }
+    if (!finished) finish_with_fit(record);
+  } catch (const std::exception& e) {
+    stop_axes_quietly();
+    if (hw_.unit) (void)hw_.unit->stop();
+    events_(ev::fault, json{{"run_id", record.run_id}, {"message", e.what()}});
+    set_state(record, st::faulted, e.what());
+  }
+  mode_ = Mode::idle;
+  {
+    std::lock_guard lock(snapshot_mutex_);
+    active_run_id_.clear();
+    progress_ = nullptr;
+  }
+  refresh_stand_snapshot();
+  // Once status shows no active run: an abort's answer, or a pause that came while the
+  // run was fitting (the answer then says `done`).
+  answer_deferred(record.state);
+}
+
+bool Sequencer::wait_while_paused(RunRecord& record) {
+  mode_ = Mode::run_paused;
+  resume_requested_ = false;
+  set_state(record, st::paused,
+            "paused by the operator; run.resume continues with the current position");
+  set_progress(record, record.positions_done, "paused");
+  answer_deferred(st::paused);
+  for (;;) {
+    try {
+      wait_real(1.0, [this] { return resume_requested_; });
+    } catch (const Interrupted& in) {
+      if (in.kind == Interrupt::pause) continue;
+      mode_ = Mode::run_active;
+      finish_interrupted(record, in.kind);
+      return false;
+    }
+    if (resume_requested_) {
+      mode_ = Mode::run_active;
+      set_state(record, st::running);
+      answer_deferred(st::running);
+      return true;
+    }
+  }
+}
+
+void Sequencer::finish_interrupted(RunRecord& record, Interrupt kind) {
+  if (hw_.unit) (void)hw_.unit->stop();
+  switch (kind) {
+    case Interrupt::abort:
+      set_state(record, st::aborted, "aborted by the operator; the recorded positions are kept");
+      break;
+    case Interrupt::estop:
+      set_state(record, st::faulted,
+                "emergency stop; estop.reset, then run.resume continues the run");
+      break;
+    default:
+      set_state(record, st::interrupted,
+                "standcald was stopped during the run; run.resume continues it");
+      break;
+  }
+}
+
+void Sequencer::wait_for_operator(RunRecord& record, const Program& program, int index) {
+  const Mount mount = program.positions[static_cast<std::size_t>(index)].mount;
+  mode_ = Mode::run_waiting_operator;
+  operator_confirmed_ = false;
+  set_state(record, st::waiting_operator,
+            "re-mount the unit for mount " + mount_name(mount) + " (position " +
+                std::to_string(index + 1) + "), then send operator.confirm");
+  set_progress(record, index, "waiting_operator");
+  try {
+    while (!operator_confirmed_) wait_real(1.0, [this] { return operator_confirmed_; });
+  } catch (...) {
+    mode_ = Mode::run_active;
+    throw;
+  }
+  mode_ = Mode::run_active;
+  hw_.remount(mount);
+  mounted_ = mount;
+  set_state(record, st::running);
+}
+
+void Sequencer::wait_thermal_stability(RunRecord& record) {
+  const ThermalWait& tw = config_.thermal;
+  set_progress(record, 0, "thermal_wait");
+  const double start = run_clock_s();
+  for (;;) {
+    check(hw_.unit->start());
+    const std::vector<drivers::AccelSample> s = collect(tw.window_s);
+    (void)hw_.unit->stop();
+    double n = 0, t_mean = 0, c_mean = 0;
+    for (const auto& x : s) {
+      if (!std::isfinite(x.temperature_c)) continue;
+      n += 1;
+      t_mean += x.t_s;
+      c_mean += x.temperature_c;
+    }
+    if (n < 2)
+      throw RpcError(ErrorCode::hardware_fault,
+                     "thermal wait is configured but the unit reports no temperature");
+    t_mean /= n;
+    c_mean /= n;
+    double stt = 0, stc = 0;
+    for (const auto& x : s) {
+      if (!std::isfinite(x.temperature_c)) continue;
+      stt += (x.t_s - t_mean) * (x.t_s - t_mean);
+      stc += (x.t_s - t_mean) * (x.temperature_c - c_mean);
+    }
+    const double rate_c_per_min = stt > 0 ? stc / stt * 60.0 : 0.0;
+    if (std::abs(rate_c_per_min) < tw.rate_limit_c_per_min) return;
+    if (run_clock_s() - start > tw.timeout_s) {
+      throw RpcError(ErrorCode::hardware_fault,
+                     "the unit temperature still changes by " + number_text(rate_c_per_min) +
+                         " °C/min after the thermal wait's " + number_text(tw.timeout_s) + " s");
+    }
+  }
+}
+
+namespace {
+
+// The recording rows of one dwell, on the run clock: the unit's own sample spacing,
+// starting when sampling began (`t_first_s`).
+std::vector<RecordingSample> dwell_rows(const std::vector<drivers::AccelSample>& samples,
+                                        double t_first_s, int index, const ProgramPosition& pp,
+                                        const std::pair<double, double>& reached_deg,
+                                        double t_arrive_s, int approach,
+                                        const RecordingColumns& columns) {
+  std::vector<RecordingSample> rows;
+  rows.reserve(samples.size());
+  const double t0_unit = samples.front().t_s;
+  for (const drivers::AccelSample& x : samples) {
+    RecordingSample r;
+    r.t_s = t_first_s + (x.t_s - t0_unit);
+    r.pos = index;
+    r.alpha1_cmd_deg = pp.alpha1_deg;
+    r.alpha2_cmd_deg = pp.alpha2_deg;
+    r.alpha1_deg = reached_deg.first;
+    r.alpha2_deg = reached_deg.second;
+    r.f_mps2 = Vec3(x.force_mps2[0], x.force_mps2[1], x.force_mps2[2]);
+    r.temp_c = std::isfinite(x.temperature_c) ? x.temperature_c : kNoValue;
+    if (columns.mount) r.mount = pp.mount;
+    r.t_arrive_s = t_arrive_s;
+    r.approach = static_cast<std::int8_t>(approach);
+    rows.push_back(r);
+  }
+  return rows;
+}
+
+json per_axis_ug(const std::array<double, 3>& mps2, double g_local_mps2) {
+  json out = json::array();
+  for (double v : mps2) out.push_back(v / g_local_mps2 * 1e6);
+  return out;
+}
+
+}  // namespace
+
+// One position: re-mount if its mount differs, move and wait in position, settle, sample a
+// stable dwell, append it to the recording durably, and only then count it done.
+void Sequencer::measure_position(RunRecord& record, const Program& program, int index,
+                                 RecordingFile& file) {
+  const ProgramPosition& pp = program.positions[static_cast<std::size_t>(index)];
+  const double started_real = now_real_s();
+  if (!mounted_ || *mounted_ != pp.mount) wait_for_operator(record, program, index);
+  const Arrival arrival = arrive_at(record, pp, index);
+
+  set_progress(record, index, "settling");
+  wait_real(hw_.clock->real_seconds(pp.settle_s.value_or(record.settle_s)));
+  const SampledDwell dwell =
+      sample_stable_dwell(record, index, pp.dwell_s.value_or(record.dwell_s));
+
+  const RecordingColumns columns = recording_columns(program);
+  const std::vector<RecordingSample> rows =
+      dwell_rows(dwell.samples, dwell.t_first_s, index, pp, arrival.reached_deg, arrival.t_arrive_s,
+                 arrival.approach, columns);
+  std::string text;
+  text.reserve(rows.size() * 120);
+  append_recording_rows(text, columns, rows);
+  record.recording_bytes = file.append_durably(text);
+  record.position_end_bytes.resize(static_cast<std::size_t>(index));
+  record.position_end_bytes.push_back(record.recording_bytes);
+  record.positions_done = index + 1;
+  record.last_t_s = rows.back().t_s;
+  last_t_s_ = record.last_t_s;
+  store_.save(record);  // only now is the position done: a crash before this re-measures it
+
+  const DwellAverage& avg = dwell.average;
+  events_(ev::position_averaged,
+          json{{"run_id", record.run_id},
+               {"position", index + 1},
+               {"pos", index},
+               {"samples", dwell.samples.size()},
+               {"mean_mps2", avg.mean_mps2},
+               {"sigma_ug", per_axis_ug(avg.sigma_mps2, record.g_local_mps2)},
+               {"trend_ug", per_axis_ug(avg.trend_mps2, record.g_local_mps2)},
+               {"temp_c", std::isfinite(avg.temp_mean_c) ? json(avg.temp_mean_c) : json(nullptr)}});
+  const double took = now_real_s() - started_real;
+  mean_position_real_s_ =
+      (mean_position_real_s_ * positions_timed_ + took) / (positions_timed_ + 1);
+  ++positions_timed_;
+  set_progress(record, index + 1, "moving");
+}
+
+// Moves to the position and waits in position; says where the stand arrived.
+Sequencer::Arrival Sequencer::arrive_at(const RunRecord& record, const ProgramPosition& pp,
+                                        int index) {
+  set_progress(record, index, "moving");
+  if (hw_.stand->lifecycle() != drivers::Lifecycle::active) {
+    // The driver dropped to `error` (link lost after its retries) while the unit sampled.
+    throw RpcError(ErrorCode::hardware_fault, "lost the link to the stand " + hw_.stand->name() +
+                                                  " during the run (" +
+                                                  drivers::to_string(hw_.stand->lifecycle()) +
+                                                  "); run.resume reconnects and continues");
+  }
+  Arrival a;
+  a.reached_deg = move_and_wait(pp.alpha1_deg, pp.alpha2_deg);
+  a.t_arrive_s = std::max(run_clock_s(), last_t_s_);
+  a.approach = approach_directions({last_cmd_deg_, {pp.alpha1_deg, pp.alpha2_deg}})[1];
+  last_cmd_deg_ = {pp.alpha1_deg, pp.alpha2_deg};
+  events_(ev::position_reached, json{{"run_id", record.run_id},
+                                     {"position", index + 1},
+                                     {"pos", index},
+                                     {"alpha1_cmd_deg", pp.alpha1_deg},
+                                     {"alpha2_cmd_deg", pp.alpha2_deg},
+                                     {"alpha1_deg", a.reached_deg.first},
+                                     {"alpha2_deg", a.reached_deg.second},
+                                     {"t_arrive_s", a.t_arrive_s}});
+  return a;
+}
+
+// Samples `dwell_s` of unit time; a dwell the stability rule rejects is re-measured up to
+// stability.remeasure_max times, then the run faults saying why.
+Sequencer::SampledDwell Sequencer::sample_stable_dwell(const RunRecord& record, int index,
+                                                       double dwell_s) {
+  for (int attempt = 0;; ++attempt) {
+    set_progress(record, index, attempt == 0 ? "sampling" : "re-measuring");
+    const std::uint64_t incomplete_before = hw_.unit->health().incomplete_samples;
+    SampledDwell d;
+    d.t_first_s = std::max(run_clock_s(), last_t_s_ + 1e-3);
+    check(hw_.unit->start());
+    try {
+      d.samples = collect(dwell_s);
+    } catch (...) {
+      (void)hw_.unit->stop();
+      throw;
+    }
+    (void)hw_.unit->stop();
+    d.average = average_dwell(d.samples);
+    const std::string problem =
+        dwell_problem(d.average,
+                      DwellExpectation{hw_.unit->name(), dwell_s, config_.sample_rate_hz,
+                                       hw_.unit->health().incomplete_samples - incomplete_before,
+                                       record.g_local_mps2},
+                      config_.stability);
+    if (problem.empty()) return d;
+    if (attempt >= config_.stability.remeasure_max) {
+      throw RpcError(ErrorCode::hardware_fault,
+                     "position " + std::to_string(index + 1) + " not stable after " +
+                         std::to_string(attempt + 1) + " measurements: " + problem);
+    }
+    spdlog::warn("run {}: re-measuring position {}: {}", record.run_id, index + 1, problem);
+    events_(ev::fault, json{{"run_id", record.run_id},
+                            {"position", index + 1},
+                            {"message", "re-measuring position " + std::to_string(index + 1) +
+                                            ": " + problem}});
+  }
+}
+
+void Sequencer::finish_with_fit(RunRecord& record) {
+  set_progress(record, record.positions, "fitting");
+  json result =
+      fit_finished_run(record, store_.run_dir(record.run_id), unit_bias_wander(), config_.budget);
+  const std::string path = store_.run_dir(record.run_id) + "/result.json";
+  write_state_file(path, result.dump(2) + "\n");
+  record.result_path = path;
+  set_state(record, st::done);
+}
+
+}  // namespace standcal::daemon

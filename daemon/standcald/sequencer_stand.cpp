@@ -1,0 +1,335 @@
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+#include <thread>
+
+#include "daemon/standcald/dwell.hpp"
+#include "daemon/standcald/sequencer.hpp"
+#include "daemon/standcald/sequencer_detail.hpp"
+#include "protocol/jsonrpc/methods.hpp"
+
+// The sequencer's stand and unit commands and the stand operations a run uses (move, wait
+// in position, stop, emergency stop), all on the sequencer thread.
+namespace standcal::daemon {
+
+using drivers::StandAxis;
+using nlohmann::json;
+using protocol::ErrorCode;
+using protocol::RpcError;
+using namespace detail;
+namespace m = protocol::method;
+namespace ev = protocol::event;
+
+namespace {
+
+constexpr double kCollectChunk_s = 1.0;  // unit time per collect() call: commands served between
+
+json axis_json(StandAxis axis, const drivers::AxisState& s) {
+  return json{{"axis", drivers::to_string(axis)},
+              {"mode", drivers::to_string(s.mode)},
+              {"angle_deg", s.angle_deg},
+              {"enabled", s.enabled},
+              {"homed", s.homed},
+              {"estop", s.estop},
+              {"stopped_by_heartbeat", s.stopped_by_heartbeat},
+              {"fault_code", s.fault_code},
+              {"fault_text", s.fault_text}};
+}
+
+}  // namespace
+
+// --------------------------------------------------------------------------- stand commands
+// Each answers one method while no run holds the stand (Sequencer::kBindings).
+
+json Sequencer::enable_stand(const Command& cmd) {
+  protocol::Params(cmd.params, cmd.method).only({});
+  prepare_stand(false);
+  return json{{"enabled", true}};
+}
+
+json Sequencer::disable_stand(const Command& cmd) {
+  protocol::Params(cmd.params, cmd.method).only({});
+  if (hw_.stand->lifecycle() == drivers::Lifecycle::active) {
+    for (StandAxis a : kAxes) check(hw_.stand->disable(a));
+  }
+  return json{{"enabled", false}};
+}
+
+json Sequencer::home_stand(const Command& cmd) {
+  protocol::Params(cmd.params, cmd.method).only({});
+  prepare_stand(false);
+  home_axes();
+  return json{{"alpha1_deg", read_axis(StandAxis::outer).angle_deg},
+              {"alpha2_deg", read_axis(StandAxis::inner).angle_deg}};
+}
+
+json Sequencer::move_stand(const Command& cmd) {
+  protocol::Params p(cmd.params, cmd.method);
+  p.only({"alpha1_deg", "alpha2_deg", "wait"});
+  const double a1 = p.number("alpha1_deg"), a2 = p.number("alpha2_deg");
+  const bool wait = p.optional_bool("wait", true);
+  if (!std::isfinite(a1) || !std::isfinite(a2))
+    throw RpcError(ErrorCode::invalid_params, "stand.move: angles must be finite");
+  if (estop_latched_)
+    throw RpcError(ErrorCode::estop_active, "emergency stop is latched: send estop.reset first");
+  if (hw_.stand->lifecycle() != drivers::Lifecycle::active) {
+    throw RpcError(ErrorCode::invalid_state, "the stand is not enabled: send stand.enable first");
+  }
+  for (StandAxis a : kAxes) {
+    if (!read_axis(a).homed) {
+      throw RpcError(ErrorCode::not_homed, std::string("stand axis ") + drivers::to_string(a) +
+                                               " has not been homed: send stand.home first");
+    }
+  }
+  if (!wait) {
+    start_move(a1, a2);
+    return json{{"accepted", true}};
+  }
+  auto [r1, r2] = move_and_wait(a1, a2);
+  return json{{"alpha1_deg", r1}, {"alpha2_deg", r2}, {"in_position", true}};
+}
+
+json Sequencer::reset_estop(const Command& cmd) {
+  protocol::Params(cmd.params, cmd.method).only({});
+  // The latch is the controller's: an unconfigured stand is configured first so that a
+  // latch set before then is found (it puts the stand in error) and reset here.
+  if (hw_.stand->lifecycle() == drivers::Lifecycle::unconfigured) check(hw_.stand->configure());
+  if (hw_.stand->lifecycle() == drivers::Lifecycle::error) check(hw_.stand->recover());
+  estop_latched_ = false;
+  return json{{"estop", false},
+              {"message", "emergency stop reset: send stand.enable and stand.home"}};
+}
+
+json Sequencer::read_unit(const Command& cmd) {
+  protocol::Params p(cmd.params, cmd.method);
+  p.only({"seconds"});
+  const double seconds = p.number("seconds");
+  // Shorter than one sample period reads nothing, and a mean of nothing is not 0.
+  const double min_s = 1.0 / config_.sample_rate_hz;
+  if (!(seconds >= min_s && seconds <= 3600)) {
+    throw RpcError(
+        ErrorCode::invalid_params,
+        fmt::format(
+            "unit.read: \"seconds\" must be between {:g} (one sample at unit.sample_rate_hz "
+            "{:g} Hz) and 3600 (got {:g})",
+            min_s, config_.sample_rate_hz, seconds));
+  }
+  return unit_read(seconds);
+}
+
+// --------------------------------------------------------------------------- stand operations
+
+drivers::AxisState Sequencer::read_axis(StandAxis axis) {
+  return check(hw_.stand->read_state(axis));
+}
+
+void Sequencer::prepare_stand(bool home_if_needed) {
+  drivers::Stand& s = *hw_.stand;
+  if (estop_latched_)
+    throw RpcError(ErrorCode::estop_active, "emergency stop is latched: send estop.reset first");
+  if (s.lifecycle() == drivers::Lifecycle::error) {
+    check(s.recover());
+    // Let the driver's heartbeat run a few periods before the first move: a controller
+    // whose watchdog tripped during the link loss refuses motion (exception 4) until it
+    // has seen the heartbeat change again.
+    wait_real(0.5);
+  }
+  if (s.lifecycle() == drivers::Lifecycle::unconfigured) check(s.configure());
+  if (s.lifecycle() == drivers::Lifecycle::inactive) check(s.activate());
+  for (StandAxis a : kAxes) {
+    if (!read_axis(a).enabled) check(s.enable(a));
+  }
+  if (home_if_needed) {
+    bool homed = true;
+    for (StandAxis a : kAxes) homed = homed && read_axis(a).homed;
+    if (!homed) home_axes();
+  }
+}
+
+// The drivers' one in-position rule, on the stand's clock, serving requests while it waits.
+drivers::WaitClock Sequencer::wait_clock() {
+  return {[this] { return hw_.clock->now_s(); },
+          [this](double stand_s) {
+            wait_real(std::clamp(hw_.clock->real_seconds(stand_s), 0.002, 0.05));
+          }};
+}
+
+void Sequencer::home_axes() {
+  for (StandAxis a : kAxes) check(hw_.stand->home(a));
+  check_wait(drivers::wait_homed(*hw_.stand, kAxes, config_.home_timeout_s,
+                                 config_.in_position.poll_s, wait_clock()));
+}
+
+void Sequencer::start_move(double alpha1_deg, double alpha2_deg) {
+  const double target[2] = {alpha1_deg, alpha2_deg};
+  for (int i = 0; i < 2; ++i) {
+    const StandAxis a = kAxes[i];
+    const double now = read_axis(a).angle_deg;
+    const double cmd = check(drivers::path_target_deg(hw_.stand->range(a), target[i], now));
+    check(hw_.stand->move_to(a, cmd));
+  }
+}
+
+std::pair<double, double> Sequencer::move_and_wait(double alpha1_deg, double alpha2_deg) {
+  const double t1 = check(drivers::normalise_target_deg(
+      hw_.stand->range(StandAxis::outer), alpha1_deg, read_axis(StandAxis::outer).angle_deg));
+  const double t2 = check(drivers::normalise_target_deg(
+      hw_.stand->range(StandAxis::inner), alpha2_deg, read_axis(StandAxis::inner).angle_deg));
+  start_move(alpha1_deg, alpha2_deg);
+  return wait_in_position(t1, t2);
+}
+
+std::pair<double, double> Sequencer::wait_in_position(double target1_deg, double target2_deg) {
+  const drivers::AxisTarget targets[] = {{StandAxis::outer, target1_deg},
+                                         {StandAxis::inner, target2_deg}};
+  const std::vector<double> reached =
+      check_wait(drivers::wait_in_position(*hw_.stand, targets, config_.in_position, wait_clock()));
+  return {reached[0], reached[1]};
+}
+
+void Sequencer::stop_axes_quietly() {
+  // Also in `error` and `inactive`: after a link loss mid-move the driver's heartbeat
+  // keeps the controller alive once the link is back, so without this stop an axis would
+  // carry on to its last target while the run reports a fault.
+  if (hw_.stand->lifecycle() == drivers::Lifecycle::unconfigured) return;
+  for (StandAxis a : kAxes) {
+    const drivers::Status s = hw_.stand->stop(a);
+    if (!s) spdlog::warn("stopping stand axis {}: {}", drivers::to_string(a), s.message);
+  }
+}
+
+bool Sequencer::stop_axes_and_wait() {
+  stop_axes_quietly();
+  const double start_s = hw_.clock->now_s();
+  const double poll_real =
+      std::clamp(hw_.clock->real_seconds(config_.in_position.poll_s), 0.002, 0.05);
+  while (!axes_still()) {
+    if (hw_.clock->now_s() - start_s > config_.in_position.timeout_s) {
+      spdlog::warn("the stand axes were still moving {} s after the stop command",
+                   int(config_.in_position.timeout_s));
+      refresh_stand_snapshot();
+      return false;
+    }
+    heartbeat_++;
+    handle_emergency_stops();
+    std::this_thread::sleep_for(std::chrono::duration<double>(poll_real));
+  }
+  refresh_stand_snapshot();
+  return true;
+}
+
+// While the axes decelerate no other command runs, but an emergency stop never waits for
+// them: a stuck or runaway axis is when it is needed (the wait lasts up to
+// in_position.timeout_s).
+void Sequencer::handle_emergency_stops() {
+  for (;;) {
+    std::optional<Command> estop;
+    {
+      std::lock_guard lock(queue_mutex_);
+      const auto it = std::find_if(queue_.begin(), queue_.end(),
+                                   [](const Command& c) { return c.method == m::estop; });
+      if (it == queue_.end()) return;
+      estop = std::move(*it);
+      queue_.erase(it);
+    }
+    handle(*estop);
+  }
+}
+
+bool Sequencer::axes_still() {
+  if (hw_.stand->lifecycle() == drivers::Lifecycle::unconfigured) return true;
+  for (StandAxis a : kAxes) {
+    const auto state = hw_.stand->read_state(a);
+    if (!state)
+      return true;  // unreadable: the link fault is reported by whoever needs the stand next
+    const drivers::AxisMode mode = state.value().mode;
+    if (mode == drivers::AxisMode::moving || mode == drivers::AxisMode::homing) return false;
+  }
+  return true;
+}
+
+void Sequencer::emergency_stop(const std::string& requested_by) {
+  estop_latched_ = true;
+  const drivers::Status s = hw_.stand->emergency_stop();
+  // Who pressed it is the first question afterwards.
+  spdlog::warn("EMERGENCY STOP requested by {}", requested_by.empty() ? "a client" : requested_by);
+  refresh_stand_snapshot();
+  events_(ev::fault,
+          json{{"source", "estop"}, {"message", "emergency stop: both axes stopped and disabled"}});
+  if (!s)
+    throw RpcError(ErrorCode::hardware_fault,
+                   "emergency stop could not be confirmed by the stand: " + s.message);
+}
+
+void Sequencer::refresh_stand_snapshot() {
+  json axes = json::array();
+  for (StandAxis a : kAxes) {
+    auto r = hw_.stand->read_state(a);
+    axes.push_back(r ? axis_json(a, r.value())
+                     : json{{"axis", drivers::to_string(a)}, {"error", r.status().message}});
+  }
+  const drivers::AccelUnitHealth h = hw_.unit->health();
+  json unit{{"name", hw_.unit->name()},
+            {"samples", h.samples},
+            {"incomplete_samples", h.incomplete_samples},
+            {"bus_state", drivers::bus_state_name(h.bus_state)},
+            {"silent", h.silent}};
+  std::lock_guard lock(snapshot_mutex_);
+  stand_snapshot_ = json{{"name", hw_.stand->name()},
+                         {"id", config_.stand_id},
+                         {"lifecycle", drivers::to_string(hw_.stand->lifecycle())},
+                         {"estop_latched", estop_latched_},
+                         {"axes", axes},
+                         {"unit", unit},
+                         {"busy_with", mode_ == Mode::command ? json(busy_with_) : json(nullptr)}};
+}
+
+// --------------------------------------------------------------------------- unit
+
+std::vector<drivers::AccelSample> Sequencer::collect(double seconds) {
+  std::vector<drivers::AccelSample> all;
+  double left = seconds;
+  while (left > 1e-9) {
+    service();
+    const double chunk = std::min(left, kCollectChunk_s);
+    auto got = check(hw_.unit->collect(chunk));
+    all.insert(all.end(), got.begin(), got.end());
+    left -= chunk;
+  }
+  return all;
+}
+
+json Sequencer::unit_read(double seconds) {
+  check(hw_.unit->start());
+  std::vector<drivers::AccelSample> samples;
+  try {
+    samples = collect(seconds);
+  } catch (...) {
+    (void)hw_.unit->stop();
+    throw;
+  }
+  (void)hw_.unit->stop();
+  if (samples.empty()) {
+    throw RpcError(
+        ErrorCode::hardware_fault,
+        fmt::format(
+            "unit.read: no sample from the accelerometer unit during {:g} s (is it powered and "
+            "on the bus?)",
+            seconds));
+  }
+  const DwellAverage s = average_dwell(samples);
+  json axes = json::object();
+  for (int a = 0; a < 3; ++a) {
+    axes[axis_name(a)] = json{{"mean_mps2", s.mean_mps2[a]},
+                              {"sigma_ug", s.sigma_mps2[a] / config_.g_local_mps2 * 1e6}};
+  }
+  const drivers::AccelUnitHealth h = hw_.unit->health();
+  return json{{"samples", s.count},
+              {"rate_hz", seconds > 0 ? s.count / seconds : 0.0},
+              {"axes", axes},
+              {"temp_c", std::isfinite(s.temp_mean_c) ? json(s.temp_mean_c) : json(nullptr)},
+              {"incomplete_samples", h.incomplete_samples}};
+}
+
+}  // namespace standcal::daemon

@@ -1,0 +1,192 @@
+// The sequencer in process, on the simulated backend: commands submitted as the socket
+// server submits them, answers and events read back directly (the process-level tests in
+// this folder drive the same code through a real standcald and its socket).
+#include "daemon/standcald/sequencer.hpp"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <future>
+#include <memory>
+#include <mutex>
+#include <thread>
+
+#include "calib/recording.hpp"
+#include "daemon/standcald/hardware.hpp"
+#include "protocol/jsonrpc/jsonrpc.hpp"
+#include "tests/support/temp_dir.hpp"
+
+namespace standcal::daemon {
+namespace {
+
+using nlohmann::json;
+using protocol::ErrorCode;
+
+class InProcessSequencer {
+ public:
+  explicit InProcessSequencer(double time_scale)
+      : config_(sim_config(dir_.file("unused.sock"), dir_.file("state"), time_scale)),
+        store_(config_.state_dir),
+        sequencer_(config_, make_hardware(config_), store_,
+                   [this](const std::string& event, const json& params) {
+                     std::lock_guard lock(events_mutex_);
+                     events_.emplace_back(event, params);
+                   }) {
+    sequencer_.start();
+  }
+
+  // Submits like the server does and waits for the one answer (at most `timeout_s`).
+  Outcome call(const std::string& method, json params = json::object(), double timeout_s = 120) {
+    auto answer = std::make_shared<std::promise<Outcome>>();
+    auto future = answer->get_future();
+    sequencer_.submit(
+        method, std::move(params), [answer](Outcome o) { answer->set_value(o); }, "sequencer_test");
+    if (future.wait_for(std::chrono::duration<double>(timeout_s)) != std::future_status::ready)
+      return Outcome{nullptr, -1, method + ": no answer within the test's time-out"};
+    return future.get();
+  }
+  // Submits without waiting; the answer is kept for later.
+  std::shared_future<Outcome> send(const std::string& method, json params = json::object()) {
+    auto answer = std::make_shared<std::promise<Outcome>>();
+    std::shared_future<Outcome> future = answer->get_future().share();
+    sequencer_.submit(
+        method, std::move(params), [answer](Outcome o) { answer->set_value(o); }, "sequencer_test");
+    return future;
+  }
+
+  // Polls run.status until `until` holds for it (or 120 s of real time pass).
+  json wait_run(const std::string& run_id, const std::function<bool(const json&)>& until) {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+    for (;;) {
+      const json s = sequencer_.run_status(run_id);
+      if (until(s) || std::chrono::steady_clock::now() > deadline) return s;
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+  }
+  std::size_t count_events(const std::string& name) {
+    std::lock_guard lock(events_mutex_);
+    std::size_t n = 0;
+    for (const auto& [event, params] : events_) n += event == name ? 1 : 0;
+    return n;
+  }
+  Sequencer& sequencer() { return sequencer_; }
+
+ private:
+  test::TempDir dir_{"standcal-sequencer"};
+  DaemonConfig config_;
+  RunStore store_;
+  std::mutex events_mutex_;
+  std::vector<std::pair<std::string, json>> events_;
+  Sequencer sequencer_;  // last: its thread stops before the rest goes
+};
+
+TEST(SequencerInProcess, StandCommandsFollowTheLifecycleOnTheSimulatedBackend) {
+  InProcessSequencer s(50);
+  const Outcome unknown = s.call("stand.fly");
+  EXPECT_EQ(unknown.error_code, static_cast<int>(ErrorCode::method_not_found));
+
+  const Outcome enabled = s.call("stand.enable");
+  ASSERT_EQ(enabled.error_code, 0) << enabled.error_message;
+  EXPECT_EQ(enabled.result, (json{{"enabled", true}}));
+  const Outcome unreferenced = s.call("stand.move", {{"alpha1_deg", 10}, {"alpha2_deg", 0}});
+  EXPECT_EQ(unreferenced.error_code, static_cast<int>(ErrorCode::not_homed));
+  EXPECT_NE(unreferenced.error_message.find("send stand.home first"), std::string::npos)
+      << unreferenced.error_message;
+
+  ASSERT_EQ(s.call("stand.home").error_code, 0);
+  const Outcome moved = s.call("stand.move", {{"alpha1_deg", 90}, {"alpha2_deg", -45}});
+  ASSERT_EQ(moved.error_code, 0) << moved.error_message;
+  EXPECT_TRUE(moved.result["in_position"].get<bool>());
+  EXPECT_NEAR(moved.result["alpha1_deg"].get<double>(), 90, 0.05);
+  EXPECT_NEAR(moved.result["alpha2_deg"].get<double>(), -45, 0.05);
+
+  // The thread-safe view agrees with what the commands did.
+  const json stand = s.sequencer().status()["stand"];
+  EXPECT_EQ(stand["lifecycle"], "active");
+  EXPECT_EQ(stand["busy_with"], nullptr);
+
+  const Outcome disabled = s.call("stand.disable");
+  ASSERT_EQ(disabled.error_code, 0);
+  EXPECT_EQ(disabled.result, (json{{"enabled", false}}));
+}
+
+// The dwell, settle and run clock are the backend's: at 100x a 9-position run with 4 s
+// dwells records at least 36 s of stand time.
+TEST(SequencerInProcess, APaper9RunEndsDoneWithItsTimesOnTheStandsClock) {
+  InProcessSequencer s(100);
+  const Outcome started =
+      s.call("run.start",
+             {{"program", "paper9"}, {"unit_serial", "SEQ-1"}, {"dwell_s", 4}, {"settle_s", 1}});
+  ASSERT_EQ(started.error_code, 0) << started.error_message;
+  const std::string id = started.result["run_id"];
+  EXPECT_EQ(started.result["positions"], 9);
+  const json done = s.wait_run(id, [](const json& st) { return st["state"] != "running"; });
+  ASSERT_EQ(done["state"], "done") << done.dump();
+  EXPECT_EQ(done["positions_done"], 9);
+
+  const Recording rec = read_recording(done["recording_path"]);
+  ASSERT_FALSE(rec.samples.empty());
+  int positions = 0;
+  for (std::size_t i = 0; i < rec.samples.size(); ++i)
+    positions += i == 0 || rec.samples[i].pos != rec.samples[i - 1].pos ? 1 : 0;
+  EXPECT_EQ(positions, 9);
+  EXPECT_GE(rec.samples.back().t_s - rec.samples.front().t_s, 8 * (4 + 1));
+
+  EXPECT_EQ(s.count_events("run.position_reached"), 9u);
+  EXPECT_EQ(s.count_events("run.position_averaged"), 9u);
+  const json result = s.sequencer().run_result(id);
+  EXPECT_EQ(result["traceability"]["run_id"], id);
+  EXPECT_EQ(result["traceability"]["unit_serial"], "SEQ-1");
+  EXPECT_TRUE(result["parameters"].is_object() && !result["parameters"].empty()) << result.dump();
+}
+
+// An emergency stop acts at once, and its answer waits until the run it interrupted is
+// faulted; the stand then refuses motion until estop.reset.
+TEST(SequencerInProcess, AnEstopDuringARunFaultsItBeforeItIsAnswered) {
+  InProcessSequencer s(20);
+  const Outcome started =
+      s.call("run.start",
+             {{"program", "paper9"}, {"unit_serial", "SEQ-2"}, {"dwell_s", 600}, {"settle_s", 1}});
+  ASSERT_EQ(started.error_code, 0) << started.error_message;
+  const std::string id = started.result["run_id"];
+  s.wait_run(id, [&](const json&) { return s.count_events("run.position_reached") > 0; });
+  ASSERT_GT(s.count_events("run.position_reached"), 0u);
+
+  const Outcome estop = s.call("estop");
+  ASSERT_EQ(estop.error_code, 0) << estop.error_message;
+  EXPECT_TRUE(estop.result["estop"].get<bool>());
+  EXPECT_EQ(s.sequencer().run_status(id)["state"], "faulted");  // already, when answered
+
+  const Outcome move = s.call("stand.move", {{"alpha1_deg", 0}, {"alpha2_deg", 0}});
+  EXPECT_EQ(move.error_code, static_cast<int>(ErrorCode::estop_active)) << move.error_message;
+  ASSERT_EQ(s.call("estop.reset").error_code, 0);
+  EXPECT_EQ(s.call("stand.enable").error_code, 0);
+}
+
+// While a run holds the stand, stand commands are `busy` and run-targeted ones that name
+// another run change nothing.
+TEST(SequencerInProcess, ARunHoldsTheStandAgainstOtherCommands) {
+  InProcessSequencer s(20);
+  const Outcome started =
+      s.call("run.start",
+             {{"program", "paper9"}, {"unit_serial", "SEQ-3"}, {"dwell_s", 600}, {"settle_s", 1}});
+  ASSERT_EQ(started.error_code, 0) << started.error_message;
+  const std::string id = started.result["run_id"];
+  const Outcome busy = s.call("stand.home");
+  EXPECT_EQ(busy.error_code, static_cast<int>(ErrorCode::busy));
+  EXPECT_NE(busy.error_message.find("run " + id + " is in progress"), std::string::npos)
+      << busy.error_message;
+  const Outcome other = s.call("run.pause", {{"run_id", "no-such-run"}});
+  EXPECT_EQ(other.error_code, static_cast<int>(ErrorCode::not_found)) << other.error_message;
+
+  const Outcome paused = s.call("run.pause");
+  ASSERT_EQ(paused.error_code, 0) << paused.error_message;
+  EXPECT_EQ(paused.result["state"], "paused");
+  const Outcome aborted = s.call("run.abort", {{"run_id", id}});
+  ASSERT_EQ(aborted.error_code, 0) << aborted.error_message;
+  EXPECT_EQ(aborted.result["state"], "aborted");
+  EXPECT_EQ(s.sequencer().run_status(id)["state"], "aborted");
+}
+
+}  // namespace
+}  // namespace standcal::daemon
