@@ -394,77 +394,13 @@ std::string default_db_url(const std::string& state_dir) {
   return "sqlite://" + state_dir + "/records.sqlite";
 }
 
-namespace {
-
-// Reads `count` digits at `pos` (advancing it); -1 when they are not there.
-int digits_at(const std::string& s, std::size_t& pos, int count) {
-  int v = 0;
-  for (int i = 0; i < count; ++i, ++pos) {
-    if (pos >= s.size() || s[pos] < '0' || s[pos] > '9') return -1;
-    v = v * 10 + (s[pos] - '0');
-  }
-  return v;
-}
-
-bool take(const std::string& s, std::size_t& pos, const std::string& chars) {
-  if (pos < s.size() && chars.find(s[pos]) != std::string::npos) {
-    ++pos;
-    return true;
-  }
-  return false;
-}
-
-// Seconds east of UTC from "Z", "+02:00", "-0130" or nothing; nullopt when malformed.
-std::optional<long> zone_offset_s(const std::string& s, std::size_t& pos) {
-  while (pos < s.size() && s[pos] == ' ') ++pos;
-  if (pos == s.size() || take(s, pos, "Zz")) return 0;
-  if (!take(s, pos, "+-")) return std::nullopt;
-  const long sign = s[pos - 1] == '-' ? -1 : 1;
-  const int hh = digits_at(s, pos, 2);
-  take(s, pos, ":");
-  const int mm = digits_at(s, pos, 2);
-  if (hh < 0 || mm < 0) return std::nullopt;
-  return sign * (hh * 3600L + mm * 60L);
-}
-
-}  // namespace
-
 std::string canonical_utc(const std::string& text, bool end_of_day) {
-  const auto bad = [&text] {
-    return std::runtime_error(
+  const auto seconds = parse_utc_s(text, UtcParseRules{end_of_day, false});
+  if (!seconds) {
+    throw std::runtime_error(
         "'" + text + "' is not a date or UTC time (use 2026-11-21 or 2026-11-21T22:15:00Z)");
-  };
-  std::size_t pos = 0;
-  std::tm tm{};
-  const int year = digits_at(text, pos, 4);
-  const bool dash1 = take(text, pos, "-");
-  const int month = digits_at(text, pos, 2);
-  const bool dash2 = take(text, pos, "-");
-  const int day = digits_at(text, pos, 2);
-  if (year < 0 || !dash1 || month < 1 || month > 12 || !dash2 || day < 1 || day > 31) throw bad();
-  const bool has_time = take(text, pos, "T ");
-  int hour = end_of_day ? 23 : 0, minute = end_of_day ? 59 : 0, second = end_of_day ? 59 : 0;
-  if (has_time) {
-    hour = digits_at(text, pos, 2);
-    const bool colon = take(text, pos, ":");
-    minute = digits_at(text, pos, 2);
-    second = take(text, pos, ":") ? digits_at(text, pos, 2) : 0;
-    if (take(text, pos, ".")) {
-      while (pos < text.size() && text[pos] >= '0' && text[pos] <= '9')
-        ++pos;  // whole seconds kept
-    }
-    if (hour < 0 || hour > 23 || !colon || minute < 0 || minute > 59 || second < 0 || second > 60)
-      throw bad();
   }
-  const std::optional<long> offset = zone_offset_s(text, pos);
-  if (!offset || pos != text.size()) throw bad();
-  tm.tm_year = year - 1900;
-  tm.tm_mon = month - 1;
-  tm.tm_mday = day;
-  tm.tm_hour = hour;
-  tm.tm_min = minute;
-  tm.tm_sec = second;
-  return utc_iso(timegm(&tm) - *offset);
+  return utc_iso(static_cast<std::time_t>(*seconds));
 }
 
 CalibrationRecord record_from_daemon_result(const json& result) {

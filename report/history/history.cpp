@@ -7,6 +7,7 @@
 #include <ctime>
 #include <stdexcept>
 
+#include "calib/utc_time.hpp"
 #include "report/history/html_page.hpp"
 #include "report/plot/figure.hpp"
 
@@ -115,19 +116,15 @@ std::string drift_section(const std::vector<HistoryDrift>& drifts, double k) {
 }  // namespace
 
 double utc_days(const std::string& iso) {
-  int y = 0, mo = 0, d = 0, h = 0, mi = 0, s = 0;
-  char tail = 0;
-  // The daemon writes "2026-11-21T22:36:38Z"; run ids carry "20261121T223638Z".
-  const bool parsed =
-      std::sscanf(iso.c_str(), "%4d-%2d-%2dT%2d:%2d:%2d%c", &y, &mo, &d, &h, &mi, &s, &tail) == 7 ||
-      std::sscanf(iso.c_str(), "%4d%2d%2dT%2d%2d%2d%c", &y, &mo, &d, &h, &mi, &s, &tail) == 7;
-  if (!parsed || tail != 'Z' || mo < 1 || mo > 12 || d < 1 || d > 31 || h > 23 || mi > 59 || s > 60)
-    throw std::runtime_error("history: '" + iso + "' is not a UTC date like 2026-11-21T22:36:38Z");
-  using namespace std::chrono;
-  const year_month_day ymd{year{y}, month{static_cast<unsigned>(mo)},
-                           day{static_cast<unsigned>(d)}};
-  if (!ymd.ok()) throw std::runtime_error("history: '" + iso + "' is not a calendar date");
-  return sys_days{ymd}.time_since_epoch().count() + (h * 3600.0 + mi * 60.0 + s) / 86400.0;
+  // The daemon writes "2026-11-21T22:36:38Z"; run ids carry "20261121T223638Z". A history
+  // date says it is UTC.
+  const auto seconds = parse_utc_s(iso, UtcParseRules{false, true});
+  if (!seconds) {
+    throw std::runtime_error("history: '" + iso +
+                             "' is not a UTC date like 2026-11-21T22:36:38Z (a day in the "
+                             "calendar, with its zone)");
+  }
+  return static_cast<double>(*seconds) / 86400.0;
 }
 
 std::vector<HistoryDrift> find_drifts(const UnitHistory& h) {

@@ -311,6 +311,17 @@ TEST(CanonicalUtc, DatesTimesAndOffsetsBecomeUtcSeconds) {
   EXPECT_EQ(canonical_utc("2026-01-01T01:30:00-0130"), "2026-01-01T03:00:00Z");
   EXPECT_THROW(canonical_utc("yesterday"), std::runtime_error);
   EXPECT_THROW(canonical_utc("2026-13-01"), std::runtime_error);
+  // The compact form of run ids is the same instant.
+  EXPECT_EQ(canonical_utc("20261121T223638Z"), "2026-11-21T22:36:38Z");
+}
+
+// A day that is not in the calendar is an error, not the day it would roll over to
+// (timegm turned 2026-02-30 into 2026-03-02: a --since filter then began two days late).
+TEST(CanonicalUtc, DaysNotInTheCalendarAreRefused) {
+  EXPECT_THROW(canonical_utc("2026-02-30"), std::runtime_error);
+  EXPECT_THROW(canonical_utc("2026-04-31T10:00:00Z"), std::runtime_error);
+  EXPECT_EQ(canonical_utc("2028-02-29"), "2028-02-29T00:00:00Z");  // a leap year
+  EXPECT_THROW(canonical_utc("2026-02-29"), std::runtime_error);
 }
 
 }  // namespace
