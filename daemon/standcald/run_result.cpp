@@ -88,13 +88,7 @@ json fit_finished_run(RunRecord& record, const std::string& run_dir,
   }
   record.ended_utc = utc_now_iso();
   result["recording_path"] = record.recording_path;
-  result["traceability"] =
-      json{{"run_id", record.run_id},           {"unit_serial", record.unit_serial},
-           {"unit_type", record.unit_type},     {"stand_id", record.stand_id},
-           {"program", record.program_name},    {"g_local_mps2", record.g_local_mps2},
-           {"g_source", record.g_source},       {"software_version", record.software_version},
-           {"config_hash", record.config_hash}, {"operator", record.operator_name},
-           {"started_utc", record.started_utc}, {"ended_utc", record.ended_utc}};
+  result["traceability"] = traceability_to_json(record);
   result["recording_warnings"] = digest.recording.warnings;
   if (joint.fit && budget)
     result["uncertainty_budget"] = run_budget(*joint.fit, record, averages, *budget);

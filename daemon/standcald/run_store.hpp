@@ -14,19 +14,17 @@
 #include <string>
 #include <vector>
 
+#include "calib/traceability.hpp"
 #include "daemon/standcald/pid_lock.hpp"
 
 namespace standcal::daemon {
 
-struct RunRecord {
-  std::string run_id;
-  std::string unit_serial;
-  std::string unit_type;  // which acceptance limits apply (certificate); may be empty
-  std::string program_name;
+// A run as standcald keeps it (run.json): its traceability, the programme and the run's
+// progress.
+struct RunRecord : Traceability {
   nlohmann::json program;  // the normalised programme (calib's programme JSON)
   double dwell_s = 60;
   double settle_s = 5;
-  std::string operator_name;
   std::string state;   // protocol::run_state
   std::string reason;  // why faulted / aborted / interrupted
   int positions = 0;
@@ -35,15 +33,8 @@ struct RunRecord {
   std::uint64_t header_bytes = 0;                 // length of the header block alone
   std::vector<std::uint64_t> position_end_bytes;  // recording length after each done position
   double last_t_s = 0;  // last t_s written (the run clock resumes after it)
-  std::string started_utc;
-  std::string ended_utc;
   std::string recording_path;
   std::string result_path;  // empty until the fit is stored
-  std::string stand_id;
-  std::string config_hash;
-  std::string software_version;
-  std::string g_source;
-  double g_local_mps2 = 0;
 };
 
 // What runs.list, the unit index and resume need of a run: kept in memory for every run

@@ -404,20 +404,9 @@ std::string canonical_utc(const std::string& text, bool end_of_day) {
 }
 
 CalibrationRecord record_from_daemon_result(const json& result) {
-  const json t = result.value("traceability", json::object());
   CalibrationRecord r;
-  r.run_id = t.value("run_id", "");
-  r.unit_serial = t.value("unit_serial", "");
-  r.unit_type = t.value("unit_type", "");
-  r.stand_id = t.value("stand_id", "");
-  r.g_source = t.value("g_source", "");
-  r.g_local_mps2 = t.value("g_local_mps2", 0.0);
-  r.software_version = t.value("software_version", "");
-  r.config_hash = t.value("config_hash", "");
-  r.operator_name = t.value("operator", "");
-  r.started_utc = t.value("started_utc", "");
-  r.ended_utc = t.value("ended_utc", "");
-  r.program_name = t.value("program", "");
+  static_cast<Traceability&>(r) =
+      traceability_from_json(result.value("traceability", json::object()));
   r.recording_path = result.value("recording_path", "");
   r.method = result.value("estimator", "");
   r.result = result;
@@ -426,24 +415,13 @@ CalibrationRecord record_from_daemon_result(const json& result) {
 }
 
 json to_json(const CalibrationRecord& r) {
-  json j{{"run_id", r.run_id},
-         {"unit_serial", r.unit_serial},
-         {"unit_type", r.unit_type},
-         {"stand_id", r.stand_id},
-         {"g_source", r.g_source},
-         {"g_local_mps2", r.g_local_mps2},
-         {"software_version", r.software_version},
-         {"config_hash", r.config_hash},
-         {"operator", r.operator_name},
-         {"started_utc", r.started_utc},
-         {"ended_utc", r.ended_utc},
-         {"program", r.program_name},
-         {"recording_path", r.recording_path},
-         {"method", r.method},
-         {"verdict", r.verdict},
-         {"origin", r.origin},
-         {"recorded_utc", r.recorded_utc},
-         {"result", r.result}};
+  json j = traceability_to_json(r);
+  j.update(json{{"recording_path", r.recording_path},
+                {"method", r.method},
+                {"verdict", r.verdict},
+                {"origin", r.origin},
+                {"recorded_utc", r.recorded_utc},
+                {"result", r.result}});
   j["assessment"] = r.assessment;
   j["diagnosis_verdict"] = r.diagnosis_verdict ? json(*r.diagnosis_verdict) : json(nullptr);
   return j;

@@ -13,25 +13,16 @@
 #include <string>
 #include <vector>
 
+#include "calib/traceability.hpp"
+
 namespace standcal::records {
 
 // The newest schema this build writes (migrate() brings a database up to it).
 inline constexpr int kSchemaVersion = 2;
 
 // One calibration of one unit. Times are UTC ISO-8601 "2026-11-21T22:15:00Z".
-struct CalibrationRecord {
-  std::string run_id;  // daemon run id, or "import-…" for imported recordings
-  std::string unit_serial;
-  std::string unit_type;  // "" when not known (limits are per unit type)
-  std::string stand_id;
-  std::string g_source;  // where the local g came from (traceability)
-  double g_local_mps2 = 0;
-  std::string software_version;
-  std::string config_hash;
-  std::string operator_name;
-  std::string started_utc;
-  std::string ended_utc;
-  std::string program_name;
+// One calibration in the database: its traceability, what it found, and how it got here.
+struct CalibrationRecord : Traceability {
   std::string recording_path;
   std::string method;         // estimator: "joint", "paper-sequential", "full"
   nlohmann::json result;      // the fit as `standcal fit --json` emits it (object)

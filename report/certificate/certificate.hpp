@@ -12,24 +12,15 @@
 #include "calib/fit_result.hpp"
 #include "calib/position_average.hpp"
 #include "calib/report.hpp"
+#include "calib/traceability.hpp"
 #include "calib/uncertainty_budget.hpp"
 #include "records/limits/limits.hpp"
 #include "report/certificate/lab_identity.hpp"
 
 namespace standcal::report {
 
-struct CertificateTraceability {
-  std::string run_id;
-  std::string unit_serial;
-  std::string unit_type;
-  std::string stand_id;
-  std::string operator_name;
-  std::string started_utc;
-  std::string ended_utc;
-  std::string software_version;  // of the software that recorded the run
-  std::string config_hash;       // of the daemon configuration that ran it
-  std::string g_source;          // where the local gravity value came from
-  double g_local_mps2 = kStandardGravity_mps2;
+struct CertificateTraceability : Traceability {
+  CertificateTraceability() { g_local_mps2 = kStandardGravity_mps2; }
   std::string recording_path;
   std::string origin;  // "standcald run record" or "imported recording"
 };
