@@ -16,13 +16,8 @@
 // sequencer_run.cpp.
 namespace standcal::daemon {
 
-using drivers::StandAxis;
-using nlohmann::json;
-using protocol::ErrorCode;
-using protocol::RpcError;
+// The sequencer files' shared names: sequencer_detail.hpp.
 using namespace detail;
-namespace m = protocol::method;
-namespace st = protocol::run_state;
 
 namespace {
 constexpr double kIdleRefreshReal_s = 1.0;  // idle: stand snapshot and heartbeat once a second

@@ -1,8 +1,8 @@
 #pragma once
 // What the sequencer's source files share (sequencer.cpp: the command queue and thread;
 // sequencer_stand.cpp: stand and unit commands; sequencer_run.cpp: runs): the axes, and
-// the one mapping from a driver's error to the protocol error the operator sees. Not for
-// use outside daemon/standcald.
+// the one mapping from a driver's error to the protocol error the operator sees, and the
+// names the three files use. Not for use outside daemon/standcald.
 #include <chrono>
 #include <sstream>
 #include <string>
@@ -10,8 +10,17 @@
 
 #include "drivers/stand.hpp"
 #include "protocol/jsonrpc/jsonrpc.hpp"
+#include "protocol/jsonrpc/methods.hpp"
 
 namespace standcal::daemon::detail {
+
+using drivers::StandAxis;
+using nlohmann::json;
+using protocol::ErrorCode;
+using protocol::RpcError;
+namespace m = protocol::method;
+namespace st = protocol::run_state;
+namespace ev = protocol::event;
 
 inline constexpr drivers::StandAxis kAxes[] = {drivers::StandAxis::outer,
                                                drivers::StandAxis::inner};

@@ -20,14 +20,8 @@
 // end (run_result.hpp).
 namespace standcal::daemon {
 
-using drivers::StandAxis;
-using nlohmann::json;
-using protocol::ErrorCode;
-using protocol::RpcError;
+// The sequencer files' shared names: sequencer_detail.hpp.
 using namespace detail;
-namespace m = protocol::method;
-namespace st = protocol::run_state;
-namespace ev = protocol::event;
 
 // --------------------------------------------------------------------------- runs
 

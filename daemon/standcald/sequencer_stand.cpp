@@ -13,13 +13,8 @@
 // in position, stop, emergency stop), all on the sequencer thread.
 namespace standcal::daemon {
 
-using drivers::StandAxis;
-using nlohmann::json;
-using protocol::ErrorCode;
-using protocol::RpcError;
+// The sequencer files' shared names: sequencer_detail.hpp.
 using namespace detail;
-namespace m = protocol::method;
-namespace ev = protocol::event;
 
 namespace {
 

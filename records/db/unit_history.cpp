@@ -1,8 +1,7 @@
 #include "records/db/unit_history.hpp"
 
-#include <cmath>
-
 #include "calib/parameters.hpp"
+#include "calib/utc_time.hpp"
 
 namespace standcal::records {
 
@@ -26,24 +25,15 @@ ParameterPoint point_of(const CalibrationRecord& r, const std::string& name) {
   return pt;
 }
 
-// Consecutive calibrations where the parameter had a value and a σ.
+// The one ageing rule over the parameter's points, dated by their start.
 std::vector<ParameterChange> changes_of(const std::vector<ParameterPoint>& points, double k) {
-  std::vector<ParameterChange> out;
-  const ParameterPoint* previous = nullptr;
+  std::vector<ParameterObservation> dated;
   for (const ParameterPoint& p : points) {
-    if (!p.value || !p.sigma) continue;
-    if (previous != nullptr) {
-      ParameterChange c;
-      c.from_run_id = previous->run_id;
-      c.to_run_id = p.run_id;
-      c.delta = *p.value - *previous->value;
-      c.combined_sigma = std::hypot(*p.sigma, *previous->sigma);
-      c.ageing = std::abs(c.delta) > k * c.combined_sigma;
-      out.push_back(c);
-    }
-    previous = &p;
+    const auto start_s = parse_utc_s(p.started_utc);
+    dated.push_back(
+        {p.run_id, start_s ? static_cast<double>(*start_s) / 86400.0 : 0.0, p.value, p.sigma});
   }
-  return out;
+  return parameter_changes(dated, k);
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "calib/ageing.hpp"
 #include "records/db/records_db.hpp"
 
 namespace standcal::records {
@@ -18,14 +19,8 @@ struct ParameterPoint {
   std::optional<double> sigma;
 };
 
-// Between two consecutive calibrations where the parameter was observed.
-struct ParameterChange {
-  std::string from_run_id;
-  std::string to_run_id;
-  double delta = 0;           // later - earlier, report unit
-  double combined_sigma = 0;  // sqrt(σ_earlier² + σ_later²)
-  bool ageing = false;        // |delta| > k · combined_sigma
-};
+// The change between two successive calibrations and its ageing flag: calib/ageing.hpp.
+using standcal::ParameterChange;
 
 struct ParameterHistory {
   std::string name;                      // "bias_x", … (calib/parameters.hpp order)
@@ -42,9 +37,8 @@ struct UnitHistory {
   int ageing_flags = 0;                         // changes flagged over all parameters
 };
 
-// `calibrations` in time order (RecordsDb::history gives them so). A change is flagged
-// as ageing when |Δ| > k · sqrt(σ₁² + σ₂²): with k = 2 an unchanged unit is flagged by
-// chance about 5 % of the time per parameter and pair.
+// `calibrations` in time order (RecordsDb::history gives them so); changes flagged by the
+// one ageing rule (calib/ageing.hpp).
 UnitHistory unit_history(const std::string& unit_serial,
                          std::vector<CalibrationRecord> calibrations, double k = 2);
 

@@ -7,6 +7,7 @@
 #include <ctime>
 #include <stdexcept>
 
+#include "calib/ageing.hpp"
 #include "calib/utc_time.hpp"
 #include "report/history/html_page.hpp"
 #include "report/plot/figure.hpp"
@@ -132,29 +133,25 @@ std::vector<HistoryDrift> find_drifts(const UnitHistory& h) {
   const std::vector<const HistoryCalibration*> cals = by_date(h, days);
   std::vector<HistoryDrift> out;
   for (int p = 0; p < kUnitParameterCount; ++p) {
-    // Compare each calibration with the previous one that measured this parameter.
-    std::optional<std::size_t> previous;
+    std::vector<ParameterObservation> observed;
     for (std::size_t i = 0; i < cals.size(); ++i) {
-      const HistoryValue& now = cals[i]->parameters[static_cast<std::size_t>(p)];
-      if (!now.value || !now.sigma) continue;
-      if (previous) {
-        const HistoryValue& before = cals[*previous]->parameters[static_cast<std::size_t>(p)];
-        HistoryDrift d;
-        d.parameter = p;
-        d.from_run_id = cals[*previous]->run_id;
-        d.to_run_id = cals[i]->run_id;
-        d.change = *now.value - *before.value;
-        d.change_sigma = std::hypot(*now.sigma, *before.sigma);
-        d.days = days[i] - days[*previous];
-        if (std::abs(d.change) > h.coverage_factor * d.change_sigma) {
-          d.text = parameter_name(p) + " changed by " + fixed(d.change, 1, true) + " " +
-                   parameter_unit(p) + " in " + fixed(d.days, 0) + " days (" + d.from_run_id +
-                   " → " + d.to_run_id + "), " + fixed(std::abs(d.change) / d.change_sigma, 1) +
-                   " times its combined σ of " + fixed(d.change_sigma, 1) + " " + parameter_unit(p);
-          out.push_back(std::move(d));
-        }
-      }
-      previous = i;
+      const HistoryValue& v = cals[i]->parameters[static_cast<std::size_t>(p)];
+      observed.push_back({cals[i]->run_id, days[i], v.value, v.sigma});
+    }
+    for (const ParameterChange& c : parameter_changes(observed, h.coverage_factor)) {
+      if (!c.ageing) continue;
+      HistoryDrift d;
+      d.parameter = p;
+      d.from_run_id = c.from_run_id;
+      d.to_run_id = c.to_run_id;
+      d.change = c.delta;
+      d.change_sigma = c.combined_sigma;
+      d.days = c.days;
+      d.text = parameter_name(p) + " changed by " + fixed(d.change, 1, true) + " " +
+               parameter_unit(p) + " in " + fixed(d.days, 0) + " days (" + d.from_run_id + " → " +
+               d.to_run_id + "), " + fixed(std::abs(d.change) / d.change_sigma, 1) +
+               " times its combined σ of " + fixed(d.change_sigma, 1) + " " + parameter_unit(p);
+      out.push_back(std::move(d));
     }
   }
   return out;

@@ -45,8 +45,8 @@ struct HistoryDrift {
 // Days since 1970-01-01 of an ISO 8601 UTC stamp; throws std::runtime_error naming it.
 double utc_days(const std::string& iso_utc);
 
-// Changes |later - earlier| > k * sqrt(s1^2 + s2^2) between successive calibrations
-// (by date), per parameter.
+// The changes between successive calibrations (by date) that the one ageing rule
+// (calib/ageing.hpp, k = coverage_factor) flags, per parameter, each with its sentence.
 std::vector<HistoryDrift> find_drifts(const UnitHistory& history);
 
 // A self-contained HTML page: a table of every calibration, the flagged drifts, and one

@@ -9,6 +9,7 @@
 #include <linux/can.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -112,12 +113,16 @@ std::string replay_can(const std::string& path) {
       bus.release_unit_fd(), drivers::can::FrameLayout::default_layout(), config);
   if (!unit) throw std::runtime_error(unit.status().message);
   if (!unit.value()->start()) throw std::runtime_error("start failed");
-  // Written from a thread: the socketpair holds fewer datagrams than a recording has.
+  // Written from a thread (the socketpair holds fewer datagrams than a recording has),
+  // and only once collect() has begun: a sample that arrived before the call is not the
+  // call's (SocketCanUnit::collect), as on a real bus. Half a second is ample for this
+  // thread to enter collect() even on a busy machine; the frames then take milliseconds.
   std::thread writer([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));
     for (const RecordedFrame& f : frames)
       bus.send_classic(f.can_id, f.data.data(), static_cast<std::uint8_t>(f.data.size()));
   });
-  auto samples = unit.value()->collect(1.0);
+  auto samples = unit.value()->collect(2.5);
   writer.join();
   if (!samples) throw std::runtime_error(samples.status().message);
   std::ostringstream out;
