@@ -738,11 +738,7 @@ OptimizedProgram optimize_program(const OptimizeOptions& options) {
 
   best.program.name = options.paper_structure ? "d-optimal-paper-structure"
                                               : "d-optimal-" + std::to_string(options.positions);
-  auto wrap = [](double a, const AxisRange& r) {
-    if (!r.continuous) return a;
-    const double w = std::remainder(a, 360.0);  // (-180, 180]
-    return w == -180.0 ? 180.0 : w;
-  };
+  auto wrap = [](double a, const AxisRange& r) { return r.continuous ? wrap_deg(a) : a; };
   for (Slot& s : best_state.slots) {
     s.alpha1_deg = wrap(s.alpha1_deg, options.limits.alpha1);
     s.alpha2_deg = wrap(s.alpha2_deg, options.limits.alpha2);

@@ -174,18 +174,8 @@ std::vector<double> axis_grid_deg(const AxisRange& range, double step_deg) {
 }
 
 std::optional<double> normalise_angle_deg(double angle_deg, const AxisRange& range) {
-  // std::remainder is exact: 1e308 - 360 * round(1e308 / 360) is not (it gives 0, not -64).
-  const double a = std::remainder(angle_deg, 360.0);  // [-180, 180]
-  if (range.continuous) return a == -180.0 ? 180.0 : a;
-  if (angle_deg >= range.min_deg && angle_deg <= range.max_deg) return angle_deg;
-  const double middle = 0.5 * (range.min_deg + range.max_deg);
-  const double nearest = a + 360.0 * std::round((middle - a) / 360.0);
-  std::optional<double> best;
-  for (double candidate : {nearest - 360.0, nearest, nearest + 360.0}) {
-    if (candidate < range.min_deg - 1e-9 || candidate > range.max_deg + 1e-9) continue;
-    if (!best || std::abs(candidate - middle) < std::abs(*best - middle)) best = candidate;
-  }
-  return best;
+  const bool inside = angle_deg >= range.min_deg && angle_deg <= range.max_deg;
+  return equivalent_angle_deg(range, angle_deg, inside ? angle_deg : range.middle_deg());
 }
 
 Program normalise_program(const Program& program, const StandLimits& limits) {

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "calib/axis_range.hpp"
 #include "calib/model.hpp"
 
 namespace standcal {
@@ -31,13 +32,6 @@ struct Program {
   // Indices of positions that need an operator re-mount first (mount differs from the
   // previous position's). The first position's mount is the one the run starts with.
   std::vector<std::size_t> remount_before() const;
-};
-
-// One stand axis: continuous, or limited to [min_deg, max_deg] (cable wrap).
-struct AxisRange {
-  bool continuous = false;
-  double min_deg = -180;
-  double max_deg = 180;
 };
 
 struct StandLimits {
@@ -66,10 +60,11 @@ Program load_program(const std::string& name_or_path, double paper9_alpha1_start
 // The programme as JSON (the schema program_from_json reads).
 nlohmann::json program_to_json(const Program& program);
 
-// The angle equivalent to angle_deg (mod 360) inside the axis range: continuous axes
-// give (-180, 180]; limited axes keep the angle if inside, else the equivalent nearest
-// the middle of the range. Empty when no equivalent angle lies inside. Exact for every
-// finite angle (1e308 gives -64).
+// Where a programme puts a position on one axis (equivalent_angle_deg's rule): continuous
+// axes give [-180, 180); limited axes keep the angle if inside, else take the equivalent
+// nearest the middle of the range (the stand's cable_wrap then picks the turn it moves
+// to). Empty when no equivalent angle lies inside. Exact for every finite angle (1e308
+// gives -64).
 std::optional<double> normalise_angle_deg(double angle_deg, const AxisRange& range);
 
 // Angles of one stand axis every step_deg across its range: from the range's start (-180 deg

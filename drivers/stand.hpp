@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "calib/axis_range.hpp"
 #include "drivers/status.hpp"
 
 namespace standcal::drivers {
@@ -42,19 +43,8 @@ struct AxisState {
   std::string fault_text;             // e.g. "following error"
 };
 
-// How far an axis may turn. A continuous axis (slip ring) turns freely and always takes
-// the shorter way; a limited axis (cables) stays inside [min_deg, max_deg].
-enum class CableWrap : std::uint8_t {
-  nearest,  // of the equivalent angles inside the range, go to the one nearest the axis
-  centred,  // of the equivalent angles inside the range, go to the one nearest its centre
-};
-
-struct AxisRange {
-  bool continuous = true;
-  double min_deg = -180.0;  // only for a limited axis
-  double max_deg = 180.0;   // only for a limited axis
-  CableWrap cable_wrap = CableWrap::nearest;
-};
+// How far an axis may turn (AxisRange, CableWrap) is calib/axis_range.hpp: one type for the
+// programmes, the drivers and the daemon's configuration.
 
 // When an axis counts as "in position": inside the window, continuously for the dwell,
 // reached before the timeout.

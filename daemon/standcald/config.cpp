@@ -114,14 +114,14 @@ class Section {
   std::set<std::string> seen_;
 };
 
-void read_range(Section* s, drivers::AxisRange& r) {
+void read_range(Section* s, AxisRange& r) {
   if (s == nullptr) return;
   s->flag("continuous", r.continuous);
   s->number("min_deg", r.min_deg, -3600, 3600);
   s->number("max_deg", r.max_deg, -3600, 3600);
-  std::string wrap = r.cable_wrap == drivers::CableWrap::centred ? "centred" : "nearest";
+  std::string wrap = r.cable_wrap == CableWrap::centred ? "centred" : "nearest";
   s->choice("cable_wrap", wrap, {"nearest", "centred"});
-  r.cable_wrap = wrap == "centred" ? drivers::CableWrap::centred : drivers::CableWrap::nearest;
+  r.cable_wrap = wrap == "centred" ? CableWrap::centred : CableWrap::nearest;
   if (!r.continuous && r.max_deg - r.min_deg < 1)
     s->fail("max_deg", "must exceed min_deg by at least 1 degree");
   s->reject_unknown();

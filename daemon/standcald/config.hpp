@@ -84,8 +84,8 @@ struct DaemonConfig {
   double unit_bias_instability_ug = 0;
   double unit_bias_instability_tau_s = 300;
   SimSettings sim;
-  drivers::AxisRange outer{false, -180, 180, drivers::CableWrap::nearest};
-  drivers::AxisRange inner{false, -180, 180, drivers::CableWrap::nearest};
+  AxisRange outer;  // limited ±180° unless configured
+  AxisRange inner;
   drivers::InPositionRule in_position{0.001, 0.3, 120.0, 0.02};
   double home_timeout_s = 180;
   // Run defaults.

@@ -48,12 +48,16 @@ constexpr bool kSanitized = false;
 constexpr rlim_t kWorkerAddressSpace_bytes = rlim_t{8} << 30;
 
 json axis_range_to_json(const AxisRange& r) {
-  return {{"continuous", r.continuous}, {"min_deg", r.min_deg}, {"max_deg", r.max_deg}};
+  return {{"continuous", r.continuous},
+          {"min_deg", r.min_deg},
+          {"max_deg", r.max_deg},
+          {"cable_wrap", r.cable_wrap == CableWrap::centred ? "centred" : "nearest"}};
 }
 
 AxisRange axis_range_from_json(const json& j) {
-  return {j.at("continuous").get<bool>(), j.at("min_deg").get<double>(),
-          j.at("max_deg").get<double>()};
+  return {
+      j.at("continuous").get<bool>(), j.at("min_deg").get<double>(), j.at("max_deg").get<double>(),
+      j.at("cable_wrap").get<std::string>() == "centred" ? CableWrap::centred : CableWrap::nearest};
 }
 
 json job_to_json(const DiagnoseJob& job) {

@@ -27,12 +27,7 @@ using namespace detail;
 
 namespace {
 
-StandLimits limits_of(const DaemonConfig& c) {
-  StandLimits l;
-  l.alpha1 = AxisRange{c.outer.continuous, c.outer.min_deg, c.outer.max_deg};
-  l.alpha2 = AxisRange{c.inner.continuous, c.inner.min_deg, c.inner.max_deg};
-  return l;
-}
+StandLimits limits_of(const DaemonConfig& c) { return StandLimits{c.outer, c.inner}; }
 
 }  // namespace
 

@@ -17,8 +17,8 @@ struct SimBackendConfig {
   double sample_rate_hz = 100;
   double time_scale = 1;  // simulated seconds per real second
   std::uint64_t seed = 1;
-  AxisRange outer{false, -180, 180, CableWrap::nearest};
-  AxisRange inner{false, -180, 180, CableWrap::nearest};
+  AxisRange outer;  // limited ±180° unless configured
+  AxisRange inner;
   double move_rate_deg_s = 10;
 };
 

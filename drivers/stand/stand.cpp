@@ -14,13 +14,6 @@ namespace {
 
 using SteadyClock = std::chrono::steady_clock;
 
-// Wraps into [-180, 180), exactly: std::remainder is exact for every finite angle, where
-// a - 360 * floor(...) loses it all for a huge one (1e308 gave 0 instead of -64).
-double wrap_deg(double a_deg) {
-  const double r = std::remainder(a_deg, 360.0);  // [-180, 180]
-  return r >= 180.0 ? r - 360.0 : r;
-}
-
 std::string format_deg(double a_deg) {
   char text[32];
   std::snprintf(text, sizeof text, "%.4f°", a_deg);
@@ -125,24 +118,13 @@ const char* to_string(Lifecycle lifecycle) {
 Result<double> normalise_target_deg(const AxisRange& range, double angle_deg, double current_deg) {
   if (!std::isfinite(angle_deg))
     return Status::error(ErrorKind::invalid_argument, "commanded angle is not a number");
-  const double wrapped_deg = wrap_deg(angle_deg);  // exact, so every candidate below is too
-  if (range.continuous) return wrapped_deg;
-  // Tolerance so that a range edge given as 180 still takes a command of -180.
-  constexpr double kEdge_deg = 1e-9;
-  const double lowest =
-      wrapped_deg + 360.0 * std::ceil((range.min_deg - kEdge_deg - wrapped_deg) / 360.0);
-  const double reference =
-      range.cable_wrap == CableWrap::nearest ? current_deg : 0.5 * (range.min_deg + range.max_deg);
-  double best = std::numeric_limits<double>::quiet_NaN();
-  for (double candidate = lowest; candidate <= range.max_deg + kEdge_deg; candidate += 360.0) {
-    if (std::isnan(best) || std::abs(candidate - reference) < std::abs(best - reference))
-      best = candidate;
-  }
-  if (std::isnan(best))
-    return Status::error(ErrorKind::limit,
-                         "angle " + format_deg(angle_deg) + " is outside the range [" +
-                             format_deg(range.min_deg) + ", " + format_deg(range.max_deg) + "]");
-  return best;
+  const double reference_deg =
+      range.cable_wrap == CableWrap::nearest ? current_deg : range.middle_deg();
+  if (const auto target_deg = equivalent_angle_deg(range, angle_deg, reference_deg))
+    return *target_deg;
+  return Status::error(ErrorKind::limit, "angle " + format_deg(angle_deg) +
+                                             " is outside the range [" + format_deg(range.min_deg) +
+                                             ", " + format_deg(range.max_deg) + "]");
 }
 
 Result<double> path_target_deg(const AxisRange& range, double angle_deg, double current_deg) {

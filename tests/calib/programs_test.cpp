@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <nlohmann/json.hpp>
 
 #include "calib/programs.hpp"
@@ -82,7 +83,36 @@ TEST(AxisRange, LimitedAxisTakes270AsMinus90) {
 TEST(AxisRange, ContinuousAxisWrapsToPlusMinus180) {
   const AxisRange continuous{true, 0, 0};
   EXPECT_DOUBLE_EQ(*normalise_angle_deg(270, continuous), -90);
-  EXPECT_DOUBLE_EQ(*normalise_angle_deg(-180, continuous), 180);
+  // One convention with the stand drivers (docs/stand-modbus.md): [-180, 180).
+  EXPECT_DOUBLE_EQ(*normalise_angle_deg(-180, continuous), -180);
+  EXPECT_DOUBLE_EQ(*normalise_angle_deg(180, continuous), -180);
+  EXPECT_DOUBLE_EQ(wrap_deg(540), -180);
+  EXPECT_DOUBLE_EQ(wrap_deg(179.5), 179.5);
+}
+
+TEST(AxisRange, TheDefaultIsALimitedPlusMinus180Axis) {
+  const AxisRange range;
+  EXPECT_FALSE(range.continuous);
+  EXPECT_DOUBLE_EQ(range.min_deg, -180);
+  EXPECT_DOUBLE_EQ(range.max_deg, 180);
+  EXPECT_EQ(range.cable_wrap, CableWrap::nearest);
+  EXPECT_TRUE(AxisRange::continuous_axis().continuous);
+}
+
+TEST(AxisRange, TheEquivalentInsideTheRangeNearestTheReference) {
+  const AxisRange wide{false, -270, 270};
+  EXPECT_DOUBLE_EQ(*equivalent_angle_deg(wide, 250, 200), 250);
+  EXPECT_DOUBLE_EQ(*equivalent_angle_deg(wide, 250, -200), -110);
+  // Both edges of a ±180° axis are the same angle: the one nearer the reference.
+  EXPECT_DOUBLE_EQ(*equivalent_angle_deg(AxisRange{}, 180, 170), 180);
+  EXPECT_DOUBLE_EQ(*equivalent_angle_deg(AxisRange{}, 180, -170), -180);
+  EXPECT_FALSE(equivalent_angle_deg(AxisRange{false, -90, 90}, 200, 0));
+  EXPECT_FALSE(equivalent_angle_deg(AxisRange{}, std::numeric_limits<double>::quiet_NaN(), 0));
+  EXPECT_FALSE(equivalent_angle_deg(AxisRange::continuous_axis(),
+                                    std::numeric_limits<double>::infinity(), 0));
+  // The programme's rule keeps an angle that is inside, else goes nearest the middle.
+  EXPECT_DOUBLE_EQ(*normalise_angle_deg(250, wide), 250);
+  EXPECT_DOUBLE_EQ(*normalise_angle_deg(600, wide), -120);
 }
 
 TEST(AxisRange, UnreachableAngleIsAnErrorNamingPositionAndAxis) {

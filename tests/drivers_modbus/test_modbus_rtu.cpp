@@ -24,6 +24,7 @@ ModbusStandConfig rtu_config() {
   config.timing.heartbeat_period_s = 0.05;
   config.timing.heartbeat_timeout_s = 0.6;
   config.speed_dps = 30.0;
+  config.ranges[1] = AxisRange::continuous_axis();  // inner: a slip ring
   return config;
 }
 

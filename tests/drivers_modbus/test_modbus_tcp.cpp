@@ -27,6 +27,7 @@ ModbusStandConfig test_config() {
   config.timing.backoff_max_s = 0.4;
   config.timing.heartbeat_period_s = 0.05;
   config.timing.heartbeat_timeout_s = 1.0;
+  config.ranges[0] = AxisRange::continuous_axis();                         // outer: slip ring
   config.ranges[1] = AxisRange{false, -180.0, 180.0, CableWrap::nearest};  // inner: cables
   config.speed_dps = 30.0;
   return config;

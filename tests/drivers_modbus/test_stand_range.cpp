@@ -19,7 +19,7 @@ double normalised(const AxisRange& range, double angle_deg, double current_deg =
 }
 
 TEST(AxisRangeNormalisation, ContinuousAxisFoldsIntoPlusMinus180) {
-  const AxisRange continuous{};
+  const AxisRange continuous = AxisRange::continuous_axis();
   EXPECT_DOUBLE_EQ(normalised(continuous, 270.0), -90.0);
   EXPECT_DOUBLE_EQ(normalised(continuous, -190.0), 170.0);
   EXPECT_DOUBLE_EQ(normalised(continuous, 180.0), -180.0);
@@ -48,7 +48,8 @@ TEST(AxisRangeNormalisation, AngleWithNoEquivalentInsideIsALimitError) {
   EXPECT_EQ(r.status().kind, ErrorKind::limit);
   EXPECT_NE(r.status().message.find("outside the range [-90.0000°, 90.0000°]"), std::string::npos)
       << r.status().message;
-  auto nan = normalise_target_deg(AxisRange{}, std::numeric_limits<double>::quiet_NaN(), 0.0);
+  auto nan = normalise_target_deg(AxisRange::continuous_axis(),
+                                  std::numeric_limits<double>::quiet_NaN(), 0.0);
   ASSERT_FALSE(nan);
   EXPECT_EQ(nan.status().kind, ErrorKind::invalid_argument);
 }
@@ -57,15 +58,15 @@ TEST(AxisRangeNormalisation, AHugeAngleTakesItsExactEquivalent) {
   // 1e308 ≡ -64 (mod 360); std::remainder is exact where 1e308 - 360·floor(...) is not.
   const double equivalent = std::remainder(1e308, 360.0);
   ASSERT_NEAR(equivalent, -64.0, 1e-9);
-  EXPECT_DOUBLE_EQ(normalised(AxisRange{}, 1e308), equivalent);
-  EXPECT_DOUBLE_EQ(normalised(AxisRange{}, -1e308), -equivalent);
+  EXPECT_DOUBLE_EQ(normalised(AxisRange::continuous_axis(), 1e308), equivalent);
+  EXPECT_DOUBLE_EQ(normalised(AxisRange::continuous_axis(), -1e308), -equivalent);
   EXPECT_DOUBLE_EQ(normalised(limited(-180.0, 180.0), 1e308), equivalent);
   EXPECT_DOUBLE_EQ(normalised(limited(0.0, 540.0, CableWrap::centred), 1e308), equivalent + 360.0);
-  EXPECT_DOUBLE_EQ(path_target_deg(AxisRange{}, 1e308, 10.0).value(), equivalent);
+  EXPECT_DOUBLE_EQ(path_target_deg(AxisRange::continuous_axis(), 1e308, 10.0).value(), equivalent);
 }
 
 TEST(AxisRangePath, ContinuousAxisTakesTheShorterWayFromItsCountedTurns) {
-  const AxisRange continuous{};
+  const AxisRange continuous = AxisRange::continuous_axis();
   EXPECT_DOUBLE_EQ(path_target_deg(continuous, -170.0, 170.0).value(), 190.0);
   EXPECT_DOUBLE_EQ(path_target_deg(continuous, 0.0, 730.0).value(), 720.0);
   EXPECT_NEAR(path_target_deg(continuous, 90.0, -90.0 + 1e-6).value(), 90.0,
@@ -78,7 +79,7 @@ TEST(AxisRangePath, LimitedAxisGoesStraightInsideTheRange) {
 }
 
 TEST(AxisRangeReading, ErrorsAndReadingsWrapOnlyOnContinuousAxes) {
-  const AxisRange continuous{};
+  const AxisRange continuous = AxisRange::continuous_axis();
   EXPECT_DOUBLE_EQ(normalise_reading_deg(continuous, 370.0), 10.0);
   EXPECT_DOUBLE_EQ(angle_error_deg(continuous, 179.0, -179.0), -2.0);
   EXPECT_DOUBLE_EQ(normalise_reading_deg(limited(-270, 270), 250.0), 250.0);

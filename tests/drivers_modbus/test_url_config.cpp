@@ -110,7 +110,9 @@ TEST(StandConfig, ReadsEveryKindOfKey) {
   EXPECT_EQ(c.map.axes[0].speed, 102);  // untouched keys keep the documented default
   EXPECT_EQ(c.timing.tries, 5);
   EXPECT_DOUBLE_EQ(c.timing.heartbeat_timeout_s, 0.5);
-  EXPECT_TRUE(c.ranges[0].continuous);
+  EXPECT_FALSE(c.ranges[0].continuous);  // untouched: the cautious default, limited ±180°
+  EXPECT_DOUBLE_EQ(c.ranges[0].min_deg, -180.0);
+  EXPECT_DOUBLE_EQ(c.ranges[0].max_deg, 180.0);
   EXPECT_FALSE(c.ranges[1].continuous);
   EXPECT_EQ(c.ranges[1].cable_wrap, CableWrap::centred);
   EXPECT_GE(c.map.holding_size(), 311);
