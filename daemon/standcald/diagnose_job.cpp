@@ -131,17 +131,16 @@ DiagnoseJobs::~DiagnoseJobs() {
 }
 
 void DiagnoseJobs::submit(const Sequencer& sequencer, const json& params, ReplyFn reply) {
-  protocol::Params p(params, protocol::method::run_diagnose);
-  p.only({"run_id", "report"});
-  const std::string run_id = p.string("run_id");
-  const bool with_report = p.optional_bool("report", false);
-  json status = sequencer.run_status(run_id);  // -32006 for an unknown run
-  const std::string state = status.value("state", "");
+  const auto request = protocol::RunDiagnoseParams::parse(params);
+  const std::string& run_id = request.run_id;
+  const bool with_report = request.report;
+  const protocol::RunStatusResult status = sequencer.run_status(run_id);  // -32006: unknown run
+  const std::string& state = status.state;
   if (in_progress(state)) {
     throw RpcError(ErrorCode::invalid_state, "run " + run_id + " is " + state +
                                                  "; diagnose it when it has ended (or pause it)");
   }
-  if (status.value("positions_done", 0) == 0) {
+  if (status.positions_done == 0) {
     throw RpcError(ErrorCode::invalid_state,
                    "run " + run_id + " has no recorded position to diagnose");
   }
@@ -151,7 +150,7 @@ void DiagnoseJobs::submit(const Sequencer& sequencer, const json& params, ReplyF
                    std::to_string(queue_.size()) + " diagnoses are waiting; try again shortly");
   }
   queue_.push_back(
-      {{std::move(status), sequencer.stand_limits(), sequencer.unit_bias_wander(), with_report},
+      {{json(status), sequencer.stand_limits(), sequencer.unit_bias_wander(), with_report},
        std::move(reply)});
   wake_.notify_one();
 }

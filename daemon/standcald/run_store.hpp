@@ -16,6 +16,7 @@
 
 #include "calib/traceability.hpp"
 #include "daemon/standcald/pid_lock.hpp"
+#include "protocol/jsonrpc/messages.hpp"
 
 namespace standcal::daemon {
 
@@ -40,17 +41,8 @@ struct RunRecord : Traceability {
 // What runs.list, the unit index and resume need of a run: kept in memory for every run
 // in the state directory (about 0.3 kB each), while the full record (the programme, the
 // per-position byte offsets, a few kB) stays on disk and is read when asked for.
-struct RunSummary {
-  std::string run_id;
-  std::string unit_serial;
-  std::string program_name;
-  std::string state;
-  int positions = 0;
-  int positions_done = 0;
-  std::string started_utc;
-  std::string ended_utc;
-  bool has_result = false;
-};
+// It is what runs.list answers with, so it is the protocol's type.
+using RunSummary = protocol::RunListEntry;
 
 RunSummary summary_of(const RunRecord& r);
 

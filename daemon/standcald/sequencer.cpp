@@ -254,9 +254,7 @@ bool Sequencer::estop_at_any_time(Command& cmd) {
 }
 
 std::optional<std::string> Sequencer::named_other_run(const Command& cmd) const {
-  protocol::Params p(cmd.params, cmd.method);
-  p.only({"run_id"});
-  const auto id = p.optional_text("run_id", protocol::text_limit::run_id);
+  const auto id = protocol::RunTargetParams::parse(cmd.params, cmd.method).run_id;
   if (!id || (!active_run_id_.empty() && *id == active_run_id_)) return std::nullopt;
   if (!store_.get(*id))
     throw RpcError(ErrorCode::not_found, cmd.method + ": no run " + *id + " (see runs.list)");
@@ -279,10 +277,10 @@ bool Sequencer::act_on_active_run(Command& cmd) {
     if (mode_ == Mode::run_paused)
       throw RpcError(ErrorCode::invalid_state, "the run is already paused");
     raise_interrupt(Interrupt::pause);
-    defer_answer(cmd, json{{"run_id", active_run_id_}, {"state", st::paused}});
+    defer_answer(cmd, protocol::RunStateResult{active_run_id_, st::paused});
   } else if (cmd.method == m::run_abort) {
     raise_interrupt(Interrupt::abort);
-    defer_answer(cmd, json{{"run_id", active_run_id_}, {"state", st::aborted}});
+    defer_answer(cmd, protocol::RunStateResult{active_run_id_, st::aborted});
   } else {
     if (mode_ != Mode::run_waiting_operator) {
       throw RpcError(ErrorCode::invalid_state, "no re-mount step is waiting for the operator");
@@ -291,9 +289,9 @@ bool Sequencer::act_on_active_run(Command& cmd) {
     {
       // Visible at once to run.status, before the run thread moves on.
       std::lock_guard lock(snapshot_mutex_);
-      if (progress_.is_object()) progress_["state"] = st::running;
+      if (progress_) progress_->state = st::running;
     }
-    cmd.reply(Outcome{json{{"run_id", active_run_id_}, {"confirmed", true}}, 0, {}});
+    cmd.reply(Outcome{protocol::ConfirmedResult{active_run_id_, true}, 0, {}});
   }
   return true;
 }
@@ -311,7 +309,7 @@ bool Sequencer::resume_active_run(Command& cmd) {
     throw RpcError(ErrorCode::invalid_state, "run " + active_run_id_ + " is already running");
   }
   resume_requested_ = true;
-  defer_answer(cmd, json{{"run_id", active_run_id_}, {"state", st::running}});
+  defer_answer(cmd, protocol::RunStateResult{active_run_id_, st::running});
   return true;
 }
 
@@ -319,10 +317,10 @@ bool Sequencer::resume_active_run(Command& cmd) {
 // it has stopped; otherwise the axes are stopped here and the answer waits until they are
 // still.
 bool Sequencer::stand_stop(Command& cmd) {
-  protocol::Params(cmd.params, cmd.method).only({});
+  protocol::parse_no_params(cmd.params, cmd.method);
   if (mode_ == Mode::command || mode_ == Mode::run_active || mode_ == Mode::run_waiting_operator) {
     raise_interrupt(Interrupt::pause);
-    defer_answer(cmd, json{{"stopped", true}});
+    defer_answer(cmd, protocol::StoppedResult{});
     return true;
   }
   if (!stop_axes_and_wait()) {
@@ -330,7 +328,7 @@ bool Sequencer::stand_stop(Command& cmd) {
                    "the stand axes were still moving " +
                        std::to_string(int(config_.in_position.timeout_s)) + " s after stand.stop");
   }
-  cmd.reply(Outcome{json{{"stopped", true}}, 0, {}});
+  cmd.reply(Outcome{protocol::StoppedResult{}, 0, {}});
   return true;
 }
 
@@ -349,17 +347,18 @@ void Sequencer::answer_deferred(const std::string& run_state) {
 
 // --------------------------------------------------------------------------- views
 
-json Sequencer::status() const {
+protocol::StatusResult Sequencer::status() const {
+  protocol::StatusResult s;
   // Which hardware is live, so nobody mistakes a simulated run for a real one.
-  json backend{{"stand", config_.stand_backend},
-               {"unit", config_.unit_backend},
-               {"simulated", config_.stand_backend == "sim" || config_.unit_backend == "sim"},
-               {"description", hw_.description}};
+  s.backend = {config_.stand_backend, config_.unit_backend,
+               config_.stand_backend == "sim" || config_.unit_backend == "sim", hw_.description};
   std::lock_guard lock(snapshot_mutex_);
-  return json{{"stand", stand_snapshot_}, {"run", progress_}, {"backend", std::move(backend)}};
+  s.stand = stand_snapshot_;
+  s.run = progress_;
+  return s;
 }
 
-json Sequencer::run_status(const std::string& run_id) const {
+protocol::RunStatusResult Sequencer::run_status(const std::string& run_id) const {
   std::string id = run_id;
   {
     std::lock_guard lock(snapshot_mutex_);
@@ -372,25 +371,27 @@ json Sequencer::run_status(const std::string& run_id) const {
   }
   auto rec = store_.get(id);
   if (!rec) throw RpcError(ErrorCode::not_found, "no run " + id + " (see runs.list)");
-  json out{{"run_id", rec->run_id},
-           {"state", rec->state},
-           {"reason", rec->reason},
-           {"unit_serial", rec->unit_serial},
-           {"unit_type", rec->unit_type},
-           {"program", rec->program_name},
-           {"position", rec->positions_done},
-           {"positions", rec->positions},
-           {"positions_done", rec->positions_done},
-           {"phase", nullptr},
-           {"eta_s", nullptr},
-           {"started_utc", rec->started_utc},
-           {"ended_utc", rec->ended_utc},
-           {"recording_path", rec->recording_path},
-           {"has_result", !rec->result_path.empty()}};
+  protocol::RunStatusResult out;
+  out.run_id = rec->run_id;
+  out.state = rec->state;
+  out.reason = rec->reason;
+  out.unit_serial = rec->unit_serial;
+  out.unit_type = rec->unit_type;
+  out.program = rec->program_name;
+  out.position = rec->positions_done;
+  out.positions = rec->positions;
+  out.positions_done = rec->positions_done;
+  out.started_utc = rec->started_utc;
+  out.ended_utc = rec->ended_utc;
+  out.recording_path = rec->recording_path;
+  out.has_result = !rec->result_path.empty();
   std::lock_guard lock(snapshot_mutex_);
-  if (!progress_.is_null() && progress_.value("run_id", "") == id) {
-    for (const char* k : {"state", "position", "phase", "eta_s", "positions_done"})
-      out[k] = progress_[k];
+  if (progress_ && progress_->run_id == id) {  // the live view of the active run
+    out.state = progress_->state;
+    out.position = progress_->position;
+    out.phase = progress_->phase;
+    out.eta_s = progress_->eta_s;
+    out.positions_done = progress_->positions_done;
   }
   return out;
 }
@@ -411,24 +412,9 @@ json Sequencer::run_result(const std::string& run_id) const {
   return doc;
 }
 
-json Sequencer::runs_list(const RunPageQuery& query) const {
+protocol::RunsPage Sequencer::runs_list(const RunPageQuery& query) const {
   const RunPage page = store_.page(query);
-  json runs = json::array();
-  for (const RunSummary& r : page.runs) {
-    runs.push_back(json{{"run_id", r.run_id},
-                        {"unit_serial", r.unit_serial},
-                        {"program", r.program_name},
-                        {"state", r.state},
-                        {"positions", r.positions},
-                        {"positions_done", r.positions_done},
-                        {"started_utc", r.started_utc},
-                        {"ended_utc", r.ended_utc},
-                        {"has_result", r.has_result}});
-  }
-  json out = json::object();
-  out["runs"] = std::move(runs);
-  out["more"] = page.more;
-  return out;
+  return protocol::RunsPage{page.runs, page.more};
 }
 
 }  // namespace standcal::daemon

@@ -27,6 +27,7 @@
 #include "daemon/standcald/dwell.hpp"
 #include "daemon/standcald/hardware.hpp"
 #include "daemon/standcald/run_store.hpp"
+#include "protocol/jsonrpc/messages.hpp"
 
 namespace standcal::daemon {
 
@@ -62,10 +63,11 @@ class Sequencer {
   std::uint64_t heartbeat() const { return heartbeat_.load(); }
 
   // Thread-safe views, answered without waiting for the hardware thread.
-  nlohmann::json status() const;
-  nlohmann::json run_status(const std::string& run_id) const;  // empty id: current or newest
+  protocol::StatusResult status() const;  // without `daemon`: the server's part
+  protocol::RunStatusResult run_status(
+      const std::string& run_id) const;  // empty: current or newest
   nlohmann::json run_result(const std::string& run_id) const;
-  nlohmann::json runs_list(const RunPageQuery& query) const;
+  protocol::RunsPage runs_list(const RunPageQuery& query) const;
   // Where the configured stand can go (config stand.outer / stand.inner).
   StandLimits stand_limits() const;
   // The unit's configured bias wander (unit.bias_instability_ug), white when none.
@@ -157,7 +159,7 @@ class Sequencer {
   bool axes_still();
   void emergency_stop(const std::string& requested_by);
   drivers::AxisState read_axis(drivers::StandAxis axis);
-  nlohmann::json unit_read(double seconds);
+  protocol::UnitReadResult unit_read(double seconds);
   std::vector<drivers::AccelSample> collect(double seconds);
   void refresh_stand_snapshot();
 
@@ -220,8 +222,8 @@ class Sequencer {
 
   // Snapshot for the thread-safe views.
   mutable std::mutex snapshot_mutex_;
-  nlohmann::json stand_snapshot_ = nlohmann::json::object();
-  nlohmann::json progress_ = nullptr;  // the active run's live progress
+  protocol::StandStatus stand_snapshot_;
+  std::optional<protocol::RunProgress> progress_;  // the active run's live progress
   std::string active_run_id_;
 };
 

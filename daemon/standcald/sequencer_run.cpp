@@ -26,6 +26,15 @@ using namespace detail;
 // --------------------------------------------------------------------------- runs
 
 namespace {
+// A run's fault event: the run, the position when one is named, what happened.
+protocol::FaultEvent run_fault(const std::string& run_id, std::string message,
+                               std::optional<int> position = std::nullopt) {
+  protocol::FaultEvent e;
+  e.message = std::move(message);
+  e.run_id = run_id;
+  e.position = position;
+  return e;
+}
 
 StandLimits limits_of(const DaemonConfig& c) { return StandLimits{c.outer, c.inner}; }
 
@@ -99,31 +108,18 @@ Program program_from_params(const json& spec, const DaemonConfig& config) {
 }  // namespace
 
 json Sequencer::start_run(const json& params) {
-  protocol::Params p(params, m::run_start);
-  p.only({"program", "dwell_s", "settle_s", "unit_serial", "unit_type", "operator"});
-  // Text fields go into the recording header, run.json and the records database: each
-  // one line of printable text, counted in characters (protocol/jsonrpc/text.hpp).
-  namespace limit = protocol::text_limit;
-  const std::string serial = p.optional_text("unit_serial", limit::unit_serial).value_or("");
-  if (serial.empty()) {
-    throw RpcError(ErrorCode::invalid_params,
-                   "run.start: parameter \"unit_serial\" is required (1 to 64 characters)");
-  }
-  const std::string unit_type = p.optional_text("unit_type", limit::unit_type).value_or("");
-  const std::string operator_name = p.optional_text("operator", limit::operator_name).value_or("");
-  const json* spec = p.find("program");
-  if (spec == nullptr)
-    throw RpcError(ErrorCode::invalid_params, "run.start: parameter \"program\" is required");
-  Program program = program_from_params(*spec, config_);
+  const auto request = protocol::RunStartParams::parse(params);
+  const std::string& serial = request.unit_serial;
+  Program program = program_from_params(request.program, config_);
   protocol::require_text_field("run.start: the programme's \"name\"", program.name,
-                               limit::program_name);
+                               protocol::text_limit::program_name);
   try {
     program = normalise_program(program, limits_of(config_));
   } catch (const ProgramError& e) {
     throw RpcError(ErrorCode::limit, e.what());
   }
-  const double dwell = p.optional_number("dwell_s").value_or(config_.dwell_s);
-  const double settle = p.optional_number("settle_s").value_or(config_.settle_s);
+  const double dwell = request.dwell_s.value_or(config_.dwell_s);
+  const double settle = request.settle_s.value_or(config_.settle_s);
   if (!(dwell > 0 && dwell <= kMaxDwell_s))
     throw RpcError(ErrorCode::invalid_params, "run.start: \"dwell_s\" must be in (0, 36000]");
   if (!(settle >= 0 && settle <= kMaxSettle_s))
@@ -134,12 +130,12 @@ json Sequencer::start_run(const json& params) {
   RunRecord r;
   r.run_id = store_.new_run_id(serial);
   r.unit_serial = serial;
-  r.unit_type = unit_type;
+  r.unit_type = request.unit_type.value_or("");
   r.program_name = program.name;
   r.program = program_to_json(program);
   r.dwell_s = dwell;
   r.settle_s = settle;
-  r.operator_name = operator_name;
+  r.operator_name = request.operator_name.value_or("");
   r.state = st::running;
   r.positions = static_cast<int>(program.positions.size());
   r.started_utc = utc_now_iso();
@@ -152,15 +148,12 @@ json Sequencer::start_run(const json& params) {
   store_.save(r);
   spdlog::info("run {} started: programme {} ({} positions), unit {}", r.run_id,
                protocol::printable(r.program_name), r.positions, protocol::printable(serial));
-  return json{
-      {"run_id", r.run_id}, {"positions", r.positions}, {"recording_path", r.recording_path}};
+  return protocol::RunStarted{r.run_id, r.positions, r.recording_path};
 }
 
 json Sequencer::resume_run(const json& params) {
-  protocol::Params p(params, m::run_resume);
-  p.only({"run_id"});
   std::optional<RunRecord> rec;
-  if (auto id = p.optional_text("run_id", protocol::text_limit::run_id)) {
+  if (auto id = protocol::RunTargetParams::parse(params, m::run_resume).run_id) {
     rec = store_.get(*id);
     if (!rec) throw RpcError(ErrorCode::not_found, "no run " + *id + " (see runs.list)");
   } else {
@@ -184,9 +177,7 @@ json Sequencer::resume_run(const json& params) {
   }
   spdlog::info("run {} resumed at position {}/{}", rec->run_id, rec->positions_done + 1,
                rec->positions);
-  return json{{"run_id", rec->run_id},
-              {"position", rec->positions_done + 1},
-              {"positions", rec->positions}};
+  return protocol::RunResumed{rec->run_id, rec->positions_done + 1, rec->positions};
 }
 
 double Sequencer::run_clock_s() const {
@@ -209,7 +200,7 @@ void Sequencer::set_state(RunRecord& record, const std::string& state, const std
   }
   {
     std::lock_guard lock(snapshot_mutex_);
-    if (progress_.is_object()) progress_["state"] = state;
+    if (progress_) progress_->state = state;
   }
   // The one log line of a state change; a fault is logged here once, at error level.
   const auto level = state == st::faulted ? spdlog::level::err : spdlog::level::info;
@@ -218,11 +209,8 @@ void Sequencer::set_state(RunRecord& record, const std::string& state, const std
   } else {
     spdlog::log(level, "run {}: {} ({})", record.run_id, state, reason);
   }
-  events_(ev::run_state, json{{"run_id", record.run_id},
-                              {"state", state},
-                              {"reason", reason},
-                              {"positions_done", record.positions_done},
-                              {"positions", record.positions}});
+  events_(ev::run_state, protocol::RunStateEvent{record.run_id, state, reason,
+                                                 record.positions_done, record.positions});
 }
 
 void Sequencer::set_progress(const RunRecord& record, int index, const std::string& phase) {
@@ -231,13 +219,9 @@ void Sequencer::set_progress(const RunRecord& record, int index, const std::stri
       positions_timed_ > 0 ? mean_position_real_s_
                            : hw_.clock->real_seconds(record.dwell_s + record.settle_s +
                                                      10.0);  // 10 s: a typical move
-  json progress{{"run_id", record.run_id},
-                {"state", record.state},
-                {"position", std::min(index + 1, record.positions)},
-                {"positions", record.positions},
-                {"positions_done", record.positions_done},
-                {"phase", phase},
-                {"eta_s", remaining * per_position_real_s}};
+  const protocol::RunProgress progress{
+      record.run_id,         record.state, std::min(index + 1, record.positions), record.positions,
+      record.positions_done, phase,        remaining * per_position_real_s};
   {
     std::lock_guard lock(snapshot_mutex_);
     progress_ = progress;
@@ -256,7 +240,7 @@ void Sequencer::run_loop(RunRecord record, const std::function<void()>& started)
   if (record.recording_bytes > 0) {
     if (const std::string note = fit_record_to_recording(record); !note.empty()) {
       spdlog::warn("run {}: {}", record.run_id, note);
-      events_(ev::fault, json{{"run_id", record.run_id}, {"message", note}});
+      events_(ev::fault, run_fault(record.run_id, note));
     }
   }
   const bool fresh = record.recording_bytes == 0;
@@ -325,14 +309,14 @@ void Sequencer::run_loop(RunRecord record, const std::function<void()>& started)
   } catch (const std::exception& e) {
     stop_axes_quietly();
     if (hw_.unit) (void)hw_.unit->stop();
-    events_(ev::fault, json{{"run_id", record.run_id}, {"message", e.what()}});
+    events_(ev::fault, run_fault(record.run_id, e.what()));
     set_state(record, st::faulted, e.what());
   }
   mode_ = Mode::idle;
   {
     std::lock_guard lock(snapshot_mutex_);
     active_run_id_.clear();
-    progress_ = nullptr;
+    progress_.reset();
   }
   refresh_stand_snapshot();
   // Once status shows no active run: an abort's answer, or a pause that came while the
@@ -468,10 +452,10 @@ std::vector<RecordingSample> dwell_rows(const std::vector<drivers::AccelSample>&
   return rows;
 }
 
-json per_axis_ug(const std::array<double, 3>& mps2, double g_local_mps2) {
-  json out = json::array();
-  for (double v : mps2) out.push_back(v / g_local_mps2 * 1e6);
-  return out;
+std::array<double, 3> per_axis_ug(const std::array<double, 3>& mps2, double g_local_mps2) {
+  std::array<double, 3> ug{};
+  for (std::size_t a = 0; a < 3; ++a) ug[a] = mps2[a] / g_local_mps2 * 1e6;
+  return ug;
 }
 
 }  // namespace
@@ -506,15 +490,16 @@ void Sequencer::measure_position(RunRecord& record, const Program& program, int 
   store_.save(record);  // only now is the position done: a crash before this re-measures it
 
   const DwellAverage& avg = dwell.average;
-  events_(ev::position_averaged,
-          json{{"run_id", record.run_id},
-               {"position", index + 1},
-               {"pos", index},
-               {"samples", dwell.samples.size()},
-               {"mean_mps2", avg.mean_mps2},
-               {"sigma_ug", per_axis_ug(avg.sigma_mps2, record.g_local_mps2)},
-               {"trend_ug", per_axis_ug(avg.trend_mps2, record.g_local_mps2)},
-               {"temp_c", std::isfinite(avg.temp_mean_c) ? json(avg.temp_mean_c) : json(nullptr)}});
+  protocol::PositionAveraged averaged{record.run_id,
+                                      index + 1,
+                                      index,
+                                      static_cast<std::int64_t>(dwell.samples.size()),
+                                      avg.mean_mps2,
+                                      per_axis_ug(avg.sigma_mps2, record.g_local_mps2),
+                                      per_axis_ug(avg.trend_mps2, record.g_local_mps2),
+                                      std::nullopt};
+  if (std::isfinite(avg.temp_mean_c)) averaged.temp_c = avg.temp_mean_c;
+  events_(ev::position_averaged, averaged);
   const double took = now_real_s() - started_real;
   mean_position_real_s_ =
       (mean_position_real_s_ * positions_timed_ + took) / (positions_timed_ + 1);
@@ -538,14 +523,9 @@ Sequencer::Arrival Sequencer::arrive_at(const RunRecord& record, const ProgramPo
   a.t_arrive_s = std::max(run_clock_s(), last_t_s_);
   a.approach = approach_directions({last_cmd_deg_, {pp.alpha1_deg, pp.alpha2_deg}})[1];
   last_cmd_deg_ = {pp.alpha1_deg, pp.alpha2_deg};
-  events_(ev::position_reached, json{{"run_id", record.run_id},
-                                     {"position", index + 1},
-                                     {"pos", index},
-                                     {"alpha1_cmd_deg", pp.alpha1_deg},
-                                     {"alpha2_cmd_deg", pp.alpha2_deg},
-                                     {"alpha1_deg", a.reached_deg.first},
-                                     {"alpha2_deg", a.reached_deg.second},
-                                     {"t_arrive_s", a.t_arrive_s}});
+  events_(ev::position_reached,
+          protocol::PositionReached{record.run_id, index + 1, index, pp.alpha1_deg, pp.alpha2_deg,
+                                    a.reached_deg.first, a.reached_deg.second, a.t_arrive_s});
   return a;
 }
 
@@ -580,10 +560,10 @@ Sequencer::SampledDwell Sequencer::sample_stable_dwell(const RunRecord& record, 
                          std::to_string(attempt + 1) + " measurements: " + problem);
     }
     spdlog::warn("run {}: re-measuring position {}: {}", record.run_id, index + 1, problem);
-    events_(ev::fault, json{{"run_id", record.run_id},
-                            {"position", index + 1},
-                            {"message", "re-measuring position " + std::to_string(index + 1) +
-                                            ": " + problem}});
+    events_(ev::fault,
+            run_fault(record.run_id,
+                      "re-measuring position " + std::to_string(index + 1) + ": " + problem,
+                      index + 1));
   }
 }
 

@@ -20,16 +20,23 @@ namespace {
 
 constexpr double kCollectChunk_s = 1.0;  // unit time per collect() call: commands served between
 
-json axis_json(StandAxis axis, const drivers::AxisState& s) {
-  return json{{"axis", drivers::to_string(axis)},
-              {"mode", drivers::to_string(s.mode)},
-              {"angle_deg", s.angle_deg},
-              {"enabled", s.enabled},
-              {"homed", s.homed},
-              {"estop", s.estop},
-              {"stopped_by_heartbeat", s.stopped_by_heartbeat},
-              {"fault_code", s.fault_code},
-              {"fault_text", s.fault_text}};
+protocol::AxisStatus axis_status(StandAxis axis, const drivers::Result<drivers::AxisState>& read) {
+  protocol::AxisStatus a;
+  a.axis = drivers::to_string(axis);
+  if (!read) {
+    a.error = read.status().message;
+    return a;
+  }
+  const drivers::AxisState& s = read.value();
+  a.mode = drivers::to_string(s.mode);
+  a.angle_deg = s.angle_deg;
+  a.enabled = s.enabled;
+  a.homed = s.homed;
+  a.estop = s.estop;
+  a.stopped_by_heartbeat = s.stopped_by_heartbeat;
+  a.fault_code = s.fault_code;
+  a.fault_text = s.fault_text;
+  return a;
 }
 
 }  // namespace
@@ -38,34 +45,29 @@ json axis_json(StandAxis axis, const drivers::AxisState& s) {
 // Each answers one method while no run holds the stand (Sequencer::kBindings).
 
 json Sequencer::enable_stand(const Command& cmd) {
-  protocol::Params(cmd.params, cmd.method).only({});
+  protocol::parse_no_params(cmd.params, cmd.method);
   prepare_stand(false);
-  return json{{"enabled", true}};
+  return protocol::EnabledResult{true};
 }
 
 json Sequencer::disable_stand(const Command& cmd) {
-  protocol::Params(cmd.params, cmd.method).only({});
+  protocol::parse_no_params(cmd.params, cmd.method);
   if (hw_.stand->lifecycle() == drivers::Lifecycle::active) {
     for (StandAxis a : kAxes) check(hw_.stand->disable(a));
   }
-  return json{{"enabled", false}};
+  return protocol::EnabledResult{false};
 }
 
 json Sequencer::home_stand(const Command& cmd) {
-  protocol::Params(cmd.params, cmd.method).only({});
+  protocol::parse_no_params(cmd.params, cmd.method);
   prepare_stand(false);
   home_axes();
-  return json{{"alpha1_deg", read_axis(StandAxis::outer).angle_deg},
-              {"alpha2_deg", read_axis(StandAxis::inner).angle_deg}};
+  return protocol::HomedResult{read_axis(StandAxis::outer).angle_deg,
+                               read_axis(StandAxis::inner).angle_deg};
 }
 
 json Sequencer::move_stand(const Command& cmd) {
-  protocol::Params p(cmd.params, cmd.method);
-  p.only({"alpha1_deg", "alpha2_deg", "wait"});
-  const double a1 = p.number("alpha1_deg"), a2 = p.number("alpha2_deg");
-  const bool wait = p.optional_bool("wait", true);
-  if (!std::isfinite(a1) || !std::isfinite(a2))
-    throw RpcError(ErrorCode::invalid_params, "stand.move: angles must be finite");
+  const auto request = protocol::StandMoveParams::parse(cmd.params);
   if (estop_latched_)
     throw RpcError(ErrorCode::estop_active, "emergency stop is latched: send estop.reset first");
   if (hw_.stand->lifecycle() != drivers::Lifecycle::active) {
@@ -77,29 +79,26 @@ json Sequencer::move_stand(const Command& cmd) {
                                                " has not been homed: send stand.home first");
     }
   }
-  if (!wait) {
-    start_move(a1, a2);
-    return json{{"accepted", true}};
+  if (!request.wait) {
+    start_move(request.alpha1_deg, request.alpha2_deg);
+    return protocol::MoveAccepted{};
   }
-  auto [r1, r2] = move_and_wait(a1, a2);
-  return json{{"alpha1_deg", r1}, {"alpha2_deg", r2}, {"in_position", true}};
+  auto [r1, r2] = move_and_wait(request.alpha1_deg, request.alpha2_deg);
+  return protocol::MoveResult{r1, r2, true};
 }
 
 json Sequencer::reset_estop(const Command& cmd) {
-  protocol::Params(cmd.params, cmd.method).only({});
+  protocol::parse_no_params(cmd.params, cmd.method);
   // The latch is the controller's: an unconfigured stand is configured first so that a
   // latch set before then is found (it puts the stand in error) and reset here.
   if (hw_.stand->lifecycle() == drivers::Lifecycle::unconfigured) check(hw_.stand->configure());
   if (hw_.stand->lifecycle() == drivers::Lifecycle::error) check(hw_.stand->recover());
   estop_latched_ = false;
-  return json{{"estop", false},
-              {"message", "emergency stop reset: send stand.enable and stand.home"}};
+  return protocol::EstopResult{false, "emergency stop reset: send stand.enable and stand.home"};
 }
 
 json Sequencer::read_unit(const Command& cmd) {
-  protocol::Params p(cmd.params, cmd.method);
-  p.only({"seconds"});
-  const double seconds = p.number("seconds");
+  const double seconds = protocol::UnitReadParams::parse(cmd.params).seconds;
   // Shorter than one sample period reads nothing, and a mean of nothing is not 0.
   const double min_s = 1.0 / config_.sample_rate_hz;
   if (!(seconds >= min_s && seconds <= 3600)) {
@@ -250,34 +249,28 @@ void Sequencer::emergency_stop(const std::string& requested_by) {
   // Who pressed it is the first question afterwards.
   spdlog::warn("EMERGENCY STOP requested by {}", requested_by.empty() ? "a client" : requested_by);
   refresh_stand_snapshot();
-  events_(ev::fault,
-          json{{"source", "estop"}, {"message", "emergency stop: both axes stopped and disabled"}});
+  protocol::FaultEvent fault;
+  fault.message = "emergency stop: both axes stopped and disabled";
+  fault.source = "estop";
+  events_(ev::fault, fault);
   if (!s)
     throw RpcError(ErrorCode::hardware_fault,
                    "emergency stop could not be confirmed by the stand: " + s.message);
 }
 
 void Sequencer::refresh_stand_snapshot() {
-  json axes = json::array();
-  for (StandAxis a : kAxes) {
-    auto r = hw_.stand->read_state(a);
-    axes.push_back(r ? axis_json(a, r.value())
-                     : json{{"axis", drivers::to_string(a)}, {"error", r.status().message}});
-  }
+  protocol::StandStatus snapshot;
+  snapshot.name = hw_.stand->name();
+  snapshot.id = config_.stand_id;
+  snapshot.lifecycle = drivers::to_string(hw_.stand->lifecycle());
+  snapshot.estop_latched = estop_latched_;
+  for (StandAxis a : kAxes) snapshot.axes.push_back(axis_status(a, hw_.stand->read_state(a)));
   const drivers::AccelUnitHealth h = hw_.unit->health();
-  json unit{{"name", hw_.unit->name()},
-            {"samples", h.samples},
-            {"incomplete_samples", h.incomplete_samples},
-            {"bus_state", drivers::bus_state_name(h.bus_state)},
-            {"silent", h.silent}};
+  snapshot.unit = {hw_.unit->name(), h.samples, h.incomplete_samples,
+                   drivers::bus_state_name(h.bus_state), h.silent};
+  if (mode_ == Mode::command) snapshot.busy_with = busy_with_;
   std::lock_guard lock(snapshot_mutex_);
-  stand_snapshot_ = json{{"name", hw_.stand->name()},
-                         {"id", config_.stand_id},
-                         {"lifecycle", drivers::to_string(hw_.stand->lifecycle())},
-                         {"estop_latched", estop_latched_},
-                         {"axes", axes},
-                         {"unit", unit},
-                         {"busy_with", mode_ == Mode::command ? json(busy_with_) : json(nullptr)}};
+  stand_snapshot_ = std::move(snapshot);
 }
 
 // --------------------------------------------------------------------------- unit
@@ -295,7 +288,7 @@ std::vector<drivers::AccelSample> Sequencer::collect(double seconds) {
   return all;
 }
 
-json Sequencer::unit_read(double seconds) {
+protocol::UnitReadResult Sequencer::unit_read(double seconds) {
   check(hw_.unit->start());
   std::vector<drivers::AccelSample> samples;
   try {
@@ -314,17 +307,16 @@ json Sequencer::unit_read(double seconds) {
             seconds));
   }
   const DwellAverage s = average_dwell(samples);
-  json axes = json::object();
-  for (int a = 0; a < 3; ++a) {
-    axes[axis_name(a)] = json{{"mean_mps2", s.mean_mps2[a]},
-                              {"sigma_ug", s.sigma_mps2[a] / config_.g_local_mps2 * 1e6}};
-  }
-  const drivers::AccelUnitHealth h = hw_.unit->health();
-  return json{{"samples", s.count},
-              {"rate_hz", seconds > 0 ? s.count / seconds : 0.0},
-              {"axes", axes},
-              {"temp_c", std::isfinite(s.temp_mean_c) ? json(s.temp_mean_c) : json(nullptr)},
-              {"incomplete_samples", h.incomplete_samples}};
+  const auto axis = [&](int a) {
+    return protocol::UnitAxisReading{s.mean_mps2[a], s.sigma_mps2[a] / config_.g_local_mps2 * 1e6};
+  };
+  protocol::UnitReadResult r;
+  r.samples = s.count;
+  r.rate_hz = seconds > 0 ? s.count / seconds : 0.0;
+  r.axes = {axis(0), axis(1), axis(2)};
+  if (std::isfinite(s.temp_mean_c)) r.temp_c = s.temp_mean_c;
+  r.incomplete_samples = hw_.unit->health().incomplete_samples;
+  return r;
 }
 
 }  // namespace standcal::daemon

@@ -40,13 +40,11 @@ namespace m = protocol::method;
 
 namespace {
 
-RunPageQuery runs_list_query(const protocol::Params& p) {
-  p.only({"unit_serial", "before", "limit"});
+RunPageQuery runs_list_query(const protocol::RunsListParams& p) {
   RunPageQuery q;
-  q.unit_serial = p.optional_text("unit_serial", protocol::text_limit::unit_serial).value_or("");
-  q.before_run_id = p.optional_text("before", protocol::text_limit::run_id).value_or("");
-  q.limit = static_cast<std::size_t>(p.optional_integer("limit", 1, protocol::runs_list_max_limit)
-                                         .value_or(protocol::runs_list_default_limit));
+  q.unit_serial = p.unit_serial.value_or("");
+  q.before_run_id = p.before.value_or("");
+  q.limit = static_cast<std::size_t>(p.limit.value_or(protocol::runs_list_default_limit));
   return q;
 }
 
@@ -640,21 +638,18 @@ void Server::read_client(Client& c) {
 
 // The methods the socket thread answers itself (method_table.hpp: executor server).
 json Server::answer_here(Client& c, const protocol::Request& req) {
-  protocol::Params p(req.params, req.method);
   if (req.method == m::status) {
-    p.only({});
+    protocol::parse_no_params(req.params, req.method);
     return status(c);
   }
   if (req.method == m::run_status) {
-    p.only({"run_id"});
     return sequencer_.run_status(
-        p.optional_text("run_id", protocol::text_limit::run_id).value_or(""));
+        protocol::RunTargetParams::parse(req.params, req.method).run_id.value_or(""));
   }
-  if (req.method == m::run_result) {
-    p.only({"run_id"});
-    return sequencer_.run_result(p.string("run_id"));
-  }
-  if (req.method == m::runs_list) return sequencer_.runs_list(runs_list_query(p));
+  if (req.method == m::run_result)
+    return sequencer_.run_result(protocol::RunResultParams::parse(req.params).run_id);
+  if (req.method == m::runs_list)
+    return sequencer_.runs_list(runs_list_query(protocol::RunsListParams::parse(req.params)));
   if (req.method == m::subscribe) return subscribe(c, req.params);
   if (req.method == m::auth) return authenticate(c, req.params);
   throw std::logic_error("method_table.cpp routes " + req.method +
@@ -816,43 +811,28 @@ void Server::close_with_error(Client& c, int code, const std::string& message, c
 }
 
 json Server::subscribe(Client& c, const json& params) {
-  protocol::Params p(params, m::subscribe);
-  p.only({"events"});
-  const json* ev = p.find("events");
+  const auto request = protocol::SubscribeParams::parse(params);
   std::set<std::string> wanted;
-  if (ev == nullptr || (ev->is_string() && (*ev == "all" || *ev == "*"))) {
-    wanted.insert("*");
-  } else if (ev->is_array()) {
-    for (const json& e : *ev) {
-      if (!e.is_string())
-        throw RpcError(ErrorCode::invalid_params,
-                       "subscribe: \"events\" must be a list of event names");
-      const std::string name = e.get<std::string>();
-      if (name != "*" && !known_events().count(name)) {
-        throw RpcError(ErrorCode::invalid_params, "subscribe: unknown event \"" + name + "\"");
-      }
-      wanted.insert(name);
-    }
-  } else {
-    throw RpcError(ErrorCode::invalid_params,
-                   "subscribe: \"events\" must be a list of event names or \"all\"");
+  if (!request.events) wanted.insert("*");
+  for (const std::string& name : request.events.value_or(std::vector<std::string>{})) {
+    if (name != "*" && !known_events().count(name))
+      throw RpcError(ErrorCode::invalid_params, "subscribe: unknown event \"" + name + "\"");
+    wanted.insert(name);
   }
   c.events = wanted;
-  json names = json::array();
+  protocol::SubscribedResult answer;
   if (wanted.count("*")) {
-    for (const auto& n : known_events()) names.push_back(n);
+    answer.events.assign(known_events().begin(), known_events().end());
   } else {
-    for (const auto& n : wanted) names.push_back(n);
+    answer.events.assign(wanted.begin(), wanted.end());
   }
-  return json{{"events", names}};
+  return answer;
 }
 
 // `auth {token}`: a TCP client asks for control. A wrong token closes the connection, so
 // every guess costs a new connection (and a log line naming the address).
 json Server::authenticate(Client& c, const json& params) {
-  protocol::Params p(params, m::auth);
-  p.only({"token"});
-  const std::string token = p.string("token");
+  const std::string token = protocol::AuthParams::parse(params).token;
   if (!c.peer.tcp) {
     throw RpcError(
         ErrorCode::invalid_state,
@@ -870,29 +850,27 @@ json Server::authenticate(Client& c, const json& params) {
   }
   c.peer.token_accepted = true;
   spdlog::info("auth: {} may now command the stand and runs", describe_peer(c.peer));
-  return json{{"control", true}};
+  return protocol::AuthResult{true};
 }
 
 json Server::status(const Client& c) const {
-  json s = sequencer_.status();
-  s["daemon"] = json{{"version", kVersion},
-                     {"protocol", protocol::kProtocolVersion},
-                     {"uptime_s", now_s() - started_s_},
-                     {"clients", clients_.size()},
-                     {"max_clients", config_.max_clients},
-                     {"requests", requests_},
-                     {"dropped_clients", dropped_clients_},
-                     {"state_dir", config_.state_dir},
-                     {"socket", config_.socket_path},
-                     {"tcp_port", tcp_port_ > 0 ? json(tcp_port_) : json(nullptr)}};
+  protocol::StatusResult s = sequencer_.status();
+  protocol::DaemonInfo& d = s.daemon;
+  d.version = kVersion;
+  d.protocol = protocol::kProtocolVersion;
+  d.uptime_s = now_s() - started_s_;
+  d.clients = static_cast<std::int64_t>(clients_.size());
+  d.max_clients = config_.max_clients;
+  d.requests = static_cast<std::int64_t>(requests_);
+  d.dropped_clients = static_cast<std::int64_t>(dropped_clients_);
+  d.state_dir = config_.state_dir;
+  d.socket = config_.socket_path;
+  if (tcp_port_ > 0) d.tcp_port = tcp_port_;
   // What this connection may do, so an operator can check their rights without moving anything.
-  const auto refusal = refuse_control(m::stand_move, c.peer, policy_);
-  s["daemon"]["access"] =
-      json{{"control_group",
-            policy_.control_group.empty() ? json(nullptr) : json(policy_.control_group)},
-           {"tcp_token", policy_.tcp_token_configured},
-           {"peer", describe_peer(c.peer)},
-           {"control", !refusal.has_value()}};
+  if (!policy_.control_group.empty()) d.access.control_group = policy_.control_group;
+  d.access.tcp_token = policy_.tcp_token_configured;
+  d.access.peer = describe_peer(c.peer);
+  d.access.control = !refuse_control(m::stand_move, c.peer, policy_).has_value();
   return s;
 }
 

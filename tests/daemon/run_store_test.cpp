@@ -219,7 +219,7 @@ TEST(RunStore, FullRecordsOfEarlierRunsAreReadBackFromDisk) {
   const auto listed = every_run(store, "AU-7");
   ASSERT_EQ(listed.size(), 1u);
   EXPECT_EQ(listed[0].run_id, first.run_id);
-  EXPECT_EQ(listed[0].program_name, "paper9");
+  EXPECT_EQ(listed[0].program, "paper9");
   EXPECT_EQ(listed[0].positions_done, 9);
   EXPECT_TRUE(listed[0].has_result);
   EXPECT_FALSE(every_run(store, "AU-8")[0].has_result);

@@ -101,9 +101,9 @@ TEST(SequencerInProcess, StandCommandsFollowTheLifecycleOnTheSimulatedBackend) {
   EXPECT_NEAR(moved.result["alpha2_deg"].get<double>(), -45, 0.05);
 
   // The thread-safe view agrees with what the commands did.
-  const json stand = s.sequencer().status()["stand"];
-  EXPECT_EQ(stand["lifecycle"], "active");
-  EXPECT_EQ(stand["busy_with"], nullptr);
+  const protocol::StandStatus stand = s.sequencer().status().stand;
+  EXPECT_EQ(stand.lifecycle, "active");
+  EXPECT_FALSE(stand.busy_with);
 
   const Outcome disabled = s.call("stand.disable");
   ASSERT_EQ(disabled.error_code, 0);
@@ -155,7 +155,7 @@ TEST(SequencerInProcess, AnEstopDuringARunFaultsItBeforeItIsAnswered) {
   const Outcome estop = s.call("estop");
   ASSERT_EQ(estop.error_code, 0) << estop.error_message;
   EXPECT_TRUE(estop.result["estop"].get<bool>());
-  EXPECT_EQ(s.sequencer().run_status(id)["state"], "faulted");  // already, when answered
+  EXPECT_EQ(s.sequencer().run_status(id).state, "faulted");  // already, when answered
 
   const Outcome move = s.call("stand.move", {{"alpha1_deg", 0}, {"alpha2_deg", 0}});
   EXPECT_EQ(move.error_code, static_cast<int>(ErrorCode::estop_active)) << move.error_message;
@@ -185,7 +185,7 @@ TEST(SequencerInProcess, ARunHoldsTheStandAgainstOtherCommands) {
   const Outcome aborted = s.call("run.abort", {{"run_id", id}});
   ASSERT_EQ(aborted.error_code, 0) << aborted.error_message;
   EXPECT_EQ(aborted.result["state"], "aborted");
-  EXPECT_EQ(s.sequencer().run_status(id)["state"], "aborted");
+  EXPECT_EQ(s.sequencer().run_status(id).state, "aborted");
 }
 
 }  // namespace

@@ -16,6 +16,7 @@
 
 #include "protocol/jsonrpc/client.hpp"
 #include "protocol/jsonrpc/jsonrpc.hpp"
+#include "protocol/jsonrpc/messages.hpp"
 #include "protocol/jsonrpc/methods.hpp"
 #include "protocol/jsonrpc/paths.hpp"
 
@@ -192,7 +193,7 @@ std::unique_ptr<protocol::Client> connect_daemon(const DaemonOptions& given,
   auto client = std::make_unique<protocol::Client>(endpoint, timeout);
   if (token.empty()) return client;
   try {
-    client->call(protocol::method::auth, {{"token", token}}, timeout);
+    client->call(protocol::method::auth, protocol::AuthParams{token}, timeout);
   } catch (const protocol::RpcError& e) {
     throw std::runtime_error("standcald at " + endpoint + " refused the token from " +
                              o.token_file + ": " + e.what() + " (" +

@@ -26,6 +26,7 @@
 #include "daemon/standcald/config.hpp"
 #include "daemon/standcald/hardware.hpp"
 #include "protocol/jsonrpc/client.hpp"
+#include "protocol/jsonrpc/messages.hpp"
 #include "protocol/jsonrpc/paths.hpp"
 #include "records/db/records_db.hpp"
 #include "tools/standcal/commands.hpp"
@@ -70,7 +71,7 @@ class Doctor {
   std::vector<CheckLine> run() {
     if (!check_config()) return lines_;
     guarded("state directory", [this] { check_state_dir(); });
-    std::optional<json> status;
+    std::optional<protocol::StatusResult> status;
     guarded("daemon", [this, &status] { status = check_daemon(); });
     if (status) {
       guarded("stand link", [this, &status] { check_stand_in_daemon(*status); });
@@ -167,27 +168,26 @@ class Doctor {
   }
 
   // The daemon's status, or nothing when it does not answer (said as a failure).
-  std::optional<json> check_daemon() {
+  std::optional<protocol::StatusResult> check_daemon() {
     const std::string& socket = config_.socket_path;
     try {
       client_ = std::make_unique<protocol::Client>(socket, std::chrono::seconds(5));
-      json status = client_->call(protocol::method::status);
-      const json& d = status["daemon"];
-      const bool control = d.value("access", json::object()).value("control", false);
-      const json backend = status.value("backend", json::object());
-      if (backend.value("stand", config_.stand_backend) != config_.stand_backend ||
-          backend.value("unit", config_.unit_backend) != config_.unit_backend) {
+      const auto status = client_->call(protocol::method::status).get<protocol::StatusResult>();
+      const bool control = status.daemon.access.control;
+      const protocol::BackendInfo& backend = status.backend;
+      // (Empty: a daemon too old to say which backends it drives.)
+      if ((!backend.stand.empty() && backend.stand != config_.stand_backend) ||
+          (!backend.unit.empty() && backend.unit != config_.unit_backend)) {
         fail("daemon",
-             "standcald on " + socket + " drives " + backend.value("description", "?") + ", but " +
-                 o_.config + " names stand " + config_.stand_backend + " and unit " +
-                 config_.unit_backend,
+             "standcald on " + socket + " drives " + backend.description + ", but " + o_.config +
+                 " names stand " + config_.stand_backend + " and unit " + config_.unit_backend,
              "restart it without --sim (`systemctl restart standcald`), or check that --config is "
              "the file it runs");
         return status;
       }
       pass(
           "daemon",
-          "standcald " + d.value("version", "?") + " answers on " + socket + "; this user " +
+          "standcald " + status.daemon.version + " answers on " + socket + "; this user " +
               (control ? "may command the stand" : "may only watch (not in access.control_group)"));
       return status;
     } catch (const std::exception& e) {
@@ -207,24 +207,23 @@ class Doctor {
     return problems;
   }
 
-  void check_stand_in_daemon(const json& status) {
-    const json& stand = status["stand"];
-    if (stand.value("lifecycle", "") == "unconfigured") {
+  void check_stand_in_daemon(const protocol::StatusResult& status) {
+    const protocol::StandStatus& stand = status.stand;
+    if (stand.lifecycle == "unconfigured") {
       skip("stand link",
-           stand.value("name", "?") +
+           stand.name +
                ": the daemon opens the link at its first stand or run command; stop the daemon "
                "and run doctor again to have the link opened here");
       return;
     }
     std::string problems;
-    for (const json& axis : stand.value("axes", json::array())) {
-      const std::string name = axis.value("axis", "?");
-      if (axis.contains("error")) problems += name + ": " + axis["error"].get<std::string>() + "; ";
-      problems += axis_problems(name, axis.value("stopped_by_heartbeat", false),
-                                axis.value("fault_code", 0), axis.value("fault_text", ""));
+    for (const protocol::AxisStatus& axis : stand.axes) {
+      if (axis.error) problems += axis.axis + ": " + *axis.error + "; ";
+      problems +=
+          axis_problems(axis.axis, axis.stopped_by_heartbeat, axis.fault_code, axis.fault_text);
     }
-    const std::string where = stand.value("name", "?") + " (" + stand.value("lifecycle", "?") + ")";
-    if (stand.value("estop_latched", false)) problems += "emergency stop latched; ";
+    const std::string where = stand.name + " (" + stand.lifecycle + ")";
+    if (stand.estop_latched) problems += "emergency stop latched; ";
     if (!problems.empty()) {
       fail("stand link", where + ": " + problems,
            "check the stand controller, its cable and stand.url; `standcal estop --reset` clears a "
@@ -256,11 +255,10 @@ class Doctor {
   }
 
   std::uint64_t unit_samples() {
-    const json unit =
-        client_->call(protocol::method::status)["stand"].value("unit", json::object());
-    if (unit.value("silent", false))
-      throw std::runtime_error(unit.value("name", "the unit") + " is silent");
-    return unit.value("samples", std::uint64_t{0});
+    const protocol::UnitStatus unit =
+        client_->call(protocol::method::status).get<protocol::StatusResult>().stand.unit;
+    if (unit.silent) throw std::runtime_error(unit.name + " is silent");
+    return unit.samples;
   }
 
   void judge_rate(double rate_hz, const std::string& how) {

@@ -18,7 +18,9 @@
 #include "calib/invariant_estimator.hpp"
 #include "calib/recording.hpp"
 #include "calib/report.hpp"
+#include "calib/traceability.hpp"
 #include "protocol/jsonrpc/client.hpp"
+#include "protocol/jsonrpc/messages.hpp"
 #include "protocol/jsonrpc/methods.hpp"
 #include "tools/cli_checks.hpp"
 #include "tools/standcal/commands.hpp"
@@ -53,60 +55,61 @@ std::string duration_text(double s) {
   return buf;
 }
 
-std::string progress_line(const json& p) {
-  const int pos = p.value("position", 0), n = p.value("positions", 0),
-            done = p.value("positions_done", 0);
+// A run's progress as one line: a bar of the positions done, the position, the phase (or
+// the state, when the run has no phase) and the time left.
+std::string progress_line(int pos, int n, int done, const std::string& phase,
+                          std::optional<double> eta_s) {
   const int width = 20;
   const int filled = n > 0 ? done * width / n : 0;
   std::string bar = "[" + std::string(static_cast<std::size_t>(filled), '#') +
                     std::string(static_cast<std::size_t>(width - filled), '.') + "]";
   char buf[256];
-  const std::string phase =
-      p.contains("phase") && p["phase"].is_string()   ? p["phase"].get<std::string>()
-      : p.contains("state") && p["state"].is_string() ? p["state"].get<std::string>()
-                                                      : "";
   std::snprintf(buf, sizeof buf, "%s position %d/%d  %-16s ETA %s", bar.c_str(), pos, n,
-                phase.c_str(),
-                p["eta_s"].is_number() ? duration_text(p["eta_s"].get<double>()).c_str() : "?");
+                phase.c_str(), eta_s ? duration_text(*eta_s).c_str() : "?");
   return buf;
+}
+
+std::string progress_line(const protocol::RunProgress& p) {
+  return progress_line(p.position, p.positions, p.positions_done, p.phase, p.eta_s);
+}
+
+std::string progress_line(const protocol::RunStatusResult& s) {
+  return progress_line(s.position, s.positions, s.positions_done, s.phase.value_or(s.state),
+                       s.eta_s);
 }
 
 bool terminal_state(const std::string& s) {
   return s == "done" || s == "aborted" || s == "faulted" || s == "interrupted";
 }
 
-void print_status(const json& s) {
-  const json& d = s["daemon"];
-  std::printf("standcald %s (protocol %s), up %s, %d client(s)\n", d.value("version", "?").c_str(),
-              d.value("protocol", "?").c_str(), duration_text(d.value("uptime_s", 0.0)).c_str(),
-              d.value("clients", 0));
-  const json& b = s.value("backend", json::object());
-  std::printf("backend: %s%s\n", b.value("description", "?").c_str(),
-              b.value("simulated", false) ? "  (SIMULATED: not a real stand or unit)" : "");
-  const json& st = s["stand"];
-  std::printf("stand %s (%s): %s%s\n", st.value("id", "").c_str(), st.value("name", "").c_str(),
-              st.value("lifecycle", "?").c_str(),
-              st.value("estop_latched", false) ? ", EMERGENCY STOP LATCHED" : "");
-  for (const json& a : st.value("axes", json::array())) {
-    if (a.contains("error")) {
-      std::printf("  %-6s %s\n", a.value("axis", "").c_str(),
-                  a["error"].get<std::string>().c_str());
-      continue;
-    }
-    std::printf(
-        "  %-6s %-11s %11.4f°  %s %s%s\n", a.value("axis", "").c_str(), a.value("mode", "").c_str(),
-        a.value("angle_deg", 0.0), a.value("enabled", false) ? "enabled" : "disabled",
-        a.value("homed", false) ? "homed" : "not homed",
-        a.value("fault_text", "").empty() ? "" : (" fault: " + a.value("fault_text", "")).c_str());
+void print_axis(const protocol::AxisStatus& a) {
+  if (a.error) {
+    std::printf("  %-6s %s\n", a.axis.c_str(), a.error->c_str());
+    return;
   }
-  const json& u = st.value("unit", json::object());
-  std::printf("unit %s: %s, %llu samples, %llu incomplete\n", u.value("name", "").c_str(),
-              u.value("silent", false) ? "SILENT" : "talking",
-              static_cast<unsigned long long>(u.value("samples", 0ULL)),
-              static_cast<unsigned long long>(u.value("incomplete_samples", 0ULL)));
-  if (s["run"].is_object()) {
-    std::printf("run %s: %s  %s\n", s["run"].value("run_id", "").c_str(),
-                s["run"].value("state", "").c_str(), progress_line(s["run"]).c_str());
+  std::printf("  %-6s %-11s %11.4f°  %s %s%s\n", a.axis.c_str(), a.mode.c_str(), a.angle_deg,
+              a.enabled ? "enabled" : "disabled", a.homed ? "homed" : "not homed",
+              a.fault_text.empty() ? "" : (" fault: " + a.fault_text).c_str());
+}
+
+void print_status(const protocol::StatusResult& s) {
+  const protocol::DaemonInfo& d = s.daemon;
+  std::printf("standcald %s (protocol %s), up %s, %lld client(s)\n", d.version.c_str(),
+              d.protocol.c_str(), duration_text(d.uptime_s).c_str(),
+              static_cast<long long>(d.clients));
+  std::printf("backend: %s%s\n", s.backend.description.c_str(),
+              s.backend.simulated ? "  (SIMULATED: not a real stand or unit)" : "");
+  const protocol::StandStatus& st = s.stand;
+  std::printf("stand %s (%s): %s%s\n", st.id.c_str(), st.name.c_str(), st.lifecycle.c_str(),
+              st.estop_latched ? ", EMERGENCY STOP LATCHED" : "");
+  for (const protocol::AxisStatus& a : st.axes) print_axis(a);
+  std::printf("unit %s: %s, %llu samples, %llu incomplete\n", st.unit.name.c_str(),
+              st.unit.silent ? "SILENT" : "talking",
+              static_cast<unsigned long long>(st.unit.samples),
+              static_cast<unsigned long long>(st.unit.incomplete_samples));
+  if (s.run) {
+    std::printf("run %s: %s  %s\n", s.run->run_id.c_str(), s.run->state.c_str(),
+                progress_line(*s.run).c_str());
   } else {
     std::printf("no run in progress\n");
   }
@@ -155,29 +158,33 @@ void print_result(const json& r) {
       }
     }
   }
-  const json& t = r.value("traceability", json::object());
-  std::printf("\nrun %s, unit %s, stand %s, operator %s\n", t.value("run_id", "").c_str(),
-              t.value("unit_serial", "").c_str(), t.value("stand_id", "").c_str(),
-              t.value("operator", "").c_str());
-  std::printf("started %s, ended %s, standcal %s, config %s\n", t.value("started_utc", "").c_str(),
-              t.value("ended_utc", "").c_str(), t.value("software_version", "").c_str(),
-              t.value("config_hash", "").c_str());
-  std::printf("g = %.6f m/s² (%s)\nrecording: %s\n", t.value("g_local_mps2", 0.0),
-              t.value("g_source", "").c_str(), path.c_str());
+  const Traceability t = traceability_from_json(r.value("traceability", json::object()));
+  std::printf("\nrun %s, unit %s, stand %s, operator %s\n", t.run_id.c_str(), t.unit_serial.c_str(),
+              t.stand_id.c_str(), t.operator_name.c_str());
+  std::printf("started %s, ended %s, standcal %s, config %s\n", t.started_utc.c_str(),
+              t.ended_utc.c_str(), t.software_version.c_str(), t.config_hash.c_str());
+  std::printf("g = %.6f m/s² (%s)\nrecording: %s\n", t.g_local_mps2, t.g_source.c_str(),
+              path.c_str());
 }
 
 // Follows a run's events until it ends; returns its final state.
+protocol::RunStatusResult run_status(protocol::Client& c, std::optional<std::string> run_id) {
+  return call(c, protocol::method::run_status, protocol::RunTargetParams{std::move(run_id)})
+      .get<protocol::RunStatusResult>();
+}
+
+// Follows a run's events until it ends; its final state.
 std::string watch(protocol::Client& c, const std::string& run_id, bool as_json) {
-  call(c, protocol::method::subscribe, {{"events", "all"}});
+  call(c, protocol::method::subscribe, protocol::SubscribeParams{});
   const bool tty = ::isatty(STDOUT_FILENO) != 0 && !as_json;
-  json s = call(c, protocol::method::run_status, {{"run_id", run_id}});
-  if (terminal_state(s["state"])) return s["state"];
+  std::string state = run_status(c, run_id).state;
+  if (terminal_state(state)) return state;
   std::string last_line;
   for (;;) {
     auto n = c.next_notification(2s);
     if (!n) {
-      s = call(c, protocol::method::run_status, {{"run_id", run_id}});  // a quiet phase: poll
-      if (terminal_state(s["state"])) break;
+      state = run_status(c, run_id).state;  // a quiet phase: poll
+      if (terminal_state(state)) return state;
       continue;
     }
     const json& p = (*n)["params"];
@@ -186,25 +193,42 @@ std::string watch(protocol::Client& c, const std::string& run_id, bool as_json) 
     if (as_json) {
       std::cout << n->dump() << std::endl;
     } else if (event == protocol::event::run_progress) {
-      const std::string line = progress_line(p);
+      const auto progress = p.get<protocol::RunProgress>();
+      const std::string line = progress_line(progress);
       if (tty) {
         std::printf("\r%-78s", line.c_str());
         std::fflush(stdout);
-      } else if (line != last_line && p.value("phase", "") == "sampling") {
+      } else if (line != last_line && progress.phase == "sampling") {
         std::printf("%s\n", line.c_str());
       }
       last_line = line;
     } else if (event == protocol::event::run_state) {
+      const auto change = p.get<protocol::RunStateEvent>();
       if (tty) std::printf("\n");
-      std::printf("run %s: %s%s\n", run_id.c_str(), p.value("state", "").c_str(),
-                  p.value("reason", "").empty() ? "" : (" — " + p.value("reason", "")).c_str());
-      if (terminal_state(p.value("state", ""))) return p["state"];
+      std::printf("run %s: %s%s\n", run_id.c_str(), change.state.c_str(),
+                  change.reason.empty() ? "" : (" — " + change.reason).c_str());
+      if (terminal_state(change.state)) return change.state;
     } else if (event == protocol::event::fault) {
       if (tty) std::printf("\n");
-      std::printf("fault: %s\n", p.value("message", "").c_str());
+      std::printf("fault: %s\n", p.get<protocol::FaultEvent>().message.c_str());
     }
   }
-  return s["state"];
+}
+
+// The answer of run pause/abort/resume/confirm/status, in a line.
+void print_run_answer(const std::string& method, const json& r) {
+  if (method == protocol::method::run_status) {
+    const auto s = r.get<protocol::RunStatusResult>();
+    std::printf("run %s: %s  %s\n", s.run_id.c_str(), s.state.c_str(), progress_line(s).c_str());
+  } else if (method == protocol::method::operator_confirm) {
+    std::printf("run %s: confirmed\n", r.get<protocol::ConfirmedResult>().run_id.c_str());
+  } else if (r.contains("state")) {
+    const auto s = r.get<protocol::RunStateResult>();
+    std::printf("run %s: %s\n", s.run_id.c_str(), s.state.c_str());
+  } else {  // run.resume of a stored run
+    const auto s = r.get<protocol::RunResumed>();
+    std::printf("run %s: resumed at position %d/%d\n", s.run_id.c_str(), s.position, s.positions);
+  }
 }
 
 struct DiagnoseArgs {
@@ -228,7 +252,7 @@ void print_diagnosis(const json& d) {
 
 // "The daemon can run those positions on request": the proposed positions as an inline
 // programme on the same unit and mount, named after the run they follow.
-json follow_up_run(protocol::Client& c, const json& d, const DiagnoseArgs& a) {
+protocol::RunStartParams follow_up_params(const json& d, const DiagnoseArgs& a) {
   const json& proposed = d["proposed_positions"];
   if (!proposed.is_array() || proposed.empty()) {
     throw std::runtime_error("run " + a.run_id + ": the diagnosis (verdict " +
@@ -240,22 +264,22 @@ json follow_up_run(protocol::Client& c, const json& d, const DiagnoseArgs& a) {
     positions.push_back({{"alpha1_deg", p["alpha1_deg"]},
                          {"alpha2_deg", p["alpha2_deg"]},
                          {"mount", d.value("mount", "x")}});
-  json params{{"program", {{"name", "follow-up of " + a.run_id}, {"positions", positions}}},
-              {"unit_serial", d.value("unit_serial", "")}};
-  if (a.dwell_s > 0) params["dwell_s"] = a.dwell_s;
-  if (a.settle_s >= 0) params["settle_s"] = a.settle_s;
-  if (!a.op.empty()) params["operator"] = a.op;
+  protocol::RunStartParams params;
+  params.program = {{"name", "follow-up of " + a.run_id}, {"positions", positions}};
+  params.unit_serial = d.value("unit_serial", "");
+  if (a.dwell_s > 0) params.dwell_s = a.dwell_s;
+  if (a.settle_s >= 0) params.settle_s = a.settle_s;
+  if (!a.op.empty()) params.operator_name = a.op;
   // Same unit, same type: the follow-up's certificate applies the same limits.
   if (const std::string unit_type = d.value("unit_type", ""); !unit_type.empty())
-    params["unit_type"] = unit_type;
-  return call(c, protocol::method::run_start, params);
+    params.unit_type = unit_type;
+  return params;
 }
 
 void run_diagnose(const DaemonOptions& o, const DiagnoseArgs& a) {
   const auto connection = connect_daemon(o);
   protocol::Client& c = *connection;
-  json params{{"run_id", a.run_id}};
-  if (!a.report.empty()) params["report"] = true;
+  const protocol::RunDiagnoseParams params{a.run_id, !a.report.empty()};
   // A diagnosis takes seconds (a long recording, a busy bench PC): wait generously.
   json d = call(c, protocol::method::run_diagnose, params, std::chrono::minutes(5));
   if (!a.report.empty()) {
@@ -266,17 +290,18 @@ void run_diagnose(const DaemonOptions& o, const DiagnoseArgs& a) {
   }
   d.erase("report_html");
   json follow_up;
-  if (a.run_proposed) follow_up = follow_up_run(c, d, a);
+  if (a.run_proposed) follow_up = call(c, protocol::method::run_start, follow_up_params(d, a));
   if (o.json) {
     if (a.run_proposed) d["follow_up_run"] = follow_up;
     std::cout << d.dump(2) << "\n";
     return;
   }
   print_diagnosis(d);
-  if (a.run_proposed)
+  if (a.run_proposed) {
+    const auto started = follow_up.get<protocol::RunStarted>();
     std::printf("follow-up run %s started (%d positions); follow it with `standcal run watch %s`\n",
-                follow_up.value("run_id", "").c_str(), follow_up.value("positions", 0),
-                follow_up.value("run_id", "").c_str());
+                started.run_id.c_str(), started.positions, started.run_id.c_str());
+  }
 }
 
 void add_status(CLI::App& app) {
@@ -290,7 +315,7 @@ void add_status(CLI::App& app) {
     if (o->json) {
       std::cout << s.dump(2) << "\n";
     } else {
-      print_status(s);
+      print_status(s.get<protocol::StatusResult>());
     }
   });
 }
@@ -309,7 +334,7 @@ void add_estop(CLI::App& app) {
     if (o->json) {
       std::cout << r.dump(2) << "\n";
     } else {
-      std::printf("%s\n", r.value("message", "done").c_str());
+      std::printf("%s\n", r.get<protocol::EstopResult>().message.c_str());
     }
   });
 }
@@ -320,43 +345,46 @@ struct RunsArgs {
   bool all = false;
 };
 
-json runs_list_params(const RunsArgs& a, const std::string& before) {
-  json p = json::object();
-  if (!a.unit.empty()) p["unit_serial"] = a.unit;
-  if (!before.empty()) p["before"] = before;
+protocol::RunsListParams runs_list_params(const RunsArgs& a, const std::string& before) {
+  protocol::RunsListParams p;
+  if (!a.unit.empty()) p.unit_serial = a.unit;
+  if (!before.empty()) p.before = before;
   if (a.limit > 0) {
-    p["limit"] = a.limit;
+    p.limit = a.limit;
   } else if (a.all) {
-    p["limit"] = protocol::runs_list_max_limit;
+    p.limit = protocol::runs_list_max_limit;
   }
   return p;
 }
 
-// One page, or with --all every page (each answer stays bounded; the CLI joins them).
-json list_runs(protocol::Client& c, const RunsArgs& a) {
-  json page = call(c, protocol::method::runs_list, runs_list_params(a, a.before));
-  if (!a.all) return page;
-  json runs = std::move(page["runs"]);
-  while (page.value("more", false) && !runs.empty()) {
-    page =
-        call(c, protocol::method::runs_list, runs_list_params(a, runs.back().value("run_id", "")));
-    for (json& r : page["runs"]) runs.push_back(std::move(r));
-  }
-  return json{{"runs", std::move(runs)}, {"more", false}};
+protocol::RunsPage runs_page(protocol::Client& c, const RunsArgs& a, const std::string& before) {
+  return call(c, protocol::method::runs_list, runs_list_params(a, before))
+      .get<protocol::RunsPage>();
 }
 
-void print_runs(const json& r, const RunsArgs& a) {
-  if (r["runs"].empty()) std::printf("no runs\n");
-  for (const json& x : r["runs"]) {
-    std::printf("%-32s %-10s %-10s %-12s %2d/%-2d %s%s\n", x.value("run_id", "").c_str(),
-                x.value("unit_serial", "").c_str(), x.value("program", "").c_str(),
-                x.value("state", "").c_str(), x.value("positions_done", 0), x.value("positions", 0),
-                x.value("started_utc", "").c_str(), x.value("has_result", false) ? "  result" : "");
+// One page, or with --all every page (each answer stays bounded; the CLI joins them).
+protocol::RunsPage list_runs(protocol::Client& c, const RunsArgs& a) {
+  protocol::RunsPage page = runs_page(c, a, a.before);
+  if (!a.all) return page;
+  protocol::RunsPage all{std::move(page.runs), false};
+  while (page.more && !all.runs.empty()) {
+    page = runs_page(c, a, all.runs.back().run_id);
+    all.runs.insert(all.runs.end(), page.runs.begin(), page.runs.end());
   }
-  if (r.value("more", false) && !r["runs"].empty()) {
+  return all;
+}
+
+void print_runs(const protocol::RunsPage& r, const RunsArgs& a) {
+  if (r.runs.empty()) std::printf("no runs\n");
+  for (const protocol::RunListEntry& x : r.runs) {
+    std::printf("%-32s %-10s %-10s %-12s %2d/%-2d %s%s\n", x.run_id.c_str(), x.unit_serial.c_str(),
+                x.program.c_str(), x.state.c_str(), x.positions_done, x.positions,
+                x.started_utc.c_str(), x.has_result ? "  result" : "");
+  }
+  if (r.more && !r.runs.empty()) {
     const std::string unit = a.unit.empty() ? "" : " --unit-serial " + a.unit;
     std::printf("(older runs: standcal runs%s --before %s, or --all)\n", unit.c_str(),
-                r["runs"].back().value("run_id", "").c_str());
+                r.runs.back().run_id.c_str());
   }
 }
 
@@ -373,9 +401,9 @@ void add_runs(CLI::App& app) {
   cmd->add_flag("--all", a->all, "every run, fetched page by page");
   cmd->callback([o, a] {
     const auto connection = connect_daemon(*o);
-    const json r = list_runs(*connection, *a);
+    const protocol::RunsPage r = list_runs(*connection, *a);
     if (o->json) {
-      std::cout << r.dump(2) << "\n";
+      std::cout << json(r).dump(2) << "\n";
     } else {
       print_runs(r, *a);
     }
@@ -420,27 +448,29 @@ void add_run(CLI::App& app) {
   start->callback([so, sa] {
     const auto connection = connect_daemon(*so);
     protocol::Client& c = *connection;
-    json params{{"program", sa->program}, {"unit_serial", sa->unit}};
-    if (!sa->unit_type.empty()) params["unit_type"] = sa->unit_type;
-    if (sa->dwell_s > 0) params["dwell_s"] = sa->dwell_s;
-    if (sa->settle_s >= 0) params["settle_s"] = sa->settle_s;
-    if (!sa->op.empty()) params["operator"] = sa->op;
+    protocol::RunStartParams params;
+    params.program = sa->program;
+    params.unit_serial = sa->unit;
+    if (!sa->unit_type.empty()) params.unit_type = sa->unit_type;
+    if (sa->dwell_s > 0) params.dwell_s = sa->dwell_s;
+    if (sa->settle_s >= 0) params.settle_s = sa->settle_s;
+    if (!sa->op.empty()) params.operator_name = sa->op;
     const json r = call(c, protocol::method::run_start, params);
-    const std::string id = r["run_id"];
+    const auto started = r.get<protocol::RunStarted>();
+    const std::string& id = started.run_id;
     if (!sa->wait) {
       if (so->json) {
         std::cout << r.dump(2) << "\n";
       } else {
         std::printf("run %s started (%d positions); follow it with `standcal run watch`\n",
-                    id.c_str(), r.value("positions", 0));
+                    id.c_str(), started.positions);
       }
       return;
     }
-    if (!so->json)
-      std::printf("run %s started (%d positions)\n", id.c_str(), r.value("positions", 0));
+    if (!so->json) std::printf("run %s started (%d positions)\n", id.c_str(), started.positions);
     const std::string state = watch(c, id, so->json);
     if (state != "done") throw std::runtime_error("run " + id + " ended " + state);
-    const json result = call(c, protocol::method::run_result, {{"run_id", id}});
+    const json result = call(c, protocol::method::run_result, protocol::RunResultParams{id});
     if (so->json) {
       std::cout << result.dump(2) << "\n";
     } else {
@@ -456,11 +486,9 @@ void add_run(CLI::App& app) {
   watch_cmd->callback([wo, watch_id] {
     const auto connection = connect_daemon(*wo);
     protocol::Client& c = *connection;
-    const json s = call(c, protocol::method::run_status,
-                        watch_id->empty() ? json::object() : json{{"run_id", *watch_id}});
-    const std::string state = watch(c, s["run_id"], wo->json);
-    if (!wo->json)
-      std::printf("run %s is %s\n", s["run_id"].get<std::string>().c_str(), state.c_str());
+    const auto s = run_status(c, watch_id->empty() ? std::nullopt : std::optional(*watch_id));
+    const std::string state = watch(c, s.run_id, wo->json);
+    if (!wo->json) std::printf("run %s is %s\n", s.run_id.c_str(), state.c_str());
   });
 
   auto ro = std::make_shared<DaemonOptions>();
@@ -474,7 +502,7 @@ void add_run(CLI::App& app) {
   result->callback([ro, result_id, compensation_path] {
     const auto connection = connect_daemon(*ro);
     protocol::Client& c = *connection;
-    const json r = call(c, protocol::method::run_result, {{"run_id", *result_id}});
+    const json r = call(c, protocol::method::run_result, protocol::RunResultParams{*result_id});
     if (!compensation_path->empty()) export_compensation(r, *result_id, *compensation_path);
     if (ro->json) {
       std::cout << r.dump(2) << "\n";
@@ -520,15 +548,12 @@ void add_run(CLI::App& app) {
     cmd->callback([o, id, method] {
       const auto connection = connect_daemon(*o);
       protocol::Client& c = *connection;
-      const json r = call(c, method, id->empty() ? json::object() : json{{"run_id", *id}});
+      const json r = call(
+          c, method, protocol::RunTargetParams{id->empty() ? std::nullopt : std::optional(*id)});
       if (o->json) {
         std::cout << r.dump(2) << "\n";
-      } else if (method == protocol::method::run_status) {
-        std::printf("run %s: %s  %s\n", r.value("run_id", "").c_str(), r.value("state", "").c_str(),
-                    progress_line(r).c_str());
       } else {
-        std::printf("run %s: %s\n", r.value("run_id", "").c_str(),
-                    r.value("state", r.contains("confirmed") ? "confirmed" : "ok").c_str());
+        print_run_answer(method, r);
       }
     });
   }
