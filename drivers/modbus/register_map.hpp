@@ -110,8 +110,8 @@ struct ModbusStandConfig {
   RegisterMap map;
   LinkTiming timing;
   std::array<AxisRange, 2> ranges{};  // limited ±180° unless configured (calib/axis_range.hpp)
-  double speed_dps = 10.0;        // commanded speed of moves; 0 leaves the controller's default
-  double enable_timeout_s = 2.0;  // how long enable() waits for the drive to report enabled
+  double speed_dps = 10.0;            // commanded speed of moves; 0 leaves the controller's default
+  double enable_timeout_s = 2.0;      // how long enable() waits for the drive to report enabled
 };
 
 // Reads a config from JSON (docs/stand-modbus.md "Config keys"); absent keys keep defaults,
