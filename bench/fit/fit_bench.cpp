@@ -88,6 +88,8 @@ bool numpy_installed() {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Line-buffered even into a pipe, so the figures measured before a failure are kept.
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);
   const bool with_noise = !(argc > 1 && std::string(argv[1]) == "--no-noise");
   const std::string cli = STANDCAL_CLI;
   const std::string path = one_hour_recording();

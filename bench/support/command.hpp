@@ -46,7 +46,11 @@ inline CommandFigures measure_command(const std::vector<std::string>& argv, int 
     rusage usage{};
     if (::wait4(pid, &status, 0, &usage) != pid || !WIFEXITED(status) ||
         !is_answer(WEXITSTATUS(status)))
-      throw std::runtime_error(argv[0] + " " + (argv.size() > 1 ? argv[1] : "") + " failed");
+      throw std::runtime_error(argv[0] + " " + (argv.size() > 1 ? argv[1] : "") + " failed (" +
+                               (WIFEXITED(status)
+                                    ? "exit status " + std::to_string(WEXITSTATUS(status))
+                                    : std::string("killed by a signal")) +
+                               ")");
     wall_s.push_back(seconds_of(start));
     peak_kib = std::max(peak_kib, usage.ru_maxrss);
   }

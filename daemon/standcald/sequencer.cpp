@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <fstream>
+#include <stdexcept>
 
 #include "daemon/standcald/sequencer_detail.hpp"
 #include "protocol/jsonrpc/jsonrpc.hpp"
@@ -30,8 +31,10 @@ Sequencer::Sequencer(DaemonConfig config, Hardware hardware, RunStore& store, Ev
       hw_(std::move(hardware)),
       store_(store),
       events_(std::move(events)) {
-  if (!hw_.clock) hw_.clock = drivers::steady_clock();
-  if (!hw_.remount) hw_.remount = [](Mount) {};
+  // Hardware's members default to the steady clock and no re-mount; emptied, they are a
+  // caller's mistake, said here rather than as a crash at the first settle.
+  if (!hw_.clock || !hw_.remount)
+    throw std::invalid_argument("Sequencer: the hardware's clock and remount must be set");
 }
 
 Sequencer::~Sequencer() {

@@ -8,6 +8,7 @@
 #include <string>
 #include <utility>
 
+#include "drivers/clock.hpp"
 #include "drivers/stand.hpp"
 #include "protocol/jsonrpc/jsonrpc.hpp"
 #include "protocol/jsonrpc/methods.hpp"
@@ -25,10 +26,8 @@ namespace ev = protocol::event;
 inline constexpr drivers::StandAxis kAxes[] = {drivers::StandAxis::outer,
                                                drivers::StandAxis::inner};
 
-// Real (wall) time, for what an operator waits on: the ETA and the heartbeat.
-inline double now_real_s() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
+// Real (wall) time, for what an operator waits on (the ETA): the steady clock's.
+inline double now_real_s() { return drivers::steady_clock()->now_s(); }
 
 inline protocol::ErrorCode code_for(drivers::ErrorKind kind) {
   using protocol::ErrorCode;

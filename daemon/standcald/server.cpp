@@ -577,14 +577,14 @@ void Server::refuse_connection(int fd) {
 }
 
 void Server::greet(Client& c) {
-  json hello{{"daemon", "standcald"},
-             {"version", kVersion},
-             {"protocol", protocol::kProtocolVersion},
-             {"max_request_bytes", protocol::kMaxRequestBytes}};
+  protocol::Hello hello;
+  hello.version = kVersion;
+  hello.protocol = protocol::kProtocolVersion;
+  hello.max_request_bytes = static_cast<std::int64_t>(protocol::kMaxRequestBytes);
   if (c.slot == ClientSlot::estop_only) {
-    hello["estop_only"] = true;
-    hello["message"] = "standcald serves " + std::to_string(config_.max_clients) +
-                       " clients (the limit): this connection may send one estop, nothing else";
+    hello.estop_only = true;
+    hello.message = "standcald serves " + std::to_string(config_.max_clients) +
+                    " clients (the limit): this connection may send one estop, nothing else";
     spdlog::warn("connection limit reached: {} got an estop-only slot", describe_peer(c.peer));
   } else if (c.slot == ClientSlot::reserved) {
     spdlog::info("connection limit nearly reached: {} got a reserved slot", describe_peer(c.peer));
@@ -637,23 +637,41 @@ void Server::read_client(Client& c) {
 }
 
 // The methods the socket thread answers itself (method_table.hpp: executor server).
+const Server::Binding Server::kBindings[] = {
+    {m::status, &Server::status_view},         {m::run_status, &Server::run_status_view},
+    {m::run_result, &Server::run_result_view}, {m::runs_list, &Server::runs_list_view},
+    {m::subscribe, &Server::subscribe},        {m::auth, &Server::authenticate},
+};
+
+std::vector<std::string_view> Server::answered_methods() {
+  std::vector<std::string_view> names;
+  for (const Binding& b : kBindings) names.push_back(b.method);
+  return names;
+}
+
 json Server::answer_here(Client& c, const protocol::Request& req) {
-  if (req.method == m::status) {
-    protocol::parse_no_params(req.params, req.method);
-    return status(c);
-  }
-  if (req.method == m::run_status) {
-    return sequencer_.run_status(
-        protocol::RunTargetParams::parse(req.params, req.method).run_id.value_or(""));
-  }
-  if (req.method == m::run_result)
-    return sequencer_.run_result(protocol::RunResultParams::parse(req.params).run_id);
-  if (req.method == m::runs_list)
-    return sequencer_.runs_list(runs_list_query(protocol::RunsListParams::parse(req.params)));
-  if (req.method == m::subscribe) return subscribe(c, req.params);
-  if (req.method == m::auth) return authenticate(c, req.params);
+  for (const Binding& b : kBindings)
+    if (b.method == req.method) return (this->*b.answer)(c, req.params);
   throw std::logic_error("method_table.cpp routes " + req.method +
                          " to the socket thread, which has no handler for it");
+}
+
+json Server::status_view(Client& c, const json& params) {
+  protocol::parse_no_params(params, m::status);
+  return status(c);
+}
+
+json Server::run_status_view(Client&, const json& params) {
+  return sequencer_.run_status(
+      protocol::RunTargetParams::parse(params, m::run_status).run_id.value_or(""));
+}
+
+json Server::run_result_view(Client&, const json& params) {
+  return sequencer_.run_result(protocol::RunResultParams::parse(params).run_id);
+}
+
+json Server::runs_list_view(Client&, const json& params) {
+  return sequencer_.runs_list(runs_list_query(protocol::RunsListParams::parse(params)));
 }
 
 // A method another thread answers: the diagnosis worker (run.diagnose, diagnose_job.hpp)

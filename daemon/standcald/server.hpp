@@ -95,6 +95,8 @@ std::optional<ClientSlot> slot_for_new_client(const SlotsTaken& taken, int max_c
 
 class Server {
  public:
+  // The methods this class answers on its own thread (the method table's `server` rows).
+  static std::vector<std::string_view> answered_methods();
   Server(const DaemonConfig& config, Sequencer& sequencer);
   ~Server();
   Server(const Server&) = delete;
@@ -139,6 +141,18 @@ class Server {
   void read_client(Client& c);
   void handle_line(Client& c, const std::string& line);
   nlohmann::json answer_here(Client& c, const protocol::Request& req);
+  // The methods the socket thread answers (method_table.hpp's executor `server`), one
+  // handler each.
+  using ViewHandler = nlohmann::json (Server::*)(Client& c, const nlohmann::json& params);
+  struct Binding {
+    std::string_view method;
+    ViewHandler answer;
+  };
+  static const Binding kBindings[];
+  nlohmann::json status_view(Client& c, const nlohmann::json& params);
+  nlohmann::json run_status_view(Client& c, const nlohmann::json& params);
+  nlohmann::json run_result_view(Client& c, const nlohmann::json& params);
+  nlohmann::json runs_list_view(Client& c, const nlohmann::json& params);
   void hand_on(Client& c, const protocol::Request& req, Executor executor);
   void send_line(Client& c, const std::string& line);
   void flush(Client& c);

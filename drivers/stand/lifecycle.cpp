@@ -81,7 +81,12 @@ Status Stand::configure() {
   if (Status opened = on_configure(); !opened) return opened;
   // A latched e-stop is an error to recover from, found now rather than at the first move.
   const Result<bool> latched = on_read_estop_latched();
-  if (!latched) return latched.status();
+  if (!latched) {
+    // Still unconfigured: the link on_configure opened (and its heartbeat) is closed again,
+    // so nothing talks to a controller the stand does not count as configured.
+    (void)on_cleanup();
+    return latched.status();
+  }
   if (latched.value()) {
     enter_error(ErrorCause::estop);
   } else {

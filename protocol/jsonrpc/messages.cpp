@@ -190,6 +190,25 @@ void from_json(const json& j, AxisStatus& a) {
   a.fault_text = j.value("fault_text", "");
 }
 
+void to_json(json& j, const Hello& h) {
+  j = json{{"daemon", h.daemon},
+           {"version", h.version},
+           {"protocol", h.protocol},
+           {"max_request_bytes", h.max_request_bytes}};
+  put_if(j, "estop_only", h.estop_only);
+  put_if(j, "message", h.message);
+}
+
+void from_json(const json& j, Hello& h) {
+  h = Hello{};
+  h.daemon = j.value("daemon", "");
+  h.version = j.value("version", "");
+  h.protocol = j.value("protocol", "");
+  h.max_request_bytes = j.value("max_request_bytes", std::int64_t{0});
+  if (j.contains("estop_only")) h.estop_only = j.at("estop_only").get<bool>();
+  if (j.contains("message")) h.message = j.at("message").get<std::string>();
+}
+
 void to_json(json& j, const FaultEvent& e) {
   j = json{{"message", e.message}};
   put_if(j, "run_id", e.run_id);

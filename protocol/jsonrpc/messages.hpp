@@ -308,6 +308,19 @@ struct BackendInfo {
 
 // ------------------------------------------------------------------ events
 
+// hello, the daemon's greeting on connect; on an estop-only slot also estop_only and a
+// message (absent otherwise).
+struct Hello {
+  std::string daemon = "standcald";
+  std::string version;
+  std::string protocol;
+  std::int64_t max_request_bytes = 0;
+  Nullable<bool> estop_only;
+  Nullable<std::string> message;
+};
+void to_json(json& j, const Hello& h);
+void from_json(const json& j, Hello& h);
+
 // run.progress, at every phase change; also status's `run`.
 struct RunProgress {
   std::string run_id;

@@ -25,14 +25,23 @@ ParameterPoint point_of(const CalibrationRecord& r, const std::string& name) {
   return pt;
 }
 
-// The one ageing rule over the parameter's points, dated by their start.
-std::vector<ParameterChange> changes_of(const std::vector<ParameterPoint>& points, double k) {
-  std::vector<ParameterObservation> dated;
-  for (const ParameterPoint& p : points) {
-    const auto start_s = parse_utc_s(p.started_utc);
-    dated.push_back(
-        {p.run_id, start_s ? static_cast<double>(*start_s) / 86400.0 : 0.0, p.value, p.sigma});
+// Each calibration's start in days (0 when it has none that parses), read once for all
+// nine parameters.
+std::vector<double> start_days(const std::vector<CalibrationRecord>& calibrations) {
+  std::vector<double> days;
+  for (const CalibrationRecord& r : calibrations) {
+    const auto start_s = parse_utc_s(r.started_utc);
+    days.push_back(start_s ? static_cast<double>(*start_s) / 86400.0 : 0.0);
   }
+  return days;
+}
+
+// The one ageing rule over the parameter's points (one per calibration, in order).
+std::vector<ParameterChange> changes_of(const std::vector<ParameterPoint>& points,
+                                        const std::vector<double>& days, double k) {
+  std::vector<ParameterObservation> dated;
+  for (std::size_t i = 0; i < points.size(); ++i)
+    dated.push_back({points[i].run_id, days[i], points[i].value, points[i].sigma});
   return parameter_changes(dated, k);
 }
 
@@ -44,12 +53,13 @@ UnitHistory unit_history(const std::string& unit_serial,
   h.unit_serial = unit_serial;
   h.k = k;
   h.calibrations = std::move(calibrations);
+  const std::vector<double> days = start_days(h.calibrations);
   for (std::size_t j = 0; j < kUnitParameterNames.size(); ++j) {
     ParameterHistory ph;
     ph.name = std::string(kUnitParameterNames[j]);
     ph.unit = std::string(kUnitParameterUnits[j]);
     for (const CalibrationRecord& r : h.calibrations) ph.points.push_back(point_of(r, ph.name));
-    ph.changes = changes_of(ph.points, k);
+    ph.changes = changes_of(ph.points, days, k);
     for (const ParameterChange& c : ph.changes) h.ageing_flags += c.ageing ? 1 : 0;
     h.parameters.push_back(std::move(ph));
   }

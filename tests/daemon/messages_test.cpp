@@ -321,6 +321,19 @@ TEST(ProtocolMessages, EachEventHasTheKeysTheEventsTableLists) {
   EXPECT_EQ(documented_events(protocol_doc()), typed);
 }
 
+TEST(ProtocolMessages, TheGreetingHasTheKeysItsExampleShows) {
+  const std::string doc = protocol_doc();
+  const std::string marker = "\"method\":\"hello\",\"params\":{";
+  const auto at = doc.find(marker);
+  ASSERT_NE(at, std::string::npos) << "docs/protocol.md shows no hello";
+  expect_same_keys(doc.substr(at + marker.size() - 1), Hello{}, "hello");
+  Hello estop_only;
+  estop_only.estop_only = true;
+  estop_only.message = "one estop";
+  EXPECT_EQ(json(json(estop_only).get<Hello>()), json(estop_only));
+  EXPECT_FALSE(json(Hello{}).contains("estop_only"));  // absent unless on an estop-only slot
+}
+
 TEST(ProtocolMessages, ResultsAndEventsReadBackAsWritten) {
   StatusResult status = full_status();
   status.daemon.version = "1.2.3";

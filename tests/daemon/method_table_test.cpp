@@ -44,6 +44,13 @@ TEST(MethodTable, TheSequencerHandlesExactlyItsRows) {
     EXPECT_EQ(Sequencer::handles(s.name), s.executor == Executor::sequencer) << s.name;
 }
 
+TEST(MethodTable, TheServerAnswersExactlyItsRows) {
+  std::set<std::string> answered;
+  for (std::string_view m : Server::answered_methods())
+    EXPECT_TRUE(answered.insert(std::string(m)).second) << m << " twice";
+  EXPECT_EQ(answered, table_names(Executor::server));
+}
+
 TEST(MethodTable, AccessFollowsTheTable) {
   // Open: the views, subscribe, auth, the diagnosis and the emergency stop.
   std::set<std::string> open;
