@@ -128,17 +128,31 @@ double utc_days(const std::string& iso) {
   return static_cast<double>(*seconds) / 86400.0;
 }
 
-std::vector<HistoryDrift> find_drifts(const UnitHistory& h) {
+namespace {
+
+// Every parameter's changes by the one ageing rule, over the calibrations by date.
+std::array<std::vector<ParameterChange>, kUnitParameterCount> age(const UnitHistory& h) {
   std::vector<double> days;
   const std::vector<const HistoryCalibration*> cals = by_date(h, days);
-  std::vector<HistoryDrift> out;
+  std::array<std::vector<ParameterChange>, kUnitParameterCount> changes;
   for (int p = 0; p < kUnitParameterCount; ++p) {
     std::vector<ParameterObservation> observed;
     for (std::size_t i = 0; i < cals.size(); ++i) {
       const HistoryValue& v = cals[i]->parameters[static_cast<std::size_t>(p)];
       observed.push_back({cals[i]->run_id, days[i], v.value, v.sigma});
     }
-    for (const ParameterChange& c : parameter_changes(observed, h.coverage_factor)) {
+    changes[static_cast<std::size_t>(p)] = parameter_changes(observed, h.coverage_factor);
+  }
+  return changes;
+}
+
+}  // namespace
+
+std::vector<HistoryDrift> find_drifts(const UnitHistory& h) {
+  const auto changes = h.changes ? *h.changes : age(h);
+  std::vector<HistoryDrift> out;
+  for (int p = 0; p < kUnitParameterCount; ++p) {
+    for (const ParameterChange& c : changes[static_cast<std::size_t>(p)]) {
       if (!c.ageing) continue;
       HistoryDrift d;
       d.parameter = p;

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "calib/ageing.hpp"
 #include "calib/parameters.hpp"
 
 namespace standcal::report {
@@ -30,6 +31,10 @@ struct UnitHistory {
   std::string unit_type;                         // may be empty
   std::vector<HistoryCalibration> calibrations;  // any order; sorted by date when drawn
   double coverage_factor = 2.0;                  // error bars are ±U = ±k·sigma
+  // The source's own ageing verdicts, per parameter (calib/parameters.hpp order), when it
+  // has them (the records database's history does): the page states those rather than
+  // judging the same calibrations a second time. Empty: find_drifts applies the rule.
+  std::optional<std::array<std::vector<ParameterChange>, kUnitParameterCount>> changes;
 };
 
 // A change between two successive calibrations bigger than k times its combined sigma.
@@ -46,7 +51,8 @@ struct HistoryDrift {
 double utc_days(const std::string& iso_utc);
 
 // The changes between successive calibrations (by date) that the one ageing rule
-// (calib/ageing.hpp, k = coverage_factor) flags, per parameter, each with its sentence.
+// (calib/ageing.hpp, k = coverage_factor) flags, per parameter, each with its sentence;
+// the source's own verdicts when `changes` holds them.
 std::vector<HistoryDrift> find_drifts(const UnitHistory& history);
 
 // A self-contained HTML page: a table of every calibration, the flagged drifts, and one

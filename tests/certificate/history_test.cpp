@@ -62,6 +62,18 @@ TEST(UnitHistory, FlagsTheInjectedDriftAtEveryStep) {
   EXPECT_LE(other_flags, 4);
 }
 
+TEST(UnitHistory, ASourcesOwnVerdictsAreStatedNotJudgedAgain) {
+  UnitHistory h = drifting_unit();
+  h.changes.emplace();  // the source (the records database) found one change, on gamma23
+  (*h.changes)[kGamma23] = {ParameterChange{"run-2", "run-3", 9.0, 2.0, 30.0, true},
+                            ParameterChange{"run-3", "run-4", 1.0, 2.0, 30.0, false}};
+  const std::vector<report::HistoryDrift> drifts = report::find_drifts(h);
+  ASSERT_EQ(drifts.size(), 1u);  // not bias_x's three: those are the page's own rule's
+  EXPECT_EQ(drifts[0].parameter, kGamma23);
+  EXPECT_EQ(drifts[0].from_run_id, "run-2");
+  EXPECT_DOUBLE_EQ(drifts[0].change, 9.0);
+}
+
 TEST(UnitHistory, PageHasATableTheDriftsAndOnePlotPerParameter) {
   const test::HtmlDocument page(report::render_history_html(drifting_unit()));
   EXPECT_EQ(page.count("//table[@id='calibrations']//tr[@data-run]"), 4u);

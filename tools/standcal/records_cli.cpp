@@ -279,6 +279,10 @@ report::UnitHistory history_for_plot(const records::UnitHistory& h) {
     }
     page.calibrations.push_back(std::move(cal));
   }
+  // The database history has judged its calibrations already: the page says the same.
+  page.changes.emplace();
+  for (std::size_t i = 0; i < h.parameters.size() && i < page.changes->size(); ++i)
+    (*page.changes)[i] = h.parameters[i].changes;
   return page;
 }
 
