@@ -350,6 +350,21 @@ TEST_F(StreamingReader, TheTwoThreadFitReportsTheFirstErrorOfTheFile) {
       << bad.output;
 }
 
+// What the reader warned about is said even when the fit then fails: a recording whose
+// only sample row was cut off mid-write says so, not only "no samples". (Regression: the
+// streamed fit printed the reader's warnings only once the whole digest had succeeded.)
+TEST_F(StreamingReader, TheReadersWarningsArePrintedWhenTheFitThenFails) {
+  const std::string path =
+      write("cut.csv",
+            "# format: standcal-recording/1\n# g_local_mps2: 9.81\n# sample_rate_hz: 100\n"
+            "t_s,pos,alpha1_cmd_deg,alpha2_cmd_deg,fx_mps2,fy_mps2,fz_mps2\n"
+            "0.00,0,0,0,0,9.8");  // the run stopped mid-line
+  const auto fit = standcal::test::standcal_cli("fit " + path + " --json");
+  EXPECT_NE(fit.exit_code, 0);
+  EXPECT_NE(fit.output.find("no samples"), std::string::npos) << fit.output;
+  EXPECT_NE(fit.output.find("last line has no newline"), std::string::npos) << fit.output;
+}
+
 // A recording can come through a pipe (`zcat run.csv.gz | standcal fit /dev/stdin`): it
 // cannot be opened twice nor sized, and is read whole, once. (Regression: the format probe
 // consumed the pipe's first block, and the reader's size query closed a pipe it opened.)

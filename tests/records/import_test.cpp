@@ -64,6 +64,25 @@ TEST_F(ImportTest, ImportReFitsStoresTraceabilityAndIsIdempotent) {
   EXPECT_EQ(db->list({}).size(), 2u);
 }
 
+// The unit's known bias wander reaches the stored fit as it reaches `standcal fit` and a
+// daemon run's fit (issue 21: import ignored it).
+TEST_F(ImportTest, ImportWeightsWithTheUnitsKnownBiasWanderAsFitDoes) {
+  const std::string a = recording("a.csv", "AU-0200", 3);
+  const std::string wander = " --bias-instability-ug 20 --bias-instability-tau-s 300";
+  const test::CommandOutcome r = standcal_cli("import " + a + " --db " + db_ + wander);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const CalibrationRecord rec = open_and_migrate(db_)->history("AU-0200").at(0);
+  const test::CommandOutcome fit = standcal_cli("fit " + a + " --json" + wander);
+  ASSERT_EQ(fit.exit_code, 0) << fit.output;
+  const nlohmann::json fitted = nlohmann::json::parse(fit.output);
+  EXPECT_EQ(rec.result["parameters"], fitted["parameters"]);
+  // And it matters: the white-noise fit's bias sigma is smaller than the wander's.
+  const nlohmann::json white =
+      fit_to_json(fit_invariant_joint(average_positions(read_recording(a))));
+  EXPECT_GT(rec.result["parameters"]["bias_x"]["sigma"].get<double>(),
+            1.5 * white["parameters"]["bias_x"]["sigma"].get<double>());
+}
+
 TEST_F(ImportTest, ADaemonRecordingKeepsItsRunIdStartAndStand) {
   Recording rec = test::simulate_calibration(default_truth(), "AU-0200", 3);
   rec.set_header("run_id", "20261121T223638Z-AU-0200");

@@ -48,9 +48,7 @@ struct FitOptions {
   std::string compensation;
   std::string budget;  // standcal-budget/1: the GUM budget's type B inputs
   std::string mounting = "common";
-  std::string noise = "estimate";
-  double bias_instability_ug = 0;
-  double bias_instability_tau_s = 300;
+  NoiseCliOptions noise;
 };
 
 void run_simulate(const SimulateOptions& o) {
@@ -68,12 +66,7 @@ void run_simulate(const SimulateOptions& o) {
                rec.samples.empty() ? 0.0 : rec.samples.back().t_s, o.output.c_str());
 }
 
-FitNoiseOptions noise_weighting(const FitOptions& o) {
-  FitNoiseOptions n;
-  n.mode = o.noise == "white" ? FitNoiseOptions::Mode::white : FitNoiseOptions::Mode::estimate;
-  n.specified = {Vec3::Constant(o.bias_instability_ug * kUg), o.bias_instability_tau_s};
-  return n;
-}
+FitNoiseOptions noise_weighting(const FitOptions& o) { return fit_noise_options(o.noise); }
 
 FitResult fit_with(const FitOptions& o, const std::string& method,
                    const std::vector<PositionAverage>& averages) {
@@ -225,19 +218,7 @@ void add_calibrate_commands(CLI::App& app) {
                   "full method, re-mounted programmes: common (one rigid fixture) | per-mount")
       ->check(CLI::IsMember({"common", "per-mount"}))
       ->capture_default_str();
-  fit->add_option("--noise", fit_opts->noise,
-                  "estimate: bias wander between dwells estimated from the run and weighted for "
-                  "when significant (docs/calibration.md) | white: every dwell mean independent")
-      ->check(CLI::IsMember({"estimate", "white"}))
-      ->capture_default_str();
-  fit->add_option(
-         "--bias-instability-ug", fit_opts->bias_instability_ug,
-         "the unit's known Gauss-Markov bias wander, used when the run alone does not show it")
-      ->check(cli_checks::kNonNegative);
-  fit->add_option("--bias-instability-tau-s", fit_opts->bias_instability_tau_s,
-                  "its correlation time")
-      ->check(cli_checks::kPositive)
-      ->capture_default_str();
+  add_noise_options(fit, fit_opts->noise);
   fit->add_flag("--json", fit_opts->json, "machine-readable output");
   fit->add_option("--compensation", fit_opts->compensation,
                   "write the compensation (bias, correction matrix) as FILE.json and FILE.csv");

@@ -3,6 +3,7 @@
 #include <cstdio>
 
 #include "calib/recording_digest.hpp"
+#include "calib/units.hpp"
 #include "tools/cli_checks.hpp"
 
 namespace standcal::cli {
@@ -61,6 +62,28 @@ bool streams_as_stand_recording(const InputCliOptions& o, const std::string& pat
 
 void print_warnings(const std::vector<std::string>& warnings) {
   for (const std::string& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+}
+
+void add_noise_options(CLI::App* cmd, NoiseCliOptions& o) {
+  cmd->add_option("--noise", o.noise,
+                  "estimate: bias wander between dwells estimated from the run and weighted for "
+                  "when significant (docs/calibration.md) | white: every dwell mean independent")
+      ->check(CLI::IsMember({"estimate", "white"}))
+      ->capture_default_str();
+  cmd->add_option(
+         "--bias-instability-ug", o.bias_instability_ug,
+         "the unit's known Gauss-Markov bias wander, used when the run alone does not show it")
+      ->check(cli_checks::kNonNegative);
+  cmd->add_option("--bias-instability-tau-s", o.bias_instability_tau_s, "its correlation time")
+      ->check(cli_checks::kPositive)
+      ->capture_default_str();
+}
+
+FitNoiseOptions fit_noise_options(const NoiseCliOptions& o) {
+  FitNoiseOptions n;
+  n.mode = o.noise == "white" ? FitNoiseOptions::Mode::white : FitNoiseOptions::Mode::estimate;
+  n.specified = {Vec3::Constant(o.bias_instability_ug * kUg), o.bias_instability_tau_s};
+  return n;
 }
 
 }  // namespace standcal::cli

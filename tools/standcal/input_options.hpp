@@ -1,10 +1,12 @@
 #pragma once
-// The recording-input options `fit` and `diagnose` share (calib/raw_input.hpp): one
-// spelling, one help text, one conversion.
+// The options the offline commands share: the recording input `fit` and `diagnose` read
+// (calib/raw_input.hpp), and the noise weighting `fit` and `records import` fit with
+// (calib/noise_model.hpp): one spelling, one help text, one conversion.
 #include <CLI/CLI.hpp>
 #include <string>
 #include <vector>
 
+#include "calib/noise_model.hpp"
 #include "calib/raw_input.hpp"
 
 namespace standcal::cli {
@@ -25,5 +27,14 @@ InputOptions input_options(const InputCliOptions& o);
 bool streams_as_stand_recording(const InputCliOptions& o, const std::string& path);
 // The reader's warnings, one "warning: ..." line each on stderr.
 void print_warnings(const std::vector<std::string>& warnings);
+
+// --noise, --bias-instability-ug, --bias-instability-tau-s.
+struct NoiseCliOptions {
+  std::string noise = "estimate";
+  double bias_instability_ug = 0;
+  double bias_instability_tau_s = 300;
+};
+void add_noise_options(CLI::App* cmd, NoiseCliOptions& o);
+FitNoiseOptions fit_noise_options(const NoiseCliOptions& o);
 
 }  // namespace standcal::cli

@@ -27,6 +27,7 @@
 #include "standcal/version.hpp"
 #include "tools/cli_checks.hpp"
 #include "tools/standcal/commands.hpp"
+#include "tools/standcal/input_options.hpp"
 
 namespace standcal::cli {
 
@@ -58,6 +59,7 @@ struct ImportOptions {
   std::string operator_name;
   std::string started_utc;
   std::string method = "joint";
+  NoiseCliOptions noise;  // as `standcal fit` weights: the unit's known wander, or white
 };
 
 std::string file_text(const std::string& path) {
@@ -83,10 +85,15 @@ std::string file_time_utc(const std::string& path) {
   return utc_iso(st.st_mtime);
 }
 
-FitResult fit_by_method(const std::string& method, const std::vector<PositionAverage>& averages) {
-  if (method == "joint") return fit_invariant_joint(averages);
+FitResult fit_by_method(const std::string& method, const std::vector<PositionAverage>& averages,
+                        const FitNoiseOptions& noise) {
+  if (method == "joint") return fit_invariant_joint(averages, noise);
   if (method == "paper-sequential") return fit_paper_sequential(averages);
-  if (method == "full") return fit_full_vector(averages);
+  if (method == "full") {
+    FullFitOptions full;
+    full.noise = noise;
+    return fit_full_vector(averages, full);
+  }
   throw std::runtime_error("unknown fit method '" + method + "' (joint, paper-sequential, full)");
 }
 
@@ -106,7 +113,7 @@ CalibrationRecord import_record(const ImportOptions& o, const std::string& path)
   if (rec.unit_serial.empty())
     throw std::runtime_error(path + ": the recording names no unit_serial");
   std::vector<std::string> warnings = rec.warnings;
-  const FitResult fit = fit_by_method(o.method, average_positions(rec));
+  const FitResult fit = fit_by_method(o.method, average_positions(rec), fit_noise_options(o.noise));
   CalibrationRecord r;
   const std::string header_run = rec.header_value("run_id");
   // A daemon recording keeps its run id (re-importing it is a no-op); others get one
@@ -258,6 +265,7 @@ void add_import_command(CLI::App& app) {
   cmd->add_option("--started", o->started_utc,
                   "when they ran, UTC (default: the recording's started_utc, else the file time)");
   cmd->add_option("--method", o->method, "joint | paper-sequential | full")->capture_default_str();
+  add_noise_options(cmd, o->noise);
   cmd->callback([o] { run_import(*o); });
 }
 

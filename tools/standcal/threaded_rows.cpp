@@ -1,6 +1,10 @@
 #include "tools/standcal/threaded_rows.hpp"
 
+#include <string>
 #include <utility>
+#include <vector>
+
+#include "tools/standcal/input_options.hpp"
 
 namespace standcal::cli {
 
@@ -100,7 +104,15 @@ RecordingDigest digest_on_two_threads(const std::string& path, const DigestOptio
     rows.fail_after_reader_error();
   }
   rows.finish();
-  return digester.finish(std::move(read));
+  // What the reader warned about is said even when the digest then fails: "no samples"
+  // means more beside "the last line was cut off mid-write".
+  const std::vector<std::string> warnings = read.warnings;
+  try {
+    return digester.finish(std::move(read));
+  } catch (...) {
+    print_warnings(warnings);
+    throw;
+  }
 }
 
 }  // namespace standcal::cli
