@@ -31,10 +31,12 @@ using protocol::RpcError;
 
 namespace {
 
-#if defined(__SANITIZE_ADDRESS__)
+// A sanitizer reserves terabytes of shadow address space: under ASan or TSan the child's
+// address-space limit would fail its start-up (TSan: "Failed to mmap", exit status 66).
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
 constexpr bool kSanitized = true;
 #elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
 constexpr bool kSanitized = true;
 #else
 constexpr bool kSanitized = false;

@@ -27,6 +27,7 @@
 #include "daemon/standcald/hardware.hpp"
 #include "protocol/jsonrpc/client.hpp"
 #include "protocol/jsonrpc/messages.hpp"
+#include "protocol/jsonrpc/methods.hpp"
 #include "protocol/jsonrpc/paths.hpp"
 #include "records/db/records_db.hpp"
 #include "tools/standcal/commands.hpp"
