@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <map>
 #include <random>
@@ -24,6 +25,24 @@ Eigen::MatrixXd information_of(const DesignBasis& basis, const std::vector<doubl
     if (w != 0) m.noalias() += w * basis.blocks[k].transpose() * basis.blocks[k];
   }
   return m;
+}
+
+// Every pose's rows in one matrix, so an iteration of minimax_weights is two matrix
+// products rather than one small product per pose (continuous_lower_bound_s: thousands).
+struct StackedRows {
+  Eigen::MatrixXd rows;
+  std::vector<Eigen::Index> first_row;  // pose k owns rows first_row[k] .. first_row[k+1]-1
+  Eigen::Index count(int k) const { return first_row[k + 1] - first_row[k]; }
+};
+
+StackedRows stack_rows(const DesignBasis& basis) {
+  StackedRows s;
+  s.first_row.push_back(0);
+  for (const auto& block : basis.blocks) s.first_row.push_back(s.first_row.back() + block.rows());
+  s.rows.resize(s.first_row.back(), basis.columns());
+  for (std::size_t k = 0; k < basis.blocks.size(); ++k)
+    s.rows.middleRows(s.first_row[k], basis.blocks[k].rows()) = basis.blocks[k];
+  return s;
 }
 
 Eigen::MatrixXd inverse_of(const Eigen::MatrixXd& m) {
@@ -97,6 +116,9 @@ DesignBasis invariant_basis(const std::vector<StandPose>& poses) {
     for (std::size_t i = 0; i < kept.size(); ++i)
       block(0, static_cast<int>(i)) = h(static_cast<int>(k), kept[i]);
     basis.blocks.push_back(block);
+    basis.projections.push_back(
+        up_vector(poses[k].alpha1_deg * kDegToRad, poses[k].alpha2_deg * kDegToRad, poses[k].mount)
+            .transpose());
   }
   for (int j = 0; j < kUnitParameterCount; ++j)
     if (!basis.unobservable_reason[j].empty()) basis.notes.push_back(basis.unobservable_reason[j]);
@@ -115,6 +137,7 @@ DesignBasis full_basis(const std::vector<StandPose>& poses, MountingModel mounti
     for (std::size_t i = 0; i < obs.kept.size(); ++i)
       block.col(static_cast<int>(i)) = jac.col(obs.kept[i]);
     basis.blocks.push_back(block);
+    basis.projections.push_back(Eigen::Matrix3d::Identity());
   }
   basis.parameter_names = obs.kept_combination_names;
   for (int j = 0; j < kUnitParameterCount; ++j) {
@@ -198,9 +221,18 @@ DesignBasis design_basis(const std::vector<StandPose>& poses, DesignModel model,
   return model == DesignModel::invariant ? invariant_basis(poses) : full_basis(poses, mounting);
 }
 
-BenchTime bench_time(const Program& program, const DesignSettings& settings,
+namespace {
+
+// bench_time's timeline: per position re-mount, move, settle, then the dwell.
+struct Schedule {
+  BenchTime time;
+  std::vector<DwellWindow> dwells;
+};
+
+Schedule schedule_of(const Program& program, const DesignSettings& settings,
                      const std::vector<double>& dwell_s) {
-  BenchTime t;
+  Schedule s;
+  BenchTime& t = s.time;
   double a1 = 0, a2 = 0;
   std::optional<Mount> mount;
   for (std::size_t k = 0; k < program.positions.size(); ++k) {
@@ -217,9 +249,80 @@ BenchTime bench_time(const Program& program, const DesignSettings& settings,
     a1 = p.alpha1_deg;
     a2 = p.alpha2_deg;
     t.settle_s += p.settle_s.value_or(settings.settle_s);
-    t.dwell_s += k < dwell_s.size() ? dwell_s[k] : p.dwell_s.value_or(settings.dwell_s);
+    const double dwell = k < dwell_s.size() ? dwell_s[k] : p.dwell_s.value_or(settings.dwell_s);
+    s.dwells.push_back({t.total_s(), dwell});
+    t.dwell_s += dwell;
   }
-  return t;
+  return s;
+}
+
+}  // namespace
+
+BenchTime bench_time(const Program& program, const DesignSettings& settings,
+                     const std::vector<double>& dwell_s) {
+  return schedule_of(program, settings, dwell_s).time;
+}
+
+std::vector<DwellWindow> dwell_windows(const Program& program, const DesignSettings& settings,
+                                       const std::vector<double>& dwell_s) {
+  return schedule_of(program, settings, dwell_s).dwells;
+}
+
+double wander_mean_covariance(const DwellWindow& a, const DwellWindow& b, double tau_s) {
+  const DwellWindow& first = a.start_s <= b.start_s ? a : b;
+  const DwellWindow& second = a.start_s <= b.start_s ? b : a;
+  const double xa = first.length_s / tau_s, xb = second.length_s / tau_s;
+  if (first.start_s == second.start_s && first.length_s == second.length_s) {
+    // Var of the mean of a window: 2 (x - 1 + e^-x) / x^2, which is 1 - x/3 + ... as x -> 0.
+    if (xa < 1e-4) return 1 - xa / 3;
+    return 2 * (xa + std::expm1(-xa)) / (xa * xa);
+  }
+  // Disjoint windows: each mean sees the process through (1 - e^-x) / x, the gap as e^-gap.
+  const auto through = [](double x) { return x < 1e-8 ? 1.0 : -std::expm1(-x) / x; };
+  const double gap_s = std::max(0.0, second.start_s - (first.start_s + first.length_s));
+  return through(xa) * through(xb) * std::exp(-gap_s / tau_s);
+}
+
+Eigen::MatrixXd scheduled_information(const DesignBasis& basis, const Program& program,
+                                      const DesignSettings& settings,
+                                      const std::vector<double>& dwell_s) {
+  const std::vector<DwellWindow> windows = dwell_windows(program, settings, dwell_s);
+  const double n_g = settings.noise_density_ug_rthz * kUg;
+  if (!settings.wander()) {
+    std::vector<double> weights;
+    for (const DwellWindow& w : windows) weights.push_back(w.length_s / (n_g * n_g));
+    return information_of(basis, weights);
+  }
+  const StackedRows g = stack_rows(basis);
+  const double q_g = settings.bias_instability_ug * kUg;
+  Eigen::MatrixXd c(g.rows.rows(), g.rows.rows());
+  for (std::size_t i = 0; i < windows.size(); ++i) {
+    const int ki = static_cast<int>(i);
+    for (std::size_t j = 0; j <= i; ++j) {
+      const int kj = static_cast<int>(j);
+      const double k_ij =
+          q_g * q_g *
+          wander_mean_covariance(windows[i], windows[j], settings.bias_instability_tau_s);
+      const Eigen::MatrixXd block = k_ij * basis.projections[i] * basis.projections[j].transpose();
+      c.block(g.first_row[ki], g.first_row[kj], g.count(ki), g.count(kj)) = block;
+      c.block(g.first_row[kj], g.first_row[ki], g.count(kj), g.count(ki)) = block.transpose();
+    }
+    c.block(g.first_row[ki], g.first_row[ki], g.count(ki), g.count(ki)).diagonal().array() +=
+        n_g * n_g / windows[i].length_s;
+  }
+  const Eigen::LLT<Eigen::MatrixXd> llt(c);
+  if (llt.info() != Eigen::Success)
+    throw std::runtime_error("the dwell means' covariance is not positive definite");
+  return g.rows.transpose() * llt.solve(g.rows);
+}
+
+Program repeated_program(const Program& program, int times) {
+  if (times < 1) throw std::invalid_argument("a programme is visited at least once");
+  Program out;
+  out.name = times == 1 ? program.name : program.name + " x" + std::to_string(times);
+  for (int r = 0; r < times; ++r)
+    out.positions.insert(out.positions.end(), program.positions.begin(), program.positions.end());
+  return out;
 }
 
 double d_criterion(const DesignBasis& basis, const std::vector<double>& weights) {
@@ -230,6 +333,20 @@ double d_criterion(const DesignBasis& basis, const std::vector<double>& weights)
   return det_cov > 0 ? std::pow(det_cov, -1.0 / kUnitParameterCount) : 0;
 }
 
+namespace {
+
+std::array<std::optional<double>, kUnitParameterCount> unit_sigmas(
+    const DesignBasis& basis, const Eigen::MatrixXd& information) {
+  const Eigen::MatrixXd cov = inverse_of(information);
+  std::array<std::optional<double>, kUnitParameterCount> sigma;
+  for (int i = 0; i < kUnitParameterCount; ++i)
+    if (basis.unit_column[i] >= 0)
+      sigma[i] = std::sqrt(cov(basis.unit_column[i], basis.unit_column[i])) * report_scale(i);
+  return sigma;
+}
+
+}  // namespace
+
 DesignEvaluation evaluate_design(const Program& program, DesignModel model,
                                  const DesignSettings& settings) {
   DesignEvaluation ev;
@@ -239,18 +356,16 @@ DesignEvaluation evaluate_design(const Program& program, DesignModel model,
   ev.parameter_names = basis.parameter_names;
   ev.notes = basis.notes;
   ev.unobservable_reason = basis.unobservable_reason;
-  const double n_g = settings.noise_density_ug_rthz * kUg;
-  std::vector<double> weights;
-  for (const auto& p : program.positions) {
+  for (const auto& p : program.positions)
     ev.dwell_s.push_back(p.dwell_s.value_or(settings.dwell_s));
-    weights.push_back(ev.dwell_s.back() / (n_g * n_g));
+  ev.information = scheduled_information(basis, program, settings, ev.dwell_s);
+  ev.unit_sigma = unit_sigmas(basis, ev.information);
+  if (settings.wander()) {
+    DesignSettings white = settings;
+    white.bias_instability_ug = 0;
+    ev.white_unit_sigma =
+        unit_sigmas(basis, scheduled_information(basis, program, white, ev.dwell_s));
   }
-  ev.information = information_of(basis, weights);
-  const Eigen::MatrixXd cov = inverse_of(ev.information);
-  for (int i = 0; i < kUnitParameterCount; ++i)
-    if (basis.unit_column[i] >= 0)
-      ev.unit_sigma[i] =
-          std::sqrt(cov(basis.unit_column[i], basis.unit_column[i])) * report_scale(i);
   ev.d_criterion = d_criterion(basis);
   if (ev.d_criterion > 0)
     ev.a_criterion = unit_covariance(basis, information_of(basis, {})).trace();
@@ -266,10 +381,9 @@ struct TargetLoad {
   int worst_parameter = -1;
 };
 
-TargetLoad target_load(const DesignBasis& basis,
-                       const std::array<double, kUnitParameterCount>& target,
-                       const std::vector<double>& w) {
-  const Eigen::MatrixXd cov = inverse_of(information_of(basis, w));
+TargetLoad load_of(const DesignBasis& basis, const std::array<double, kUnitParameterCount>& target,
+                   const Eigen::MatrixXd& information) {
+  const Eigen::MatrixXd cov = inverse_of(information);
   TargetLoad load;
   for (int i = 0; i < kUnitParameterCount; ++i) {
     const int c = basis.unit_column[i];
@@ -282,6 +396,12 @@ TargetLoad target_load(const DesignBasis& basis,
   return load;
 }
 
+TargetLoad target_load(const DesignBasis& basis,
+                       const std::array<double, kUnitParameterCount>& target,
+                       const std::vector<double>& w) {
+  return load_of(basis, target, information_of(basis, w));
+}
+
 std::string first_unobservable(const DesignBasis& basis) {
   for (int i = 0; i < kUnitParameterCount; ++i)
     if (basis.unit_column[i] < 0)
@@ -289,22 +409,12 @@ std::string first_unobservable(const DesignBasis& basis) {
   return {};
 }
 
-// Every pose's rows in one matrix, so an iteration of minimax_weights is two matrix
-// products rather than one small product per pose (continuous_lower_bound_s: thousands).
-struct StackedRows {
-  Eigen::MatrixXd rows;
-  std::vector<Eigen::Index> first_row;  // pose k owns rows first_row[k] .. first_row[k+1]-1
-  Eigen::Index count(int k) const { return first_row[k + 1] - first_row[k]; }
-};
-
-StackedRows stack_rows(const DesignBasis& basis) {
-  StackedRows s;
-  s.first_row.push_back(0);
-  for (const auto& block : basis.blocks) s.first_row.push_back(s.first_row.back() + block.rows());
-  s.rows.resize(s.first_row.back(), basis.columns());
-  for (std::size_t k = 0; k < basis.blocks.size(); ++k)
-    s.rows.middleRows(s.first_row[k], basis.blocks[k].rows()) = basis.blocks[k];
-  return s;
+// A programme that cannot see a target parameter cannot meet the target: the plan says
+// which, and why.
+bool refuse_if_unobservable(const DesignBasis& basis, DwellPlan& plan) {
+  plan.reason = first_unobservable(basis);
+  plan.feasible = plan.reason.empty();
+  return !plan.feasible;
 }
 
 // Weights (sum 1) minimising max_j cov_jj(w) / target_j^2. By the minimax theorem this is
@@ -362,11 +472,7 @@ std::vector<double> minimax_weights(const DesignBasis& basis,
 DwellPlan equal_dwell_for_target(const DesignBasis& basis, const AccuracyTarget& target,
                                  const DesignSettings& settings) {
   DwellPlan plan;
-  plan.reason = first_unobservable(basis);
-  if (!plan.reason.empty()) {
-    plan.feasible = false;
-    return plan;
-  }
+  if (refuse_if_unobservable(basis, plan)) return plan;
   const int n = static_cast<int>(basis.blocks.size());
   const std::vector<double> w(n, 1.0 / n);
   const TargetLoad load = target_load(basis, target.sigma_internal(), w);
@@ -380,11 +486,7 @@ DwellPlan equal_dwell_for_target(const DesignBasis& basis, const AccuracyTarget&
 DwellPlan allocated_dwell_for_target(const DesignBasis& basis, const AccuracyTarget& target,
                                      const DesignSettings& settings) {
   DwellPlan plan;
-  plan.reason = first_unobservable(basis);
-  if (!plan.reason.empty()) {
-    plan.feasible = false;
-    return plan;
-  }
+  if (refuse_if_unobservable(basis, plan)) return plan;
   const auto t = target.sigma_internal();
   const std::vector<double> w = minimax_weights(basis, t, 3000);
   const TargetLoad load = target_load(basis, t, w);
@@ -393,6 +495,117 @@ DwellPlan allocated_dwell_for_target(const DesignBasis& basis, const AccuracyTar
   for (double x : w) plan.dwell_s.push_back(x * plan.total_dwell_s);
   plan.limiting_parameter = std::string(kUnitParameterNames[load.worst_parameter]);
   return plan;
+}
+
+namespace {
+
+// The least scale s (a dwell or a total) whose target load is at most 1: a geometric scan
+// from lo, then bisection in log s between the last scan point that fails and the first
+// that meets it. Without such an s up to hi, the best load the scan saw.
+struct DwellSearch {
+  bool found = false;
+  double s = 0;
+  TargetLoad load;  // at s: the found one, or the best seen
+};
+
+DwellSearch least_scale_meeting(const std::function<TargetLoad(double)>& load_at, double lo,
+                                double hi) {
+  constexpr double kStep = 1.25;
+  DwellSearch best;
+  best.load.worst = std::numeric_limits<double>::infinity();
+  double failing = 0;
+  for (double s = lo; s <= hi; s *= kStep) {
+    const TargetLoad load = load_at(s);
+    if (load.worst <= 1) {
+      best = {true, s, load};
+      break;
+    }
+    failing = s;
+    if (load.worst < best.load.worst) best = {false, s, load};
+  }
+  if (!best.found || failing == 0) return best;
+  for (int it = 0; it < 40 && best.s / failing > 1 + 1e-4; ++it) {
+    const double mid = std::sqrt(failing * best.s);
+    const TargetLoad load = load_at(mid);
+    if (load.worst <= 1)
+      best = {true, mid, load};
+    else
+      failing = mid;
+  }
+  return best;
+}
+
+// The range searched: 0.1 s to a day per position.
+constexpr double kLeastDwellS = 0.1, kLongestDwellS = 86400;
+
+std::string floor_reason(const AccuracyTarget& target, const DesignSettings& settings,
+                         const DwellSearch& search, const char* what) {
+  const int j = search.load.worst_parameter;
+  const double target_report = target.sigma_internal()[j] * report_scale(j);
+  char buf[400];
+  std::snprintf(
+      buf, sizeof buf,
+      "the bias wander (%.3g ug, tau %.3g s) keeps %s at %.3g %s or more for any dwell "
+      "up to %.0f s per position (target %.3g; least at %.3g s %s)",
+      settings.bias_instability_ug, settings.bias_instability_tau_s,
+      std::string(kUnitParameterNames[j]).c_str(), target_report * std::sqrt(search.load.worst),
+      std::string(kUnitParameterUnits[j]).c_str(), kLongestDwellS, target_report, search.s, what);
+  return buf;
+}
+
+}  // namespace
+
+namespace {
+
+// Under wander: the least scale s for which dwells shape * s meet the target on the
+// programme's schedule (shape all ones: s is the dwell per position; shape summing to 1: s
+// is the total), searched over 0.1 s to a day per position.
+DwellPlan plan_under_wander(const DesignBasis& basis, const Program& program,
+                            const AccuracyTarget& target, const DesignSettings& settings,
+                            const std::vector<double>& shape, const char* scale_words) {
+  DwellPlan plan;
+  if (refuse_if_unobservable(basis, plan)) return plan;
+  const auto t = target.sigma_internal();
+  const auto dwells = [&](double scale) {
+    std::vector<double> d;
+    for (double w : shape) d.push_back(w * scale);
+    return d;
+  };
+  double shape_sum = 0;
+  for (double w : shape) shape_sum += w;
+  const double per_position = static_cast<double>(shape.size()) / shape_sum;
+  const DwellSearch search = least_scale_meeting(
+      [&](double scale) {
+        return load_of(basis, t, scheduled_information(basis, program, settings, dwells(scale)));
+      },
+      kLeastDwellS * per_position, kLongestDwellS * per_position);
+  plan.limiting_parameter = std::string(kUnitParameterNames[search.load.worst_parameter]);
+  if (!search.found) {
+    plan.feasible = false;
+    plan.reason = floor_reason(target, settings, search, scale_words);
+    return plan;
+  }
+  plan.dwell_s = dwells(search.s);
+  plan.total_dwell_s = search.s * shape_sum;
+  return plan;
+}
+
+}  // namespace
+
+DwellPlan equal_dwell_for_target(const DesignBasis& basis, const Program& program,
+                                 const AccuracyTarget& target, const DesignSettings& settings) {
+  if (!settings.wander()) return equal_dwell_for_target(basis, target, settings);
+  return plan_under_wander(basis, program, target, settings,
+                           std::vector<double>(program.positions.size(), 1.0), "per position");
+}
+
+DwellPlan allocated_dwell_for_target(const DesignBasis& basis, const Program& program,
+                                     const AccuracyTarget& target, const DesignSettings& settings) {
+  if (!settings.wander()) return allocated_dwell_for_target(basis, target, settings);
+  DwellPlan refused;  // before the weights, which need every target parameter observable
+  if (refuse_if_unobservable(basis, refused)) return refused;
+  return plan_under_wander(basis, program, target, settings,
+                           minimax_weights(basis, target.sigma_internal(), 3000), "of total dwell");
 }
 
 double continuous_lower_bound_s(DesignModel model, const AccuracyTarget& target,

@@ -6,6 +6,9 @@
 //
 // Noise convention (model.md): a dwell of T s has a mean with sigma N / sqrt(T) per axis;
 // the invariant measurement's sigma is that projected on u, which for equal axes is the same.
+// With bias wander (issue 21) the means of dwells close in time share it: the information
+// is then G^T C^-1 G with C the dwell means' covariance for the programme's schedule, and
+// it depends on the order and timing of the positions, not on the total dwell alone.
 #include <Eigen/Dense>
 #include <array>
 #include <optional>
@@ -24,11 +27,16 @@ std::string design_model_name(DesignModel m);
 // Bench timing and noise; defaults are issue 3's.
 struct DesignSettings {
   double noise_density_ug_rthz = 10;
+  // Bias wander per axis (docs/calibration.md "Noise model"): a first-order Gauss-Markov
+  // bias of this stationary standard deviation and correlation time; 0: white noise only.
+  double bias_instability_ug = 0;
+  double bias_instability_tau_s = 300;
   double dwell_s = 30;  // per position, unless the programme overrides it
   double settle_s = 5;
   double move_rate_deg_s = 10;
   double remount_s = 600;
   MountingModel mounting = MountingModel::common_fixture;
+  bool wander() const { return bias_instability_ug > 0; }
 };
 
 // Target 1 sigma for the nine unit parameters (report units).
@@ -47,6 +55,10 @@ AccuracyTarget parse_accuracy_target(const std::string& text);
 struct DesignBasis {
   DesignModel model = DesignModel::invariant;
   std::vector<Eigen::MatrixXd> blocks;
+  // Per pose, which combination of the three instrument axes each row of its block measures
+  // (rows x 3): the identity for the full model, u^T for the invariant one. The wander adds
+  // to the axes, so rows share it in proportion to their projections' dot product.
+  std::vector<Eigen::MatrixXd> projections;
   std::vector<std::string> parameter_names;  // estimated parameters, column order
   std::array<int, kUnitParameterCount>
       unit_column{};  // column of each unit parameter, -1 if not observable
@@ -69,12 +81,37 @@ struct BenchTime {
 BenchTime bench_time(const Program& program, const DesignSettings& settings,
                      const std::vector<double>& dwell_s = {});
 
+// When each position's dwell runs, on bench_time's timeline (the simulator's too).
+struct DwellWindow {
+  double start_s = 0;
+  double length_s = 0;
+};
+std::vector<DwellWindow> dwell_windows(const Program& program, const DesignSettings& settings,
+                                       const std::vector<double>& dwell_s = {});
+
+// Covariance of the means of two dwells under a Gauss-Markov process of unit variance and
+// correlation time tau: the exact average over both windows (a dwell long against tau
+// averages its own wander down, which the point-in-time approximation would miss).
+double wander_mean_covariance(const DwellWindow& a, const DwellWindow& b, double tau_s);
+
+// The information of a programme's dwell means for `dwell_s` (programme order), white noise
+// and wander: G^T C^-1 G. With white noise alone it is sum_k T_k / N^2 G_k^T G_k.
+Eigen::MatrixXd scheduled_information(const DesignBasis& basis, const Program& program,
+                                      const DesignSettings& settings,
+                                      const std::vector<double>& dwell_s);
+
+// The programme's positions visited `times` times in a row (same order each pass), named
+// "<name> x<times>": revisiting a position lets a fit tell the wander from the parameters.
+Program repeated_program(const Program& program, int times);
+
 struct DesignEvaluation {
   std::string program;
   DesignModel model = DesignModel::invariant;
   std::vector<std::string> parameter_names;
   Eigen::MatrixXd information;  // for the dwells and noise given, internal units
   std::array<std::optional<double>, kUnitParameterCount> unit_sigma;  // report units
+  // With wander: what the sigmas would be under the white noise alone (report units).
+  std::array<std::optional<double>, kUnitParameterCount> white_unit_sigma;
   std::array<std::string, kUnitParameterCount> unobservable_reason;
   double d_criterion = 0;  // det(unit-block information per unit measurement variance)^(1/9)
   double a_criterion = 0;  // trace of the unit-block covariance per unit measurement variance
@@ -97,12 +134,20 @@ struct DwellPlan {
   bool feasible = true;            // false when the programme cannot observe a target parameter
   std::string reason;
 };
-// The least equal dwell per position meeting the target.
+// The least equal dwell per position meeting the target. White noise: from the basis
+// alone (the load scales as 1 / dwell). With wander the programme's schedule matters, so
+// the overloads that take it search the dwell: the least that meets the target, or
+// infeasible, naming the parameter whose floor the wander sets and that floor.
 DwellPlan equal_dwell_for_target(const DesignBasis& basis, const AccuracyTarget& target,
                                  const DesignSettings& settings);
-// Dwell per position meeting the target in the least total dwell.
+DwellPlan equal_dwell_for_target(const DesignBasis& basis, const Program& program,
+                                 const AccuracyTarget& target, const DesignSettings& settings);
+// Dwell per position meeting the target in the least total dwell. With wander the
+// allocation's shape is white noise's (minimax) and its total is searched as above.
 DwellPlan allocated_dwell_for_target(const DesignBasis& basis, const AccuracyTarget& target,
                                      const DesignSettings& settings);
+DwellPlan allocated_dwell_for_target(const DesignBasis& basis, const Program& program,
+                                     const AccuracyTarget& target, const DesignSettings& settings);
 // The least total dwell any programme on this stand could need (continuous optimal design
 // over a grid of reachable poses, single mount).
 double continuous_lower_bound_s(DesignModel model, const AccuracyTarget& target,

@@ -9,6 +9,7 @@
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -20,6 +21,7 @@
 #include "calib/recording_digest.hpp"
 #include "calib/units.hpp"
 #include "report/noise/allan_figure.hpp"
+#include "tools/cli_checks.hpp"
 #include "tools/standcal/commands.hpp"
 #include "tools/standcal/threaded_rows.hpp"
 
@@ -56,6 +58,7 @@ struct CompareOptions {
   std::vector<std::string> programs;
   std::string target = "bias=2ug,scale=2ppm,gamma=1asec";
   int with_optimal = 0;
+  int max_repeats = 4;
 };
 
 struct NoiseOptions {
@@ -68,12 +71,25 @@ struct NoiseOptions {
 void add_design_flags(CLI::App* cmd, DesignFlags& f) {
   cmd->add_option("--noise-density-ug-rthz", f.settings.noise_density_ug_rthz,
                   "white noise density of the unit, ug/sqrt(Hz) (see `standcal noise`)")
+      ->check(cli_checks::kPositive)
+      ->capture_default_str();
+  cmd->add_option("--bias-instability-ug", f.settings.bias_instability_ug,
+                  "the unit's Gauss-Markov bias wander (steady-state sigma per axis, ug; see "
+                  "`standcal fit`'s noise report); 0: white noise only")
+      ->check(cli_checks::kNonNegative)
+      ->capture_default_str();
+  cmd->add_option("--bias-instability-tau-s", f.settings.bias_instability_tau_s,
+                  "its correlation time, s")
+      ->check(cli_checks::kPositive)
       ->capture_default_str();
   cmd->add_option("--settle-s", f.settings.settle_s, "settle time per position, s")
+      ->check(cli_checks::kNonNegative)
       ->capture_default_str();
   cmd->add_option("--move-rate-deg-s", f.settings.move_rate_deg_s, "stand slew rate, deg/s")
+      ->check(cli_checks::kPositive)
       ->capture_default_str();
   cmd->add_option("--remount-s", f.settings.remount_s, "operator time per re-mount, s")
+      ->check(cli_checks::kNonNegative)
       ->capture_default_str();
   cmd->add_option(
          "--model", f.model,
@@ -163,6 +179,14 @@ std::string format_time(const BenchTime& t) {
   return buf;
 }
 
+std::string wander_words(const DesignSettings& s) {
+  if (!s.wander()) return "white noise only";
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "bias wander %.3g ug (Gauss-Markov, tau %.3g s)",
+                s.bias_instability_ug, s.bias_instability_tau_s);
+  return buf;
+}
+
 void print_json(const json& j) { std::cout << j.dump(2) << "\n"; }
 
 // ---- evaluate ------------------------------------------------------------------------
@@ -178,9 +202,10 @@ void run_evaluate(const EvaluateOptions& o) {
   json params = json::object();
   for (int i = 0; i < kUnitParameterCount; ++i) {
     const std::string name(kUnitParameterNames[i]);
-    if (ev.unit_sigma[i])
+    if (ev.unit_sigma[i]) {
       params[name] = {{"sigma", *ev.unit_sigma[i]}, {"unit", kUnitParameterUnits[i]}};
-    else
+      if (ev.white_unit_sigma[i]) params[name]["sigma_white_noise_only"] = *ev.white_unit_sigma[i];
+    } else
       params[name] = {{"sigma", nullptr},
                       {"unit", kUnitParameterUnits[i]},
                       {"reason", ev.unobservable_reason[i]}};
@@ -198,6 +223,8 @@ void run_evaluate(const EvaluateOptions& o) {
                 {"positions", program.positions.size()},
                 {"model", design_model_name(model)},
                 {"noise_density_ug_rthz", settings.noise_density_ug_rthz},
+                {"bias_instability_ug", settings.bias_instability_ug},
+                {"bias_instability_tau_s", settings.bias_instability_tau_s},
                 {"dwell_s", ev.dwell_s},
                 {"parameters", params},
                 {"d_criterion", ev.d_criterion},
@@ -211,14 +238,19 @@ void run_evaluate(const EvaluateOptions& o) {
     return;
   }
   std::printf(
-      "programme %s: %zu positions, %s model, noise %.3g ug/sqrt(Hz), settle %.3g s, move %.3g "
-      "deg/s\n",
+      "programme %s: %zu positions, %s model, noise %.3g ug/sqrt(Hz), %s, settle %.3g s, move "
+      "%.3g deg/s\n",
       program.name.c_str(), program.positions.size(), design_model_name(model).c_str(),
-      settings.noise_density_ug_rthz, settings.settle_s, settings.move_rate_deg_s);
-  std::printf("\npredicted 1 sigma for the dwells given (first position %.3g s):\n",
-              ev.dwell_s.front());
+      settings.noise_density_ug_rthz, wander_words(settings).c_str(), settings.settle_s,
+      settings.move_rate_deg_s);
+  std::printf("\npredicted 1 sigma for the dwells given (first position %.3g s)%s:\n",
+              ev.dwell_s.front(), settings.wander() ? ", and under the white noise alone" : "");
   for (int i = 0; i < kUnitParameterCount; ++i) {
-    if (ev.unit_sigma[i])
+    if (ev.unit_sigma[i] && ev.white_unit_sigma[i])
+      std::printf("  %-8s %10.3f %-6s (white noise alone %.3f)\n",
+                  std::string(kUnitParameterNames[i]).c_str(), *ev.unit_sigma[i],
+                  std::string(kUnitParameterUnits[i]).c_str(), *ev.white_unit_sigma[i]);
+    else if (ev.unit_sigma[i])
       std::printf("  %-8s %10.3f %s\n", std::string(kUnitParameterNames[i]).c_str(),
                   *ev.unit_sigma[i], std::string(kUnitParameterUnits[i]).c_str());
     else
@@ -254,32 +286,68 @@ void run_evaluate(const EvaluateOptions& o) {
 
 // ---- optimize / compare --------------------------------------------------------------
 
+// The programme visited several times in a row, with the equal dwell that meets the target.
+struct Revisit {
+  int times = 1;
+  DwellPlan equal;
+  BenchTime time;
+};
+
 struct ProgrammeDwell {
   std::string name;
   DesignModel model;
   std::string note;
   DwellPlan equal, allocated;
   BenchTime equal_time, allocated_time;
+  // With bias wander: of the programme visited 1 .. max_repeats times, the one that meets
+  // the target in the least bench time (none when no pass count does).
+  std::optional<Revisit> best_revisit;
 };
 
+std::optional<Revisit> best_revisit(const Program& program, DesignModel model,
+                                    const AccuracyTarget& target, const DesignSettings& settings,
+                                    int max_repeats) {
+  std::optional<Revisit> best;
+  for (int times = 1; times <= max_repeats; ++times) {
+    const Program visited = repeated_program(program, times);
+    const DesignBasis basis = design_basis(poses_of(visited), model, settings.mounting);
+    Revisit r{times, equal_dwell_for_target(basis, visited, target, settings), {}};
+    if (!r.equal.feasible) continue;
+    r.time = bench_time(visited, settings, r.equal.dwell_s);
+    if (!best || r.time.total_s() < best->time.total_s()) best = r;
+  }
+  return best;
+}
+
 ProgrammeDwell dwell_for(const Program& program, const std::string& requested_model,
-                         const AccuracyTarget& target, const DesignSettings& settings) {
+                         const AccuracyTarget& target, const DesignSettings& settings,
+                         int max_repeats = 1) {
   ProgrammeDwell d;
   d.name = program.name;
   d.model = choose_model(program, requested_model, d.note);
   const DesignBasis basis = design_basis(poses_of(program), d.model, settings.mounting);
-  d.equal = equal_dwell_for_target(basis, target, settings);
-  d.allocated = allocated_dwell_for_target(basis, target, settings);
-  if (d.equal.feasible) {
-    d.equal_time = bench_time(program, settings, d.equal.dwell_s);
-    d.allocated_time = bench_time(program, settings, d.allocated.dwell_s);
-  }
+  d.equal = equal_dwell_for_target(basis, program, target, settings);
+  d.allocated = allocated_dwell_for_target(basis, program, target, settings);
+  if (d.equal.feasible) d.equal_time = bench_time(program, settings, d.equal.dwell_s);
+  if (d.allocated.feasible) d.allocated_time = bench_time(program, settings, d.allocated.dwell_s);
+  if (settings.wander() && max_repeats > 1)
+    d.best_revisit = best_revisit(program, d.model, target, settings, max_repeats);
   return d;
+}
+
+json revisit_json(const std::optional<Revisit>& r) {
+  if (!r) return {{"feasible", false}};
+  return {{"times", r->times},
+          {"dwell_per_visit_s", r->equal.dwell_s.front()},
+          {"total_dwell_s", r->equal.total_dwell_s},
+          {"limiting_parameter", r->equal.limiting_parameter},
+          {"bench_time", time_json(r->time)}};
 }
 
 json dwell_json(const ProgrammeDwell& d) {
   json j = {{"program", d.name}, {"model", design_model_name(d.model)}};
   if (!d.note.empty()) j["note"] = d.note;
+  if (d.best_revisit || !d.equal.feasible) j["best_revisit"] = revisit_json(d.best_revisit);
   if (!d.equal.feasible) {
     j["feasible"] = false;
     j["reason"] = d.equal.reason;
@@ -289,31 +357,49 @@ json dwell_json(const ProgrammeDwell& d) {
                 {"total_dwell_s", d.equal.total_dwell_s},
                 {"limiting_parameter", d.equal.limiting_parameter},
                 {"bench_time", time_json(d.equal_time)}};
-  j["allocated"] = {{"dwell_s", d.allocated.dwell_s},
-                    {"total_dwell_s", d.allocated.total_dwell_s},
-                    {"bench_time", time_json(d.allocated_time)}};
+  if (!d.allocated.feasible)
+    j["allocated"] = {{"feasible", false}, {"reason", d.allocated.reason}};
+  else
+    j["allocated"] = {{"dwell_s", d.allocated.dwell_s},
+                      {"total_dwell_s", d.allocated.total_dwell_s},
+                      {"bench_time", time_json(d.allocated_time)}};
   return j;
+}
+
+void print_revisit(const ProgrammeDwell& d) {
+  if (!d.best_revisit) {
+    std::printf("  %-28s %-9s no pass count tried meets the target\n", "", "");
+    return;
+  }
+  const Revisit& r = *d.best_revisit;
+  std::printf("  %-28s %-9s revisited x%d: %.1f s per visit, %.1f s total dwell, bench %.0f s%s\n",
+              "", "", r.times, r.equal.dwell_s.front(), r.equal.total_dwell_s, r.time.total_s(),
+              r.times == 1 ? " (one pass is best)" : "");
 }
 
 void print_dwell_row(const ProgrammeDwell& d) {
   if (!d.equal.feasible) {
     std::printf("  %-28s %-9s cannot reach the target: %s\n", d.name.c_str(),
                 design_model_name(d.model).c_str(), d.equal.reason.c_str());
-    return;
+  } else if (!d.allocated.feasible) {
+    std::printf("  %-28s %-9s %8.1f %8.1f (%-8s) %8s %8.0f %8s\n", d.name.c_str(),
+                design_model_name(d.model).c_str(), d.equal.dwell_s.front(), d.equal.total_dwell_s,
+                d.equal.limiting_parameter.c_str(), "-", d.equal_time.total_s(), "-");
+  } else {
+    std::printf("  %-28s %-9s %8.1f %8.1f (%-8s) %8.1f %8.0f %8.0f\n", d.name.c_str(),
+                design_model_name(d.model).c_str(), d.equal.dwell_s.front(), d.equal.total_dwell_s,
+                d.equal.limiting_parameter.c_str(), d.allocated.total_dwell_s,
+                d.equal_time.total_s(), d.allocated_time.total_s());
   }
-  std::printf("  %-28s %-9s %8.1f %8.1f (%-8s) %8.1f %8.0f %8.0f\n", d.name.c_str(),
-              design_model_name(d.model).c_str(), d.equal.dwell_s.front(), d.equal.total_dwell_s,
-              d.equal.limiting_parameter.c_str(), d.allocated.total_dwell_s, d.equal_time.total_s(),
-              d.allocated_time.total_s());
+  if (d.best_revisit || !d.equal.feasible) print_revisit(d);
 }
 
 void print_dwell_header(const AccuracyTarget& t, const DesignSettings& s) {
   std::printf(
-      "target 1 sigma: bias %.3g ug, scale %.3g ppm, gamma %.3g arcsec; noise %.3g ug/sqrt(Hz); "
-      "settle %.3g s, "
-      "move %.3g deg/s, re-mount %.3g s\n\n",
-      t.bias_ug, t.scale_ppm, t.gamma_arcsec, s.noise_density_ug_rthz, s.settle_s,
-      s.move_rate_deg_s, s.remount_s);
+      "target 1 sigma: bias %.3g ug, scale %.3g ppm, gamma %.3g arcsec; noise %.3g ug/sqrt(Hz), "
+      "%s; settle %.3g s, move %.3g deg/s, re-mount %.3g s\n\n",
+      t.bias_ug, t.scale_ppm, t.gamma_arcsec, s.noise_density_ug_rthz, wander_words(s).c_str(),
+      s.settle_s, s.move_rate_deg_s, s.remount_s);
   std::printf("  %-28s %-9s %8s %8s %10s %8s %8s %8s\n", "programme", "model", "dwell/pos", "equal",
               "(limiting)", "alloc", "bench=", "bench~");
   std::printf("  %-28s %-9s %8s %8s %10s %8s %8s %8s\n", "", "", "s", "total s", "", "total s",
@@ -415,7 +501,8 @@ void run_compare(const CompareOptions& o) {
     programs.push_back(optimize_program(opt).program);
   }
   std::vector<ProgrammeDwell> rows;
-  for (const auto& p : programs) rows.push_back(dwell_for(p, o.flags.model, target, settings));
+  for (const auto& p : programs)
+    rows.push_back(dwell_for(p, o.flags.model, target, settings, o.max_repeats));
   std::map<DesignModel, double> bound;
   for (const auto& r : rows)
     if (!bound.count(r.model))
@@ -426,7 +513,9 @@ void run_compare(const CompareOptions& o) {
                {{"bias_ug", target.bias_ug},
                 {"scale_ppm", target.scale_ppm},
                 {"gamma_arcsec", target.gamma_arcsec}}},
-              {"noise_density_ug_rthz", settings.noise_density_ug_rthz}};
+              {"noise_density_ug_rthz", settings.noise_density_ug_rthz},
+              {"bias_instability_ug", settings.bias_instability_ug},
+              {"bias_instability_tau_s", settings.bias_instability_tau_s}};
     for (const auto& r : rows) j["programs"].push_back(dwell_json(r));
     for (const auto& [m, s] : bound) j["lower_bound_total_dwell_s"][design_model_name(m)] = s;
     print_json(j);
@@ -435,7 +524,10 @@ void run_compare(const CompareOptions& o) {
   print_dwell_header(target, settings);
   for (const auto& r : rows) print_dwell_row(r);
   std::printf(
-      "\nlower bound (continuous optimal design over the stand's reachable poses, one mount):\n");
+      "\nlower bound (continuous optimal design over the stand's reachable poses, one mount%s):\n",
+      settings.wander() ? "; white noise only: a continuous design has no time order for the "
+                          "wander"
+                        : "");
   for (const auto& [m, s] : bound)
     std::printf("  %-9s model: %.1f s of total dwell\n", design_model_name(m).c_str(), s);
   for (const auto& r : rows)
@@ -524,6 +616,7 @@ void add_design_commands(CLI::App& app) {
   evaluate
       ->add_option("--dwell-s", ev->flags.settings.dwell_s,
                    "dwell per position unless the programme says")
+      ->check(cli_checks::kPositive)
       ->capture_default_str();
   add_design_flags(evaluate, ev->flags);
   evaluate->callback([ev] { run_evaluate(*ev); });
@@ -554,6 +647,11 @@ void add_design_commands(CLI::App& app) {
       ->capture_default_str();
   compare->add_option("--with-optimal", cp->with_optimal,
                       "also the D-optimal programme with this many positions");
+  compare
+      ->add_option("--max-repeats", cp->max_repeats,
+                   "with --bias-instability-ug: also the programme visited up to N times in a row")
+      ->check(CLI::Range(1, 20))
+      ->capture_default_str();
   add_design_flags(compare, cp->flags);
   compare->callback([cp] { run_compare(*cp); });
 
