@@ -446,30 +446,75 @@ void require_some_unit_parameter(const FullModelLayout& layout, const Observabil
 
 }  // namespace
 
-FitResult fit_full_vector(const std::vector<PositionAverage>& positions,
-                          const FullFitOptions& options) {
-  require_positions(positions, "cannot fit (full vector)");
+namespace {
+
+// What a full-vector fit is built on: the poses, the means and their standard errors, the
+// parameters the model has for this programme and those it can observe.
+struct FullFitInput {
   std::vector<StandPose> poses;
   std::vector<Vec3> measured, sigmas;
+  FullModelLayout layout;
+  Observability obs;
+};
+
+FullFitInput full_fit_input(const std::vector<PositionAverage>& positions,
+                            const FullFitOptions& options) {
+  require_positions(positions, "cannot fit (full vector)");
+  FullFitInput in;
   std::vector<double> weights;
   for (const auto& pa : positions) {
-    poses.push_back({pa.alpha1_cmd_deg, pa.alpha2_cmd_deg, pa.mount});
-    measured.push_back(pa.mean_g);
+    in.poses.push_back({pa.alpha1_cmd_deg, pa.alpha2_cmd_deg, pa.mount});
+    in.measured.push_back(pa.mean_g);
     const Vec3 s = pa.standard_error_g.cwiseMax(options.sigma_floor_g);
-    sigmas.push_back(s);
+    in.sigmas.push_back(s);
     weights.push_back(1.0 / s.mean());
   }
-  const FullModelLayout layout = full_model_layout(poses, options.mounting);
-  const Observability obs =
-      analyse_observability(layout, poses, weights, options.observability_tolerance);
-  require_some_unit_parameter(layout, obs, positions);
+  in.layout = full_model_layout(in.poses, options.mounting);
+  in.obs = analyse_observability(in.layout, in.poses, weights, options.observability_tolerance);
+  require_some_unit_parameter(in.layout, in.obs, positions);
+  return in;
+}
+
+// The white fit (each mean independent), and the noise model chosen from its residuals.
+FitNoiseChoice white_fit_and_noise(WeightedProblem& problem, Eigen::VectorXd& q,
+                                   const std::vector<PositionAverage>& positions,
+                                   const FullFitOptions& options) {
+  q = solve_levenberg_marquardt(problem, options.max_iterations);
+  return choose_fit_noise(problem.noise_rows, problem.jacobian(q), problem.residuals(q),
+                          options.noise, positions);
+}
+
+}  // namespace
+
+std::optional<FitNoiseChoice> full_vector_noise_choice(
+    const std::vector<PositionAverage>& positions, const FitNoiseOptions& noise) {
+  FullFitOptions options;
+  options.noise = noise;
+  try {
+    const FullFitInput in = full_fit_input(positions, options);
+    WeightedProblem problem{in.layout, in.obs, in.poses, in.measured, in.sigmas, {}, {}};
+    problem.noise_rows = full_vector_noise_rows(positions, options.sigma_floor_g);
+    Eigen::VectorXd q;
+    return white_fit_and_noise(problem, q, positions, options);
+  } catch (const CannotFit&) {
+    return std::nullopt;
+  }
+}
+
+FitResult fit_full_vector(const std::vector<PositionAverage>& positions,
+                          const FullFitOptions& options) {
+  const FullFitInput in = full_fit_input(positions, options);
+  const FullModelLayout& layout = in.layout;
+  const Observability& obs = in.obs;
+  const std::vector<StandPose>& poses = in.poses;
+  const std::vector<Vec3>& measured = in.measured;
+  const std::vector<Vec3>& sigmas = in.sigmas;
   WeightedProblem problem{layout, obs, poses, measured, sigmas, {}, {}};
   problem.noise_rows = full_vector_noise_rows(positions, options.sigma_floor_g);
 
-  Eigen::VectorXd q = solve_levenberg_marquardt(problem, options.max_iterations);
+  Eigen::VectorXd q;
   // The noise model from the white fit's residuals, then the fit again under it.
-  const FitNoiseChoice noise = choose_fit_noise(problem.noise_rows, problem.jacobian(q),
-                                                problem.residuals(q), options.noise, positions);
+  const FitNoiseChoice noise = white_fit_and_noise(problem, q, positions, options);
   if (!noise.noise.white()) {
     problem.noise = noise.noise;
     q = solve_levenberg_marquardt(problem, options.max_iterations);

@@ -4,6 +4,7 @@
 // and mounting errors, by Levenberg–Marquardt. What a programme cannot separate is found
 // by an SVD of the column-scaled Jacobian, named, and constrained instead of guessed.
 #include <Eigen/Dense>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -111,5 +112,12 @@ FitResult fit_full_vector(const std::vector<PositionAverage>& positions,
 // The same with every option at its default but the noise weighting.
 FitResult fit_full_vector(const std::vector<PositionAverage>& positions,
                           const FitNoiseOptions& noise);
+
+// The noise model the full-vector fit of these dwell means weights with, chosen from its
+// white fit's residuals (three rows per position): for an estimator that sees one row per
+// position of the same dwells (the invariant fit) and pins the wander poorly from those.
+// Nullopt when the full-vector model cannot be fitted to this programme.
+std::optional<FitNoiseChoice> full_vector_noise_choice(
+    const std::vector<PositionAverage>& positions, const FitNoiseOptions& noise);
 
 }  // namespace standcal

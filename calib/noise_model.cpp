@@ -320,10 +320,6 @@ NoiseFinding noise_finding(const NoiseEstimate& e, const std::vector<PositionAve
   return n;
 }
 
-namespace {
-constexpr Eigen::Index kWanderParameters = 4;  // q per axis and tau
-}  // namespace
-
 FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixXd& X,
                                 const VectorXd& y, const FitNoiseOptions& options,
                                 const std::vector<PositionAverage>& positions) {
@@ -337,7 +333,7 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
   } else if (options.mode == Mode::specified) {
     e.noise = options.specified;
     e.how = "the specified bias instability, not tested against this run";
-  } else if (static_cast<Eigen::Index>(rows.size()) <= X.cols() + kWanderParameters) {
+  } else if (!can_estimate_wander(rows.size(), X.cols())) {
     // The wander's parameters would leave the fit's chi-square test no degree of freedom.
     e.noise = options.specified;
     e.how = options.specified.white()

@@ -121,6 +121,12 @@ struct FitNoiseOptions {
   double weighting_lr = 1.0;
   GaussMarkovNoise specified;  // the unit's known bias instability (data sheet, earlier runs)
   NoiseEstimateOptions estimate;
+  // estimate, invariant fit: estimate the wander from the full vector of the dwell means
+  // (three rows per position, where the full-vector model fits the programme) rather than
+  // from the invariant projection alone. Off where the attitudes are not the stand's but
+  // read off the means themselves (the norm fit): the full vector's residuals are then
+  // empty across the measured direction and would hide the wander.
+  bool estimate_from_full_vector = true;
 };
 
 // Weighting as if every dwell mean were independent: for callers that model the noise
@@ -129,6 +135,13 @@ inline FitNoiseOptions white_noise_weighting() {
   FitNoiseOptions o;
   o.mode = FitNoiseOptions::Mode::white;
   return o;
+}
+
+// Whether a fit of `rows` measurements and `parameters` unknowns can estimate the wander's
+// four parameters (q per axis and tau) and keep a degree of freedom for its chi-square test.
+inline bool can_estimate_wander(std::size_t rows, Eigen::Index parameters) {
+  constexpr Eigen::Index kWanderParameters = 4;
+  return static_cast<Eigen::Index>(rows) > parameters + kWanderParameters;
 }
 
 // The noise a result was weighted with, as reported (`noise` in the fit and diagnosis JSON).

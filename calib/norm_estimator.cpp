@@ -290,7 +290,9 @@ NormFit fit_norm(const std::vector<StaticInterval>& intervals, double g, InputUn
       unpack(levenberg_marquardt(intervals, start, g, o.max_iterations, fit.iterations));
   // Sigmas, chi-square and the noise model from the linearised problem at the solution;
   // its corrections (GLS when the run shows wander) are applied.
-  FitResult inv = fit_invariant_joint(calibrated_averages(intervals, solved, g), o.noise);
+  FitNoiseOptions noise = o.noise;
+  noise.estimate_from_full_vector = false;  // the attitudes are the means' own directions
+  FitResult inv = fit_invariant_joint(calibrated_averages(intervals, solved, g), noise);
   require_observable(inv);
   const Mat9 cov_correction = unit_parameter_covariance(inv);  // all observable (above)
   Vec9 correction;
