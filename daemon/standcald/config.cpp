@@ -254,6 +254,7 @@ void read_run(Section& top, DaemonConfig& c) {
   if (auto st = s->sub("stability")) {
     st->number("sigma_limit_ug", c.stability.sigma_limit_ug, 0.001, 1e7);
     st->number("trend_limit_ug", c.stability.trend_limit_ug, 0.001, 1e7);
+    st->number("trend_limit_sigmas", c.stability.trend_limit_sigmas, 0, 1000);
     st->number("min_sample_fraction", c.stability.min_sample_fraction, 0, 1);
     st->integer("remeasure_max", c.stability.remeasure_max, 0, 100);
     st->reject_unknown();

@@ -28,8 +28,12 @@ struct SimSettings {
 
 // When a position's samples are good enough to keep (else re-measure, then fault).
 struct StabilityRule {
-  double sigma_limit_ug = 5000;      // per-axis sample sigma above this: too noisy
-  double trend_limit_ug = 2000;      // per-axis drift over the dwell (linear fit) above this
+  double sigma_limit_ug = 5000;  // per-axis sample sigma above this: too noisy
+  double trend_limit_ug = 2000;  // per-axis drift over the dwell (linear fit) above this
+  // Per-axis drift over the dwell above this many times what the unit's noise explains
+  // (white noise of the dwell's own residual sigma, plus the configured bias wander): a
+  // drift the noise model cannot account for (thermal or mechanical settling). 0: off.
+  double trend_limit_sigmas = 0;
   double min_sample_fraction = 0.9;  // fewer samples than this share of dwell x rate: incomplete
   int remeasure_max = 2;             // re-measurements before the run faults
 };

@@ -1,6 +1,8 @@
 #include "daemon/standcald/dwell.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "daemon/standcald/sequencer_detail.hpp"
 
@@ -26,6 +28,7 @@ DwellAverage average_dwell(const std::vector<drivers::AccelSample>& s) {
   }
   if (temp_n > 0) out.temp_mean_c = temp_sum / temp_n;
   const double span = s.back().t_s - s.front().t_s;
+  out.span_s = span;
   for (int a = 0; a < 3; ++a) {
     double mean = 0;
     for (const auto& x : s) mean += x.force_mps2[a] / n;
@@ -42,6 +45,55 @@ DwellAverage average_dwell(const std::vector<drivers::AccelSample>& s) {
   }
   return out;
 }
+
+double explained_trend_sigma(double residual_sigma, std::size_t n, double span_s,
+                             double wander_sigma, double tau_s) {
+  if (n < 3) return std::numeric_limits<double>::infinity();
+  const double samples = static_cast<double>(n);
+  // White: span^2 / sum (t - mean t)^2 = 12 (n - 1) / (n (n + 1)) for even spacing.
+  double variance =
+      residual_sigma * residual_sigma * 12 * (samples - 1) / (samples * (samples + 1));
+  if (wander_sigma > 0 && tau_s > 0 && span_s > 0) {
+    // 144 q^2 I(x), I(x) = double integral over [0, 1]^2 of (u - 1/2)(v - 1/2) e^(-x |u - v|)
+    // (x = span / tau; I ~ x / 60 for a wander slow against the dwell), by the midpoint rule.
+    constexpr int kSteps = 256;
+    const double x = span_s / tau_s, h = 1.0 / kSteps;
+    double integral = 0;
+    for (int i = 0; i < kSteps; ++i)
+      for (int j = 0; j < kSteps; ++j)
+        integral +=
+            ((i + 0.5) * h - 0.5) * ((j + 0.5) * h - 0.5) * std::exp(-x * std::abs(i - j) * h);
+    variance += 144 * wander_sigma * wander_sigma * integral * h * h;
+  }
+  return std::sqrt(variance);
+}
+
+namespace {
+
+// The drift of axis `a` against what its noise explains, or empty when within the rule.
+std::string unexplained_drift(const DwellAverage& dwell, const DwellExpectation& expected,
+                              const StabilityRule& rule, int a) {
+  if (!(rule.trend_limit_sigmas > 0) || dwell.count < 3) return {};
+  const double ug_per_mps2 = 1e6 / expected.g_local_mps2;
+  const double n = static_cast<double>(dwell.count);
+  const double sigma_ug = dwell.sigma_mps2[a] * ug_per_mps2;
+  const double trend_ug = dwell.trend_mps2[a] * ug_per_mps2;
+  // The sample sigma less the trend's own share (a ramp of height d has variance d^2 / 12).
+  const double residual_var =
+      (sigma_ug * sigma_ug * (n - 1) - trend_ug * trend_ug * n * (n + 1) / (12 * (n - 1))) /
+      (n - 2);
+  const double explained_ug =
+      explained_trend_sigma(std::sqrt(std::max(residual_var, 0.0)), dwell.count, dwell.span_s,
+                            expected.bias_wander_ug, expected.bias_wander_tau_s);
+  if (!(std::abs(trend_ug) > rule.trend_limit_sigmas * explained_ug)) return {};
+  return "axis " + axis_name(a) + " drifted " + number_text(trend_ug) + " µg during the dwell, " +
+         number_text(std::abs(trend_ug) / explained_ug) + " times what its noise explains (" +
+         number_text(explained_ug) + " µg from its sample σ" +
+         (expected.bias_wander_ug > 0 ? std::string(" and the unit's bias wander") : "") +
+         "; limit " + number_text(rule.trend_limit_sigmas) + " times)";
+}
+
+}  // namespace
 
 std::string dwell_problem(const DwellAverage& dwell, const DwellExpectation& expected,
                           const StabilityRule& rule) {
@@ -70,6 +122,8 @@ std::string dwell_problem(const DwellAverage& dwell, const DwellExpectation& exp
       return "axis " + axis_name(a) + " drifted " + number_text(trend_ug) +
              " µg during the dwell (limit " + number_text(rule.trend_limit_ug) + " µg)";
     }
+    if (std::string drift = unexplained_drift(dwell, expected, rule, a); !drift.empty())
+      return drift;
   }
   return {};
 }

@@ -22,6 +22,7 @@ struct DwellAverage {
   std::array<double, 3> trend_mps2{};  // least-squares slope times the dwell's span
   double temp_mean_c = kNoValue;       // NaN when no sample carries a temperature
   std::size_t count = 0;
+  double span_s = 0;  // first to last sample
 };
 
 DwellAverage average_dwell(const std::vector<drivers::AccelSample>& samples);
@@ -33,11 +34,23 @@ struct DwellExpectation {
   double sample_rate_hz = 0;      // the unit's configured rate
   std::uint64_t incomplete = 0;   // frames the unit reported incomplete during the dwell
   double g_local_mps2 = 9.80665;  // µg conversions
+  // The unit's configured Gauss-Markov bias wander (unit.bias_instability_ug / _tau_s): part
+  // of what explains a drift over the dwell.
+  double bias_wander_ug = 0;
+  double bias_wander_tau_s = 300;
 };
+
+// The standard deviation of a dwell's trend (least-squares slope times span) that noise
+// explains: white noise of `residual_sigma` over `n` evenly spaced samples, plus a
+// Gauss-Markov wander of stationary sigma `wander_sigma` and correlation time `tau_s` over
+// `span_s` (same unit as the sigmas).
+double explained_trend_sigma(double residual_sigma, std::size_t n, double span_s,
+                             double wander_sigma, double tau_s);
 
 // Why the dwell is not good enough to keep, in the operator's words, or empty when it is:
 // no sample at all, fewer than `rule.min_sample_fraction` of the expected samples, an axis
-// noisier than `sigma_limit_ug`, or one that drifted more than `trend_limit_ug`.
+// noisier than `sigma_limit_ug`, one that drifted more than `trend_limit_ug`, or (when
+// `trend_limit_sigmas` is set) more than that many times what its noise explains.
 std::string dwell_problem(const DwellAverage& dwell, const DwellExpectation& expected,
                           const StabilityRule& rule);
 

@@ -547,12 +547,12 @@ Sequencer::SampledDwell Sequencer::sample_stable_dwell(const RunRecord& record, 
     }
     (void)hw_.unit->stop();
     d.average = average_dwell(d.samples);
-    const std::string problem =
-        dwell_problem(d.average,
-                      DwellExpectation{hw_.unit->name(), dwell_s, config_.sample_rate_hz,
-                                       hw_.unit->health().incomplete_samples - incomplete_before,
-                                       record.g_local_mps2},
-                      config_.stability);
+    DwellExpectation expected{hw_.unit->name(), dwell_s, config_.sample_rate_hz,
+                              hw_.unit->health().incomplete_samples - incomplete_before,
+                              record.g_local_mps2};
+    expected.bias_wander_ug = config_.unit_bias_instability_ug;
+    expected.bias_wander_tau_s = config_.unit_bias_instability_tau_s;
+    const std::string problem = dwell_problem(d.average, expected, config_.stability);
     if (problem.empty()) return d;
     if (attempt >= config_.stability.remeasure_max) {
       throw RpcError(ErrorCode::hardware_fault,

@@ -131,6 +131,30 @@ TEST_F(Cli, FullVectorFitAddsStandHealth) {
 
 // A unit serial with a newline would inject a header line ("# mount: y") into the
 // recording: the recording writer refuses it, naming the key, and nothing is written.
+// Issue 21: `design compare --bias-instability-ug` proposes revisiting the positions; the
+// plan becomes a programme file the tools and the daemon run.
+TEST_F(Cli, ARevisitPlanIsWrittenAsAProgrammeTheToolsReadBack) {
+  const CliRun planned = run_cli(
+      "design evaluate paper9 --repeat 4 --dwell-s 19.2 --bias-instability-ug 3 --json -o " +
+      path("p.json"));
+  ASSERT_EQ(planned.exit_code, 0) << planned.output;
+  const nlohmann::json plan = nlohmann::json::parse(planned.output);
+  EXPECT_EQ(plan["positions"], 36);
+  const CliRun reread =
+      run_cli("design evaluate " + path("p.json") + " --bias-instability-ug 3 --json");
+  ASSERT_EQ(reread.exit_code, 0) << reread.output;
+  const nlohmann::json again = nlohmann::json::parse(reread.output);
+  EXPECT_EQ(again["program"], "paper9 x4");
+  EXPECT_EQ(again["dwell_s"], plan["dwell_s"]);
+  EXPECT_DOUBLE_EQ(again["bench_time"]["total_s"].get<double>(),
+                   plan["bench_time"]["total_s"].get<double>());
+  EXPECT_DOUBLE_EQ(again["parameters"]["gamma13"]["sigma"].get<double>(),
+                   plan["parameters"]["gamma13"]["sigma"].get<double>());
+  EXPECT_EQ(
+      run_cli("simulate --program " + path("p.json") + " --seed 3 -o " + path("r.csv")).exit_code,
+      0);
+}
+
 TEST_F(Cli, SimulateRefusesAUnitSerialThatWouldInjectAHeaderLine) {
   const CliRun run = run_cli(
       "simulate --program paper9 --dwell-s 1 --unit-serial \"$(printf 'AU\\n# mount: y')\" -o " +

@@ -39,7 +39,7 @@ TEST(DaemonConfig, ReadsEveryGroupOfKeys) {
              "bias_instability_ug": 5, "bias_instability_tau_s": 600},
     "sim": {"time_scale": 10, "seed": 3},
     "run": {"settle_s": 3, "dwell_s": 30, "g_local_mps2": 9.8105, "g_source": "PTB survey 2024",
-            "stability": {"sigma_limit_ug": 500, "remeasure_max": 1},
+            "stability": {"sigma_limit_ug": 500, "remeasure_max": 1, "trend_limit_sigmas": 6},
             "thermal_wait": {"enabled": true, "rate_limit_c_per_min": 0.02}},
     "programs": {"library_dir": "/etc/standcal/programs"}
   })");
@@ -59,6 +59,7 @@ TEST(DaemonConfig, ReadsEveryGroupOfKeys) {
   EXPECT_DOUBLE_EQ(c.unit_bias_instability_tau_s, 600);
   EXPECT_DOUBLE_EQ(c.g_local_mps2, 9.8105);
   EXPECT_EQ(c.stability.remeasure_max, 1);
+  EXPECT_DOUBLE_EQ(c.stability.trend_limit_sigmas, 6);
   EXPECT_TRUE(c.thermal.enabled);
   EXPECT_EQ(c.program_library_dir, "/etc/standcal/programs");
 }

@@ -4,6 +4,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
+
+#include "tests/support/statistical.hpp"
 
 namespace standcal::daemon {
 namespace {
@@ -88,6 +91,76 @@ TEST(DwellStability, EachReasonIsNamedInTheOperatorsWords) {
   // The limits are the rule's.
   rule.trend_limit_ug = 3000;
   EXPECT_EQ(dwell_problem(average_dwell(dwell_samples(1000, 100, 0, 2500 * kUgMps2)),
+                          expect(10, 100), rule),
+            "");
+}
+
+// `n` samples at `rate_hz`, each axis white with sigma `white_ug` plus a Gauss-Markov wander
+// (`wander_ug`, `tau_s`), started stationary; y also rises by `rise_y_ug` over the dwell.
+std::vector<drivers::AccelSample> noisy_dwell(int n, double rate_hz, double white_ug,
+                                              double wander_ug, double tau_s, double rise_y_ug,
+                                              std::mt19937_64& rng) {
+  std::normal_distribution<double> gauss(0, 1);
+  const double phi = std::exp(-1 / (rate_hz * tau_s));
+  const double drive = wander_ug * std::sqrt(1 - phi * phi);
+  std::array<double, 3> b{wander_ug * gauss(rng), wander_ug * gauss(rng), wander_ug * gauss(rng)};
+  std::vector<drivers::AccelSample> s;
+  for (int i = 0; i < n; ++i) {
+    drivers::AccelSample x;
+    x.t_s = 1000 + i / rate_hz;
+    for (int a = 0; a < 3; ++a) {
+      b[a] = phi * b[a] + drive * gauss(rng);
+      x.force_mps2[a] = (a == 2 ? kG : 0.0) + (b[a] + white_ug * gauss(rng)) * kUgMps2;
+    }
+    x.force_mps2[1] += rise_y_ug * kUgMps2 * i / (n - 1.0);
+    s.push_back(x);
+  }
+  return s;
+}
+
+// The trend the noise explains is the scatter of the trends of simulated dwells: 2000
+// dwells of 500 samples at 50 Hz (the sd of a sample sd of 2000 is 1.6 %: 5 % holds).
+TEST(DwellStability, TheExplainedTrendIsTheScatterOfSimulatedDwellsTrends) {
+  STANDCAL_STATISTICAL_TEST();
+  std::mt19937_64 rng(31);
+  for (const double wander_ug : {0.0, 40.0}) {
+    constexpr int kDwells = 2000, kSamples = 500;
+    constexpr double kRateHz = 50, kWhiteUg = 50, kTauS = 30;
+    double sum_sq = 0;
+    for (int k = 0; k < kDwells; ++k) {
+      const auto d =
+          average_dwell(noisy_dwell(kSamples, kRateHz, kWhiteUg, wander_ug, kTauS, 0, rng));
+      sum_sq += std::pow(d.trend_mps2[0] / kUgMps2, 2);
+    }
+    const double span_s = (kSamples - 1) / kRateHz;
+    const double predicted = explained_trend_sigma(kWhiteUg, kSamples, span_s, wander_ug, kTauS);
+    EXPECT_NEAR(std::sqrt(sum_sq / kDwells) / predicted, 1.0, 0.05) << "wander " << wander_ug;
+  }
+  // A wander slow against the dwell drifts it as a random walk: 12 q^2 T / (5 tau).
+  EXPECT_NEAR(explained_trend_sigma(0, 1000, 10, 40, 3000),
+              std::sqrt(12 * 40.0 * 40.0 * 10 / (5 * 3000)), 0.02 * std::sqrt(12 * 1600.0 / 1500));
+}
+
+// With trend_limit_sigmas set, a drift the noise cannot explain is re-measured; the unit's
+// configured wander is part of what explains one.
+TEST(DwellStability, ADriftBeyondWhatTheNoiseExplainsIsReMeasuredWhenTheRuleAsks) {
+  std::mt19937_64 rng(5);
+  // 100 ug white over 1000 samples explains about 11 ug of drift; y drifts 100 ug.
+  const DwellAverage drifting = average_dwell(noisy_dwell(1000, 100, 100, 0, 300, 100, rng));
+  StabilityRule rule;
+  EXPECT_EQ(dwell_problem(drifting, expect(10, 100), rule), "") << "off unless asked for";
+  rule.trend_limit_sigmas = 6;
+  const std::string problem = dwell_problem(drifting, expect(10, 100), rule);
+  ASSERT_EQ(problem.rfind("axis y drifted ", 0), 0u) << problem;
+  EXPECT_NE(problem.find("times what its noise explains"), std::string::npos) << problem;
+  EXPECT_NE(problem.find("limit 6 times"), std::string::npos) << problem;
+  // The same dwell from a unit configured with a 100 ug wander of 60 s: explained.
+  DwellExpectation wandering = expect(10, 100);
+  wandering.bias_wander_ug = 100;
+  wandering.bias_wander_tau_s = 60;
+  EXPECT_EQ(dwell_problem(drifting, wandering, rule), "");
+  // A quiet dwell is kept.
+  EXPECT_EQ(dwell_problem(average_dwell(noisy_dwell(1000, 100, 100, 0, 300, 0, rng)),
                           expect(10, 100), rule),
             "");
 }

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <functional>
 #include <future>
 #include <memory>
 #include <mutex>
@@ -14,6 +15,7 @@
 #include "calib/recording.hpp"
 #include "daemon/standcald/hardware.hpp"
 #include "protocol/jsonrpc/jsonrpc.hpp"
+#include "protocol/jsonrpc/methods.hpp"
 #include "tests/support/temp_dir.hpp"
 
 namespace standcal::daemon {
@@ -24,8 +26,10 @@ using protocol::ErrorCode;
 
 class InProcessSequencer {
  public:
-  explicit InProcessSequencer(double time_scale)
-      : config_(sim_config(dir_.file("unused.sock"), dir_.file("state"), time_scale)),
+  explicit InProcessSequencer(double time_scale,
+                              const std::function<void(DaemonConfig&)>& adjust = {})
+      : config_(
+            adjusted(sim_config(dir_.file("unused.sock"), dir_.file("state"), time_scale), adjust)),
         store_(config_.state_dir),
         sequencer_(config_, make_hardware(config_), store_,
                    [this](const std::string& event, const json& params) {
@@ -72,6 +76,11 @@ class InProcessSequencer {
   Sequencer& sequencer() { return sequencer_; }
 
  private:
+  static DaemonConfig adjusted(DaemonConfig c, const std::function<void(DaemonConfig&)>& adjust) {
+    if (adjust) adjust(c);
+    return c;
+  }
+
   test::TempDir dir_{"standcal-sequencer"};
   DaemonConfig config_;
   RunStore store_;
@@ -138,6 +147,36 @@ TEST(SequencerInProcess, APaper9RunEndsDoneWithItsTimesOnTheStandsClock) {
   EXPECT_EQ(result["traceability"]["run_id"], id);
   EXPECT_EQ(result["traceability"]["unit_serial"], "SEQ-1");
   EXPECT_TRUE(result["parameters"].is_object() && !result["parameters"].empty()) << result.dump();
+}
+
+// Issue 21: the noise-model drift rule is the sequencer's. Asked for at 6 times what the
+// noise explains, the simulated unit's dwells are kept; asked for at a thousandth, no dwell
+// can be, and the run faults saying why after its re-measurements.
+TEST(SequencerInProcess, TheDriftRuleAgainstTheNoiseDecidesTheReMeasurements) {
+  const json start{
+      {"program", "paper9"}, {"unit_serial", "SEQ-2"}, {"dwell_s", 4}, {"settle_s", 1}};
+  {
+    InProcessSequencer s(100, [](DaemonConfig& c) { c.stability.trend_limit_sigmas = 6; });
+    const Outcome started = s.call("run.start", start);
+    ASSERT_EQ(started.error_code, 0) << started.error_message;
+    const json done = s.wait_run(started.result["run_id"],
+                                 [](const json& st) { return st["state"] != "running"; });
+    EXPECT_EQ(done["state"], "done") << done.dump();
+    EXPECT_EQ(s.count_events(protocol::event::fault), 0u)
+        << "a dwell was re-measured for noise alone";
+  }
+  InProcessSequencer s(100, [](DaemonConfig& c) {
+    c.stability.trend_limit_sigmas = 1e-3;
+    c.stability.remeasure_max = 1;
+  });
+  const Outcome started = s.call("run.start", start);
+  ASSERT_EQ(started.error_code, 0) << started.error_message;
+  const json faulted =
+      s.wait_run(started.result["run_id"], [](const json& st) { return st["state"] != "running"; });
+  EXPECT_EQ(faulted["state"], "faulted") << faulted.dump();
+  EXPECT_NE(faulted.dump().find("times what its noise explains"), std::string::npos)
+      << faulted.dump();
+  EXPECT_EQ(s.count_events(protocol::event::fault), 2u) << "one re-measurement, then the fault";
 }
 
 // An emergency stop acts at once, and its answer waits until the run it interrupted is

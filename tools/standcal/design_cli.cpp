@@ -41,6 +41,8 @@ struct DesignFlags {
 struct EvaluateOptions {
   DesignFlags flags;
   std::string program;
+  int repeat = 1;
+  std::string program_out;
 };
 
 struct OptimizeCliOptions {
@@ -191,13 +193,24 @@ void print_json(const json& j) { std::cout << j.dump(2) << "\n"; }
 
 // ---- evaluate ------------------------------------------------------------------------
 
+// The programme with each position's dwell written out, as `standcal run start` and the
+// daemon's programme library read it.
+void write_timed_program(const Program& program, const std::vector<double>& dwell_s,
+                         const std::string& path) {
+  Program timed = program;
+  for (std::size_t k = 0; k < timed.positions.size() && k < dwell_s.size(); ++k)
+    timed.positions[k].dwell_s = dwell_s[k];
+  write_file_atomically(path, program_to_json(timed).dump(2) + "\n", "the programme");
+}
+
 void run_evaluate(const EvaluateOptions& o) {
   DesignSettings settings = o.flags.settings;
   settings.mounting = parse_mounting(o.flags.mounting);
-  const Program program = load_program(o.program);
+  const Program program = repeated_program(load_program(o.program), o.repeat);
   std::string model_note;
   const DesignModel model = choose_model(program, o.flags.model, model_note);
   const DesignEvaluation ev = evaluate_design(program, model, settings);
+  if (!o.program_out.empty()) write_timed_program(program, ev.dwell_s, o.program_out);
 
   json params = json::object();
   for (int i = 0; i < kUnitParameterCount; ++i) {
@@ -282,6 +295,8 @@ void run_evaluate(const EvaluateOptions& o) {
     std::printf("\nunobservable and constrained:\n");
     for (const auto& n : notes) std::printf("  - %s\n", n.c_str());
   }
+  if (!o.program_out.empty())
+    std::printf("\nprogramme with its dwells written to %s\n", o.program_out.c_str());
 }
 
 // ---- optimize / compare --------------------------------------------------------------
@@ -433,12 +448,8 @@ void run_optimize(const OptimizeCliOptions& o) {
   // det^(1/9) grows with the number of positions; dividing by it compares like with like.
   const double per_position_gain = gain * static_cast<double>(paper9().positions.size()) /
                                    static_cast<double>(best.program.positions.size());
-  if (!o.program_out.empty()) {
-    Program timed = best.program;
-    for (std::size_t k = 0; k < timed.positions.size() && k < dwell.allocated.dwell_s.size(); ++k)
-      timed.positions[k].dwell_s = dwell.allocated.dwell_s[k];
-    write_file_atomically(o.program_out, program_to_json(timed).dump(2) + "\n", "the programme");
-  }
+  if (!o.program_out.empty())
+    write_timed_program(best.program, dwell.allocated.dwell_s, o.program_out);
   if (o.flags.json) {
     json positions = json::array();
     for (std::size_t k = 0; k < best.program.positions.size(); ++k) {
@@ -535,6 +546,10 @@ void run_compare(const CompareOptions& o) {
   std::printf(
       "(bench= / bench~: total bench time with equal / allocated dwells, moves, settle and "
       "re-mounts)\n");
+  if (settings.wander())
+    std::printf(
+        "(a revisit plan as a programme file: standcal design evaluate PROGRAMME --repeat N "
+        "--dwell-s S -o FILE)\n");
 }
 
 // ---- noise ---------------------------------------------------------------------------
@@ -618,6 +633,14 @@ void add_design_commands(CLI::App& app) {
                    "dwell per position unless the programme says")
       ->check(cli_checks::kPositive)
       ->capture_default_str();
+  evaluate
+      ->add_option("--repeat", ev->repeat,
+                   "visit the programme's positions this many times in a row (see `design "
+                   "compare --bias-instability-ug`)")
+      ->check(CLI::Range(1, 100))
+      ->capture_default_str();
+  evaluate->add_option("-o,--program-out", ev->program_out,
+                       "write the programme evaluated (repeats and dwells included) as JSON");
   add_design_flags(evaluate, ev->flags);
   evaluate->callback([ev] { run_evaluate(*ev); });
 
