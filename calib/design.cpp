@@ -277,9 +277,11 @@ double wander_mean_covariance(const DwellWindow& a, const DwellWindow& b, double
     if (xa < 1e-4) return 1 - xa / 3;
     return 2 * (xa + std::expm1(-xa)) / (xa * xa);
   }
+  if (second.start_s < first.start_s + first.length_s)
+    throw std::invalid_argument("wander_mean_covariance: dwell windows that partly overlap");
   // Disjoint windows: each mean sees the process through (1 - e^-x) / x, the gap as e^-gap.
   const auto through = [](double x) { return x < 1e-8 ? 1.0 : -std::expm1(-x) / x; };
-  const double gap_s = std::max(0.0, second.start_s - (first.start_s + first.length_s));
+  const double gap_s = second.start_s - (first.start_s + first.length_s);
   return through(xa) * through(xb) * std::exp(-gap_s / tau_s);
 }
 
@@ -500,8 +502,11 @@ DwellPlan allocated_dwell_for_target(const DesignBasis& basis, const AccuracyTar
 namespace {
 
 // The least scale s (a dwell or a total) whose target load is at most 1: a geometric scan
-// from lo, then bisection in log s between the last scan point that fails and the first
-// that meets it. Without such an s up to hi, the best load the scan saw.
+// from lo to hi, then bisection in log s between the last scan point that fails and the
+// first that meets it. Without such an s up to hi, the best load the scan saw. Under wander
+// the load need not fall monotonically with the dwell (neighbouring dwells decorrelate as
+// they lengthen), so a dwell found always meets the target, and is the least one to the
+// scan's resolution (a factor 1.25) rather than provably the least.
 struct DwellSearch {
   bool found = false;
   double s = 0;
@@ -514,7 +519,7 @@ DwellSearch least_scale_meeting(const std::function<TargetLoad(double)>& load_at
   DwellSearch best;
   best.load.worst = std::numeric_limits<double>::infinity();
   double failing = 0;
-  for (double s = lo; s <= hi; s *= kStep) {
+  for (double s = lo;; s = std::min(s * kStep, hi)) {
     const TargetLoad load = load_at(s);
     if (load.worst <= 1) {
       best = {true, s, load};
@@ -522,6 +527,7 @@ DwellSearch least_scale_meeting(const std::function<TargetLoad(double)>& load_at
     }
     failing = s;
     if (load.worst < best.load.worst) best = {false, s, load};
+    if (s >= hi) break;  // hi itself is tried: a floor is stated for the whole range
   }
   if (!best.found || failing == 0) return best;
   for (int it = 0; it < 40 && best.s / failing > 1 + 1e-4; ++it) {
@@ -579,6 +585,11 @@ DwellPlan plan_under_wander(const DesignBasis& basis, const Program& program,
         return load_of(basis, t, scheduled_information(basis, program, settings, dwells(scale)));
       },
       kLeastDwellS * per_position, kLongestDwellS * per_position);
+  if (search.load.worst_parameter < 0) {  // every load the search saw was NaN
+    plan.feasible = false;
+    plan.reason = "the predicted sigmas are not finite for this programme and noise";
+    return plan;
+  }
   plan.limiting_parameter = std::string(kUnitParameterNames[search.load.worst_parameter]);
   if (!search.found) {
     plan.feasible = false;

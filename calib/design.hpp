@@ -91,7 +91,9 @@ std::vector<DwellWindow> dwell_windows(const Program& program, const DesignSetti
 
 // Covariance of the means of two dwells under a Gauss-Markov process of unit variance and
 // correlation time tau: the exact average over both windows (a dwell long against tau
-// averages its own wander down, which the point-in-time approximation would miss).
+// averages its own wander down, which the point-in-time approximation would miss). The
+// windows are one and the same or disjoint, as a schedule's dwells are; throws
+// std::invalid_argument for windows that partly overlap.
 double wander_mean_covariance(const DwellWindow& a, const DwellWindow& b, double tau_s);
 
 // The information of a programme's dwell means for `dwell_s` (programme order), white noise

@@ -6,6 +6,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "calib/distributions.hpp"
 #include "calib/identifiability.hpp"
 #include "calib/parameters.hpp"
 #include "calib/units.hpp"
@@ -486,6 +487,8 @@ FitNoiseChoice white_fit_and_noise(WeightedProblem& problem, Eigen::VectorXd& q,
 
 }  // namespace
 
+constexpr double kModelMisfitP = 1e-3;  // P of the noise model's own bar for a finding
+
 std::optional<FitNoiseChoice> full_vector_noise_choice(
     const std::vector<PositionAverage>& positions, const FitNoiseOptions& noise) {
   FullFitOptions options;
@@ -495,7 +498,19 @@ std::optional<FitNoiseChoice> full_vector_noise_choice(
     WeightedProblem problem{in.layout, in.obs, in.poses, in.measured, in.sigmas, {}, {}};
     problem.noise_rows = full_vector_noise_rows(positions, options.sigma_floor_g);
     Eigen::VectorXd q;
-    return white_fit_and_noise(problem, q, positions, options);
+    const FitNoiseChoice choice = white_fit_and_noise(problem, q, positions, options);
+    if (choice.noise.white()) return choice;
+    // The model check of the fit under that noise: a full-vector model that does not fit
+    // these means (a stand error it leaves out, a re-mount it takes as rigid) would pass its
+    // misfit off as wander, so its estimate is not offered.
+    problem.noise = choice.noise;
+    q = solve_levenberg_marquardt(problem, options.max_iterations);
+    WeightedProblem check = problem;
+    check.noise = choice.check_noise;
+    const int dof = static_cast<int>(3 * positions.size() - in.obs.kept.size()) - choice.parameters;
+    if (dof > 0 && chi_square_upper_tail(check.residuals(q).squaredNorm(), dof) < kModelMisfitP)
+      return std::nullopt;
+    return choice;
   } catch (const CannotFit&) {
     return std::nullopt;
   }

@@ -116,7 +116,8 @@ FitResult fit_full_vector(const std::vector<PositionAverage>& positions,
 // The noise model the full-vector fit of these dwell means weights with, chosen from its
 // white fit's residuals (three rows per position): for an estimator that sees one row per
 // position of the same dwells (the invariant fit) and pins the wander poorly from those.
-// Nullopt when the full-vector model cannot be fitted to this programme.
+// Nullopt when the full-vector model cannot be fitted to this programme, or does not fit
+// these means under the noise it chose (chi-square at P < 1e-3): its misfit is not noise.
 std::optional<FitNoiseChoice> full_vector_noise_choice(
     const std::vector<PositionAverage>& positions, const FitNoiseOptions& noise);
 

@@ -42,50 +42,52 @@ DwellAverage average_dwell(const std::vector<drivers::AccelSample>& s) {
     out.mean_mps2[a] = mean;
     out.sigma_mps2[a] = s.size() > 1 ? std::sqrt(var / (n - 1)) : 0.0;
     out.trend_mps2[a] = stt > 0 ? sty / stt * span : 0.0;  // least-squares slope x dwell
+    if (s.size() > 2 && stt > 0)
+      out.residual_sigma_mps2[a] = std::sqrt(std::max(var - sty * sty / stt, 0.0) / (n - 2));
+    if (a == 0 && stt > 0) out.trend_gain = span / std::sqrt(stt);
   }
   return out;
 }
 
-double explained_trend_sigma(double residual_sigma, std::size_t n, double span_s,
-                             double wander_sigma, double tau_s) {
-  if (n < 3) return std::numeric_limits<double>::infinity();
-  const double samples = static_cast<double>(n);
-  // White: span^2 / sum (t - mean t)^2 = 12 (n - 1) / (n (n + 1)) for even spacing.
-  double variance =
-      residual_sigma * residual_sigma * 12 * (samples - 1) / (samples * (samples + 1));
-  if (wander_sigma > 0 && tau_s > 0 && span_s > 0) {
-    // 144 q^2 I(x), I(x) = double integral over [0, 1]^2 of (u - 1/2)(v - 1/2) e^(-x |u - v|)
-    // (x = span / tau; I ~ x / 60 for a wander slow against the dwell), by the midpoint rule.
-    constexpr int kSteps = 256;
-    const double x = span_s / tau_s, h = 1.0 / kSteps;
-    double integral = 0;
-    for (int i = 0; i < kSteps; ++i)
-      for (int j = 0; j < kSteps; ++j)
-        integral +=
-            ((i + 0.5) * h - 0.5) * ((j + 0.5) * h - 0.5) * std::exp(-x * std::abs(i - j) * h);
-    variance += 144 * wander_sigma * wander_sigma * integral * h * h;
-  }
-  return std::sqrt(variance);
+double wander_trend_sigma(double span_s, double wander_sigma, double tau_s) {
+  if (!(wander_sigma > 0 && tau_s > 0 && span_s > 0)) return 0;
+  // 144 q^2 I(x), x = span / tau, I(x) = the double integral over [0, 1]^2 of
+  // (u - 1/2)(v - 1/2) e^(-x |u - v|) = 2 int_0^1 e^(-x d) g(d) dd with
+  // g(d) = ((1/2 - d)^3 + 1/8) / 3 + d (d^2 - d) / 2 (the weights' overlap at lag d), by
+  // Simpson's rule on a grid fine against 1 / x.
+  const double x = span_s / tau_s;
+  const auto g = [](double d) {
+    const double c = 0.5 - d;
+    return (c * c * c + 0.125) / 3 + d * (d * d - d) / 2;
+  };
+  const int steps = 2 * static_cast<int>(std::min(1e6, 500 + 16 * std::ceil(x)));
+  const double h = 1.0 / steps;
+  double sum = g(0) + std::exp(-x) * g(1);
+  for (int i = 1; i < steps; ++i) sum += (i % 2 == 1 ? 4 : 2) * std::exp(-x * i * h) * g(i * h);
+  const double integral = 2 * sum * h / 3;
+  return wander_sigma * std::sqrt(std::max(144 * integral, 0.0));
+}
+
+double explained_trend_sigma_mps2(const DwellAverage& dwell, int axis, double wander_sigma_mps2,
+                                  double tau_s) {
+  return std::hypot(dwell.residual_sigma_mps2[axis] * dwell.trend_gain,
+                    wander_trend_sigma(dwell.span_s, wander_sigma_mps2, tau_s));
 }
 
 namespace {
 
-// The drift of axis `a` against what its noise explains, or empty when within the rule.
+// The drift of axis `a` against what its noise explains, or empty when within the rule
+// (or when nothing explains any drift: a dwell without noise cannot be judged so).
 std::string unexplained_drift(const DwellAverage& dwell, const DwellExpectation& expected,
-                              const StabilityRule& rule, int a) {
+                              const StabilityRule& rule, int a, double ug_per_mps2) {
   if (!(rule.trend_limit_sigmas > 0) || dwell.count < 3) return {};
-  const double ug_per_mps2 = 1e6 / expected.g_local_mps2;
-  const double n = static_cast<double>(dwell.count);
-  const double sigma_ug = dwell.sigma_mps2[a] * ug_per_mps2;
   const double trend_ug = dwell.trend_mps2[a] * ug_per_mps2;
-  // The sample sigma less the trend's own share (a ramp of height d has variance d^2 / 12).
-  const double residual_var =
-      (sigma_ug * sigma_ug * (n - 1) - trend_ug * trend_ug * n * (n + 1) / (12 * (n - 1))) /
-      (n - 2);
   const double explained_ug =
-      explained_trend_sigma(std::sqrt(std::max(residual_var, 0.0)), dwell.count, dwell.span_s,
-                            expected.bias_wander_ug, expected.bias_wander_tau_s);
-  if (!(std::abs(trend_ug) > rule.trend_limit_sigmas * explained_ug)) return {};
+      explained_trend_sigma_mps2(dwell, a, expected.bias_wander_ug / ug_per_mps2,
+                                 expected.bias_wander_tau_s) *
+      ug_per_mps2;
+  if (!(explained_ug > 0) || !(std::abs(trend_ug) > rule.trend_limit_sigmas * explained_ug))
+    return {};
   return "axis " + axis_name(a) + " drifted " + number_text(trend_ug) + " µg during the dwell, " +
          number_text(std::abs(trend_ug) / explained_ug) + " times what its noise explains (" +
          number_text(explained_ug) + " µg from its sample σ" +
@@ -122,7 +124,8 @@ std::string dwell_problem(const DwellAverage& dwell, const DwellExpectation& exp
       return "axis " + axis_name(a) + " drifted " + number_text(trend_ug) +
              " µg during the dwell (limit " + number_text(rule.trend_limit_ug) + " µg)";
     }
-    if (std::string drift = unexplained_drift(dwell, expected, rule, a); !drift.empty())
+    if (std::string drift = unexplained_drift(dwell, expected, rule, a, ug_per_mps2);
+        !drift.empty())
       return drift;
   }
   return {};

@@ -23,6 +23,12 @@ struct DwellAverage {
   double temp_mean_c = kNoValue;       // NaN when no sample carries a temperature
   std::size_t count = 0;
   double span_s = 0;  // first to last sample
+  // Sample standard deviation about the least-squares line (n - 2): the dwell's noise
+  // without its drift.
+  std::array<double, 3> residual_sigma_mps2{};
+  // The trend's standard deviation per unit white-noise sigma: span / sqrt(sum (t - mean
+  // t)^2), from the samples' own times (sqrt(12 (n - 1) / (n (n + 1))) when evenly spaced).
+  double trend_gain = 0;
 };
 
 DwellAverage average_dwell(const std::vector<drivers::AccelSample>& samples);
@@ -40,12 +46,16 @@ struct DwellExpectation {
   double bias_wander_tau_s = 300;
 };
 
-// The standard deviation of a dwell's trend (least-squares slope times span) that noise
-// explains: white noise of `residual_sigma` over `n` evenly spaced samples, plus a
-// Gauss-Markov wander of stationary sigma `wander_sigma` and correlation time `tau_s` over
-// `span_s` (same unit as the sigmas).
-double explained_trend_sigma(double residual_sigma, std::size_t n, double span_s,
-                             double wander_sigma, double tau_s);
+// The standard deviation of the trend (least-squares slope times span) that a Gauss-Markov
+// wander of stationary sigma `wander_sigma` and correlation time `tau_s` gives a dwell of
+// `span_s` (same unit as the sigma): 12 q^2 T / (5 tau) for a wander slow against the dwell,
+// 24 q^2 tau / T for a fast one.
+double wander_trend_sigma(double span_s, double wander_sigma, double tau_s);
+
+// What noise explains of axis `axis`'s trend: its residual white noise through the trend
+// gain, and the wander (same unit as `wander_sigma_mps2`).
+double explained_trend_sigma_mps2(const DwellAverage& dwell, int axis, double wander_sigma_mps2,
+                                  double tau_s);
 
 // Why the dwell is not good enough to keep, in the operator's words, or empty when it is:
 // no sample at all, fewer than `rule.min_sample_fraction` of the expected samples, an axis

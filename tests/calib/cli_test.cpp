@@ -129,8 +129,6 @@ TEST_F(Cli, FullVectorFitAddsStandHealth) {
   EXPECT_FALSE(j["stand"].empty());
 }
 
-// A unit serial with a newline would inject a header line ("# mount: y") into the
-// recording: the recording writer refuses it, naming the key, and nothing is written.
 // Issue 21: `design compare --bias-instability-ug` proposes revisiting the positions; the
 // plan becomes a programme file the tools and the daemon run.
 TEST_F(Cli, ARevisitPlanIsWrittenAsAProgrammeTheToolsReadBack) {
@@ -155,6 +153,8 @@ TEST_F(Cli, ARevisitPlanIsWrittenAsAProgrammeTheToolsReadBack) {
       0);
 }
 
+// A unit serial with a newline would inject a header line ("# mount: y") into the
+// recording: the recording writer refuses it, naming the key, and nothing is written.
 TEST_F(Cli, SimulateRefusesAUnitSerialThatWouldInjectAHeaderLine) {
   const CliRun run = run_cli(
       "simulate --program paper9 --dwell-s 1 --unit-serial \"$(printf 'AU\\n# mount: y')\" -o " +

@@ -126,19 +126,36 @@ TEST(DwellStability, TheExplainedTrendIsTheScatterOfSimulatedDwellsTrends) {
   for (const double wander_ug : {0.0, 40.0}) {
     constexpr int kDwells = 2000, kSamples = 500;
     constexpr double kRateHz = 50, kWhiteUg = 50, kTauS = 30;
-    double sum_sq = 0;
+    double sum_sq = 0, gain = 0;
     for (int k = 0; k < kDwells; ++k) {
       const auto d =
           average_dwell(noisy_dwell(kSamples, kRateHz, kWhiteUg, wander_ug, kTauS, 0, rng));
       sum_sq += std::pow(d.trend_mps2[0] / kUgMps2, 2);
+      gain = d.trend_gain;
     }
+    EXPECT_NEAR(gain, std::sqrt(12.0 * (kSamples - 1) / (kSamples * (kSamples + 1.0))), 1e-9);
     const double span_s = (kSamples - 1) / kRateHz;
-    const double predicted = explained_trend_sigma(kWhiteUg, kSamples, span_s, wander_ug, kTauS);
+    const double predicted =
+        std::hypot(kWhiteUg * gain, wander_trend_sigma(span_s, wander_ug, kTauS));
     EXPECT_NEAR(std::sqrt(sum_sq / kDwells) / predicted, 1.0, 0.05) << "wander " << wander_ug;
   }
-  // A wander slow against the dwell drifts it as a random walk: 12 q^2 T / (5 tau).
-  EXPECT_NEAR(explained_trend_sigma(0, 1000, 10, 40, 3000),
-              std::sqrt(12 * 40.0 * 40.0 * 10 / (5 * 3000)), 0.02 * std::sqrt(12 * 1600.0 / 1500));
+  // A wander slow against the dwell drifts it as a random walk, 12 q^2 T / (5 tau); a fast
+  // one is white noise of density 2 q^2 tau, 24 q^2 tau / T. (A 256-step midpoint rule
+  // gave the fast case 1.4 times the variance.)
+  EXPECT_NEAR(wander_trend_sigma(10, 40, 3000), std::sqrt(12 * 40.0 * 40.0 * 10 / (5 * 3000)),
+              0.01 * std::sqrt(12 * 1600.0 / 1500));
+  EXPECT_NEAR(wander_trend_sigma(600, 40, 1), std::sqrt(24 * 1600.0 / 600), 0.01 * 8);
+  EXPECT_EQ(wander_trend_sigma(600, 0, 1), 0);
+}
+
+// A dwell whose samples carry no noise gives no measure to judge its drift against: the
+// rule keeps it (the absolute trend limit still applies).
+TEST(DwellStability, ANoiseFreeDwellIsNotJudgedAgainstItsNoise) {
+  StabilityRule rule;
+  rule.trend_limit_sigmas = 6;
+  EXPECT_EQ(dwell_problem(average_dwell(dwell_samples(1000, 100, 0, 100 * kUgMps2)),
+                          expect(10, 100), rule),
+            "");
 }
 
 // With trend_limit_sigmas set, a drift the noise cannot explain is re-measured; the unit's

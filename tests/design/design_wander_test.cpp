@@ -189,15 +189,24 @@ double worst_sigma_over_target(const Program& program, const std::vector<double>
   return worst;
 }
 
-TEST(DesignDwell, WithoutWanderTheScheduledPlansAreTheWhiteOnes) {
+// A wander of 1e-9 ug takes the searched path; its plans are the white ones (which scale
+// one closed-form load) to the search's resolution.
+TEST(DesignDwell, AVanishingWandersSearchedPlansAreTheWhiteOnes) {
   const Program program = paper9();
   const DesignBasis basis = design_basis(poses_of(program), DesignModel::invariant);
   const AccuracyTarget target;
-  const DesignSettings settings;
-  EXPECT_EQ(equal_dwell_for_target(basis, program, target, settings).dwell_s,
-            equal_dwell_for_target(basis, target, settings).dwell_s);
-  EXPECT_EQ(allocated_dwell_for_target(basis, program, target, settings).dwell_s,
-            allocated_dwell_for_target(basis, target, settings).dwell_s);
+  const DesignSettings white;
+  DesignSettings faint = white;
+  faint.bias_instability_ug = 1e-9;
+  const DwellPlan equal_white = equal_dwell_for_target(basis, target, white);
+  const DwellPlan equal_faint = equal_dwell_for_target(basis, program, target, faint);
+  ASSERT_TRUE(equal_faint.feasible) << equal_faint.reason;
+  EXPECT_NEAR(equal_faint.dwell_s.front() / equal_white.dwell_s.front(), 1, 2e-4);
+  EXPECT_EQ(equal_faint.limiting_parameter, equal_white.limiting_parameter);
+  const DwellPlan allocated_white = allocated_dwell_for_target(basis, target, white);
+  const DwellPlan allocated_faint = allocated_dwell_for_target(basis, program, target, faint);
+  ASSERT_TRUE(allocated_faint.feasible) << allocated_faint.reason;
+  EXPECT_NEAR(allocated_faint.total_dwell_s / allocated_white.total_dwell_s, 1, 2e-4);
 }
 
 // Issue 21: "revisiting positions and shorter dwells can beat long ones when the noise is

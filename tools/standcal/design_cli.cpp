@@ -23,6 +23,7 @@
 #include "report/noise/allan_figure.hpp"
 #include "tools/cli_checks.hpp"
 #include "tools/standcal/commands.hpp"
+#include "tools/standcal/input_options.hpp"
 #include "tools/standcal/threaded_rows.hpp"
 
 namespace standcal::cli {
@@ -75,15 +76,8 @@ void add_design_flags(CLI::App* cmd, DesignFlags& f) {
                   "white noise density of the unit, ug/sqrt(Hz) (see `standcal noise`)")
       ->check(cli_checks::kPositive)
       ->capture_default_str();
-  cmd->add_option("--bias-instability-ug", f.settings.bias_instability_ug,
-                  "the unit's Gauss-Markov bias wander (steady-state sigma per axis, ug; see "
-                  "`standcal fit`'s noise report); 0: white noise only")
-      ->check(cli_checks::kNonNegative)
-      ->capture_default_str();
-  cmd->add_option("--bias-instability-tau-s", f.settings.bias_instability_tau_s,
-                  "its correlation time, s")
-      ->check(cli_checks::kPositive)
-      ->capture_default_str();
+  add_wander_options(cmd, f.settings.bias_instability_ug, f.settings.bias_instability_tau_s,
+                     "shared by dwell means close in time; 0: white noise only");
   cmd->add_option("--settle-s", f.settings.settle_s, "settle time per position, s")
       ->check(cli_checks::kNonNegative)
       ->capture_default_str();
@@ -316,6 +310,7 @@ struct ProgrammeDwell {
   BenchTime equal_time, allocated_time;
   // With bias wander: of the programme visited 1 .. max_repeats times, the one that meets
   // the target in the least bench time (none when no pass count does).
+  bool revisits_tried = false;
   std::optional<Revisit> best_revisit;
 };
 
@@ -345,7 +340,8 @@ ProgrammeDwell dwell_for(const Program& program, const std::string& requested_mo
   d.allocated = allocated_dwell_for_target(basis, program, target, settings);
   if (d.equal.feasible) d.equal_time = bench_time(program, settings, d.equal.dwell_s);
   if (d.allocated.feasible) d.allocated_time = bench_time(program, settings, d.allocated.dwell_s);
-  if (settings.wander() && max_repeats > 1)
+  d.revisits_tried = settings.wander() && max_repeats > 1;
+  if (d.revisits_tried)
     d.best_revisit = best_revisit(program, d.model, target, settings, max_repeats);
   return d;
 }
@@ -362,7 +358,7 @@ json revisit_json(const std::optional<Revisit>& r) {
 json dwell_json(const ProgrammeDwell& d) {
   json j = {{"program", d.name}, {"model", design_model_name(d.model)}};
   if (!d.note.empty()) j["note"] = d.note;
-  if (d.best_revisit || !d.equal.feasible) j["best_revisit"] = revisit_json(d.best_revisit);
+  if (d.revisits_tried) j["best_revisit"] = revisit_json(d.best_revisit);
   if (!d.equal.feasible) {
     j["feasible"] = false;
     j["reason"] = d.equal.reason;
@@ -387,8 +383,10 @@ void print_revisit(const ProgrammeDwell& d) {
     return;
   }
   const Revisit& r = *d.best_revisit;
+  // Rounded up: a dwell given as printed still meets the target.
+  const double per_visit_s = std::ceil(r.equal.dwell_s.front() * 10) / 10;
   std::printf("  %-28s %-9s revisited x%d: %.1f s per visit, %.1f s total dwell, bench %.0f s%s\n",
-              "", "", r.times, r.equal.dwell_s.front(), r.equal.total_dwell_s, r.time.total_s(),
+              "", "", r.times, per_visit_s, r.equal.total_dwell_s, r.time.total_s(),
               r.times == 1 ? " (one pass is best)" : "");
 }
 
@@ -406,7 +404,7 @@ void print_dwell_row(const ProgrammeDwell& d) {
                 d.equal.limiting_parameter.c_str(), d.allocated.total_dwell_s,
                 d.equal_time.total_s(), d.allocated_time.total_s());
   }
-  if (d.best_revisit || !d.equal.feasible) print_revisit(d);
+  if (d.revisits_tried) print_revisit(d);
 }
 
 void print_dwell_header(const AccuracyTarget& t, const DesignSettings& s) {

@@ -15,7 +15,6 @@
 #include "calib/simulator.hpp"
 #include "calib/units.hpp"
 #include "report/diagnosis/diagnosis_report.hpp"
-#include "tools/cli_checks.hpp"
 #include "tools/standcal/commands.hpp"
 #include "tools/standcal/input_options.hpp"
 
@@ -113,14 +112,9 @@ void add_diagnose_commands(CLI::App& app) {
       "write an HTML report with plots (residuals before/after, located mismatch) to FILE");
   cmd->add_option("--model-out", opts->model_out,
                   "write the augmented model (standcal-model/1 JSON) to FILE");
-  cmd->add_option("--bias-instability-ug", opts->bias_instability_ug,
-                  "the unit's bias wander (Gauss-Markov sigma, ug) from its data sheet or a static "
-                  "recording: "
-                  "the terms are tested against it when the run does not show the wander itself")
-      ->check(CLI::Range(0.0, 1e6));
-  cmd->add_option("--bias-instability-tau-s", opts->bias_instability_tau_s,
-                  "its correlation time (s, default 300)")
-      ->check(cli_checks::kPositive);
+  add_wander_options(cmd, opts->bias_instability_ug, opts->bias_instability_tau_s,
+                     "against which the terms are tested when the run does not show the wander "
+                     "itself");
   cmd->callback([opts] { run_diagnose(*opts); });
 }
 

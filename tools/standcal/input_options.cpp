@@ -70,11 +70,18 @@ void add_noise_options(CLI::App* cmd, NoiseCliOptions& o) {
                   "when significant (docs/calibration.md) | white: every dwell mean independent")
       ->check(CLI::IsMember({"estimate", "white"}))
       ->capture_default_str();
-  cmd->add_option(
-         "--bias-instability-ug", o.bias_instability_ug,
-         "the unit's known Gauss-Markov bias wander, used when the run alone does not show it")
-      ->check(cli_checks::kNonNegative);
-  cmd->add_option("--bias-instability-tau-s", o.bias_instability_tau_s, "its correlation time")
+  add_wander_options(cmd, o.bias_instability_ug, o.bias_instability_tau_s,
+                     "used when the run alone does not show it");
+}
+
+void add_wander_options(CLI::App* cmd, double& sigma_ug, double& tau_s, const std::string& use) {
+  cmd->add_option("--bias-instability-ug", sigma_ug,
+                  "the unit's Gauss-Markov bias wander (steady-state sigma per axis, ug; from its "
+                  "data sheet, `standcal fit`'s noise report or a static recording), " +
+                      use)
+      ->check(cli_checks::kNonNegative)
+      ->capture_default_str();
+  cmd->add_option("--bias-instability-tau-s", tau_s, "its correlation time, s")
       ->check(cli_checks::kPositive)
       ->capture_default_str();
 }

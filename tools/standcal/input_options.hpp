@@ -35,6 +35,10 @@ struct NoiseCliOptions {
   double bias_instability_tau_s = 300;
 };
 void add_noise_options(CLI::App* cmd, NoiseCliOptions& o);
+// --bias-instability-ug and --bias-instability-tau-s: the unit's Gauss-Markov bias wander
+// (steady-state sigma per axis, ug; correlation time, s), one spelling and one check for
+// every command; `use` says what the command does with it.
+void add_wander_options(CLI::App* cmd, double& sigma_ug, double& tau_s, const std::string& use);
 FitNoiseOptions fit_noise_options(const NoiseCliOptions& o);
 
 }  // namespace standcal::cli
