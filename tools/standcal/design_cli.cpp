@@ -48,6 +48,7 @@ struct EvaluateOptions {
 
 struct OptimizeCliOptions {
   DesignFlags flags;
+  int max_repeats = 4;
   int positions = 9;
   std::string structure;
   int restarts = 6;
@@ -98,6 +99,13 @@ void add_design_flags(CLI::App* cmd, DesignFlags& f) {
   cmd->add_option("--limits", f.limits,
                   "stand ranges, e.g. alpha1=-180:180,alpha2=-90:270 (default: continuous)");
   cmd->add_flag("--json", f.json, "machine-readable output");
+}
+
+void add_max_repeats(CLI::App* cmd, int& max_repeats) {
+  cmd->add_option("--max-repeats", max_repeats,
+                  "with --bias-instability-ug: also the programme visited up to N times in a row")
+      ->check(CLI::Range(1, 20))
+      ->capture_default_str();
 }
 
 AxisRange parse_axis_range(const std::string& item, const std::string& text) {
@@ -440,8 +448,8 @@ void run_optimize(const OptimizeCliOptions& o) {
   const OptimizedProgram best = optimize_program(opt);
   const AccuracyTarget target = parse_accuracy_target(o.target);
   const std::string model_name = design_model_name(opt.model);
-  const ProgrammeDwell dwell = dwell_for(best.program, model_name, target, settings);
-  const ProgrammeDwell paper = dwell_for(paper9(), model_name, target, settings);
+  const ProgrammeDwell dwell = dwell_for(best.program, model_name, target, settings, o.max_repeats);
+  const ProgrammeDwell paper = dwell_for(paper9(), model_name, target, settings, o.max_repeats);
   const double gain = best.d_criterion / best.paper9_d_criterion;
   // det^(1/9) grows with the number of positions; dividing by it compares like with like.
   const double per_position_gain = gain * static_cast<double>(paper9().positions.size()) /
@@ -655,6 +663,7 @@ void add_design_commands(CLI::App& app) {
       ->capture_default_str();
   optimize->add_option("-o,--program-out", op->program_out,
                        "write the programme (with allocated dwells) as JSON");
+  add_max_repeats(optimize, op->max_repeats);
   add_design_flags(optimize, op->flags);
   optimize->callback([op] { run_optimize(*op); });
 
@@ -668,11 +677,7 @@ void add_design_commands(CLI::App& app) {
       ->capture_default_str();
   compare->add_option("--with-optimal", cp->with_optimal,
                       "also the D-optimal programme with this many positions");
-  compare
-      ->add_option("--max-repeats", cp->max_repeats,
-                   "with --bias-instability-ug: also the programme visited up to N times in a row")
-      ->check(CLI::Range(1, 20))
-      ->capture_default_str();
+  add_max_repeats(compare, cp->max_repeats);
   add_design_flags(compare, cp->flags);
   compare->callback([cp] { run_compare(*cp); });
 
