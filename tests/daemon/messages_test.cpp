@@ -46,6 +46,7 @@ struct DocObject {
   bool complete = true;
 };
 
+// The end of the value at `i`: the ',' after it, or the '}' or ']' that closes what holds it.
 std::size_t end_of_value(const std::string& text, std::size_t i) {
   int depth = 0;
   bool in_string = false;
@@ -67,22 +68,11 @@ std::size_t end_of_value(const std::string& text, std::size_t i) {
   return i;
 }
 
-// The '}' that closes the object `text` starts with.
+// The '}' that closes the object `text` starts with: its members' values skipped one by one.
 std::size_t closing_brace(const std::string& text) {
-  int depth = 0;
-  bool in_string = false;
-  for (std::size_t i = 0; i < text.size(); ++i) {
-    const char c = text[i];
-    if (in_string) {
-      if (c == '\\') ++i;
-      if (c == '"') in_string = false;
-      continue;
-    }
-    if (c == '"') in_string = true;
-    if (c == '{' || c == '[') ++depth;
-    if ((c == '}' || c == ']') && --depth == 0) return i;
-  }
-  return text.size();
+  std::size_t i = 1;
+  while ((i = end_of_value(text, i)) < text.size() && text[i] == ',') ++i;
+  return i;
 }
 
 DocObject parse_doc_object(const std::string& text) {  // text starts at '{'
