@@ -559,10 +559,6 @@ std::string floor_reason(const AccuracyTarget& target, const DesignSettings& set
   return buf;
 }
 
-}  // namespace
-
-namespace {
-
 // Under wander: the least scale s for which dwells shape * s meet the target on the
 // programme's schedule (shape all ones: s is the dwell per position; shape summing to 1: s
 // is the total), searched over 0.1 s to a day per position.

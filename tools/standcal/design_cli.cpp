@@ -322,11 +322,13 @@ struct ProgrammeDwell {
   std::optional<Revisit> best_revisit;
 };
 
+// `one_pass` is the programme's own plan, already made: the search starts from it.
 std::optional<Revisit> best_revisit(const Program& program, DesignModel model,
                                     const AccuracyTarget& target, const DesignSettings& settings,
-                                    int max_repeats) {
+                                    int max_repeats, const Revisit& one_pass) {
   std::optional<Revisit> best;
-  for (int times = 1; times <= max_repeats; ++times) {
+  if (one_pass.equal.feasible) best = one_pass;
+  for (int times = 2; times <= max_repeats; ++times) {
     const Program visited = repeated_program(program, times);
     const DesignBasis basis = design_basis(poses_of(visited), model, settings.mounting);
     Revisit r{times, equal_dwell_for_target(basis, visited, target, settings), {}};
@@ -350,7 +352,8 @@ ProgrammeDwell dwell_for(const Program& program, const std::string& requested_mo
   if (d.allocated.feasible) d.allocated_time = bench_time(program, settings, d.allocated.dwell_s);
   d.revisits_tried = settings.wander() && max_repeats > 1;
   if (d.revisits_tried)
-    d.best_revisit = best_revisit(program, d.model, target, settings, max_repeats);
+    d.best_revisit =
+        best_revisit(program, d.model, target, settings, max_repeats, {1, d.equal, d.equal_time});
   return d;
 }
 
