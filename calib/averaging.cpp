@@ -4,23 +4,20 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "calib/order_statistics.hpp"
+
 namespace standcal {
 
 namespace {
 
-double median_of(std::vector<double>& values) {
-  const auto mid = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
-  std::nth_element(values.begin(), mid, values.end());
-  double m = *mid;
-  if (values.size() % 2 == 0) m = 0.5 * (m + *std::max_element(values.begin(), mid));
-  return m;
-}
-
 // Robust centre and scale of one axis of a block (values in g).
-std::pair<double, double> robust_centre_scale(std::vector<double> values) {
-  const double median = median_of(values);
-  for (double& v : values) v = std::abs(v - median);
-  const double mad = median_of(values);
+// `work` is working memory.
+std::pair<double, double> robust_centre_scale(const std::vector<double>& values,
+                                              std::vector<double>& work) {
+  work.assign(values.begin(), values.end());
+  const double median = median_in_place(work);
+  for (double& v : work) v = std::abs(v - median);
+  const double mad = median_in_place(work);
   return {median, std::max(1.4826 * mad, kRobustScaleFloor_g)};
 }
 
@@ -64,10 +61,11 @@ PositionAverage average_dwell(const DwellSamples& dwell, const Recording& header
   const std::size_t count = dwell.size();
   const double inv_g = 1.0 / header.g_local_mps2;
   std::vector<double> axis(count);
+  std::vector<double> work;
   std::vector<char> keep(count, 1);
   for (std::size_t a = 0; a < 3; ++a) {
     for (std::size_t i = 0; i < count; ++i) axis[i] = dwell.f_mps2[a][i] * inv_g;
-    const auto [centre, scale] = robust_centre_scale(axis);
+    const auto [centre, scale] = robust_centre_scale(axis, work);
     for (std::size_t i = 0; i < count; ++i)
       if (std::abs(axis[i] - centre) > kOutlierThreshold * scale) keep[i] = 0;
   }

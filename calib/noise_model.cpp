@@ -76,24 +76,28 @@ MatrixXd decorrelate(const std::vector<NoiseRow>& rows, const GaussMarkovNoise& 
   const Eigen::Array3d q2 = noise.q_g.array().square();
   Eigen::Matrix3d P = q2.matrix().asDiagonal();  // the wander starts stationary
   MatrixXd state = MatrixXd::Zero(3, k);         // its estimate, one per column
+  // Allocated once, and the products below written without temporaries: the REML search
+  // calls this some 300 times a fit (fit_invariant_joint of a one-hour recording: 10.0 ->
+  // 8.4 ms, docs/performance.md; the same numbers to the bit).
+  Eigen::RowVectorXd innovation(k);
   double t_prev = 0;
   bool first = true;
   for (std::size_t r : time_order(rows)) {
     const NoiseRow& row = rows[r];
     if (!first) {  // propagate: b(t + dt) = a b(t) + w, var(w) = q^2 (1 - a^2)
-      const Eigen::Array3d a =
-          Eigen::Array3d::Constant(std::exp(-(row.t_s - t_prev) / noise.tau_s));
-      state = a.matrix().asDiagonal() * state;
-      P = a.matrix().asDiagonal() * P * a.matrix().asDiagonal();
-      P.diagonal().array() += q2 * (1 - a.square());
+      const double a = std::exp(-(row.t_s - t_prev) / noise.tau_s);  // the same on every axis
+      state *= a;
+      P *= a;  // a P a, in the order of diag(a) P diag(a)
+      P *= a;
+      P.diagonal().array() += q2 * (1 - a * a);
     }
     first = false;
     t_prev = row.t_s;
     const Eigen::RowVector3d H = row.projection.transpose() / row.sigma_g;  // whitened units
-    const Eigen::RowVectorXd innovation = whitened.row(static_cast<Eigen::Index>(r)) - H * state;
+    innovation.noalias() = whitened.row(static_cast<Eigen::Index>(r)) - H * state;
     const double S = (H * P * H.transpose())(0, 0) + 1.0;
     const Eigen::Vector3d K = P * H.transpose() / S;
-    state += K * innovation;
+    state.noalias() += K * innovation;
     P -= K * S * K.transpose();
     out.row(static_cast<Eigen::Index>(r)) = innovation / std::sqrt(S);
     log_det += std::log(S);

@@ -1,6 +1,7 @@
 #include "calib/raw_input.hpp"
 
 #include "calib/allan.hpp"
+#include "calib/order_statistics.hpp"
 
 #include <algorithm>
 #include <array>
@@ -77,16 +78,7 @@ std::string join(const std::vector<std::string>& items) {
   return out;
 }
 
-double median_of(std::vector<double> v) {
-  if (v.empty()) return kNaN;
-  const std::size_t mid = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid), v.end());
-  const double upper = v[mid];
-  if (v.size() % 2 == 1) return upper;
-  const double lower_half =
-      *std::max_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid));
-  return 0.5 * (lower_half + upper);
-}
+double median_of(std::vector<double> v) { return v.empty() ? kNaN : median_in_place(v); }
 
 // ---------------------------------------------------------------- fields and delimiters
 

@@ -6,6 +6,7 @@
 #include <array>
 #include <charconv>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -217,6 +218,7 @@ class Parser {
     rec_.columns.t_arrive = index_[kTArrive] >= 0;
     rec_.columns.approach = index_[kApproach] >= 0;
     find_still_runs();
+    plan_quick_rows();
   }
 
   // A file whose columns are separated by something else than ',' (a spreadsheet in a
@@ -260,6 +262,10 @@ class Parser {
                                   "dropped");
         break;
       }
+      if (read_row_quickly(line)) {
+        count_row();
+        continue;
+      }
       if (trim(line).empty()) continue;
       split_fields(line, fields);
       if (fields.size() != field_count_)
@@ -277,9 +283,81 @@ class Parser {
       } else {
         rec_.samples.push_back(sample);
       }
-      if (++rows_ == kRowsToSizeFrom) announce_size();
+      count_row();
       previous_ = sample;
     }
+  }
+
+  void count_row() {
+    if (++rows_ == kRowsToSizeFrom) announce_size();
+  }
+
+  // The quick path of a row, for the rows of a dwell as the writers write them: one pass
+  // over the bytes that parses each number as it finds its end (no field list, no second
+  // walk), and passes over a still run whose text repeats with one comparison. Half of
+  // `fit`'s reading went to splitting the row and parsing the fields again
+  // (docs/performance.md). A row it does not expect -- the first, a changed still column,
+  // a quote, a space, an empty or exponent number, another field count, time going
+  // backwards, a blank line -- it leaves alone (false), and the general path reads it or
+  // says what is wrong with it, as before.
+  enum class QuickStep : std::uint8_t { skip, number, still_run };
+  struct QuickField {
+    QuickStep step = QuickStep::skip;
+    std::uint8_t slot = 0;  // number: kQuickT...kQuickTemp; still_run: index in still_runs_
+  };
+  static constexpr std::uint8_t kQuickT = 0, kQuickTemp = 4;  // fx, fy, fz: 1, 2, 3
+
+  void plan_quick_rows() {
+    quick_fields_.assign(field_count_, QuickField{});
+    const std::array<Column, 5> numbers{kT, kFx, kFy, kFz, kTemp};
+    for (std::size_t slot = 0; slot < numbers.size(); ++slot)
+      if (index_[numbers[slot]] >= 0)
+        quick_fields_[static_cast<std::size_t>(index_[numbers[slot]])] = {
+            QuickStep::number, static_cast<std::uint8_t>(slot)};
+    for (std::size_t r = 0; r < still_runs_.size(); ++r)
+      quick_fields_[still_runs_[r].first] = {QuickStep::still_run, static_cast<std::uint8_t>(r)};
+  }
+
+  bool read_row_quickly(std::string_view line) {
+    if (first_row_) return false;
+    const char* p = line.data();
+    const char* const end = p + line.size();
+    std::array<double, 5> numbers{kNoValue, kNoValue, kNoValue, kNoValue, kNoValue};
+    for (std::size_t field = 0; field < quick_fields_.size();) {
+      const QuickField& q = quick_fields_[field];
+      if (q.step == QuickStep::number) {
+        if (!scan_plain_decimal(p, end, numbers[q.slot])) return false;
+        ++field;
+      } else if (q.step == QuickStep::still_run) {
+        const StillRun& run = still_runs_[q.slot];
+        if (static_cast<std::size_t>(end - p) < run.text.size() ||
+            std::memcmp(p, run.text.data(), run.text.size()) != 0)
+          return false;
+        p += run.text.size();  // the same bytes hold the same commas: the same fields
+        field = run.last + 1;
+      } else {
+        while (p != end && *p != ',') ++p;
+        ++field;
+      }
+      if (field == quick_fields_.size()) {
+        if (p != end) return false;  // more fields than the column line's
+      } else {
+        if (p == end || *p != ',') return false;  // fewer, or a number that goes on
+        ++p;
+      }
+    }
+    // The still columns repeat, so position and commanded angles do: of check_order's rules
+    // only time's order is left.
+    if (numbers[kQuickT] < previous_.t_s) return false;
+    previous_.t_s = numbers[kQuickT];
+    previous_.f_mps2 = Vec3(numbers[1], numbers[2], numbers[3]);
+    previous_.temp_c = numbers[kQuickTemp];
+    if (sink_) {
+      sink_->row(previous_);
+    } else {
+      rec_.samples.push_back(previous_);
+    }
+    return true;
   }
 
   // Columns that hold still through a dwell (position, angles, mount, arrival, approach)
@@ -457,6 +535,7 @@ class Parser {
   RecordingRowSink* sink_;  // null: the rows go into rec_.samples
   RecordingSample previous_;
   std::vector<StillRun> still_runs_;
+  std::vector<QuickField> quick_fields_;      // per field of the column line
   std::array<bool, kColumnKinds> changed_{};  // per row: the still columns to parse
   std::size_t row_bytes_start_ = 0;           // input bytes before the first row
   std::size_t rows_ = 0;                      // rows read so far

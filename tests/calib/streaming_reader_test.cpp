@@ -3,8 +3,10 @@
 // 1 MiB blocks.
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <charconv>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -12,6 +14,7 @@
 #include <nlohmann/json.hpp>
 #include <random>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "calib/allan.hpp"
@@ -294,6 +297,92 @@ TEST_F(StreamingReader, BadRowsAreReportedAsTheWholeReaderReportsThem) {
     }
     EXPECT_FALSE(whole_error.empty());
     EXPECT_EQ(streamed_error, whole_error);
+  }
+}
+
+// The reader's quick path (a dwell's rows as the writers write them) against its general
+// path, which reads every row it declines: rows whose moving numbers carry a leading space
+// go the general way, and a recording read with some, all or none of its rows so
+// decorated gives the same samples, bit for bit.
+std::string with_spaced_numbers(const std::string& row, const std::vector<std::size_t>& moving) {
+  std::vector<std::string> fields(1);
+  for (const char c : row) {
+    if (c == ',')
+      fields.emplace_back();
+    else
+      fields.back() += c;
+  }
+  for (std::size_t i : moving) fields[i] = " " + fields[i];
+  std::string out;
+  for (std::size_t i = 0; i < fields.size(); ++i) out += (i ? "," : "") + fields[i];
+  return out;
+}
+
+// Every `every`-th row (0: none) with spaced numbers.
+std::string decorated_text(const Recording& rec, const std::vector<std::size_t>& moving,
+                           const std::string& extra_column, std::size_t every) {
+  std::string rows;
+  append_recording_rows(rows, rec.columns, rec.samples);
+  std::string header = format_recording_header(rec);
+  if (!extra_column.empty()) header.insert(header.size() - 1, "," + extra_column);
+  std::string out = header;
+  std::size_t i = 0;
+  for (std::size_t start = 0; start < rows.size(); ++i) {
+    const std::size_t end = rows.find('\n', start);
+    std::string row = rows.substr(start, end - start);
+    if (!extra_column.empty()) row += ",ok";
+    out += (every && i % every == 0 ? with_spaced_numbers(row, moving) : row) + "\n";
+    start = end + 1;
+  }
+  return out;
+}
+
+bool same_bits(double a, double b) {
+  return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b);
+}
+
+void expect_same_samples(const Recording& a, const Recording& b) {
+  ASSERT_EQ(a.samples.size(), b.samples.size());
+  for (std::size_t i = 0; i < a.samples.size(); ++i) {
+    const RecordingSample& x = a.samples[i];
+    const RecordingSample& y = b.samples[i];
+    SCOPED_TRACE("row " + std::to_string(i));
+    EXPECT_TRUE(same_bits(x.t_s, y.t_s));
+    EXPECT_TRUE(same_bits(x.alpha1_cmd_deg, y.alpha1_cmd_deg));
+    EXPECT_TRUE(same_bits(x.alpha2_cmd_deg, y.alpha2_cmd_deg));
+    EXPECT_TRUE(same_bits(x.alpha1_deg, y.alpha1_deg));
+    EXPECT_TRUE(same_bits(x.alpha2_deg, y.alpha2_deg));
+    for (int k = 0; k < 3; ++k) EXPECT_TRUE(same_bits(x.f_mps2[k], y.f_mps2[k])) << "axis " << k;
+    EXPECT_TRUE(same_bits(x.temp_c, y.temp_c));
+    EXPECT_TRUE(same_bits(x.t_arrive_s, y.t_arrive_s));
+    EXPECT_EQ(x.pos, y.pos);
+    EXPECT_EQ(x.approach, y.approach);
+    EXPECT_EQ(x.mount, y.mount);
+    if (::testing::Test::HasFailure()) return;  // one row's difference is enough to read
+  }
+}
+
+TEST(QuickRows, AreReadAsTheGeneralPathReadsThem) {
+  Recording all_columns = small_run(true);
+  // Every standcal column: t_s, fx, fy, fz, temp_c move (fields 0, 6, 7, 8, 9).
+  const std::vector<std::size_t> moving_all{0, 6, 7, 8, 9};
+  // No measured angles and no temperature, and a column the reader does not know (after
+  // approach): t_s, fx, fy, fz move (fields 0, 4, 5, 6).
+  Recording fewer_columns = all_columns;
+  fewer_columns.columns.alpha_measured = false;
+  fewer_columns.columns.temp = false;
+  const std::vector<std::size_t> moving_fewer{0, 4, 5, 6};
+  for (const auto& [rec, moving, extra] :
+       {std::tuple{all_columns, moving_all, std::string()},
+        std::tuple{fewer_columns, moving_fewer, std::string("note")}}) {
+    const Recording general = parse_recording(decorated_text(rec, moving, extra, 1), "general");
+    ASSERT_EQ(general.samples.size(), rec.samples.size());
+    for (const std::size_t every : {0u, 2u, 7u}) {
+      SCOPED_TRACE("every " + std::to_string(every) + "th row spaced, extra column '" + extra +
+                   "'");
+      expect_same_samples(parse_recording(decorated_text(rec, moving, extra, every), "mixed"),
+                          general);
+    }
   }
 }
 
