@@ -30,8 +30,7 @@ void AllanAccumulator::extend_cluster_sizes(long max_m) {
 }
 
 void AllanAccumulator::add_segment(std::vector<double>& samples) {
-  ++segments_;
-  longest_ = std::max(longest_, samples.size());
+  const std::size_t sample_count = samples.size();
   // Phase x_k = tau0 * (sum of the first k samples), k = 0..n, in place.
   double running = 0;
   for (double& v : samples) {
@@ -43,6 +42,7 @@ void AllanAccumulator::add_segment(std::vector<double>& samples) {
   const double* x = samples.data();
   const long n = static_cast<long>(samples.size());
   extend_cluster_sizes(n / 2);
+  std::vector<double> sums;
   for (std::size_t i = 0; i < cluster_sizes_.size(); ++i) {
     const long m = cluster_sizes_[i];
     const long count = n - 2 * m;  // second differences x[k+2m] - 2 x[k+m] + x[k], k < count
@@ -58,9 +58,30 @@ void AllanAccumulator::add_segment(std::vector<double>& samples) {
       const double d = x[k + 2 * m] - 2 * x[k + m] + x[k];
       partial[0] += d * d;
     }
-    sum_sq_[i] += (partial[0] + partial[1]) + (partial[2] + partial[3]);
-    terms_[i] += count;
+    sums.push_back((partial[0] + partial[1]) + (partial[2] + partial[3]));
   }
+  add_sums(n, sample_count, sums);
+  if (keep_segment_sums_) kept_.push_back({n, std::move(sums)});
+}
+
+void AllanAccumulator::add_sums(long phase_length, std::size_t samples,
+                                const std::vector<double>& sums) {
+  ++segments_;
+  longest_ = std::max(longest_, samples);
+  extend_cluster_sizes(phase_length / 2);
+  for (std::size_t i = 0; i < sums.size(); ++i) {
+    sum_sq_[i] += sums[i];
+    terms_[i] += phase_length - 2 * cluster_sizes_[i];
+  }
+}
+
+void AllanAccumulator::append(const AllanAccumulator& later) {
+  if (later.sample_period_s_ != sample_period_s_ || later.points_per_decade_ != points_per_decade_)
+    throw std::invalid_argument("Allan deviation: appending segments of another sampling");
+  if (later.segments_ != later.kept_.size())
+    throw std::logic_error("Allan deviation: append needs every segment's sums kept");
+  for (const SegmentSums& s : later.kept_)
+    add_sums(s.phase_length, static_cast<std::size_t>(s.phase_length - 1), s.sums);
 }
 
 std::vector<AllanPoint> AllanAccumulator::curve() const {

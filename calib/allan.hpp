@@ -31,7 +31,22 @@ class AllanAccumulator {
   std::size_t segments() const { return segments_; }
   double sample_period_s() const { return sample_period_s_; }
 
+  // Keep each segment's sums from now on, so that another accumulator can take them in
+  // (append): a file read in two parts at once pools its dwells as one read in order.
+  void keep_segment_sums() { keep_segment_sums_ = true; }
+  // Adds `later`'s segments (kept with keep_segment_sums from its start) after this one's
+  // own: the same sums added in the same order, so the curve is, bit for bit, the one of
+  // adding those segments here. Both must have the same sample period and spacing.
+  void append(const AllanAccumulator& later);
+
  private:
+  struct SegmentSums {
+    long phase_length = 0;     // samples + 1
+    std::vector<double> sums;  // per cluster size, while the segment is long enough
+  };
+  // Adds one segment's sums (the shared end of add_segment and append).
+  void add_sums(long phase_length, std::size_t samples, const std::vector<double>& sums);
+
   // Extends the cluster sizes (10^(i / points_per_decade), rounded, distinct) to max_m.
   void extend_cluster_sizes(long max_m);
 
@@ -43,6 +58,8 @@ class AllanAccumulator {
   std::vector<long> cluster_sizes_;
   std::vector<double> sum_sq_;  // per cluster size: sum of squared second differences
   std::vector<long> terms_;
+  bool keep_segment_sums_ = false;
+  std::vector<SegmentSums> kept_;
 };
 
 // Overlapping Allan deviation over one or more contiguous segments sampled every

@@ -25,7 +25,7 @@ LineSource::LineSource(std::string_view text, int fd, std::string path)
 
 LineSource LineSource::of_text(std::string_view text) { return LineSource(text, -1, {}); }
 
-LineSource LineSource::of_file(const std::string& path) {
+LineSource LineSource::of_file(const std::string& path, std::size_t begin) {
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) throw std::runtime_error(path + ": cannot open (" + system_error_text(errno) + ")");
   struct stat st {};
@@ -34,6 +34,12 @@ LineSource LineSource::of_file(const std::string& path) {
     throw std::runtime_error(path + ": cannot open (a directory)");
   }
   LineSource source({}, fd, path);
+  if (begin > 0) {
+    if (::lseek(fd, static_cast<off_t>(begin), SEEK_SET) < 0)
+      throw std::runtime_error(path + ": cannot seek (" + system_error_text(errno) + ")");
+    source.consumed_before_ = begin;
+    source.at_start_ = false;  // a byte order mark only opens a file
+  }
   source.total_ = S_ISREG(st.st_mode) ? static_cast<std::size_t>(st.st_size) : 0;
   source.buffer_.resize(kBlockBytes);
   source.data_ = std::string_view(source.buffer_.data(), 0);

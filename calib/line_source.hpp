@@ -13,7 +13,9 @@ class LineSource {
   // Lines of `text` (not copied: it must outlive the source).
   static LineSource of_text(std::string_view text);
   // Lines of the file at `path`; throws std::runtime_error "<path>: cannot open (...)".
-  static LineSource of_file(const std::string& path);
+  // From byte `begin` on when given (a line start, or the rest of a line is the first
+  // "line"); bytes_consumed() then counts from the file's start, line_number() from begin.
+  static LineSource of_file(const std::string& path, std::size_t begin = 0);
 
   LineSource(LineSource&& other) noexcept;
   LineSource& operator=(LineSource&&) = delete;

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <charconv>
 #include <cstdio>
 #include <cstring>
@@ -24,6 +25,8 @@
 namespace standcal {
 
 namespace {
+
+constexpr std::size_t kToEnd = std::numeric_limits<std::size_t>::max();
 
 std::string locate(const std::string& source, int line, int column) {
   std::string where = source + ":" + std::to_string(line);
@@ -102,6 +105,16 @@ void split_fields(std::string_view line, std::vector<std::string_view>& fields) 
   fields.emplace_back(start, static_cast<std::size_t>(end - start));
 }
 
+// Field `index` (0-based) of a row, or empty when the row has fewer.
+std::string_view field_of(std::string_view line, int index) {
+  for (int i = 0; i < index; ++i) {
+    const std::size_t comma = line.find(',');
+    if (comma == std::string_view::npos) return {};
+    line.remove_prefix(comma + 1);
+  }
+  return line.substr(0, line.find(','));
+}
+
 class Parser {
  public:
   Parser(LineSource& lines, const std::string& source, RecordingRowSink* sink)
@@ -109,17 +122,53 @@ class Parser {
     rec_.source = source;
   }
 
+  // A reader of a later part of the same file (RecordingPartReader): `head`'s header and
+  // columns, read from `lines` (which start at a line) as if the part were a file of its own.
+  Parser(const Parser& head, LineSource& lines)
+      : lines_(lines),
+        sink_(nullptr),
+        still_runs_(head.still_runs_),
+        quick_fields_(head.quick_fields_),
+        column_line_(head.column_line_),
+        field_count_(head.field_count_),
+        index_(head.index_) {
+    rec_.source = head.rec_.source;
+    for (StillRun& run : still_runs_) run.text.clear();
+  }
+
   Recording run() {
+    read_header();
+    read_rows(kToEnd);
+    return finish();
+  }
+
+  void set_sink(RecordingRowSink* sink) { sink_ = sink; }
+  void set_cancel(const std::atomic<bool>* cancel) { cancel_ = cancel; }
+
+  // The header and column line; the sink is given the recording without samples.
+  const Recording& read_header() {
     read_column_line(read_header_lines());
     finish_header();
     if (sink_) sink_->header(rec_);
-    read_rows();
+    return rec_;
+  }
+
+  Recording finish() {
     if (!rec_.g_from_header)
       rec_.warnings.push_back(rec_.source +
                               ": no '# g_local_mps2' header; assuming standard gravity 9.80665 "
                               "m/s^2 (a wrong g reads as a common scale-factor error)");
     return std::move(rec_);
   }
+
+  int pos_field() const { return index_[kPos]; }
+
+  // What a part's reading leaves for the check that it continues the rows before it.
+  std::size_t rows() const { return rows_; }
+  const RecordingSample& first_row() const { return first_; }
+  const RecordingSample& last_row() const { return previous_; }
+  const std::unordered_set<int>& positions() const { return finished_positions_; }
+  const std::vector<std::string>& warnings() const { return rec_.warnings; }
 
  private:
   [[noreturn]] void fail(int column, const std::string& what) const {
@@ -250,11 +299,15 @@ class Parser {
     return v;
   }
 
-  void read_rows() {
+ public:
+  // The rows up to the line that starts at byte `stop`.
+  void read_rows(std::size_t stop) {
     std::string_view line;
     std::vector<std::string_view> fields;
-    row_bytes_start_ = lines_.bytes_consumed();
-    while (next_line(line)) {
+    if (rows_ == 0) row_bytes_start_ = lines_.bytes_consumed();
+    while (lines_.bytes_consumed() < stop && next_line(line)) {
+      if (cancel_ && rows_ % 4096 == 0 && cancel_->load(std::memory_order_relaxed))
+        throw std::runtime_error(rec_.source + ": reading cancelled");
       if (last_line_truncated_) {
         if (!trim(line).empty())
           rec_.warnings.push_back(locate(rec_.source, line_no_, 0) +
@@ -277,6 +330,7 @@ class Parser {
                         "'.' as the decimal point and no ',' inside a cell)"
                       : ""));
       const RecordingSample sample = parse_row(fields);
+      if (first_row_) first_ = sample;
       check_order(sample);
       if (sink_) {
         sink_->row(sample);
@@ -288,6 +342,7 @@ class Parser {
     }
   }
 
+ private:
   void count_row() {
     if (++rows_ == kRowsToSizeFrom) announce_size();
   }
@@ -532,7 +587,9 @@ class Parser {
   }
 
   LineSource& lines_;
-  RecordingRowSink* sink_;  // null: the rows go into rec_.samples
+  RecordingRowSink* sink_;                     // null: the rows go into rec_.samples
+  const std::atomic<bool>* cancel_ = nullptr;  // set: stop reading when it turns true
+  RecordingSample first_;
   RecordingSample previous_;
   std::vector<StillRun> still_runs_;
   std::vector<QuickField> quick_fields_;      // per field of the column line
@@ -606,6 +663,90 @@ Recording read_recording(const std::string& path) {
 Recording stream_recording(const std::string& path, RecordingRowSink& sink) {
   LineSource lines = LineSource::of_file(path);
   return Parser(lines, path, &sink).run();
+}
+
+struct RecordingReader::Impl {
+  explicit Impl(const std::string& path)
+      : lines(LineSource::of_file(path)), parser(lines, path, nullptr) {}
+  LineSource lines;
+  Parser parser;
+};
+
+struct RecordingPartReader::Impl {
+  Impl(const std::string& path, std::size_t begin, const Parser& head)
+      : lines(LineSource::of_file(path, begin)), parser(head, lines) {}
+  LineSource lines;
+  Parser parser;
+};
+
+RecordingReader::RecordingReader(const std::string& path)
+    : path_(path), impl_(std::make_unique<Impl>(path)) {}
+RecordingReader::~RecordingReader() = default;
+
+const Recording& RecordingReader::read_header(RecordingRowSink& sink) {
+  impl_->parser.set_sink(&sink);
+  return impl_->parser.read_header();
+}
+
+void RecordingReader::read_rows(RecordingRowSink& sink, std::size_t stop) {
+  impl_->parser.set_sink(&sink);
+  impl_->parser.read_rows(stop);
+}
+
+Recording RecordingReader::finish() { return impl_->parser.finish(); }
+
+std::size_t RecordingReader::bytes_total() const { return impl_->lines.bytes_total(); }
+
+std::optional<std::size_t> RecordingReader::dwell_start_after(std::size_t from,
+                                                              std::size_t within) const {
+  const int pos_field = impl_->parser.pos_field();
+  LineSource lines = LineSource::of_file(path_, from);
+  std::string_view line;
+  if (!lines.next(line)) return std::nullopt;  // the rest of the line `from` falls in
+  std::string previous_pos;
+  bool have_previous = false;
+  while (lines.bytes_consumed() <= from + within) {
+    const std::size_t start = lines.bytes_consumed();
+    if (!lines.next(line) || lines.unterminated()) return std::nullopt;
+    const std::string_view pos = field_of(line, pos_field);
+    if (have_previous && pos != previous_pos) return start;
+    previous_pos.assign(pos);
+    have_previous = true;
+  }
+  return std::nullopt;
+}
+
+RecordingPartReader RecordingReader::part_from(std::size_t begin) const {
+  RecordingPartReader part;
+  part.impl_ = std::make_unique<RecordingPartReader::Impl>(path_, begin, impl_->parser);
+  return part;
+}
+
+bool RecordingReader::continues_with(const RecordingPartReader& part) const {
+  const Parser& head = impl_->parser;
+  const Parser& later = part.impl_->parser;
+  if (!part.read_ || head.rows() == 0 || later.rows() == 0) return false;
+  if (later.first_row().t_s < head.last_row().t_s) return false;
+  for (const int pos : later.positions())
+    if (head.positions().count(pos)) return false;  // includes the head's last position
+  return true;
+}
+
+RecordingPartReader::RecordingPartReader() = default;
+RecordingPartReader::RecordingPartReader(RecordingPartReader&&) noexcept = default;
+RecordingPartReader::~RecordingPartReader() = default;
+
+bool RecordingPartReader::read(RecordingRowSink& sink, const std::atomic<bool>& cancel) {
+  read_ = false;
+  try {
+    impl_->parser.set_sink(&sink);
+    impl_->parser.set_cancel(&cancel);
+    impl_->parser.read_rows(kToEnd);
+    read_ = impl_->parser.warnings().empty();
+  } catch (...) {
+    read_ = false;  // read again in order, where the error is told with its line
+  }
+  return read_;
 }
 
 namespace {

@@ -1,9 +1,11 @@
 #pragma once
 // Reader and writer of the recording interchange format `standcal-recording/1`
 // (docs/recording-format.md). Every error names file, line and column.
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -107,6 +109,64 @@ class RecordingRowSink {
 // recording has the header, columns and warnings but no samples. The same checks and
 // errors as read_recording.
 Recording stream_recording(const std::string& path, RecordingRowSink& sink);
+
+// The reader with its steps apart, for reading a large file in two parts at once (the
+// CLI's `fit` and `noise`, tools/standcal/threaded_rows.cpp): the header, then the rows up
+// to where a later part begins, which a RecordingPartReader reads on another thread
+// meanwhile; then either the part continues these rows (continues_with) or the rows are
+// read on from where they stopped, in order, so any error is told as the one-pass reader
+// tells it.
+class RecordingPartReader;
+class RecordingReader {
+ public:
+  static constexpr std::size_t kToEnd = std::numeric_limits<std::size_t>::max();
+
+  explicit RecordingReader(const std::string& path);  // throws as read_recording
+  ~RecordingReader();
+  RecordingReader(const RecordingReader&) = delete;
+  RecordingReader& operator=(const RecordingReader&) = delete;
+
+  // The header and column line; `sink` is given the recording without samples.
+  const Recording& read_header(RecordingRowSink& sink);
+  // The rows from where the last call stopped up to the line that starts at byte `stop`.
+  void read_rows(RecordingRowSink& sink, std::size_t stop = kToEnd);
+  // After the last rows: the recording without samples, with the reader's warnings.
+  Recording finish();
+  std::size_t bytes_total() const;  // the file's size (0 for a pipe)
+
+  // The start of the first row at least `from` bytes into the file, and no more than
+  // `within` bytes beyond, whose position text differs from the row's before it: where a
+  // later part can begin with a dwell of its own. Nothing when there is none.
+  std::optional<std::size_t> dwell_start_after(std::size_t from, std::size_t within) const;
+  // A reader of the rows from byte `begin` to the end, with this reader's columns. Made
+  // after read_header, on this reader's thread; then read on any thread.
+  RecordingPartReader part_from(std::size_t begin) const;
+  // Whether `part`, read whole, continues the rows read here (time does not go back, no
+  // position of the part appeared here): then its rows are this file's from `begin` on.
+  bool continues_with(const RecordingPartReader& part) const;
+
+ private:
+  struct Impl;
+  std::string path_;
+  std::unique_ptr<Impl> impl_;
+};
+
+class RecordingPartReader {
+ public:
+  RecordingPartReader(RecordingPartReader&&) noexcept;
+  ~RecordingPartReader();
+  // Every row into `sink`, stopping early when `cancel` turns true. False on any error or
+  // warning (a row cut off at the end, an error the sink raised): the part is then read
+  // again in order by the RecordingReader, whose messages name the line.
+  bool read(RecordingRowSink& sink, const std::atomic<bool>& cancel);
+
+ private:
+  friend class RecordingReader;
+  RecordingPartReader();
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  bool read_ = false;
+};
 
 // Header block ("# key: value" lines + the column line) for a recording's columns.
 std::string format_recording_header(const Recording& rec);

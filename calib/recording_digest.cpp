@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <filesystem>
+#include <iterator>
 #include <stdexcept>
 #include <utility>
 
@@ -49,6 +50,27 @@ RecordingDigest RecordingDigester::finish(Recording&& read) {
   if (options_.g_mps2) read.use_given_g(*options_.g_mps2);
   out.recording = std::move(read);
   return out;
+}
+
+void RecordingDigester::keep_for_append() {
+  for (auto& axis : allan_)
+    if (axis) axis->keep_segment_sums();
+}
+
+void RecordingDigester::close_dwell() {
+  if (dwell_.size() > 0) finish_dwell();
+}
+
+void RecordingDigester::append(RecordingDigester&& later) {
+  if (!rate_known_ || !later.rate_known_)
+    throw std::logic_error("RecordingDigester::append needs the sample rate from the header");
+  close_dwell();
+  later.close_dwell();
+  averages_.insert(averages_.end(), std::make_move_iterator(later.averages_.begin()),
+                   std::make_move_iterator(later.averages_.end()));
+  for (std::size_t a = 0; a < 3; ++a)
+    if (allan_[a] && later.allan_[a]) allan_[a]->append(*later.allan_[a]);
+  samples_ += later.samples_;
 }
 
 void RecordingDigester::start_allan(double period_s) {

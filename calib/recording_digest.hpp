@@ -47,6 +47,14 @@ class RecordingDigester : public RecordingRowSink {
   // The digest; `read` is the recording stream_recording returned (header and warnings).
   RecordingDigest finish(Recording&& read);
 
+  // A file read in two parts at once (tools/standcal/threaded_rows.cpp): the digester of
+  // the later part keeps what append needs (call after header()), is closed when its rows
+  // end, and is appended to the first part's, which then holds what one digester given
+  // every row in order would hold, bit for bit. Only with the sample rate in the header.
+  void keep_for_append();
+  void close_dwell();  // averages the dwell being read, if any
+  void append(RecordingDigester&& later);
+
  private:
   void start_allan(double period_s);
   void finish_dwell();

@@ -3,6 +3,7 @@
 // 1 MiB blocks.
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <bit>
 #include <charconv>
 #include <cmath>
@@ -11,7 +12,9 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <random>
 #include <string>
 #include <tuple>
@@ -386,6 +389,113 @@ TEST(QuickRows, AreReadAsTheGeneralPathReadsThem) {
   }
 }
 
+// A file read in two parts as the CLI reads a large one (tools/standcal/threaded_rows.cpp,
+// there on two threads): the first part up to a dwell found after the middle, the rest by
+// a part reader into a digester of its own, appended.
+struct TwoParts {
+  RecordingDigester first;
+  RecordingDigester later;
+  std::optional<RecordingDigest> digest;  // when the part continues the first
+};
+
+std::unique_ptr<TwoParts> digest_in_two_parts(const std::string& path) {
+  auto parts = std::make_unique<TwoParts>();
+  RecordingReader reader(path);
+  const Recording& head = reader.read_header(parts->first);
+  parts->later.header(head);
+  parts->later.keep_for_append();
+  const std::optional<std::size_t> split =
+      reader.dwell_start_after(reader.bytes_total() / 2, std::size_t{1} << 20);
+  if (!split) return parts;
+  RecordingPartReader part = reader.part_from(*split);
+  const std::atomic<bool> cancel{false};
+  const bool part_read = part.read(parts->later, cancel);
+  reader.read_rows(parts->first, *split);
+  if (!part_read || !reader.continues_with(part)) return parts;
+  parts->first.append(std::move(parts->later));
+  parts->digest = parts->first.finish(reader.finish());
+  return parts;
+}
+
+TEST_F(StreamingReader, AFileReadInTwoPartsDigestsAsOneReadInOrder) {
+  const std::string path = (dir_ / "run.csv").string();
+  write_recording(small_run(true), path);
+  const RecordingDigest in_order = digest_recording(path);
+  const std::unique_ptr<TwoParts> two = digest_in_two_parts(path);
+  ASSERT_TRUE(two->digest);
+  EXPECT_EQ(two->digest->samples, in_order.samples);
+  EXPECT_EQ(two->digest->recording.header, in_order.recording.header);
+  EXPECT_EQ(two->digest->recording.warnings, in_order.recording.warnings);
+  expect_same_averages(two->digest->averages, in_order.averages);
+  ASSERT_TRUE(two->digest->allan && in_order.allan);
+  EXPECT_EQ(two->digest->allan->segments, in_order.allan->segments);
+  for (std::size_t a = 0; a < 3; ++a) {
+    ASSERT_EQ(two->digest->allan->curves[a].size(), in_order.allan->curves[a].size());
+    for (std::size_t i = 0; i < in_order.allan->curves[a].size(); ++i) {
+      EXPECT_EQ(two->digest->allan->curves[a][i].deviation,
+                in_order.allan->curves[a][i].deviation);  // the same sums, in the same order
+      EXPECT_EQ(two->digest->allan->curves[a][i].terms, in_order.allan->curves[a][i].terms);
+    }
+  }
+}
+
+// A part that does not follow on from the rows before it is not taken: its first row goes
+// back in time, or it holds a position the first part already had (one reader in order
+// names the line of either; the CLI then reads the part in order).
+TEST_F(StreamingReader, APartThatDoesNotFollowOnIsNotTaken) {
+  const std::string head =
+      "# format: standcal-recording/1\n# g_local_mps2: 9.81\n# sample_rate_hz: 100\n"
+      "t_s,pos,alpha1_cmd_deg,alpha2_cmd_deg,fx_mps2,fy_mps2,fz_mps2\n";
+  auto rows = [](int pos, double t0_s, int count) {
+    std::string out;
+    for (int i = 0; i < count; ++i)
+      out += std::to_string(t0_s + i * 0.01) + "," + std::to_string(pos) + ",0,0,0,0,9.81\n";
+    return out;
+  };
+  // The middle of each file falls in position 1's rows; the part begins after them.
+  const std::string follows =
+      write("follows.csv", head + rows(0, 0, 300) + rows(1, 3, 200) + rows(2, 5, 300));
+  const std::string position_again =
+      write("again.csv", head + rows(0, 0, 300) + rows(1, 3, 200) + rows(0, 5, 300));
+  const std::string time_back =
+      write("back.csv", head + rows(0, 10, 300) + rows(1, 13, 200) + rows(2, 0, 300));
+  EXPECT_TRUE(digest_in_two_parts(follows)->digest);
+  EXPECT_FALSE(digest_in_two_parts(position_again)->digest);
+  EXPECT_FALSE(digest_in_two_parts(time_back)->digest);
+  for (const std::string& bad : {position_again, time_back})
+    EXPECT_THROW(digest_recording(bad), RecordingError) << bad;
+}
+
+TEST(AllanAccumulator, AppendedSegmentsGiveTheCurveOfAddingThemInOrder) {
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> noise(0, 1);
+  std::vector<std::vector<double>> segments;
+  for (const std::size_t n : {3000u, 1200u, 4000u, 10u, 2500u}) {
+    segments.emplace_back(n);
+    for (double& v : segments.back()) v = noise(rng);
+  }
+  AllanAccumulator in_order(0.01), first(0.01), later(0.01);
+  later.keep_segment_sums();
+  for (std::size_t i = 0; i < segments.size(); ++i) {
+    std::vector<double> a = segments[i], b = segments[i];
+    in_order.add_segment(a);
+    (i < 2 ? first : later).add_segment(b);
+  }
+  first.append(later);
+  const std::vector<AllanPoint> expected = in_order.curve(), got = first.curve();
+  EXPECT_EQ(first.segments(), in_order.segments());
+  ASSERT_EQ(got.size(), expected.size());
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    EXPECT_EQ(got[i].tau_s, expected[i].tau_s);
+    EXPECT_EQ(got[i].deviation, expected[i].deviation);
+    EXPECT_EQ(got[i].terms, expected[i].terms);
+  }
+  AllanAccumulator unkept(0.01);
+  std::vector<double> c = segments[0];
+  unkept.add_segment(c);
+  EXPECT_THROW(first.append(unkept), std::logic_error);
+}
+
 TEST_F(StreamingReader, AStillColumnThatEmptiesIsReadAsEmpty) {
   const std::string path =
       write("mount.csv",
@@ -478,17 +588,68 @@ TEST_F(StreamingReader, ARecordingThroughAPipeIsFittedAndDiagnosedAsTheFile) {
   EXPECT_EQ(imu_tk.exit_code, 0) << imu_tk.output.substr(0, 400);
 }
 
-TEST_F(StreamingReader, TheCliFitOfAStreamedFileEqualsTheFitOfTheWholeFile) {
-  const std::string path = (dir_ / "run.csv").string();
-  write_recording(small_run(true), path);
-  // --units mps2 is the default reading; --skip-lines 0 too, but --format standcal with
-  // --columns forces the whole-file reader: both paths must print the same fit.
+// --units mps2 is the default reading; --skip-lines 0 too, but --format standcal with
+// --columns forces the whole-file reader: both paths must print the same fit.
+void expect_streamed_fit_is_whole_files(const std::string& path) {
   const auto streamed = standcal::test::standcal_cli("fit " + path + " --json");
   const auto whole =
       standcal::test::standcal_cli("fit " + path + " --json --columns fx_mps2,fy_mps2,fz_mps2");
   ASSERT_EQ(streamed.exit_code, 0) << streamed.output;
   ASSERT_EQ(whole.exit_code, 0) << whole.output;
   EXPECT_EQ(nlohmann::json::parse(streamed.output), nlohmann::json::parse(whole.output));
+}
+
+TEST_F(StreamingReader, TheCliFitOfAStreamedFileEqualsTheFitOfTheWholeFile) {
+  const std::string path = (dir_ / "run.csv").string();
+  write_recording(small_run(true), path);
+  expect_streamed_fit_is_whole_files(path);
+}
+
+// A file of 4 MiB or more is read by the CLI in two parts at once (one thread each,
+// tools/standcal/threaded_rows.cpp): its fit is the whole-file reader's, and a file with
+// an error or a cut-off last line in its second part is told about as one reader in order
+// tells it (the part is then read again in order).
+TEST_F(StreamingReader, ALargeFileReadInTwoPartsIsFittedAndCheckedAsOneReadInOrder) {
+  SimulationRequest req;
+  req.program = classic24();
+  req.timing.dwell_s = 20;  // 24 x 20 s x 100 Hz = 48 000 rows, 5.4 MB
+  const std::string path = (dir_ / "large.csv").string();
+  write_recording(simulate_run(req), path);
+  ASSERT_GE(fs::file_size(path), std::size_t{4} << 20);
+  expect_streamed_fit_is_whole_files(path);
+
+  std::ifstream in(path, std::ios::binary);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  auto expect_told_as_in_order = [&](const std::string& name, const std::string& changed) {
+    SCOPED_TRACE(name);
+    const std::string file = write(name, changed);
+    std::string in_order;
+    try {
+      const RecordingDigest d = digest_recording(file);
+      for (const std::string& w : d.recording.warnings) in_order += w;
+    } catch (const std::exception& e) {
+      in_order = e.what();
+    }
+    ASSERT_FALSE(in_order.empty());
+    const auto fit = standcal::test::standcal_cli("fit " + file + " --json");
+    EXPECT_NE(fit.output.find(in_order), std::string::npos) << in_order << "\n" << fit.output;
+  };
+  // A bad number three quarters in, and a last line cut off mid-write.
+  const std::size_t late_row = text.find('\n', text.size() * 3 / 4) + 1;
+  std::string bad_number = text;
+  bad_number.insert(text.find(',', late_row) + 1, "x");
+  expect_told_as_in_order("bad_number.csv", bad_number);
+  expect_told_as_in_order("cut.csv", text.substr(0, text.size() - 20));
+  // A position of the first part again in the second (its rows must be contiguous):
+  // positions 0, 1, 0 of 60 000 rows each, the middle in position 1.
+  std::string again =
+      "# format: standcal-recording/1\n# g_local_mps2: 9.81\n# sample_rate_hz: 100\n"
+      "t_s,pos,alpha1_cmd_deg,alpha2_cmd_deg,fx_mps2,fy_mps2,fz_mps2\n";
+  for (int i = 0; i < 180000; ++i)
+    again +=
+        std::to_string(i * 0.01) + (i / 60000 == 1 ? ",1,90,0,9.81,0,0\n" : ",0,0,0,0,0,9.81\n");
+  ASSERT_GE(again.size(), std::size_t{4} << 20);
+  expect_told_as_in_order("again.csv", again);
 }
 
 }  // namespace

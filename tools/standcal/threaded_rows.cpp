@@ -1,5 +1,8 @@
 #include "tools/standcal/threaded_rows.hpp"
 
+#include <atomic>
+#include <cmath>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -94,18 +97,16 @@ void ThreadedRows::fail_after_reader_error() {
   std::rethrow_exception(reader_error);
 }
 
-RecordingDigest digest_on_two_threads(const std::string& path, const DigestOptions& options) {
-  RecordingDigester digester(options);
-  ThreadedRows rows(digester);
-  Recording read;
-  try {
-    read = stream_recording(path, rows);
-  } catch (...) {
-    rows.fail_after_reader_error();
-  }
-  rows.finish();
-  // What the reader warned about is said even when the digest then fails: "no samples"
-  // means more beside "the last line was cut off mid-write".
+namespace {
+
+// How far past the middle the second part's first dwell is looked for, line by line: a
+// dwell longer than this (a static recording of one position) is read the one-part way,
+// after about 5 ms of looking (docs/performance.md).
+constexpr std::size_t kDwellSearchBytes = std::size_t{8} << 20;
+
+// The digest, with the reader's warnings printed when it fails: "no samples" means more
+// beside "the last line was cut off mid-write".
+RecordingDigest finish_digest(RecordingDigester& digester, Recording&& read) {
   const std::vector<std::string> warnings = read.warnings;
   try {
     return digester.finish(std::move(read));
@@ -113,6 +114,80 @@ RecordingDigest digest_on_two_threads(const std::string& path, const DigestOptio
     print_warnings(warnings);
     throw;
   }
+}
+
+// The rows from where `reader` stopped, parsed here and reduced on a second thread.
+Recording read_rest_threaded(RecordingReader& reader, RecordingDigester& digester) {
+  ThreadedRows rows(digester);
+  try {
+    reader.read_rows(rows);
+  } catch (...) {
+    rows.fail_after_reader_error();
+  }
+  rows.finish();
+  return reader.finish();
+}
+
+// Runs `part` on a second thread; the destructor cancels and joins it when the first part
+// failed (a file read in order stops at its first error).
+class PartThread {
+ public:
+  PartThread(RecordingPartReader& part, RecordingDigester& digester)
+      : thread_([this, &part, &digester] {
+          read_ = part.read(digester, cancel_);
+          if (!read_) return;
+          try {
+            digester.close_dwell();
+          } catch (...) {
+            read_ = false;  // told again, with its line, when read in order
+          }
+        }) {}
+  ~PartThread() {
+    cancel_ = true;
+    if (thread_.joinable()) thread_.join();
+  }
+  PartThread(const PartThread&) = delete;
+  PartThread& operator=(const PartThread&) = delete;
+  bool join() {
+    thread_.join();
+    return read_;
+  }
+
+ private:
+  std::atomic<bool> cancel_{false};
+  bool read_ = false;
+  std::thread thread_;
+};
+
+}  // namespace
+
+RecordingDigest digest_on_two_threads(const std::string& path, const DigestOptions& options) {
+  RecordingDigester digester(options);
+  RecordingReader reader(path);
+  const Recording& head = reader.read_header(digester);
+  const bool rate_known = std::isfinite(head.sample_rate_hz) && head.sample_rate_hz > 0;
+  const std::size_t size = reader.bytes_total();
+  const std::optional<std::size_t> split =
+      rate_known && size >= kTwoPartBytes ? reader.dwell_start_after(size / 2, kDwellSearchBytes)
+                                          : std::nullopt;
+  if (!split) return finish_digest(digester, read_rest_threaded(reader, digester));
+
+  RecordingDigester later(options);
+  later.header(head);
+  later.keep_for_append();
+  RecordingPartReader part = reader.part_from(*split);
+  bool part_read = false;
+  {
+    PartThread thread(part, later);
+    reader.read_rows(digester, *split);
+    part_read = thread.join();
+  }
+  if (part_read && reader.continues_with(part)) {
+    digester.append(std::move(later));
+    return finish_digest(digester, reader.finish());
+  }
+  // The part had an error, or does not follow on: read it in order, as one reader would.
+  return finish_digest(digester, read_rest_threaded(reader, digester));
 }
 
 }  // namespace standcal::cli
