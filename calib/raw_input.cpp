@@ -1,14 +1,17 @@
 #include "calib/raw_input.hpp"
 
 #include "calib/allan.hpp"
+#include "calib/line_source.hpp"
 #include "calib/order_statistics.hpp"
 
 #include <algorithm>
 #include <array>
 #include <charconv>
 #include <cmath>
+#include <deque>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 #include <stdexcept>
 #include <utility>
@@ -20,7 +23,6 @@ namespace {
 // and the other files' anonymous namespaces hold helpers of the same names (trim...).
 namespace input_reader {
 
-constexpr std::string_view kBom = "\xEF\xBB\xBF";
 constexpr double kRelativeUnitWindow = 0.2;  // values within 20 % of 1 g tell the units
 constexpr double kMinCountsNorm = 50;        // raw counts are integers at least this large
 
@@ -324,8 +326,59 @@ Unit named_unit(const ColumnName& c) {
 struct Line {
   std::string_view text;      // without '\n' and a trailing '\r'
   int number = 0;             // 1-based
-  std::size_t offset = 0;     // where it starts in the text
   bool unterminated = false;  // the file's last line, without a newline
+};
+
+// The lines of the input, read as a stream (a file is never held whole: a one-hour,
+// 100 Hz imu_tk file is 23 MB), with what this reader needs of looking back: while the
+// layout is being found, every line read is kept, and the reader can go back to any of
+// them; once the rows start (stop_keeping), a row's text is only valid until the next.
+class LineFeed {
+ public:
+  explicit LineFeed(LineSource source) : source_(std::move(source)) {}
+
+  bool next(Line& line) {
+    if (replay_ < kept_.size()) {
+      const Kept& k = kept_[replay_++];
+      line = {k.text, k.number, k.unterminated};
+      return true;
+    }
+    std::string_view text;
+    if (!source_.next(text)) return false;
+    line = {text, source_.line_number(), source_.unterminated()};
+    if (keeping_) {
+      kept_.push_back({std::string(text), line.number, line.unterminated});
+      replay_ = kept_.size();
+      line.text = kept_.back().text;
+    }
+    return true;
+  }
+
+  // Reads `line` (one read while keeping) again next.
+  void rewind_to(const Line& line) {
+    replay_ = static_cast<std::size_t>(line.number - kept_.front().number);
+  }
+
+  void stop_keeping() { keeping_ = false; }
+
+  // Input bytes not yet read (for sizing storage), and read so far.
+  std::size_t bytes_left() const {
+    return source_.bytes_total() > source_.bytes_consumed()
+               ? source_.bytes_total() - source_.bytes_consumed()
+               : 0;
+  }
+  std::size_t bytes_read() const { return source_.bytes_consumed(); }
+
+ private:
+  struct Kept {
+    std::string text;
+    int number = 0;
+    bool unterminated = false;
+  };
+  LineSource source_;
+  std::deque<Kept> kept_;  // a deque: the kept texts never move
+  std::size_t replay_ = 0;
+  bool keeping_ = true;
 };
 
 struct CommentKey {
@@ -352,16 +405,18 @@ struct Layout {
 
 class Reader {
  public:
-  Reader(std::string_view text, const std::string& source, const InputOptions& options)
-      : text_(text), options_(options) {
+  // `text` is the input when it is held in memory (else `lines` come from the file
+  // `source`, which read_full_recording then reads again).
+  Reader(LineSource lines, std::optional<std::string_view> text, const std::string& source,
+         const InputOptions& options)
+      : lines_(std::move(lines)), text_(text), options_(options) {
     out_.source = source;
-    if (text_.starts_with(kBom)) offset_ = kBom.size();
   }
 
   RawInput run() {
     check_options();
     skip_preamble();
-    body_offset_ = offset_;
+    body_offset_ = lines_.bytes_read();
     body_line_ = line_no_;
     read_comment_lines();
     Line first;
@@ -408,20 +463,8 @@ class Reader {
 
   // Next line without its newline; false at the end.
   bool next_line(Line& line) {
-    if (offset_ >= text_.size()) return false;
-    const std::size_t nl = text_.find('\n', offset_);
-    ++line_no_;
-    line.number = line_no_;
-    line.offset = offset_;
-    line.unterminated = nl == std::string_view::npos;
-    if (line.unterminated) {
-      line.text = text_.substr(offset_);
-      offset_ = text_.size();
-    } else {
-      line.text = text_.substr(offset_, nl - offset_);
-      offset_ = nl + 1;
-    }
-    if (!line.text.empty() && line.text.back() == '\r') line.text.remove_suffix(1);
+    if (!lines_.next(line)) return false;
+    line_no_ = line.number;
     return true;
   }
 
@@ -433,7 +476,7 @@ class Reader {
 
   // Reads `line` again next.
   void rewind_to(const Line& line) {
-    offset_ = line.offset;
+    lines_.rewind_to(line);
     line_no_ = line.number - 1;
   }
 
@@ -581,16 +624,7 @@ class Reader {
 
   // A recording with its angle columns: parse_recording reads it, the samples are copied.
   void read_full_recording() {
-    std::string shifted;
-    std::string_view text = text_;
-    if (options_.skip_lines > 0) {
-      // The preamble becomes blank lines, which the recording reader passes over: its
-      // messages then name the lines of the file as it is.
-      shifted.assign(static_cast<std::size_t>(body_line_), '\n');
-      shifted.append(text_.substr(body_offset_));
-      text = shifted;
-    }
-    Recording rec = parse_recording(text, out_.source);
+    Recording rec = read_recording_again();
     RawInput samples = raw_input_of(rec);
     out_.t_s = std::move(samples.t_s);
     out_.axis = std::move(samples.axis);
@@ -618,6 +652,26 @@ class Reader {
     else
       out_.sample_rate_hz = rate_from_steps();
     out_.recording = std::move(rec);
+  }
+
+  // The input from its start, through the recording reader (streamed when it is a file
+  // and no preamble is skipped).
+  Recording read_recording_again() const {
+    if (!text_ && options_.skip_lines == 0) return read_recording(out_.source);
+    std::string whole;
+    std::string_view text = text_.value_or(std::string_view{});
+    if (!text_) {
+      std::ifstream in(out_.source, std::ios::binary);
+      whole.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+      if (in.bad()) throw std::runtime_error(out_.source + ": read error");
+      text = whole;
+    }
+    if (options_.skip_lines == 0) return parse_recording(text, out_.source);
+    // The preamble becomes blank lines, which the recording reader passes over: its
+    // messages then name the lines of the file as it is.
+    std::string shifted(static_cast<std::size_t>(body_line_), '\n');
+    shifted.append(text.substr(body_offset_));
+    return parse_recording(shifted, out_.source);
   }
 
   // ------------------------------------------------------------ samples: imu_tk, delimited
@@ -911,13 +965,10 @@ class Reader {
 
   // Reads the rows of `layout` from the current position to the end.
   void read_rows(const Layout& layout) {
-    const auto expected = static_cast<std::size_t>(
-        std::count(text_.begin() + static_cast<std::ptrdiff_t>(offset_), text_.end(), '\n') + 1);
-    out_.t_s.reserve(expected);
-    for (auto& a : out_.axis) a.reserve(expected);
-    if (layout.pos >= 0) out_.block.reserve(expected);
     std::vector<std::string_view> fields;
     Line line;
+    reserve_rows(layout);
+    lines_.stop_keeping();
     double previous_t = 0;
     bool first = true;
     bool time_ok = true;
@@ -977,6 +1028,21 @@ class Reader {
         out_.t_s[i] = static_cast<double>(i) / *rate;
       times_from_rate_ = true;
     }
+  }
+
+  // Storage for the rows, sized once from the bytes left and the first row's length (a
+  // guess: reserved memory costs nothing until written, and a short guess only grows).
+  void reserve_rows(const Layout& layout) {
+    Line first;
+    std::size_t row_bytes = 32;
+    if (next_content_line(first)) {
+      row_bytes = std::max<std::size_t>(first.text.size() + 1, 8);
+      rewind_to(first);
+    }
+    const std::size_t expected = lines_.bytes_left() / row_bytes + 2;
+    out_.t_s.reserve(expected);
+    for (auto& a : out_.axis) a.reserve(expected);
+    if (layout.pos >= 0) out_.block.reserve(expected);
   }
 
   double field_number(const Layout& layout, const std::vector<std::string_view>& fields,
@@ -1067,6 +1133,7 @@ class Reader {
                 "no standard-error column for " + std::string(1, static_cast<char>('x' + k)) +
                     " although the others have one (columns: " + join(layout.names) + ")");
     rewind_to(row);
+    lines_.stop_keeping();
     Line line;
     while (next_content_line(line)) {
       if (first_data_line_ == 0) first_data_line_ = line.number;
@@ -1296,9 +1363,9 @@ class Reader {
     return 1 / step;
   }
 
-  std::string_view text_;
+  LineFeed lines_;
+  std::optional<std::string_view> text_;  // the input, when held in memory
   const InputOptions& options_;
-  std::size_t offset_ = 0;
   int line_no_ = 0;
   std::size_t body_offset_ = 0;
   int body_line_ = 0;
@@ -1389,29 +1456,22 @@ InputUnits parse_input_units(std::string_view s) {
 
 RawInput parse_input(std::string_view text, const std::string& source,
                      const InputOptions& options) {
-  return input_reader::Reader(text, source, options).run();
+  return input_reader::Reader(LineSource::of_text(text), text, source, options).run();
 }
 
 RawInput read_input(const std::string& path, const InputOptions& options) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec))
     throw std::runtime_error(path + ": cannot open (a directory)");
+  // A file is read as a stream; a pipe (which cannot be read twice, as a stand recording
+  // is: once to find its format, once by the recording reader) is held whole.
+  if (std::filesystem::is_regular_file(path, ec))
+    return input_reader::Reader(LineSource::of_file(path), std::nullopt, path, options).run();
   std::ifstream in(path, std::ios::binary);
   if (!in) throw std::runtime_error(path + ": cannot open");
-  // The text is held whole (this reader looks ahead and back over its header lines), read
-  // into one string of the file's size: a string stream copied it twice, three times the
-  // file at the peak. A pipe has no size (and cannot seek), and is copied.
-  std::string text;
-  if (std::filesystem::is_regular_file(path, ec)) {
-    text.resize(static_cast<std::size_t>(std::filesystem::file_size(path, ec)));
-    in.read(text.data(), static_cast<std::streamsize>(text.size()));
-    text.resize(static_cast<std::size_t>(in.gcount()));  // shorter if it shrank meanwhile
-    if (in.bad()) throw std::runtime_error(path + ": read error");
-  } else {
-    std::ostringstream buffer;
-    buffer << in.rdbuf();
-    text = buffer.str();
-  }
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  const std::string text = buffer.str();
   return parse_input(text, path, options);
 }
 

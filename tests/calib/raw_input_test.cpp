@@ -2,10 +2,14 @@
 // values, and errors that name file, line and column.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <fstream>
+#include <functional>
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <tuple>
+#include <vector>
 
 #include "calib/raw_input.hpp"
 #include "tests/calib/test_support.hpp"
@@ -407,6 +411,109 @@ TEST(RawInputErrors, FileShapeErrors) {
   InputOptions imu_tk;
   imu_tk.format = InputFormat::imu_tk;
   EXPECT_TRUE(contains(input_error_of("t,ax,ay,az\n" + kRowsG, imu_tk), "in.csv:1: column 1"));
+}
+
+// A file is read as a stream (raw_input.cpp's LineFeed: only the lines before the rows are
+// kept, to look back over), text in memory at once: the same input either way, or the same
+// error, for every format and the awkward files the tests above read.
+struct ReadOutcome {
+  std::string error;
+  RawInput input;
+};
+
+ReadOutcome outcome_of(const std::function<RawInput()>& read) {
+  ReadOutcome out;
+  try {
+    out.input = read();
+  } catch (const std::exception& e) {
+    out.error = e.what();
+  }
+  return out;
+}
+
+bool same_numbers(const std::vector<double>& a, const std::vector<double>& b) {
+  if (a.size() != b.size()) return false;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    if (!(a[i] == b[i] || (std::isnan(a[i]) && std::isnan(b[i])))) return false;
+  return true;
+}
+
+void expect_same_outcome(const ReadOutcome& file, const ReadOutcome& text) {
+  EXPECT_EQ(file.error, text.error);
+  const RawInput& a = file.input;
+  const RawInput& b = text.input;
+  EXPECT_EQ(a.format, b.format);
+  EXPECT_EQ(a.units, b.units);
+  EXPECT_EQ(a.units_how, b.units_how);
+  EXPECT_EQ(a.g_mps2, b.g_mps2);
+  EXPECT_EQ(a.g_given, b.g_given);
+  EXPECT_TRUE(same_numbers(a.t_s, b.t_s));
+  for (std::size_t k = 0; k < 3; ++k) EXPECT_TRUE(same_numbers(a.axis[k], b.axis[k])) << k;
+  EXPECT_TRUE(same_numbers({a.sample_rate_hz}, {b.sample_rate_hz}));
+  EXPECT_EQ(a.block, b.block);
+  ASSERT_EQ(a.means.size(), b.means.size());
+  for (std::size_t i = 0; i < a.means.size(); ++i) {
+    EXPECT_EQ(a.means[i].line, b.means[i].line);
+    EXPECT_EQ(a.means[i].mean, b.means[i].mean);
+    EXPECT_EQ(a.means[i].samples, b.means[i].samples);
+    EXPECT_EQ(a.means[i].standard_error, b.means[i].standard_error);
+  }
+  EXPECT_EQ(a.recording.has_value(), b.recording.has_value());
+  if (a.recording && b.recording)
+    EXPECT_EQ(a.recording->samples.size(), b.recording->samples.size());
+  EXPECT_EQ(a.ignored_columns, b.ignored_columns);
+  EXPECT_EQ(a.warnings, b.warnings);
+}
+
+TEST(RawInputFile, AFileReadAsAStreamIsReadAsItsTextInMemory) {
+  InputOptions none, skip_two, skip_one, means;
+  skip_two.skip_lines = 2;
+  skip_one.skip_lines = 1;
+  means.format = InputFormat::means;
+  std::string crlf = "\xEF\xBB\xBFt,ax,ay,az\r\n";
+  std::istringstream rows(kRowsG);
+  for (std::string row; std::getline(rows, row);) crlf += row + "\r\n";
+  std::string long_file = "# exported by logger\nt,ax,ay,az\n";  // rows across 1 MiB blocks
+  for (int i = 0; i < 60000; ++i)
+    long_file += std::to_string(i * 0.01) + ",0.0123456,-0.0045678,0.9987654\n";
+  const std::string preamble = "Logger v1.2, serial 1234\nexported 2024-05-01\n";
+  const std::vector<std::tuple<std::string, std::string, InputOptions>> cases{
+      {"xsens head", xsens_head(300), none},
+      {"delimited, g comment", "# g_local_mps2: 9.8162\n# note\nt,ax,ay,az\n" + kRowsG, none},
+      {"preamble", preamble + "t,ax,ay,az\n" + kRowsG, skip_two},
+      {"preamble, bad number", preamble + "t,ax,ay,az\n0,0.01,0.02,0.98\n0.01,0.01,x,0.98\n",
+       skip_two},
+      {"byte order mark, CRLF", crlf, none},
+      {"cut-off last line", "t,ax,ay,az\n" + kRowsG + "0.03,0.01", none},
+      {"long", long_file, none},
+      {"standcal with angles", kStandcalHeader + kStandcalColumns + kStandcalRows, none},
+      {"standcal with angles, preamble",
+       "exported\n" + kStandcalHeader + kStandcalColumns + "5.020,0,0,0,,,0.1,9.8x,0.1,\n",
+       skip_one},
+      {"standcal without angles",
+       "# format: standcal-recording/1\n# sample_rate_hz: 200\nt_s,pos,fx_mps2,fy_mps2,fz_mps2\n"
+       "0.000,0,0.01,9.81,0.02\n0.005,0,0.01,9.80,0.02\n3.000,1,9.81,0.01,0.02\n",
+       none},
+      {"means", "mean_x,mean_y,mean_z,n\n0.0012,-0.0004,1.0003,500\n1.0011,0.0003,0.0002,400\n",
+       means},
+      {"empty", "", none},
+      {"comments only", "# a\n# b\n", none},
+      {"header only", "t,ax,ay,az\n", none},
+      {"fields missing", "t,ax,ay,az\n0,0.1,0.2,0.9\n0,0.1,0.2\n", none},
+  };
+  const std::string dir = ::testing::TempDir();
+  for (const auto& one : cases) {
+    const std::string& name = std::get<0>(one);
+    const std::string& text = std::get<1>(one);
+    const InputOptions& options = std::get<2>(one);
+    SCOPED_TRACE(name);
+    const std::string path = dir + "/raw_input_stream.csv";
+    std::ofstream(path, std::ios::binary) << text;
+    const ReadOutcome from_file = outcome_of([&] { return read_input(path, options); });
+    const ReadOutcome from_text = outcome_of([&] { return parse_input(text, path, options); });
+    expect_same_outcome(from_file, from_text);
+    if (name == "long") EXPECT_EQ(from_file.input.size(), 60000u);
+  }
 }
 
 TEST(RawInputNames, SpellingsRoundTripAndUnknownOnesAreRefused) {
