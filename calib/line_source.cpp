@@ -41,6 +41,8 @@ LineSource LineSource::of_file(const std::string& path, std::size_t begin) {
     source.at_start_ = false;  // a byte order mark only opens a file
   }
   source.total_ = S_ISREG(st.st_mode) ? static_cast<std::size_t>(st.st_size) : 0;
+  source.identity_ = {static_cast<unsigned long long>(st.st_dev),
+                      static_cast<unsigned long long>(st.st_ino)};
   source.buffer_.resize(kBlockBytes);
   source.data_ = std::string_view(source.buffer_.data(), 0);
   return source;
@@ -54,6 +56,7 @@ LineSource::LineSource(LineSource&& other) noexcept
       offset_(other.offset_),
       consumed_before_(other.consumed_before_),
       total_(other.total_),
+      identity_(other.identity_),
       end_of_input_(other.end_of_input_),
       unterminated_(other.unterminated_),
       at_start_(other.at_start_),

@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <string>
 #include <string_view>
+#include <utility>
 
 namespace standcal {
 
@@ -34,6 +35,9 @@ class LineSource {
   // a reader can size its storage once instead of growing it by copies.
   std::size_t bytes_consumed() const { return consumed_before_ + offset_; }
   std::size_t bytes_total() const { return total_; }
+  // The file's device and inode (both 0 for text in memory): whether two sources opened by
+  // name read the same file, not one that replaced it meanwhile (a rename over the path).
+  std::pair<unsigned long long, unsigned long long> file_identity() const { return identity_; }
 
  private:
   LineSource(std::string_view text, int fd, std::string path);
@@ -47,6 +51,7 @@ class LineSource {
   std::size_t offset_ = 0;
   std::size_t consumed_before_ = 0;  // bytes dropped from the buffer by refills
   std::size_t total_ = 0;
+  std::pair<unsigned long long, unsigned long long> identity_{0, 0};
   bool end_of_input_ = false;
   bool unterminated_ = false;
   bool at_start_ = true;

@@ -89,7 +89,8 @@ MatrixXd decorrelate(const std::vector<NoiseRow>& rows, const GaussMarkovNoise& 
       state *= a;
       P *= a;  // a P a, in the order of diag(a) P diag(a)
       P *= a;
-      P.diagonal().array() += q2 * (1 - a * a);
+      const double a2 = a * a;  // its own statement: not fused into 1 - a a (FMA targets)
+      P.diagonal().array() += q2 * (1 - a2);
     }
     first = false;
     t_prev = row.t_s;

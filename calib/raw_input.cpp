@@ -662,6 +662,7 @@ class Reader {
     std::string_view text = text_.value_or(std::string_view{});
     if (!text_) {
       std::ifstream in(out_.source, std::ios::binary);
+      if (!in) throw std::runtime_error(out_.source + ": cannot open");
       whole.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
       if (in.bad()) throw std::runtime_error(out_.source + ": read error");
       text = whole;

@@ -352,9 +352,10 @@ class Parser {
   // walk), and passes over a still run whose text repeats with one comparison. Half of
   // `fit`'s reading went to splitting the row and parsing the fields again
   // (docs/performance.md). A row it does not expect -- the first, a changed still column,
-  // a quote, a space, an empty or exponent number, another field count, time going
-  // backwards, a blank line -- it leaves alone (false), and the general path reads it or
-  // says what is wrong with it, as before.
+  // a quote or a space in a number or still column (a column the reader does not know is
+  // passed over unread, as the general path ignores it), an empty or exponent number,
+  // another field count, time going backwards, a blank line -- it leaves alone (false),
+  // and the general path reads it or says what is wrong with it, as before.
   enum class QuickStep : std::uint8_t { skip, number, still_run };
   struct QuickField {
     QuickStep step = QuickStep::skip;
@@ -701,6 +702,7 @@ std::optional<std::size_t> RecordingReader::dwell_start_after(std::size_t from,
                                                               std::size_t within) const {
   const int pos_field = impl_->parser.pos_field();
   LineSource lines = LineSource::of_file(path_, from);
+  if (lines.file_identity() != impl_->lines.file_identity()) return std::nullopt;  // replaced
   std::string_view line;
   if (!lines.next(line)) return std::nullopt;  // the rest of the line `from` falls in
   std::string previous_pos;
@@ -726,6 +728,8 @@ bool RecordingReader::continues_with(const RecordingPartReader& part) const {
   const Parser& head = impl_->parser;
   const Parser& later = part.impl_->parser;
   if (!part.read_ || head.rows() == 0 || later.rows() == 0) return false;
+  // The same file: one renamed over the path meanwhile is not this one's rest.
+  if (part.impl_->lines.file_identity() != impl_->lines.file_identity()) return false;
   if (later.first_row().t_s < head.last_row().t_s) return false;
   for (const int pos : later.positions())
     if (head.positions().count(pos)) return false;  // includes the head's last position

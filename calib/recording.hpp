@@ -134,9 +134,10 @@ class RecordingReader {
   Recording finish();
   std::size_t bytes_total() const;  // the file's size (0 for a pipe)
 
-  // The start of the first row at least `from` bytes into the file, and no more than
-  // `within` bytes beyond, whose position text differs from the row's before it: where a
-  // later part can begin with a dwell of its own. Nothing when there is none.
+  // Where a later part can begin with a dwell of its own: the start of the first row whose
+  // position text differs from the row's before it, both rows after the line that byte
+  // `from` falls in and starting no more than `within` bytes beyond it. Nothing when there
+  // is none, or when the file at the path is no longer the one this reader opened.
   std::optional<std::size_t> dwell_start_after(std::size_t from, std::size_t within) const;
   // A reader of the rows from byte `begin` to the end, with this reader's columns. Made
   // after read_header, on this reader's thread; then read on any thread.

@@ -466,6 +466,29 @@ TEST_F(StreamingReader, APartThatDoesNotFollowOnIsNotTaken) {
     EXPECT_THROW(digest_recording(bad), RecordingError) << bad;
 }
 
+// A file renamed over the path while the first part is read (a run rewritten with
+// `standcal simulate -o` or a copy) is not mixed in, even when its rows would follow on:
+// here it is the same recording, so only the file's identity tells them apart.
+TEST_F(StreamingReader, APartOfAFileRenamedOverThePathIsNotTaken) {
+  const std::string path = (dir_ / "run.csv").string();
+  const std::string copy = (dir_ / "copy.csv").string();
+  write_recording(small_run(true), path);
+  fs::copy_file(path, copy);
+  RecordingDigester first, later;
+  RecordingReader reader(path);
+  later.header(reader.read_header(first));
+  const std::optional<std::size_t> split =
+      reader.dwell_start_after(reader.bytes_total() / 2, std::size_t{1} << 20);
+  ASSERT_TRUE(split);
+  fs::rename(copy, path);
+  EXPECT_FALSE(reader.dwell_start_after(reader.bytes_total() / 2, std::size_t{1} << 20));
+  RecordingPartReader part = reader.part_from(*split);
+  const std::atomic<bool> cancel{false};
+  EXPECT_TRUE(part.read(later, cancel));
+  reader.read_rows(first, *split);
+  EXPECT_FALSE(reader.continues_with(part));
+}
+
 TEST(AllanAccumulator, AppendedSegmentsGiveTheCurveOfAddingThemInOrder) {
   std::mt19937_64 rng(5);
   std::normal_distribution<double> noise(0, 1);
