@@ -11,7 +11,6 @@
 #include <deque>
 #include <filesystem>
 #include <fstream>
-#include <iterator>
 #include <sstream>
 #include <stdexcept>
 #include <utility>
@@ -81,6 +80,16 @@ std::string join(const std::vector<std::string>& items) {
 }
 
 double median_of(std::vector<double> v) { return v.empty() ? kNaN : median_in_place(v); }
+
+// The file (or pipe) at `path`, whole.
+std::string whole_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(path + ": cannot open");
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  if (in.bad()) throw std::runtime_error(path + ": read error");
+  return buffer.str();
+}
 
 // ---------------------------------------------------------------- fields and delimiters
 
@@ -658,15 +667,8 @@ class Reader {
   // and no preamble is skipped).
   Recording read_recording_again() const {
     if (!text_ && options_.skip_lines == 0) return read_recording(out_.source);
-    std::string whole;
-    std::string_view text = text_.value_or(std::string_view{});
-    if (!text_) {
-      std::ifstream in(out_.source, std::ios::binary);
-      if (!in) throw std::runtime_error(out_.source + ": cannot open");
-      whole.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-      if (in.bad()) throw std::runtime_error(out_.source + ": read error");
-      text = whole;
-    }
+    const std::string whole = text_ ? std::string() : whole_text(out_.source);
+    const std::string_view text = text_ ? *text_ : std::string_view(whole);
     if (options_.skip_lines == 0) return parse_recording(text, out_.source);
     // The preamble becomes blank lines, which the recording reader passes over: its
     // messages then name the lines of the file as it is.
@@ -1468,11 +1470,7 @@ RawInput read_input(const std::string& path, const InputOptions& options) {
   // is: once to find its format, once by the recording reader) is held whole.
   if (std::filesystem::is_regular_file(path, ec))
     return input_reader::Reader(LineSource::of_file(path), std::nullopt, path, options).run();
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error(path + ": cannot open");
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  const std::string text = buffer.str();
+  const std::string text = input_reader::whole_text(path);
   return parse_input(text, path, options);
 }
 

@@ -26,7 +26,7 @@ namespace standcal {
 
 namespace {
 
-constexpr std::size_t kToEnd = std::numeric_limits<std::size_t>::max();
+constexpr std::size_t kToEnd = RecordingReader::kToEnd;
 
 std::string locate(const std::string& source, int line, int column) {
   std::string where = source + ":" + std::to_string(line);
@@ -103,16 +103,6 @@ void split_fields(std::string_view line, std::vector<std::string_view>& fields) 
     start = p + 1;
   }
   fields.emplace_back(start, static_cast<std::size_t>(end - start));
-}
-
-// Field `index` (0-based) of a row, or empty when the row has fewer.
-std::string_view field_of(std::string_view line, int index) {
-  for (int i = 0; i < index; ++i) {
-    const std::size_t comma = line.find(',');
-    if (comma == std::string_view::npos) return {};
-    line.remove_prefix(comma + 1);
-  }
-  return line.substr(0, line.find(','));
 }
 
 class Parser {
@@ -315,10 +305,7 @@ class Parser {
                                   "dropped");
         break;
       }
-      if (read_row_quickly(line)) {
-        count_row();
-        continue;
-      }
+      if (read_row_quickly(line)) continue;
       if (trim(line).empty()) continue;
       split_fields(line, fields);
       if (fields.size() != field_count_)
@@ -332,18 +319,19 @@ class Parser {
       const RecordingSample sample = parse_row(fields);
       if (first_row_) first_ = sample;
       check_order(sample);
-      if (sink_) {
-        sink_->row(sample);
-      } else {
-        rec_.samples.push_back(sample);
-      }
-      count_row();
+      emit(sample);
       previous_ = sample;
     }
   }
 
  private:
-  void count_row() {
+  // A row read: to the sink, or kept.
+  void emit(const RecordingSample& sample) {
+    if (sink_) {
+      sink_->row(sample);
+    } else {
+      rec_.samples.push_back(sample);
+    }
     if (++rows_ == kRowsToSizeFrom) announce_size();
   }
 
@@ -408,11 +396,7 @@ class Parser {
     previous_.t_s = numbers[kQuickT];
     previous_.f_mps2 = Vec3(numbers[1], numbers[2], numbers[3]);
     previous_.temp_c = numbers[kQuickTemp];
-    if (sink_) {
-      sink_->row(previous_);
-    } else {
-      rec_.samples.push_back(previous_);
-    }
+    emit(previous_);
     return true;
   }
 
@@ -700,17 +684,19 @@ std::size_t RecordingReader::bytes_total() const { return impl_->lines.bytes_tot
 
 std::optional<std::size_t> RecordingReader::dwell_start_after(std::size_t from,
                                                               std::size_t within) const {
-  const int pos_field = impl_->parser.pos_field();
+  const auto pos_field = static_cast<std::size_t>(impl_->parser.pos_field());
   LineSource lines = LineSource::of_file(path_, from);
   if (lines.file_identity() != impl_->lines.file_identity()) return std::nullopt;  // replaced
   std::string_view line;
   if (!lines.next(line)) return std::nullopt;  // the rest of the line `from` falls in
+  std::vector<std::string_view> fields;
   std::string previous_pos;
   bool have_previous = false;
   while (lines.bytes_consumed() <= from + within) {
     const std::size_t start = lines.bytes_consumed();
     if (!lines.next(line) || lines.unterminated()) return std::nullopt;
-    const std::string_view pos = field_of(line, pos_field);
+    split_fields(line, fields);
+    const std::string_view pos = pos_field < fields.size() ? fields[pos_field] : "";
     if (have_previous && pos != previous_pos) return start;
     previous_pos.assign(pos);
     have_previous = true;

@@ -38,7 +38,7 @@ void RecordingDigester::row(const RecordingSample& s) {
 }
 
 RecordingDigest RecordingDigester::finish(Recording&& read) {
-  if (dwell_.size() > 0) finish_dwell();
+  close_dwell();
   RecordingDigest out;
   out.samples = samples_;
   if (options_.averages) {
