@@ -101,7 +101,7 @@ namespace {
 
 // How far past the middle the second part's first dwell is looked for, line by line: a
 // dwell longer than this (a static recording of one position) is read the one-part way,
-// after about 5 ms of looking (docs/performance.md).
+// after 6.2-6.6 ms of looking (docs/performance.md).
 constexpr std::size_t kDwellSearchBytes = std::size_t{8} << 20;
 
 // The digest, with the reader's warnings printed when it fails: "no samples" means more
