@@ -185,13 +185,19 @@ void widen_sigmas(const InvariantData& d, const std::vector<PositionAverage>& po
   }
 }
 
-// A wander that the full vector of the same dwell means shows as a finding is weighted
-// for as the full-vector fit estimates it: three rows per position pin it better than the
-// invariant projection's one (docs/calibration.md, "Noise model"). Otherwise the invariant
-// rows estimate it themselves, as when there is no full vector: under white noise the
-// full vector's sub-threshold estimates only widen the sigmas (an 18-position programme's
-// z-variance fell to 0.71-0.75). The chi-square of the invariant residuals loses no degree
-// of freedom to a wander fitted to the full vector's rows.
+// 2 delta log L against white noise above which the full vector's wander is taken even
+// below the bar of a finding: chi2 with two parameters (a q common to the axes, and tau) at
+// P = 0.05. Weaker estimates, taken as well, only widened white noise's sigmas (an
+// 18-position programme's z-variance fell to 0.70-0.75); without the sub-threshold ones the
+// biases' z-variance was 1.10-1.52 under a wander of 1x the dwell error (0.93-1.05 with).
+constexpr double kFullVectorWanderLr = 5.99;
+
+// A wander that the full vector of the same dwell means shows, as a finding or evidently
+// (kFullVectorWanderLr), is weighted for as the full-vector fit estimates it: three rows
+// per position pin it better than the invariant projection's one (docs/calibration.md,
+// "Noise model"). Otherwise the invariant rows estimate it themselves, as when there is no
+// full vector. The chi-square of the invariant residuals loses no degree of freedom to a
+// wander fitted to the full vector's rows.
 FitNoiseChoice invariant_noise_choice(const InvariantData& d,
                                       const std::vector<PositionAverage>& positions,
                                       const std::vector<int>& fitted,
@@ -199,7 +205,8 @@ FitNoiseChoice invariant_noise_choice(const InvariantData& d,
                                       const FitNoiseOptions& options) {
   if (options.mode == FitNoiseOptions::Mode::estimate && options.estimate_from_full_vector) {
     std::optional<FitNoiseChoice> full = full_vector_noise_choice(positions, options);
-    if (full && full->finding.bias_instability) {
+    if (full && !full->noise.white() &&
+        (full->finding.bias_instability || full->finding.lr > kFullVectorWanderLr)) {
       full->finding.how =
           "from the full vector of the dwell means (3 rows per position): " + full->finding.how;
       full->parameters = 0;

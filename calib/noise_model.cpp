@@ -160,8 +160,13 @@ struct WanderFit {
 };
 
 // For one tau: a common q for the three axes first (one dimension, robust), then each
-// axis on its own, each compared with no wander on that axis.
-WanderFit best_for_tau(const RestrictedLikelihood& L, double tau_s, double sigma_ref) {
+// axis on its own, each compared with no wander on that axis. An axis leaves the common q
+// only when that beats it by axis_lr in 2 delta log L: taking every small gain let an
+// axis's q come out low by chance, and its bias sigma with it (the full-vector fit's biases
+// at z-variance 1.9-2.5 under a wander of 1x the dwell error, 1.0 with the test;
+// docs/calibration.md).
+WanderFit best_for_tau(const RestrictedLikelihood& L, double tau_s, double sigma_ref,
+                       double axis_lr) {
   constexpr double kLogLo = -1.5, kLogHi = 1.5;  // q from 3 % to 30x a row's sigma
   constexpr int kEvaluations = 14;
   WanderFit best{{Vec3::Zero(), tau_s}, 0};
@@ -184,8 +189,10 @@ WanderFit best_for_tau(const RestrictedLikelihood& L, double tau_s, double sigma
         golden_section_max([&](double v) { return with_q(on_axis(sigma_ref * std::pow(10, v))); },
                            kLogLo, kLogHi, kEvaluations, std::greater<double>())
             .first;
+    const double common_log_l = best.log_l;
     for (const double q_axis : {0.0, sigma_ref * std::pow(10, u)})
-      if (const double l = with_q(on_axis(q_axis)); l > best.log_l)
+      if (const double l = with_q(on_axis(q_axis));
+          l > best.log_l && 2 * (l - common_log_l) > axis_lr)
         best = {{on_axis(q_axis), tau_s}, l};
   }
   return best;
@@ -234,7 +241,7 @@ NoiseEstimate estimate_bias_wander(const std::vector<NoiseRow>& rows, const Matr
   WanderFit best{{}, white_log_l};
   std::vector<WanderFit> per_tau;
   for (const double tau : options.tau_grid_s) {
-    per_tau.push_back(best_for_tau(L, tau, sigma_ref));
+    per_tau.push_back(best_for_tau(L, tau, sigma_ref, options.axis_lr));
     if (per_tau.back().log_l > best.log_l) best = per_tau.back();
   }
   for (const WanderFit& c : per_tau)
@@ -346,7 +353,12 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
                   "estimate a bias wander"
                 : "the specified bias instability (too few measurements to estimate one)";
   } else {
-    e = estimate_bias_wander(rows, X, y, options.estimate);
+    NoiseEstimateOptions estimate = options.estimate;
+    if (options.known_tau_s) estimate.tau_grid_s = {*options.known_tau_s};
+    e = estimate_bias_wander(rows, X, y, estimate);
+    if (options.known_tau_s)
+      e.how += "; at the given correlation time " +
+               std::to_string(std::lround(*options.known_tau_s)) + " s";
     if (!e.significant && !options.specified.white()) {
       e.noise = options.specified;
       e.how += "; not significant on this run, so the specified bias instability is used";
@@ -368,9 +380,16 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
   if (e.significant || weighted_below_bar) {
     choice.log_scale_information = e.log_scale_information;
     choice.plausible = e.plausible;
+    choice.finding.tau_given = options.known_tau_s.has_value();
+    for (const PlausibleNoise& p : e.plausible) {
+      const double t = p.noise.tau_s, lo = choice.finding.tau_plausible_min_s;
+      choice.finding.tau_plausible_min_s = lo > 0 ? std::min(lo, t) : t;
+      choice.finding.tau_plausible_max_s = std::max(choice.finding.tau_plausible_max_s, t);
+    }
   }
   if (e.significant) choice.parameters = 1 + static_cast<int>((e.noise.q_g.array() > 0).count());
   if (weighted_below_bar) choice.finding.source = "estimated";
+  if (choice.finding.source == "specified") choice.finding.tau_given = true;
   return choice;
 }
 

@@ -16,6 +16,7 @@
 // share of the residual as noise.
 #include <Eigen/Dense>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -86,11 +87,17 @@ struct NoiseEstimateOptions {
   // 2 delta log L of the wander model over white noise for it to be believed: chi2 with
   // four parameters (three q, one tau) at P = 1e-3 is 18.5.
   double lr_threshold = 18.5;
+  // 2 delta log L by which one axis's own q (or none on that axis) must beat the wander
+  // common to the three axes for the axis to get it: chi2 with one parameter at P = 0.01.
+  // A per-axis q from a few dozen rows is poorly pinned, and a q that comes out low makes
+  // that axis's bias sigma too small (docs/calibration.md, "Noise model").
+  double axis_lr = 6.63;
 };
 
 // REML estimate of the wander for the linear model y = X beta + e (both already whitened
-// by sigma; X's column space is the fitted model). Per-axis q by coordinate-wise golden
-// section on log q for each tau of the grid.
+// by sigma; X's column space is the fitted model). For each tau of the grid, a q common to
+// the three axes by golden section on log q, then each axis's own q (or none) where its
+// rows demand it (options.axis_lr).
 NoiseEstimate estimate_bias_wander(const std::vector<NoiseRow>& rows, const Eigen::MatrixXd& X,
                                    const Eigen::VectorXd& y,
                                    const NoiseEstimateOptions& options = {});
@@ -120,6 +127,11 @@ struct FitNoiseOptions {
   // little precision; ignoring one that is makes every sigma too small.
   double weighting_lr = 1.0;
   GaussMarkovNoise specified;  // the unit's known bias instability (data sheet, earlier runs)
+  // estimate: the unit's correlation time, known (a long static recording's Allan curve, the
+  // data sheet): the run then estimates only the wander's size. One run of a quarter of an
+  // hour cannot tell a wander of 60 s from one of 1200 s, and the biases' sigmas depend on
+  // it several-fold (docs/calibration.md, "Noise model").
+  std::optional<double> known_tau_s;
   NoiseEstimateOptions estimate;
   // estimate, invariant fit: estimate the wander from the full vector of the dwell means
   // (three rows per position, where the full-vector model fits the programme) rather than
@@ -146,11 +158,15 @@ inline bool can_estimate_wander(std::size_t rows, Eigen::Index parameters) {
 
 // The noise a result was weighted with, as reported (`noise` in the fit and diagnosis JSON).
 struct NoiseFinding {
-  std::string model = "white";         // "white" or "gauss_markov"
-  std::string source;                  // gauss_markov: "estimated" (this recording) or "specified"
-  bool bias_instability = false;       // the recording itself shows the wander
-  Vec3 wander_ug = Vec3::Zero();       // Gauss-Markov standard deviation per axis
-  double tau_s = 0;                    // its correlation time
+  std::string model = "white";    // "white" or "gauss_markov"
+  std::string source;             // gauss_markov: "estimated" (this recording) or "specified"
+  bool bias_instability = false;  // the recording itself shows the wander
+  Vec3 wander_ug = Vec3::Zero();  // Gauss-Markov standard deviation per axis
+  double tau_s = 0;               // its correlation time
+  bool tau_given = false;         // given, not estimated (known_tau_s, or a specified wander)
+  // Estimated: the correlation times of the grid the run allows (2 delta log L within
+  // plausible_lr of the best); the biases' sigmas are averaged over them.
+  double tau_plausible_min_s = 0, tau_plausible_max_s = 0;
   Vec3 allan_peak_ug = Vec3::Zero();   // the Allan-deviation floor that wander shows
   Vec3 understated_by = Vec3::Ones();  // how much sigma/sqrt(n) understated a dwell mean's error
   double lr = 0, lr_threshold = 0;     // 2 delta log L against white noise, and the bar

@@ -110,6 +110,9 @@ json noise_finding_json(const NoiseFinding& n) {
     j["source"] = n.source;
     j["wander_ug"] = vec(n.wander_ug);
     j["tau_s"] = n.tau_s;
+    j["tau_given"] = n.tau_given;
+    if (!n.tau_given && n.tau_plausible_max_s > 0)
+      j["tau_plausible_s"] = json::array({n.tau_plausible_min_s, n.tau_plausible_max_s});
     j["allan_floor_ug"] = vec(n.allan_peak_ug);
     j["sigma_sqrt_n_understated_by"] = vec(n.understated_by);
   }
@@ -187,6 +190,21 @@ json fit_to_json(const FitResult& fit) {
   return out;
 }
 
+namespace {
+
+// How the correlation time was come by: given, or the range one run allows, on which the
+// biases' sigmas depend several-fold (docs/calibration.md, "Noise model").
+std::string tau_words(const NoiseFinding& n) {
+  if (n.tau_given) return " (given)";
+  if (n.tau_plausible_max_s <= n.tau_plausible_min_s) return "";
+  return " (this run allows " + format("%.0f", n.tau_plausible_min_s) + "-" +
+         format("%.0f", n.tau_plausible_max_s) +
+         " s, and the biases' sigmas lean on it: give the unit's correlation time, "
+         "--bias-instability-tau-s)";
+}
+
+}  // namespace
+
 // One line on the noise the fit weighted with, in the engineer's words.
 std::string noise_line(const NoiseFinding& n) {
   if (n.model != "gauss_markov") {
@@ -203,8 +221,8 @@ std::string noise_line(const NoiseFinding& n) {
                 format("%.1f", n.lr) + " of " + format("%.1f", n.lr_threshold) + "), weighted for";
   return what + ", Gauss-Markov " + format("%.2f", n.wander_ug[0]) + " / " +
          format("%.2f", n.wander_ug[1]) + " / " + format("%.2f", n.wander_ug[2]) +
-         " ug (x/y/z), tau " + format("%.0f", n.tau_s) +
-         " s; dwell means close in time share it, so they are weighted by the covariance it "
+         " ug (x/y/z), tau " + format("%.0f", n.tau_s) + " s" + tau_words(n) +
+         "; dwell means close in time share it, so they are weighted by the covariance it "
          "implies "
          "(generalised least squares); sigma/sqrt(n) understates a dwell mean's error up to " +
          format("%.1f", n.understated_by.maxCoeff()) + "x";

@@ -21,12 +21,13 @@ void print_result(const ScenarioResult& r) {
   std::printf("\n%s (wander %.1f ug, tau %.0f s; white error of one dwell mean %.2f ug)\n",
               r.scenario.name.c_str(), r.scenario.wander_per_dwell_error * r.white_dwell_error_ug,
               r.scenario.tau_s, r.white_dwell_error_ug);
-  std::printf("  %-6s %-9s %5s %5s  z-variance per parameter", "fit", "weighting", "runs", "wand.");
-  std::printf("\n  %-6s %-9s %5s %5s ", "", "", "", "");
+  std::printf("  %-6s %-10s %5s %5s  z-variance per parameter", "fit", "weighting", "runs",
+              "wand.");
+  std::printf("\n  %-6s %-10s %5s %5s ", "", "", "", "");
   for (const auto& name : kUnitParameterNames) std::printf(" %8.8s", std::string(name).c_str());
   std::printf("   range      min cover\n");
   for (const ZStats& z : r.stats) {
-    std::printf("  %-6s %-9s %5d %5d ", z.estimator.c_str(), z.weighting.c_str(), z.runs,
+    std::printf("  %-6s %-10s %5d %5d ", z.estimator.c_str(), z.weighting.c_str(), z.runs,
                 z.wander_significant);
     double lo = 1e300, hi = 0;
     for (std::size_t j = 0; j < z.z2_mean.size(); ++j) {

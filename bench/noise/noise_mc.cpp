@@ -22,9 +22,10 @@ struct Method {
 };
 
 const std::vector<Method>& methods() {
-  static const std::vector<Method> m{{"full", "estimated"},  {"full", "true"},  {"full", "white"},
-                                     {"joint", "estimated"}, {"joint", "true"}, {"joint", "white"},
-                                     {"norm", "estimated"},  {"norm", "true"},  {"norm", "white"}};
+  static const std::vector<Method> m{
+      {"full", "estimated"},  {"full", "tau given"},  {"full", "true"},  {"full", "white"},
+      {"joint", "estimated"}, {"joint", "tau given"}, {"joint", "true"}, {"joint", "white"},
+      {"norm", "estimated"},  {"norm", "tau given"},  {"norm", "true"},  {"norm", "white"}};
   return m;
 }
 
@@ -33,6 +34,7 @@ FitResult fit_with(const Method& m, const Recording& rec, const std::vector<Posi
   FitNoiseOptions noise;
   noise.weighting_lr = weighting_lr;
   if (m.weighting == "white") noise = white_noise_weighting();
+  if (m.weighting == "tau given") noise.known_tau_s = truth.noise.bias_instability_tau_s;
   if (m.weighting == "true") {
     noise.mode = FitNoiseOptions::Mode::specified;
     noise.specified = {Vec3::Constant(truth.noise.bias_instability_ug * kUg),

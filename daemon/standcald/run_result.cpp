@@ -75,6 +75,9 @@ json fit_finished_run(RunRecord& record, const std::string& run_dir,
   const std::optional<AllanFinding> allan = digest.allan_finding();
   FitNoiseOptions noise;
   noise.specified = bias_wander;
+  // A wander configured for the unit comes with its correlation time (its Allan test): the
+  // run then estimates only the wander's size, which one run pins far better than tau.
+  if (!bias_wander.white()) noise.known_tau_s = bias_wander.tau_s;
   JointFit joint = joint_fit(averages, noise, allan);
   json& result = joint.result;
   try {

@@ -216,6 +216,25 @@ TEST_F(Cli, FitStatesItsNoiseModelAndWeightsForTheWanderOfTheRun) {
     EXPECT_GT(j["parameters"][p]["sigma"].get<double>(),
               3 * jw["parameters"][p]["sigma"].get<double>())
         << p;
+  // Estimated, the correlation time comes with the range the run allows; given, it is
+  // taken as known and only the wander's size is estimated at it.
+  EXPECT_EQ(j["noise"]["tau_given"], false);
+  ASSERT_TRUE(j["noise"].contains("tau_plausible_s")) << j["noise"].dump(2);
+  EXPECT_LE(j["noise"]["tau_plausible_s"][0].get<double>(), j["noise"]["tau_s"].get<double>());
+  EXPECT_GE(j["noise"]["tau_plausible_s"][1].get<double>(), j["noise"]["tau_s"].get<double>());
+  const CliRun given =
+      run_cli("fit " + path("wander.csv") + " --method full --bias-instability-tau-s 700 --json");
+  ASSERT_EQ(given.exit_code, 0) << given.output;
+  const auto jg = nlohmann::json::parse(given.output)["noise"];
+  EXPECT_EQ(jg["tau_s"], 700.0) << jg.dump(2);
+  EXPECT_EQ(jg["tau_given"], true);
+  EXPECT_FALSE(jg.contains("tau_plausible_s"));
+  EXPECT_NE(jg["how"].get<std::string>().find("at the given correlation time 700 s"),
+            std::string::npos)
+      << jg["how"];
+  const CliRun text =
+      run_cli("fit " + path("wander.csv") + " --method full --bias-instability-tau-s 700");
+  EXPECT_NE(text.output.find("tau 700 s (given)"), std::string::npos) << text.output;
 }
 
 // Issue 16: a recording from another tool, without angles, through the same commands.

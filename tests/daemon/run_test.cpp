@@ -160,6 +160,7 @@ TEST(DaemonRun, TheFitsAssumeTheUnitsConfiguredBiasWander) {
   EXPECT_EQ(noise["source"], "specified");
   EXPECT_DOUBLE_EQ(noise["wander_ug"][0].get<double>(), 5);
   EXPECT_DOUBLE_EQ(noise["tau_s"].get<double>(), 600);
+  EXPECT_EQ(noise["tau_given"], true);
   EXPECT_TRUE(noise["allan"]["axes"]["x"]["white_density_ug_rthz"].is_number());
 }
 

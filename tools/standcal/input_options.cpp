@@ -71,17 +71,21 @@ void add_noise_options(CLI::App* cmd, NoiseCliOptions& o) {
       ->check(CLI::IsMember({"estimate", "white"}))
       ->capture_default_str();
   add_wander_options(cmd, o.bias_instability_ug, o.bias_instability_tau_s,
-                     "used when the run alone does not show it");
+                     "used when the run alone does not show it; with either given, the "
+                     "correlation time is taken as known and the run estimates the wander's "
+                     "size at it")
+      ->each([&o](const std::string&) { o.tau_given = true; });
 }
 
-void add_wander_options(CLI::App* cmd, double& sigma_ug, double& tau_s, const std::string& use) {
+CLI::Option* add_wander_options(CLI::App* cmd, double& sigma_ug, double& tau_s,
+                                const std::string& use) {
   cmd->add_option("--bias-instability-ug", sigma_ug,
                   "the unit's Gauss-Markov bias wander (steady-state sigma per axis, ug; from its "
                   "data sheet, `standcal fit`'s noise report or a static recording), " +
                       use)
       ->check(cli_checks::kNonNegative)
       ->capture_default_str();
-  cmd->add_option("--bias-instability-tau-s", tau_s, "its correlation time, s")
+  return cmd->add_option("--bias-instability-tau-s", tau_s, "its correlation time, s")
       ->check(cli_checks::kPositive)
       ->capture_default_str();
 }
@@ -90,6 +94,8 @@ FitNoiseOptions fit_noise_options(const NoiseCliOptions& o) {
   FitNoiseOptions n;
   n.mode = o.noise == "white" ? FitNoiseOptions::Mode::white : FitNoiseOptions::Mode::estimate;
   n.specified = {Vec3::Constant(o.bias_instability_ug * kUg), o.bias_instability_tau_s};
+  // A wander given comes with its correlation time (as the daemon's unit.bias_instability_ug).
+  if (o.tau_given || o.bias_instability_ug > 0) n.known_tau_s = o.bias_instability_tau_s;
   return n;
 }
 

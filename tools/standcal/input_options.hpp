@@ -33,12 +33,15 @@ struct NoiseCliOptions {
   std::string noise = "estimate";
   double bias_instability_ug = 0;
   double bias_instability_tau_s = 300;
+  bool tau_given = false;  // --bias-instability-tau-s on the command line
 };
 void add_noise_options(CLI::App* cmd, NoiseCliOptions& o);
 // --bias-instability-ug and --bias-instability-tau-s: the unit's Gauss-Markov bias wander
 // (steady-state sigma per axis, ug; correlation time, s), one spelling and one check for
 // every command; `use` says what the command does with it.
-void add_wander_options(CLI::App* cmd, double& sigma_ug, double& tau_s, const std::string& use);
+// Returns the --bias-instability-tau-s option.
+CLI::Option* add_wander_options(CLI::App* cmd, double& sigma_ug, double& tau_s,
+                                const std::string& use);
 FitNoiseOptions fit_noise_options(const NoiseCliOptions& o);
 
 }  // namespace standcal::cli
