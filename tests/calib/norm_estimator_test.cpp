@@ -187,7 +187,7 @@ Vec9 imu_tk_result() {  // SOURCE.md: bias, scale, T's m01 m02 m12
 
 // imu_tk weights every interval alike; with its weighting on the same intervals all nine
 // parameters agree within 3 sigma. Weighted by each mean's own error (our default), scale_y
-// moves to 3.1 sigma from imu_tk's: the difference of two estimators on the same data, which
+// moves to 3.3 sigma from imu_tk's: the difference of two estimators on the same data, which
 // has more variance than the better one's own (docs/calibration.md).
 TEST_F(XsensRecording, AgreesWithImuTkWhereTheWeightingAllows) {
   const NormFit& fit = calibration_->fit;
