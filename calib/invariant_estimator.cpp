@@ -205,7 +205,7 @@ FitNoiseChoice invariant_noise_choice(const InvariantData& d,
                                       const FitNoiseOptions& options) {
   if (options.mode == FitNoiseOptions::Mode::estimate && options.estimate_from_full_vector) {
     std::optional<FitNoiseChoice> full = full_vector_noise_choice(positions, options);
-    if (full && !full->noise.white() &&
+    if (full && full->finding.source == "estimated" &&
         (full->finding.bias_instability || full->finding.lr > kFullVectorWanderLr)) {
       full->finding.how =
           "from the full vector of the dwell means (3 rows per position): " + full->finding.how;

@@ -4,6 +4,7 @@
 #include "calib/units.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <functional>
@@ -157,6 +158,7 @@ double median_row_sigma(const std::vector<NoiseRow>& rows) {
 struct WanderFit {
   GaussMarkovNoise noise;
   double log_l = -1e300;
+  int q_parameters = 0;  // the common q, and each axis that left it
 };
 
 // For one tau: a common q for the three axes first (one dimension, robust), then each
@@ -169,32 +171,46 @@ WanderFit best_for_tau(const RestrictedLikelihood& L, double tau_s, double sigma
                        double axis_lr) {
   constexpr double kLogLo = -1.5, kLogHi = 1.5;  // q from 3 % to 30x a row's sigma
   constexpr int kEvaluations = 14;
-  WanderFit best{{Vec3::Zero(), tau_s}, 0};
-  best.log_l = L(best.noise);
   auto with_q = [&](const Vec3& q) { return L(GaussMarkovNoise{q, tau_s}); };
-  const double common =
-      golden_section_max(
-          [&](double u) { return with_q(Vec3::Constant(sigma_ref * std::pow(10, u))); }, kLogLo,
-          kLogHi, kEvaluations, std::greater<double>())
-          .first;
-  const Vec3 q_common = Vec3::Constant(sigma_ref * std::pow(10, common));
-  if (const double l = with_q(q_common); l > best.log_l) best = {{q_common, tau_s}, l};
-  for (int axis = 0; axis < 3; ++axis) {
-    auto on_axis = [&](double q_axis) {
-      Vec3 q = best.noise.q_g;
-      q[axis] = q_axis;
-      return q;
+  // The best q shared by the axes in `shared`, the others held as in `q`.
+  auto best_shared = [&](const Vec3& q, const std::array<bool, 3>& shared) {
+    auto set = [&](double u) {
+      Vec3 out = q;
+      for (int a = 0; a < 3; ++a)
+        if (shared[static_cast<std::size_t>(a)]) out[a] = sigma_ref * std::pow(10, u);
+      return out;
     };
-    const double u =
-        golden_section_max([&](double v) { return with_q(on_axis(sigma_ref * std::pow(10, v))); },
-                           kLogLo, kLogHi, kEvaluations, std::greater<double>())
-            .first;
-    const double common_log_l = best.log_l;
-    for (const double q_axis : {0.0, sigma_ref * std::pow(10, u)})
-      if (const double l = with_q(on_axis(q_axis));
-          l > best.log_l && 2 * (l - common_log_l) > axis_lr)
-        best = {{on_axis(q_axis), tau_s}, l};
+    return set(golden_section_max([&](double u) { return with_q(set(u)); }, kLogLo, kLogHi,
+                                  kEvaluations, std::greater<double>())
+                   .first);
+  };
+  WanderFit best{{Vec3::Zero(), tau_s}, 0, 0};
+  best.log_l = L(best.noise);
+  std::array<bool, 3> shared{true, true, true};
+  if (const Vec3 q = best_shared(Vec3::Zero(), shared); with_q(q) > best.log_l)
+    best = {{q, tau_s}, with_q(q), 1};
+  const bool common = best.q_parameters == 1;
+  for (int axis = 0; axis < 3; ++axis) {
+    std::array<bool, 3> alone{};
+    alone[static_cast<std::size_t>(axis)] = true;
+    const double before = best.log_l;  // the axis as it is, nested in its own q or none
+    for (const Vec3& q : {best_shared(best.noise.q_g, alone), [&] {
+                            Vec3 none = best.noise.q_g;
+                            none[axis] = 0;
+                            return none;
+                          }()})
+      if (const double l = with_q(q); l > best.log_l && 2 * (l - before) > axis_lr) {
+        const bool first_departure = shared[static_cast<std::size_t>(axis)];
+        best = {{q, tau_s}, l, best.q_parameters + (first_departure ? 1 : 0)};
+        shared[static_cast<std::size_t>(axis)] = false;
+      }
   }
+  // An axis that left took its share of the common q with it: the axes still sharing it get
+  // their own best common value (x and y would otherwise keep a compromise with a quiet z).
+  const int still_shared = static_cast<int>(std::count(shared.begin(), shared.end(), true));
+  if (common && best.q_parameters > 1 && still_shared > 0)
+    if (const Vec3 q = best_shared(best.noise.q_g, shared); with_q(q) > best.log_l)
+      best = {{q, tau_s}, with_q(q), best.q_parameters};
   return best;
 }
 
@@ -248,6 +264,8 @@ NoiseEstimate estimate_bias_wander(const std::vector<NoiseRow>& rows, const Matr
     if (!c.noise.white() && 2 * (best.log_l - c.log_l) <= options.plausible_lr)
       out.plausible.push_back({c.noise, std::exp(c.log_l - best.log_l)});
   out.best = best.noise;
+  if (!best.noise.white())
+    out.parameters = best.q_parameters + (options.tau_grid_s.size() > 1 ? 1 : 0);
   out.lr = 2 * (best.log_l - white_log_l);
   out.significant = !best.noise.white() && out.lr > options.lr_threshold;
   if (out.significant) out.noise = best.noise;
@@ -310,6 +328,23 @@ SigmaWidening widen_for_estimated_noise(
   return w;
 }
 
+namespace {
+
+// Whether the correlation time was given (specified with the wander, or known) and, where it
+// was estimated, the range of it the run allows.
+void set_tau_provenance(NoiseFinding& n, const std::vector<PlausibleNoise>& plausible, bool known) {
+  n.tau_given = known || n.source == "specified";
+  n.tau_plausible_min_s = n.tau_plausible_max_s = 0;
+  if (n.tau_given) return;
+  for (const PlausibleNoise& p : plausible) {
+    const double t = p.noise.tau_s;
+    n.tau_plausible_min_s = n.tau_plausible_min_s > 0 ? std::min(n.tau_plausible_min_s, t) : t;
+    n.tau_plausible_max_s = std::max(n.tau_plausible_max_s, t);
+  }
+}
+
+}  // namespace
+
 NoiseFinding noise_finding(const NoiseEstimate& e, const std::vector<PositionAverage>& avg) {
   NoiseFinding n;
   n.lr = e.lr;
@@ -318,6 +353,7 @@ NoiseFinding noise_finding(const NoiseEstimate& e, const std::vector<PositionAve
   if (e.noise.white()) return n;
   n.model = "gauss_markov";
   n.source = e.significant ? "estimated" : "specified";
+  set_tau_provenance(n, e.plausible, false);
   n.bias_instability = e.significant;
   n.tau_s = e.noise.tau_s;
   for (int a = 0; a < 3; ++a) {
@@ -380,16 +416,11 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
   if (e.significant || weighted_below_bar) {
     choice.log_scale_information = e.log_scale_information;
     choice.plausible = e.plausible;
-    choice.finding.tau_given = options.known_tau_s.has_value();
-    for (const PlausibleNoise& p : e.plausible) {
-      const double t = p.noise.tau_s, lo = choice.finding.tau_plausible_min_s;
-      choice.finding.tau_plausible_min_s = lo > 0 ? std::min(lo, t) : t;
-      choice.finding.tau_plausible_max_s = std::max(choice.finding.tau_plausible_max_s, t);
-    }
   }
-  if (e.significant) choice.parameters = 1 + static_cast<int>((e.noise.q_g.array() > 0).count());
+  if (e.significant) choice.parameters = e.parameters;
   if (weighted_below_bar) choice.finding.source = "estimated";
-  if (choice.finding.source == "specified") choice.finding.tau_given = true;
+  if (choice.finding.model == "gauss_markov")
+    set_tau_provenance(choice.finding, e.plausible, options.known_tau_s.has_value());
   return choice;
 }
 

@@ -68,7 +68,8 @@ struct NoiseEstimate {
   double lr = 0;            // 2 (restricted log-likelihood(best) - log-likelihood(white))
   double lr_threshold = 0;  // lr needed to call the wander significant
   bool significant = false;
-  std::string how;  // how it was obtained, in words
+  int parameters = 0;  // of best: its q (a common one, and each axis's own) and tau from a grid
+  std::string how;     // how it was obtained, in words
   // How well the run pins the wander's size: the restricted likelihood's curvature in
   // u = log s^2 for q = s * best.q (0 when best is white). var(u) = 1 / information, and
   // the wander variance is worth 2 * information degrees of freedom (a chi-square's).
@@ -190,8 +191,9 @@ struct FitNoiseChoice {
   NoiseFinding finding;
   double log_scale_information = 0;       // 0: the noise is not estimated (white or specified)
   std::vector<PlausibleNoise> plausible;  // estimated: the plausible correlation times
-  // Noise parameters of check_noise estimated from the fit's own residuals (each q that is
-  // not zero, and tau): the chi-square test of the fit loses as many degrees of freedom.
+  // Noise parameters of check_noise estimated from the fit's own residuals (the common q,
+  // each axis's own, and tau unless given): the chi-square test loses as many degrees of
+  // freedom.
   int parameters = 0;
 };
 

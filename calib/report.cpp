@@ -200,7 +200,7 @@ std::string tau_words(const NoiseFinding& n) {
   return " (this run allows " + format("%.0f", n.tau_plausible_min_s) + "-" +
          format("%.0f", n.tau_plausible_max_s) +
          " s, and the biases' sigmas lean on it: give the unit's correlation time, "
-         "--bias-instability-tau-s)";
+         "--bias-instability-tau-s or standcald's unit.bias_instability_tau_s)";
 }
 
 }  // namespace

@@ -228,6 +228,7 @@ void read_unit(Section& top, DaemonConfig& c) {
   s->number("sample_rate_hz", c.sample_rate_hz, 1, 100000);
   s->number("bias_instability_ug", c.unit_bias_instability_ug, 0, 100000);
   s->number("bias_instability_tau_s", c.unit_bias_instability_tau_s, 1, 1e6);
+  c.unit_bias_instability_tau_configured = s->find("bias_instability_tau_s") != nullptr;
   s->reject_unknown();
 }
 

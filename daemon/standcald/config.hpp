@@ -87,6 +87,8 @@ struct DaemonConfig {
   // earlier runs), which fits and diagnoses assume when a run alone does not show one; 0: none.
   double unit_bias_instability_ug = 0;
   double unit_bias_instability_tau_s = 300;
+  // unit.bias_instability_tau_s present: the fits take it as known (FitNoiseOptions::known_tau_s).
+  bool unit_bias_instability_tau_configured = false;
   SimSettings sim;
   AxisRange outer;  // limited ±180° unless configured
   AxisRange inner;

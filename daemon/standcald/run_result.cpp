@@ -66,7 +66,7 @@ Compensation run_compensation(const FitResult& fit, const RunRecord& record,
 }  // namespace
 
 json fit_finished_run(RunRecord& record, const std::string& run_dir,
-                      const GaussMarkovNoise& bias_wander,
+                      const GaussMarkovNoise& bias_wander, std::optional<double> known_tau_s,
                       const std::optional<BudgetConfig>& budget) {
   // Streamed: the daemon holds one dwell of the recording, not the whole run.
   const RecordingDigest digest = digest_recording(record.recording_path);
@@ -75,9 +75,9 @@ json fit_finished_run(RunRecord& record, const std::string& run_dir,
   const std::optional<AllanFinding> allan = digest.allan_finding();
   FitNoiseOptions noise;
   noise.specified = bias_wander;
-  // A wander configured for the unit comes with its correlation time (its Allan test): the
-  // run then estimates only the wander's size, which one run pins far better than tau.
-  if (!bias_wander.white()) noise.known_tau_s = bias_wander.tau_s;
+  // The unit's configured correlation time (its Allan test): the run then estimates only the
+  // wander's size, which one run pins far better than tau.
+  noise.known_tau_s = known_tau_s;
   JointFit joint = joint_fit(averages, noise, allan);
   json& result = joint.result;
   try {

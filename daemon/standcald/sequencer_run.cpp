@@ -569,8 +569,11 @@ Sequencer::SampledDwell Sequencer::sample_stable_dwell(const RunRecord& record, 
 
 void Sequencer::finish_with_fit(RunRecord& record) {
   set_progress(record, record.positions, "fitting");
-  json result =
-      fit_finished_run(record, store_.run_dir(record.run_id), unit_bias_wander(), config_.budget);
+  json result = fit_finished_run(record, store_.run_dir(record.run_id), unit_bias_wander(),
+                                 config_.unit_bias_instability_tau_configured
+                                     ? std::optional<double>(config_.unit_bias_instability_tau_s)
+                                     : std::nullopt,
+                                 config_.budget);
   const std::string path = store_.run_dir(record.run_id) + "/result.json";
   write_state_file(path, result.dump(2) + "\n");
   record.result_path = path;

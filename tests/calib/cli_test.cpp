@@ -235,6 +235,11 @@ TEST_F(Cli, FitStatesItsNoiseModelAndWeightsForTheWanderOfTheRun) {
   const CliRun text =
       run_cli("fit " + path("wander.csv") + " --method full --bias-instability-tau-s 700");
   EXPECT_NE(text.output.find("tau 700 s (given)"), std::string::npos) << text.output;
+  // A size given without its time leaves the time to the run (the default 300 s is no one's).
+  const CliRun size_only =
+      run_cli("fit " + path("wander.csv") + " --method full --bias-instability-ug 30 --json");
+  ASSERT_EQ(size_only.exit_code, 0) << size_only.output;
+  EXPECT_EQ(nlohmann::json::parse(size_only.output)["noise"]["tau_given"], false);
 }
 
 // Issue 16: a recording from another tool, without angles, through the same commands.

@@ -155,12 +155,16 @@ TEST(DaemonRun, TheFitsAssumeTheUnitsConfiguredBiasWander) {
                                             {"operator", "test"}});
   const json final_status = wait_run(c, started["run_id"], finished);
   ASSERT_EQ(final_status["state"], "done") << final_status.dump() << daemon.log();
-  const json noise = c.call("run.result", {{"run_id", started["run_id"]}})["noise"];
+  const json result = c.call("run.result", {{"run_id", started["run_id"]}});
+  const json& noise = result["noise"];
   EXPECT_EQ(noise["model"], "gauss_markov") << noise.dump(2);
   EXPECT_EQ(noise["source"], "specified");
   EXPECT_DOUBLE_EQ(noise["wander_ug"][0].get<double>(), 5);
   EXPECT_DOUBLE_EQ(noise["tau_s"].get<double>(), 600);
   EXPECT_EQ(noise["tau_given"], true);
+  // The full vector (27 rows) estimates the wander's size, at the configured time.
+  const std::string full_how = result["full_vector"]["noise"]["how"];
+  EXPECT_NE(full_how.find("at the given correlation time 600 s"), std::string::npos) << full_how;
   EXPECT_TRUE(noise["allan"]["axes"]["x"]["white_density_ug_rthz"].is_number());
 }
 

@@ -30,6 +30,7 @@ struct DiagnoseCliOptions {
   // The unit's bias instability as its data sheet or a static recording gives it.
   double bias_instability_ug = 0;
   double bias_instability_tau_s = 300;
+  bool tau_given = false;  // --bias-instability-tau-s on the command line
   InputCliOptions input;
 };
 
@@ -67,6 +68,7 @@ std::pair<Diagnosis, Recording> diagnose_input(const DiagnoseCliOptions& o) {
   NormCalibrationOptions calibrate;
   calibrate.stability = false;  // the diagnosis does not report it
   calibrate.fit.noise.specified = diagnose_options(o).specified_wander;
+  if (o.tau_given) calibrate.fit.noise.known_tau_s = o.bias_instability_tau_s;  // as `fit`
   const NormCalibration calibration = calibrate_without_angles(in, calibrate);
   Diagnosis d = diagnose_without_angles(in, calibration, diagnose_options(o));
   return {std::move(d), calibrated_recording(in, calibration)};
@@ -114,7 +116,8 @@ void add_diagnose_commands(CLI::App& app) {
                   "write the augmented model (standcal-model/1 JSON) to FILE");
   add_wander_options(cmd, opts->bias_instability_ug, opts->bias_instability_tau_s,
                      "against which the terms are tested when the run does not show the wander "
-                     "itself");
+                     "itself")
+      ->each([opts](const std::string&) { opts->tau_given = true; });
   cmd->callback([opts] { run_diagnose(*opts); });
 }
 

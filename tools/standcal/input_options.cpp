@@ -71,9 +71,8 @@ void add_noise_options(CLI::App* cmd, NoiseCliOptions& o) {
       ->check(CLI::IsMember({"estimate", "white"}))
       ->capture_default_str();
   add_wander_options(cmd, o.bias_instability_ug, o.bias_instability_tau_s,
-                     "used when the run alone does not show it; with either given, the "
-                     "correlation time is taken as known and the run estimates the wander's "
-                     "size at it")
+                     "used when the run alone does not show it; a correlation time given is "
+                     "taken as known, and the run estimates the wander's size at it")
       ->each([&o](const std::string&) { o.tau_given = true; });
 }
 
@@ -94,8 +93,7 @@ FitNoiseOptions fit_noise_options(const NoiseCliOptions& o) {
   FitNoiseOptions n;
   n.mode = o.noise == "white" ? FitNoiseOptions::Mode::white : FitNoiseOptions::Mode::estimate;
   n.specified = {Vec3::Constant(o.bias_instability_ug * kUg), o.bias_instability_tau_s};
-  // A wander given comes with its correlation time (as the daemon's unit.bias_instability_ug).
-  if (o.tau_given || o.bias_instability_ug > 0) n.known_tau_s = o.bias_instability_tau_s;
+  if (o.tau_given) n.known_tau_s = o.bias_instability_tau_s;
   return n;
 }
 

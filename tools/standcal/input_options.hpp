@@ -35,6 +35,7 @@ struct NoiseCliOptions {
   double bias_instability_tau_s = 300;
   bool tau_given = false;  // --bias-instability-tau-s on the command line
 };
+// `o` is written while the command line is parsed: it must outlive the parse.
 void add_noise_options(CLI::App* cmd, NoiseCliOptions& o);
 // --bias-instability-ug and --bias-instability-tau-s: the unit's Gauss-Markov bias wander
 // (steady-state sigma per axis, ug; correlation time, s), one spelling and one check for
