@@ -187,8 +187,10 @@ WanderFit best_for_tau(const RestrictedLikelihood& L, double tau_s, double sigma
   WanderFit best{{Vec3::Zero(), tau_s}, 0, 0};
   best.log_l = L(best.noise);
   std::array<bool, 3> shared{true, true, true};
-  if (const Vec3 q = best_shared(Vec3::Zero(), shared); with_q(q) > best.log_l)
-    best = {{q, tau_s}, with_q(q), 1};
+  const auto take_if_better = [&](const Vec3& q, int q_parameters) {
+    if (const double l = with_q(q); l > best.log_l) best = {{q, tau_s}, l, q_parameters};
+  };
+  take_if_better(best_shared(Vec3::Zero(), shared), 1);
   const bool common = best.q_parameters == 1;
   for (int axis = 0; axis < 3; ++axis) {
     std::array<bool, 3> alone{};
@@ -209,8 +211,7 @@ WanderFit best_for_tau(const RestrictedLikelihood& L, double tau_s, double sigma
   // their own best common value (x and y would otherwise keep a compromise with a quiet z).
   const int still_shared = static_cast<int>(std::count(shared.begin(), shared.end(), true));
   if (common && best.q_parameters > 1 && still_shared > 0)
-    if (const Vec3 q = best_shared(best.noise.q_g, shared); with_q(q) > best.log_l)
-      best = {{q, tau_s}, with_q(q), best.q_parameters};
+    take_if_better(best_shared(best.noise.q_g, shared), best.q_parameters);
   return best;
 }
 

@@ -116,8 +116,8 @@ void add_diagnose_commands(CLI::App& app) {
                   "write the augmented model (standcal-model/1 JSON) to FILE");
   add_wander_options(cmd, opts->bias_instability_ug, opts->bias_instability_tau_s,
                      "against which the terms are tested when the run does not show the wander "
-                     "itself")
-      ->each([opts](const std::string&) { opts->tau_given = true; });
+                     "itself",
+                     &opts->tau_given);
   cmd->callback([opts] { run_diagnose(*opts); });
 }
 

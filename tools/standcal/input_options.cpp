@@ -72,21 +72,22 @@ void add_noise_options(CLI::App* cmd, NoiseCliOptions& o) {
       ->capture_default_str();
   add_wander_options(cmd, o.bias_instability_ug, o.bias_instability_tau_s,
                      "used when the run alone does not show it; a correlation time given is "
-                     "taken as known, and the run estimates the wander's size at it")
-      ->each([&o](const std::string&) { o.tau_given = true; });
+                     "taken as known, and the run estimates the wander's size at it",
+                     &o.tau_given);
 }
 
-CLI::Option* add_wander_options(CLI::App* cmd, double& sigma_ug, double& tau_s,
-                                const std::string& use) {
+void add_wander_options(CLI::App* cmd, double& sigma_ug, double& tau_s, const std::string& use,
+                        bool* tau_given) {
   cmd->add_option("--bias-instability-ug", sigma_ug,
                   "the unit's Gauss-Markov bias wander (steady-state sigma per axis, ug; from its "
                   "data sheet, `standcal fit`'s noise report or a static recording), " +
                       use)
       ->check(cli_checks::kNonNegative)
       ->capture_default_str();
-  return cmd->add_option("--bias-instability-tau-s", tau_s, "its correlation time, s")
-      ->check(cli_checks::kPositive)
-      ->capture_default_str();
+  CLI::Option* tau = cmd->add_option("--bias-instability-tau-s", tau_s, "its correlation time, s")
+                         ->check(cli_checks::kPositive)
+                         ->capture_default_str();
+  if (tau_given) tau->each([tau_given](const std::string&) { *tau_given = true; });
 }
 
 FitNoiseOptions fit_noise_options(const NoiseCliOptions& o) {

@@ -39,10 +39,10 @@ struct NoiseCliOptions {
 void add_noise_options(CLI::App* cmd, NoiseCliOptions& o);
 // --bias-instability-ug and --bias-instability-tau-s: the unit's Gauss-Markov bias wander
 // (steady-state sigma per axis, ug; correlation time, s), one spelling and one check for
-// every command; `use` says what the command does with it.
-// Returns the --bias-instability-tau-s option.
-CLI::Option* add_wander_options(CLI::App* cmd, double& sigma_ug, double& tau_s,
-                                const std::string& use);
+// every command; `use` says what the command does with it. `tau_given`, when given, is set
+// when --bias-instability-tau-s is on the command line (it must outlive the parse).
+void add_wander_options(CLI::App* cmd, double& sigma_ug, double& tau_s, const std::string& use,
+                        bool* tau_given = nullptr);
 FitNoiseOptions fit_noise_options(const NoiseCliOptions& o);
 
 }  // namespace standcal::cli
