@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
+#include "calib/golden_section.hpp"
 #include "calib/units.hpp"
 
 namespace standcal {
@@ -150,6 +152,150 @@ NoiseFigures noise_figures(const std::vector<AllanPoint>& curve) {
     f.bias_instability_tau_s = curve[i_min].tau_s;
   }
   return f;
+}
+
+double gauss_markov_allan_variance(double tau_c_s, double T_s) {
+  const double x = T_s / tau_c_s;
+  if (x < 1e-4) return 2 * x / 3;  // the series' first term: the exact form cancels badly
+  const double e = -std::expm1(-x);
+  return (2 * (x - e) - e * e) / (x * x);
+}
+
+namespace {
+
+// One octave between the points fitted: overlapping estimates at nearby averaging times
+// share most of their clusters, and the chi-square should count nearly independent ones.
+constexpr double kFitPointSpacing = 2;
+
+struct AxisCurve {
+  std::vector<AllanPoint> points;
+  std::vector<double> clusters;  // independent clusters behind each point: its confidence
+};
+
+AxisCurve thinned(const std::vector<AllanPoint>& curve, double sample_period_s) {
+  AxisCurve c;
+  for (const AllanPoint& p : curve) {
+    // A zero deviation (a stuck or saturated axis) has no relative error to weigh it by.
+    if (!(p.deviation > 0) || !std::isfinite(p.deviation)) continue;
+    if (!c.points.empty() && p.tau_s < kFitPointSpacing * c.points.back().tau_s) continue;
+    c.points.push_back(p);
+    c.clusters.push_back(std::max(1.0, static_cast<double>(p.terms) * sample_period_s / p.tau_s));
+  }
+  return c;
+}
+
+struct AxisAtTau {
+  double white_var = 0, wander_var = 0;  // N^2 (unit^2 s) and q^2 (unit^2)
+  double chi2 = 0;
+};
+
+// The best N^2 and q^2 (both >= 0) of one axis at one tau_c: weighted least squares of the
+// Allan variances, each point's sigma its model variance times sqrt(2 / clusters) (iterated
+// from the observed variances).
+AxisAtTau fit_axis_at_tau(const AxisCurve& c, double tau_c_s) {
+  const std::size_t n = c.points.size();
+  std::vector<double> observed(n), h(n), scale(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    observed[i] = c.points[i].deviation * c.points[i].deviation;
+    h[i] = gauss_markov_allan_variance(tau_c_s, c.points[i].tau_s);
+    scale[i] = observed[i];
+  }
+  // A model variance of zero (one term fitted away) must not weigh a point infinitely.
+  const double scale_floor = 1e-12 * *std::max_element(observed.begin(), observed.end());
+  AxisAtTau r;
+  for (int pass = 0; pass < 4; ++pass) {
+    double s11 = 0, s12 = 0, s22 = 0, r1 = 0, r2 = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double w = c.clusters[i] / 2 / (scale[i] * scale[i]);
+      const double white = 1 / c.points[i].tau_s;
+      s11 += w * white * white, s12 += w * white * h[i], s22 += w * h[i] * h[i];
+      r1 += w * white * observed[i], r2 += w * h[i] * observed[i];
+    }
+    const double det = s11 * s22 - s12 * s12;
+    double a = det > 0 ? (s22 * r1 - s12 * r2) / det : r1 / s11;
+    double b = det > 0 ? (s11 * r2 - s12 * r1) / det : 0;
+    if (a < 0) a = 0, b = std::max(r2 / s22, 0.0);  // one term alone where both cannot be
+    if (b < 0) b = 0, a = std::max(r1 / s11, 0.0);
+    r = {a, b, 0};
+    for (std::size_t i = 0; i < n; ++i) {
+      const double model = a / c.points[i].tau_s + b * h[i];
+      scale[i] = std::max(model, scale_floor);
+      const double z = (observed[i] - model) / scale[i];
+      r.chi2 += c.clusters[i] / 2 * z * z;
+    }
+  }
+  return r;
+}
+
+struct ProfilePoint {
+  double log_tau = 0;
+  std::vector<AxisAtTau> axes;
+  double chi2 = 0;  // summed over the axes
+};
+
+ProfilePoint fit_at_tau(const std::vector<AxisCurve>& curves, double log_tau) {
+  ProfilePoint p{log_tau, {}, 0};
+  for (const AxisCurve& c : curves) {
+    p.axes.push_back(fit_axis_at_tau(c, std::exp(log_tau)));
+    p.chi2 += p.axes.back().chi2;
+  }
+  return p;
+}
+
+}  // namespace
+
+std::optional<GaussMarkovAllanFit> fit_gauss_markov_allan(
+    const std::vector<std::vector<AllanPoint>>& axis_curves, double sample_period_s) {
+  std::vector<AxisCurve> curves;
+  std::size_t points = 0;
+  double T_first = std::numeric_limits<double>::infinity(), T_last = 0;
+  for (const auto& curve : axis_curves) {
+    curves.push_back(thinned(curve, sample_period_s));
+    if (curves.back().points.size() < kGaussMarkovFitMinPoints) return std::nullopt;
+    points += curves.back().points.size();
+    T_first = std::min(T_first, curves.back().points.front().tau_s);
+    T_last = std::max(T_last, curves.back().points.back().tau_s);
+  }
+  if (curves.empty()) return std::nullopt;
+  // tau_c from the shortest averaging time to far beyond the curve's end, where the wander
+  // is a random walk over every averaging time the curve has: a profile over log tau_c.
+  const double lo = std::log(T_first), hi = std::log(30 * T_last);
+  constexpr double kStepsPerDecade = 20;
+  const int steps = static_cast<int>(std::ceil((hi - lo) / std::log(10.0) * kStepsPerDecade));
+  std::vector<ProfilePoint> profile;
+  for (int k = 0; k <= steps; ++k)
+    profile.push_back(fit_at_tau(curves, lo + (hi - lo) * k / steps));
+  std::size_t ib = 0;
+  for (std::size_t k = 1; k < profile.size(); ++k)
+    if (profile[k].chi2 < profile[ib].chi2) ib = k;
+  const auto refined = golden_section_max(
+      [&](double log_tau) { return fit_at_tau(curves, log_tau); },
+      profile[ib > 0 ? ib - 1 : 0].log_tau, profile[std::min(ib + 1, profile.size() - 1)].log_tau,
+      20, [](const ProfilePoint& a, const ProfilePoint& b) { return a.chi2 < b.chi2; });
+  const ProfilePoint& best = refined.second.chi2 < profile[ib].chi2 ? refined.second : profile[ib];
+
+  GaussMarkovAllanFit fit;
+  for (const AxisAtTau& a : best.axes) {
+    fit.white_density.push_back(std::sqrt(a.white_var));
+    fit.q.push_back(std::sqrt(a.wander_var));
+  }
+  fit.tau_s = std::exp(best.log_tau);
+  // N and q per axis and one tau.
+  const double dof = static_cast<double>(points) - 2.0 * static_cast<double>(curves.size()) - 1;
+  fit.chi2_per_dof = best.chi2 / std::max(dof, 1.0);
+  const double allowed = best.chi2 + kGaussMarkovTauRangeChi2 * std::max(1.0, fit.chi2_per_dof);
+  // The grid points within `allowed`, each end then out to the next grid point: the
+  // crossing lies somewhere in that step (12 %), and the range must not be the narrower.
+  std::size_t first = ib, last = ib;
+  for (std::size_t k = 0; k < profile.size(); ++k)
+    if (profile[k].chi2 <= allowed) first = std::min(first, k), last = std::max(last, k);
+  fit.wander_seen = std::any_of(fit.q.begin(), fit.q.end(), [](double q) { return q > 0; });
+  fit.tau_open_above = last + 1 >= profile.size();
+  fit.tau_bounded = fit.wander_seen && first > 0 && !fit.tau_open_above;
+  fit.tau_min_s = std::min(fit.tau_s, std::exp(profile[first > 0 ? first - 1 : 0].log_tau));
+  fit.tau_max_s =
+      std::max(fit.tau_s, std::exp(profile[std::min(last + 1, profile.size() - 1)].log_tau));
+  return fit;
 }
 
 double sample_period_s(const Recording& rec) {

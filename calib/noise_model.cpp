@@ -333,10 +333,16 @@ namespace {
 
 // Whether the correlation time was given (specified with the wander, or known) and, where it
 // was estimated, the range of it the run allows.
-void set_tau_provenance(NoiseFinding& n, const std::vector<PlausibleNoise>& plausible, bool known) {
-  n.tau_given = known || n.source == "specified";
+void set_tau_provenance(NoiseFinding& n, const std::vector<PlausibleNoise>& plausible,
+                        const std::optional<KnownTau>& known) {
+  n.tau_given = known.has_value() || n.source == "specified";
+  n.tau_given_min_s = n.tau_given_max_s = 0;
+  if (known && known->range()) {
+    n.tau_given_min_s = known->min_s;
+    n.tau_given_max_s = known->max_s;
+  }
   n.tau_plausible_min_s = n.tau_plausible_max_s = 0;
-  if (n.tau_given) return;
+  if (n.tau_given && n.tau_given_max_s == 0) return;
   for (const PlausibleNoise& p : plausible) {
     const double t = p.noise.tau_s;
     n.tau_plausible_min_s = n.tau_plausible_min_s > 0 ? std::min(n.tau_plausible_min_s, t) : t;
@@ -346,7 +352,8 @@ void set_tau_provenance(NoiseFinding& n, const std::vector<PlausibleNoise>& plau
 
 }  // namespace
 
-NoiseFinding noise_finding(const NoiseEstimate& e, const std::vector<PositionAverage>& avg) {
+NoiseFinding noise_finding(const NoiseEstimate& e, const std::vector<PositionAverage>& avg,
+                           const std::optional<KnownTau>& known_tau) {
   NoiseFinding n;
   n.lr = e.lr;
   n.lr_threshold = e.lr_threshold;
@@ -354,7 +361,7 @@ NoiseFinding noise_finding(const NoiseEstimate& e, const std::vector<PositionAve
   if (e.noise.white()) return n;
   n.model = "gauss_markov";
   n.source = e.significant ? "estimated" : "specified";
-  set_tau_provenance(n, e.plausible, false);
+  set_tau_provenance(n, e.plausible, known_tau);
   n.bias_instability = e.significant;
   n.tau_s = e.noise.tau_s;
   for (int a = 0; a < 3; ++a) {
@@ -374,7 +381,7 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
                                 const std::vector<PositionAverage>& positions) {
   using Mode = FitNoiseOptions::Mode;
   NoiseEstimate e;
-  bool weighted_below_bar = false;
+  bool weighted_below_bar = false, specified_over_range = false;
   if (options.mode == Mode::white) {
     e.how =
         "white noise assumed: each dwell mean independent, with the standard error of its "
@@ -391,14 +398,18 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
                 : "the specified bias instability (too few measurements to estimate one)";
   } else {
     NoiseEstimateOptions estimate = options.estimate;
-    if (options.known_tau_s) estimate.tau_grid_s = {*options.known_tau_s};
+    if (options.known_tau) estimate.tau_grid_s = options.known_tau->grid_s();
     e = estimate_bias_wander(rows, X, y, estimate);
-    if (options.known_tau_s)
-      e.how += "; at the given correlation time " +
-               std::to_string(std::lround(*options.known_tau_s)) + " s";
+    if (options.known_tau) e.how += "; at " + options.known_tau->words();
     if (!e.significant && !options.specified.white()) {
       e.noise = options.specified;
       e.how += "; not significant on this run, so the specified bias instability is used";
+      if (options.known_tau && options.known_tau->range()) {
+        // Its correlation time is known only as a range: the biases' variance is averaged
+        // over the range, each time alike (the run did not show the wander to weigh them).
+        e.noise.tau_s = options.known_tau->centre_s();
+        specified_over_range = true;
+      }
     } else if (!e.significant && e.lr > options.weighting_lr) {
       e.noise = e.best;  // weighted for, though not a finding (NoiseFinding.bias_instability false)
       weighted_below_bar = true;
@@ -418,23 +429,36 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
     choice.log_scale_information = e.log_scale_information;
     choice.plausible = e.plausible;
   }
+  if (specified_over_range)
+    for (double tau_s : options.known_tau->grid_s())
+      choice.plausible.push_back({{e.noise.q_g, tau_s}, 1.0});
   if (e.significant) choice.parameters = e.parameters;
   if (weighted_below_bar) choice.finding.source = "estimated";
   if (choice.finding.model == "gauss_markov")
-    set_tau_provenance(choice.finding, e.plausible, options.known_tau_s.has_value());
+    set_tau_provenance(choice.finding, choice.plausible, options.known_tau);
   return choice;
 }
 
+double KnownTau::centre_s() const { return std::sqrt(min_s * max_s); }
+
+std::vector<double> KnownTau::grid_s() const {
+  if (!range()) return {min_s};
+  std::vector<double> grid;
+  for (int k = 0; k < kKnownTauRangePoints; ++k)
+    grid.push_back(min_s * std::pow(max_s / min_s, k / (kKnownTauRangePoints - 1.0)));
+  return grid;
+}
+
+std::string KnownTau::words() const {
+  if (!range()) return "the given correlation time " + std::to_string(std::lround(min_s)) + " s";
+  return "the given correlation times " + std::to_string(std::lround(min_s)) + "-" +
+         std::to_string(std::lround(max_s)) + " s";
+}
+
 AllanPeak gauss_markov_allan_peak(double q, double tau_s) {
-  // Averages over T of a stationary process with autocovariance q^2 exp(-|dt| / tau):
-  // var = 2 q^2 tau / T^2 (T - tau (1 - e^{-T/tau})), adjacent covariance
-  // q^2 (tau / T)^2 (1 - e^{-T/tau})^2; Allan variance = var - covariance.
   AllanPeak peak;
   for (double T = 0.01 * tau_s; T < 100 * tau_s; T *= 1.02) {
-    const double e = 1 - std::exp(-T / tau_s);
-    const double var = 2 * q * q * tau_s / (T * T) * (T - tau_s * e);
-    const double cov = q * q * (tau_s / T) * (tau_s / T) * e * e;
-    const double dev = std::sqrt(std::max(var - cov, 0.0));
+    const double dev = q * std::sqrt(gauss_markov_allan_variance(tau_s, T));
     if (dev > peak.deviation) peak = {dev, T};
   }
   return peak;

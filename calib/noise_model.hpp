@@ -115,6 +115,18 @@ double restricted_log_likelihood(const std::vector<NoiseRow>& rows, const Eigen:
 // model's sigma is widened by, so that it has z-variance 1.
 double student_t_inflation(double nu);
 
+// The unit's correlation time as known before a run: one value, or the range a static
+// recording's Allan curves allow it (`standcal noise`), over which the run's likelihood then
+// weighs (kKnownTauRangePoints correlation times, log-spaced).
+struct KnownTau {
+  double min_s = 0, max_s = 0;  // equal: one value
+  bool range() const { return max_s > min_s; }
+  double centre_s() const;  // the log-middle, sqrt(min max): one wander to weight with
+  std::vector<double> grid_s() const;
+  std::string words() const;  // "the given correlation time 300 s" / "... times 150-600 s"
+};
+inline constexpr int kKnownTauRangePoints = 5;
+
 struct FitNoiseOptions {
   enum class Mode {
     white,      // each mean independent, with the standard error sigma/sqrt(n) of its dwell
@@ -128,11 +140,11 @@ struct FitNoiseOptions {
   // little precision; ignoring one that is makes every sigma too small.
   double weighting_lr = 1.0;
   GaussMarkovNoise specified;  // the unit's known bias instability (data sheet, earlier runs)
-  // estimate: the unit's correlation time, known (a long static recording's Allan curve, the
-  // data sheet): the run then estimates only the wander's size. One run of a quarter of an
-  // hour cannot tell a wander of 60 s from one of 1200 s, and the biases' sigmas depend on
-  // it several-fold (docs/calibration.md, "Noise model").
-  std::optional<double> known_tau_s;
+  // estimate: the unit's correlation time, known (a long static recording's Allan curves,
+  // `standcal noise`; the data sheet): the run then estimates only the wander's size. One
+  // run of a quarter of an hour cannot tell a wander of 60 s from one of 1200 s, and the
+  // biases' sigmas depend on it several-fold (docs/calibration.md, "Noise model").
+  std::optional<KnownTau> known_tau;
   NoiseEstimateOptions estimate;
   // estimate, invariant fit: estimate the wander from the full vector of the dwell means
   // (three rows per position, where the full-vector model fits the programme) rather than
@@ -164,9 +176,11 @@ struct NoiseFinding {
   bool bias_instability = false;  // the recording itself shows the wander
   Vec3 wander_ug = Vec3::Zero();  // Gauss-Markov standard deviation per axis
   double tau_s = 0;               // its correlation time
-  bool tau_given = false;         // given, not estimated (known_tau_s, or a specified wander)
-  // Estimated: the correlation times of the grid the run allows (2 delta log L within
-  // plausible_lr of the best); the biases' sigmas are averaged over them.
+  bool tau_given = false;         // given, not estimated (known_tau, or a specified wander)
+  // The range of correlation times given (known_tau as a range; 0 when one value).
+  double tau_given_min_s = 0, tau_given_max_s = 0;
+  // Estimated, or given as a range: the correlation times of the grid the run allows
+  // (2 delta log L within plausible_lr of the best); the biases' sigmas are averaged over them.
   double tau_plausible_min_s = 0, tau_plausible_max_s = 0;
   Vec3 allan_peak_ug = Vec3::Zero();   // the Allan-deviation floor that wander shows
   Vec3 understated_by = Vec3::Ones();  // how much sigma/sqrt(n) understated a dwell mean's error
@@ -179,7 +193,9 @@ struct NoiseFinding {
 
 // From the estimate (its noise, or the specified one when the run alone shows none) and the
 // dwell means it applies to: understated_by per axis at the median dwell standard error.
-NoiseFinding noise_finding(const NoiseEstimate& e, const std::vector<PositionAverage>& avg);
+// `known_tau`: the correlation time the estimate was made at, when given.
+NoiseFinding noise_finding(const NoiseEstimate& e, const std::vector<PositionAverage>& avg,
+                           const std::optional<KnownTau>& known_tau = std::nullopt);
 
 // The wander an estimator weights with, chosen by `options` from the white fit's
 // linearised problem at its solution (rows, whitened design X and whitened residual y), and

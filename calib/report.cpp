@@ -111,7 +111,9 @@ json noise_finding_json(const NoiseFinding& n) {
     j["wander_ug"] = vec(n.wander_ug);
     j["tau_s"] = n.tau_s;
     j["tau_given"] = n.tau_given;
-    if (!n.tau_given && n.tau_plausible_max_s > 0)
+    if (n.tau_given_max_s > 0)
+      j["tau_given_s"] = json::array({n.tau_given_min_s, n.tau_given_max_s});
+    if (n.tau_plausible_max_s > 0)
       j["tau_plausible_s"] = json::array({n.tau_plausible_min_s, n.tau_plausible_max_s});
     j["allan_floor_ug"] = vec(n.allan_peak_ug);
     j["sigma_sqrt_n_understated_by"] = vec(n.understated_by);
@@ -195,6 +197,9 @@ namespace {
 // How the correlation time was come by: given, or the range one run allows, on which the
 // biases' sigmas depend several-fold (docs/calibration.md, "Noise model").
 std::string tau_words(const NoiseFinding& n) {
+  if (n.tau_given && n.tau_given_max_s > 0)
+    return " (given as " + format("%.0f", n.tau_given_min_s) + "-" +
+           format("%.0f", n.tau_given_max_s) + " s; the biases' sigmas allow for it)";
   if (n.tau_given) return " (given)";
   if (n.tau_plausible_max_s <= n.tau_plausible_min_s) return "";
   return " (this run allows " + format("%.0f", n.tau_plausible_min_s) + "-" +

@@ -4,12 +4,15 @@
 // 1 is an honest sigma. "estimated" weights as `standcal fit` does (the run's own noise
 // model); "white" as if every dwell mean were independent, for comparison.
 //   standcal-bench-noise-honesty [--runs 1000] [--threads 2] [--program diagnostic32]
+//                                [--repeat 1] [--tau-s 300]
+//                                [--tau-given-range 1 | --tau-given-factor 1]
 #include <CLI/CLI.hpp>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 
 #include "bench/noise/noise_mc.hpp"
+#include "calib/design.hpp"
 #include "calib/diagnosis/diagnosis.hpp"
 
 using namespace standcal;
@@ -54,19 +57,35 @@ int main(int argc, char** argv) {
   Setup setup;
   std::string program = "diagnostic32";
   double tau_s = 300;
+  int repeat = 1;
   app.add_option("--runs", setup.runs, "simulated runs per scenario")->capture_default_str();
   app.add_option("--threads", setup.threads, "worker threads")->capture_default_str();
   app.add_option("--seed", setup.first_seed, "seed of the first run")->capture_default_str();
   app.add_option("--program", program, "diagnostic32, paper9, classic24 or a programme JSON file")
       ->capture_default_str();
+  app.add_option("--repeat", repeat,
+                 "visit the programme's positions this many times in a row (a longer run: does "
+                 "it pin the wander's correlation time?)")
+      ->check(CLI::Range(1, 20))
+      ->capture_default_str();
   app.add_option("--dwell-s", setup.dwell_s)->capture_default_str();
   app.add_option("--rate-hz", setup.sample_rate_hz)->capture_default_str();
   app.add_option("--tau-s", tau_s, "correlation time of the wander")->capture_default_str();
+  app.add_option("--tau-given-factor", setup.tau_given_factor,
+                 "the 'tau given' rows weight with this multiple of the true correlation time")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--tau-given-range", setup.tau_given_range,
+                 "the 'tau given' rows are given a range of correlation times, from that tau / "
+                 "this to that tau x this")
+      ->check(CLI::Range(1.0, 100.0))
+      ->capture_default_str();
   app.add_option("--weighting-lr", setup.weighting_lr,
                  "weight for an estimated wander once 2 delta log L exceeds this")
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
-  setup.program = program == "diagnostic32" ? diagnostic32() : load_program(program);
+  setup.program =
+      repeated_program(program == "diagnostic32" ? diagnostic32() : load_program(program), repeat);
 
   std::printf(
       "noise honesty: %d runs per scenario of %s (%zu positions, %.0f s dwells at %.0f Hz), "
@@ -78,6 +97,9 @@ int main(int argc, char** argv) {
       "found the wander significant; 'min cover' = the smallest share of runs, over the "
       "parameters, whose truth lies within +-1.96 sigma (95 %% if honest)\n",
       std::sqrt(2.0 / setup.runs), setup.runs);
+  if (setup.tau_given_factor != 1 || setup.tau_given_range != 1)
+    std::printf("'tau given': %.3g x the simulated correlation time, within a factor %.3g\n",
+                setup.tau_given_factor, setup.tau_given_range);
   const auto start = std::chrono::steady_clock::now();
   for (Scenario s : issue21_scenarios()) {
     s.tau_s = tau_s;

@@ -30,11 +30,14 @@ const std::vector<Method>& methods() {
 }
 
 FitResult fit_with(const Method& m, const Recording& rec, const std::vector<PositionAverage>& avg,
-                   const TruthModel& truth, double weighting_lr) {
+                   const TruthModel& truth, const Setup& setup) {
   FitNoiseOptions noise;
-  noise.weighting_lr = weighting_lr;
+  noise.weighting_lr = setup.weighting_lr;
   if (m.weighting == "white") noise = white_noise_weighting();
-  if (m.weighting == "tau given") noise.known_tau_s = truth.noise.bias_instability_tau_s;
+  if (m.weighting == "tau given") {
+    const double tau_s = truth.noise.bias_instability_tau_s * setup.tau_given_factor;
+    noise.known_tau = KnownTau{tau_s / setup.tau_given_range, tau_s * setup.tau_given_range};
+  }
   if (m.weighting == "true") {
     noise.mode = FitNoiseOptions::Mode::specified;
     noise.specified = {Vec3::Constant(truth.noise.bias_instability_ug * kUg),
@@ -110,7 +113,7 @@ ScenarioResult run_scenario(const Setup& setup, const Scenario& scenario) {
       const std::vector<PositionAverage> avg = average_positions(rec);
       for (std::size_t k = 0; k < methods().size(); ++k) {
         try {
-          accumulate(local[k], fit_with(methods()[k], rec, avg, truth, setup.weighting_lr), x_true);
+          accumulate(local[k], fit_with(methods()[k], rec, avg, truth, setup), x_true);
         } catch (const std::exception&) {
           ++local[k].failed;
         }

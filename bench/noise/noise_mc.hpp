@@ -29,6 +29,12 @@ struct Setup {
   std::uint64_t first_seed = 1;
   int threads = 2;
   double weighting_lr = FitNoiseOptions{}.weighting_lr;  // the default fit's
+  // "tau given" weights with this multiple of the simulated correlation time: how well the
+  // unit's tau must be known (a long static recording's Allan fit pins it within ~2x).
+  double tau_given_factor = 1;
+  // ... or the range of correlation times from that / this to that x this (1: one value), as
+  // `standcal noise` gives it from a static recording.
+  double tau_given_range = 1;
 };
 
 // z statistics of one estimator with one weighting in one scenario.

@@ -55,6 +55,10 @@ struct DiagnoseOptions {
   // drift or a temperature coefficient (docs/diagnosis.md, "Noise"); when it does not show
   // the wander itself, the terms are tested against this. White: nothing known.
   GaussMarkovNoise specified_wander;
+  // The unit's correlation time when known (one value or a range: `standcal noise` of a long
+  // static recording): the wander is then estimated at it, as the fits do (FitNoiseOptions::
+  // known_tau), rather than over the default grid that one run cannot choose from.
+  std::optional<KnownTau> known_tau;
   // Before `explained` or `consistent`: the residuals must pass the whiteness tests at this
   // family-wise false-alarm rate, each chosen term must agree between the two halves of the
   // run within this many sigma, and no found value may exceed this many times its

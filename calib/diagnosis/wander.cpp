@@ -146,6 +146,7 @@ NoiseAndTerms select_terms_and_noise(Prepared& P, const DiagnoseOptions& options
     if (P.untestable[i].empty() && slow_in_time(P.cands[i])) slow.push_back(P.cands[i]);
   NoiseEstimateOptions o;
   o.lr_threshold = options.wander_lr_threshold;
+  if (options.known_tau) o.tau_grid_s = options.known_tau->grid_s();
   NoiseAndTerms out;
   const double tolerance_rad = options.attitude_free ? kAttitudeFreeSamePose_deg * kDegToRad : 1e-9;
   const BetweenVisits bv = between_visits(P, slow, tolerance_rad);
@@ -156,6 +157,7 @@ NoiseAndTerms select_terms_and_noise(Prepared& P, const DiagnoseOptions& options
   } else {
     out.noise.how = "not estimated: no position is visited twice";
   }
+  if (options.known_tau) out.noise.how += "; at " + options.known_tau->words();
   if (out.noise.significant &&
       out.noise.noise.q_g.maxCoeff() > options.max_bias_instability_ug * kUg) {
     out.noise.significant = false;
@@ -172,6 +174,18 @@ NoiseAndTerms select_terms_and_noise(Prepared& P, const DiagnoseOptions& options
   return out;
 }
 
+namespace {
+
+// "given; ", "within the given 400-900 s; " or nothing: where the correlation time came from.
+std::string tau_given_words(const NoiseFinding& n) {
+  if (n.tau_given_max_s > 0)
+    return "within the given " + fmt("%.0f", n.tau_given_min_s) + "-" +
+           fmt("%.0f", n.tau_given_max_s) + " s; ";
+  return n.tau_given ? "given; " : "";
+}
+
+}  // namespace
+
 std::string noise_words(const NoiseFinding& n) {
   if (n.model == "gauss_markov" && !n.bias_instability)
     return "Noise: this run does not show bias wander by itself (2 delta log L = " +
@@ -179,8 +193,11 @@ std::string noise_words(const NoiseFinding& n) {
            " needed), so the terms are tested against the unit's specified "
            "bias instability, Gauss-Markov up to " +
            fmt("%.1f", n.wander_ug.maxCoeff()) + " ug with correlation time " +
-           fmt("%.0f", n.tau_s) +
-           " s (generalised least squares): a drift or temperature term must stand out from "
+           fmt("%.0f", n.tau_s) + " s" +
+           (n.tau_given_max_s > 0 ? " (the middle of the given " + fmt("%.0f", n.tau_given_min_s) +
+                                        "-" + fmt("%.0f", n.tau_given_max_s) + " s)"
+                                  : "") +
+           " (generalised least squares): a drift or temperature term must stand out from "
            "what that wander can do in this run.";
   if (!n.bias_instability) return "";
   std::string s =
@@ -190,7 +207,7 @@ std::string noise_words(const NoiseFinding& n) {
   for (int a = 0; a < 3; ++a)
     s +=
         std::string(a ? "," : "") + " " + kAxisNames[a] + " " + fmt("%.1f", n.wander_ug[a]) + " ug";
-  s += ", correlation time " + fmt("%.0f", n.tau_s) + " s (Allan floor";
+  s += ", correlation time " + fmt("%.0f", n.tau_s) + " s (" + tau_given_words(n) + "Allan floor";
   for (int a = 0; a < 3; ++a)
     s += std::string(a ? "," : "") + " " + fmt("%.1f", n.allan_peak_ug[a]);
   s += " ug); sigma/sqrt(n) understated a dwell mean's error by up to " +

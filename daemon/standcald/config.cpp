@@ -96,6 +96,11 @@ class Section {
     if (v == nullptr) return nullptr;
     return std::make_unique<Section>(*v, path_.empty() ? key : path_ + "." + key, source_);
   }
+  static std::string fmt(double d) {
+    std::ostringstream s;
+    s << d;
+    return s.str();
+  }
   void reject_unknown() const {
     for (auto it = j_.begin(); it != j_.end(); ++it) {
       if (!seen_.count(it.key())) fail(it.key(), "unknown key (see docs/daemon.md for the keys)");
@@ -103,11 +108,6 @@ class Section {
   }
 
  private:
-  static std::string fmt(double d) {
-    std::ostringstream s;
-    s << d;
-    return s.str();
-  }
   const json& j_;
   std::string path_;
   const std::string& source_;
@@ -228,7 +228,19 @@ void read_unit(Section& top, DaemonConfig& c) {
   s->number("sample_rate_hz", c.sample_rate_hz, 1, 100000);
   s->number("bias_instability_ug", c.unit_bias_instability_ug, 0, 100000);
   s->number("bias_instability_tau_s", c.unit_bias_instability_tau_s, 1, 1e6);
-  c.unit_bias_instability_tau_configured = s->find("bias_instability_tau_s") != nullptr;
+  double tau_max_s = 0;
+  s->number("bias_instability_tau_max_s", tau_max_s, 1, 1e6);
+  const bool tau_given = s->find("bias_instability_tau_s") != nullptr;
+  if (tau_max_s > 0 && !tau_given)
+    s->fail("bias_instability_tau_max_s",
+            "a range needs its lower end too: bias_instability_tau_s");
+  if (tau_max_s > 0 && tau_max_s < c.unit_bias_instability_tau_s)
+    s->fail("bias_instability_tau_max_s",
+            Section::fmt(tau_max_s) + " s is below bias_instability_tau_s (" +
+                Section::fmt(c.unit_bias_instability_tau_s) + " s): the range is MIN to MAX");
+  if (tau_given)
+    c.unit_known_tau = KnownTau{c.unit_bias_instability_tau_s,
+                                tau_max_s > 0 ? tau_max_s : c.unit_bias_instability_tau_s};
   s->reject_unknown();
 }
 

@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "calib/noise_model.hpp"
 #include "calib/uncertainty_budget.hpp"
 #include "drivers/stand.hpp"
 #include "protocol/jsonrpc/paths.hpp"
@@ -87,8 +88,10 @@ struct DaemonConfig {
   // earlier runs), which fits and diagnoses assume when a run alone does not show one; 0: none.
   double unit_bias_instability_ug = 0;
   double unit_bias_instability_tau_s = 300;
-  // unit.bias_instability_tau_s present: the fits take it as known (FitNoiseOptions::known_tau_s).
-  bool unit_bias_instability_tau_configured = false;
+  // unit.bias_instability_tau_s present: the fits take it as known (FitNoiseOptions::known_tau),
+  // up to unit.bias_instability_tau_max_s when that is there too (the range `standcal noise`
+  // gives from a static recording).
+  std::optional<KnownTau> unit_known_tau;
   SimSettings sim;
   AxisRange outer;  // limited ±180° unless configured
   AxisRange inner;

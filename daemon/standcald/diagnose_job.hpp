@@ -31,7 +31,8 @@ inline constexpr std::size_t kMaxReportBytes = 768 * 1024;
 // is also kept as diagnosis.json beside the recording (`saved_path`; null with
 // `save_error` when the disk refused it: the answer is still given).
 nlohmann::json diagnose_run(const nlohmann::json& run_status, const StandLimits& limits,
-                            const GaussMarkovNoise& specified_wander, bool with_report);
+                            const GaussMarkovNoise& specified_wander,
+                            const std::optional<KnownTau>& known_tau, bool with_report);
 
 class DiagnoseJobs {
  public:

@@ -69,7 +69,9 @@ json job_to_json(const DiagnoseJob& job) {
             {"alpha2", axis_range_to_json(job.limits.alpha2)}}},
           {"report", job.with_report},
           {"specified_wander_ug", job.specified_wander.q_g.maxCoeff() / kUg},
-          {"specified_wander_tau_s", job.specified_wander.tau_s}};
+          {"specified_wander_tau_s", job.specified_wander.tau_s},
+          {"known_tau_s", job.known_tau ? json::array({job.known_tau->min_s, job.known_tau->max_s})
+                                        : json(nullptr)}};
 }
 
 DiagnoseJob job_from_json(const json& j) {
@@ -80,6 +82,8 @@ DiagnoseJob job_from_json(const json& j) {
   job.with_report = j.at("report").get<bool>();
   job.specified_wander = {Vec3::Constant(j.at("specified_wander_ug").get<double>() * kUg),
                           j.at("specified_wander_tau_s").get<double>()};
+  if (const json& tau = j.at("known_tau_s"); !tau.is_null())
+    job.known_tau = KnownTau{tau.at(0).get<double>(), tau.at(1).get<double>()};
   return job;
 }
 
@@ -239,8 +243,8 @@ int diagnose_worker_main() {
     const DiagnoseJob job = job_from_json(json::parse(input));
     const char* fault = std::getenv(kDiagnoseWorkerFaultEnv);
     if (fault != nullptr && std::string(fault) == "abort") std::abort();
-    answer = {{"result",
-               diagnose_run(job.run_status, job.limits, job.specified_wander, job.with_report)}};
+    answer = {{"result", diagnose_run(job.run_status, job.limits, job.specified_wander,
+                                      job.known_tau, job.with_report)}};
   } catch (const RpcError& e) {
     answer = error_answer(e.code(), e.what());
   } catch (const std::exception& e) {

@@ -66,7 +66,7 @@ Compensation run_compensation(const FitResult& fit, const RunRecord& record,
 }  // namespace
 
 json fit_finished_run(RunRecord& record, const std::string& run_dir,
-                      const GaussMarkovNoise& bias_wander, std::optional<double> known_tau_s,
+                      const GaussMarkovNoise& bias_wander, const std::optional<KnownTau>& known_tau,
                       const std::optional<BudgetConfig>& budget) {
   // Streamed: the daemon holds one dwell of the recording, not the whole run.
   const RecordingDigest digest = digest_recording(record.recording_path);
@@ -77,7 +77,7 @@ json fit_finished_run(RunRecord& record, const std::string& run_dir,
   noise.specified = bias_wander;
   // The unit's configured correlation time (its Allan test): the run then estimates only the
   // wander's size, which one run pins far better than tau.
-  noise.known_tau_s = known_tau_s;
+  noise.known_tau = known_tau;
   JointFit joint = joint_fit(averages, noise, allan);
   json& result = joint.result;
   try {

@@ -42,9 +42,13 @@ StandLimits limits_of(const DaemonConfig& c) { return StandLimits{c.outer, c.inn
 
 StandLimits Sequencer::stand_limits() const { return limits_of(config_); }
 
+std::optional<KnownTau> Sequencer::unit_known_tau() const { return config_.unit_known_tau; }
+
 GaussMarkovNoise Sequencer::unit_bias_wander() const {
-  return {Vec3::Constant(config_.unit_bias_instability_ug * kUg),
-          config_.unit_bias_instability_tau_s};
+  // A range's log-middle: the fits then average the biases' variance over the range itself.
+  const double tau_s = config_.unit_known_tau ? config_.unit_known_tau->centre_s()
+                                              : config_.unit_bias_instability_tau_s;
+  return {Vec3::Constant(config_.unit_bias_instability_ug * kUg), tau_s};
 }
 
 namespace {
@@ -551,7 +555,7 @@ Sequencer::SampledDwell Sequencer::sample_stable_dwell(const RunRecord& record, 
                               hw_.unit->health().incomplete_samples - incomplete_before,
                               record.g_local_mps2};
     expected.bias_wander_ug = config_.unit_bias_instability_ug;
-    expected.bias_wander_tau_s = config_.unit_bias_instability_tau_s;
+    expected.bias_wander_tau_s = unit_bias_wander().tau_s;
     const std::string problem = dwell_problem(d.average, expected, config_.stability);
     if (problem.empty()) return d;
     if (attempt >= config_.stability.remeasure_max) {
@@ -570,10 +574,7 @@ Sequencer::SampledDwell Sequencer::sample_stable_dwell(const RunRecord& record, 
 void Sequencer::finish_with_fit(RunRecord& record) {
   set_progress(record, record.positions, "fitting");
   json result = fit_finished_run(record, store_.run_dir(record.run_id), unit_bias_wander(),
-                                 config_.unit_bias_instability_tau_configured
-                                     ? std::optional<double>(config_.unit_bias_instability_tau_s)
-                                     : std::nullopt,
-                                 config_.budget);
+                                 unit_known_tau(), config_.budget);
   const std::string path = store_.run_dir(record.run_id) + "/result.json";
   write_state_file(path, result.dump(2) + "\n");
   record.result_path = path;

@@ -177,6 +177,45 @@ TEST_F(Cli, SimulateRefusesDwellAndSettleTimesPastTheRunLimits) {
 
 // Issue 21: the fit states the noise model it weighted with — the wander between dwells and
 // the Allan figures of the raw samples within them — and weights for a wander that is there.
+// `standcal noise` of a long static recording names the unit's correlation time (the Allan
+// curves' Gauss-Markov fit) and how to give it to the fits; the floor's averaging time
+// (about 1.9 tau) is not it.
+TEST_F(Cli, NoiseOfAStaticRecordingNamesTheCorrelationTimeToGiveTheFits) {
+  std::ofstream(path("static.json"))
+      << R"({"name": "static", "positions": [{"alpha1_deg": 0, "alpha2_deg": 0, "dwell_s": 28800}]})";
+  ASSERT_EQ(run_cli("simulate --program " + path("static.json") + " --rate-hz 10 -o " +
+                    path("static.csv") + " --truth " + path("static_truth.json"))
+                .exit_code,
+            0);
+  nlohmann::json truth;
+  std::ifstream(path("static_truth.json")) >> truth;
+  truth["noise"]["bias_instability_ug"] = 3;
+  truth["noise"]["bias_instability_tau_s"] = 300;
+  std::ofstream(path("static_model.json")) << truth.dump(2);
+  ASSERT_EQ(run_cli("simulate --program " + path("static.json") + " --rate-hz 10 --seed 2 -o " +
+                    path("static.csv") + " --model " + path("static_model.json"))
+                .exit_code,
+            0);
+  const CliRun json_run = run_cli("noise " + path("static.csv") + " --json");
+  ASSERT_EQ(json_run.exit_code, 0) << json_run.output;
+  const auto gm = nlohmann::json::parse(json_run.output)["gauss_markov"];
+  ASSERT_TRUE(gm.is_object()) << json_run.output;
+  EXPECT_EQ(gm["tau_bounded"], true) << gm.dump(2);
+  EXPECT_NEAR(gm["tau_s"].get<double>() / 300, 1, 0.5) << gm.dump(2);
+  EXPECT_LT(gm["tau_max_s"].get<double>() / gm["tau_min_s"].get<double>(), 4) << gm.dump(2);
+  for (const char* axis : {"x", "y", "z"}) {
+    EXPECT_NEAR(gm["axes"][axis]["noise_density_ug_rthz"].get<double>(), 10, 1) << axis;
+    EXPECT_NEAR(gm["axes"][axis]["q_ug"].get<double>(), 3, 1.5) << axis;
+  }
+  const CliRun text = run_cli("noise " + path("static.csv"));
+  ASSERT_EQ(text.exit_code, 0) << text.output;
+  char command[160];
+  std::snprintf(command, sizeof command,
+                "standcal fit --bias-instability-tau-s %.0f --bias-instability-tau-max-s %.0f",
+                gm["tau_min_s"].get<double>(), gm["tau_max_s"].get<double>());
+  EXPECT_NE(text.output.find(command), std::string::npos) << command << "\n" << text.output;
+}
+
 TEST_F(Cli, FitStatesItsNoiseModelAndWeightsForTheWanderOfTheRun) {
   ASSERT_EQ(run_cli("simulate --program classic24 --seed 3 --dwell-s 10 -o " + path("white.csv") +
                     " --truth " + path("t.json"))
@@ -235,6 +274,55 @@ TEST_F(Cli, FitStatesItsNoiseModelAndWeightsForTheWanderOfTheRun) {
   const CliRun text =
       run_cli("fit " + path("wander.csv") + " --method full --bias-instability-tau-s 700");
   EXPECT_NE(text.output.find("tau 700 s (given)"), std::string::npos) << text.output;
+  // Given as a range (what `standcal noise` says of a static recording), the run weighs the
+  // times inside it; a range without its lower end, or upside down, is a usage error.
+  const CliRun range = run_cli("fit " + path("wander.csv") +
+                               " --method full --bias-instability-tau-s 150 "
+                               "--bias-instability-tau-max-s 600 --json");
+  ASSERT_EQ(range.exit_code, 0) << range.output;
+  const auto jr = nlohmann::json::parse(range.output)["noise"];
+  EXPECT_EQ(jr["tau_given"], true) << jr.dump(2);
+  EXPECT_EQ(jr["tau_given_s"], nlohmann::json::array({150.0, 600.0}));
+  EXPECT_GE(jr["tau_s"].get<double>(), 150 * (1 - 1e-9));
+  EXPECT_LE(jr["tau_s"].get<double>(), 600 * (1 + 1e-9));
+  EXPECT_NE(jr["how"].get<std::string>().find("the given correlation times 150-600 s"),
+            std::string::npos)
+      << jr["how"];
+  const CliRun range_text = run_cli("fit " + path("wander.csv") +
+                                    " --method full --bias-instability-tau-s 150 "
+                                    "--bias-instability-tau-max-s 600");
+  EXPECT_NE(range_text.output.find("(given as 150-600 s;"), std::string::npos) << range_text.output;
+  // A specified wander (the run shows none) with its time given as a range weights at the
+  // range's log-middle and averages the biases' variance over the range, each time alike:
+  // it is not the range's lower end, where the biases' sigmas would be too small.
+  const auto specified = [&](const std::string& tau) {
+    const CliRun r = run_cli("fit " + path("white.csv") +
+                             " --method full --json --bias-instability-ug 5 " + tau);
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    return nlohmann::json::parse(r.output);
+  };
+  const auto over_range =
+      specified("--bias-instability-tau-s 150 --bias-instability-tau-max-s 600");
+  const auto at_middle = specified("--bias-instability-tau-s 300");
+  EXPECT_EQ(over_range["noise"]["source"], "specified") << over_range["noise"].dump(2);
+  EXPECT_DOUBLE_EQ(over_range["noise"]["tau_s"].get<double>(), 300);
+  EXPECT_EQ(over_range["noise"]["tau_given_s"], nlohmann::json::array({150.0, 600.0}));
+  for (const char* p : {"bias_x", "bias_y", "bias_z"})
+    EXPECT_GT(over_range["parameters"][p]["sigma"].get<double>(),
+              at_middle["parameters"][p]["sigma"].get<double>())
+        << p;
+  const CliRun no_lower =
+      run_cli("fit " + path("wander.csv") + " --bias-instability-tau-max-s 600");
+  EXPECT_EQ(no_lower.exit_code, 2) << no_lower.output;
+  EXPECT_NE(no_lower.output.find("needs its lower end too: --bias-instability-tau-s"),
+            std::string::npos)
+      << no_lower.output;
+  const CliRun upside_down = run_cli("fit " + path("wander.csv") +
+                                     " --bias-instability-tau-s 600 "
+                                     "--bias-instability-tau-max-s 150");
+  EXPECT_EQ(upside_down.exit_code, 2) << upside_down.output;
+  EXPECT_NE(upside_down.output.find("the range is MIN to MAX"), std::string::npos)
+      << upside_down.output;
   // A size given without its time leaves the time to the run (the default 300 s is no one's).
   const CliRun size_only =
       run_cli("fit " + path("wander.csv") + " --method full --bias-instability-ug 30 --json");

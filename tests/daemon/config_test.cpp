@@ -64,6 +64,30 @@ TEST(DaemonConfig, ReadsEveryGroupOfKeys) {
   EXPECT_EQ(c.program_library_dir, "/etc/standcal/programs");
 }
 
+// The unit's correlation time: one value, a range up to unit.bias_instability_tau_max_s, or
+// nothing (the fits estimate it); a range without its lower end or upside down is refused.
+TEST(DaemonConfig, TheUnitsCorrelationTimeIsAValueOrARange) {
+  EXPECT_FALSE(parse_config(json::object(), "lab.json").unit_known_tau.has_value());
+  const DaemonConfig one =
+      parse_config(json{{"unit", {{"bias_instability_tau_s", 400}}}}, "lab.json");
+  ASSERT_TRUE(one.unit_known_tau.has_value());
+  EXPECT_DOUBLE_EQ(one.unit_known_tau->min_s, 400);
+  EXPECT_DOUBLE_EQ(one.unit_known_tau->max_s, 400);
+  const DaemonConfig range = parse_config(
+      json{{"unit", {{"bias_instability_tau_s", 200}, {"bias_instability_tau_max_s", 700}}}},
+      "lab.json");
+  ASSERT_TRUE(range.unit_known_tau.has_value());
+  EXPECT_DOUBLE_EQ(range.unit_known_tau->min_s, 200);
+  EXPECT_DOUBLE_EQ(range.unit_known_tau->max_s, 700);
+  EXPECT_EQ(config_error(json{{"unit", {{"bias_instability_tau_max_s", 700}}}}),
+            "lab.json: unit.bias_instability_tau_max_s: a range needs its lower end too: "
+            "bias_instability_tau_s");
+  EXPECT_EQ(config_error(json{
+                {"unit", {{"bias_instability_tau_s", 700}, {"bias_instability_tau_max_s", 200}}}}),
+            "lab.json: unit.bias_instability_tau_max_s: 200 s is below bias_instability_tau_s "
+            "(700 s): the range is MIN to MAX");
+}
+
 // run.budget is read at start: a bad file stops the daemon's start, naming the key.
 TEST(DaemonConfig, TheBudgetFileIsReadAtStart) {
   const std::string path = ::testing::TempDir() + "/standcal-budget-test.json";

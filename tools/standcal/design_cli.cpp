@@ -16,6 +16,7 @@
 #include "calib/allan.hpp"
 #include "calib/atomic_file.hpp"
 #include "calib/design.hpp"
+#include "calib/diagnosis/words.hpp"
 #include "calib/programs.hpp"
 #include "calib/recording.hpp"
 #include "calib/recording_digest.hpp"
@@ -563,6 +564,42 @@ void run_compare(const CompareOptions& o) {
 
 // ---- noise ---------------------------------------------------------------------------
 
+json gauss_markov_json(const GaussMarkovAllanFit& f) {
+  json j = {{"tau_s", f.tau_s},
+            {"tau_min_s", f.tau_min_s},
+            {"tau_max_s", f.tau_max_s},
+            {"tau_bounded", f.tau_bounded},
+            {"chi2_per_dof", f.chi2_per_dof}};
+  static const std::array<const char*, 3> axis_names{"x", "y", "z"};
+  for (std::size_t a = 0; a < f.q.size() && a < 3; ++a)
+    j["axes"][axis_names[a]] = {{"q_ug", f.q[a]}, {"noise_density_ug_rthz", f.white_density[a]}};
+  return j;
+}
+
+// What the Allan curves say of the unit's correlation time, and how to give it to the fits
+// (one calibration run cannot pin it: docs/calibration.md, "The correlation time, given").
+std::string gauss_markov_words(const std::optional<GaussMarkovAllanFit>& f, double curve_end_s) {
+  using diagnosis::fmt;
+  if (!f) return "Gauss-Markov wander: the curves are too short to fit one (fewer than 5 octaves)";
+  std::string s =
+      "Gauss-Markov wander (white noise and one wander fitted to the three curves, "
+      "one correlation time): steady-state sigma";
+  for (std::size_t a = 0; a < f->q.size(); ++a)
+    s += std::string(a ? "," : "") + " " + "xyz"[a] + " " + fmt("%.3g", f->q[a]) + " ug";
+  if (!f->tau_bounded)
+    return s + "; correlation time not pinned: this recording allows " + fmt("%.3g", f->tau_min_s) +
+           " s and beyond (its curves end at " + fmt("%.3g", curve_end_s) +
+           " s; a static recording of about 100 x the correlation time pins it)";
+  return s + "; correlation time " + fmt("%.3g", f->tau_s) + " s (this recording allows " +
+         fmt("%.3g", f->tau_min_s) + "-" + fmt("%.3g", f->tau_max_s) +
+         " s)\ngive the range to the fits: standcal fit --bias-instability-tau-s " +
+         fmt("%.3g", f->tau_min_s) + " --bias-instability-tau-max-s " + fmt("%.3g", f->tau_max_s) +
+         " (standcald: unit.bias_instability_tau_s and unit.bias_instability_tau_max_s); one "
+         "calibration run cannot pin it, and too short a tau makes the biases' sigmas too "
+         "small. The averaging time of the bias-instability floor above is not the "
+         "correlation time (a Gauss-Markov wander's Allan peak lies near 1.9 x it).";
+}
+
 void run_noise(const NoiseOptions& o) {
   DigestOptions reading;
   reading.averages = false;  // the Allan deviation alone: each dwell is dropped once added
@@ -589,6 +626,8 @@ void run_noise(const NoiseOptions& o) {
     std::fprintf(stderr, "Allan deviation plot written to %s\n", o.plot_out.c_str());
   }
   auto opt = [](const std::optional<double>& v) { return v ? json(*v) : json(nullptr); };
+  const std::optional<GaussMarkovAllanFit> wander =
+      fit_gauss_markov_allan({curves[0], curves[1], curves[2]}, tau0);
   if (o.json) {
     json j = {{"recording", o.recording}, {"sample_period_s", tau0}, {"segments", allan.segments}};
     for (int a = 0; a < 3; ++a) {
@@ -601,6 +640,7 @@ void run_noise(const NoiseOptions& o) {
                                   {"random_walk_ug_rts", opt(figures[a].random_walk)},
                                   {"allan_deviation", curve}};
     }
+    j["gauss_markov"] = wander ? gauss_markov_json(*wander) : json(nullptr);
     print_json(j);
     return;
   }
@@ -625,6 +665,8 @@ void run_noise(const NoiseOptions& o) {
                 cell(figures[a].random_walk).c_str());
   }
   std::printf("use the noise density with `standcal design ... --noise-density-ug-rthz N`\n");
+  std::printf("%s\n",
+              gauss_markov_words(wander, curves[0].empty() ? 0 : curves[0].back().tau_s).c_str());
 }
 
 void add_design_commands(CLI::App& app) {

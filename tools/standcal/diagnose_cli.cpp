@@ -28,16 +28,14 @@ struct DiagnoseCliOptions {
   std::string report;
   std::string model_out;
   // The unit's bias instability as its data sheet or a static recording gives it.
-  double bias_instability_ug = 0;
-  double bias_instability_tau_s = 300;
-  bool tau_given = false;  // --bias-instability-tau-s on the command line
+  WanderCliOptions wander;
   InputCliOptions input;
 };
 
 DiagnoseOptions diagnose_options(const DiagnoseCliOptions& o) {
   DiagnoseOptions d;
-  if (o.bias_instability_ug > 0)
-    d.specified_wander = {Vec3::Constant(o.bias_instability_ug * kUg), o.bias_instability_tau_s};
+  d.specified_wander = o.wander.specified();
+  d.known_tau = o.wander.known_tau();
   return d;
 }
 
@@ -68,7 +66,7 @@ std::pair<Diagnosis, Recording> diagnose_input(const DiagnoseCliOptions& o) {
   NormCalibrationOptions calibrate;
   calibrate.stability = false;  // the diagnosis does not report it
   calibrate.fit.noise.specified = diagnose_options(o).specified_wander;
-  if (o.tau_given) calibrate.fit.noise.known_tau_s = o.bias_instability_tau_s;  // as `fit`
+  calibrate.fit.noise.known_tau = o.wander.known_tau();  // as `fit`
   const NormCalibration calibration = calibrate_without_angles(in, calibrate);
   Diagnosis d = diagnose_without_angles(in, calibration, diagnose_options(o));
   return {std::move(d), calibrated_recording(in, calibration)};
@@ -114,10 +112,9 @@ void add_diagnose_commands(CLI::App& app) {
       "write an HTML report with plots (residuals before/after, located mismatch) to FILE");
   cmd->add_option("--model-out", opts->model_out,
                   "write the augmented model (standcal-model/1 JSON) to FILE");
-  add_wander_options(cmd, opts->bias_instability_ug, opts->bias_instability_tau_s,
-                     "against which the terms are tested when the run does not show the wander "
-                     "itself",
-                     &opts->tau_given);
+  add_fit_wander_options(cmd, opts->wander,
+                         "against which the terms are tested when the run does not show the "
+                         "wander itself");
   cmd->callback([opts] { run_diagnose(*opts); });
 }
 

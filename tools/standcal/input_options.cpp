@@ -2,6 +2,7 @@
 
 #include <cstdio>
 
+#include "calib/diagnosis/words.hpp"
 #include "calib/recording_digest.hpp"
 #include "calib/units.hpp"
 #include "tools/cli_checks.hpp"
@@ -70,10 +71,40 @@ void add_noise_options(CLI::App* cmd, NoiseCliOptions& o) {
                   "when significant (docs/calibration.md) | white: every dwell mean independent")
       ->check(CLI::IsMember({"estimate", "white"}))
       ->capture_default_str();
-  add_wander_options(cmd, o.bias_instability_ug, o.bias_instability_tau_s,
-                     "used when the run alone does not show it; a correlation time given is "
-                     "taken as known, and the run estimates the wander's size at it",
-                     &o.tau_given);
+  add_fit_wander_options(cmd, o.wander,
+                         "used when the run alone does not show it; a correlation time given is "
+                         "taken as known, and the run estimates the wander's size at it");
+}
+
+void add_fit_wander_options(CLI::App* cmd, WanderCliOptions& o, const std::string& use) {
+  add_wander_options(cmd, o.bias_instability_ug, o.bias_instability_tau_s, use, &o.tau_given);
+  cmd->add_option("--bias-instability-tau-max-s", o.bias_instability_tau_max_s,
+                  "with --bias-instability-tau-s T: the correlation time lies between T and this "
+                  "(the range `standcal noise` gives from a static recording); the biases' "
+                  "sigmas are averaged over it as this run's likelihood weighs it")
+      ->check(cli_checks::kPositive);
+}
+
+GaussMarkovNoise WanderCliOptions::specified() const {
+  // A range's log-middle: the fits then average the biases' variance over the range itself.
+  const std::optional<KnownTau> tau = known_tau();
+  return {Vec3::Constant(bias_instability_ug * kUg),
+          tau ? tau->centre_s() : bias_instability_tau_s};
+}
+
+std::optional<KnownTau> WanderCliOptions::known_tau() const {
+  if (bias_instability_tau_max_s > 0 && !tau_given)
+    throw CLI::ValidationError("--bias-instability-tau-max-s",
+                               "a range needs its lower end too: --bias-instability-tau-s");
+  if (!tau_given) return std::nullopt;
+  if (bias_instability_tau_max_s == 0)
+    return KnownTau{bias_instability_tau_s, bias_instability_tau_s};
+  if (bias_instability_tau_max_s < bias_instability_tau_s)
+    throw CLI::ValidationError(
+        "--bias-instability-tau-max-s",
+        diagnosis::fmt("%g", bias_instability_tau_max_s) + " s is below --bias-instability-tau-s " +
+            diagnosis::fmt("%g", bias_instability_tau_s) + " s: the range is MIN to MAX");
+  return KnownTau{bias_instability_tau_s, bias_instability_tau_max_s};
 }
 
 void add_wander_options(CLI::App* cmd, double& sigma_ug, double& tau_s, const std::string& use,
@@ -93,8 +124,8 @@ void add_wander_options(CLI::App* cmd, double& sigma_ug, double& tau_s, const st
 FitNoiseOptions fit_noise_options(const NoiseCliOptions& o) {
   FitNoiseOptions n;
   n.mode = o.noise == "white" ? FitNoiseOptions::Mode::white : FitNoiseOptions::Mode::estimate;
-  n.specified = {Vec3::Constant(o.bias_instability_ug * kUg), o.bias_instability_tau_s};
-  if (o.tau_given) n.known_tau_s = o.bias_instability_tau_s;
+  n.specified = o.wander.specified();
+  n.known_tau = o.wander.known_tau();
   return n;
 }
 

@@ -28,12 +28,25 @@ bool streams_as_stand_recording(const InputCliOptions& o, const std::string& pat
 // The reader's warnings, one "warning: ..." line each on stderr.
 void print_warnings(const std::vector<std::string>& warnings);
 
-// --noise, --bias-instability-ug, --bias-instability-tau-s.
-struct NoiseCliOptions {
-  std::string noise = "estimate";
+// The unit's bias wander as the commands that fit take it (fit, import, diagnose):
+// --bias-instability-ug, --bias-instability-tau-s, --bias-instability-tau-max-s.
+struct WanderCliOptions {
   double bias_instability_ug = 0;
   double bias_instability_tau_s = 300;
-  bool tau_given = false;  // --bias-instability-tau-s on the command line
+  double bias_instability_tau_max_s = 0;  // 0: not given
+  bool tau_given = false;                 // --bias-instability-tau-s on the command line
+  GaussMarkovNoise specified() const;     // white when no size is given
+  // The correlation time when given: one value, or the range up to --bias-instability-tau-max-s.
+  // Throws CLI::ValidationError when the range is given without its lower end or upside down.
+  std::optional<KnownTau> known_tau() const;
+};
+// `o` is written while the command line is parsed: it must outlive the parse.
+void add_fit_wander_options(CLI::App* cmd, WanderCliOptions& o, const std::string& use);
+
+// --noise and the wander's options.
+struct NoiseCliOptions {
+  std::string noise = "estimate";
+  WanderCliOptions wander;
 };
 // `o` is written while the command line is parsed: it must outlive the parse.
 void add_noise_options(CLI::App* cmd, NoiseCliOptions& o);
