@@ -137,12 +137,14 @@ TEST(DaemonRun, FullPaper9RunOverTheSocket) {
 
 // Issue 21: a unit's configured bias wander is what the run's fits weight with when the
 // run alone cannot show one (nine positions leave the joint fit no residual to estimate
-// it from), and the result says so.
-TEST(DaemonRun, TheFitsAssumeTheUnitsConfiguredBiasWander) {
+// it from), and the result says so. Its correlation time, one value or a range (what
+// `standcal noise` of a static recording gives), reaches the fits as given.
+namespace {
+
+json run_with_configured_wander(const json& unit, std::string& log) {
   TempDir dir;
-  const json config = {{"socket", {{"path", socket_of(dir)}}},
-                       {"state_dir", dir.path() + "/state"},
-                       {"unit", {{"bias_instability_ug", 5}, {"bias_instability_tau_s", 600}}}};
+  const json config = {
+      {"socket", {{"path", socket_of(dir)}}}, {"state_dir", dir.path() + "/state"}, {"unit", unit}};
   const std::string file = dir.path() + "/standcald.json";
   std::ofstream(file) << config.dump(2);
   DaemonProcess daemon(dir.path(), {"--config", file, "--sim", "--time-scale", "300"});
@@ -154,10 +156,19 @@ TEST(DaemonRun, TheFitsAssumeTheUnitsConfiguredBiasWander) {
                                             {"settle_s", 1},
                                             {"operator", "test"}});
   const json final_status = wait_run(c, started["run_id"], finished);
-  ASSERT_EQ(final_status["state"], "done") << final_status.dump() << daemon.log();
-  const json result = c.call("run.result", {{"run_id", started["run_id"]}});
+  log = daemon.log();
+  EXPECT_EQ(final_status["state"], "done") << final_status.dump() << log;
+  return c.call("run.result", {{"run_id", started["run_id"]}});
+}
+
+}  // namespace
+
+TEST(DaemonRun, TheFitsAssumeTheUnitsConfiguredBiasWander) {
+  std::string log;
+  const json result = run_with_configured_wander(
+      {{"bias_instability_ug", 5}, {"bias_instability_tau_s", 600}}, log);
   const json& noise = result["noise"];
-  EXPECT_EQ(noise["model"], "gauss_markov") << noise.dump(2);
+  EXPECT_EQ(noise["model"], "gauss_markov") << noise.dump(2) << log;
   EXPECT_EQ(noise["source"], "specified");
   EXPECT_DOUBLE_EQ(noise["wander_ug"][0].get<double>(), 5);
   EXPECT_DOUBLE_EQ(noise["tau_s"].get<double>(), 600);
@@ -166,6 +177,21 @@ TEST(DaemonRun, TheFitsAssumeTheUnitsConfiguredBiasWander) {
   const std::string full_how = result["full_vector"]["noise"]["how"];
   EXPECT_NE(full_how.find("at the given correlation time 600 s"), std::string::npos) << full_how;
   EXPECT_TRUE(noise["allan"]["axes"]["x"]["white_density_ug_rthz"].is_number());
+}
+
+TEST(DaemonRun, TheFitsTakeTheUnitsCorrelationTimeAsARange) {
+  std::string log;
+  const json result = run_with_configured_wander({{"bias_instability_ug", 5},
+                                                  {"bias_instability_tau_s", 300},
+                                                  {"bias_instability_tau_max_s", 1200}},
+                                                 log);
+  const json& noise = result["noise"];
+  EXPECT_EQ(noise["source"], "specified") << noise.dump(2) << log;
+  EXPECT_DOUBLE_EQ(noise["tau_s"].get<double>(), 600);  // the range's log-middle
+  EXPECT_EQ(noise["tau_given_s"], json::array({300.0, 1200.0}));
+  const std::string full_how = result["full_vector"]["noise"]["how"];
+  EXPECT_NE(full_how.find("at the given correlation times 300-1200 s"), std::string::npos)
+      << full_how;
 }
 
 TEST(DaemonRun, KillNineMidRunThenResumeRecordsEveryPositionOnce) {
