@@ -186,12 +186,15 @@ AxisCurve thinned(const std::vector<AllanPoint>& curve, double sample_period_s) 
 
 struct AxisAtTau {
   double white_var = 0, wander_var = 0;  // N^2 (unit^2 s) and q^2 (unit^2)
-  double chi2 = 0;
+  double deviance = 0;
 };
 
-// The best N^2 and q^2 (both >= 0) of one axis at one tau_c: weighted least squares of the
-// Allan variances, each point's sigma its model variance times sqrt(2 / clusters) (iterated
-// from the observed variances).
+// The best N^2 and q^2 (both >= 0) of one axis at one tau_c. An Allan variance estimated
+// from k independent clusters is its true value times chi2_k / k, a Gamma variable of
+// relative variance 2 / k: the maximum-likelihood fit is weighted least squares with each
+// point's sigma its model variance times sqrt(2 / k), iterated (a Gamma GLM, identity
+// link), and its deviance, sum k ((y - m) / m - log(y / m)), is what the profile over tau_c
+// compares. (The Pearson chi-square in its place ran the fitted tau_c 6-17 % high.)
 AxisAtTau fit_axis_at_tau(const AxisCurve& c, double tau_c_s) {
   const std::size_t n = c.points.size();
   std::vector<double> observed(n), h(n), scale(n);
@@ -221,7 +224,7 @@ AxisAtTau fit_axis_at_tau(const AxisCurve& c, double tau_c_s) {
       const double model = a / c.points[i].tau_s + b * h[i];
       scale[i] = std::max(model, scale_floor);
       const double z = (observed[i] - model) / scale[i];
-      r.chi2 += c.clusters[i] / 2 * z * z;
+      r.deviance += c.clusters[i] * (z - std::log1p(z));
     }
   }
   return r;
@@ -230,14 +233,14 @@ AxisAtTau fit_axis_at_tau(const AxisCurve& c, double tau_c_s) {
 struct ProfilePoint {
   double log_tau = 0;
   std::vector<AxisAtTau> axes;
-  double chi2 = 0;  // summed over the axes
+  double deviance = 0;  // summed over the axes
 };
 
 ProfilePoint fit_at_tau(const std::vector<AxisCurve>& curves, double log_tau) {
   ProfilePoint p{log_tau, {}, 0};
   for (const AxisCurve& c : curves) {
     p.axes.push_back(fit_axis_at_tau(c, std::exp(log_tau)));
-    p.chi2 += p.axes.back().chi2;
+    p.deviance += p.axes.back().deviance;
   }
   return p;
 }
@@ -267,12 +270,13 @@ std::optional<GaussMarkovAllanFit> fit_gauss_markov_allan(
     profile.push_back(fit_at_tau(curves, lo + (hi - lo) * k / steps));
   std::size_t ib = 0;
   for (std::size_t k = 1; k < profile.size(); ++k)
-    if (profile[k].chi2 < profile[ib].chi2) ib = k;
+    if (profile[k].deviance < profile[ib].deviance) ib = k;
   const auto refined = golden_section_max(
       [&](double log_tau) { return fit_at_tau(curves, log_tau); },
       profile[ib > 0 ? ib - 1 : 0].log_tau, profile[std::min(ib + 1, profile.size() - 1)].log_tau,
-      20, [](const ProfilePoint& a, const ProfilePoint& b) { return a.chi2 < b.chi2; });
-  const ProfilePoint& best = refined.second.chi2 < profile[ib].chi2 ? refined.second : profile[ib];
+      20, [](const ProfilePoint& a, const ProfilePoint& b) { return a.deviance < b.deviance; });
+  const ProfilePoint& best =
+      refined.second.deviance < profile[ib].deviance ? refined.second : profile[ib];
 
   GaussMarkovAllanFit fit;
   for (const AxisAtTau& a : best.axes) {
@@ -282,13 +286,14 @@ std::optional<GaussMarkovAllanFit> fit_gauss_markov_allan(
   fit.tau_s = std::exp(best.log_tau);
   // N and q per axis and one tau.
   const double dof = static_cast<double>(points) - 2.0 * static_cast<double>(curves.size()) - 1;
-  fit.chi2_per_dof = best.chi2 / std::max(dof, 1.0);
-  const double allowed = best.chi2 + kGaussMarkovTauRangeChi2 * std::max(1.0, fit.chi2_per_dof);
+  fit.deviance_per_dof = best.deviance / std::max(dof, 1.0);
+  const double allowed =
+      best.deviance + kGaussMarkovTauRangeDeviance * std::max(1.0, fit.deviance_per_dof);
   // The grid points within `allowed`, each end then out to the next grid point: the
   // crossing lies somewhere in that step (12 %), and the range must not be the narrower.
   std::size_t first = ib, last = ib;
   for (std::size_t k = 0; k < profile.size(); ++k)
-    if (profile[k].chi2 <= allowed) first = std::min(first, k), last = std::max(last, k);
+    if (profile[k].deviance <= allowed) first = std::min(first, k), last = std::max(last, k);
   fit.wander_seen = std::any_of(fit.q.begin(), fit.q.end(), [](double q) { return q > 0; });
   fit.tau_open_above = last + 1 >= profile.size();
   fit.tau_bounded = fit.wander_seen && first > 0 && !fit.tau_open_above;

@@ -94,17 +94,18 @@ double gauss_markov_allan_variance(double tau_c_s, double T_s);
 // White noise and one Gauss-Markov wander fitted to the Allan curves of the axes, with one
 // correlation time for them all (as the fits' noise model has): per axis sigma^2(T) =
 // N^2 / T + q^2 gauss_markov_allan_variance(tau_c, T), one point per octave (overlapping
-// estimates at nearby T share most of their clusters), each weighted by its confidence
-// (about terms * tau0 / T independent clusters), tau_c profiled over a log grid. This is
+// estimates at nearby T share most of their clusters), each a Gamma variable of about
+// terms * tau0 / T independent clusters, by maximum likelihood with tau_c profiled over a
+// log grid. This is
 // what a long static recording says of the unit's correlation time, which one calibration
 // run cannot pin (docs/calibration.md, "The correlation time, given").
 struct GaussMarkovAllanFit {
   std::vector<double> white_density;  // N per axis, unit / sqrt(Hz)
   std::vector<double> q;              // the wander's stationary standard deviation per axis
   double tau_s = 0;                   // its correlation time tau_c
-  // The correlation times the curves allow: the profile within kGaussMarkovTauRangeChi2 of
-  // the best (scaled by the fit's scatter when that exceeds the points' confidence), each
-  // end out to the next point of the grid (20 a decade).
+  // The correlation times the curves allow: the profile's deviance within
+  // kGaussMarkovTauRangeDeviance of the best (scaled by the deviance per degree of freedom
+  // when that exceeds 1), each end out to the next point of the grid (20 a decade).
   double tau_min_s = 0, tau_max_s = 0;
   bool wander_seen = false;     // some axis has q > 0
   bool tau_open_above = false;  // the range reaches the search's end: tau_max_s is no bound
@@ -112,12 +113,13 @@ struct GaussMarkovAllanFit {
   // 30 x the longest): the curves show the wander turn over. Otherwise
   // tau_c is only a bound (the curve ends while the wander still looks like a random walk).
   bool tau_bounded = false;
-  double chi2_per_dof = 0;  // scatter about the fit relative to the points' confidence
+  double deviance_per_dof = 0;  // scatter about the fit relative to the points' confidence
 };
-// Measured on simulated static recordings (white 10 ug/rtHz and Gauss-Markov of 1-10 ug,
-// tau_c 60-1200 s, 2 to 8 hours; 100 seeds each, bench/noise/allan_tau_main.cpp): the range
-// held the true tau_c in 96-100 % of them (docs/calibration.md).
-inline constexpr double kGaussMarkovTauRangeChi2 = 9;
+// The likelihood-ratio interval for one parameter at about 95 % (chi2_1 = 3.84). Measured on
+// simulated static recordings (white 10 ug/rtHz and Gauss-Markov of 1-10 ug, tau_c 60-1200
+// s, 2 to 8 hours; 100 seeds each, bench/noise/allan_tau_main.cpp): the range held the true
+// tau_c in 93-97 % of them (docs/calibration.md).
+inline constexpr double kGaussMarkovTauRangeDeviance = 4;
 inline constexpr std::size_t kGaussMarkovFitMinPoints = 5;
 // nullopt when a curve has fewer than kGaussMarkovFitMinPoints octaves.
 std::optional<GaussMarkovAllanFit> fit_gauss_markov_allan(

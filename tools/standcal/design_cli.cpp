@@ -569,7 +569,7 @@ json gauss_markov_json(const GaussMarkovAllanFit& f) {
             {"tau_min_s", f.tau_min_s},
             {"tau_max_s", f.tau_max_s},
             {"tau_bounded", f.tau_bounded},
-            {"chi2_per_dof", f.chi2_per_dof}};
+            {"deviance_per_dof", f.deviance_per_dof}};
   static const std::array<const char*, 3> axis_names{"x", "y", "z"};
   for (std::size_t a = 0; a < f.q.size() && a < 3; ++a)
     j["axes"][axis_names[a]] = {{"q_ug", f.q[a]}, {"noise_density_ug_rthz", f.white_density[a]}};
