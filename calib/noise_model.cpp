@@ -331,8 +331,9 @@ SigmaWidening widen_for_estimated_noise(
 
 namespace {
 
-// Whether the correlation time was given (specified with the wander, or known) and, where it
-// was estimated, the range of it the run allows.
+// Whether the correlation time was given (specified with the wander, or known: one value or a
+// range) and, where it was estimated or given as a range, the times of the grid the run
+// allows (`plausible`: what the sigmas were averaged over).
 void set_tau_provenance(NoiseFinding& n, const std::vector<PlausibleNoise>& plausible,
                         const std::optional<KnownTau>& known) {
   n.tau_given = known.has_value() || n.source == "specified";

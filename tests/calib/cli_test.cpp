@@ -175,28 +175,35 @@ TEST_F(Cli, SimulateRefusesDwellAndSettleTimesPastTheRunLimits) {
   EXPECT_FALSE(fs::exists(path("r.csv")));
 }
 
-// Issue 21: the fit states the noise model it weighted with — the wander between dwells and
-// the Allan figures of the raw samples within them — and weights for a wander that is there.
 // `standcal noise` of a long static recording names the unit's correlation time (the Allan
 // curves' Gauss-Markov fit) and how to give it to the fits; the floor's averaging time
 // (about 1.9 tau) is not it.
 TEST_F(Cli, NoiseOfAStaticRecordingNamesTheCorrelationTimeToGiveTheFits) {
-  std::ofstream(path("static.json"))
-      << R"({"name": "static", "positions": [{"alpha1_deg": 0, "alpha2_deg": 0, "dwell_s": 28800}]})";
-  ASSERT_EQ(run_cli("simulate --program " + path("static.json") + " --rate-hz 10 -o " +
-                    path("static.csv") + " --truth " + path("static_truth.json"))
+  // One position held for `dwell_s`, the default unit with a 3 ug wander of `tau_s`, at 10 Hz.
+  ASSERT_EQ(run_cli("simulate --program paper9 -o " + path("p9.csv") + " --truth " +
+                    path("static_truth.json"))
                 .exit_code,
             0);
   nlohmann::json truth;
   std::ifstream(path("static_truth.json")) >> truth;
   truth["noise"]["bias_instability_ug"] = 3;
-  truth["noise"]["bias_instability_tau_s"] = 300;
-  std::ofstream(path("static_model.json")) << truth.dump(2);
-  ASSERT_EQ(run_cli("simulate --program " + path("static.json") + " --rate-hz 10 --seed 2 -o " +
-                    path("static.csv") + " --model " + path("static_model.json"))
-                .exit_code,
-            0);
-  const CliRun json_run = run_cli("noise " + path("static.csv") + " --json");
+  const auto static_recording = [&](const std::string& name, double dwell_s, double tau_s,
+                                    int seed) {
+    std::ofstream(path(name + ".json"))
+        << nlohmann::json{{"name", name},
+                          {"positions",
+                           {{{"alpha1_deg", 0}, {"alpha2_deg", 0}, {"dwell_s", dwell_s}}}}}
+               .dump();
+    truth["noise"]["bias_instability_tau_s"] = tau_s;
+    std::ofstream(path(name + "_model.json")) << truth.dump(2);
+    const CliRun r = run_cli("simulate --program " + path(name + ".json") +
+                             " --rate-hz 10 --seed " + std::to_string(seed) + " -o " +
+                             path(name + ".csv") + " --model " + path(name + "_model.json"));
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    return path(name + ".csv");
+  };
+  const std::string eight_hours = static_recording("static", 28800, 300, 2);
+  const CliRun json_run = run_cli("noise " + eight_hours + " --json");
   ASSERT_EQ(json_run.exit_code, 0) << json_run.output;
   const auto gm = nlohmann::json::parse(json_run.output)["gauss_markov"];
   ASSERT_TRUE(gm.is_object()) << json_run.output;
@@ -207,15 +214,33 @@ TEST_F(Cli, NoiseOfAStaticRecordingNamesTheCorrelationTimeToGiveTheFits) {
     EXPECT_NEAR(gm["axes"][axis]["noise_density_ug_rthz"].get<double>(), 10, 1) << axis;
     EXPECT_NEAR(gm["axes"][axis]["q_ug"].get<double>(), 3, 1.5) << axis;
   }
-  const CliRun text = run_cli("noise " + path("static.csv"));
+  const CliRun text = run_cli("noise " + eight_hours);
   ASSERT_EQ(text.exit_code, 0) << text.output;
   char command[160];
   std::snprintf(command, sizeof command,
                 "standcal fit --bias-instability-tau-s %.0f --bias-instability-tau-max-s %.0f",
                 gm["tau_min_s"].get<double>(), gm["tau_max_s"].get<double>());
   EXPECT_NE(text.output.find(command), std::string::npos) << command << "\n" << text.output;
+  EXPECT_EQ(gm["wander_seen"], true);
+  // Half an hour of a 1200 s wander: the curves end before it turns over, and the range is
+  // open upwards (no tau_max_s to copy, no command to give).
+  const std::string half_hour = static_recording("short", 1800, 1200, 1);
+  const CliRun open_json = run_cli("noise " + half_hour + " --json");
+  ASSERT_EQ(open_json.exit_code, 0) << open_json.output;
+  const auto open = nlohmann::json::parse(open_json.output)["gauss_markov"];
+  EXPECT_EQ(open["tau_bounded"], false) << open.dump(2);
+  EXPECT_TRUE(open["tau_max_s"].is_null()) << open.dump(2);
+  const CliRun open_text = run_cli("noise " + half_hour);
+  EXPECT_NE(open_text.output.find("correlation time not pinned"), std::string::npos)
+      << open_text.output;
+  EXPECT_NE(open_text.output.find(" s and beyond (its curves end at"), std::string::npos)
+      << open_text.output;
+  EXPECT_EQ(open_text.output.find("--bias-instability-tau-max-s"), std::string::npos)
+      << open_text.output;
 }
 
+// Issue 21: the fit states the noise model it weighted with — the wander between dwells and
+// the Allan figures of the raw samples within them — and weights for a wander that is there.
 TEST_F(Cli, FitStatesItsNoiseModelAndWeightsForTheWanderOfTheRun) {
   ASSERT_EQ(run_cli("simulate --program classic24 --seed 3 --dwell-s 10 -o " + path("white.csv") +
                     " --truth " + path("t.json"))

@@ -565,9 +565,10 @@ void run_compare(const CompareOptions& o) {
 // ---- noise ---------------------------------------------------------------------------
 
 json gauss_markov_json(const GaussMarkovAllanFit& f) {
-  json j = {{"tau_s", f.tau_s},
+  json j = {{"wander_seen", f.wander_seen},
+            {"tau_s", f.tau_s},
             {"tau_min_s", f.tau_min_s},
-            {"tau_max_s", f.tau_max_s},
+            {"tau_max_s", f.tau_open_above ? json(nullptr) : json(f.tau_max_s)},
             {"tau_bounded", f.tau_bounded},
             {"deviance_per_dof", f.deviance_per_dof}};
   static const std::array<const char*, 3> axis_names{"x", "y", "z"};
@@ -576,24 +577,35 @@ json gauss_markov_json(const GaussMarkovAllanFit& f) {
   return j;
 }
 
+// A time as the command line takes it back: whole seconds, no exponent.
+std::string seconds_text(double s) { return diagnosis::fmt(s >= 10 ? "%.0f" : "%.3g", s); }
+
 // What the Allan curves say of the unit's correlation time, and how to give it to the fits
 // (one calibration run cannot pin it: docs/calibration.md, "The correlation time, given").
 std::string gauss_markov_words(const std::optional<GaussMarkovAllanFit>& f, double curve_end_s) {
   using diagnosis::fmt;
   if (!f) return "Gauss-Markov wander: the curves are too short to fit one (fewer than 5 octaves)";
+  if (!f->wander_seen)
+    return "Gauss-Markov wander: none seen (white noise explains the curves up to " +
+           seconds_text(curve_end_s) + " s)";
   std::string s =
       "Gauss-Markov wander (white noise and one wander fitted to the three curves, "
       "one correlation time): steady-state sigma";
   for (std::size_t a = 0; a < f->q.size(); ++a)
     s += std::string(a ? "," : "") + " " + "xyz"[a] + " " + fmt("%.3g", f->q[a]) + " ug";
+  const std::string how_long = " (its curves end at " + seconds_text(curve_end_s) +
+                               " s; a static recording of about 100 x the correlation time "
+                               "pins it)";
+  if (f->tau_open_above)
+    return s + "; correlation time not pinned: this recording allows " +
+           seconds_text(f->tau_min_s) + " s and beyond" + how_long;
   if (!f->tau_bounded)
-    return s + "; correlation time not pinned: this recording allows " + fmt("%.3g", f->tau_min_s) +
-           " s and beyond (its curves end at " + fmt("%.3g", curve_end_s) +
-           " s; a static recording of about 100 x the correlation time pins it)";
-  return s + "; correlation time " + fmt("%.3g", f->tau_s) + " s (this recording allows " +
-         fmt("%.3g", f->tau_min_s) + "-" + fmt("%.3g", f->tau_max_s) +
-         " s)\ngive the range to the fits: standcal fit --bias-instability-tau-s " +
-         fmt("%.3g", f->tau_min_s) + " --bias-instability-tau-max-s " + fmt("%.3g", f->tau_max_s) +
+    return s + "; correlation time not pinned: this recording allows up to " +
+           seconds_text(f->tau_max_s) + " s" + how_long;
+  const std::string lo = seconds_text(f->tau_min_s), hi = seconds_text(f->tau_max_s);
+  return s + "; correlation time " + seconds_text(f->tau_s) + " s (this recording allows " + lo +
+         "-" + hi + " s)\ngive the range to the fits: standcal fit --bias-instability-tau-s " + lo +
+         " --bias-instability-tau-max-s " + hi +
          " (standcald: unit.bias_instability_tau_s and unit.bias_instability_tau_max_s); one "
          "calibration run cannot pin it, and too short a tau makes the biases' sigmas too "
          "small. The averaging time of the bias-instability floor above is not the "
@@ -665,8 +677,10 @@ void run_noise(const NoiseOptions& o) {
                 cell(figures[a].random_walk).c_str());
   }
   std::printf("use the noise density with `standcal design ... --noise-density-ug-rthz N`\n");
-  std::printf("%s\n",
-              gauss_markov_words(wander, curves[0].empty() ? 0 : curves[0].back().tau_s).c_str());
+  double curve_end_s = 0;  // the longest averaging time of any axis
+  for (const auto& c : curves)
+    if (!c.empty()) curve_end_s = std::max(curve_end_s, c.back().tau_s);
+  std::printf("%s\n", gauss_markov_words(wander, curve_end_s).c_str());
 }
 
 void add_design_commands(CLI::App& app) {
