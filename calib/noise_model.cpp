@@ -158,7 +158,8 @@ double median_row_sigma(const std::vector<NoiseRow>& rows) {
 struct WanderFit {
   GaussMarkovNoise noise;
   double log_l = -1e300;
-  int q_parameters = 0;  // the common q, and each axis that left it
+  int q_parameters = 0;                          // the common q, and each axis that left it
+  std::array<bool, 3> shared{true, true, true};  // the axes still on the common q
 };
 
 // For one tau: a common q for the three axes first (one dimension, robust), then each
@@ -168,7 +169,7 @@ struct WanderFit {
 // at z-variance 1.9-2.5 under a wander of 1x the dwell error, 1.0 with the test;
 // docs/calibration.md).
 WanderFit best_for_tau(const RestrictedLikelihood& L, double tau_s, double sigma_ref,
-                       double axis_lr) {
+                       const NoiseEstimateOptions& options) {
   constexpr double kLogLo = -1.5, kLogHi = 1.5;  // q from 3 % to 30x a row's sigma
   constexpr int kEvaluations = 14;
   auto with_q = [&](const Vec3& q) { return L(GaussMarkovNoise{q, tau_s}); };
@@ -188,7 +189,7 @@ WanderFit best_for_tau(const RestrictedLikelihood& L, double tau_s, double sigma
   best.log_l = L(best.noise);
   std::array<bool, 3> shared{true, true, true};
   const auto take_if_better = [&](const Vec3& q, int q_parameters) {
-    if (const double l = with_q(q); l > best.log_l) best = {{q, tau_s}, l, q_parameters};
+    if (const double l = with_q(q); l > best.log_l) best = {{q, tau_s}, l, q_parameters, shared};
   };
   take_if_better(best_shared(Vec3::Zero(), shared), 1);
   const bool common = best.q_parameters == 1;
@@ -201,10 +202,13 @@ WanderFit best_for_tau(const RestrictedLikelihood& L, double tau_s, double sigma
                             none[axis] = 0;
                             return none;
                           }()})
-      if (const double l = with_q(q); l > best.log_l && 2 * (l - before) > axis_lr) {
+      if (const double l = with_q(q);
+          l > best.log_l &&
+          2 * (l - before) >
+              (q[axis] < best.noise.q_g[axis] ? options.axis_quieter_lr : options.axis_lr)) {
         const bool first_departure = shared[static_cast<std::size_t>(axis)];
-        best = {{q, tau_s}, l, best.q_parameters + (first_departure ? 1 : 0)};
         shared[static_cast<std::size_t>(axis)] = false;
+        best = {{q, tau_s}, l, best.q_parameters + (first_departure ? 1 : 0), shared};
       }
   }
   // An axis that left took its share of the common q with it: the axes still sharing it get
@@ -215,15 +219,64 @@ WanderFit best_for_tau(const RestrictedLikelihood& L, double tau_s, double sigma
   return best;
 }
 
-// -d^2 log L / du^2 at the optimum for q = s * best.q, u = log s^2 (central differences).
-double log_scale_information(const RestrictedLikelihood& L, const GaussMarkovNoise& best) {
+// The wander's free scales at the optimum: the axes still sharing the common q (those with a
+// wander), and each axis that left it with its own. An axis left with none has no scale.
+std::vector<Vec3> free_scales(const WanderFit& fit) {
+  std::vector<Vec3> out;
+  Vec3 common = Vec3::Zero();
+  for (int a = 0; a < 3; ++a) {
+    if (fit.noise.q_g[a] <= 0) continue;
+    if (fit.shared[static_cast<std::size_t>(a)]) {
+      common[a] = 1;
+    } else {
+      out.push_back(Vec3::Unit(a));
+    }
+  }
+  if (!common.isZero()) out.insert(out.begin(), common);
+  return out;
+}
+
+// noise with the q of `axes` multiplied by s, u = log s^2.
+GaussMarkovNoise scaled_wander(const GaussMarkovNoise& noise, const Vec3& axes, double u) {
+  GaussMarkovNoise n = noise;
+  for (int a = 0; a < 3; ++a)
+    if (axes[a] != 0) n.q_g[a] *= std::exp(u / 2);
+  return n;
+}
+
+// -d^2 log L / du_k du_l at the optimum, u_k = log s_k^2 for the q of scale k's axes
+// multiplied by s_k (central differences). A scale the likelihood does not curve in (its
+// diagonal not positive: the optimum at the search's edge) is left out, its size taken
+// as known, as a single scale's was.
+WanderScales wander_scales(const RestrictedLikelihood& L, const WanderFit& fit) {
   constexpr double kH = 0.25;
-  auto at = [&](double u) {
-    GaussMarkovNoise n = best;
-    n.q_g *= std::exp(u / 2);
+  auto at = [&](const std::vector<std::pair<const Vec3*, double>>& steps) {
+    GaussMarkovNoise n = fit.noise;
+    for (const auto& [axes, u] : steps) n = scaled_wander(n, *axes, u);
     return L(n);
   };
-  return std::max(0.0, -(at(kH) - 2 * at(0) + at(-kH)) / (kH * kH));
+  WanderScales out;
+  std::vector<double> diagonal;
+  for (const Vec3& axes : free_scales(fit)) {
+    const double d = -(at({{&axes, kH}}) - 2 * fit.log_l + at({{&axes, -kH}})) / (kH * kH);
+    if (d <= 0) continue;
+    out.axes.push_back(axes);
+    diagonal.push_back(d);
+  }
+  const auto k = static_cast<Eigen::Index>(out.axes.size());
+  out.information = MatrixXd::Zero(k, k);
+  for (Eigen::Index i = 0; i < k; ++i) {
+    out.information(i, i) = diagonal[static_cast<std::size_t>(i)];
+    for (Eigen::Index j = 0; j < i; ++j) {
+      const Vec3 *a = &out.axes[static_cast<std::size_t>(i)],
+                 *b = &out.axes[static_cast<std::size_t>(j)];
+      const double mixed = (at({{a, kH}, {b, kH}}) - at({{a, kH}, {b, -kH}}) -
+                            at({{a, -kH}, {b, kH}}) + at({{a, -kH}, {b, -kH}})) /
+                           (4 * kH * kH);
+      out.information(i, j) = out.information(j, i) = -mixed;
+    }
+  }
+  return out;
 }
 
 std::string wander_words(const NoiseEstimate& e) {
@@ -258,7 +311,7 @@ NoiseEstimate estimate_bias_wander(const std::vector<NoiseRow>& rows, const Matr
   WanderFit best{{}, white_log_l};
   std::vector<WanderFit> per_tau;
   for (const double tau : options.tau_grid_s) {
-    per_tau.push_back(best_for_tau(L, tau, sigma_ref, options.axis_lr));
+    per_tau.push_back(best_for_tau(L, tau, sigma_ref, options));
     if (per_tau.back().log_l > best.log_l) best = per_tau.back();
   }
   for (const WanderFit& c : per_tau)
@@ -271,28 +324,38 @@ NoiseEstimate estimate_bias_wander(const std::vector<NoiseRow>& rows, const Matr
   out.significant = !best.noise.white() && out.lr > options.lr_threshold;
   if (out.significant) out.noise = best.noise;
   out.how = wander_words(out);
-  if (!best.noise.white()) out.log_scale_information = log_scale_information(L, best.noise);
+  if (!best.noise.white()) out.scales = wander_scales(L, best);
   return out;
 }
 
 namespace {
 
-// nu_j = 2 var_j^2 I / (d var_j / du)^2 (Welch-Satterthwaite), var = variances(noise), with u
-// = log s^2 the wander's scale and I its information; infinite where the wander is known or
-// white.
+// nu_j = 2 var_j^2 / (g_j' I^-1 g_j) (Welch-Satterthwaite), var = variances(noise), with g_j
+// the gradient of var_j in the scales' u = log s^2 and I their information; infinite where
+// the wander is known or white. A scale the run pins poorly (I's small eigenvalues, as for
+// an axis's own q from its few rows) is what makes nu small.
 VectorXd parameter_variance_dof(const std::function<VectorXd(const GaussMarkovNoise&)>& variances,
                                 const VectorXd& var, const GaussMarkovNoise& noise,
-                                double log_scale_information) {
+                                const WanderScales& scales) {
   VectorXd nu = VectorXd::Constant(var.size(), std::numeric_limits<double>::infinity());
-  if (noise.white() || log_scale_information <= 0) return nu;
+  if (noise.white() || scales.empty()) return nu;
   constexpr double kH = 0.2;  // step in u = log s^2
-  GaussMarkovNoise up = noise, down = noise;
-  up.q_g *= std::exp(kH / 2);
-  down.q_g *= std::exp(-kH / 2);
-  const VectorXd slope = (variances(up) - variances(down)) / (2 * kH);
-  for (Eigen::Index j = 0; j < var.size(); ++j)
-    if (std::abs(slope[j]) > 0)
-      nu[j] = 2 * var[j] * var[j] * log_scale_information / (slope[j] * slope[j]);
+  MatrixXd slope(var.size(), static_cast<Eigen::Index>(scales.axes.size()));
+  for (std::size_t k = 0; k < scales.axes.size(); ++k)
+    slope.col(static_cast<Eigen::Index>(k)) =
+        (variances(scaled_wander(noise, scales.axes[k], kH)) -
+         variances(scaled_wander(noise, scales.axes[k], -kH))) /
+        (2 * kH);
+  // I^-1 with its eigenvalues floored at a small share of the largest: a direction the
+  // likelihood hardly curves in is very poorly pinned, not infinitely.
+  const Eigen::SelfAdjointEigenSolver<MatrixXd> eig(scales.information);
+  const VectorXd lambda = eig.eigenvalues().cwiseMax(1e-3 * eig.eigenvalues().maxCoeff());
+  const MatrixXd u_covariance =
+      eig.eigenvectors() * lambda.cwiseInverse().asDiagonal() * eig.eigenvectors().transpose();
+  for (Eigen::Index j = 0; j < var.size(); ++j) {
+    const double var_of_var = slope.row(j) * u_covariance * slope.row(j).transpose();
+    if (var_of_var > 0) nu[j] = 2 * var[j] * var[j] / var_of_var;
+  }
   return nu;
 }
 
@@ -311,9 +374,8 @@ SigmaWidening widen_for_estimated_noise(
     const std::function<Eigen::VectorXd(const GaussMarkovNoise&)>& variances,
     const FitNoiseChoice& choice) {
   const VectorXd at_best = variances(choice.noise);
-  SigmaWidening w{
-      VectorXd::Ones(at_best.size()),
-      parameter_variance_dof(variances, at_best, choice.noise, choice.log_scale_information)};
+  SigmaWidening w{VectorXd::Ones(at_best.size()),
+                  parameter_variance_dof(variances, at_best, choice.noise, choice.scales)};
   // Averaged over the correlation times the run allows, each weighted by its likelihood.
   VectorXd averaged = VectorXd::Zero(at_best.size());
   double weights = 0;
@@ -383,16 +445,25 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
   using Mode = FitNoiseOptions::Mode;
   NoiseEstimate e;
   bool weighted_below_bar = false, specified_over_range = false;
+  // The specified wander; where its correlation time is known only as a range, weighted at the
+  // range's log-middle and the biases' variance averaged over the range, each time alike (no
+  // run's likelihood weighs them: the run did not show the wander, or was not asked).
+  const auto take_specified = [&] {
+    e.noise = options.specified;
+    if (e.noise.white() || !options.known_tau || !options.known_tau->range()) return;
+    e.noise.tau_s = options.known_tau->centre_s();
+    specified_over_range = true;
+  };
   if (options.mode == Mode::white) {
     e.how =
         "white noise assumed: each dwell mean independent, with the standard error of its "
         "dwell (sigma / sqrt(n)); not tested against bias wander";
   } else if (options.mode == Mode::specified) {
-    e.noise = options.specified;
+    take_specified();
     e.how = "the specified bias instability, not tested against this run";
   } else if (!can_estimate_wander(rows.size(), X.cols())) {
     // The wander's parameters would leave the fit's chi-square test no degree of freedom.
-    e.noise = options.specified;
+    take_specified();
     e.how = options.specified.white()
                 ? "white noise assumed: too few measurements beyond the model's parameters to "
                   "estimate a bias wander"
@@ -403,14 +474,8 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
     e = estimate_bias_wander(rows, X, y, estimate);
     if (options.known_tau) e.how += "; at " + options.known_tau->words();
     if (!e.significant && !options.specified.white()) {
-      e.noise = options.specified;
+      take_specified();
       e.how += "; not significant on this run, so the specified bias instability is used";
-      if (options.known_tau && options.known_tau->range()) {
-        // Its correlation time is known only as a range: the biases' variance is averaged
-        // over the range, each time alike (the run did not show the wander to weigh them).
-        e.noise.tau_s = options.known_tau->centre_s();
-        specified_over_range = true;
-      }
     } else if (!e.significant && e.lr > options.weighting_lr) {
       e.noise = e.best;  // weighted for, though not a finding (NoiseFinding.bias_instability false)
       weighted_below_bar = true;
@@ -422,12 +487,12 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
   FitNoiseChoice choice{e.noise,
                         weighted_below_bar ? GaussMarkovNoise{} : e.noise,
                         noise_finding(e, positions),
-                        0,
+                        {},
                         {},
                         0};
   // Estimated and weighted for: its uncertainty widens the sigmas (a specified one is given).
   if (e.significant || weighted_below_bar) {
-    choice.log_scale_information = e.log_scale_information;
+    choice.scales = e.scales;
     choice.plausible = e.plausible;
   }
   if (specified_over_range)

@@ -62,6 +62,17 @@ struct PlausibleNoise {
   double weight = 1;  // likelihood relative to the best model's
 };
 
+// The wander's free scales and how well the run pins them: each scale multiplies the q of
+// a set of axes (the q common to the axes that share it, or one axis's own), and
+// `information` is the restricted likelihood's curvature in u_k = log s_k^2 at the optimum
+// (-d^2 log L / du_k du_l). var(u) = information^-1; one scale's variance is worth
+// 2 * information degrees of freedom (a chi-square's).
+struct WanderScales {
+  std::vector<Vec3> axes;  // per scale: 1 on the axes it multiplies, 0 elsewhere
+  Eigen::MatrixXd information;
+  bool empty() const { return axes.empty(); }
+};
+
 struct NoiseEstimate {
   GaussMarkovNoise noise;   // white (q = 0) unless the wander is significant
   GaussMarkovNoise best;    // the REML optimum, significant or not
@@ -70,10 +81,10 @@ struct NoiseEstimate {
   bool significant = false;
   int parameters = 0;  // of best: its q (a common one, and each axis's own) and tau from a grid
   std::string how;     // how it was obtained, in words
-  // How well the run pins the wander's size: the restricted likelihood's curvature in
-  // u = log s^2 for q = s * best.q (0 when best is white). var(u) = 1 / information, and
-  // the wander variance is worth 2 * information degrees of freedom (a chi-square's).
-  double log_scale_information = 0;
+  // How well the run pins the wander's size at best (empty when best is white): the common
+  // q's scale and each departed axis's own, with their information. An axis whose q the run
+  // pins from its own rows alone is pinned far worse than the common q.
+  WanderScales scales;
   // One run pins the correlation time poorly, and the biases' sigmas depend on it: the
   // optimum at each tau of the grid within plausible_lr of the best, with its likelihood
   // relative to the best's.
@@ -93,12 +104,18 @@ struct NoiseEstimateOptions {
   // A per-axis q from a few dozen rows is poorly pinned, and a q that comes out low makes
   // that axis's bias sigma too small (docs/calibration.md, "Noise model").
   double axis_lr = 6.63;
+  // The same for an axis's q below the common one (or none): chi2 with one parameter at
+  // P = 1e-3. A q set too low makes that axis's bias sigma too small, one set too high only
+  // conservative; and a norm fit's axis whose rows pin its wander poorly went to none under
+  // a 10x wander in 3 of 400 runs at the bar above, its bias then 12 sigma off (the bias's
+  // z-variance 1.88 where 1.1 without those runs).
+  double axis_quieter_lr = 10.83;
 };
 
 // REML estimate of the wander for the linear model y = X beta + e (both already whitened
 // by sigma; X's column space is the fitted model). For each tau of the grid, a q common to
 // the three axes by golden section on log q, then each axis's own q (or none) where its
-// rows demand it (options.axis_lr).
+// rows demand it (options.axis_lr; axis_quieter_lr for a q below the common one).
 NoiseEstimate estimate_bias_wander(const std::vector<NoiseRow>& rows, const Eigen::MatrixXd& X,
                                    const Eigen::VectorXd& y,
                                    const NoiseEstimateOptions& options = {});
@@ -205,7 +222,7 @@ struct FitNoiseChoice {
   GaussMarkovNoise check_noise;  // what the chi-square model check is made against: the
                                  // wander only when it is a finding (or specified)
   NoiseFinding finding;
-  double log_scale_information = 0;       // 0: the noise is not estimated (white or specified)
+  WanderScales scales;                    // empty: the noise is not estimated (white or specified)
   std::vector<PlausibleNoise> plausible;  // estimated: the plausible correlation times
   // Noise parameters of check_noise estimated from the fit's own residuals (the common q,
   // each axis's own, and tau unless given): the chi-square test loses as many degrees of
@@ -215,7 +232,8 @@ struct FitNoiseChoice {
 
 // How much each parameter's sigma widens when the noise model is estimated from the run:
 // to its variance averaged over the plausible correlation times, weighted by likelihood
-// (one run pins tau poorly), then by Student's t for the wander's estimated scale.
+// (one run pins tau poorly), then by Student's t for the wander's estimated scales, with
+// the effective degrees of freedom of Welch-Satterthwaite over all of them.
 struct SigmaWidening {
   Eigen::VectorXd factor;  // multiplies sigma
   Eigen::VectorXd dof;     // effective degrees of freedom of the variance at the best model

@@ -130,7 +130,8 @@ TEST(NoiseModel, AnAxisGetsItsOwnWanderOnlyWhereItsRowsDemandIt) {
     const Vec3 q = estimate_bias_wander(rows, design(rows), draw(rows, common, rng)).best.q_g;
     split += q.maxCoeff() > q.minCoeff() ? 1 : 0;
   }
-  // Nominal P = 0.01 per axis; more where the axes' wanders differ by chance.
+  // Nominal P = 0.01 per axis (1e-3 for a q below the common one); more where the axes'
+  // wanders differ by chance.
   EXPECT_LE(split, kTrials / 4);
   const GaussMarkovNoise no_z{Vec3(12e-6, 12e-6, 0), 300};
   int z_apart = 0;
@@ -141,11 +142,34 @@ TEST(NoiseModel, AnAxisGetsItsOwnWanderOnlyWhereItsRowsDemandIt) {
     z_apart += q[2] < 0.5 * std::min(q[0], q[1]) ? 1 : 0;
     log_ratio_xy += std::log(std::max(q[0] * q[1], 1e-18) / (12e-6 * 12e-6)) / 2;
   }
-  EXPECT_GE(z_apart, 3 * kTrials / 4);
+  // 28 of 40 at the bar for a quieter axis (P = 1e-3), 35 at P = 0.01: what that stricter
+  // bar costs, against an axis left without wander by chance (noise_honesty_test.cpp).
+  EXPECT_GE(z_apart, 5 * kTrials / 8);
   // x and y get the q they share once z has left the common one, not the compromise with a
   // quiet z: their geometric mean over these runs is 0.89 of the truth, 0.75 without the
   // re-fit (failed before, bound 1.25).
   EXPECT_LT(std::abs(log_ratio_xy / kTrials), std::log(1.25)) << std::exp(log_ratio_xy / kTrials);
+}
+
+// An axis that left the common q has its own scale, pinned by its own rows only: a
+// parameter whose variance rests on that axis's q gets the degrees of freedom of that scale's
+// information (nu = 2 I for a variance proportional to q^2), not the common scale's.
+TEST(NoiseModel, AParameterOnAnAxisOwnWanderHasThatScalesDegreesOfFreedom) {
+  FitNoiseChoice choice;
+  choice.noise = {Vec3(20e-6, 8e-6, 8e-6), 300};
+  choice.scales.axes = {Vec3(0, 1, 1), Vec3(1, 0, 0)};  // the common q of y and z; x's own
+  choice.scales.information = (Eigen::Matrix2d() << 50, 0, 0, 2).finished();
+  // Parameter 0 rests on x's wander alone, parameter 1 on y's, parameter 2 on neither.
+  const auto variances = [](const GaussMarkovNoise& n) {
+    return Eigen::Vector3d(n.q_g[0] * n.q_g[0], n.q_g[1] * n.q_g[1], 1e-12);
+  };
+  const SigmaWidening w = widen_for_estimated_noise(variances, choice);
+  // Central differences of e^u with a step of 0.2 read the slope 0.7 % high.
+  EXPECT_NEAR(w.dof[0], 2 * 2, 0.1);
+  EXPECT_NEAR(w.dof[1], 2 * 50, 2);
+  EXPECT_FALSE(std::isfinite(w.dof[2]));
+  EXPECT_NEAR(w.factor[0], student_t_inflation(w.dof[0]), 1e-12);
+  EXPECT_DOUBLE_EQ(w.factor[2], 1.0);
 }
 
 TEST(NoiseModel, AllanPeakMatchesASimulatedGaussMarkovCurve) {
