@@ -285,16 +285,17 @@ double wander_mean_covariance(const DwellWindow& a, const DwellWindow& b, double
   return through(xa) * through(xb) * std::exp(-gap_s / tau_s);
 }
 
-Eigen::MatrixXd scheduled_information(const DesignBasis& basis, const Program& program,
-                                      const DesignSettings& settings,
-                                      const std::vector<double>& dwell_s) {
-  const std::vector<DwellWindow> windows = dwell_windows(program, settings, dwell_s);
+KnownTau DesignSettings::wander_tau() const {
+  return {bias_instability_tau_s, std::max(bias_instability_tau_s, bias_instability_tau_max_s)};
+}
+
+namespace {
+
+// G^T C^-1 G for the dwell windows under white noise and the wander at one correlation time.
+Eigen::MatrixXd information_under_wander(const DesignBasis& basis,
+                                         const std::vector<DwellWindow>& windows,
+                                         const DesignSettings& settings, double tau_s) {
   const double n_g = settings.noise_density_ug_rthz * kUg;
-  if (!settings.wander()) {
-    std::vector<double> weights;
-    for (const DwellWindow& w : windows) weights.push_back(w.length_s / (n_g * n_g));
-    return information_of(basis, weights);
-  }
   const StackedRows g = stack_rows(basis);
   const double q_g = settings.bias_instability_ug * kUg;
   Eigen::MatrixXd c(g.rows.rows(), g.rows.rows());
@@ -302,9 +303,7 @@ Eigen::MatrixXd scheduled_information(const DesignBasis& basis, const Program& p
     const int ki = static_cast<int>(i);
     for (std::size_t j = 0; j <= i; ++j) {
       const int kj = static_cast<int>(j);
-      const double k_ij =
-          q_g * q_g *
-          wander_mean_covariance(windows[i], windows[j], settings.bias_instability_tau_s);
+      const double k_ij = q_g * q_g * wander_mean_covariance(windows[i], windows[j], tau_s);
       const Eigen::MatrixXd block = k_ij * basis.projections[i] * basis.projections[j].transpose();
       c.block(g.first_row[ki], g.first_row[kj], g.count(ki), g.count(kj)) = block;
       c.block(g.first_row[kj], g.first_row[ki], g.count(kj), g.count(ki)) = block.transpose();
@@ -316,6 +315,26 @@ Eigen::MatrixXd scheduled_information(const DesignBasis& basis, const Program& p
   if (llt.info() != Eigen::Success)
     throw std::runtime_error("the dwell means' covariance is not positive definite");
   return g.rows.transpose() * llt.solve(g.rows);
+}
+
+}  // namespace
+
+Eigen::MatrixXd scheduled_information(const DesignBasis& basis, const Program& program,
+                                      const DesignSettings& settings,
+                                      const std::vector<double>& dwell_s) {
+  const std::vector<DwellWindow> windows = dwell_windows(program, settings, dwell_s);
+  if (!settings.wander()) {
+    const double n_g = settings.noise_density_ug_rthz * kUg;
+    std::vector<double> weights;
+    for (const DwellWindow& w : windows) weights.push_back(w.length_s / (n_g * n_g));
+    return information_of(basis, weights);
+  }
+  const std::vector<double> taus = settings.wander_tau().grid_s();
+  if (taus.size() == 1) return information_under_wander(basis, windows, settings, taus.front());
+  Eigen::MatrixXd covariance = Eigen::MatrixXd::Zero(basis.columns(), basis.columns());
+  for (const double tau_s : taus)
+    covariance += inverse_of(information_under_wander(basis, windows, settings, tau_s));
+  return inverse_of(covariance / static_cast<double>(taus.size()));
 }
 
 Program repeated_program(const Program& program, int times) {
@@ -551,9 +570,9 @@ std::string floor_reason(const AccuracyTarget& target, const DesignSettings& set
   char buf[400];
   std::snprintf(
       buf, sizeof buf,
-      "the bias wander (%.3g ug, tau %.3g s) keeps %s at %.3g %s or more for any dwell "
+      "the bias wander (%.3g ug, tau %s) keeps %s at %.3g %s or more for any dwell "
       "up to %.0f s per position (target %.3g; least at %.3g s %s)",
-      settings.bias_instability_ug, settings.bias_instability_tau_s,
+      settings.bias_instability_ug, settings.wander_tau().seconds().c_str(),
       std::string(kUnitParameterNames[j]).c_str(), target_report * std::sqrt(search.load.worst),
       std::string(kUnitParameterUnits[j]).c_str(), kLongestDwellS, target_report, search.s, what);
   return buf;

@@ -31,12 +31,18 @@ struct DesignSettings {
   // bias of this stationary standard deviation and correlation time; 0: white noise only.
   double bias_instability_ug = 0;
   double bias_instability_tau_s = 300;
+  // The correlation time known only as a range, from bias_instability_tau_s to this (what
+  // `standcal noise` gives from a static recording); 0: one value. The predicted variances
+  // are averaged over the range's times, as a fit given the range averages its parameters'
+  // (docs/calibration.md, "Given as a range").
+  double bias_instability_tau_max_s = 0;
   double dwell_s = 30;  // per position, unless the programme overrides it
   double settle_s = 5;
   double move_rate_deg_s = 10;
   double remount_s = 600;
   MountingModel mounting = MountingModel::common_fixture;
   bool wander() const { return bias_instability_ug > 0; }
+  KnownTau wander_tau() const;  // one value, or the range
 };
 
 // Target 1 sigma for the nine unit parameters (report units).
@@ -97,7 +103,9 @@ std::vector<DwellWindow> dwell_windows(const Program& program, const DesignSetti
 double wander_mean_covariance(const DwellWindow& a, const DwellWindow& b, double tau_s);
 
 // The information of a programme's dwell means for `dwell_s` (programme order), white noise
-// and wander: G^T C^-1 G. With white noise alone it is sum_k T_k / N^2 G_k^T G_k.
+// and wander: G^T C^-1 G. With white noise alone it is sum_k T_k / N^2 G_k^T G_k. With the
+// wander's correlation time given as a range, the information whose inverse is the
+// covariance averaged over the range's times.
 Eigen::MatrixXd scheduled_information(const DesignBasis& basis, const Program& program,
                                       const DesignSettings& settings,
                                       const std::vector<double>& dwell_s);

@@ -515,10 +515,13 @@ std::vector<double> KnownTau::grid_s() const {
   return grid;
 }
 
+std::string KnownTau::seconds() const {
+  if (!range()) return std::to_string(std::lround(min_s)) + " s";
+  return std::to_string(std::lround(min_s)) + "-" + std::to_string(std::lround(max_s)) + " s";
+}
+
 std::string KnownTau::words() const {
-  if (!range()) return "the given correlation time " + std::to_string(std::lround(min_s)) + " s";
-  return "the given correlation times " + std::to_string(std::lround(min_s)) + "-" +
-         std::to_string(std::lround(max_s)) + " s";
+  return (range() ? "the given correlation times " : "the given correlation time ") + seconds();
 }
 
 AllanPeak gauss_markov_allan_peak(double q, double tau_s) {

@@ -140,7 +140,8 @@ struct KnownTau {
   bool range() const { return max_s > min_s; }
   double centre_s() const;  // the log-middle, sqrt(min max): one wander to weight with
   std::vector<double> grid_s() const;
-  std::string words() const;  // "the given correlation time 300 s" / "... times 150-600 s"
+  std::string seconds() const;  // "300 s" / "150-600 s"
+  std::string words() const;    // "the given correlation time 300 s" / "... times 150-600 s"
 };
 inline constexpr int kKnownTauRangePoints = 5;
 

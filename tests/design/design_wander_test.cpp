@@ -189,6 +189,43 @@ double worst_sigma_over_target(const Program& program, const std::vector<double>
   return worst;
 }
 
+// The correlation time known as a range (`standcal noise`'s), as the fits take it: each
+// parameter's predicted variance is its average over the range's five times.
+TEST(DesignEvaluate, ACorrelationTimeGivenAsARangeAveragesTheVarianceOverIt) {
+  const Program program = paper9();
+  DesignSettings settings;
+  settings.bias_instability_ug = 3;
+  settings.dwell_s = 60;
+  settings.bias_instability_tau_s = 150;
+  settings.bias_instability_tau_max_s = 600;
+  const DesignEvaluation over_range = evaluate_design(program, DesignModel::invariant, settings);
+  const std::vector<double> taus = settings.wander_tau().grid_s();
+  ASSERT_EQ(taus.size(), 5u);
+  std::array<double, kUnitParameterCount> mean_variance{};
+  for (const double tau_s : taus) {
+    DesignSettings one = settings;
+    one.bias_instability_tau_s = tau_s;
+    one.bias_instability_tau_max_s = 0;
+    const DesignEvaluation at = evaluate_design(program, DesignModel::invariant, one);
+    for (int j = 0; j < kUnitParameterCount; ++j)
+      mean_variance[j] += *at.unit_sigma[j] * *at.unit_sigma[j] / taus.size();
+  }
+  for (int j = 0; j < kUnitParameterCount; ++j)
+    EXPECT_NEAR(*over_range.unit_sigma[j], std::sqrt(mean_variance[j]),
+                1e-6 * std::sqrt(mean_variance[j]))
+        << kUnitParameterNames[j];
+  // A slower wander is more an offset the biases cannot be told from: the range's bias sigma
+  // lies between its ends'.
+  DesignSettings shortest = settings, longest = settings;
+  shortest.bias_instability_tau_max_s = longest.bias_instability_tau_max_s = 0;
+  longest.bias_instability_tau_s = 600;
+  const auto bias_x = [&](const DesignSettings& s) {
+    return *evaluate_design(program, DesignModel::invariant, s).unit_sigma[0];
+  };
+  EXPECT_GT(*over_range.unit_sigma[0], bias_x(shortest));
+  EXPECT_LT(*over_range.unit_sigma[0], bias_x(longest));
+}
+
 // A wander of 1e-9 ug takes the searched path; its plans are the white ones (which scale
 // one closed-form load) to the search's resolution.
 TEST(DesignDwell, AVanishingWandersSearchedPlansAreTheWhiteOnes) {

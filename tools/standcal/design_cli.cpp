@@ -80,6 +80,11 @@ void add_design_flags(CLI::App* cmd, DesignFlags& f) {
       ->capture_default_str();
   add_wander_options(cmd, f.settings.bias_instability_ug, f.settings.bias_instability_tau_s,
                      "shared by dwell means close in time; 0: white noise only");
+  cmd->add_option("--bias-instability-tau-max-s", f.settings.bias_instability_tau_max_s,
+                  "the correlation time lies between --bias-instability-tau-s and this (the "
+                  "range `standcal noise` gives): the predicted sigmas are averaged over it, as "
+                  "the fits given that range average theirs")
+      ->check(cli_checks::kPositive);
   cmd->add_option("--settle-s", f.settings.settle_s, "settle time per position, s")
       ->check(cli_checks::kNonNegative)
       ->capture_default_str();
@@ -153,6 +158,20 @@ MountingModel parse_mounting(const std::string& text) {
   throw std::runtime_error("--mounting '" + text + "': expected common or per-mount");
 }
 
+// The settings the flags describe, the mounting parsed and the correlation time's range
+// checked as the fits check it (the design's --bias-instability-tau-s has a default, so a
+// range needs only its upper end).
+DesignSettings settings_of(const DesignFlags& f) {
+  DesignSettings s = f.settings;
+  s.mounting = parse_mounting(f.mounting);
+  WanderCliOptions as_fits_take_it;
+  as_fits_take_it.bias_instability_tau_s = s.bias_instability_tau_s;
+  as_fits_take_it.bias_instability_tau_max_s = s.bias_instability_tau_max_s;
+  as_fits_take_it.tau_given = true;
+  as_fits_take_it.known_tau();  // throws CLI::ValidationError for a range upside down
+  return s;
+}
+
 // The model a programme is evaluated with, and the note saying why when chosen for it.
 DesignModel choose_model(const Program& program, const std::string& requested, std::string& note) {
   if (requested == "invariant") return DesignModel::invariant;
@@ -186,10 +205,20 @@ std::string format_time(const BenchTime& t) {
 
 std::string wander_words(const DesignSettings& s) {
   if (!s.wander()) return "white noise only";
-  char buf[160];
-  std::snprintf(buf, sizeof buf, "bias wander %.3g ug (Gauss-Markov, tau %.3g s)",
-                s.bias_instability_ug, s.bias_instability_tau_s);
+  const KnownTau tau = s.wander_tau();
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "bias wander %.3g ug (Gauss-Markov, tau %s%s)",
+                s.bias_instability_ug, tau.seconds().c_str(),
+                tau.range() ? ": the sigmas averaged over the range" : "");
   return buf;
+}
+
+// The wander as the JSON states it: its correlation time's upper end null when one value.
+void add_wander_json(json& j, const DesignSettings& s) {
+  j["bias_instability_ug"] = s.bias_instability_ug;
+  j["bias_instability_tau_s"] = s.bias_instability_tau_s;
+  j["bias_instability_tau_max_s"] =
+      s.wander_tau().range() ? json(s.bias_instability_tau_max_s) : json(nullptr);
 }
 
 void print_json(const json& j) { std::cout << j.dump(2) << "\n"; }
@@ -207,8 +236,7 @@ void write_timed_program(const Program& program, const std::vector<double>& dwel
 }
 
 void run_evaluate(const EvaluateOptions& o) {
-  DesignSettings settings = o.flags.settings;
-  settings.mounting = parse_mounting(o.flags.mounting);
+  const DesignSettings settings = settings_of(o.flags);
   const Program program = repeated_program(load_program(o.program), o.repeat);
   std::string model_note;
   const DesignModel model = choose_model(program, o.flags.model, model_note);
@@ -235,22 +263,22 @@ void run_evaluate(const EvaluateOptions& o) {
       for (int c = 0; c < ev.information.cols(); ++c) row.push_back(ev.information(r, c));
       info.push_back(row);
     }
-    print_json({{"program", program.name},
-                {"positions", program.positions.size()},
-                {"model", design_model_name(model)},
-                {"noise_density_ug_rthz", settings.noise_density_ug_rthz},
-                {"bias_instability_ug", settings.bias_instability_ug},
-                {"bias_instability_tau_s", settings.bias_instability_tau_s},
-                {"dwell_s", ev.dwell_s},
-                {"parameters", params},
-                {"d_criterion", ev.d_criterion},
-                {"a_criterion", ev.a_criterion},
-                {"information",
-                 {{"parameters", ev.parameter_names},
-                  {"units", "internal (g, 1, rad), per g^2"},
-                  {"matrix", info}}},
-                {"notes", notes},
-                {"bench_time", time_json(ev.time)}});
+    json j = {{"program", program.name},
+              {"positions", program.positions.size()},
+              {"model", design_model_name(model)},
+              {"noise_density_ug_rthz", settings.noise_density_ug_rthz},
+              {"dwell_s", ev.dwell_s},
+              {"parameters", params},
+              {"d_criterion", ev.d_criterion},
+              {"a_criterion", ev.a_criterion},
+              {"information",
+               {{"parameters", ev.parameter_names},
+                {"units", "internal (g, 1, rad), per g^2"},
+                {"matrix", info}}},
+              {"notes", notes},
+              {"bench_time", time_json(ev.time)}};
+    add_wander_json(j, settings);
+    print_json(j);
     return;
   }
   std::printf(
@@ -432,8 +460,7 @@ void print_dwell_header(const AccuracyTarget& t, const DesignSettings& s) {
 }
 
 void run_optimize(const OptimizeCliOptions& o) {
-  DesignSettings settings = o.flags.settings;
-  settings.mounting = parse_mounting(o.flags.mounting);
+  const DesignSettings settings = settings_of(o.flags);
   OptimizeOptions opt;
   opt.positions = o.positions;
   opt.model = o.flags.model == "full" ? DesignModel::full : DesignModel::invariant;
@@ -505,8 +532,7 @@ void run_optimize(const OptimizeCliOptions& o) {
 }
 
 void run_compare(const CompareOptions& o) {
-  DesignSettings settings = o.flags.settings;
-  settings.mounting = parse_mounting(o.flags.mounting);
+  const DesignSettings settings = settings_of(o.flags);
   const AccuracyTarget target = parse_accuracy_target(o.target);
   StandLimits limits;
   if (!o.flags.limits.empty())
@@ -534,9 +560,8 @@ void run_compare(const CompareOptions& o) {
                {{"bias_ug", target.bias_ug},
                 {"scale_ppm", target.scale_ppm},
                 {"gamma_arcsec", target.gamma_arcsec}}},
-              {"noise_density_ug_rthz", settings.noise_density_ug_rthz},
-              {"bias_instability_ug", settings.bias_instability_ug},
-              {"bias_instability_tau_s", settings.bias_instability_tau_s}};
+              {"noise_density_ug_rthz", settings.noise_density_ug_rthz}};
+    add_wander_json(j, settings);
     for (const auto& r : rows) j["programs"].push_back(dwell_json(r));
     for (const auto& [m, s] : bound) j["lower_bound_total_dwell_s"][design_model_name(m)] = s;
     print_json(j);
