@@ -329,12 +329,20 @@ Eigen::MatrixXd scheduled_information(const DesignBasis& basis, const Program& p
     for (const DwellWindow& w : windows) weights.push_back(w.length_s / (n_g * n_g));
     return information_of(basis, weights);
   }
-  const std::vector<double> taus = settings.wander_tau().grid_s();
-  if (taus.size() == 1) return information_under_wander(basis, windows, settings, taus.front());
-  Eigen::MatrixXd covariance = Eigen::MatrixXd::Zero(basis.columns(), basis.columns());
-  for (const double tau_s : taus)
-    covariance += inverse_of(information_under_wander(basis, windows, settings, tau_s));
-  return inverse_of(covariance / static_cast<double>(taus.size()));
+  const KnownTau tau = settings.wander_tau();
+  if (!tau.range()) return information_under_wander(basis, windows, settings, tau.min_s);
+  // As a fit given the range weights a specified wander (noise_model.hpp, choose_fit_noise):
+  // each parameter's variance the average over the range's times, and never below the one
+  // at the range's log-middle, which it is weighted with; correlations those of the average.
+  Eigen::MatrixXd averaged = Eigen::MatrixXd::Zero(basis.columns(), basis.columns());
+  for (const double tau_s : tau.grid_s())
+    averaged += inverse_of(information_under_wander(basis, windows, settings, tau_s));
+  averaged /= static_cast<double>(tau.grid_s().size());
+  const Eigen::MatrixXd at_middle =
+      inverse_of(information_under_wander(basis, windows, settings, tau.centre_s()));
+  const Eigen::VectorXd widen =
+      (at_middle.diagonal().array() / averaged.diagonal().array()).max(1.0).sqrt().matrix();
+  return inverse_of(widen.asDiagonal() * averaged * widen.asDiagonal());
 }
 
 Program repeated_program(const Program& program, int times) {

@@ -105,7 +105,8 @@ double wander_mean_covariance(const DwellWindow& a, const DwellWindow& b, double
 // The information of a programme's dwell means for `dwell_s` (programme order), white noise
 // and wander: G^T C^-1 G. With white noise alone it is sum_k T_k / N^2 G_k^T G_k. With the
 // wander's correlation time given as a range, the information whose inverse is the
-// covariance averaged over the range's times.
+// covariance averaged over the range's times, each variance at least the range's
+// log-middle's (as a fit given the range reports).
 Eigen::MatrixXd scheduled_information(const DesignBasis& basis, const Program& program,
                                       const DesignSettings& settings,
                                       const std::vector<double>& dwell_s);

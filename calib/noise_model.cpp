@@ -164,10 +164,10 @@ struct WanderFit {
 
 // For one tau: a common q for the three axes first (one dimension, robust), then each
 // axis on its own, each compared with no wander on that axis. An axis leaves the common q
-// only when that beats it by axis_lr in 2 delta log L: taking every small gain let an
-// axis's q come out low by chance, and its bias sigma with it (the full-vector fit's biases
-// at z-variance 1.9-2.5 under a wander of 1x the dwell error, 1.0 with the test;
-// docs/calibration.md).
+// only when that beats it by axis_lr in 2 delta log L (axis_quieter_lr for a q below the
+// common one, or none): taking every small gain let an axis's q come out low by chance, and
+// its bias sigma with it (the full-vector fit's biases at z-variance 1.9-2.5 under a wander
+// of 1x the dwell error, 1.0 with the test; docs/calibration.md).
 WanderFit best_for_tau(const RestrictedLikelihood& L, double tau_s, double sigma_ref,
                        const NoiseEstimateOptions& options) {
   constexpr double kLogLo = -1.5, kLogHi = 1.5;  // q from 3 % to 30x a row's sigma
@@ -346,12 +346,15 @@ VectorXd parameter_variance_dof(const std::function<VectorXd(const GaussMarkovNo
         (variances(scaled_wander(noise, scales.axes[k], kH)) -
          variances(scaled_wander(noise, scales.axes[k], -kH))) /
         (2 * kH);
-  // I^-1 with its eigenvalues floored at a small share of the largest: a direction the
-  // likelihood hardly curves in is very poorly pinned, not infinitely.
-  const Eigen::SelfAdjointEigenSolver<MatrixXd> eig(scales.information);
-  const VectorXd lambda = eig.eigenvalues().cwiseMax(1e-3 * eig.eigenvalues().maxCoeff());
+  // I^-1. Each diagonal is positive (wander_scales keeps only such scales); a cross term
+  // too large for I to be positive definite is differencing noise, or a departed axis's q not
+  // re-optimised with the common one: the scales are then taken one by one.
+  const Eigen::LDLT<MatrixXd> ldlt(scales.information);
+  const bool positive_definite =
+      ldlt.info() == Eigen::Success && ldlt.isPositive() && ldlt.vectorD().minCoeff() > 0;
   const MatrixXd u_covariance =
-      eig.eigenvectors() * lambda.cwiseInverse().asDiagonal() * eig.eigenvectors().transpose();
+      positive_definite ? MatrixXd(ldlt.solve(MatrixXd::Identity(slope.cols(), slope.cols())))
+                        : MatrixXd(scales.information.diagonal().cwiseInverse().asDiagonal());
   for (Eigen::Index j = 0; j < var.size(); ++j) {
     const double var_of_var = slope.row(j) * u_covariance * slope.row(j).transpose();
     if (var_of_var > 0) nu[j] = 2 * var[j] * var[j] / var_of_var;
@@ -454,20 +457,25 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
     e.noise.tau_s = options.known_tau->centre_s();
     specified_over_range = true;
   };
+  const auto over_range_words = [&]() -> std::string {
+    if (!specified_over_range) return "";
+    return "; at " + options.known_tau->words() + ", the sigmas averaged over them";
+  };
   if (options.mode == Mode::white) {
     e.how =
         "white noise assumed: each dwell mean independent, with the standard error of its "
         "dwell (sigma / sqrt(n)); not tested against bias wander";
   } else if (options.mode == Mode::specified) {
     take_specified();
-    e.how = "the specified bias instability, not tested against this run";
+    e.how = "the specified bias instability, not tested against this run" + over_range_words();
   } else if (!can_estimate_wander(rows.size(), X.cols())) {
     // The wander's parameters would leave the fit's chi-square test no degree of freedom.
     take_specified();
     e.how = options.specified.white()
                 ? "white noise assumed: too few measurements beyond the model's parameters to "
                   "estimate a bias wander"
-                : "the specified bias instability (too few measurements to estimate one)";
+                : "the specified bias instability (too few measurements to estimate one)" +
+                      over_range_words();
   } else {
     NoiseEstimateOptions estimate = options.estimate;
     if (options.known_tau) estimate.tau_grid_s = options.known_tau->grid_s();
@@ -516,8 +524,17 @@ std::vector<double> KnownTau::grid_s() const {
 }
 
 std::string KnownTau::seconds() const {
-  if (!range()) return std::to_string(std::lround(min_s)) + " s";
-  return std::to_string(std::lround(min_s)) + "-" + std::to_string(std::lround(max_s)) + " s";
+  // Whole seconds from 10 s up, as the reports print times; three digits below.
+  const auto text = [](double s) {
+    char b[32];
+    if (s >= 10) {
+      std::snprintf(b, sizeof b, "%ld", std::lround(s));
+    } else {
+      std::snprintf(b, sizeof b, "%.3g", s);
+    }
+    return std::string(b);
+  };
+  return (range() ? text(min_s) + "-" + text(max_s) : text(min_s)) + " s";
 }
 
 std::string KnownTau::words() const {

@@ -107,7 +107,7 @@ struct NoiseEstimateOptions {
   // The same for an axis's q below the common one (or none): chi2 with one parameter at
   // P = 1e-3. A q set too low makes that axis's bias sigma too small, one set too high only
   // conservative; and a norm fit's axis whose rows pin its wander poorly went to none under
-  // a 10x wander in 3 of 400 runs at the bar above, its bias then 12 sigma off (the bias's
+  // a 10x wander in 3 of 400 runs at the bar above, its bias then 5.6-12 sigma off (the bias's
   // z-variance 1.88 where 1.1 without those runs).
   double axis_quieter_lr = 10.83;
 };

@@ -172,6 +172,51 @@ TEST(NoiseModel, AParameterOnAnAxisOwnWanderHasThatScalesDegreesOfFreedom) {
   EXPECT_DOUBLE_EQ(w.factor[2], 1.0);
 }
 
+// Two scales the run pins jointly (a cross term in their information): a parameter resting
+// on both gets nu = 2 var^2 / (g' I^-1 g); and a cross term too large for I to be positive
+// definite leaves the scales taken one by one.
+TEST(NoiseModel, TheDegreesOfFreedomTakeTheScalesCrossInformation) {
+  FitNoiseChoice choice;
+  choice.noise = {Vec3(10e-6, 10e-6, 10e-6), 300};
+  choice.scales.axes = {Vec3(1, 1, 0), Vec3(0, 0, 1)};
+  const auto variances = [](const GaussMarkovNoise& n) {
+    return Eigen::Vector2d(n.q_g[0] * n.q_g[0] + n.q_g[2] * n.q_g[2], 1e-12);
+  };
+  // var = e^u1 q^2 + e^u2 q^2 at u = 0: g = (q^2, q^2) (read 0.7 % high by the differences).
+  const double var = 2e-10, g = 1e-10 * std::sinh(0.2) / 0.2;
+  choice.scales.information = (Eigen::Matrix2d() << 2, 1, 1, 2).finished();
+  const double g_i_g = g * g * (2 - 1 - 1 + 2) / 3.0;  // g' I^-1 g, I^-1 = [2 -1; -1 2] / 3
+  EXPECT_NEAR(widen_for_estimated_noise(variances, choice).dof[0], 2 * var * var / g_i_g, 1e-9);
+  choice.scales.information = (Eigen::Matrix2d() << 2, 3, 3, 2).finished();
+  EXPECT_NEAR(widen_for_estimated_noise(variances, choice).dof[0],
+              2 * var * var / (g * g * (0.5 + 0.5)), 1e-9);
+}
+
+// The free scales of an estimate are the axes it shares a q over and each axis with its own:
+// one scale per axis with a wander, none for an axis left without.
+TEST(NoiseModel, TheEstimatesScalesCoverEachAxisWithAWanderOnce) {
+  std::mt19937_64 rng(10);
+  const GaussMarkovNoise no_z{Vec3(12e-6, 12e-6, 0), 300};
+  int apart = 0;
+  for (int i = 0; i < 10; ++i) {
+    const std::vector<NoiseRow> rows = rows_of_a_run(rng);
+    const NoiseEstimate e = estimate_bias_wander(rows, design(rows), draw(rows, no_z, rng));
+    ASSERT_FALSE(e.best.white());
+    Vec3 covered = Vec3::Zero();
+    for (const Vec3& axes : e.scales.axes) covered += axes;
+    for (int a = 0; a < 3; ++a)
+      EXPECT_EQ(covered[a], e.best.q_g[a] > 0 ? 1.0 : 0.0) << "run " << i << " axis " << a;
+    ASSERT_EQ(e.scales.information.rows(), static_cast<Eigen::Index>(e.scales.axes.size()));
+    EXPECT_TRUE(e.scales.information.isApprox(e.scales.information.transpose()));
+    EXPECT_TRUE((e.scales.information.diagonal().array() > 0).all());
+    const bool z_apart = e.best.q_g[2] < 0.5 * e.best.q_g[0];
+    apart += z_apart ? 1 : 0;
+    if (z_apart && e.best.q_g[2] == 0)
+      EXPECT_EQ(e.scales.axes.front(), Vec3(1, 1, 0)) << "run " << i;
+  }
+  EXPECT_GE(apart, 5);  // the case the scales are for: 28 of 40 in the test above
+}
+
 TEST(NoiseModel, AllanPeakMatchesASimulatedGaussMarkovCurve) {
   const double q = 3.0, tau = 50, dt = 1;
   const AllanPeak peak = gauss_markov_allan_peak(q, tau);

@@ -343,13 +343,29 @@ TEST(FitNoise, TooFewMeasurementsTakeTheSpecifiedWanderOverTheGivenRange) {
   };
   // Times short against the run (about a minute): a wander much slower would be an offset
   // the biases take whole, the same at every time.
-  const FitResult over_range = fit_given({10, 40});
-  const FitResult at_middle = fit_given({20, 20});
+  const KnownTau range{10, 40};
+  const FitResult over_range = fit_given(range);
   EXPECT_EQ(over_range.noise.source, "specified") << over_range.noise.how;
   EXPECT_NE(over_range.noise.how.find("too few measurements"), std::string::npos);
+  EXPECT_NE(over_range.noise.how.find("at the given correlation times 10-40 s, the sigmas "
+                                      "averaged over them"),
+            std::string::npos)
+      << over_range.noise.how;
   EXPECT_DOUBLE_EQ(over_range.noise.tau_s, 20);
   EXPECT_DOUBLE_EQ(over_range.noise.tau_given_max_s, 40);
+  // Each variance the average over the range's five times, or the middle's where larger.
+  const auto variance_at = [&](double tau_s, std::size_t j) {
+    const double s = *fit_given({tau_s, tau_s}).unit[j].sigma;
+    return s * s;
+  };
+  for (std::size_t j = 0; j < kUnitParameterCount; ++j) {
+    if (!over_range.unit[j].sigma) continue;
+    double mean = 0;
+    for (const double tau_s : range.grid_s()) mean += variance_at(tau_s, j) / 5;
+    const double expected = std::sqrt(std::max(mean, variance_at(20, j)));
+    EXPECT_NEAR(*over_range.unit[j].sigma, expected, 1e-6 * expected) << kUnitParameterNames[j];
+  }
   for (std::size_t bias = 0; bias < 3; ++bias)
-    EXPECT_GT(*over_range.unit[bias].sigma, *at_middle.unit[bias].sigma)
+    EXPECT_GT(*over_range.unit[bias].sigma, std::sqrt(variance_at(20, bias)))
         << kUnitParameterNames[bias];
 }

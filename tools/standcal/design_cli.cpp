@@ -169,6 +169,10 @@ DesignSettings settings_of(const DesignFlags& f) {
   as_fits_take_it.bias_instability_tau_max_s = s.bias_instability_tau_max_s;
   as_fits_take_it.tau_given = true;
   as_fits_take_it.known_tau();  // throws CLI::ValidationError for a range upside down
+  if (s.bias_instability_tau_max_s > 0 && !s.wander())
+    throw CLI::ValidationError("--bias-instability-tau-max-s",
+                               "a correlation time needs the wander it belongs to: "
+                               "--bias-instability-ug");
   return s;
 }
 
@@ -497,16 +501,19 @@ void run_optimize(const OptimizeCliOptions& o) {
            {"allocated_dwell_s",
             k < dwell.allocated.dwell_s.size() ? dwell.allocated.dwell_s[k] : 0.0}});
     }
-    print_json({{"program", best.program.name},
-                {"model", model_name},
-                {"structure", o.structure.empty() ? "none" : o.structure},
-                {"positions", positions},
-                {"d_criterion", best.d_criterion},
-                {"paper9_d_criterion", best.paper9_d_criterion},
-                {"gain_vs_paper9", gain},
-                {"gain_per_position_vs_paper9", per_position_gain},
-                {"dwell_for_target", dwell_json(dwell)},
-                {"paper9_dwell_for_target", dwell_json(paper)}});
+    json j = {{"program", best.program.name},
+              {"model", model_name},
+              {"structure", o.structure.empty() ? "none" : o.structure},
+              {"positions", positions},
+              {"d_criterion", best.d_criterion},
+              {"paper9_d_criterion", best.paper9_d_criterion},
+              {"gain_vs_paper9", gain},
+              {"gain_per_position_vs_paper9", per_position_gain},
+              {"noise_density_ug_rthz", settings.noise_density_ug_rthz},
+              {"dwell_for_target", dwell_json(dwell)},
+              {"paper9_dwell_for_target", dwell_json(paper)}};
+    add_wander_json(j, settings);
+    print_json(j);
     return;
   }
   std::printf("D-optimal programme (%s model%s, %zu positions):\n", model_name.c_str(),
