@@ -107,7 +107,11 @@ struct GaussMarkovAllanFit {
   // kGaussMarkovTauRangeDeviance of the best (scaled by the deviance per degree of freedom
   // when that exceeds 1), each end out to the next point of the grid (20 a decade).
   double tau_min_s = 0, tau_max_s = 0;
-  bool wander_seen = false;     // some axis has q > 0
+  // Some axis has q > 0, and the wander beats white noise alone by more than
+  // kGaussMarkovWanderDeviance (scaled like the range); otherwise white_density is white
+  // noise's alone and q is 0.
+  bool wander_seen = false;
+  double wander_deviance = 0;   // white noise alone's deviance less the fit's
   bool tau_open_above = false;  // the range reaches the search's end: tau_max_s is no bound
   // Whether both ends of that range lie inside the search (the shortest averaging time to
   // 30 x the longest): the curves show the wander turn over. Otherwise
@@ -120,6 +124,9 @@ struct GaussMarkovAllanFit {
 // s, 2 to 8 hours; 100 seeds each, bench/noise/allan_tau_main.cpp): the range held the true
 // tau_c in 93-97 % of them (docs/calibration.md).
 inline constexpr double kGaussMarkovTauRangeDeviance = 4;
+// The deviance by which a wander must beat white noise alone to be seen: chi2 with four
+// parameters (three axes' q and tau_c) at P = 1e-3, the bar the fits' noise model sets.
+inline constexpr double kGaussMarkovWanderDeviance = 18.5;
 inline constexpr std::size_t kGaussMarkovFitMinPoints = 5;
 // nullopt when a curve has fewer than kGaussMarkovFitMinPoints octaves.
 std::optional<GaussMarkovAllanFit> fit_gauss_markov_allan(

@@ -514,4 +514,24 @@ Recording simulate_run(const SimulationRequest& req) {
   return rec;
 }
 
+std::vector<std::vector<double>> simulate_static_gauss_markov(double white_density, double q,
+                                                              double tau_c_s, double seconds,
+                                                              double rate_hz, unsigned seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> gauss(0, 1);
+  const auto samples = static_cast<std::size_t>(seconds * rate_hz);
+  const double phi = std::exp(-1 / (rate_hz * tau_c_s));
+  std::vector<std::vector<double>> axes;
+  for (int axis = 0; axis < 3; ++axis) {
+    std::vector<double> y(samples);
+    double wander = q * gauss(rng);
+    for (double& v : y) {
+      wander = phi * wander + q * std::sqrt(1 - phi * phi) * gauss(rng);
+      v = wander + white_density * std::sqrt(rate_hz) * gauss(rng);
+    }
+    axes.push_back(std::move(y));
+  }
+  return axes;
+}
+
 }  // namespace standcal

@@ -152,4 +152,13 @@ struct SimulationRequest {
 // each position at the move rate (both axes at once), settles, then records the dwell.
 Recording simulate_run(const SimulationRequest& request);
 
+// A static unit's three axes alone, without the stand or the recording format: per axis,
+// white noise of density white_density (per sqrt(Hz)) and a first-order Gauss-Markov wander
+// (stationary sigma q, correlation time tau_c_s), sampled at rate_hz for `seconds`, in the
+// units of white_density and q. Quick to draw hours of: what the Allan fit of the
+// correlation time is tested and benchmarked on (standcal-bench-allan-tau).
+std::vector<std::vector<double>> simulate_static_gauss_markov(double white_density, double q,
+                                                              double tau_c_s, double seconds,
+                                                              double rate_hz, unsigned seed);
+
 }  // namespace standcal

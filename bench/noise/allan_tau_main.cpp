@@ -1,7 +1,8 @@
 // standcal-bench-allan-tau: how well a static recording's Allan curves pin the unit's
 // correlation time (fit_gauss_markov_allan, what `standcal noise` reports and the fits take
 // as --bias-instability-tau-s / --bias-instability-tau-max-s). For each case, seeded
-// three-axis recordings of white noise (10 ug/rtHz) and a Gauss-Markov wander: the fitted
+// three-axis recordings of white noise (10 ug/rtHz) and a Gauss-Markov wander
+// (simulate_static_gauss_markov): the fitted
 // tau against the truth (median and 10-90 % of the ratio), the range's median width, how
 // often the range is bounded, and how often it holds the truth (95 % would be exact).
 //   standcal-bench-allan-tau [--seeds 100] [--rate-hz 10]
@@ -10,10 +11,10 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <random>
 #include <vector>
 
 #include "calib/allan.hpp"
+#include "calib/simulator.hpp"
 
 using namespace standcal;
 
@@ -23,22 +24,11 @@ struct Case {
   double q_ug, tau_c_s, hours;
 };
 
-std::vector<std::vector<AllanPoint>> static_recording_curves(const Case& c, double rate_hz,
-                                                             unsigned seed) {
-  std::mt19937_64 rng(seed);
-  std::normal_distribution<double> gauss(0, 1);
-  const auto samples = static_cast<std::size_t>(c.hours * 3600 * rate_hz);
-  const double phi = std::exp(-1 / (rate_hz * c.tau_c_s));
+std::vector<std::vector<AllanPoint>> allan_curves(const std::vector<std::vector<double>>& axes,
+                                                  double rate_hz) {
   std::vector<std::vector<AllanPoint>> curves;
-  for (int axis = 0; axis < 3; ++axis) {
-    std::vector<double> y(samples);
-    double wander = c.q_ug * gauss(rng);
-    for (double& v : y) {
-      wander = phi * wander + c.q_ug * std::sqrt(1 - phi * phi) * gauss(rng);
-      v = wander + 10 * std::sqrt(rate_hz) * gauss(rng);
-    }
+  for (const std::vector<double>& y : axes)
     curves.push_back(overlapping_allan_deviation({y}, 1 / rate_hz));
-  }
   return curves;
 }
 
@@ -68,7 +58,10 @@ int main(int argc, char** argv) {
     int bounded = 0, holds = 0;
     for (int s = 1; s <= seeds; ++s) {
       const auto fit = fit_gauss_markov_allan(
-          static_recording_curves(c, rate_hz, static_cast<unsigned>(s)), 1 / rate_hz);
+          allan_curves(simulate_static_gauss_markov(10, c.q_ug, c.tau_c_s, c.hours * 3600, rate_hz,
+                                                    static_cast<unsigned>(s)),
+                       rate_hz),
+          1 / rate_hz);
       if (!fit) continue;
       ratio.push_back(fit->tau_s / c.tau_c_s);
       width.push_back(fit->tau_max_s / fit->tau_min_s);

@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include "calib/allan.hpp"
 #include "tests/support/command.hpp"
 
 namespace fs = std::filesystem;
@@ -222,6 +223,7 @@ TEST_F(Cli, NoiseOfAStaticRecordingNamesTheCorrelationTimeToGiveTheFits) {
                 gm["tau_min_s"].get<double>(), gm["tau_max_s"].get<double>());
   EXPECT_NE(text.output.find(command), std::string::npos) << command << "\n" << text.output;
   EXPECT_EQ(gm["wander_seen"], true);
+  EXPECT_GT(gm["wander_deviance"].get<double>(), kGaussMarkovWanderDeviance) << gm.dump(2);
   // Half an hour of a 1200 s wander: the curves end before it turns over, and the range is
   // open upwards (no tau_max_s to copy, no command to give).
   const std::string half_hour = static_recording("short", 1800, 1200, 1);

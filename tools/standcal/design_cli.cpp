@@ -598,6 +598,7 @@ void run_compare(const CompareOptions& o) {
 
 json gauss_markov_json(const GaussMarkovAllanFit& f) {
   json j = {{"wander_seen", f.wander_seen},
+            {"wander_deviance", f.wander_deviance},
             {"tau_s", f.tau_s},
             {"tau_min_s", f.tau_min_s},
             {"tau_max_s", f.tau_open_above ? json(nullptr) : json(f.tau_max_s)},
