@@ -334,10 +334,11 @@ Eigen::MatrixXd scheduled_information(const DesignBasis& basis, const Program& p
   // As a fit given the range weights a specified wander (noise_model.hpp, choose_fit_noise):
   // each parameter's variance the average over the range's times, and never below the one
   // at the range's log-middle, which it is weighted with; correlations those of the average.
+  const std::vector<double> grid_s = tau.grid_s();
   Eigen::MatrixXd averaged = Eigen::MatrixXd::Zero(basis.columns(), basis.columns());
-  for (const double tau_s : tau.grid_s())
+  for (const double tau_s : grid_s)
     averaged += inverse_of(information_under_wander(basis, windows, settings, tau_s));
-  averaged /= static_cast<double>(tau.grid_s().size());
+  averaged /= static_cast<double>(grid_s.size());
   const Eigen::MatrixXd at_middle =
       inverse_of(information_under_wander(basis, windows, settings, tau.centre_s()));
   const Eigen::VectorXd widen =

@@ -523,18 +523,14 @@ std::vector<double> KnownTau::grid_s() const {
   return grid;
 }
 
+std::string seconds_text(double s) {
+  char b[32];
+  std::snprintf(b, sizeof b, s >= 10 ? "%.0f" : "%.3g", s);
+  return b;
+}
+
 std::string KnownTau::seconds() const {
-  // Whole seconds from 10 s up, as the reports print times; three digits below.
-  const auto text = [](double s) {
-    char b[32];
-    if (s >= 10) {
-      std::snprintf(b, sizeof b, "%ld", std::lround(s));
-    } else {
-      std::snprintf(b, sizeof b, "%.3g", s);
-    }
-    return std::string(b);
-  };
-  return (range() ? text(min_s) + "-" + text(max_s) : text(min_s)) + " s";
+  return (range() ? seconds_text(min_s) + "-" + seconds_text(max_s) : seconds_text(min_s)) + " s";
 }
 
 std::string KnownTau::words() const {

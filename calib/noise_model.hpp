@@ -132,6 +132,10 @@ double restricted_log_likelihood(const std::vector<NoiseRow>& rows, const Eigen:
 // model's sigma is widened by, so that it has z-variance 1.
 double student_t_inflation(double nu);
 
+// A time as the reports print it and the command line takes it back: whole seconds from
+// 10 s up, three digits below, no exponent ("1200", "0.4").
+std::string seconds_text(double s);
+
 // The unit's correlation time as known before a run: one value, or the range a static
 // recording's Allan curves allow it (`standcal noise`), over which the run's likelihood then
 // weighs (kKnownTauRangePoints correlation times, log-spaced).

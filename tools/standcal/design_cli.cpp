@@ -610,9 +610,6 @@ json gauss_markov_json(const GaussMarkovAllanFit& f) {
   return j;
 }
 
-// A time as the command line takes it back: whole seconds, no exponent.
-std::string seconds_text(double s) { return diagnosis::fmt(s >= 10 ? "%.0f" : "%.3g", s); }
-
 // What the Allan curves say of the unit's correlation time, and how to give it to the fits
 // (one calibration run cannot pin it: docs/calibration.md, "The correlation time, given").
 std::string gauss_markov_words(const std::optional<GaussMarkovAllanFit>& f, double curve_end_s) {
