@@ -237,6 +237,26 @@ struct ProfilePoint {
   double deviance = 0;  // summed over the axes
 };
 
+// The point of the curves farthest from the best fit, by its share of the deviance.
+GaussMarkovAllanFit::Departure worst_departure(const std::vector<AxisCurve>& curves,
+                                               const ProfilePoint& best) {
+  GaussMarkovAllanFit::Departure worst;
+  const double tau_c_s = std::exp(best.log_tau);
+  for (std::size_t a = 0; a < curves.size(); ++a) {
+    const AxisCurve& c = curves[a];
+    for (std::size_t i = 0; i < c.points.size(); ++i) {
+      const double T = c.points[i].tau_s;
+      const double model = best.axes[a].white_var / T +
+                           best.axes[a].wander_var * gauss_markov_allan_variance(tau_c_s, T);
+      if (!(model > 0)) continue;
+      const double z = c.points[i].deviation * c.points[i].deviation / model - 1;
+      const double deviance = c.clusters[i] * (z - std::log1p(z));
+      if (deviance > worst.deviance) worst = {a, T, std::sqrt(1 + z), deviance};
+    }
+  }
+  return worst;
+}
+
 ProfilePoint fit_at_tau(const std::vector<AxisCurve>& curves, double log_tau) {
   ProfilePoint p{log_tau, {}, 0};
   for (const AxisCurve& c : curves) {
@@ -288,6 +308,8 @@ std::optional<GaussMarkovAllanFit> fit_gauss_markov_allan(
   // N and q per axis and one tau.
   const double dof = static_cast<double>(points) - 2.0 * static_cast<double>(curves.size()) - 1;
   fit.deviance_per_dof = best.deviance / std::max(dof, 1.0);
+  fit.describes_curves = fit.deviance_per_dof <= kGaussMarkovFitScatterLimit;
+  fit.worst_departure = worst_departure(curves, best);
   const double allowed =
       best.deviance + kGaussMarkovTauRangeDeviance * std::max(1.0, fit.deviance_per_dof);
   // The grid points within `allowed`, each end then out to the next grid point: the
@@ -310,8 +332,19 @@ std::optional<GaussMarkovAllanFit> fit_gauss_markov_allan(
   fit.wander_seen =
       std::any_of(fit.q.begin(), fit.q.end(), [](double q) { return q > 0; }) &&
       fit.wander_deviance > kGaussMarkovWanderDeviance * std::max(1.0, fit.deviance_per_dof);
+  // A correlation time the curves cannot tell from their shortest averaging time is the
+  // samples' own correlation (the unit's output filter or decimation), not a bias wander:
+  // dwell means average it as white noise, of variance 2 q^2 tau_c per hertz beside N^2.
+  fit.short_correlation = fit.wander_seen && first == 0;
+  if (fit.short_correlation) {
+    fit.short_q = fit.q;
+    for (std::size_t a = 0; a < fit.q.size(); ++a)
+      fit.white_density[a] = std::sqrt(fit.white_density[a] * fit.white_density[a] +
+                                       2 * fit.q[a] * fit.q[a] * fit.tau_s);
+    fit.wander_seen = false;
+  }
   if (!fit.wander_seen) {
-    fit.white_density = white_alone;
+    if (!fit.short_correlation) fit.white_density = white_alone;
     fit.q.assign(curves.size(), 0.0);
   }
   fit.tau_open_above = last + 1 >= profile.size();

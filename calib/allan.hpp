@@ -111,14 +111,36 @@ struct GaussMarkovAllanFit {
   // kGaussMarkovWanderDeviance (scaled like the range); otherwise white_density is white
   // noise's alone and q is 0.
   bool wander_seen = false;
-  double wander_deviance = 0;   // white noise alone's deviance less the fit's
+  double wander_deviance = 0;  // white noise alone's deviance less the fit's
+  // The wander's correlation-time range reaches the curves' shortest averaging time: the
+  // samples are correlated over about a sample period (the unit's output filter), which is
+  // no bias wander. wander_seen is then false, q 0, and white_density the white noise a
+  // dwell mean sees, sqrt(N^2 + 2 q^2 tau_c); short_q keeps that correlation's q (tau_s and
+  // the range its time).
+  bool short_correlation = false;
+  std::vector<double> short_q;
   bool tau_open_above = false;  // the range reaches the search's end: tau_max_s is no bound
   // Whether both ends of that range lie inside the search (the shortest averaging time to
   // 30 x the longest): the curves show the wander turn over. Otherwise
   // tau_c is only a bound (the curve ends while the wander still looks like a random walk).
   bool tau_bounded = false;
   double deviance_per_dof = 0;  // scatter about the fit relative to the points' confidence
+  // deviance_per_dof within kGaussMarkovFitScatterLimit: white noise and one correlation time
+  // describe the curves. Otherwise they have structure the model lacks (motion left in the
+  // static intervals, a second noise process), and its figures are only a summary.
+  bool describes_curves = true;
+  // The point that departs most from the fit (its largest share of the deviance): where to
+  // look on the curve. ratio is the measured deviation over the model's.
+  struct Departure {
+    std::size_t axis = 0;
+    double tau_s = 0;
+    double ratio = 1;
+    double deviance = 0;
+  } worst_departure;
 };
+// On 700 simulated static recordings of the model itself (bench/noise/allan_tau_main.cpp)
+// the deviance per degree of freedom was at most 1.03; imu_tk's Xsens recording gives 22.
+inline constexpr double kGaussMarkovFitScatterLimit = 2;
 // The likelihood-ratio interval for one parameter at about 95 % (chi2_1 = 3.84). Measured on
 // simulated static recordings (white 10 ug/rtHz and Gauss-Markov of 1-10 ug, tau_c 60-1200
 // s, 2 to 8 hours; 100 seeds each, bench/noise/allan_tau_main.cpp): the range held the true

@@ -8,6 +8,7 @@
 
 #include "calib/parameters.hpp"
 #include "calib/report.hpp"
+#include "calib/static_noise.hpp"
 
 namespace standcal {
 
@@ -191,21 +192,17 @@ json stability_json(const NormCalibration& c) {
 
 // The Allan figures of the intervals pooled, in ug of the calibrated axes (the fit's
 // `noise.allan`, as for stand recordings).
-AllanFinding allan_in_ug(const StaticDetection& d, const NormCompensation& k, const RawInput& in) {
-  AllanFinding f;
-  f.sample_period_s = 1.0 / in.sample_rate_hz;
-  f.segments = d.intervals.size();
-  for (std::size_t a = 0; a < 3; ++a) {
-    std::vector<AllanPoint> curve = d.allan[a];
-    const double to_ug =
-        k.matrix(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(a)) / in.g_mps2 / kUg;
-    for (AllanPoint& p : curve) p.deviation *= to_ug;
-    f.figures[a] = noise_figures(curve);
-  }
-  return f;
+AllanFinding allan_finding_in_ug(const StaticDetection& d, const NormCompensation& k,
+                                 const RawInput& in) {
+  const DwellAllan a = allan_in_ug(d, ug_per_input_unit(k, in.g_mps2), 1.0 / in.sample_rate_hz);
+  return {a.sample_period_s, a.segments, a.figures};
 }
 
 }  // namespace
+
+Vec3 ug_per_input_unit(const NormCompensation& k, double g_mps2) {
+  return k.matrix.diagonal().cwiseAbs() / (g_mps2 * kUg);
+}
 
 Vec3 white_noise_understatement(const std::vector<StaticInterval>& intervals,
                                 const NormCompensation& k, double g, const NoiseFinding& n) {
@@ -268,7 +265,7 @@ NormCalibration calibrate(const RawInput& in, const NormCalibrationOptions& o) {
     throw std::runtime_error(in.source + ": " + e.what() + " (intervals: " + c.detection.how + ")");
   }
   c.understated_by = median_understatement(c.detection.intervals);
-  c.fit.result.noise.allan = allan_in_ug(c.detection, c.fit.compensation, in);
+  c.fit.result.noise.allan = allan_finding_in_ug(c.detection, c.fit.compensation, in);
   c.fit.result.noise.understated_by = white_noise_understatement(
       c.detection.intervals, c.fit.compensation, in.g_mps2, c.fit.result.noise);
   const bool detected = c.detection.window_samples > 0;

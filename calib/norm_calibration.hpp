@@ -41,6 +41,10 @@ struct NormCalibration {
   std::vector<std::string> notes;
 };
 
+// ug of the calibrated axes per input unit: the diagonal of the compensation (its cross
+// terms, the misalignment, are a per cent at most), over g.
+Vec3 ug_per_input_unit(const NormCompensation& k, double g_mps2);
+
 // By how much sigma/sqrt(n) understated each interval mean's error under the noise model:
 // the colour within the interval (its Allan-deviation standard error) and the wander `n`
 // between intervals together. Median over the intervals, per calibrated axis.

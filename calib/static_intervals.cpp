@@ -285,7 +285,7 @@ StaticDetection detect_static_intervals(const RawInput& in, const StaticDetector
                                " samples are fewer than two detector windows");
     std::vector<double> stat = motion_statistic(in, d.window_samples, quantisation_variance);
     std::tie(d.quiet_level, d.threshold) = quiet_level_and_threshold(stat);
-    require_still_somewhere(in, d.quiet_level);
+    if (o.require_orientations) require_still_somewhere(in, d.quiet_level);
     d.threshold *= o.threshold_factor;
     for (std::size_t i = 0; i < stat.size(); ++i)
       if (saturated[i]) stat[i] = d.threshold * 2 + 1;  // never static

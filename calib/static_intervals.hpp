@@ -51,6 +51,10 @@ struct StaticDetectorOptions {
   // Standcal recordings already say which samples are static (their dwell blocks): use
   // them rather than detect.
   bool use_blocks = true;
+  // A calibration needs the unit turned: a recording that never leaves its noise, or is
+  // never still relative to its range, is refused. A noise analysis takes one orientation
+  // held throughout (a wander may then span many times the noise) as it is.
+  bool require_orientations = true;
 };
 
 struct StaticDetection {

@@ -50,12 +50,13 @@ int main(int argc, char** argv) {
                                 {10, 300, 2}, {3, 300, 8}, {3, 1200, 8}};
   std::printf("white 10 ug/rtHz at %.0f Hz, %d seeded three-axis recordings per case\n", rate_hz,
               seeds);
-  std::printf("%6s %8s %6s  %22s %12s %8s %8s\n", "q ug", "tau_c s", "hours",
-              "tau/truth med (10-90%)", "range width", "bounded", "holds");
+  std::printf("%6s %8s %6s  %22s %12s %8s %8s %8s %12s\n", "q ug", "tau_c s", "hours",
+              "tau/truth med (10-90%)", "range width", "bounded", "holds", "short", "dev/dof max");
   const auto start = std::chrono::steady_clock::now();
   for (const Case& c : cases) {
     std::vector<double> ratio, width;
-    int bounded = 0, holds = 0;
+    int bounded = 0, holds = 0, short_correlation = 0;
+    double worst_deviance_per_dof = 0;
     for (int s = 1; s <= seeds; ++s) {
       const auto fit = fit_gauss_markov_allan(
           allan_curves(simulate_static_gauss_markov(10, c.q_ug, c.tau_c_s, c.hours * 3600, rate_hz,
@@ -67,10 +68,14 @@ int main(int argc, char** argv) {
       width.push_back(fit->tau_max_s / fit->tau_min_s);
       bounded += fit->tau_bounded;
       holds += fit->tau_min_s <= c.tau_c_s && c.tau_c_s <= fit->tau_max_s;
+      short_correlation += fit->short_correlation;
+      worst_deviance_per_dof = std::max(worst_deviance_per_dof, fit->deviance_per_dof);
     }
-    std::printf("%6.1f %8.0f %6.1f  %6.2f (%5.2f-%6.2f) %11.1fx %4d/%-3d %4d/%-3d\n", c.q_ug,
-                c.tau_c_s, c.hours, quantile(ratio, 0.5), quantile(ratio, 0.1),
-                quantile(ratio, 0.9), quantile(width, 0.5), bounded, seeds, holds, seeds);
+    std::printf(
+        "%6.1f %8.0f %6.1f  %6.2f (%5.2f-%6.2f) %11.1fx %4d/%-3d %4d/%-3d %4d/%-3d %12.2f\n",
+        c.q_ug, c.tau_c_s, c.hours, quantile(ratio, 0.5), quantile(ratio, 0.1),
+        quantile(ratio, 0.9), quantile(width, 0.5), bounded, seeds, holds, seeds, short_correlation,
+        seeds, worst_deviance_per_dof);
   }
   std::printf("%.1f s\n",
               std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());

@@ -1,6 +1,7 @@
 // The offline CLI as a user runs it: real process, real files.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -10,6 +11,7 @@
 #include <vector>
 
 #include "calib/allan.hpp"
+#include "tests/calib/test_support.hpp"
 #include "tests/support/command.hpp"
 
 namespace fs = std::filesystem;
@@ -239,6 +241,129 @@ TEST_F(Cli, NoiseOfAStaticRecordingNamesTheCorrelationTimeToGiveTheFits) {
       << open_text.output;
   EXPECT_EQ(open_text.output.find("--bias-instability-tau-max-s"), std::string::npos)
       << open_text.output;
+}
+
+// `standcal noise` reads what `standcal fit` reads: the same static samples as imu_tk text
+// in g, and as counts of a given scale, give the stand recording's noise figures and
+// correlation time (the static interval found by the detector, one orientation held). It
+// refused every file but standcal's own before ("one column only").
+TEST_F(Cli, NoiseReadsImuTkTextInGAndInCounts) {
+  ASSERT_EQ(
+      run_cli("simulate --program paper9 -o " + path("p9.csv") + " --truth " + path("truth.json"))
+          .exit_code,
+      0);
+  nlohmann::json truth;
+  std::ifstream(path("truth.json")) >> truth;
+  truth["noise"]["bias_instability_ug"] = 3;
+  truth["noise"]["bias_instability_tau_s"] = 60;
+  std::ofstream(path("model.json")) << truth.dump(2);
+  std::ofstream(path("one.json")) << nlohmann::json{
+      {"name", "one"}, {"positions", {{{"alpha1_deg", 0}, {"alpha2_deg", 0}, {"dwell_s", 7200}}}}};
+  ASSERT_EQ(run_cli("simulate --program " + path("one.json") + " --rate-hz 10 --seed 4 -o " +
+                    path("static.csv") + " --model " + path("model.json"))
+                .exit_code,
+            0);
+  // The recording's samples as imu_tk's `t x y z`, in g and in counts of 1e6 per g.
+  std::ifstream in(path("static.csv"));
+  std::ofstream in_g(path("static_g.txt")), in_counts(path("static_counts.txt"));
+  double g_mps2 = 9.80665;
+  std::size_t fx = 0;  // the column of fx_mps2 (fy and fz follow it: docs/recording-format.md)
+  const auto split = [](const std::string& line) {
+    std::vector<std::string> cells;
+    std::size_t at = 0;
+    for (std::size_t comma; (comma = line.find(',', at)) != std::string::npos; at = comma + 1)
+      cells.push_back(line.substr(at, comma - at));
+    cells.push_back(line.substr(at));
+    return cells;
+  };
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("# g_local_mps2:", 0) == 0) g_mps2 = std::stod(line.substr(15));
+    if (line.empty() || line[0] == '#') continue;
+    const std::vector<std::string> cells = split(line);
+    if (cells[0] == "t_s") {
+      fx = static_cast<std::size_t>(std::find(cells.begin(), cells.end(), "fx_mps2") -
+                                    cells.begin());
+      continue;
+    }
+    ASSERT_GT(fx, 0u);
+    ASSERT_LT(fx + 2, cells.size()) << line;
+    const double t_s = std::stod(cells[0]);
+    const double x = std::stod(cells[fx]) / g_mps2, y = std::stod(cells[fx + 1]) / g_mps2,
+                 z = std::stod(cells[fx + 2]) / g_mps2;
+    char row[160];
+    std::snprintf(row, sizeof row, "%.3f %.9f %.9f %.9f\n", t_s, x, y, z);
+    in_g << row;
+    std::snprintf(row, sizeof row, "%.3f %.0f %.0f %.0f\n", t_s, x * 1e6, y * 1e6, z * 1e6);
+    in_counts << row;
+  }
+  in_g.close();
+  in_counts.close();
+  const auto gauss_markov = [](const std::string& args) {
+    const CliRun r = run_cli("noise " + args + " --json");
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    return nlohmann::json::parse(r.output.substr(r.output.find('{')));
+  };
+  const auto stand = gauss_markov(path("static.csv"))["gauss_markov"];
+  const auto text_g = gauss_markov(path("static_g.txt"));
+  const auto counts =
+      gauss_markov(path("static_counts.txt") + " --units counts --counts-per-g 1e6");
+  EXPECT_TRUE(stand["tau_bounded"].get<bool>()) << stand.dump(2);
+  EXPECT_NE(text_g["static"]["units_how"].get<std::string>().find("g ("), std::string::npos)
+      << text_g["static"].dump(2);
+  EXPECT_GT(text_g["static"]["longest_s"].get<double>(), 7100) << text_g["static"].dump(2);
+  for (const auto* read : {&text_g, &counts}) {
+    const auto& gm = (*read)["gauss_markov"];
+    EXPECT_EQ(gm["tau_bounded"], true) << gm.dump(2);
+    EXPECT_NEAR(gm["tau_s"].get<double>() / stand["tau_s"].get<double>(), 1, 0.1) << gm.dump(2);
+    for (const char* axis : {"x", "y", "z"}) {
+      const auto& a = gm["axes"][axis];
+      const auto& s = stand["axes"][axis];
+      EXPECT_NEAR(
+          a["noise_density_ug_rthz"].get<double>() / s["noise_density_ug_rthz"].get<double>(), 1,
+          0.01)
+          << axis;
+      EXPECT_NEAR(a["q_ug"].get<double>() / s["q_ug"].get<double>(), 1, 0.1) << axis;
+    }
+  }
+  // Counts of one orientation have no scale the norm fit could find; a scale is for counts.
+  CliRun refused = run_cli("noise " + path("static_counts.txt") + " --units counts");
+  EXPECT_NE(refused.exit_code, 0);
+  EXPECT_NE(refused.output.find("--counts-per-g"), std::string::npos) << refused.output;
+  refused = run_cli("noise " + path("static_g.txt") + " --counts-per-g 4000");
+  EXPECT_NE(refused.exit_code, 0);
+  EXPECT_NE(refused.output.find("read as g"), std::string::npos) << refused.output;
+}
+
+// imu_tk's Xsens recording, moved by hand: counts read in ug by the norm fit's scale over its
+// 39 orientations, and what its curves say told as it is — the samples are correlated over
+// about one sample period (the output filter: its Allan deviation lies below white noise's
+// line at the first averaging times), which is no bias wander, and the curves depart from
+// any white-plus-one-wander model most on z near 3 s. It refused the file before; the Allan
+// fit alone called that correlation a wander of 450-530 ug.
+TEST_F(Cli, NoiseOfTheXsensRecordingFindsNoBiasWanderAndSaysWhereTheCurvesDepart) {
+  const CliRun json_run = run_cli("noise " + standcal::test::kXsens + " --json");
+  ASSERT_EQ(json_run.exit_code, 0) << json_run.output;
+  const auto j = nlohmann::json::parse(json_run.output.substr(json_run.output.find('{')));
+  EXPECT_EQ(j["segments"], 39) << j["static"].dump(2);
+  EXPECT_NE(j["static"]["units_how"].get<std::string>().find("norm fit's scale over 39"),
+            std::string::npos)
+      << j["static"].dump(2);
+  const auto& gm = j["gauss_markov"];
+  EXPECT_EQ(gm["wander_seen"], false) << gm.dump(2);
+  EXPECT_EQ(gm["short_correlation"], true) << gm.dump(2);
+  EXPECT_LT(gm["tau_max_s"].get<double>(), 0.05) << gm.dump(2);
+  EXPECT_EQ(gm["describes_curves"], false) << gm.dump(2);
+  EXPECT_EQ(gm["worst_departure"]["axis"], "z") << gm.dump(2);
+  for (const char* axis : {"x", "y", "z"}) {
+    EXPECT_EQ(gm["axes"][axis]["q_ug"], 0) << axis;
+    // The white noise a dwell mean sees, and the Allan curve's own reading at 1 s, agree.
+    const double dwell_white = gm["axes"][axis]["noise_density_ug_rthz"].get<double>();
+    const double at_one_second = j["axes"][axis]["noise_density_ug_rthz"].get<double>();
+    EXPECT_NEAR(dwell_white / at_one_second, 1, 0.1) << axis;
+  }
+  const CliRun text = run_cli("noise " + standcal::test::kXsens);
+  EXPECT_NE(text.output.find("not a bias wander"), std::string::npos) << text.output;
+  EXPECT_NE(text.output.find("most on z at"), std::string::npos) << text.output;
 }
 
 // Issue 21: the fit states the noise model it weighted with — the wander between dwells and

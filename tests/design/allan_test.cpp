@@ -153,6 +153,31 @@ TEST(GaussMarkovAllanFit, WhiteNoiseAloneIsNotGivenACorrelationTime) {
   }
 }
 
+// A unit whose output filter correlates its samples over about one sample period (imu_tk's
+// Xsens recording: its Allan deviation lies below white noise's line over the first few
+// averaging times) fits as a Gauss-Markov of 0.01 s: that is no bias wander, and the fit had
+// reported one (wander_seen, q 480 ug on the Xsens file, "correlation time up to 0.0141 s").
+// A dwell mean sees it as white noise of density sqrt(N^2 + 2 q^2 tau_c).
+TEST(GaussMarkovAllanFit, SamplesCorrelatedOverASamplePeriodAreNoBiasWander) {
+  constexpr double kFastRateHz = 100, kN = 40, kQ = 400, kTauC = 0.01;
+  std::vector<std::vector<AllanPoint>> curves;
+  for (const std::vector<double>& y :
+       simulate_static_gauss_markov(kN, kQ, kTauC, 600, kFastRateHz, 21))
+    curves.push_back(overlapping_allan_deviation({y}, 1 / kFastRateHz));
+  const auto fit = fit_gauss_markov_allan(curves, 1 / kFastRateHz);
+  ASSERT_TRUE(fit.has_value());
+  EXPECT_TRUE(fit->short_correlation) << fit->tau_min_s << " - " << fit->tau_max_s;
+  EXPECT_FALSE(fit->wander_seen);
+  EXPECT_FALSE(fit->tau_bounded);
+  const double dwell_white = std::sqrt(kN * kN + 2 * kQ * kQ * kTauC);  // 69.3 ug/rtHz
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_EQ(fit->q[a], 0) << a;
+    EXPECT_NEAR(fit->white_density[a] / dwell_white, 1, 0.05) << a;
+    EXPECT_NEAR(fit->short_q[a] / kQ, 1, 0.3) << a;
+  }
+  EXPECT_LT(fit->tau_max_s, 5 * kTauC);
+}
+
 TEST(GaussMarkovAllanFit, TheRangeHoldsTheTrueCorrelationTimeAboutNineteenTimesInTwenty) {
   STANDCAL_STATISTICAL_TEST();
   // Two-hour recordings at tau_c = 60 s and 300 s, 40 seeds each: the range held the truth

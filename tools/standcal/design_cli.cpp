@@ -1,5 +1,4 @@
-// `standcal design evaluate|optimize|compare` (experiment design) and `standcal noise`
-// (Allan deviation of a recording), issue 3.
+// `standcal design evaluate|optimize|compare` (experiment design), issue 3.
 #include <algorithm>
 #include <charconv>
 #include <cmath>
@@ -13,19 +12,12 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "calib/allan.hpp"
 #include "calib/atomic_file.hpp"
 #include "calib/design.hpp"
-#include "calib/diagnosis/words.hpp"
 #include "calib/programs.hpp"
-#include "calib/recording.hpp"
-#include "calib/recording_digest.hpp"
-#include "calib/units.hpp"
-#include "report/noise/allan_figure.hpp"
 #include "tools/cli_checks.hpp"
 #include "tools/standcal/commands.hpp"
 #include "tools/standcal/input_options.hpp"
-#include "tools/standcal/threaded_rows.hpp"
 
 namespace standcal::cli {
 namespace {
@@ -64,13 +56,6 @@ struct CompareOptions {
   std::string target = "bias=2ug,scale=2ppm,gamma=1asec";
   int with_optimal = 0;
   int max_repeats = 4;
-};
-
-struct NoiseOptions {
-  std::string recording;
-  bool json = false;
-  std::string curve_out;
-  std::string plot_out;
 };
 
 void add_design_flags(CLI::App* cmd, DesignFlags& f) {
@@ -594,125 +579,6 @@ void run_compare(const CompareOptions& o) {
         "--dwell-s S -o FILE)\n");
 }
 
-// ---- noise ---------------------------------------------------------------------------
-
-json gauss_markov_json(const GaussMarkovAllanFit& f) {
-  json j = {{"wander_seen", f.wander_seen},
-            {"wander_deviance", f.wander_deviance},
-            {"tau_s", f.tau_s},
-            {"tau_min_s", f.tau_min_s},
-            {"tau_max_s", f.tau_open_above ? json(nullptr) : json(f.tau_max_s)},
-            {"tau_bounded", f.tau_bounded},
-            {"deviance_per_dof", f.deviance_per_dof}};
-  static const std::array<const char*, 3> axis_names{"x", "y", "z"};
-  for (std::size_t a = 0; a < f.q.size() && a < 3; ++a)
-    j["axes"][axis_names[a]] = {{"q_ug", f.q[a]}, {"noise_density_ug_rthz", f.white_density[a]}};
-  return j;
-}
-
-// What the Allan curves say of the unit's correlation time, and how to give it to the fits
-// (one calibration run cannot pin it: docs/calibration.md, "The correlation time, given").
-std::string gauss_markov_words(const std::optional<GaussMarkovAllanFit>& f, double curve_end_s) {
-  using diagnosis::fmt;
-  if (!f) return "Gauss-Markov wander: the curves are too short to fit one (fewer than 5 octaves)";
-  if (!f->wander_seen)
-    return "Gauss-Markov wander: none seen (white noise explains the curves up to " +
-           seconds_text(curve_end_s) + " s)";
-  std::string s =
-      "Gauss-Markov wander (white noise and one wander fitted to the three curves, "
-      "one correlation time): steady-state sigma";
-  for (std::size_t a = 0; a < f->q.size(); ++a)
-    s += std::string(a ? "," : "") + " " + "xyz"[a] + " " + fmt("%.3g", f->q[a]) + " ug";
-  const std::string how_long = " (its curves end at " + seconds_text(curve_end_s) +
-                               " s; a static recording of about 100 x the correlation time "
-                               "pins it)";
-  if (f->tau_open_above)
-    return s + "; correlation time not pinned: this recording allows " +
-           seconds_text(f->tau_min_s) + " s and beyond" + how_long;
-  if (!f->tau_bounded)
-    return s + "; correlation time not pinned: this recording allows up to " +
-           seconds_text(f->tau_max_s) + " s" + how_long;
-  const std::string lo = seconds_text(f->tau_min_s), hi = seconds_text(f->tau_max_s);
-  return s + "; correlation time " + seconds_text(f->tau_s) + " s (this recording allows " + lo +
-         "-" + hi + " s)\ngive the range to the fits: standcal fit --bias-instability-tau-s " + lo +
-         " --bias-instability-tau-max-s " + hi +
-         " (standcald: unit.bias_instability_tau_s and unit.bias_instability_tau_max_s); one "
-         "calibration run cannot pin it, and too short a tau makes the biases' sigmas too "
-         "small. The averaging time of the bias-instability floor above is not the "
-         "correlation time (a Gauss-Markov wander's Allan peak lies near 1.9 x it).";
-}
-
-void run_noise(const NoiseOptions& o) {
-  DigestOptions reading;
-  reading.averages = false;  // the Allan deviation alone: each dwell is dropped once added
-  const RecordingDigest digest = digest_on_two_threads(o.recording, reading);
-  if (!digest.allan) throw std::runtime_error(digest.allan_unavailable);
-  const Recording& rec = digest.recording;
-  const DwellAllan& allan = *digest.allan;
-  const double tau0 = allan.sample_period_s;
-  static const std::array<const char*, 3> axis_names{"x", "y", "z"};
-  const auto& curves = allan.curves;
-  const auto& figures = allan.figures;
-  if (!o.curve_out.empty()) {
-    std::ostringstream out;
-    out << "tau_s,adev_x_ug,adev_y_ug,adev_z_ug\n";
-    for (std::size_t i = 0; i < curves[0].size(); ++i)
-      out << curves[0][i].tau_s << "," << curves[0][i].deviation << "," << curves[1][i].deviation
-          << "," << curves[2][i].deviation << "\n";
-    write_file_atomically(o.curve_out, out.str(), "the Allan curve");
-  }
-  if (!o.plot_out.empty()) {
-    std::vector<report::AxisAllan> axes;
-    for (int a = 0; a < 3; ++a) axes.push_back({axis_names[a], curves[a], figures[a]});
-    plot::write_svg(report::allan_figure(axes, rec.source), o.plot_out);
-    std::fprintf(stderr, "Allan deviation plot written to %s\n", o.plot_out.c_str());
-  }
-  auto opt = [](const std::optional<double>& v) { return v ? json(*v) : json(nullptr); };
-  const std::optional<GaussMarkovAllanFit> wander =
-      fit_gauss_markov_allan({curves[0], curves[1], curves[2]}, tau0);
-  if (o.json) {
-    json j = {{"recording", o.recording}, {"sample_period_s", tau0}, {"segments", allan.segments}};
-    for (int a = 0; a < 3; ++a) {
-      json curve = json::array();
-      for (const auto& p : curves[a])
-        curve.push_back({{"tau_s", p.tau_s}, {"adev_ug", p.deviation}});
-      j["axes"][axis_names[a]] = {{"noise_density_ug_rthz", opt(figures[a].white_density)},
-                                  {"bias_instability_ug", opt(figures[a].bias_instability)},
-                                  {"bias_instability_tau_s", figures[a].bias_instability_tau_s},
-                                  {"random_walk_ug_rts", opt(figures[a].random_walk)},
-                                  {"allan_deviation", curve}};
-    }
-    j["gauss_markov"] = wander ? gauss_markov_json(*wander) : json(nullptr);
-    print_json(j);
-    return;
-  }
-  std::printf("%s: %zu samples every %.4g s in %zu static segment(s)\n", o.recording.c_str(),
-              digest.samples, tau0, allan.segments);
-  std::printf("  %-4s %22s %26s %22s\n", "axis", "noise density ug/rtHz",
-              "bias instability ug (tau)", "random walk ug/rt(s)");
-  auto cell = [](const std::optional<double>& v) {
-    char b[32];
-    if (v)
-      std::snprintf(b, sizeof b, "%.3g", *v);
-    else
-      std::snprintf(b, sizeof b, "not seen");
-    return std::string(b);
-  };
-  for (int a = 0; a < 3; ++a) {
-    char tau[32] = "";
-    if (figures[a].bias_instability)
-      std::snprintf(tau, sizeof tau, " (%.3g s)", figures[a].bias_instability_tau_s);
-    std::printf("  %-4s %22s %26s %22s\n", axis_names[a], cell(figures[a].white_density).c_str(),
-                (cell(figures[a].bias_instability) + tau).c_str(),
-                cell(figures[a].random_walk).c_str());
-  }
-  std::printf("use the noise density with `standcal design ... --noise-density-ug-rthz N`\n");
-  double curve_end_s = 0;  // the longest averaging time of any axis
-  for (const auto& c : curves)
-    if (!c.empty()) curve_end_s = std::max(curve_end_s, c.back().tau_s);
-  std::printf("%s\n", gauss_markov_words(wander, curve_end_s).c_str());
-}
-
 void add_design_commands(CLI::App& app) {
   CLI::App* design =
       app.add_subcommand("design", "experiment design: evaluate, optimise and compare programmes");
@@ -769,17 +635,6 @@ void add_design_commands(CLI::App& app) {
   add_max_repeats(compare, cp->max_repeats);
   add_design_flags(compare, cp->flags);
   compare->callback([cp] { run_compare(*cp); });
-
-  auto no = std::make_shared<NoiseOptions>();
-  CLI::App* noise = app.add_subcommand(
-      "noise", "Allan deviation of a static recording: noise density, bias instability");
-  noise->add_option("recording", no->recording, "recording CSV (standcal-recording/1)")->required();
-  noise->add_flag("--json", no->json, "machine-readable output");
-  noise->add_option("--curve", no->curve_out,
-                    "write the Allan deviation curve as CSV (tau_s, adev per axis in ug)");
-  noise->add_option("--plot", no->plot_out,
-                    "draw the Allan deviation of each axis (log-log, SVG) to FILE");
-  noise->callback([no] { run_noise(*no); });
 }
 
 }  // namespace
