@@ -33,12 +33,17 @@ void AllanAccumulator::extend_cluster_sizes(long max_m) {
 
 void AllanAccumulator::add_segment(std::vector<double>& samples) {
   const std::size_t sample_count = samples.size();
-  // Phase x_k = tau0 * (sum of the first k samples), k = 0..n, in place.
-  double running = 0;
+  // Phase x_k = tau0 * (sum of the first k samples), k = 0..n, in place; and the samples'
+  // scatter about the segment's mean (Welford), which the phase no longer holds.
+  double running = 0, mean = 0, scatter = 0;
+  long seen = 0;
   for (double& v : samples) {
     const double sample = v;
     v = running;
     running += sample * sample_period_s_;
+    const double step = sample - mean;
+    mean += step / static_cast<double>(++seen);
+    scatter += step * (sample - mean);
   }
   samples.push_back(running);
   const double* x = samples.data();
@@ -62,13 +67,15 @@ void AllanAccumulator::add_segment(std::vector<double>& samples) {
     }
     sums.push_back((partial[0] + partial[1]) + (partial[2] + partial[3]));
   }
-  add_sums(n, sample_count, sums);
-  if (keep_segment_sums_) kept_.push_back({n, std::move(sums)});
+  add_sums(n, sample_count, sums, scatter);
+  if (keep_segment_sums_) kept_.push_back({n, std::move(sums), scatter});
 }
 
 void AllanAccumulator::add_sums(long phase_length, std::size_t samples,
-                                const std::vector<double>& sums) {
+                                const std::vector<double>& sums, double scatter) {
   ++segments_;
+  scatter_ += scatter;
+  if (samples > 1) scatter_dof_ += static_cast<long>(samples) - 1;
   longest_ = std::max(longest_, samples);
   extend_cluster_sizes(phase_length / 2);
   for (std::size_t i = 0; i < sums.size(); ++i) {
@@ -83,7 +90,11 @@ void AllanAccumulator::append(const AllanAccumulator& later) {
   if (later.segments_ != later.kept_.size())
     throw std::logic_error("Allan deviation: append needs every segment's sums kept");
   for (const SegmentSums& s : later.kept_)
-    add_sums(s.phase_length, static_cast<std::size_t>(s.phase_length - 1), s.sums);
+    add_sums(s.phase_length, static_cast<std::size_t>(s.phase_length - 1), s.sums, s.scatter);
+}
+
+double AllanAccumulator::sample_variance() const {
+  return scatter_dof_ > 0 ? scatter_ / static_cast<double>(scatter_dof_) : kNaN;
 }
 
 std::vector<AllanPoint> AllanAccumulator::curve() const {
@@ -184,6 +195,13 @@ AxisCurve thinned(const std::vector<AllanPoint>& curve, double sample_period_s) 
   return c;
 }
 
+// One point's share of the Gamma deviance: k ((y - m) / m - log(y / m)) for an Allan
+// variance y from k independent clusters against the model's m.
+double point_deviance(double observed, double model, double clusters) {
+  const double z = (observed - model) / model;
+  return clusters * (z - std::log1p(z));
+}
+
 struct AxisAtTau {
   double white_var = 0, wander_var = 0;  // N^2 (unit^2 s) and q^2 (unit^2)
   double deviance = 0;
@@ -224,8 +242,7 @@ AxisAtTau fit_axis_at_tau(const AxisCurve& c, double tau_c_s) {
     for (std::size_t i = 0; i < n; ++i) {
       const double model = a / c.points[i].tau_s + b * h[i];
       scale[i] = std::max(model, scale_floor);
-      const double z = (observed[i] - model) / scale[i];
-      r.deviance += c.clusters[i] * (z - std::log1p(z));
+      r.deviance += point_deviance(observed[i], scale[i], c.clusters[i]);
     }
   }
   return r;
@@ -237,21 +254,22 @@ struct ProfilePoint {
   double deviance = 0;  // summed over the axes
 };
 
-// The point of the curves farthest from the best fit, by its share of the deviance.
+// The point of the curves farthest from a fit (white noise alone where its log tau_c is
+// -infinity), by its share of the deviance.
 GaussMarkovAllanFit::Departure worst_departure(const std::vector<AxisCurve>& curves,
-                                               const ProfilePoint& best) {
+                                               const ProfilePoint& fit) {
   GaussMarkovAllanFit::Departure worst;
-  const double tau_c_s = std::exp(best.log_tau);
+  const double tau_c_s = std::exp(fit.log_tau);
   for (std::size_t a = 0; a < curves.size(); ++a) {
     const AxisCurve& c = curves[a];
     for (std::size_t i = 0; i < c.points.size(); ++i) {
       const double T = c.points[i].tau_s;
-      const double model = best.axes[a].white_var / T +
-                           best.axes[a].wander_var * gauss_markov_allan_variance(tau_c_s, T);
+      const double h = tau_c_s > 0 ? gauss_markov_allan_variance(tau_c_s, T) : 0.0;
+      const double model = fit.axes[a].white_var / T + fit.axes[a].wander_var * h;
       if (!(model > 0)) continue;
-      const double z = c.points[i].deviation * c.points[i].deviation / model - 1;
-      const double deviance = c.clusters[i] * (z - std::log1p(z));
-      if (deviance > worst.deviance) worst = {a, T, std::sqrt(1 + z), deviance};
+      const double observed = c.points[i].deviation * c.points[i].deviation;
+      const double deviance = point_deviance(observed, model, c.clusters[i]);
+      if (deviance > worst.deviance) worst = {a, T, std::sqrt(observed / model), deviance};
     }
   }
   return worst;
@@ -308,8 +326,6 @@ std::optional<GaussMarkovAllanFit> fit_gauss_markov_allan(
   // N and q per axis and one tau.
   const double dof = static_cast<double>(points) - 2.0 * static_cast<double>(curves.size()) - 1;
   fit.deviance_per_dof = best.deviance / std::max(dof, 1.0);
-  fit.describes_curves = fit.deviance_per_dof <= kGaussMarkovFitScatterLimit;
-  fit.worst_departure = worst_departure(curves, best);
   const double allowed =
       best.deviance + kGaussMarkovTauRangeDeviance * std::max(1.0, fit.deviance_per_dof);
   // The grid points within `allowed`, each end then out to the next grid point: the
@@ -321,21 +337,31 @@ std::optional<GaussMarkovAllanFit> fit_gauss_markov_allan(
   // parameters (a q per axis and tau_c): the last octaves' few clusters scatter, and a
   // wander slow beyond the curve's end fits that scatter as a random walk. White noise is
   // then the model reported.
-  double white_deviance = 0;
-  std::vector<double> white_alone;
+  ProfilePoint white{-std::numeric_limits<double>::infinity(), {}, 0};
   for (const AxisCurve& c : curves) {
-    const AxisAtTau w = fit_axis_at_tau(c, 0);
-    white_deviance += w.deviance;
-    white_alone.push_back(std::sqrt(w.white_var));
+    white.axes.push_back(fit_axis_at_tau(c, 0));
+    white.deviance += white.axes.back().deviance;
   }
-  fit.wander_deviance = white_deviance - best.deviance;
+  fit.wander_deviance = white.deviance - best.deviance;
   fit.wander_seen =
       std::any_of(fit.q.begin(), fit.q.end(), [](double q) { return q > 0; }) &&
       fit.wander_deviance > kGaussMarkovWanderDeviance * std::max(1.0, fit.deviance_per_dof);
-  // A correlation time the curves cannot tell from their shortest averaging time is the
-  // samples' own correlation (the unit's output filter or decimation), not a bias wander:
-  // dwell means average it as white noise, of variance 2 q^2 tau_c per hertz beside N^2.
-  fit.short_correlation = fit.wander_seen && first == 0;
+  fit.tau_open_above = last + 1 >= profile.size();
+  fit.tau_min_s = std::min(fit.tau_s, std::exp(profile[first > 0 ? first - 1 : 0].log_tau));
+  fit.tau_max_s =
+      std::max(fit.tau_s, std::exp(profile[std::min(last + 1, profile.size() - 1)].log_tau));
+  // A correlation time the curves allow no longer than a second (or a few sample periods)
+  // is the samples' own correlation (the unit's output filter or decimation), not a bias
+  // wander: dwell means average it as white noise, of variance 2 q^2 tau_c per hertz beside
+  // N^2. The whole range must lie below: a slow wander the curves also allow is no filter.
+  const bool short_range = fit.wander_seen && fit.tau_max_s <= short_correlation_limit_s(T_first);
+  // It widens every dwell mean's error and is reported as the unit's filter: a bar of
+  // P = 1e-6 (white noise's chance excess at the first octaves met the wander's own bar in 2
+  // of 1000 simulated runs; real filters beat it by hundreds).
+  fit.short_correlation =
+      short_range &&
+      fit.wander_deviance > kShortCorrelationDeviance * std::max(1.0, fit.deviance_per_dof);
+  if (short_range && !fit.short_correlation) fit.wander_seen = false;  // white noise, then
   if (fit.short_correlation) {
     fit.short_q = fit.q;
     for (std::size_t a = 0; a < fit.q.size(); ++a)
@@ -343,15 +369,20 @@ std::optional<GaussMarkovAllanFit> fit_gauss_markov_allan(
                                        2 * fit.q[a] * fit.q[a] * fit.tau_s);
     fit.wander_seen = false;
   }
-  if (!fit.wander_seen) {
-    if (!fit.short_correlation) fit.white_density = white_alone;
-    fit.q.assign(curves.size(), 0.0);
-  }
-  fit.tau_open_above = last + 1 >= profile.size();
   fit.tau_bounded = fit.wander_seen && first > 0 && !fit.tau_open_above;
-  fit.tau_min_s = std::min(fit.tau_s, std::exp(profile[first > 0 ? first - 1 : 0].log_tau));
-  fit.tau_max_s =
-      std::max(fit.tau_s, std::exp(profile[std::min(last + 1, profile.size() - 1)].log_tau));
+  // How well the model reported describes the curves: white noise alone where no wander (nor
+  // short correlation) is seen, with N per axis as its only parameters.
+  const bool white_reported = !fit.wander_seen && !fit.short_correlation;
+  if (white_reported) {
+    for (std::size_t a = 0; a < curves.size(); ++a)
+      fit.white_density[a] = std::sqrt(white.axes[a].white_var);
+    fit.q.assign(curves.size(), 0.0);
+    fit.deviance_per_dof =
+        white.deviance / std::max(static_cast<double>(points - curves.size()), 1.0);
+  }
+  if (fit.short_correlation) fit.q.assign(curves.size(), 0.0);
+  fit.describes_curves = fit.deviance_per_dof <= kGaussMarkovFitScatterLimit;
+  fit.worst_departure = worst_departure(curves, white_reported ? white : best);
   return fit;
 }
 
@@ -405,13 +436,34 @@ DwellAllan finish_dwell_allan(double sample_period_s,
     out.curves[a] = pooled[a].curve();
     out.figures[a] = noise_figures(out.curves[a]);
   }
+  Vec3 sample_sigma;
+  for (std::size_t a = 0; a < 3; ++a)
+    sample_sigma[static_cast<Eigen::Index>(a)] = std::sqrt(pooled[a].sample_variance());
+  out.sample_correlation = sample_correlation(out.curves, sample_period_s, sample_sigma);
   return out;
+}
+
+std::optional<SampleCorrelation> sample_correlation(
+    const std::array<std::vector<AllanPoint>, 3>& curves, double sample_period_s,
+    const Vec3& sample_sigma) {
+  const std::optional<GaussMarkovAllanFit> fit =
+      fit_gauss_markov_allan({curves[0], curves[1], curves[2]}, sample_period_s);
+  if (!fit || !fit->short_correlation) return std::nullopt;
+  SampleCorrelation c{fit->tau_s, fit->tau_max_s, Vec3::Ones()};
+  for (std::size_t a = 0; a < 3; ++a) {
+    // The white noise a dwell mean sees (the curves' long averaging times), over the one
+    // sigma / sqrt(n) assumes: the samples' own scatter, sigma sqrt(tau0).
+    const double assumed = sample_sigma[static_cast<Eigen::Index>(a)] * std::sqrt(sample_period_s);
+    if (assumed > 0)
+      c.factor[static_cast<Eigen::Index>(a)] = std::max(1.0, fit->white_density[a] / assumed);
+  }
+  return c;
 }
 
 std::optional<AllanFinding> allan_finding(const Recording& rec) {
   try {
     const DwellAllan a = dwell_allan(rec);
-    return AllanFinding{a.sample_period_s, a.segments, a.figures};
+    return AllanFinding{a.sample_period_s, a.segments, a.figures, a.sample_correlation};
   } catch (const std::exception&) {
     // Too few samples, no rate or repeated time stamps (a zero period): the fit's noise says
     // nothing of Allan rather than refusing the calibration.

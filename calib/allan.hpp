@@ -1,6 +1,7 @@
 #pragma once
 // Overlapping Allan deviation of a sampled signal (IEEE Std 952 / 1293 conventions) and
 // the three noise figures read off it: white-noise density, bias instability, random walk.
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <optional>
@@ -29,6 +30,9 @@ class AllanAccumulator {
   // per decade; taus no segment reached are left out.
   std::vector<AllanPoint> curve() const;
   std::size_t segments() const { return segments_; }
+  // The samples' variance about their own segment's mean, pooled over the segments (n - 1
+  // each); NaN before a segment of two samples.
+  double sample_variance() const;
   double sample_period_s() const { return sample_period_s_; }
 
   // Keep each segment's sums from now on, so that another accumulator can take them in
@@ -43,9 +47,11 @@ class AllanAccumulator {
   struct SegmentSums {
     long phase_length = 0;     // samples + 1
     std::vector<double> sums;  // per cluster size, while the segment is long enough
+    double scatter = 0;        // sum of squared deviations from the segment's mean
   };
   // Adds one segment's sums (the shared end of add_segment and append).
-  void add_sums(long phase_length, std::size_t samples, const std::vector<double>& sums);
+  void add_sums(long phase_length, std::size_t samples, const std::vector<double>& sums,
+                double scatter);
 
   // Extends the cluster sizes (10^(i / points_per_decade), rounded, distinct) to max_m.
   void extend_cluster_sizes(long max_m);
@@ -58,6 +64,8 @@ class AllanAccumulator {
   std::vector<long> cluster_sizes_;
   std::vector<double> sum_sq_;  // per cluster size: sum of squared second differences
   std::vector<long> terms_;
+  double scatter_ = 0;  // sum of squared deviations from each segment's mean
+  long scatter_dof_ = 0;
   bool keep_segment_sums_ = false;
   std::vector<SegmentSums> kept_;
 };
@@ -100,37 +108,44 @@ double gauss_markov_allan_variance(double tau_c_s, double T_s);
 // what a long static recording says of the unit's correlation time, which one calibration
 // run cannot pin (docs/calibration.md, "The correlation time, given").
 struct GaussMarkovAllanFit {
-  std::vector<double> white_density;  // N per axis, unit / sqrt(Hz)
-  std::vector<double> q;              // the wander's stationary standard deviation per axis
-  double tau_s = 0;                   // its correlation time tau_c
+  // The white noise per axis, unit / sqrt(Hz): N beside the wander, white noise's alone where
+  // none is seen, and what a dwell mean sees where the correlation is short.
+  std::vector<double> white_density;
+  std::vector<double> q;  // the wander's stationary standard deviation per axis
+  double tau_s = 0;       // its correlation time tau_c
   // The correlation times the curves allow: the profile's deviance within
   // kGaussMarkovTauRangeDeviance of the best (scaled by the deviance per degree of freedom
   // when that exceeds 1), each end out to the next point of the grid (20 a decade).
   double tau_min_s = 0, tau_max_s = 0;
-  // Some axis has q > 0, and the wander beats white noise alone by more than
-  // kGaussMarkovWanderDeviance (scaled like the range); otherwise white_density is white
-  // noise's alone and q is 0.
+  // Some axis has q > 0, the wander beats white noise alone by more than
+  // kGaussMarkovWanderDeviance (scaled like the range), and its correlation is not short;
+  // otherwise q is 0.
   bool wander_seen = false;
   double wander_deviance = 0;  // white noise alone's deviance less the fit's
-  // The wander's correlation-time range reaches the curves' shortest averaging time: the
-  // samples are correlated over about a sample period (the unit's output filter), which is
-  // no bias wander. wander_seen is then false, q 0, and white_density the white noise a
-  // dwell mean sees, sqrt(N^2 + 2 q^2 tau_c); short_q keeps that correlation's q (tau_s and
-  // the range its time).
+  // The correlation times the curves allow all lie below short_correlation_limit_s, and it
+  // beats white noise alone by kShortCorrelationDeviance (below that bar, white noise is the
+  // model reported): the
+  // samples are correlated over a few sample periods (the unit's output filter or
+  // decimation), which is no bias wander: any dwell averages it down as white noise.
+  // wander_seen is then false, q 0, and white_density the white noise a dwell mean sees,
+  // sqrt(N^2 + 2 q^2 tau_c); short_q keeps that correlation's q (tau_s and the range its time).
   bool short_correlation = false;
   std::vector<double> short_q;
   bool tau_open_above = false;  // the range reaches the search's end: tau_max_s is no bound
-  // Whether both ends of that range lie inside the search (the shortest averaging time to
-  // 30 x the longest): the curves show the wander turn over. Otherwise
-  // tau_c is only a bound (the curve ends while the wander still looks like a random walk).
+  // A wander is seen and both ends of its range lie inside the search (the shortest averaging
+  // time to 30 x the longest): the curves show it turn over. A seen wander without it has
+  // only a bound (the curve ends while the wander still looks like a random walk, or the
+  // range reaches down to the shortest averaging time).
   bool tau_bounded = false;
-  double deviance_per_dof = 0;  // scatter about the fit relative to the points' confidence
+  // Scatter about the model reported (white noise alone where no wander nor short correlation
+  // is seen) relative to the points' confidence.
+  double deviance_per_dof = 0;
   // deviance_per_dof within kGaussMarkovFitScatterLimit: white noise and one correlation time
   // describe the curves. Otherwise they have structure the model lacks (motion left in the
   // static intervals, a second noise process), and its figures are only a summary.
   bool describes_curves = true;
-  // The point that departs most from the fit (its largest share of the deviance): where to
-  // look on the curve. ratio is the measured deviation over the model's.
+  // The point that departs most from the model reported (its largest share of the deviance):
+  // where to look on the curve. ratio is the measured deviation over the model's.
   struct Departure {
     std::size_t axis = 0;
     double tau_s = 0;
@@ -141,6 +156,19 @@ struct GaussMarkovAllanFit {
 // On 700 simulated static recordings of the model itself (bench/noise/allan_tau_main.cpp)
 // the deviance per degree of freedom was at most 1.03; imu_tk's Xsens recording gives 22.
 inline constexpr double kGaussMarkovFitScatterLimit = 2;
+// A correlation over at most a second, or ten sample periods where these are longer, is the
+// samples' own: an output filter settles in a few periods, a dwell lasts seconds at least,
+// and the fits' wander model takes tau_c of minutes.
+inline constexpr double kShortCorrelationMaxS = 1;
+// The deviance by which a short correlation must beat white noise alone: chi2 with four
+// parameters at P = 1e-6. On diagnostic32's dwells (10 s at 25 Hz) white noise alone had met
+// kGaussMarkovWanderDeviance with a short range in 2 of 1000 runs (deviance 18.7 and 19.4),
+// and a filter of half a sample period to two beat white noise by 360-13000.
+inline constexpr double kShortCorrelationDeviance = 33.4;
+inline constexpr double kShortCorrelationSamplePeriods = 10;
+inline double short_correlation_limit_s(double sample_period_s) {
+  return std::max(kShortCorrelationMaxS, kShortCorrelationSamplePeriods * sample_period_s);
+}
 // The likelihood-ratio interval for one parameter at about 95 % (chi2_1 = 3.84). Measured on
 // simulated static recordings (white 10 ug/rtHz and Gauss-Markov of 1-10 ug, tau_c 60-1200
 // s, 2 to 8 hours; 100 seeds each, bench/noise/allan_tau_main.cpp): the range held the true
@@ -163,11 +191,30 @@ std::optional<double> median_step_s(std::vector<double> steps_s);
 
 // The Allan deviation of each axis over a recording's dwells pooled: each position block is
 // one static segment (the moves are not samples), in ug, with the figures read off it.
+// The samples' own correlation as it bears on a dwell mean: sigma / sqrt(n) takes the samples
+// as independent, and the mean of correlated ones has the error of the white noise a dwell
+// sees, sqrt(N^2 + 2 q^2 tau_c) per sqrt(Hz) (GaussMarkovAllanFit::short_correlation),
+// against sigma sqrt(tau0) from the samples' own scatter.
+struct SampleCorrelation {
+  double tau_s = 0, tau_max_s = 0;  // the correlation time and the most the curves allow
+  // A dwell mean's standard error over sigma / sqrt(n), per axis: at least 1 (a filter that
+  // anticorrelated the samples would not be trusted to shrink a sigma).
+  Vec3 factor = Vec3::Ones();
+};
+// Of the dwells' pooled curves: nothing where the fit sees no short correlation, or the
+// curves are too short to fit.
+// sample_sigma: the samples' scatter about their segments' means, per axis, in the curves'
+// unit.
+std::optional<SampleCorrelation> sample_correlation(
+    const std::array<std::vector<AllanPoint>, 3>& curves, double sample_period_s,
+    const Vec3& sample_sigma);
+
 struct DwellAllan {
   double sample_period_s = 0;
   std::size_t segments = 0;
-  std::array<std::vector<AllanPoint>, 3> curves;  // ug
-  std::array<NoiseFigures, 3> figures;            // ug/sqrt(Hz), ug, ug/sqrt(s)
+  std::array<std::vector<AllanPoint>, 3> curves;        // ug
+  std::array<NoiseFigures, 3> figures;                  // ug/sqrt(Hz), ug, ug/sqrt(s)
+  std::optional<SampleCorrelation> sample_correlation;  // set by finish_dwell_allan
 };
 // Throws std::runtime_error naming the recording when it has fewer than kMinAllanSamples.
 inline constexpr std::size_t kMinAllanSamples = 30;
@@ -182,6 +229,7 @@ struct AllanFinding {
   double sample_period_s = 0;
   std::size_t segments = 0;
   std::array<NoiseFigures, 3> figures;
+  std::optional<SampleCorrelation> sample_correlation;
 };
 std::optional<AllanFinding> allan_finding(const Recording& rec);
 

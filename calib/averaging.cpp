@@ -135,7 +135,16 @@ std::vector<PositionAverage> average_positions(const Recording& rec) {
   }
   out.push_back(average_dwell(dwell, rec));
   derive_missing_approaches(out);
+  if (const std::optional<AllanFinding> allan = allan_finding(rec);
+      allan && allan->sample_correlation)
+    widen_for_sample_correlation(out, *allan->sample_correlation);
   return out;
+}
+
+void widen_for_sample_correlation(std::vector<PositionAverage>& averages,
+                                  const SampleCorrelation& correlation) {
+  for (PositionAverage& a : averages)
+    a.standard_error_g = a.standard_error_g.cwiseProduct(correlation.factor);
 }
 
 std::optional<double> mean_dwell_temperature_c(const std::vector<PositionAverage>& averages) {

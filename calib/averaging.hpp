@@ -11,6 +11,7 @@
 #include <optional>
 #include <vector>
 
+#include "calib/allan.hpp"
 #include "calib/position_average.hpp"
 #include "calib/recording.hpp"
 
@@ -40,10 +41,18 @@ PositionAverage average_dwell(const DwellSamples& dwell, const Recording& header
 // Gives each average whose recording carried no approach the model.md rule's direction.
 void derive_missing_approaches(std::vector<PositionAverage>& averages);
 
-// Per-position means, standard errors, counts, approach and arrival of a recording.
+// Per-position means, standard errors, counts, approach and arrival of a recording. The
+// standard errors are sigma / sqrt(n) widened by the samples' own correlation where the
+// dwells' pooled Allan curves show one (widen_for_sample_correlation).
 // Throws std::runtime_error naming the recording if it has no samples, or a position
 // keeps fewer than 2 samples after outlier rejection.
 std::vector<PositionAverage> average_positions(const Recording& rec);
+
+// Multiplies each mean's standard error by the samples' own correlation's factor (a unit's
+// output filter: calib/allan.hpp, SampleCorrelation): sigma / sqrt(n) takes the samples of
+// a dwell as independent, and correlated ones average down more slowly.
+void widen_for_sample_correlation(std::vector<PositionAverage>& averages,
+                                  const SampleCorrelation& correlation);
 
 // The unit's mean temperature over the dwells that have one, or nothing: the temperature a
 // calibration holds at.

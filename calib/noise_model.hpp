@@ -204,13 +204,21 @@ struct NoiseFinding {
   // Estimated, or given as a range: the correlation times of the grid the run allows
   // (2 delta log L within plausible_lr of the best); the biases' sigmas are averaged over them.
   double tau_plausible_min_s = 0, tau_plausible_max_s = 0;
-  Vec3 allan_peak_ug = Vec3::Zero();   // the Allan-deviation floor that wander shows
-  Vec3 understated_by = Vec3::Ones();  // how much sigma/sqrt(n) understated a dwell mean's error
-  double lr = 0, lr_threshold = 0;     // 2 delta log L against white noise, and the bar
+  Vec3 allan_peak_ug = Vec3::Zero();  // the Allan-deviation floor that wander shows
+  // How much a dwell mean's error exceeds its standard error for the wander between dwells;
+  // understated_in_total() adds the samples' own correlation within one (allan).
+  Vec3 understated_by = Vec3::Ones();
+  double lr = 0, lr_threshold = 0;  // 2 delta log L against white noise, and the bar
   std::string how;
   // The Allan deviation of the raw samples, dwells pooled: white density, bias instability
   // and random walk within a dwell, where the wander above is between dwells.
   std::optional<AllanFinding> allan;
+  // How much sigma/sqrt(n) understated a dwell mean's error: the wander, and the samples'
+  // correlation within the dwell that the standard errors were widened for.
+  Vec3 understated_in_total() const {
+    if (!allan || !allan->sample_correlation) return understated_by;
+    return understated_by.cwiseProduct(allan->sample_correlation->factor);
+  }
 };
 
 // From the estimate (its noise, or the specified one when the run alone shows none) and the

@@ -195,7 +195,9 @@ json stability_json(const NormCalibration& c) {
 AllanFinding allan_finding_in_ug(const StaticDetection& d, const NormCompensation& k,
                                  const RawInput& in) {
   const DwellAllan a = allan_in_ug(d, ug_per_input_unit(k, in.g_mps2), 1.0 / in.sample_rate_hz);
-  return {a.sample_period_s, a.segments, a.figures};
+  // No sample correlation: the intervals' standard errors already take the curve at their
+  // length (coloured_standard_error).
+  return {a.sample_period_s, a.segments, a.figures, std::nullopt};
 }
 
 }  // namespace

@@ -47,6 +47,8 @@ RecordingDigest RecordingDigester::finish(Recording&& read) {
     out.averages = std::move(averages_);
   }
   if (options_.allan) finish_allan(read, out);
+  if (out.allan && out.allan->sample_correlation)
+    widen_for_sample_correlation(out.averages, *out.allan->sample_correlation);
   if (options_.g_mps2) read.use_given_g(*options_.g_mps2);
   out.recording = std::move(read);
   return out;
@@ -126,7 +128,8 @@ void RecordingDigester::finish_allan(const Recording& read, RecordingDigest& out
 
 std::optional<AllanFinding> RecordingDigest::allan_finding() const {
   if (!allan) return std::nullopt;
-  return AllanFinding{allan->sample_period_s, allan->segments, allan->figures};
+  return AllanFinding{allan->sample_period_s, allan->segments, allan->figures,
+                      allan->sample_correlation};
 }
 
 RecordingDigest digest_recording(const std::string& path, const DigestOptions& options) {

@@ -116,7 +116,7 @@ json noise_finding_json(const NoiseFinding& n) {
     if (n.tau_plausible_max_s > 0)
       j["tau_plausible_s"] = json::array({n.tau_plausible_min_s, n.tau_plausible_max_s});
     j["allan_floor_ug"] = vec(n.allan_peak_ug);
-    j["sigma_sqrt_n_understated_by"] = vec(n.understated_by);
+    j["sigma_sqrt_n_understated_by"] = vec(n.understated_in_total());
   }
   if (n.allan) {
     const auto opt = [](const std::optional<double>& v) { return v ? json(*v) : json(nullptr); };
@@ -132,6 +132,10 @@ json noise_finding_json(const NoiseFinding& n) {
                   {"segments", n.allan->segments},
                   {"sample_period_s", n.allan->sample_period_s},
                   {"axes", axes}};
+    if (const auto& c = n.allan->sample_correlation)
+      j["allan"]["sample_correlation"] = {{"tau_s", c->tau_s},
+                                          {"tau_max_s", c->tau_max_s},
+                                          {"dwell_error_over_sigma_sqrt_n", vec(c->factor)}};
   }
   return j;
 }
@@ -208,15 +212,26 @@ std::string tau_words(const NoiseFinding& n) {
          "--bias-instability-tau-s or standcald's unit.bias_instability_tau_s)";
 }
 
+// The samples' own correlation within a dwell, where the Allan curves show one.
+std::string sample_correlation_words(const NoiseFinding& n) {
+  if (!n.allan || !n.allan->sample_correlation) return "";
+  const SampleCorrelation& c = *n.allan->sample_correlation;
+  return "; the samples are correlated over about " + format("%.3g", c.tau_s) +
+         " s (the unit's output filter), so each dwell mean's standard error is sigma/sqrt(n) x " +
+         format("%.2f", c.factor[0]) + " / " + format("%.2f", c.factor[1]) + " / " +
+         format("%.2f", c.factor[2]) + " (x/y/z)";
+}
+
 }  // namespace
 
 // One line on the noise the fit weighted with, in the engineer's words.
 std::string noise_line(const NoiseFinding& n) {
   if (n.model != "gauss_markov") {
-    if (n.lr_threshold <= 0) return "white (" + n.how + ")";
+    if (n.lr_threshold <= 0) return "white (" + n.how + ")" + sample_correlation_words(n);
     return "white: no bias wander between dwells (2 delta log L = " + format("%.1f", n.lr) + ", " +
            format("%.1f", n.lr_threshold) +
-           " needed); each dwell mean weighted by its own standard error";
+           " needed); each dwell mean weighted by its own standard error" +
+           sample_correlation_words(n);
   }
   const std::string what =
       n.source != "estimated" ? "the specified bias wander"
@@ -230,7 +245,7 @@ std::string noise_line(const NoiseFinding& n) {
          "; dwell means close in time share it, so they are weighted by the covariance it "
          "implies "
          "(generalised least squares); sigma/sqrt(n) understates a dwell mean's error up to " +
-         format("%.1f", n.understated_by.maxCoeff()) + "x";
+         format("%.1f", n.understated_in_total().maxCoeff()) + "x" + sample_correlation_words(n);
 }
 
 std::string format_report(const FitResult& fit, const ReportContext& ctx) {

@@ -287,6 +287,8 @@ json truth_to_json(const TruthModel& t) {
     }
     doc["extra_physics"] = extra;
   }
+  if (t.noise.output_filter_tau_s > 0)
+    doc["noise"]["output_filter_tau_s"] = t.noise.output_filter_tau_s;
   // Likewise the chamber cycle: only profiles that have one carry its keys.
   if (t.temperature.cycle_amplitude_c != 0) {
     doc["temperature"]["cycle_amplitude_c"] = t.temperature.cycle_amplitude_c;
@@ -317,15 +319,19 @@ TruthModel truth_from_json(const json& doc, const std::string& source) {
                      "mounting_arcsec"}),
                t.stand);
   if (top.has("noise")) {
-    const Keys n(top.at("noise"), top.path("noise"),
-                 {"density_ug_rthz", "bias_instability_ug", "bias_instability_tau_s",
-                  "random_walk_ug_rthr", "quantization_ug", "angle_noise_arcsec"});
+    const Keys n(
+        top.at("noise"), top.path("noise"),
+        {"density_ug_rthz", "bias_instability_ug", "bias_instability_tau_s", "random_walk_ug_rthr",
+         "quantization_ug", "angle_noise_arcsec", "output_filter_tau_s"});
     n.number("density_ug_rthz", t.noise.density_ug_rthz);
     n.number("bias_instability_ug", t.noise.bias_instability_ug);
     n.number("bias_instability_tau_s", t.noise.bias_instability_tau_s);
     n.number("random_walk_ug_rthr", t.noise.random_walk_ug_rthr);
     n.number("quantization_ug", t.noise.quantization_ug);
     n.number("angle_noise_arcsec", t.noise.angle_noise_arcsec);
+    n.number("output_filter_tau_s", t.noise.output_filter_tau_s);
+    if (t.noise.output_filter_tau_s < 0)
+      throw std::runtime_error(n.path("output_filter_tau_s") + ": must be >= 0");
     if (t.noise.bias_instability_tau_s <= 0)
       throw std::runtime_error(n.path("bias_instability_tau_s") + ": must be > 0");
   }
@@ -372,6 +378,12 @@ UnitSimulator::UnitSimulator(const TruthModel& truth, std::uint64_t seed, double
     level_drifts_ = level_drifts_ || e.id == "stand_level_drift";
   for (int a = 0; a < 3; ++a)
     bias_gauss_markov_g_[a] = truth_.noise.bias_instability_ug * kUg * gauss_(rng_);
+  if (truth_.noise.output_filter_tau_s > 0) {
+    // Started in its stationary state, of variance sigma^2 (1 - a) / (1 + a).
+    filter_pole_ = std::exp(-1 / (sample_rate_hz * truth_.noise.output_filter_tau_s));
+    const double stationary = std::sqrt((1 - filter_pole_) / (1 + filter_pole_));
+    for (int a = 0; a < 3; ++a) filtered_noise_g_[a] = stationary * sample_sigma_g_ * gauss_(rng_);
+  }
 }
 
 void UnitSimulator::advance_bias_processes(double t_s) {
@@ -425,7 +437,15 @@ Vec3 UnitSimulator::specific_force_mps2(double t_s, double alpha1_cmd_deg, doubl
             extra_effect_output_g(e, cached_J_g_, t_s, temp_delta_c, approach_, t_s - t_arrive_s_);
     }
   }
-  for (int a = 0; a < 3; ++a) J[a] += sample_sigma_g_ * gauss_(rng_);
+  if (filter_pole_ > 0) {
+    for (int a = 0; a < 3; ++a) {
+      filtered_noise_g_[a] =
+          filter_pole_ * filtered_noise_g_[a] + (1 - filter_pole_) * sample_sigma_g_ * gauss_(rng_);
+      J[a] += filtered_noise_g_[a];
+    }
+  } else {
+    for (int a = 0; a < 3; ++a) J[a] += sample_sigma_g_ * gauss_(rng_);
+  }
   Vec3 f = J * truth_.g_local_mps2;
   if (truth_.noise.quantization_ug > 0) {
     const double lsb_mps2 = truth_.noise.quantization_ug * kUg * truth_.g_local_mps2;

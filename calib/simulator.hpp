@@ -21,6 +21,10 @@ struct NoiseModel {
   double random_walk_ug_rthr = 0;  // bias random walk: sigma grows as K*sqrt(t / 1 h)
   double quantization_ug = 0;      // output LSB, 0 = none
   double angle_noise_arcsec = 0;   // noise of the recorded angle-sensor readings
+  // The unit's output filter: the white noise through a first-order low-pass of this time
+  // constant, unit gain at zero frequency (so a long mean's error is still N / sqrt(T), while
+  // the samples scatter less and are correlated); 0 = none (independent samples).
+  double output_filter_tau_s = 0;
 };
 
 struct TemperatureProfile {
@@ -124,12 +128,14 @@ class UnitSimulator {
 
   TruthModel truth_;
   double sample_sigma_g_;
+  double filter_pole_ = 0;  // exp(-sample period / output_filter_tau_s), 0 without a filter
   std::mt19937_64 rng_;
   std::normal_distribution<double> gauss_{0.0, 1.0};
   double t_last_s_ = 0;
   Vec3 bias_gauss_markov_g_ = Vec3::Zero();
   Vec3 bias_random_walk_g_ = Vec3::Zero();
-  bool cached_ = false;  // noise-free output of the last stand position
+  Vec3 filtered_noise_g_ = Vec3::Zero();  // the output filter's state
+  bool cached_ = false;                   // noise-free output of the last stand position
   double cached_alpha1_deg_ = 0;
   double cached_alpha2_deg_ = 0;
   Mount cached_mount_ = Mount::x;

@@ -18,7 +18,8 @@ std::string scale_words(const Vec3& ug_per_unit) {
   return b;
 }
 
-// Counts become ug by the scale the norm fit finds over the recording's orientations.
+// Counts become ug by the scale the norm fit finds over the recording's static intervals (its
+// orientations).
 Vec3 counts_scale_from_norm_fit(const RawInput& in, const StaticNoiseOptions& o,
                                 StaticDetection& detection, std::string& how) {
   NormCalibrationOptions fit;
@@ -35,7 +36,7 @@ Vec3 counts_scale_from_norm_fit(const RawInput& in, const StaticNoiseOptions& o,
   }
   const Vec3 ug_per_count = ug_per_input_unit(c.fit.compensation, in.g_mps2);
   how = "counts by the norm fit's scale over " + std::to_string(c.detection.intervals.size()) +
-        " orientations (" + scale_words(ug_per_count) + ")";
+        " static intervals (" + scale_words(ug_per_count) + ")";
   detection = std::move(c.detection);
   return ug_per_count;
 }

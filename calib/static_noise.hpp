@@ -34,7 +34,8 @@ struct StaticNoise {
 
 // Throws std::runtime_error naming the source: a table of means (no samples), no static
 // interval, too few static samples, or counts with neither --counts-per-g nor orientations
-// enough for the norm fit to find the scale.
+// enough for the norm fit to find the scale; std::invalid_argument for a counts_per_g given
+// with values not read as counts.
 StaticNoise static_noise(const RawInput& in, const StaticNoiseOptions& options = {});
 
 // The pooled curves of a detection scaled per axis to ug, with the figures read off them.

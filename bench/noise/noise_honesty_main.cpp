@@ -21,9 +21,11 @@ using namespace standcal::noise_mc;
 namespace {
 
 void print_result(const ScenarioResult& r) {
-  std::printf("\n%s (wander %.1f ug, tau %.0f s; white error of one dwell mean %.2f ug)\n",
-              r.scenario.name.c_str(), r.scenario.wander_per_dwell_error * r.white_dwell_error_ug,
-              r.scenario.tau_s, r.white_dwell_error_ug);
+  std::printf(
+      "\n%s (wander %.1f ug, tau %.0f s; white error of one dwell mean %.2f ug; samples taken as "
+      "correlated within the dwells in %d runs)\n",
+      r.scenario.name.c_str(), r.scenario.wander_per_dwell_error * r.white_dwell_error_ug,
+      r.scenario.tau_s, r.white_dwell_error_ug, r.samples_correlated);
   std::printf("  %-6s %-10s %5s %5s  z-variance per parameter", "fit", "weighting", "runs",
               "wand.");
   std::printf("\n  %-6s %-10s %5s %5s ", "", "", "", "");
@@ -83,6 +85,9 @@ int main(int argc, char** argv) {
   app.add_option("--weighting-lr", setup.weighting_lr,
                  "weight for an estimated wander once 2 delta log L exceeds this")
       ->capture_default_str();
+  app.add_option("--output-filter-tau-s", setup.output_filter_tau_s,
+                 "the unit's output filter: first-order low-pass of the white noise (s)")
+      ->check(CLI::NonNegativeNumber);
   CLI11_PARSE(app, argc, argv);
   setup.program =
       repeated_program(program == "diagnostic32" ? diagnostic32() : load_program(program), repeat);
@@ -97,6 +102,9 @@ int main(int argc, char** argv) {
       "found the wander significant; 'min cover' = the smallest share of runs, over the "
       "parameters, whose truth lies within +-1.96 sigma (95 %% if honest)\n",
       std::sqrt(2.0 / setup.runs), setup.runs);
+  if (setup.output_filter_tau_s > 0)
+    std::printf("the unit's output filter: %.3g s (samples correlated within a dwell)\n",
+                setup.output_filter_tau_s);
   if (setup.tau_given_factor != 1 || setup.tau_given_range != 1)
     std::printf("'tau given': %.3g x the simulated correlation time, within a factor %.3g\n",
                 setup.tau_given_factor, setup.tau_given_range);

@@ -57,6 +57,7 @@ TruthModel truth_for(const Scenario& s, const Setup& setup, double* dwell_error_
   const double dwell_error_ug = t.noise.density_ug_rthz / std::sqrt(setup.dwell_s);
   t.noise.bias_instability_ug = s.wander_per_dwell_error * dwell_error_ug;
   t.noise.bias_instability_tau_s = s.tau_s;
+  t.noise.output_filter_tau_s = setup.output_filter_tau_s;
   *dwell_error_g = dwell_error_ug * kUg;
   return t;
 }
@@ -100,6 +101,7 @@ ScenarioResult run_scenario(const Setup& setup, const Scenario& scenario) {
   std::mutex mutex;
   auto worker = [&](int first, int stride) {
     std::vector<ZStats> local;  // from methods(), not out.stats, which others merge into
+    int samples_correlated = 0;
     for (const Method& m : methods())
       local.push_back({m.estimator, m.weighting, {}, {}, {}, {}, 0, 0, 0});
     for (int run = first; run < setup.runs; run += stride) {
@@ -111,6 +113,9 @@ ScenarioResult run_scenario(const Setup& setup, const Scenario& scenario) {
       req.seed = setup.first_seed + static_cast<std::uint64_t>(run);
       const Recording rec = simulate_run(req);
       const std::vector<PositionAverage> avg = average_positions(rec);
+      if (const std::optional<AllanFinding> allan = allan_finding(rec);
+          allan && allan->sample_correlation)
+        ++samples_correlated;
       for (std::size_t k = 0; k < methods().size(); ++k) {
         try {
           accumulate(local[k], fit_with(methods()[k], rec, avg, truth, setup), x_true);
@@ -120,6 +125,7 @@ ScenarioResult run_scenario(const Setup& setup, const Scenario& scenario) {
       }
     }
     const std::lock_guard<std::mutex> lock(mutex);
+    out.samples_correlated += samples_correlated;
     for (std::size_t k = 0; k < local.size(); ++k) {
       ZStats& z = out.stats[k];
       z.runs += local[k].runs;

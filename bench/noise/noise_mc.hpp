@@ -35,6 +35,9 @@ struct Setup {
   // ... or the range of correlation times from that / this to that x this (1: one value), as
   // `standcal noise` gives it from a static recording.
   double tau_given_range = 1;
+  // The unit's output filter (NoiseModel::output_filter_tau_s): samples correlated within a
+  // dwell, which sigma / sqrt(n) does not see. 0: independent samples.
+  double output_filter_tau_s = 0;
 };
 
 // z statistics of one estimator with one weighting in one scenario.
@@ -54,6 +57,9 @@ struct ZStats {
 struct ScenarioResult {
   Scenario scenario;
   double white_dwell_error_ug = 0;
+  // Runs whose dwells' Allan curves showed the samples correlated, so that the averages'
+  // standard errors were widened (calib/allan.hpp, SampleCorrelation).
+  int samples_correlated = 0;
   std::vector<ZStats> stats;
 };
 

@@ -211,7 +211,7 @@ std::string noise_words(const NoiseFinding& n) {
   for (int a = 0; a < 3; ++a)
     s += std::string(a ? "," : "") + " " + fmt("%.1f", n.allan_peak_ug[a]);
   s += " ug); sigma/sqrt(n) understated a dwell mean's error by up to " +
-       fmt("%.1f", n.understated_by.maxCoeff()) +
+       fmt("%.1f", n.understated_in_total().maxCoeff()) +
        "x. Every test above weighs the positions with this noise "
        "(generalised least squares; 2 delta log L = " +
        fmt("%.0f", n.lr) + ").";

@@ -33,6 +33,15 @@ class Cli : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(dir_); }
   std::string path(const std::string& name) const { return (dir_ / name).string(); }
+  // The simulator's default model as a model file takes it (`simulate --truth`), to edit.
+  nlohmann::json default_model() const {
+    const CliRun r = run_cli("simulate --program paper9 -o " + path("default_model_run.csv") +
+                             " --truth " + path("default_model.json"));
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    nlohmann::json model;
+    std::ifstream(path("default_model.json")) >> model;
+    return model;
+  }
   fs::path dir_;
 };
 
@@ -183,12 +192,7 @@ TEST_F(Cli, SimulateRefusesDwellAndSettleTimesPastTheRunLimits) {
 // (about 1.9 tau) is not it.
 TEST_F(Cli, NoiseOfAStaticRecordingNamesTheCorrelationTimeToGiveTheFits) {
   // One position held for `dwell_s`, the default unit with a 3 ug wander of `tau_s`, at 10 Hz.
-  ASSERT_EQ(run_cli("simulate --program paper9 -o " + path("p9.csv") + " --truth " +
-                    path("static_truth.json"))
-                .exit_code,
-            0);
-  nlohmann::json truth;
-  std::ifstream(path("static_truth.json")) >> truth;
+  nlohmann::json truth = default_model();
   truth["noise"]["bias_instability_ug"] = 3;
   const auto static_recording = [&](const std::string& name, double dwell_s, double tau_s,
                                     int seed) {
@@ -248,12 +252,7 @@ TEST_F(Cli, NoiseOfAStaticRecordingNamesTheCorrelationTimeToGiveTheFits) {
 // correlation time (the static interval found by the detector, one orientation held). It
 // refused every file but standcal's own before ("one column only").
 TEST_F(Cli, NoiseReadsImuTkTextInGAndInCounts) {
-  ASSERT_EQ(
-      run_cli("simulate --program paper9 -o " + path("p9.csv") + " --truth " + path("truth.json"))
-          .exit_code,
-      0);
-  nlohmann::json truth;
-  std::ifstream(path("truth.json")) >> truth;
+  nlohmann::json truth = default_model();
   truth["noise"]["bias_instability_ug"] = 3;
   truth["noise"]["bias_instability_tau_s"] = 60;
   std::ofstream(path("model.json")) << truth.dump(2);
@@ -301,7 +300,9 @@ TEST_F(Cli, NoiseReadsImuTkTextInGAndInCounts) {
   const auto gauss_markov = [](const std::string& args) {
     const CliRun r = run_cli("noise " + args + " --json");
     EXPECT_EQ(r.exit_code, 0) << r.output;
-    return nlohmann::json::parse(r.output.substr(r.output.find('{')));
+    const std::size_t json_at = r.output.find('{');
+    EXPECT_NE(json_at, std::string::npos) << r.output;
+    return nlohmann::json::parse(json_at == std::string::npos ? "{}" : r.output.substr(json_at));
   };
   const auto stand = gauss_markov(path("static.csv"))["gauss_markov"];
   const auto text_g = gauss_markov(path("static_g.txt"));
@@ -330,8 +331,34 @@ TEST_F(Cli, NoiseReadsImuTkTextInGAndInCounts) {
   EXPECT_NE(refused.exit_code, 0);
   EXPECT_NE(refused.output.find("--counts-per-g"), std::string::npos) << refused.output;
   refused = run_cli("noise " + path("static_g.txt") + " --counts-per-g 4000");
-  EXPECT_NE(refused.exit_code, 0);
+  EXPECT_EQ(refused.exit_code, 2) << refused.output;  // a usage error, as on a stand recording
+  EXPECT_EQ(run_cli("noise " + path("static.csv") + " --counts-per-g 4000").exit_code, 2);
   EXPECT_NE(refused.output.find("read as g"), std::string::npos) << refused.output;
+}
+
+// A unit whose output filter correlates its samples (a model file's noise.output_filter_tau_s):
+// the fit widens each dwell mean's standard error and says so, in the JSON and the report.
+TEST_F(Cli, AFitSaysTheSamplesAreCorrelatedAndByHowMuchItWidenedTheDwellErrors) {
+  nlohmann::json truth = default_model();
+  truth["noise"]["output_filter_tau_s"] = 0.08;  // two sample periods at 25 Hz
+  std::ofstream(path("filtered.json")) << truth.dump(2);
+  ASSERT_EQ(run_cli("simulate --program paper9 --rate-hz 25 --dwell-s 10 --seed 3 -o " +
+                    path("f.csv") + " --model " + path("filtered.json"))
+                .exit_code,
+            0);
+  const CliRun json_run = run_cli("fit " + path("f.csv") + " --json");
+  ASSERT_EQ(json_run.exit_code, 0) << json_run.output;
+  const auto noise = nlohmann::json::parse(json_run.output)["noise"];
+  ASSERT_TRUE(noise["allan"].contains("sample_correlation")) << noise.dump(2);
+  for (const auto& f : noise["allan"]["sample_correlation"]["dwell_error_over_sigma_sqrt_n"])
+    EXPECT_NEAR(f.get<double>(), 2.02, 0.25) << noise.dump(2);
+  const CliRun text = run_cli("fit " + path("f.csv"));
+  EXPECT_NE(text.output.find("the samples are correlated over about"), std::string::npos)
+      << text.output;
+  // A recording of independent samples has none.
+  EXPECT_EQ(
+      run_cli("fit " + path("default_model_run.csv") + " --json").output.find("sample_correlation"),
+      std::string::npos);
 }
 
 // imu_tk's Xsens recording, moved by hand: counts read in ug by the norm fit's scale over its
@@ -343,7 +370,9 @@ TEST_F(Cli, NoiseReadsImuTkTextInGAndInCounts) {
 TEST_F(Cli, NoiseOfTheXsensRecordingFindsNoBiasWanderAndSaysWhereTheCurvesDepart) {
   const CliRun json_run = run_cli("noise " + standcal::test::kXsens + " --json");
   ASSERT_EQ(json_run.exit_code, 0) << json_run.output;
-  const auto j = nlohmann::json::parse(json_run.output.substr(json_run.output.find('{')));
+  const std::size_t json_at = json_run.output.find('{');
+  ASSERT_NE(json_at, std::string::npos) << json_run.output;
+  const auto j = nlohmann::json::parse(json_run.output.substr(json_at));
   EXPECT_EQ(j["segments"], 39) << j["static"].dump(2);
   EXPECT_NE(j["static"]["units_how"].get<std::string>().find("norm fit's scale over 39"),
             std::string::npos)
@@ -483,7 +512,7 @@ TEST_F(Cli, FitStatesItsNoiseModelAndWeightsForTheWanderOfTheRun) {
 }
 
 // Issue 16: a recording from another tool, without angles, through the same commands.
-const std::string kXsensFile = std::string(STANDCAL_TEST_DATA) + "/imu_tk_xsens/xsens_acc.mat";
+const std::string& kXsensFile = standcal::test::kXsens;
 
 TEST_F(Cli, FitOfARecordingWithoutAnglesChoosesTheNormFit) {
   const CliRun fit = run_cli("fit " + kXsensFile + " --g-mps2 9.81744 --json");

@@ -250,6 +250,39 @@ TEST_F(StreamingReader, TheDigestIsWhatTheWholeRecordingGives) {
   }
 }
 
+// A unit whose output filter correlates its samples (0.2 s at 10 Hz: sigma / sqrt(n)
+// understates a dwell mean's error by sqrt((1 + a) / (1 - a)) = 2.0, a = exp(-1/2)): the
+// dwells' pooled Allan curves show it, and the averages of the whole recording and of the
+// digest widen each standard error by the same factor.
+TEST_F(StreamingReader, SamplesCorrelatedWithinADwellWidenItsStandardErrorInBothReaders) {
+  SimulationRequest req;
+  req.program = classic24();
+  req.timing.dwell_s = 10;
+  req.timing.sample_rate_hz = 10;
+  req.seed = 9;
+  req.truth.noise.output_filter_tau_s = 0.2;
+  const std::string path = (dir_ / "filtered.csv").string();
+  write_recording(simulate_run(req), path);
+  const Recording whole = read_recording(path);
+  const RecordingDigest digest = digest_recording(path);
+  const std::vector<PositionAverage> averages = average_positions(whole);
+  expect_same_averages(digest.averages, averages);
+  ASSERT_TRUE(digest.allan && digest.allan->sample_correlation);
+  const Vec3 factor = digest.allan->sample_correlation->factor;
+  for (int a = 0; a < 3; ++a) EXPECT_NEAR(factor[a], 2.02, 0.25) << a;
+  for (const PositionAverage& p : averages) {
+    const Vec3 white = p.sigma_g / std::sqrt(static_cast<double>(p.samples));
+    for (int a = 0; a < 3; ++a)
+      EXPECT_NEAR(p.standard_error_g[a], white[a] * factor[a], 1e-12 * white[a]) << p.pos;
+  }
+  // Independent samples (the same run without the filter) are left as sigma / sqrt(n).
+  req.truth.noise.output_filter_tau_s = 0;
+  write_recording(simulate_run(req), path);
+  const RecordingDigest white_digest = digest_recording(path);
+  ASSERT_TRUE(white_digest.allan);
+  EXPECT_FALSE(white_digest.allan->sample_correlation);
+}
+
 TEST_F(StreamingReader, AGivenGravityIsUsedAndItsWarningDropped) {
   Recording rec = small_run(true);
   std::erase_if(rec.header, [](const auto& kv) { return kv.first == "g_local_mps2"; });

@@ -158,24 +158,74 @@ TEST(GaussMarkovAllanFit, WhiteNoiseAloneIsNotGivenACorrelationTime) {
 // averaging times) fits as a Gauss-Markov of 0.01 s: that is no bias wander, and the fit had
 // reported one (wander_seen, q 480 ug on the Xsens file, "correlation time up to 0.0141 s").
 // A dwell mean sees it as white noise of density sqrt(N^2 + 2 q^2 tau_c).
+// Two sample periods (a 10 Hz unit filtered at 0.2 s) are told from the shortest averaging
+// time, and twenty (100 Hz) even more so: both are the samples' own correlation all the
+// same, under a second (they had been a wander "of 0.2 s" to give the fits).
 TEST(GaussMarkovAllanFit, SamplesCorrelatedOverASamplePeriodAreNoBiasWander) {
-  constexpr double kFastRateHz = 100, kN = 40, kQ = 400, kTauC = 0.01;
-  std::vector<std::vector<AllanPoint>> curves;
-  for (const std::vector<double>& y :
-       simulate_static_gauss_markov(kN, kQ, kTauC, 600, kFastRateHz, 21))
-    curves.push_back(overlapping_allan_deviation({y}, 1 / kFastRateHz));
-  const auto fit = fit_gauss_markov_allan(curves, 1 / kFastRateHz);
-  ASSERT_TRUE(fit.has_value());
-  EXPECT_TRUE(fit->short_correlation) << fit->tau_min_s << " - " << fit->tau_max_s;
-  EXPECT_FALSE(fit->wander_seen);
-  EXPECT_FALSE(fit->tau_bounded);
-  const double dwell_white = std::sqrt(kN * kN + 2 * kQ * kQ * kTauC);  // 69.3 ug/rtHz
-  for (int a = 0; a < 3; ++a) {
-    EXPECT_EQ(fit->q[a], 0) << a;
-    EXPECT_NEAR(fit->white_density[a] / dwell_white, 1, 0.05) << a;
-    EXPECT_NEAR(fit->short_q[a] / kQ, 1, 0.3) << a;
+  struct Case {
+    double rate_hz, white, q, tau_c_s;
+  };
+  for (const Case c : {Case{100, 40, 400, 0.01}, Case{10, 5, 40, 0.2}, Case{100, 10, 60, 0.2}}) {
+    std::vector<std::vector<AllanPoint>> curves;
+    for (const std::vector<double>& y :
+         simulate_static_gauss_markov(c.white, c.q, c.tau_c_s, 600, c.rate_hz, 21))
+      curves.push_back(overlapping_allan_deviation({y}, 1 / c.rate_hz));
+    const auto fit = fit_gauss_markov_allan(curves, 1 / c.rate_hz);
+    ASSERT_TRUE(fit.has_value());
+    EXPECT_TRUE(fit->short_correlation) << fit->tau_min_s << " - " << fit->tau_max_s;
+    EXPECT_FALSE(fit->wander_seen) << c.tau_c_s;
+    EXPECT_FALSE(fit->tau_bounded) << c.tau_c_s;
+    // 69.3, 18.6 and 39.2 ug/rtHz
+    const double dwell_white = std::sqrt(c.white * c.white + 2 * c.q * c.q * c.tau_c_s);
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_EQ(fit->q[a], 0) << a;
+      EXPECT_NEAR(fit->white_density[a] / dwell_white, 1, 0.05) << a << " " << c.tau_c_s;
+      EXPECT_NEAR(fit->short_q[a] / c.q, 1, 0.3) << a << " " << c.tau_c_s;
+    }
+    EXPECT_LT(fit->tau_max_s, 5 * c.tau_c_s);
   }
-  EXPECT_LT(fit->tau_max_s, 5 * kTauC);
+}
+
+// Filters of two to five sample periods at 100 Hz, over five seeds each: each is the
+// samples' own correlation, never a wander to give the fits.
+TEST(GaussMarkovAllanFit, AFilterOfAFewSamplePeriodsIsNeverAWander) {
+  for (const double tau_c_s : {0.02, 0.03, 0.05})
+    for (unsigned seed = 31; seed <= 35; ++seed) {
+      std::vector<std::vector<AllanPoint>> curves;
+      for (const std::vector<double>& y :
+           simulate_static_gauss_markov(20, 200, tau_c_s, 600, 100, seed))
+        curves.push_back(overlapping_allan_deviation({y}, 0.01));
+      const auto fit = fit_gauss_markov_allan(curves, 0.01);
+      ASSERT_TRUE(fit.has_value());
+      EXPECT_TRUE(fit->short_correlation) << tau_c_s << " seed " << seed;
+      EXPECT_NEAR(fit->tau_s / tau_c_s, 1, 0.5) << tau_c_s << " seed " << seed;
+    }
+}
+
+// A slow wander beside a one-sample correlation: one correlation time cannot describe both.
+// The slow wander must not be called the samples' own correlation (its tau within the short
+// range, or the white noise swollen by 2 q^2 tau of a slow tau), and what the model misses
+// must be said.
+TEST(GaussMarkovAllanFit, ASlowWanderBesideAShortCorrelationIsNotCalledShort) {
+  std::vector<std::vector<AllanPoint>> curves;
+  const auto slow = simulate_static_gauss_markov(10, 30, 300, 4 * 3600, 100, 41);
+  const auto fast = simulate_static_gauss_markov(0, 400, 0.01, 4 * 3600, 100, 42);
+  for (std::size_t a = 0; a < 3; ++a) {
+    std::vector<double> y(slow[a].size());
+    for (std::size_t k = 0; k < y.size(); ++k) y[k] = slow[a][k] + fast[a][k];
+    curves.push_back(overlapping_allan_deviation({y}, 0.01));
+  }
+  const auto fit = fit_gauss_markov_allan(curves, 0.01);
+  ASSERT_TRUE(fit.has_value());
+  // Measured: the short correlation taken (tau 0.0105 s), dev/dof 310, and the departure at
+  // the long averaging times where the slow wander rises.
+  if (fit->short_correlation) {
+    EXPECT_LE(fit->tau_max_s, 1);
+    EXPECT_FALSE(fit->describes_curves) << fit->deviance_per_dof;
+    EXPECT_GT(fit->worst_departure.tau_s, 10) << fit->worst_departure.tau_s;
+  } else {
+    EXPECT_GE(fit->tau_min_s, 1) << fit->tau_s;
+  }
 }
 
 TEST(GaussMarkovAllanFit, TheRangeHoldsTheTrueCorrelationTimeAboutNineteenTimesInTwenty) {

@@ -1,9 +1,7 @@
 // `standcal design evaluate|optimize|compare` (experiment design), issue 3.
-#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <iostream>
 #include <map>
 #include <memory>

@@ -55,6 +55,7 @@ NoiseSource read_noise_source(const NoiseOptions& o) {
                                  o.recording + " is a stand recording in m/s^2, not counts");
     DigestOptions reading;
     reading.averages = false;  // the Allan deviation alone: each dwell is dropped once added
+    if (o.input.g_mps2 > 0) reading.g_mps2 = o.input.g_mps2;
     RecordingDigest digest = digest_on_two_threads(o.recording, reading);
     print_warnings(digest.recording.warnings);
     if (!digest.allan) throw std::runtime_error(digest.allan_unavailable);
@@ -63,10 +64,16 @@ NoiseSource read_noise_source(const NoiseOptions& o) {
   const RawInput in = read_input(o.recording, input_options(o.input));
   print_warnings(in.warnings);
   StaticNoiseOptions options;
-  if (o.counts_per_g > 0) options.counts_per_g = o.counts_per_g;
+  if (o.counts_per_g > 0) {
+    if (in.units != InputUnits::counts)
+      throw CLI::ValidationError("--counts-per-g", o.recording + " was read as " +
+                                                       std::string(to_string(in.units)) + " (" +
+                                                       in.units_how + "), not counts");
+    options.counts_per_g = o.counts_per_g;
+  }
   StaticNoise noise = static_noise(in, options);
-  NoiseSource source{in.source, noise.samples, noise.allan, std::nullopt};
-  source.raw = std::move(noise);
+  NoiseSource source{in.source, noise.samples, std::move(noise.allan), std::nullopt};
+  source.raw = std::move(noise);  // its curves moved out above: how they were read, alone
   return source;
 }
 
@@ -102,8 +109,6 @@ json gauss_markov_json(const GaussMarkovAllanFit& f) {
   return j;
 }
 
-// What the Allan curves say of the unit's correlation time, and how to give it to the fits
-// (one calibration run cannot pin it: docs/calibration.md, "The correlation time, given").
 std::string per_axis(const std::vector<double>& v, const char* unit) {
   std::string s;
   for (std::size_t a = 0; a < v.size() && a < 3; ++a)
@@ -122,27 +127,35 @@ std::string short_correlation_words(const GaussMarkovAllanFit& f) {
          " (the noise density to give `standcal design`)";
 }
 
+// What the Allan curves say of the unit's correlation time, and how to give it to the fits
+// (one calibration run cannot pin it: docs/calibration.md, "The correlation time, given").
 std::string gauss_markov_words(const std::optional<GaussMarkovAllanFit>& f, double curve_end_s) {
-  using diagnosis::fmt;
   if (!f) return "Gauss-Markov wander: the curves are too short to fit one (fewer than 5 octaves)";
   if (f->short_correlation) return short_correlation_words(*f);
   if (!f->wander_seen)
-    return "Gauss-Markov wander: none seen (white noise explains the curves up to " +
-           seconds_text(curve_end_s) + " s)";
-  std::string s =
+    return "Gauss-Markov wander: none seen up to " + seconds_text(curve_end_s) + " s" +
+           (f->describes_curves ? " (white noise explains the curves)" : "");
+  const std::string s =
       "Gauss-Markov wander (white noise and one wander fitted to the three curves, "
-      "one correlation time): steady-state sigma";
-  for (std::size_t a = 0; a < f->q.size(); ++a)
-    s += std::string(a ? "," : "") + " " + "xyz"[a] + " " + fmt("%.3g", f->q[a]) + " ug";
+      "one correlation time): steady-state sigma " +
+      per_axis(f->q, "ug");
   const std::string how_long = " (its curves end at " + seconds_text(curve_end_s) +
                                " s; a static recording of about 100 x the correlation time "
                                "pins it)";
-  if (!f->tau_bounded)  // a seen wander's range reaches above the curves (short: above)
+  if (f->tau_open_above)
     return s + "; correlation time not pinned: this recording allows " +
            seconds_text(f->tau_min_s) + " s and beyond" + how_long;
+  if (!f->tau_bounded)  // the range reaches down to the shortest averaging time
+    return s + "; correlation time not pinned: this recording allows up to " +
+           seconds_text(f->tau_max_s) + " s" + how_long;
   const std::string lo = seconds_text(f->tau_min_s), hi = seconds_text(f->tau_max_s);
-  return s + "; correlation time " + seconds_text(f->tau_s) + " s (this recording allows " + lo +
-         "-" + hi + " s)\ngive the range to the fits: standcal fit --bias-instability-tau-s " + lo +
+  const std::string found = s + "; correlation time " + seconds_text(f->tau_s) +
+                            " s (this recording allows " + lo + "-" + hi + " s)";
+  if (!f->describes_curves)
+    return found +
+           ", but the model does not describe the curves (below): no range to give "
+           "the fits from them";
+  return found + "\ngive the range to the fits: standcal fit --bias-instability-tau-s " + lo +
          " --bias-instability-tau-max-s " + hi +
          " (standcald: unit.bias_instability_tau_s and unit.bias_instability_tau_max_s); one "
          "calibration run cannot pin it, and too short a tau makes the biases' sigmas too "
@@ -215,18 +228,25 @@ void run_noise(const NoiseOptions& o) {
                 (cell(figures[a].bias_instability) + tau).c_str(),
                 cell(figures[a].random_walk).c_str());
   }
-  std::printf("use the noise density with `standcal design ... --noise-density-ug-rthz N`\n");
+  if (wander && wander->short_correlation)
+    std::printf(
+        "(the samples are correlated: give `standcal design` the white noise a dwell "
+        "mean sees, below)\n");
+  else
+    std::printf("use the noise density with `standcal design ... --noise-density-ug-rthz N`\n");
   double curve_end_s = 0;  // the longest averaging time of any axis
   for (const auto& c : curves)
     if (!c.empty()) curve_end_s = std::max(curve_end_s, c.back().tau_s);
   std::printf("%s\n", gauss_markov_words(wander, curve_end_s).c_str());
   if (wander && !wander->describes_curves) {
     const GaussMarkovAllanFit::Departure& d = wander->worst_departure;
+    const bool white_alone = !wander->wander_seen && !wander->short_correlation;
     std::printf(
-        "the curves depart from white noise and one correlation time: their scatter about the "
-        "fit is %.3g x what their clusters allow, most on %c at %s s (%.3g x the model's "
-        "deviation): motion left in the static intervals, or a noise process the model lacks; "
-        "read the figures above as a summary and the curve itself (--plot)\n",
+        "the curves depart from %s: their scatter about the fit is %.3g x what their clusters "
+        "allow, most on %c at %s s (%.3g x the model's deviation): motion left in the static "
+        "intervals, or a noise process the model lacks; read the figures above as a summary "
+        "and the curve itself (--plot)\n",
+        white_alone ? "white noise alone" : "white noise and one correlation time",
         wander->deviance_per_dof, "xyz"[d.axis], seconds_text(d.tau_s).c_str(), d.ratio);
   }
 }
