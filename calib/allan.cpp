@@ -33,17 +33,12 @@ void AllanAccumulator::extend_cluster_sizes(long max_m) {
 
 void AllanAccumulator::add_segment(std::vector<double>& samples) {
   const std::size_t sample_count = samples.size();
-  // Phase x_k = tau0 * (sum of the first k samples), k = 0..n, in place; and the samples'
-  // scatter about the segment's mean (Welford), which the phase no longer holds.
-  double running = 0, mean = 0, scatter = 0;
-  long seen = 0;
+  // Phase x_k = tau0 * (sum of the first k samples), k = 0..n, in place.
+  double running = 0;
   for (double& v : samples) {
     const double sample = v;
     v = running;
     running += sample * sample_period_s_;
-    const double step = sample - mean;
-    mean += step / static_cast<double>(++seen);
-    scatter += step * (sample - mean);
   }
   samples.push_back(running);
   const double* x = samples.data();
@@ -67,15 +62,13 @@ void AllanAccumulator::add_segment(std::vector<double>& samples) {
     }
     sums.push_back((partial[0] + partial[1]) + (partial[2] + partial[3]));
   }
-  add_sums(n, sample_count, sums, scatter);
-  if (keep_segment_sums_) kept_.push_back({n, std::move(sums), scatter});
+  add_sums(n, sample_count, sums);
+  if (keep_segment_sums_) kept_.push_back({n, std::move(sums)});
 }
 
 void AllanAccumulator::add_sums(long phase_length, std::size_t samples,
-                                const std::vector<double>& sums, double scatter) {
+                                const std::vector<double>& sums) {
   ++segments_;
-  scatter_ += scatter;
-  if (samples > 1) scatter_dof_ += static_cast<long>(samples) - 1;
   longest_ = std::max(longest_, samples);
   extend_cluster_sizes(phase_length / 2);
   for (std::size_t i = 0; i < sums.size(); ++i) {
@@ -90,11 +83,7 @@ void AllanAccumulator::append(const AllanAccumulator& later) {
   if (later.segments_ != later.kept_.size())
     throw std::logic_error("Allan deviation: append needs every segment's sums kept");
   for (const SegmentSums& s : later.kept_)
-    add_sums(s.phase_length, static_cast<std::size_t>(s.phase_length - 1), s.sums, s.scatter);
-}
-
-double AllanAccumulator::sample_variance() const {
-  return scatter_dof_ > 0 ? scatter_ / static_cast<double>(scatter_dof_) : kNaN;
+    add_sums(s.phase_length, static_cast<std::size_t>(s.phase_length - 1), s.sums);
 }
 
 std::vector<AllanPoint> AllanAccumulator::curve() const {
@@ -436,27 +425,21 @@ DwellAllan finish_dwell_allan(double sample_period_s,
     out.curves[a] = pooled[a].curve();
     out.figures[a] = noise_figures(out.curves[a]);
   }
-  Vec3 sample_sigma;
-  for (std::size_t a = 0; a < 3; ++a)
-    sample_sigma[static_cast<Eigen::Index>(a)] = std::sqrt(pooled[a].sample_variance());
-  out.sample_correlation = sample_correlation(out.curves, sample_period_s, sample_sigma);
+  out.sample_correlation = sample_correlation(out.curves, sample_period_s);
   return out;
 }
 
 std::optional<SampleCorrelation> sample_correlation(
-    const std::array<std::vector<AllanPoint>, 3>& curves, double sample_period_s,
-    const Vec3& sample_sigma) {
+    const std::array<std::vector<AllanPoint>, 3>& curves, double sample_period_s) {
   const std::optional<GaussMarkovAllanFit> fit =
       fit_gauss_markov_allan({curves[0], curves[1], curves[2]}, sample_period_s);
   if (!fit || !fit->short_correlation) return std::nullopt;
-  SampleCorrelation c{fit->tau_s, fit->tau_max_s, Vec3::Ones()};
-  for (std::size_t a = 0; a < 3; ++a) {
-    // The white noise a dwell mean sees (the curves' long averaging times), over the one
-    // sigma / sqrt(n) assumes: the samples' own scatter, sigma sqrt(tau0).
-    const double assumed = sample_sigma[static_cast<Eigen::Index>(a)] * std::sqrt(sample_period_s);
-    if (assumed > 0)
-      c.factor[static_cast<Eigen::Index>(a)] = std::max(1.0, fit->white_density[a] / assumed);
-  }
+  SampleCorrelation c;
+  c.tau_s = fit->tau_s;
+  c.tau_max_s = fit->tau_max_s;
+  c.sample_period_s = sample_period_s;
+  for (std::size_t a = 0; a < 3; ++a)
+    c.dwell_white[static_cast<Eigen::Index>(a)] = fit->white_density[a];
   return c;
 }
 

@@ -30,9 +30,6 @@ class AllanAccumulator {
   // per decade; taus no segment reached are left out.
   std::vector<AllanPoint> curve() const;
   std::size_t segments() const { return segments_; }
-  // The samples' variance about their own segment's mean, pooled over the segments (n - 1
-  // each); NaN before a segment of two samples.
-  double sample_variance() const;
   double sample_period_s() const { return sample_period_s_; }
 
   // Keep each segment's sums from now on, so that another accumulator can take them in
@@ -47,11 +44,9 @@ class AllanAccumulator {
   struct SegmentSums {
     long phase_length = 0;     // samples + 1
     std::vector<double> sums;  // per cluster size, while the segment is long enough
-    double scatter = 0;        // sum of squared deviations from the segment's mean
   };
   // Adds one segment's sums (the shared end of add_segment and append).
-  void add_sums(long phase_length, std::size_t samples, const std::vector<double>& sums,
-                double scatter);
+  void add_sums(long phase_length, std::size_t samples, const std::vector<double>& sums);
 
   // Extends the cluster sizes (10^(i / points_per_decade), rounded, distinct) to max_m.
   void extend_cluster_sizes(long max_m);
@@ -64,8 +59,6 @@ class AllanAccumulator {
   std::vector<long> cluster_sizes_;
   std::vector<double> sum_sq_;  // per cluster size: sum of squared second differences
   std::vector<long> terms_;
-  double scatter_ = 0;  // sum of squared deviations from each segment's mean
-  long scatter_dof_ = 0;
   bool keep_segment_sums_ = false;
   std::vector<SegmentSums> kept_;
 };
@@ -189,26 +182,27 @@ double sample_period_s(const Recording& rec);
 // when there are none.
 std::optional<double> median_step_s(std::vector<double> steps_s);
 
-// The Allan deviation of each axis over a recording's dwells pooled: each position block is
-// one static segment (the moves are not samples), in ug, with the figures read off it.
 // The samples' own correlation as it bears on a dwell mean: sigma / sqrt(n) takes the samples
 // as independent, and the mean of correlated ones has the error of the white noise a dwell
 // sees, sqrt(N^2 + 2 q^2 tau_c) per sqrt(Hz) (GaussMarkovAllanFit::short_correlation),
 // against sigma sqrt(tau0) from the samples' own scatter.
 struct SampleCorrelation {
   double tau_s = 0, tau_max_s = 0;  // the correlation time and the most the curves allow
-  // A dwell mean's standard error over sigma / sqrt(n), per axis: at least 1 (a filter that
+  double sample_period_s = 0;
+  Vec3 dwell_white = Vec3::Zero();  // the white noise a dwell mean sees, per sqrt(Hz), ug
+  // A dwell mean's standard error over sigma / sqrt(n), per axis, as the averages widened by
+  // it found (widen_for_sample_correlation, calib/averaging.hpp): at least 1 (a filter that
   // anticorrelated the samples would not be trusted to shrink a sigma).
   Vec3 factor = Vec3::Ones();
 };
-// Of the dwells' pooled curves: nothing where the fit sees no short correlation, or the
-// curves are too short to fit.
-// sample_sigma: the samples' scatter about their segments' means, per axis, in the curves'
-// unit.
+// Of the dwells' pooled curves (ug): nothing where the fit sees no short correlation, or the
+// curves are too short to fit (fewer than kGaussMarkovFitMinPoints octaves: dwells under
+// about 50 samples are never widened).
 std::optional<SampleCorrelation> sample_correlation(
-    const std::array<std::vector<AllanPoint>, 3>& curves, double sample_period_s,
-    const Vec3& sample_sigma);
+    const std::array<std::vector<AllanPoint>, 3>& curves, double sample_period_s);
 
+// The Allan deviation of each axis over a recording's dwells pooled: each position block is
+// one static segment (the moves are not samples), in ug, with the figures read off it.
 struct DwellAllan {
   double sample_period_s = 0;
   std::size_t segments = 0;

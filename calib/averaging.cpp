@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "calib/order_statistics.hpp"
+#include "calib/units.hpp"
 
 namespace standcal {
 
@@ -123,6 +124,10 @@ void derive_missing_approaches(std::vector<PositionAverage>& averages) {
 }
 
 std::vector<PositionAverage> average_positions(const Recording& rec) {
+  return average_recording(rec).averages;
+}
+
+AveragedRecording average_recording(const Recording& rec) {
   if (rec.samples.empty()) throw std::runtime_error(rec.source + ": the recording has no samples");
   std::vector<PositionAverage> out;
   DwellSamples dwell;
@@ -135,16 +140,38 @@ std::vector<PositionAverage> average_positions(const Recording& rec) {
   }
   out.push_back(average_dwell(dwell, rec));
   derive_missing_approaches(out);
-  if (const std::optional<AllanFinding> allan = allan_finding(rec);
-      allan && allan->sample_correlation)
-    widen_for_sample_correlation(out, *allan->sample_correlation);
-  return out;
+  AveragedRecording averaged{std::move(out), allan_finding(rec)};
+  if (averaged.allan && averaged.allan->sample_correlation)
+    widen_for_sample_correlation(averaged.averages, *averaged.allan->sample_correlation);
+  return averaged;
 }
 
 void widen_for_sample_correlation(std::vector<PositionAverage>& averages,
-                                  const SampleCorrelation& correlation) {
+                                  SampleCorrelation& correlation) {
+  Vec3 scatter = Vec3::Zero();  // sum of (n - 1) sigma^2, g^2
+  double dof = 0;
+  for (const PositionAverage& a : averages) {
+    if (a.samples < 2) continue;
+    const double n1 = static_cast<double>(a.samples - 1);
+    scatter += n1 * a.sigma_g.cwiseAbs2();
+    dof += n1;
+  }
+  if (!(dof > 0)) return;
+  for (int k = 0; k < 3; ++k) {
+    const double assumed_ug_rthz =
+        std::sqrt(scatter[k] / dof) / kUg * std::sqrt(correlation.sample_period_s);
+    correlation.factor[k] =
+        assumed_ug_rthz > 0 ? std::max(1.0, correlation.dwell_white[k] / assumed_ug_rthz) : 1.0;
+  }
   for (PositionAverage& a : averages)
     a.standard_error_g = a.standard_error_g.cwiseProduct(correlation.factor);
+}
+
+double correlation_widening(const PositionAverage& a, int axis) {
+  const double white = a.sigma_g[axis] / std::sqrt(static_cast<double>(a.samples));
+  if (!(white > 0) || a.samples < 2) return 1;
+  const double widening = a.standard_error_g[axis] / white;
+  return widening > 1 + 1e-9 ? widening : 1;  // sigma / sqrt(n) as computed: exactly 1
 }
 
 std::optional<double> mean_dwell_temperature_c(const std::vector<PositionAverage>& averages) {

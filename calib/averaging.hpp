@@ -47,12 +47,28 @@ void derive_missing_approaches(std::vector<PositionAverage>& averages);
 // Throws std::runtime_error naming the recording if it has no samples, or a position
 // keeps fewer than 2 samples after outlier rejection.
 std::vector<PositionAverage> average_positions(const Recording& rec);
+// The same averages with the Allan figures of the recording's dwells pooled (the fits'
+// `noise.allan`; nothing where it has too few samples or no sample rate), whose
+// sample_correlation, where there is one, carries the factor the errors were widened by.
+struct AveragedRecording {
+  std::vector<PositionAverage> averages;
+  std::optional<AllanFinding> allan;
+};
+AveragedRecording average_recording(const Recording& rec);
 
 // Multiplies each mean's standard error by the samples' own correlation's factor (a unit's
 // output filter: calib/allan.hpp, SampleCorrelation): sigma / sqrt(n) takes the samples of
-// a dwell as independent, and correlated ones average down more slowly.
+// a dwell as independent, and correlated ones average down more slowly. The factor, per
+// axis, is the white noise a dwell mean sees over sigma sqrt(tau0), sigma the averages' own
+// sample deviations pooled (n - 1 each, outliers left out as in the means); it is stored in
+// `correlation`.
 void widen_for_sample_correlation(std::vector<PositionAverage>& averages,
-                                  const SampleCorrelation& correlation);
+                                  SampleCorrelation& correlation);
+
+// How much a dwell mean's standard error exceeds sigma / sqrt(n): the widening for correlated
+// samples, 1 where there is none. What one sample's sigma is to be widened by in a test that
+// spans the dwell as its mean does.
+double correlation_widening(const PositionAverage& a, int axis);
 
 // The unit's mean temperature over the dwells that have one, or nothing: the temperature a
 // calibration holds at.

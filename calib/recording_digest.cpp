@@ -47,7 +47,7 @@ RecordingDigest RecordingDigester::finish(Recording&& read) {
     out.averages = std::move(averages_);
   }
   if (options_.allan) finish_allan(read, out);
-  if (out.allan && out.allan->sample_correlation)
+  if (out.allan && out.allan->sample_correlation && !out.averages.empty())
     widen_for_sample_correlation(out.averages, *out.allan->sample_correlation);
   if (options_.g_mps2) read.use_given_g(*options_.g_mps2);
   out.recording = std::move(read);

@@ -20,7 +20,9 @@ namespace standcal {
 struct DigestOptions {
   std::optional<double> g_mps2;  // replaces the header's local gravity (m/s^2)
   bool averages = true;          // per-position averages
-  bool allan = true;             // the pooled dwell Allan deviation
+  // The pooled dwell Allan deviation; without it the averages' standard errors are sigma /
+  // sqrt(n) as read, not widened for correlated samples as average_positions' are.
+  bool allan = true;
 };
 
 struct RecordingDigest {

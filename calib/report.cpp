@@ -116,8 +116,9 @@ json noise_finding_json(const NoiseFinding& n) {
     if (n.tau_plausible_max_s > 0)
       j["tau_plausible_s"] = json::array({n.tau_plausible_min_s, n.tau_plausible_max_s});
     j["allan_floor_ug"] = vec(n.allan_peak_ug);
-    j["sigma_sqrt_n_understated_by"] = vec(n.understated_in_total());
   }
+  if (n.model == "gauss_markov" || (n.allan && n.allan->sample_correlation))
+    j["sigma_sqrt_n_understated_by"] = vec(n.understated_in_total());
   if (n.allan) {
     const auto opt = [](const std::optional<double>& v) { return v ? json(*v) : json(nullptr); };
     json axes = json::object();

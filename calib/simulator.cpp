@@ -379,10 +379,11 @@ UnitSimulator::UnitSimulator(const TruthModel& truth, std::uint64_t seed, double
   for (int a = 0; a < 3; ++a)
     bias_gauss_markov_g_[a] = truth_.noise.bias_instability_ug * kUg * gauss_(rng_);
   if (truth_.noise.output_filter_tau_s > 0) {
-    // Started in its stationary state, of variance sigma^2 (1 - a) / (1 + a).
-    filter_pole_ = std::exp(-1 / (sample_rate_hz * truth_.noise.output_filter_tau_s));
-    const double stationary = std::sqrt((1 - filter_pole_) / (1 + filter_pole_));
-    for (int a = 0; a < 3; ++a) filtered_noise_g_[a] = stationary * sample_sigma_g_ * gauss_(rng_);
+    // The low-pass y_k = a y_(k-1) + (1 - a) x_k of the per-sample white noise x (a = e^(-tau0
+    // / tau_f)) is stationary at sigma^2 (1 - a) / (1 + a); it starts there.
+    const double a = std::exp(-1 / (sample_rate_hz * truth_.noise.output_filter_tau_s));
+    filtered_sigma_g_ = sample_sigma_g_ * std::sqrt((1 - a) / (1 + a));
+    for (int k = 0; k < 3; ++k) filtered_noise_g_[k] = filtered_sigma_g_ * gauss_(rng_);
   }
 }
 
@@ -437,10 +438,14 @@ Vec3 UnitSimulator::specific_force_mps2(double t_s, double alpha1_cmd_deg, doubl
             extra_effect_output_g(e, cached_J_g_, t_s, temp_delta_c, approach_, t_s - t_arrive_s_);
     }
   }
-  if (filter_pole_ > 0) {
+  if (filtered_sigma_g_ > 0) {
+    // The filter's state decays over the time since the last sample, moves and pauses
+    // included (for samples one period apart: the low-pass above, step for step).
+    const double decay = std::exp(-(t_s - t_filtered_s_) / truth_.noise.output_filter_tau_s);
+    const double drive = filtered_sigma_g_ * std::sqrt(1 - decay * decay);
+    t_filtered_s_ = t_s;
     for (int a = 0; a < 3; ++a) {
-      filtered_noise_g_[a] =
-          filter_pole_ * filtered_noise_g_[a] + (1 - filter_pole_) * sample_sigma_g_ * gauss_(rng_);
+      filtered_noise_g_[a] = decay * filtered_noise_g_[a] + drive * gauss_(rng_);
       J[a] += filtered_noise_g_[a];
     }
   } else {

@@ -128,7 +128,8 @@ class UnitSimulator {
 
   TruthModel truth_;
   double sample_sigma_g_;
-  double filter_pole_ = 0;  // exp(-sample period / output_filter_tau_s), 0 without a filter
+  double filtered_sigma_g_ = 0;  // the output filter's stationary sigma, 0 without a filter
+  double t_filtered_s_ = 0;      // the time of the filter's state
   std::mt19937_64 rng_;
   std::normal_distribution<double> gauss_{0.0, 1.0};
   double t_last_s_ = 0;

@@ -112,10 +112,9 @@ ScenarioResult run_scenario(const Setup& setup, const Scenario& scenario) {
       req.timing.sample_rate_hz = setup.sample_rate_hz;
       req.seed = setup.first_seed + static_cast<std::uint64_t>(run);
       const Recording rec = simulate_run(req);
-      const std::vector<PositionAverage> avg = average_positions(rec);
-      if (const std::optional<AllanFinding> allan = allan_finding(rec);
-          allan && allan->sample_correlation)
-        ++samples_correlated;
+      const AveragedRecording averaged = average_recording(rec);
+      const std::vector<PositionAverage>& avg = averaged.averages;
+      if (averaged.allan && averaged.allan->sample_correlation) ++samples_correlated;
       for (std::size_t k = 0; k < methods().size(); ++k) {
         try {
           accumulate(local[k], fit_with(methods()[k], rec, avg, truth, setup), x_true);

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <map>
 
+#include "calib/averaging.hpp"
 #include "calib/diagnosis/position_context.hpp"
 #include "calib/diagnosis/selection.hpp"
 #include "calib/diagnosis/words.hpp"
@@ -41,7 +42,9 @@ SettlingResult settling_search(const Recording& rec, const std::vector<PositionA
   std::vector<double> rr(npos, 0);
   for (const RecordingSample& s : rec.samples) {
     const std::size_t k = index.at(s.pos);
-    const double sig = std::max(avg[k].sigma_g[axis], 1e-9);
+    // A sample's sigma, widened as its dwell mean's error was for correlated samples (a
+    // transient spans the dwell, as the mean does).
+    const double sig = std::max(avg[k].sigma_g[axis] * correlation_widening(avg[k], axis), 1e-9);
     const double since = s.t_s - avg[k].t_arrive_s;
     const double ex = std::exp(-since / tau_s);
     const double e = ex - sum_e[k] / count[k];

@@ -163,7 +163,8 @@ CertificateInput prepare_certificate(const CertificateRequest& req) {
   in.trace.unit_type = req.unit_type.empty() ? run.unit_type_hint : req.unit_type;
   in.program_name = run.recording.program;
   in.warnings = run.recording.warnings;
-  in.positions = average_positions(run.recording);
+  AveragedRecording averaged = average_recording(run.recording);
+  in.positions = std::move(averaged.averages);
   in.issued_utc = utc_now_iso();
   in.issuing_software_version = kVersion;
   if (!req.lab_path.empty()) in.lab = load_lab_identity(req.lab_path);
@@ -174,8 +175,10 @@ CertificateInput prepare_certificate(const CertificateRequest& req) {
                                        in.trace.unit_serial);
 
   in.invariant = fit_invariant_joint(in.positions);
+  in.invariant->noise.allan = averaged.allan;
   try {
     in.full = fit_full_vector(in.positions);
+    in.full->noise.allan = averaged.allan;
   } catch (const std::exception& e) {
     in.warnings.push_back(std::string("no per-axis residuals: the full-vector fit failed (") +
                           e.what() + ")");

@@ -262,18 +262,30 @@ TEST_F(StreamingReader, SamplesCorrelatedWithinADwellWidenItsStandardErrorInBoth
   req.seed = 9;
   req.truth.noise.output_filter_tau_s = 0.2;
   const std::string path = (dir_ / "filtered.csv").string();
-  write_recording(simulate_run(req), path);
-  const Recording whole = read_recording(path);
-  const RecordingDigest digest = digest_recording(path);
-  const std::vector<PositionAverage> averages = average_positions(whole);
-  expect_same_averages(digest.averages, averages);
-  ASSERT_TRUE(digest.allan && digest.allan->sample_correlation);
-  const Vec3 factor = digest.allan->sample_correlation->factor;
-  for (int a = 0; a < 3; ++a) EXPECT_NEAR(factor[a], 2.02, 0.25) << a;
-  for (const PositionAverage& p : averages) {
-    const Vec3 white = p.sigma_g / std::sqrt(static_cast<double>(p.samples));
-    for (int a = 0; a < 3; ++a)
-      EXPECT_NEAR(p.standard_error_g[a], white[a] * factor[a], 1e-12 * white[a]) << p.pos;
+  Recording run = simulate_run(req);
+  for (const bool rate_header : {true, false}) {
+    SCOPED_TRACE(rate_header ? "with sample_rate_hz" : "without sample_rate_hz");
+    if (!rate_header) {
+      run.sample_rate_hz = kNoValue;
+      std::erase_if(run.header, [](const auto& kv) { return kv.first == "sample_rate_hz"; });
+    }
+    write_recording(run, path);
+    const Recording whole = read_recording(path);
+    const RecordingDigest digest = digest_recording(path);
+    const AveragedRecording averaged = average_recording(whole);
+    expect_same_averages(digest.averages, averaged.averages);
+    ASSERT_TRUE(digest.allan && digest.allan->sample_correlation);
+    ASSERT_TRUE(averaged.allan && averaged.allan->sample_correlation);
+    const Vec3 factor = digest.allan->sample_correlation->factor;
+    EXPECT_EQ(factor, averaged.allan->sample_correlation->factor);
+    for (int a = 0; a < 3; ++a) EXPECT_NEAR(factor[a], 2.02, 0.25) << a;
+    for (const PositionAverage& p : averaged.averages) {
+      const Vec3 white = p.sigma_g / std::sqrt(static_cast<double>(p.samples));
+      for (int a = 0; a < 3; ++a) {
+        EXPECT_NEAR(p.standard_error_g[a], white[a] * factor[a], 1e-12 * white[a]) << p.pos;
+        EXPECT_NEAR(correlation_widening(p, a), factor[a], 1e-9) << p.pos;
+      }
+    }
   }
   // Independent samples (the same run without the filter) are left as sigma / sqrt(n).
   req.truth.noise.output_filter_tau_s = 0;

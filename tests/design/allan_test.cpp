@@ -203,10 +203,11 @@ TEST(GaussMarkovAllanFit, AFilterOfAFewSamplePeriodsIsNeverAWander) {
 }
 
 // A slow wander beside a one-sample correlation: one correlation time cannot describe both.
-// The slow wander must not be called the samples' own correlation (its tau within the short
-// range, or the white noise swollen by 2 q^2 tau of a slow tau), and what the model misses
-// must be said.
-TEST(GaussMarkovAllanFit, ASlowWanderBesideAShortCorrelationIsNotCalledShort) {
+// The short one is taken (tau 0.0105 s, its whole range short), and what the model misses is
+// said: dev/dof 310, the departure at the long averaging times where the slow wander rises.
+// (The dwell white noise it reports, 60.3 ug/rtHz, is 5 % above the short correlation's
+// alone, 57.4: the slow wander's share.)
+TEST(GaussMarkovAllanFit, AShortCorrelationBesideASlowWanderIsTakenAndTheMissedWanderSaid) {
   std::vector<std::vector<AllanPoint>> curves;
   const auto slow = simulate_static_gauss_markov(10, 30, 300, 4 * 3600, 100, 41);
   const auto fast = simulate_static_gauss_markov(0, 400, 0.01, 4 * 3600, 100, 42);
@@ -217,15 +218,12 @@ TEST(GaussMarkovAllanFit, ASlowWanderBesideAShortCorrelationIsNotCalledShort) {
   }
   const auto fit = fit_gauss_markov_allan(curves, 0.01);
   ASSERT_TRUE(fit.has_value());
-  // Measured: the short correlation taken (tau 0.0105 s), dev/dof 310, and the departure at
-  // the long averaging times where the slow wander rises.
-  if (fit->short_correlation) {
-    EXPECT_LE(fit->tau_max_s, 1);
-    EXPECT_FALSE(fit->describes_curves) << fit->deviance_per_dof;
-    EXPECT_GT(fit->worst_departure.tau_s, 10) << fit->worst_departure.tau_s;
-  } else {
-    EXPECT_GE(fit->tau_min_s, 1) << fit->tau_s;
-  }
+  ASSERT_TRUE(fit->short_correlation) << fit->tau_s;
+  EXPECT_LE(fit->tau_max_s, 1);
+  EXPECT_FALSE(fit->describes_curves) << fit->deviance_per_dof;
+  EXPECT_GT(fit->worst_departure.tau_s, 10) << fit->worst_departure.tau_s;
+  for (int a = 0; a < 3; ++a)
+    EXPECT_NEAR(fit->white_density[a] / std::sqrt(10 * 10 + 2 * 400 * 400 * 0.01), 1, 0.1) << a;
 }
 
 TEST(GaussMarkovAllanFit, TheRangeHoldsTheTrueCorrelationTimeAboutNineteenTimesInTwenty) {

@@ -163,9 +163,8 @@ void run_fit(const FitOptions& o) {
                              " recording has none; use --method norm (attitude-free, |f| = g)");
   Recording rec = *in.recording;
   if (o.input.g_mps2 > 0) rec.use_given_g(o.input.g_mps2);
-  std::vector<PositionAverage> averages = average_positions(rec);
-  std::optional<AllanFinding> allan = allan_finding(rec);
-  fit_stand_averages(o, method, rec, std::move(averages), std::move(allan));
+  AveragedRecording averaged = average_recording(rec);
+  fit_stand_averages(o, method, rec, std::move(averaged.averages), std::move(averaged.allan));
 }
 
 void add_calibrate_commands(CLI::App& app) {

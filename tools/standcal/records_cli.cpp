@@ -113,7 +113,9 @@ CalibrationRecord import_record(const ImportOptions& o, const std::string& path)
   if (rec.unit_serial.empty())
     throw std::runtime_error(path + ": the recording names no unit_serial");
   std::vector<std::string> warnings = rec.warnings;
-  const FitResult fit = fit_by_method(o.method, average_positions(rec), fit_noise_options(o.noise));
+  AveragedRecording averaged = average_recording(rec);
+  FitResult fit = fit_by_method(o.method, averaged.averages, fit_noise_options(o.noise));
+  fit.noise.allan = std::move(averaged.allan);
   CalibrationRecord r;
   const std::string header_run = rec.header_value("run_id");
   // A daemon recording keeps its run id (re-importing it is a no-op); others get one

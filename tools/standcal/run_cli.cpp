@@ -136,9 +136,10 @@ void print_result(const json& r) {
   bool printed = false;
   try {
     const Recording rec = read_recording(path);
-    std::vector<PositionAverage> averages = average_positions(rec);
-    const FitResult fit = fit_invariant_joint(averages);
-    std::cout << format_report(fit, report_context(rec, std::move(averages)));
+    AveragedRecording averaged = average_recording(rec);
+    FitResult fit = fit_invariant_joint(averaged.averages);
+    fit.noise.allan = std::move(averaged.allan);
+    std::cout << format_report(fit, report_context(rec, std::move(averaged.averages)));
     printed = true;
   } catch (const std::exception&) {
   }
