@@ -365,11 +365,10 @@ std::optional<GaussMarkovAllanFit> fit_gauss_markov_allan(
   if (white_reported) {
     for (std::size_t a = 0; a < curves.size(); ++a)
       fit.white_density[a] = std::sqrt(white.axes[a].white_var);
-    fit.q.assign(curves.size(), 0.0);
     fit.deviance_per_dof =
         white.deviance / std::max(static_cast<double>(points - curves.size()), 1.0);
   }
-  if (fit.short_correlation) fit.q.assign(curves.size(), 0.0);
+  if (!fit.wander_seen) fit.q.assign(curves.size(), 0.0);  // white alone, or short correlation
   fit.describes_curves = fit.deviance_per_dof <= kGaussMarkovFitScatterLimit;
   fit.worst_departure = worst_departure(curves, white_reported ? white : best);
   return fit;

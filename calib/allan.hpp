@@ -117,9 +117,8 @@ struct GaussMarkovAllanFit {
   double wander_deviance = 0;  // white noise alone's deviance less the fit's
   // The correlation times the curves allow all lie below short_correlation_limit_s, and it
   // beats white noise alone by kShortCorrelationDeviance (below that bar, white noise is the
-  // model reported): the
-  // samples are correlated over a few sample periods (the unit's output filter or
-  // decimation), which is no bias wander: any dwell averages it down as white noise.
+  // model reported): the samples are correlated over a few sample periods (the unit's output
+  // filter or decimation), which is no bias wander: any dwell averages it down as white noise.
   // wander_seen is then false, q 0, and white_density the white noise a dwell mean sees,
   // sqrt(N^2 + 2 q^2 tau_c); short_q keeps that correlation's q (tau_s and the range its time).
   bool short_correlation = false;
@@ -153,15 +152,15 @@ inline constexpr double kGaussMarkovFitScatterLimit = 2;
 // samples' own: an output filter settles in a few periods, a dwell lasts seconds at least,
 // and the fits' wander model takes tau_c of minutes.
 inline constexpr double kShortCorrelationMaxS = 1;
+inline constexpr double kShortCorrelationSamplePeriods = 10;
+inline double short_correlation_limit_s(double sample_period_s) {
+  return std::max(kShortCorrelationMaxS, kShortCorrelationSamplePeriods * sample_period_s);
+}
 // The deviance by which a short correlation must beat white noise alone: chi2 with four
 // parameters at P = 1e-6. On diagnostic32's dwells (10 s at 25 Hz) white noise alone had met
 // kGaussMarkovWanderDeviance with a short range in 2 of 1000 runs (deviance 18.7 and 19.4),
 // and a filter of half a sample period to two beat white noise by 360-13000.
 inline constexpr double kShortCorrelationDeviance = 33.4;
-inline constexpr double kShortCorrelationSamplePeriods = 10;
-inline double short_correlation_limit_s(double sample_period_s) {
-  return std::max(kShortCorrelationMaxS, kShortCorrelationSamplePeriods * sample_period_s);
-}
 // The likelihood-ratio interval for one parameter at about 95 % (chi2_1 = 3.84). Measured on
 // simulated static recordings (white 10 ug/rtHz and Gauss-Markov of 1-10 ug, tau_c 60-1200
 // s, 2 to 8 hours; 100 seeds each, bench/noise/allan_tau_main.cpp): the range held the true

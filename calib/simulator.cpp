@@ -19,6 +19,12 @@ using nlohmann::json;
 
 json vec_json(const Vec3& v, double scale) { return {v.x() * scale, v.y() * scale, v.z() * scale}; }
 
+// The drive of a first-order Gauss-Markov step x <- decay x + drive N(0, 1) that keeps x at
+// its stationary sigma (the bias wander, the output filter, the static axes).
+double gauss_markov_drive(double stationary_sigma, double decay) {
+  return stationary_sigma * std::sqrt(1.0 - decay * decay);
+}
+
 // Reads the keys of an object, rejecting unknown ones (a typo in a truth file would
 // otherwise silently simulate a perfect unit).
 class Keys {
@@ -394,7 +400,7 @@ void UnitSimulator::advance_bias_processes(double t_s) {
   const NoiseModel& n = truth_.noise;
   if (n.bias_instability_ug > 0) {
     const double decay = std::exp(-dt / n.bias_instability_tau_s);
-    const double drive = n.bias_instability_ug * kUg * std::sqrt(1.0 - decay * decay);
+    const double drive = gauss_markov_drive(n.bias_instability_ug * kUg, decay);
     for (int a = 0; a < 3; ++a)
       bias_gauss_markov_g_[a] = decay * bias_gauss_markov_g_[a] + drive * gauss_(rng_);
   }
@@ -442,7 +448,7 @@ Vec3 UnitSimulator::specific_force_mps2(double t_s, double alpha1_cmd_deg, doubl
     // The filter's state decays over the time since the last sample, moves and pauses
     // included (for samples one period apart: the low-pass above, step for step).
     const double decay = std::exp(-(t_s - t_filtered_s_) / truth_.noise.output_filter_tau_s);
-    const double drive = filtered_sigma_g_ * std::sqrt(1 - decay * decay);
+    const double drive = gauss_markov_drive(filtered_sigma_g_, decay);
     t_filtered_s_ = t_s;
     for (int a = 0; a < 3; ++a) {
       filtered_noise_g_[a] = decay * filtered_noise_g_[a] + drive * gauss_(rng_);
@@ -546,12 +552,13 @@ std::vector<std::vector<double>> simulate_static_gauss_markov(double white_densi
   std::normal_distribution<double> gauss(0, 1);
   const auto samples = static_cast<std::size_t>(seconds * rate_hz);
   const double phi = std::exp(-1 / (rate_hz * tau_c_s));
+  const double drive = gauss_markov_drive(q, phi);
   std::vector<std::vector<double>> axes;
   for (int axis = 0; axis < 3; ++axis) {
     std::vector<double> y(samples);
     double wander = q * gauss(rng);
     for (double& v : y) {
-      wander = phi * wander + q * std::sqrt(1 - phi * phi) * gauss(rng);
+      wander = phi * wander + drive * gauss(rng);
       v = wander + white_density * std::sqrt(rate_hz) * gauss(rng);
     }
     axes.push_back(std::move(y));

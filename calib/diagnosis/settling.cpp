@@ -40,11 +40,14 @@ SettlingResult settling_search(const Recording& rec, const std::vector<PositionA
   std::vector<Mat3d> N(npos, Mat3d::Zero());
   std::vector<Eigen::Vector3d> b(npos, Eigen::Vector3d::Zero());
   std::vector<double> rr(npos, 0);
+  // Each dwell's sample sigma, widened as its mean's error was for correlated samples (a
+  // transient spans the dwell, as the mean does).
+  std::vector<double> sigma(npos);
+  for (std::size_t k = 0; k < npos; ++k)
+    sigma[k] = std::max(avg[k].sigma_g[axis] * correlation_widening(avg[k], axis), 1e-9);
   for (const RecordingSample& s : rec.samples) {
     const std::size_t k = index.at(s.pos);
-    // A sample's sigma, widened as its dwell mean's error was for correlated samples (a
-    // transient spans the dwell, as the mean does).
-    const double sig = std::max(avg[k].sigma_g[axis] * correlation_widening(avg[k], axis), 1e-9);
+    const double sig = sigma[k];
     const double since = s.t_s - avg[k].t_arrive_s;
     const double ex = std::exp(-since / tau_s);
     const double e = ex - sum_e[k] / count[k];
