@@ -442,6 +442,16 @@ std::optional<SampleCorrelation> sample_correlation(
   return c;
 }
 
+Vec3 widening_factor(const SampleCorrelation& correlation, const Vec3& sample_sigma_ug) {
+  Vec3 factor = Vec3::Ones();
+  for (Eigen::Index k = 0; k < 3; ++k) {
+    const double assumed_ug_rthz = sample_sigma_ug[k] * std::sqrt(correlation.sample_period_s);
+    if (assumed_ug_rthz > 0)
+      factor[k] = std::max(1.0, correlation.dwell_white[k] / assumed_ug_rthz);
+  }
+  return factor;
+}
+
 std::optional<AllanFinding> allan_finding(const Recording& rec) {
   try {
     const DwellAllan a = dwell_allan(rec);

@@ -194,6 +194,11 @@ struct SampleCorrelation {
   // anticorrelated the samples would not be trusted to shrink a sigma).
   Vec3 factor = Vec3::Ones();
 };
+// What a dwell mean's standard error is to be widened by, per axis: the white noise a dwell
+// mean sees over sigma sqrt(tau0), sigma the samples' own scatter pooled over the dwells
+// (ug); never below 1 (a filter that anticorrelated the samples would not be trusted to
+// shrink a sigma), and 1 on an axis without scatter.
+Vec3 widening_factor(const SampleCorrelation& correlation, const Vec3& sample_sigma_ug);
 // Of the dwells' pooled curves (ug): nothing where the fit sees no short correlation, or the
 // curves are too short to fit (fewer than kGaussMarkovFitMinPoints octaves: dwells under
 // about 50 samples are never widened).

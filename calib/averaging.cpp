@@ -157,12 +157,7 @@ void widen_for_sample_correlation(std::vector<PositionAverage>& averages,
     dof += n1;
   }
   if (!(dof > 0)) return;
-  for (int k = 0; k < 3; ++k) {
-    const double assumed_ug_rthz =
-        std::sqrt(scatter[k] / dof) / kUg * std::sqrt(correlation.sample_period_s);
-    correlation.factor[k] =
-        assumed_ug_rthz > 0 ? std::max(1.0, correlation.dwell_white[k] / assumed_ug_rthz) : 1.0;
-  }
+  correlation.factor = widening_factor(correlation, (scatter / dof).cwiseSqrt() / kUg);
   for (PositionAverage& a : averages)
     a.standard_error_g = a.standard_error_g.cwiseProduct(correlation.factor);
 }

@@ -32,7 +32,8 @@ struct StabilityRule {
   double sigma_limit_ug = 5000;  // per-axis sample sigma above this: too noisy
   double trend_limit_ug = 2000;  // per-axis drift over the dwell (linear fit) above this
   // Per-axis drift over the dwell above this many times what the unit's noise explains
-  // (white noise of the dwell's own residual sigma, plus the configured bias wander): a
+  // (white noise of the dwell's own residual sigma, widened for its samples' correlation
+  // as the run's dwells pooled show it, plus the configured bias wander): a
   // drift the noise model cannot account for (thermal or mechanical settling). 0: off.
   double trend_limit_sigmas = 0;
   double min_sample_fraction = 0.9;  // fewer samples than this share of dwell x rate: incomplete

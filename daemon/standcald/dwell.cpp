@@ -1,5 +1,7 @@
 #include "daemon/standcald/dwell.hpp"
 
+#include <spdlog/fmt/fmt.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -69,9 +71,79 @@ double wander_trend_sigma(double span_s, double wander_sigma, double tau_s) {
 }
 
 double explained_trend_sigma_mps2(const DwellAverage& dwell, int axis, double wander_sigma_mps2,
-                                  double tau_s) {
-  return std::hypot(dwell.residual_sigma_mps2[axis] * dwell.trend_gain,
+                                  double tau_s, double correlation_widening) {
+  // For samples correlated over a few periods the slope's variance, like the mean's, is the
+  // long-run noise's: the independent samples' variance times the same factor squared, for
+  // dwells long against the correlation.
+  return std::hypot(dwell.residual_sigma_mps2[axis] * dwell.trend_gain * correlation_widening,
                     wander_trend_sigma(dwell.span_s, wander_sigma_mps2, tau_s));
+}
+
+DwellSampleCorrelation::DwellSampleCorrelation(double sample_period_s, double g_local_mps2)
+    : sample_period_s_(sample_period_s),
+      ug_per_mps2_(1e6 / g_local_mps2),
+      pool_{{AllanAccumulator(sample_period_s), AllanAccumulator(sample_period_s),
+             AllanAccumulator(sample_period_s)}} {}
+
+void DwellSampleCorrelation::add(Pool& pool,
+                                 const std::vector<drivers::AccelSample>& samples) const {
+  if (samples.size() < 3) return;
+  const double n = static_cast<double>(samples.size());
+  double t_mean = 0;
+  for (const auto& x : samples) t_mean += x.t_s / n;
+  for (int a = 0; a < 3; ++a) {
+    std::vector<double> ug;
+    ug.reserve(samples.size() + 1);
+    double mean = 0;
+    for (const auto& x : samples) {
+      ug.push_back(x.force_mps2[a] * ug_per_mps2_);
+      mean += ug.back() / n;
+    }
+    // The scatter about the dwell's line: the drift judged is not the samples' noise.
+    double ss = 0, stt = 0, sty = 0;
+    for (std::size_t i = 0; i < ug.size(); ++i) {
+      const double d = ug[i] - mean, dt = samples[i].t_s - t_mean;
+      ss += d * d;
+      stt += dt * dt;
+      sty += dt * d;
+    }
+    pool.scatter_ug2[a] += stt > 0 ? std::max(ss - sty * sty / stt, 0.0) : ss;
+    pool.allan[a].add_segment(ug);  // consumes ug
+  }
+  pool.dof += n - 2;
+}
+
+std::array<double, 3> DwellSampleCorrelation::widening_with(
+    const std::vector<drivers::AccelSample>& samples) const {
+  Pool pool = pool_;
+  add(pool, samples);
+  std::array<double, 3> widening{1, 1, 1};
+  if (!(pool.dof > 0)) return widening;
+  const std::optional<SampleCorrelation> correlation = sample_correlation(
+      {pool.allan[0].curve(), pool.allan[1].curve(), pool.allan[2].curve()}, sample_period_s_);
+  if (!correlation) return widening;
+  const Vec3 factor = widening_factor(*correlation, (pool.scatter_ug2 / pool.dof).cwiseSqrt());
+  for (int a = 0; a < 3; ++a) widening[a] = factor[a];
+  return widening;
+}
+
+void DwellSampleCorrelation::keep(const std::vector<drivers::AccelSample>& samples) {
+  add(pool_, samples);
+}
+
+void DwellSampleCorrelation::keep_recording(const Recording& rec) {
+  std::vector<drivers::AccelSample> dwell;
+  for (std::size_t k = 0; k <= rec.samples.size(); ++k) {
+    if (k == rec.samples.size() || (k > 0 && rec.samples[k].pos != rec.samples[k - 1].pos)) {
+      keep(dwell);
+      dwell.clear();
+    }
+    if (k == rec.samples.size()) break;
+    drivers::AccelSample x;
+    x.t_s = rec.samples[k].t_s;
+    for (int a = 0; a < 3; ++a) x.force_mps2[a] = rec.samples[k].f_mps2[a];
+    dwell.push_back(x);
+  }
 }
 
 namespace {
@@ -82,15 +154,18 @@ std::string unexplained_drift(const DwellAverage& dwell, const DwellExpectation&
                               const StabilityRule& rule, int a, double ug_per_mps2) {
   if (!(rule.trend_limit_sigmas > 0) || dwell.count < 3) return {};
   const double trend_ug = dwell.trend_mps2[a] * ug_per_mps2;
+  const double widening = expected.sample_correlation_widening[static_cast<std::size_t>(a)];
   const double explained_ug =
       explained_trend_sigma_mps2(dwell, a, expected.bias_wander_ug / ug_per_mps2,
-                                 expected.bias_wander_tau_s) *
+                                 expected.bias_wander_tau_s, widening) *
       ug_per_mps2;
   if (!(explained_ug > 0) || !(std::abs(trend_ug) > rule.trend_limit_sigmas * explained_ug))
     return {};
   return "axis " + axis_name(a) + " drifted " + number_text(trend_ug) + " µg during the dwell, " +
          number_text(std::abs(trend_ug) / explained_ug) + " times what its noise explains (" +
          number_text(explained_ug) + " µg from its sample σ" +
+         (widening > 1 ? fmt::format(" widened {:.3g} times for its correlated samples", widening)
+                       : std::string()) +
          (expected.bias_wander_ug > 0 ? std::string(" and the unit's bias wander") : "") +
          "; limit " + number_text(rule.trend_limit_sigmas) + " times)";
 }

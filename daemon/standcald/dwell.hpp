@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "calib/allan.hpp"
 #include "calib/recording.hpp"
 #include "daemon/standcald/config.hpp"
 #include "drivers/accel_unit.hpp"
@@ -44,6 +45,39 @@ struct DwellExpectation {
   // of what explains a drift over the dwell.
   double bias_wander_ug = 0;
   double bias_wander_tau_s = 300;
+  // What the dwell's white noise is widened by per axis for its samples' own correlation
+  // (DwellSampleCorrelation): a drift's scatter grows with it as a mean's error does.
+  std::array<double, 3> sample_correlation_widening{1, 1, 1};
+};
+
+// The samples' own correlation (a unit's output filter: calib/allan.hpp, SampleCorrelation)
+// over a run's dwells pooled as they are kept, as the run's fit will find it: consecutive
+// correlated samples make a dwell's trend scatter more than its samples' sigma says, by the
+// factor its mean's error is widened by (the same long-run noise drives both: 2.0 for a
+// filter of two sample periods). One dwell of 250 samples shows the correlation
+// less surely than the run's dwells pooled.
+class DwellSampleCorrelation {
+ public:
+  DwellSampleCorrelation(double sample_period_s, double g_local_mps2);
+  // Per axis, what the white noise of `samples` (one dwell) is to be widened by, the dwell
+  // pooled beside those kept: 1 where the pooled curves show no short correlation or are too
+  // short to fit (calib/allan.hpp, sample_correlation).
+  std::array<double, 3> widening_with(const std::vector<drivers::AccelSample>& samples) const;
+  // Pools a kept dwell's samples.
+  void keep(const std::vector<drivers::AccelSample>& samples);
+  // Pools each position's samples of a recording (a resumed run's dwells so far).
+  void keep_recording(const Recording& rec);
+
+ private:
+  struct Pool {
+    std::array<AllanAccumulator, 3> allan;
+    Vec3 scatter_ug2 = Vec3::Zero();  // sum over dwells of (n - 2) sigma^2 about their lines
+    double dof = 0;
+  };
+  void add(Pool& pool, const std::vector<drivers::AccelSample>& samples) const;
+  double sample_period_s_;
+  double ug_per_mps2_;
+  Pool pool_;
 };
 
 // The standard deviation of the trend (least-squares slope times span) that a Gauss-Markov
@@ -53,9 +87,10 @@ struct DwellExpectation {
 double wander_trend_sigma(double span_s, double wander_sigma, double tau_s);
 
 // What noise explains of axis `axis`'s trend: its residual white noise through the trend
-// gain, and the wander (same unit as `wander_sigma_mps2`).
+// gain, widened by `correlation_widening` for samples correlated among themselves, and the
+// wander (same unit as `wander_sigma_mps2`).
 double explained_trend_sigma_mps2(const DwellAverage& dwell, int axis, double wander_sigma_mps2,
-                                  double tau_s);
+                                  double tau_s, double correlation_widening);
 
 // Why the dwell is not good enough to keep, in the operator's words, or empty when it is:
 // no sample at all, fewer than `rule.min_sample_fraction` of the expected samples, an axis

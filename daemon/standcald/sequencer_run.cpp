@@ -254,6 +254,7 @@ void Sequencer::run_loop(RunRecord record, const std::function<void()>& started)
   last_t_s_ = record.last_t_s;
   positions_timed_ = 0;
   mean_position_real_s_ = 0;
+  pool_kept_dwells(record);
   mounted_ = (!fresh && uses_several_mounts(program))
                  ? std::nullopt
                  : std::optional<Mount>(program.positions.front().mount);
@@ -533,6 +534,22 @@ Sequencer::Arrival Sequencer::arrive_at(const RunRecord& record, const ProgramPo
   return a;
 }
 
+// The drift rule's pool of the run's dwells (only when the rule is asked for): empty for a
+// fresh run, the recording's dwells for a resumed one.
+void Sequencer::pool_kept_dwells(const RunRecord& record) {
+  dwell_correlation_.reset();
+  if (!(config_.stability.trend_limit_sigmas > 0) || !(config_.sample_rate_hz > 0)) return;
+  dwell_correlation_.emplace(1 / config_.sample_rate_hz, record.g_local_mps2);
+  if (record.recording_bytes == 0) return;
+  try {
+    dwell_correlation_->keep_recording(read_recording(record.recording_path));
+  } catch (const std::exception& e) {
+    // The drift rule then judges the remaining dwells from them alone.
+    spdlog::warn("run {}: the drift rule pools only the dwells from here on: {}", record.run_id,
+                 e.what());
+  }
+}
+
 // Samples `dwell_s` of unit time; a dwell the stability rule rejects is re-measured up to
 // stability.remeasure_max times, then the run faults saying why.
 Sequencer::SampledDwell Sequencer::sample_stable_dwell(const RunRecord& record, int index,
@@ -556,8 +573,13 @@ Sequencer::SampledDwell Sequencer::sample_stable_dwell(const RunRecord& record, 
                               record.g_local_mps2};
     expected.bias_wander_ug = config_.unit_bias_instability_ug;
     expected.bias_wander_tau_s = unit_bias_wander().tau_s;
+    if (dwell_correlation_)
+      expected.sample_correlation_widening = dwell_correlation_->widening_with(d.samples);
     const std::string problem = dwell_problem(d.average, expected, config_.stability);
-    if (problem.empty()) return d;
+    if (problem.empty()) {
+      if (dwell_correlation_) dwell_correlation_->keep(d.samples);
+      return d;
+    }
     if (attempt >= config_.stability.remeasure_max) {
       throw RpcError(ErrorCode::hardware_fault,
                      "position " + std::to_string(index + 1) + " not stable after " +

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <random>
 
 #include "tests/support/statistical.hpp"
@@ -97,20 +98,30 @@ TEST(DwellStability, EachReasonIsNamedInTheOperatorsWords) {
 
 // `n` samples at `rate_hz`, each axis white with sigma `white_ug` plus a Gauss-Markov wander
 // (`wander_ug`, `tau_s`), started stationary; y also rises by `rise_y_ug` over the dwell.
+// With `output_filter_tau_s`, the white noise passes the unit's first-order output filter
+// (as calib's simulator has it: unit gain at low frequency, started stationary).
 std::vector<drivers::AccelSample> noisy_dwell(int n, double rate_hz, double white_ug,
                                               double wander_ug, double tau_s, double rise_y_ug,
-                                              std::mt19937_64& rng) {
+                                              std::mt19937_64& rng,
+                                              double output_filter_tau_s = 0) {
   std::normal_distribution<double> gauss(0, 1);
   const double phi = std::exp(-1 / (rate_hz * tau_s));
   const double drive = wander_ug * std::sqrt(1 - phi * phi);
+  const double keep =
+      output_filter_tau_s > 0 ? std::exp(-1 / (rate_hz * output_filter_tau_s)) : 0.0;
+  const double filtered_sigma = white_ug * std::sqrt((1 - keep) / (1 + keep));
   std::array<double, 3> b{wander_ug * gauss(rng), wander_ug * gauss(rng), wander_ug * gauss(rng)};
+  std::array<double, 3> w{};  // drawn only with a filter: the unfiltered draws as before
+  if (keep > 0)
+    for (double& v : w) v = filtered_sigma * gauss(rng);
   std::vector<drivers::AccelSample> s;
   for (int i = 0; i < n; ++i) {
     drivers::AccelSample x;
     x.t_s = 1000 + i / rate_hz;
     for (int a = 0; a < 3; ++a) {
       b[a] = phi * b[a] + drive * gauss(rng);
-      x.force_mps2[a] = (a == 2 ? kG : 0.0) + (b[a] + white_ug * gauss(rng)) * kUgMps2;
+      w[a] = keep * w[a] + (1 - keep) * white_ug * gauss(rng);
+      x.force_mps2[a] = (a == 2 ? kG : 0.0) + (b[a] + w[a]) * kUgMps2;
     }
     x.force_mps2[1] += rise_y_ug * kUgMps2 * i / (n - 1.0);
     s.push_back(x);
@@ -180,6 +191,95 @@ TEST(DwellStability, ADriftBeyondWhatTheNoiseExplainsIsReMeasuredWhenTheRuleAsks
   EXPECT_EQ(dwell_problem(average_dwell(noisy_dwell(1000, 100, 100, 0, 300, 0, rng)),
                           expect(10, 100), rule),
             "");
+}
+
+// A unit's output filter correlates consecutive samples, and a dwell's drift then scatters
+// more than its samples' sigma says: 2.02 times for a filter of two sample periods
+// (sqrt((1 + a) / (1 - a)), a = e^-0.5 from one sample to the next), as its mean's error
+// does. Widened by the correlation the run's dwells pooled show, the drift the noise explains
+// is again the drifts' scatter, and a quiet dwell is re-measured at 3 times as seldom as a
+// white unit's would be (0.8 %: three axes at 0.27 %).
+TEST(DwellStability, AUnitsOutputFilterIsPartOfWhatExplainsADrift) {
+  STANDCAL_STATISTICAL_TEST();
+  std::mt19937_64 rng(41);
+  constexpr int kSamples = 250, kDwells = 400;  // diagnostic32's dwells: 10 s at 25 Hz
+  constexpr double kRateHz = 25, kFilterS = 0.08, kWhiteUg = 200;
+  const auto dwell = [&] {
+    return noisy_dwell(kSamples, kRateHz, kWhiteUg, 0, 300, 0, rng, kFilterS);
+  };
+  DwellSampleCorrelation run(1 / kRateHz, kG);
+  for (int k = 0; k < 4; ++k) run.keep(dwell());  // the run's dwells so far
+  StabilityRule rule;
+  rule.trend_limit_sigmas = 3;
+  double z2 = 0;
+  int remeasured = 0;
+  for (int k = 0; k < kDwells; ++k) {
+    const auto samples = dwell();
+    const DwellAverage d = average_dwell(samples);
+    DwellExpectation e = expect(10, kRateHz);
+    e.sample_correlation_widening = run.widening_with(samples);
+    if (k == 0) {
+      std::printf("widening with the run's dwells pooled: x %.3f y %.3f z %.3f\n",
+                  e.sample_correlation_widening[0], e.sample_correlation_widening[1],
+                  e.sample_correlation_widening[2]);
+      for (const double w : e.sample_correlation_widening) EXPECT_NEAR(w, 2.02, 0.2);
+    }
+    z2 += std::pow(d.trend_mps2[0] /
+                       explained_trend_sigma_mps2(d, 0, 0, 300, e.sample_correlation_widening[0]),
+                   2);
+    if (!dwell_problem(d, e, rule).empty()) ++remeasured;
+  }
+  std::printf("filtered unit: drift z-variance %.3f, %d of %d quiet dwells re-measured\n",
+              z2 / kDwells, remeasured, kDwells);
+  EXPECT_NEAR(z2 / kDwells, 1, 0.2);
+  EXPECT_LE(remeasured, kDwells * 3 / 100);
+  // A drift beyond it is still one, and the operator is told what was allowed for.
+  const auto drifting = noisy_dwell(kSamples, kRateHz, kWhiteUg, 0, 300, 400, rng, kFilterS);
+  DwellExpectation e = expect(10, kRateHz);
+  e.sample_correlation_widening = run.widening_with(drifting);
+  const std::string problem = dwell_problem(average_dwell(drifting), e, rule);
+  ASSERT_EQ(problem.rfind("axis y drifted ", 0), 0u) << problem;
+  EXPECT_NE(problem.find("µg from its sample σ widened 2."), std::string::npos) << problem;
+  EXPECT_NE(problem.find("times for its correlated samples; limit 3 times)"), std::string::npos)
+      << problem;
+}
+
+// A resumed run pools the dwells of its recording as the run before the restart had kept
+// them: the same widening.
+TEST(DwellStability, AResumedRunPoolsItsRecordingsDwellsAsTheyWereKept) {
+  std::mt19937_64 rng(47);
+  DwellSampleCorrelation kept(1 / 25.0, kG);
+  Recording rec;
+  for (int pos = 0; pos < 3; ++pos) {
+    const auto samples = noisy_dwell(250, 25, 200, 0, 300, 0, rng, 0.08);
+    kept.keep(samples);
+    for (const auto& x : samples) {
+      RecordingSample row;
+      row.t_s = x.t_s + 20 * pos;
+      row.pos = pos;
+      row.f_mps2 = Vec3(x.force_mps2[0], x.force_mps2[1], x.force_mps2[2]);
+      rec.samples.push_back(row);
+    }
+  }
+  DwellSampleCorrelation resumed(1 / 25.0, kG);
+  resumed.keep_recording(rec);
+  const auto next = noisy_dwell(250, 25, 200, 0, 300, 0, rng, 0.08);
+  const std::array<double, 3> widening = kept.widening_with(next);
+  EXPECT_GT(widening[0], 1.5);
+  const std::array<double, 3> resumed_widening = resumed.widening_with(next);
+  for (int a = 0; a < 3; ++a) EXPECT_NEAR(resumed_widening[a], widening[a], 1e-9) << a;
+}
+
+// A white unit's dwells, pooled, show no correlation: its drift rule is as it was.
+TEST(DwellStability, AWhiteUnitsDwellsAreNotWidened) {
+  std::mt19937_64 rng(43);
+  DwellSampleCorrelation run(1 / 25.0, kG);
+  for (int k = 0; k < 8; ++k) {
+    const auto samples = noisy_dwell(250, 25, 200, 0, 300, 0, rng);
+    const std::array<double, 3> widening = run.widening_with(samples);
+    EXPECT_EQ(widening, (std::array<double, 3>{1, 1, 1})) << "dwell " << k;
+    run.keep(samples);
+  }
 }
 
 }  // namespace

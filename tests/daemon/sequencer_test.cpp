@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "calib/recording.hpp"
+#include "calib/simulator.hpp"
 #include "daemon/standcald/hardware.hpp"
 #include "protocol/jsonrpc/jsonrpc.hpp"
 #include "protocol/jsonrpc/methods.hpp"
@@ -177,6 +178,32 @@ TEST(SequencerInProcess, TheDriftRuleAgainstTheNoiseDecidesTheReMeasurements) {
   EXPECT_NE(faulted.dump().find("times what its noise explains"), std::string::npos)
       << faulted.dump();
   EXPECT_EQ(s.count_events(protocol::event::fault), 2u) << "one re-measurement, then the fault";
+}
+
+// Issue 21: a unit whose output filter correlates its samples (five sample periods at
+// 100 Hz: a dwell's drift scatters 3.2 times what its samples' sigma says) is judged against
+// that correlation, as the run's dwells pooled show it. Asked for at 3 times what the noise
+// explains, its quiet dwells are kept; judged as if its samples were independent, about two
+// dwells in three were re-measured and the run faulted.
+TEST(SequencerInProcess, TheDriftRuleAllowsForTheUnitsOutputFilter) {
+  test::TempDir dir{"standcal-filtered-unit"};
+  TruthModel truth = default_truth();
+  truth.noise.output_filter_tau_s = 0.05;
+  const std::string truth_path = dir.file("filtered-unit.json");
+  save_truth(truth, truth_path);
+  InProcessSequencer s(100, [&](DaemonConfig& c) {
+    c.sim.truth_file = truth_path;
+    c.stability.trend_limit_sigmas = 3;
+  });
+  const Outcome started =
+      s.call("run.start",
+             {{"program", "paper9"}, {"unit_serial", "SEQ-3"}, {"dwell_s", 4}, {"settle_s", 1}});
+  ASSERT_EQ(started.error_code, 0) << started.error_message;
+  const json done =
+      s.wait_run(started.result["run_id"], [](const json& st) { return st["state"] != "running"; });
+  EXPECT_EQ(done["state"], "done") << done.dump();
+  EXPECT_LE(s.count_events(protocol::event::fault), 1u)
+      << "quiet dwells of a filtered unit re-measured as drifting";
 }
 
 // An emergency stop acts at once, and its answer waits until the run it interrupted is
