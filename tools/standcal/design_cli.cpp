@@ -488,6 +488,9 @@ void run_optimize(const OptimizeCliOptions& o) {
               {"model", model_name},
               {"structure", o.structure.empty() ? "none" : o.structure},
               {"positions", positions},
+              // The exchange maximises white noise's information: under a wander the
+              // dwell and the revisits below allow for it, the angles do not.
+              {"positions_chosen_for", "white noise"},
               {"d_criterion", best.d_criterion},
               {"paper9_d_criterion", best.paper9_d_criterion},
               {"gain_vs_paper9", gain},
@@ -509,6 +512,10 @@ void run_optimize(const OptimizeCliOptions& o) {
   }
   std::printf("\nD-criterion det^(1/9) = %.5f; paper9: %.5f; gain %+.1f %%\n", best.d_criterion,
               best.paper9_d_criterion, 100 * (gain - 1));
+  if (settings.wander())
+    std::printf(
+        "  the angles are D-optimal for white noise; the dwells and revisits below allow for the "
+        "wander\n");
   if (best.program.positions.size() != paper9().positions.size())
     std::printf(
         "  per position (information per measurement, fair for different counts): %+.1f %%\n",
