@@ -4,6 +4,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
+#include "calib/averaging.hpp"
 #include "calib/diagnosis/catalog.hpp"
 #include "calib/report.hpp"
 #include "calib/units.hpp"
@@ -14,10 +15,16 @@ namespace diagnosis {
 
 namespace {
 
-// A white-noise density (ug/rtHz) from the median dwell sigma.
+// A white-noise density (ug/rtHz) from the median dwell sigma, widened where the samples
+// are correlated among themselves (a unit's output filter, calib/averaging.hpp): the density
+// a dwell mean sees, which the simulator's white noise is (its own filter is not carried).
 double noise_density_ug_rthz(const Recording& rec, const std::vector<PositionAverage>& avg) {
   std::vector<double> sig;
-  for (const auto& p : avg) sig.push_back(p.sigma_g.mean());
+  for (const auto& p : avg) {
+    double sum = 0;
+    for (int a = 0; a < 3; ++a) sum += p.sigma_g[a] * correlation_widening(p, a);
+    sig.push_back(sum / 3);
+  }
   std::nth_element(sig.begin(), sig.begin() + static_cast<std::ptrdiff_t>(sig.size() / 2),
                    sig.end());
   const double fs =

@@ -82,68 +82,83 @@ double explained_trend_sigma_mps2(const DwellAverage& dwell, int axis, double wa
 DwellSampleCorrelation::DwellSampleCorrelation(double sample_period_s, double g_local_mps2)
     : sample_period_s_(sample_period_s),
       ug_per_mps2_(1e6 / g_local_mps2),
-      pool_{{AllanAccumulator(sample_period_s), AllanAccumulator(sample_period_s),
-             AllanAccumulator(sample_period_s)}} {}
+      allan_{AllanAccumulator(sample_period_s), AllanAccumulator(sample_period_s),
+             AllanAccumulator(sample_period_s)} {}
 
-void DwellSampleCorrelation::add(Pool& pool,
-                                 const std::vector<drivers::AccelSample>& samples) const {
-  if (samples.size() < 3) return;
-  const double n = static_cast<double>(samples.size());
-  double t_mean = 0;
-  for (const auto& x : samples) t_mean += x.t_s / n;
-  for (int a = 0; a < 3; ++a) {
-    std::vector<double> ug;
-    ug.reserve(samples.size() + 1);
-    double mean = 0;
-    for (const auto& x : samples) {
-      ug.push_back(x.force_mps2[a] * ug_per_mps2_);
-      mean += ug.back() / n;
+std::array<double, 3> DwellSampleCorrelation::add_dwell(
+    const std::vector<drivers::AccelSample>& samples) {
+  if (samples.size() >= 3) {
+    const double n = static_cast<double>(samples.size());
+    double t_mean = 0;
+    for (const auto& x : samples) t_mean += x.t_s / n;
+    double stt = 0;
+    for (const auto& x : samples) stt += (x.t_s - t_mean) * (x.t_s - t_mean);
+    for (int a = 0; a < 3; ++a) {
+      double mean = 0, sty = 0;
+      for (const auto& x : samples) mean += x.force_mps2[a] * ug_per_mps2_ / n;
+      for (const auto& x : samples) sty += (x.t_s - t_mean) * (x.force_mps2[a] * ug_per_mps2_);
+      const double slope = stt > 0 ? sty / stt : 0.0;
+      std::vector<double> about_line;  // the samples less the dwell's least-squares line
+      about_line.reserve(samples.size() + 1);
+      for (const auto& x : samples) {
+        about_line.push_back(x.force_mps2[a] * ug_per_mps2_ - mean - slope * (x.t_s - t_mean));
+        scatter_ug2_[a] += about_line.back() * about_line.back();
+      }
+      allan_[static_cast<std::size_t>(a)].add_segment(about_line);  // consumes it
     }
-    // The scatter about the dwell's line: the drift judged is not the samples' noise.
-    double ss = 0, stt = 0, sty = 0;
-    for (std::size_t i = 0; i < ug.size(); ++i) {
-      const double d = ug[i] - mean, dt = samples[i].t_s - t_mean;
-      ss += d * d;
-      stt += dt * dt;
-      sty += dt * d;
-    }
-    pool.scatter_ug2[a] += stt > 0 ? std::max(ss - sty * sty / stt, 0.0) : ss;
-    pool.allan[a].add_segment(ug);  // consumes ug
+    dof_ += n - 2;
   }
-  pool.dof += n - 2;
+  return widening();
 }
 
-std::array<double, 3> DwellSampleCorrelation::widening_with(
-    const std::vector<drivers::AccelSample>& samples) const {
-  Pool pool = pool_;
-  add(pool, samples);
+std::array<double, 3> DwellSampleCorrelation::widening() const {
   std::array<double, 3> widening{1, 1, 1};
-  if (!(pool.dof > 0)) return widening;
+  if (!(dof_ > 0)) return widening;
   const std::optional<SampleCorrelation> correlation = sample_correlation(
-      {pool.allan[0].curve(), pool.allan[1].curve(), pool.allan[2].curve()}, sample_period_s_);
+      {allan_[0].curve(), allan_[1].curve(), allan_[2].curve()}, sample_period_s_);
   if (!correlation) return widening;
-  const Vec3 factor = widening_factor(*correlation, (pool.scatter_ug2 / pool.dof).cwiseSqrt());
-  for (int a = 0; a < 3; ++a) widening[a] = factor[a];
+  const Vec3 factor = widening_factor(*correlation, (scatter_ug2_ / dof_).cwiseSqrt());
+  for (int a = 0; a < 3; ++a) widening[static_cast<std::size_t>(a)] = factor[a];
   return widening;
 }
 
-void DwellSampleCorrelation::keep(const std::vector<drivers::AccelSample>& samples) {
-  add(pool_, samples);
-}
+namespace {
 
-void DwellSampleCorrelation::keep_recording(const Recording& rec) {
-  std::vector<drivers::AccelSample> dwell;
-  for (std::size_t k = 0; k <= rec.samples.size(); ++k) {
-    if (k == rec.samples.size() || (k > 0 && rec.samples[k].pos != rec.samples[k - 1].pos)) {
-      keep(dwell);
-      dwell.clear();
-    }
-    if (k == rec.samples.size()) break;
+// Hands each position block of a recording to the pool as one dwell.
+class DwellPoolSink final : public RecordingRowSink {
+ public:
+  explicit DwellPoolSink(DwellSampleCorrelation& pool) : pool_(pool) {}
+  void header(const Recording&) override {}
+  void row(const RecordingSample& s) override {
+    if (!dwell_.empty() && s.pos != pos_) flush();
+    pos_ = s.pos;
     drivers::AccelSample x;
-    x.t_s = rec.samples[k].t_s;
-    for (int a = 0; a < 3; ++a) x.force_mps2[a] = rec.samples[k].f_mps2[a];
-    dwell.push_back(x);
+    x.t_s = s.t_s;
+    for (int a = 0; a < 3; ++a) x.force_mps2[static_cast<std::size_t>(a)] = s.f_mps2[a];
+    dwell_.push_back(x);
   }
+  void flush() {
+    if (dwell_.empty()) return;
+    (void)pool_.add_dwell(dwell_);
+    dwell_.clear();
+    ++dwells_;
+  }
+  std::size_t dwells() const { return dwells_; }
+
+ private:
+  DwellSampleCorrelation& pool_;
+  std::vector<drivers::AccelSample> dwell_;
+  int pos_ = 0;
+  std::size_t dwells_ = 0;
+};
+
+}  // namespace
+
+std::size_t DwellSampleCorrelation::add_recorded_dwells(const std::string& path) {
+  DwellPoolSink sink(*this);
+  (void)stream_recording(path, sink);
+  sink.flush();
+  return sink.dwells();
 }
 
 namespace {

@@ -51,33 +51,33 @@ struct DwellExpectation {
 };
 
 // The samples' own correlation (a unit's output filter: calib/allan.hpp, SampleCorrelation)
-// over a run's dwells pooled as they are kept, as the run's fit will find it: consecutive
-// correlated samples make a dwell's trend scatter more than its samples' sigma says, by the
-// factor its mean's error is widened by (the same long-run noise drives both: 2.0 for a
-// filter of two sample periods). One dwell of 250 samples shows the correlation
-// less surely than the run's dwells pooled.
+// over a run's dwells pooled as they are measured: consecutive correlated samples make a
+// dwell's trend scatter more than its samples' sigma says, by the factor its mean's error is
+// widened by (the same long-run noise drives both: 2.0 for a filter of two sample periods).
+// The same short-correlation fit as the stand fits' (calib/averaging.hpp), on each dwell's
+// samples about its own line: a drift, or a dwell re-measured for one, is not the unit's noise,
+// and a re-measured dwell still shows the correlation (the fits pool the kept dwells about
+// their means). One dwell of 250 samples shows a correlation less surely than the run's
+// dwells pooled.
 class DwellSampleCorrelation {
  public:
   DwellSampleCorrelation(double sample_period_s, double g_local_mps2);
-  // Per axis, what the white noise of `samples` (one dwell) is to be widened by, the dwell
-  // pooled beside those kept: 1 where the pooled curves show no short correlation or are too
-  // short to fit (calib/allan.hpp, sample_correlation).
-  std::array<double, 3> widening_with(const std::vector<drivers::AccelSample>& samples) const;
-  // Pools a kept dwell's samples.
-  void keep(const std::vector<drivers::AccelSample>& samples);
-  // Pools each position's samples of a recording (a resumed run's dwells so far).
-  void keep_recording(const Recording& rec);
+  // Pools one dwell's samples and says, per axis, what a dwell's white noise is to be
+  // widened by: 1 where the pooled curves show no short correlation or are too short to fit
+  // (calib/allan.hpp, sample_correlation).
+  std::array<double, 3> add_dwell(const std::vector<drivers::AccelSample>& samples);
+  // Pools each position's samples of a recording file (a resumed run's dwells so far) and
+  // says how many; throws what stream_recording throws.
+  std::size_t add_recorded_dwells(const std::string& path);
+  // The widening of the dwells pooled so far.
+  std::array<double, 3> widening() const;
 
  private:
-  struct Pool {
-    std::array<AllanAccumulator, 3> allan;
-    Vec3 scatter_ug2 = Vec3::Zero();  // sum over dwells of (n - 2) sigma^2 about their lines
-    double dof = 0;
-  };
-  void add(Pool& pool, const std::vector<drivers::AccelSample>& samples) const;
   double sample_period_s_;
   double ug_per_mps2_;
-  Pool pool_;
+  std::array<AllanAccumulator, 3> allan_;
+  Vec3 scatter_ug2_ = Vec3::Zero();  // sum over dwells of (n - 2) sigma^2 about their lines
+  double dof_ = 0;
 };
 
 // The standard deviation of the trend (least-squares slope times span) that a Gauss-Markov

@@ -184,7 +184,8 @@ class Sequencer {
     double t_first_s = 0;  // run clock at the first sample
   };
   SampledDwell sample_stable_dwell(const RunRecord& record, int index, double dwell_s);
-  void pool_kept_dwells(const RunRecord& record);
+  void start_dwell_pool(const RunRecord& record);
+  void pool_recorded_dwells(const RunRecord& record);
   void wait_for_operator(RunRecord& record, const Program& program, int index);
   void wait_thermal_stability(RunRecord& record);
   bool wait_while_paused(RunRecord& record);
@@ -222,7 +223,7 @@ class Sequencer {
   std::optional<Mount> mounted_;     // how the unit is believed mounted; empty: ask the operator
   double mean_position_real_s_ = 0;  // for the ETA
   int positions_timed_ = 0;
-  // The active run's kept dwells pooled, for the drift rule (stability.trend_limit_sigmas).
+  // The active run's dwells pooled, for the drift rule (stability.trend_limit_sigmas).
   std::optional<DwellSampleCorrelation> dwell_correlation_;
 
   // Snapshot for the thread-safe views.

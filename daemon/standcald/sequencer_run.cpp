@@ -254,7 +254,7 @@ void Sequencer::run_loop(RunRecord record, const std::function<void()>& started)
   last_t_s_ = record.last_t_s;
   positions_timed_ = 0;
   mean_position_real_s_ = 0;
-  pool_kept_dwells(record);
+  start_dwell_pool(record);
   mounted_ = (!fresh && uses_several_mounts(program))
                  ? std::nullopt
                  : std::optional<Mount>(program.positions.front().mount);
@@ -293,6 +293,7 @@ void Sequencer::run_loop(RunRecord record, const std::function<void()>& started)
             store_.save(record);
           } else {
             file.emplace(RecordingFile::reopen(record.recording_path, record.recording_bytes));
+            pool_recorded_dwells(record);
           }
           if (config_.thermal.enabled && record.positions_done == 0) wait_thermal_stability(record);
         }
@@ -534,15 +535,24 @@ Sequencer::Arrival Sequencer::arrive_at(const RunRecord& record, const ProgramPo
   return a;
 }
 
-// The drift rule's pool of the run's dwells (only when the rule is asked for): empty for a
-// fresh run, the recording's dwells for a resumed one.
-void Sequencer::pool_kept_dwells(const RunRecord& record) {
+// The drift rule's pool of the run's dwells (only when the rule is asked for), empty.
+void Sequencer::start_dwell_pool(const RunRecord& record) {
   dwell_correlation_.reset();
   if (!(config_.stability.trend_limit_sigmas > 0) || !(config_.sample_rate_hz > 0)) return;
   dwell_correlation_.emplace(1 / config_.sample_rate_hz, record.g_local_mps2);
-  if (record.recording_bytes == 0) return;
+}
+
+// A resumed run's dwells so far, read once its recording is reopened (and cut back to the
+// positions done): streamed, after the run.resume answer.
+void Sequencer::pool_recorded_dwells(const RunRecord& record) {
+  if (!dwell_correlation_) return;
   try {
-    dwell_correlation_->keep_recording(read_recording(record.recording_path));
+    const std::size_t dwells = dwell_correlation_->add_recorded_dwells(record.recording_path);
+    const std::array<double, 3> w = dwell_correlation_->widening();
+    spdlog::info(
+        "run {}: the drift rule pools the {} dwells of its recording (samples' correlation "
+        "widens the white noise x {:.3g}, y {:.3g}, z {:.3g})",
+        record.run_id, dwells, w[0], w[1], w[2]);
   } catch (const std::exception& e) {
     // The drift rule then judges the remaining dwells from them alone.
     spdlog::warn("run {}: the drift rule pools only the dwells from here on: {}", record.run_id,
@@ -574,12 +584,9 @@ Sequencer::SampledDwell Sequencer::sample_stable_dwell(const RunRecord& record, 
     expected.bias_wander_ug = config_.unit_bias_instability_ug;
     expected.bias_wander_tau_s = unit_bias_wander().tau_s;
     if (dwell_correlation_)
-      expected.sample_correlation_widening = dwell_correlation_->widening_with(d.samples);
+      expected.sample_correlation_widening = dwell_correlation_->add_dwell(d.samples);
     const std::string problem = dwell_problem(d.average, expected, config_.stability);
-    if (problem.empty()) {
-      if (dwell_correlation_) dwell_correlation_->keep(d.samples);
-      return d;
-    }
+    if (problem.empty()) return d;
     if (attempt >= config_.stability.remeasure_max) {
       throw RpcError(ErrorCode::hardware_fault,
                      "position " + std::to_string(index + 1) + " not stable after " +

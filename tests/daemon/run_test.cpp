@@ -234,6 +234,49 @@ TEST(DaemonRun, KillNineMidRunThenResumeRecordsEveryPositionOnce) {
   EXPECT_EQ(result["positions"], 9);
 }
 
+// Issue 21: the drift rule of a resumed run pools the dwells its recording holds (cut back to
+// the positions done), for a unit whose output filter correlates its samples (five periods at
+// 100 Hz), and the run finishes with the rule at 3 times what the noise explains.
+TEST(DaemonRun, AResumedRunsDriftRulePoolsTheDwellsOfItsRecording) {
+  TempDir dir;
+  TruthModel truth = default_truth();
+  truth.noise.output_filter_tau_s = 0.05;
+  save_truth(truth, dir.path() + "/filtered-unit.json");
+  const json config = {{"socket", {{"path", socket_of(dir)}}},
+                       {"state_dir", dir.path() + "/state"},
+                       {"sim", {{"truth", dir.path() + "/filtered-unit.json"}}},
+                       {"run", {{"stability", {{"trend_limit_sigmas", 3}}}}}};
+  const std::string file = dir.path() + "/standcald.json";
+  std::ofstream(file) << config.dump(2);
+  const std::vector<std::string> args{"--config", file, "--sim", "--time-scale", "100"};
+  std::string run_id;
+  {
+    DaemonProcess daemon(dir.path(), args);
+    daemon.wait_ready(socket_of(dir));
+    Client c(socket_of(dir));
+    run_id = c.call("run.start", {{"program", "paper9"},
+                                  {"unit_serial", "AU-8"},
+                                  {"dwell_s", 4},
+                                  {"settle_s", 1}})["run_id"];
+    wait_run(c, run_id,
+             [](const json& s) { return s["positions_done"].get<int>() >= 3 || finished(s); });
+    daemon.kill_now(SIGKILL);
+  }
+  DaemonProcess daemon(dir.path(), args);
+  daemon.wait_ready(socket_of(dir));
+  Client c(socket_of(dir));
+  const int done_before = c.call("run.status", {{"run_id", run_id}})["positions_done"];
+  ASSERT_GE(done_before, 3);
+  c.call("run.resume", {{"run_id", run_id}});
+  const json final_status = wait_run(c, run_id, finished);
+  EXPECT_EQ(final_status["state"], "done") << final_status.dump() << daemon.log();
+  EXPECT_NE(daemon.log().find("the drift rule pools the " + std::to_string(done_before) +
+                              " dwells of its recording (samples' correlation widens the white "
+                              "noise x 3."),
+            std::string::npos)
+      << daemon.log();
+}
+
 TEST(DaemonRun, OneRunAtATimeAndTheStandIsBusyDuringIt) {
   TempDir dir;
   auto daemon = DaemonProcess::sim(dir.path(), 50);

@@ -310,7 +310,8 @@ double projection_chi2_dof(const Recording& a, const Recording& b) {
 // wander or term is found in what is only noise. Before, every one of these eight was given
 // a bias wander (baseline chi2/dof 4.1) and two came out not consistent; now seed 8 of the
 // eight is `ambiguous` (baseline P = 0.004: the diagnosis's false-finding rate, <= 1 %
-// targeted, not the filter's).
+// targeted, not the filter's). The model it writes (--model-out) has the white density a
+// dwell mean sees, 10 ug/rtHz, not the filtered samples' 4.9 (as before).
 TEST(DiagnosisBlind, SamplesCorrelatedByAnOutputFilterAreNoFinding) {
   TruthModel t = default_truth();
   t.noise.output_filter_tau_s = 0.02;
@@ -321,6 +322,7 @@ TEST(DiagnosisBlind, SamplesCorrelatedByAnOutputFilterAreNoFinding) {
     consistent += d.verdict == "consistent";
     EXPECT_TRUE(d.findings.empty()) << "seed " << seed;
     EXPECT_FALSE(d.noise.bias_instability) << "seed " << seed;
+    EXPECT_NEAR(d.model.noise.density_ug_rthz, t.noise.density_ug_rthz, 1.5) << "seed " << seed;
   }
   EXPECT_GE(consistent, 7);
 }

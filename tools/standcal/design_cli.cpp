@@ -489,7 +489,7 @@ void run_optimize(const OptimizeCliOptions& o) {
               {"structure", o.structure.empty() ? "none" : o.structure},
               {"positions", positions},
               // The exchange maximises white noise's information: under a wander the
-              // dwell and the revisits below allow for it, the angles do not.
+              // dwells and revisits of dwell_for_target allow for it, the angles do not.
               {"positions_chosen_for", "white noise"},
               {"d_criterion", best.d_criterion},
               {"paper9_d_criterion", best.paper9_d_criterion},
@@ -514,8 +514,9 @@ void run_optimize(const OptimizeCliOptions& o) {
               best.paper9_d_criterion, 100 * (gain - 1));
   if (settings.wander())
     std::printf(
-        "  the angles are D-optimal for white noise; the dwells and revisits below allow for the "
-        "wander\n");
+        "  the angles are D-optimal for white noise; the dwells and revisits planned here allow "
+        "for "
+        "the wander\n");
   if (best.program.positions.size() != paper9().positions.size())
     std::printf(
         "  per position (information per measurement, fair for different counts): %+.1f %%\n",
