@@ -605,6 +605,14 @@ FitResult fit_full_vector(const std::vector<PositionAverage>& positions,
   fit.notes.push_back(
       "gamma12, gamma13, gamma23 are the pair sums gamma_ij + gamma_ji; the antisymmetric part "
       "cannot be told from the mounting (model.md).");
+  if (layout.mounting_model == MountingModel::common_fixture && layout.mounts.size() > 1)
+    fit.notes.push_back(
+        "one rigid fixture assumed across the mounts (--mounting common): an error in "
+        "re-seating it for a mount goes into the gamma pair sums one for one (each takes the "
+        "difference of two mounts' re-seatings), and neither their sigmas nor the model check "
+        "can see it; budget it "
+        "(stand.remount_arcsec of the budget file) or fit --mounting per-mount, which reports "
+        "the gamma pair sums unobservable.");
   if (fit.redundancy <= 0)
     fit.notes.push_back("zero redundancy: the fit is exact and cannot check the model.");
   return fit;

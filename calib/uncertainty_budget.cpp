@@ -3,6 +3,7 @@
 #include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <set>
 
 #include "calib/averaging.hpp"
 #include "calib/full_estimator.hpp"
@@ -73,7 +74,34 @@ BudgetInput rectangular_input(std::string name, std::string source, double bound
           std::move(unit), to_internal,       bound * to_internal / std::sqrt(3.0)};
 }
 
-void add_stand_inputs(const BudgetConfig& c, const UnitErrors& unit, std::vector<InputModel>& out,
+// Each re-seating of a re-mounted programme's fixture: one input per mount and axis, that
+// mount's rotation alone (the seating common to all mounts is mounting_arcsec).
+void add_remount_inputs(const BudgetConfig& c, const std::string& source, const UnitErrors& unit,
+                        const std::vector<PositionAverage>& positions, std::vector<InputModel>& out,
+                        std::vector<std::string>& missing) {
+  std::set<Mount> mounts;
+  for (const PositionAverage& a : positions) mounts.insert(a.mount);
+  if (mounts.size() < 2) return;
+  if (std::isnan(c.remount_arcsec)) {
+    missing.push_back(
+        "stand.remount_arcsec (not in the budget file; this programme re-mounts the unit, and "
+        "a fit that takes one rigid fixture puts each re-seating into the gamma pair sums)");
+    return;
+  }
+  for (const Mount m : mounts) {
+    for (int axis = 0; axis < 3; ++axis) {
+      out.push_back(
+          {rectangular_input("mount " + mount_name(m) + " re-seating about " + "xyz"[axis], source,
+                             c.remount_arcsec, "arcsec", kArcsecToRad),
+           stand_error_effect(unit, [m, axis](StandErrors& s, double x) {
+             s.mounting_rad[static_cast<std::size_t>(m)][axis] = x;
+           })});
+    }
+  }
+}
+
+void add_stand_inputs(const BudgetConfig& c, const UnitErrors& unit,
+                      const std::vector<PositionAverage>& positions, std::vector<InputModel>& out,
                       std::vector<std::string>& missing) {
   const std::string source = c.stand_source.empty() ? c.source : c.stand_source;
   using Set = std::function<void(StandErrors&, double)>;
@@ -105,6 +133,7 @@ void add_stand_inputs(const BudgetConfig& c, const UnitErrors& unit, std::vector
                           });
   }
   add(c.mounting_arcsec, "mounting_arcsec", std::move(mounting));
+  add_remount_inputs(c, source, unit, positions, out, missing);
 }
 
 void add_temperature_inputs(const BudgetConfig& c, const std::string& unit_type,
@@ -148,7 +177,7 @@ std::vector<InputModel> budget_input_models(const std::vector<PositionAverage>& 
                                             const std::string& unit_type, double g_mps2,
                                             std::vector<std::string>& missing) {
   std::vector<InputModel> inputs;
-  add_stand_inputs(c, budget_fitted_unit(fit), inputs, missing);
+  add_stand_inputs(c, budget_fitted_unit(fit), positions, inputs, missing);
   if (std::isnan(c.g_standard_uncertainty_mps2)) {
     missing.push_back("gravity.standard_uncertainty_mps2 (not in the budget file)");
   } else {
@@ -293,14 +322,15 @@ BudgetConfig budget_config_from_json(const json& doc, const std::string& source)
   if (doc.contains("stand")) {
     const json& s = doc["stand"];
     const std::string where = source + ": stand";
-    budget_only_keys(
-        s, where,
-        {"source", "angle_zero_arcsec", "orthogonality_arcsec", "level_arcsec", "mounting_arcsec"});
+    budget_only_keys(s, where,
+                     {"source", "angle_zero_arcsec", "orthogonality_arcsec", "level_arcsec",
+                      "mounting_arcsec", "remount_arcsec"});
     c.stand_source = budget_text(s, "source", where);
     c.angle_zero_arcsec = budget_number(s, "angle_zero_arcsec", where);
     c.orthogonality_arcsec = budget_number(s, "orthogonality_arcsec", where);
     c.level_arcsec = budget_number(s, "level_arcsec", where);
     c.mounting_arcsec = budget_number(s, "mounting_arcsec", where);
+    c.remount_arcsec = budget_number(s, "remount_arcsec", where);
   }
   if (doc.contains("gravity")) {
     const json& g = doc["gravity"];

@@ -35,6 +35,10 @@ struct BudgetConfig {
   double orthogonality_arcsec = kNaN;  // the inner axis against the outer, about y and z
   double level_arcsec = kNaN;          // the outer axis against the vertical, about x and z
   double mounting_arcsec = kNaN;       // the unit's seating in the fixture, about each axis
+  // Each re-seating of the fixture on the stand, about each axis, independent per mount (a
+  // re-mounted programme such as classic24: the full-vector fit with one rigid fixture takes
+  // it into the gamma pair sums one for one, and cannot see it).
+  double remount_arcsec = kNaN;
   // Local gravity: a standard uncertainty (normal), with where it comes from.
   double g_standard_uncertainty_mps2 = kNaN;
   std::string g_source;
