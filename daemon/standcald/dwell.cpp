@@ -86,29 +86,30 @@ DwellSampleCorrelation::DwellSampleCorrelation(double sample_period_s, double g_
              AllanAccumulator(sample_period_s)} {}
 
 std::array<double, 3> DwellSampleCorrelation::add_dwell(
-    const std::vector<drivers::AccelSample>& samples) {
-  if (samples.size() >= 3) {
-    const double n = static_cast<double>(samples.size());
-    double t_mean = 0;
-    for (const auto& x : samples) t_mean += x.t_s / n;
-    double stt = 0;
-    for (const auto& x : samples) stt += (x.t_s - t_mean) * (x.t_s - t_mean);
-    for (int a = 0; a < 3; ++a) {
-      double mean = 0, sty = 0;
-      for (const auto& x : samples) mean += x.force_mps2[a] * ug_per_mps2_ / n;
-      for (const auto& x : samples) sty += (x.t_s - t_mean) * (x.force_mps2[a] * ug_per_mps2_);
-      const double slope = stt > 0 ? sty / stt : 0.0;
-      std::vector<double> about_line;  // the samples less the dwell's least-squares line
-      about_line.reserve(samples.size() + 1);
-      for (const auto& x : samples) {
-        about_line.push_back(x.force_mps2[a] * ug_per_mps2_ - mean - slope * (x.t_s - t_mean));
-        scatter_ug2_[a] += about_line.back() * about_line.back();
-      }
-      allan_[static_cast<std::size_t>(a)].add_segment(about_line);  // consumes it
-    }
-    dof_ += n - 2;
-  }
+    const std::vector<drivers::AccelSample>& samples, const DwellAverage& average) {
+  pool(samples, average);
   return widening();
+}
+
+void DwellSampleCorrelation::pool(const std::vector<drivers::AccelSample>& samples,
+                                  const DwellAverage& average) {
+  if (samples.size() < 3) return;
+  const double n = static_cast<double>(samples.size());
+  double t_mean = 0;
+  for (const auto& x : samples) t_mean += x.t_s / n;
+  for (std::size_t a = 0; a < 3; ++a) {
+    // The dwell's least-squares line: its trend is the slope times the span.
+    const double slope_per_s = average.span_s > 0 ? average.trend_mps2[a] / average.span_s : 0.0;
+    std::vector<double> about_line;  // ug
+    about_line.reserve(samples.size() + 1);
+    for (const auto& x : samples) {
+      about_line.push_back(
+          (x.force_mps2[a] - average.mean_mps2[a] - slope_per_s * (x.t_s - t_mean)) * ug_per_mps2_);
+      scatter_ug2_[static_cast<Eigen::Index>(a)] += about_line.back() * about_line.back();
+    }
+    allan_[a].add_segment(about_line);  // consumes it
+  }
+  dof_ += n - 2;
 }
 
 std::array<double, 3> DwellSampleCorrelation::widening() const {
@@ -139,7 +140,7 @@ class DwellPoolSink final : public RecordingRowSink {
   }
   void flush() {
     if (dwell_.empty()) return;
-    (void)pool_.add_dwell(dwell_);
+    pool_.pool(dwell_, average_dwell(dwell_));
     dwell_.clear();
     ++dwells_;
   }

@@ -62,10 +62,14 @@ struct DwellExpectation {
 class DwellSampleCorrelation {
  public:
   DwellSampleCorrelation(double sample_period_s, double g_local_mps2);
-  // Pools one dwell's samples and says, per axis, what a dwell's white noise is to be
-  // widened by: 1 where the pooled curves show no short correlation or are too short to fit
+  // Pools one dwell's samples (`average` is their average_dwell: its mean and trend are the
+  // line taken out) and says, per axis, what a dwell's white noise is to be widened by: 1
+  // where the pooled curves show no short correlation or are too short to fit
   // (calib/allan.hpp, sample_correlation).
-  std::array<double, 3> add_dwell(const std::vector<drivers::AccelSample>& samples);
+  std::array<double, 3> add_dwell(const std::vector<drivers::AccelSample>& samples,
+                                  const DwellAverage& average);
+  // The same without the widening (its Allan fit), for dwells pooled in bulk.
+  void pool(const std::vector<drivers::AccelSample>& samples, const DwellAverage& average);
   // Pools each position's samples of a recording file (a resumed run's dwells so far) and
   // says how many; throws what stream_recording throws.
   std::size_t add_recorded_dwells(const std::string& path);

@@ -584,7 +584,7 @@ Sequencer::SampledDwell Sequencer::sample_stable_dwell(const RunRecord& record, 
     expected.bias_wander_ug = config_.unit_bias_instability_ug;
     expected.bias_wander_tau_s = unit_bias_wander().tau_s;
     if (dwell_correlation_)
-      expected.sample_correlation_widening = dwell_correlation_->add_dwell(d.samples);
+      expected.sample_correlation_widening = dwell_correlation_->add_dwell(d.samples, d.average);
     const std::string problem = dwell_problem(d.average, expected, config_.stability);
     if (problem.empty()) return d;
     if (attempt >= config_.stability.remeasure_max) {

@@ -194,6 +194,12 @@ TEST(DwellStability, ADriftBeyondWhatTheNoiseExplainsIsReMeasuredWhenTheRuleAsks
             "");
 }
 
+// Pools a dwell in `run` as the sequencer does, with its average; the widening after it.
+std::array<double, 3> add_dwell(DwellSampleCorrelation& run,
+                                const std::vector<drivers::AccelSample>& samples) {
+  return run.add_dwell(samples, average_dwell(samples));
+}
+
 // A unit's output filter correlates consecutive samples, and a dwell's drift then scatters
 // more than its samples' sigma says: 2.02 times for a filter of two sample periods
 // (sqrt((1 + a) / (1 - a)), a = e^-0.5 from one sample to the next), as its mean's error
@@ -209,7 +215,7 @@ TEST(DwellStability, AUnitsOutputFilterIsPartOfWhatExplainsADrift) {
     return noisy_dwell(kSamples, kRateHz, kWhiteUg, 0, 300, rise_y_ug, rng, kFilterS);
   };
   DwellSampleCorrelation run(1 / kRateHz, kG);
-  for (int k = 0; k < 4; ++k) (void)run.add_dwell(dwell());  // the run's dwells so far
+  for (int k = 0; k < 4; ++k) (void)add_dwell(run, dwell());  // the run's dwells so far
   const std::array<double, 3> after_four = run.widening();
   std::printf("widening with four dwells pooled: x %.3f y %.3f z %.3f\n", after_four[0],
               after_four[1], after_four[2]);
@@ -222,7 +228,7 @@ TEST(DwellStability, AUnitsOutputFilterIsPartOfWhatExplainsADrift) {
     const auto samples = dwell();
     const DwellAverage d = average_dwell(samples);
     DwellExpectation e = expect(10, kRateHz);
-    e.sample_correlation_widening = run.add_dwell(samples);
+    e.sample_correlation_widening = run.add_dwell(samples, d);
     for (int a = 0; a < 3; ++a)
       z2[a] += std::pow(d.trend_mps2[a] / explained_trend_sigma_mps2(
                                               d, a, 0, 300, e.sample_correlation_widening[a]),
@@ -239,7 +245,7 @@ TEST(DwellStability, AUnitsOutputFilterIsPartOfWhatExplainsADrift) {
   // A drift beyond it is still one, and the operator is told what was allowed for.
   const auto drifting = dwell(400);
   DwellExpectation e = expect(10, kRateHz);
-  e.sample_correlation_widening = run.add_dwell(drifting);
+  e.sample_correlation_widening = add_dwell(run, drifting);
   const std::string problem = dwell_problem(average_dwell(drifting), e, rule);
   ASSERT_EQ(problem.rfind("axis y drifted ", 0), 0u) << problem;
   EXPECT_NE(problem.find("µg from its sample σ widened 2."), std::string::npos) << problem;
@@ -260,7 +266,7 @@ TEST(DwellStability, AFirstDwellShowsTheFilter) {
     int shown = 0;
     for (int r = 0; r < kRuns; ++r) {
       DwellSampleCorrelation run(1 / 25.0, kG);
-      shown += run.add_dwell(noisy_dwell(samples, 25, 200, 0, 300, 0, rng, filter_s))[0] > 1.3;
+      shown += add_dwell(run, noisy_dwell(samples, 25, 200, 0, 300, 0, rng, filter_s))[0] > 1.3;
     }
     std::printf("a filter of %.2f s shown by a first dwell of %d samples in %d of %d runs\n",
                 filter_s, samples, shown, kRuns);
@@ -279,7 +285,7 @@ TEST(DwellStability, AResumedRunPoolsItsRecordingsDwellsAsTheyWereMeasured) {
   rec.columns = RecordingColumns{};
   for (int pos = 0; pos < 3; ++pos) {
     const auto samples = noisy_dwell(250, 25, 200, 0, 300, 0, rng, 0.08);
-    (void)measured.add_dwell(samples);
+    (void)add_dwell(measured, samples);
     for (const auto& x : samples) {
       RecordingSample row;
       row.t_s = x.t_s + 20 * pos;
@@ -306,7 +312,8 @@ TEST(DwellStability, AWhiteUnitsDwellsAreNotWidened) {
   std::mt19937_64 rng(43);
   DwellSampleCorrelation run(1 / 25.0, kG);
   for (int k = 0; k < 8; ++k) {
-    const std::array<double, 3> widening = run.add_dwell(noisy_dwell(250, 25, 200, 0, 300, 0, rng));
+    const std::array<double, 3> widening =
+        add_dwell(run, noisy_dwell(250, 25, 200, 0, 300, 0, rng));
     EXPECT_EQ(widening, (std::array<double, 3>{1, 1, 1})) << "dwell " << k;
   }
 }

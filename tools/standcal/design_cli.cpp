@@ -514,9 +514,8 @@ void run_optimize(const OptimizeCliOptions& o) {
               best.paper9_d_criterion, 100 * (gain - 1));
   if (settings.wander())
     std::printf(
-        "  the angles are D-optimal for white noise; the dwells and revisits planned here allow "
-        "for "
-        "the wander\n");
+        "  the angles are D-optimal for white noise; the dwells and revisits planned here "
+        "allow for the wander\n");
   if (best.program.positions.size() != paper9().positions.size())
     std::printf(
         "  per position (information per measurement, fair for different counts): %+.1f %%\n",
