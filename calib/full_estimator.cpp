@@ -489,8 +489,19 @@ FitNoiseChoice white_fit_and_noise(WeightedProblem& problem, Eigen::VectorXd& q,
 
 constexpr double kModelMisfitP = 1e-3;  // P of the noise model's own bar for a finding
 
+// What WanderAgainstWhite says of the white fit at q.
+WanderAgainstWhite wander_against_white(const WeightedProblem& problem, const Eigen::VectorXd& q) {
+  const Eigen::MatrixXd X = problem.jacobian(q);
+  const Eigen::VectorXd y = problem.residuals(q);
+  const double white = restricted_log_likelihood(problem.noise_rows, X, y, GaussMarkovNoise{});
+  return [rows = problem.noise_rows, X, y, white](const GaussMarkovNoise& n) {
+    return 2 * (white - restricted_log_likelihood(rows, X, y, n));
+  };
+}
+
 std::optional<FitNoiseChoice> full_vector_noise_choice(
-    const std::vector<PositionAverage>& positions, const FitNoiseOptions& noise) {
+    const std::vector<PositionAverage>& positions, const FitNoiseOptions& noise,
+    WanderAgainstWhite* against_white) {
   FullFitOptions options;
   options.noise = noise;
   try {
@@ -499,6 +510,7 @@ std::optional<FitNoiseChoice> full_vector_noise_choice(
     problem.noise_rows = full_vector_noise_rows(positions, options.sigma_floor_g);
     Eigen::VectorXd q;
     const FitNoiseChoice choice = white_fit_and_noise(problem, q, positions, options);
+    if (against_white) *against_white = wander_against_white(problem, q);
     if (choice.noise.white()) return choice;
     // The model check of the fit under that noise: a full-vector model that does not fit
     // these means (a stand error it leaves out, a re-mount it takes as rigid) would pass its

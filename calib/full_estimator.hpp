@@ -4,6 +4,7 @@
 // and mounting errors, by Levenberg–Marquardt. What a programme cannot separate is found
 // by an SVD of the column-scaled Jacobian, named, and constrained instead of guessed.
 #include <Eigen/Dense>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -113,12 +114,19 @@ FitResult fit_full_vector(const std::vector<PositionAverage>& positions,
 FitResult fit_full_vector(const std::vector<PositionAverage>& positions,
                           const FitNoiseOptions& noise);
 
+// How the full vector of these dwell means receives a wander proposed from elsewhere (the
+// invariant rows' own estimate): 2 (restricted log L(white) - log L(noise)) on its white
+// fit's residuals, above 0 where its rows favour white noise over that wander.
+using WanderAgainstWhite = std::function<double(const GaussMarkovNoise&)>;
+
 // The noise model the full-vector fit of these dwell means weights with, chosen from its
 // white fit's residuals (three rows per position): for an estimator that sees one row per
 // position of the same dwells (the invariant fit) and pins the wander poorly from those.
 // Nullopt when the full-vector model cannot be fitted to this programme, or does not fit
 // these means under the noise it chose (chi-square at P < 1e-3): its misfit is not noise.
+// With a choice, `against_white` (when given) receives how those rows receive another wander.
 std::optional<FitNoiseChoice> full_vector_noise_choice(
-    const std::vector<PositionAverage>& positions, const FitNoiseOptions& noise);
+    const std::vector<PositionAverage>& positions, const FitNoiseOptions& noise,
+    WanderAgainstWhite* against_white = nullptr);
 
 }  // namespace standcal

@@ -1,5 +1,6 @@
 #include "calib/invariant_estimator.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -205,19 +206,53 @@ bool takes_full_vector_wander(const FitNoiseChoice& full, const FitNoiseOptions&
   return one_tau_given || full.finding.lr > kFullVectorWanderLr;
 }
 
+// 2 delta log L by which the full vector of the dwell means must favour white noise over a
+// wander the invariant rows estimated, for that wander to be set aside: chi2 with one
+// parameter at P = 0.05.
+constexpr double kFullVectorRejectsLr = 3.84;
+
+// The invariant rows' own wander (the full vector weighs none, or one below the evident
+// bar), as the full vector's three rows per position receive it: a wander they disfavour
+// against white noise (kFullVectorRejectsLr) gives way to the full vector's own choice, white
+// or weighted, and of the correlation times the biases' sigmas are averaged over, those they
+// disfavour are dropped. From 24 rows of a white unit's classic24 run the invariant rows
+// proposed wanders of 5-16 ug (tau 150-1200 s) that the full vector's 72 disfavoured by
+// 3.9-21 in 2 delta log L (their own estimate: none, or 2 delta log L 1-6, below any bar),
+// and the biases' sigmas came out 9.6-25 ug against white noise's 1.1.
+FitNoiseChoice checked_by_full_vector(const WanderAgainstWhite& against, FitNoiseChoice full,
+                                      FitNoiseChoice own, const FitNoiseOptions& options) {
+  const auto disfavoured = [&](const GaussMarkovNoise& n) {
+    return against(n) > kFullVectorRejectsLr;
+  };
+  if (disfavoured(own.noise)) {
+    full.finding.how =
+        "from the full vector of the dwell means (3 rows per position), which "
+        "disfavour the wander the invariant rows estimate: " +
+        full.finding.how;
+    full.parameters = 0;
+    return full;
+  }
+  std::erase_if(own.plausible, [&](const PlausibleNoise& p) { return disfavoured(p.noise); });
+  set_tau_provenance(own.finding, own.plausible, options.known_tau);
+  return own;
+}
+
 // A wander that the full vector of the same dwell means shows, as a finding or evidently
 // (takes_full_vector_wander), is weighted for as the full-vector fit estimates it: three rows
 // per position pin it better than the invariant projection's one (docs/calibration.md,
 // "Noise model"). Otherwise the invariant rows estimate it themselves, as when there is no
-// full vector. The chi-square of the invariant residuals loses no degree of freedom to a
-// wander fitted to the full vector's rows.
+// full vector, and the full vector's rows judge that estimate (checked_by_full_vector). The
+// chi-square of the invariant residuals loses no degree of freedom to a wander fitted to the
+// full vector's rows.
 FitNoiseChoice invariant_noise_choice(const InvariantData& d,
                                       const std::vector<PositionAverage>& positions,
                                       const std::vector<int>& fitted,
                                       const VectorXd& white_residual,
                                       const FitNoiseOptions& options) {
+  std::optional<FitNoiseChoice> full;
+  WanderAgainstWhite against;
   if (options.mode == FitNoiseOptions::Mode::estimate && options.estimate_from_full_vector) {
-    std::optional<FitNoiseChoice> full = full_vector_noise_choice(positions, options);
+    full = full_vector_noise_choice(positions, options, &against);
     if (full && takes_full_vector_wander(*full, options)) {
       full->finding.how =
           "from the full vector of the dwell means (3 rows per position): " + full->finding.how;
@@ -225,9 +260,13 @@ FitNoiseChoice invariant_noise_choice(const InvariantData& d,
       return *full;
     }
   }
-  return choose_fit_noise(noise_rows_of(d, positions),
-                          d.sigma.cwiseInverse().asDiagonal() * fitted_columns(d, fitted),
-                          white_residual.cwiseQuotient(d.sigma), options, positions);
+  FitNoiseChoice own = choose_fit_noise(
+      noise_rows_of(d, positions), d.sigma.cwiseInverse().asDiagonal() * fitted_columns(d, fitted),
+      white_residual.cwiseQuotient(d.sigma), options, positions);
+  // (A full vector with too few rows to estimate a wander from, lr_threshold 0, is no judge.)
+  if (full && full->finding.lr_threshold > 0 && !own.scales.empty())
+    return checked_by_full_vector(against, *full, own, options);
+  return own;
 }
 
 }  // namespace

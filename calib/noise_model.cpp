@@ -394,7 +394,7 @@ SigmaWidening widen_for_estimated_noise(
   return w;
 }
 
-namespace {
+namespace {}  // namespace
 
 // Whether the correlation time was given (specified with the wander, or known: one value or a
 // range) and, where it was estimated or given as a range, the times of the grid the run
@@ -415,8 +415,6 @@ void set_tau_provenance(NoiseFinding& n, const std::vector<PlausibleNoise>& plau
     n.tau_plausible_max_s = std::max(n.tau_plausible_max_s, t);
   }
 }
-
-}  // namespace
 
 NoiseFinding noise_finding(const NoiseEstimate& e, const std::vector<PositionAverage>& avg,
                            const std::optional<KnownTau>& known_tau) {

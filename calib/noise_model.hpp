@@ -221,6 +221,12 @@ struct NoiseFinding {
   }
 };
 
+// Whether the correlation time was given (specified with the wander, or known: one value or
+// a range) and, where it was estimated or given as a range, the times of the grid the run
+// allows (`plausible`: what the sigmas were averaged over).
+void set_tau_provenance(NoiseFinding& n, const std::vector<PlausibleNoise>& plausible,
+                        const std::optional<KnownTau>& known);
+
 // From the estimate (its noise, or the specified one when the run alone shows none) and the
 // dwell means it applies to: understated_by per axis at the median dwell standard error.
 // `known_tau`: the correlation time the estimate was made at, when given.

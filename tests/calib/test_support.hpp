@@ -22,6 +22,19 @@ inline TruthModel noise_free(TruthModel t) {
   return t;
 }
 
+// A simulated run of the default unit as `standcal simulate --program P --dwell-s D
+// --rate-hz R --seed S` records it.
+inline Recording simulate_default_run(const Program& program, double dwell_s, double sample_rate_hz,
+                                      std::uint64_t seed = 1) {
+  SimulationRequest req;
+  req.program = program;
+  req.truth = default_truth();
+  req.timing.dwell_s = dwell_s;
+  req.timing.sample_rate_hz = sample_rate_hz;
+  req.seed = seed;
+  return simulate_run(req);
+}
+
 inline std::vector<PositionAverage> simulate_averages(const Program& program,
                                                       const TruthModel& truth,
                                                       std::uint64_t seed = 1, double dwell_s = 2) {
