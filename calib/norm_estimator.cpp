@@ -1,6 +1,10 @@
 #include "calib/norm_estimator.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -124,7 +128,8 @@ Vec9 levenberg_marquardt(const std::vector<StaticInterval>& intervals, Vec9 p, d
     cost = new_cost;
   }
   throw std::runtime_error("norm fit: no convergence in " + std::to_string(max_iterations) +
-                           " iterations (the static intervals do not fit |M (raw - b)| = g)");
+                           " iterations (the static intervals do not fit |M (raw - b)| = g, or "
+                           "their orientations do not determine the misalignments)");
 }
 
 // The invariant fit's corrections (bias in g, scale-factor errors, gamma pair sums, all in
@@ -186,6 +191,50 @@ void require_observable(const FitResult& r) {
   if (!missing.empty())
     throw std::runtime_error(
         "cannot calibrate: the orientations of the static intervals do not "
+        "determine " +
+        missing + " (hold the unit in orientations between the axes, not only along them)");
+}
+
+// |u_a u_b| below which an interval counts as lying along the sensor axes a and b: the size
+// of a unit's own misalignments (1e-3 rad is 206 arcsec), so what is left of the product
+// is the unit's error, not an orientation between the axes.
+constexpr double kAlongTheAxes = 1e-3;
+
+// Intervals that all lie along the sensor axes do not determine the misalignments: gamma_ab
+// enters |f| only through u_a u_b. Noise-free ones do not even fix the ellipsoid
+// (ellipsoid_start refuses); with noise they do, badly (its cross terms are the noise's),
+// and the search then wanders without converging (a simulated classic24 recording, 24
+// dwells along +-x, +-y, +-z: "no convergence in 100 iterations"). The orientations are
+// judged from each axis's own range, which the undetermined cross terms do not touch.
+void require_orientations_between_the_axes(const std::vector<StaticInterval>& intervals) {
+  Vec3 low = Vec3::Constant(std::numeric_limits<double>::infinity()), high = -low;
+  for (const StaticInterval& iv : intervals) {
+    low = low.cwiseMin(iv.mean);
+    high = high.cwiseMax(iv.mean);
+  }
+  const Vec3 centre = (low + high) / 2, half_range = (high - low) / 2;
+  constexpr std::array<std::array<int, 2>, 3> kPairs{{{0, 1}, {0, 2}, {1, 2}}};
+  Vec3 largest = Vec3::Zero();  // max |u_a u_b| over the intervals, per pair
+  for (const StaticInterval& iv : intervals) {
+    const Vec3 u = (iv.mean - centre).cwiseQuotient(half_range).normalized();
+    for (std::size_t k = 0; k < kPairs.size(); ++k) {
+      const auto e = static_cast<Eigen::Index>(k);
+      largest[e] = std::max(largest[e], std::abs(u[kPairs[k][0]] * u[kPairs[k][1]]));
+    }
+  }
+  std::string missing;
+  for (std::size_t k = 0; k < kPairs.size(); ++k) {
+    const auto e = static_cast<Eigen::Index>(k);
+    if (!(largest[e] < kAlongTheAxes)) continue;
+    char product[48];
+    std::snprintf(product, sizeof product, " (|u_%c u_%c| at most %.1g)", "xyz"[kPairs[k][0]],
+                  "xyz"[kPairs[k][1]], largest[e]);
+    missing += (missing.empty() ? "" : ", ") + std::string(kUnitParameterNames[6 + k]) + product;
+  }
+  if (!missing.empty())
+    throw std::runtime_error(
+        "cannot calibrate: every one of the " + std::to_string(intervals.size()) +
+        " static intervals has gravity along a sensor axis, so their orientations do not "
         "determine " +
         missing + " (hold the unit in orientations between the axes, not only along them)");
 }
@@ -285,6 +334,7 @@ NormFit fit_norm(const std::vector<StaticInterval>& intervals, double g, InputUn
                  const NormFitOptions& o) {
   require_enough(intervals);
   NormFit fit;
+  require_orientations_between_the_axes(intervals);
   const Vec9 start = pack(ellipsoid_start(intervals, g));
   const NormCompensation solved =
       unpack(levenberg_marquardt(intervals, start, g, o.max_iterations, fit.iterations));
