@@ -510,18 +510,24 @@ std::optional<FitNoiseChoice> full_vector_noise_choice(
     problem.noise_rows = full_vector_noise_rows(positions, options.sigma_floor_g);
     Eigen::VectorXd q;
     const FitNoiseChoice choice = white_fit_and_noise(problem, q, positions, options);
-    if (against_white) *against_white = wander_against_white(problem, q);
-    if (choice.noise.white()) return choice;
-    // The model check of the fit under that noise: a full-vector model that does not fit
-    // these means (a stand error it leaves out, a re-mount it takes as rigid) would pass its
-    // misfit off as wander, so its estimate is not offered.
+    const int dof = static_cast<int>(3 * positions.size() - in.obs.kept.size()) - choice.parameters;
+    // The model check: a full-vector model that does not fit these means (a stand error it
+    // leaves out, a re-mount it takes as rigid) would pass its misfit off as wander, so its
+    // estimate is not offered, nor its rows' judgement of another wander.
+    const auto fits = [&](const WeightedProblem& p, const Eigen::VectorXd& at) {
+      return dof <= 0 || chi_square_upper_tail(p.residuals(at).squaredNorm(), dof) >= kModelMisfitP;
+    };
+    WanderAgainstWhite judge = wander_against_white(problem, q);
+    if (choice.noise.white()) {
+      if (against_white && fits(problem, q)) *against_white = std::move(judge);
+      return choice;
+    }
     problem.noise = choice.noise;
     q = solve_levenberg_marquardt(problem, options.max_iterations);
     WeightedProblem check = problem;
     check.noise = choice.check_noise;
-    const int dof = static_cast<int>(3 * positions.size() - in.obs.kept.size()) - choice.parameters;
-    if (dof > 0 && chi_square_upper_tail(check.residuals(q).squaredNorm(), dof) < kModelMisfitP)
-      return std::nullopt;
+    if (!fits(check, q)) return std::nullopt;
+    if (against_white) *against_white = std::move(judge);
     return choice;
   } catch (const CannotFit&) {
     return std::nullopt;

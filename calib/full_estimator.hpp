@@ -124,7 +124,8 @@ using WanderAgainstWhite = std::function<double(const GaussMarkovNoise&)>;
 // position of the same dwells (the invariant fit) and pins the wander poorly from those.
 // Nullopt when the full-vector model cannot be fitted to this programme, or does not fit
 // these means under the noise it chose (chi-square at P < 1e-3): its misfit is not noise.
-// With a choice, `against_white` (when given) receives how those rows receive another wander.
+// With a choice from a model that fits, `against_white` (when given) receives how those rows
+// receive another wander; it stays empty where the white model does not fit the means.
 std::optional<FitNoiseChoice> full_vector_noise_choice(
     const std::vector<PositionAverage>& positions, const FitNoiseOptions& noise,
     WanderAgainstWhite* against_white = nullptr);

@@ -190,7 +190,7 @@ void widen_sigmas(const InvariantData& d, const std::vector<PositionAverage>& po
 // below the bar of a finding: chi2 with two parameters (a q common to the axes, and tau) at
 // P = 0.05. Weaker estimates, taken as well, only widened white noise's sigmas (an
 // 18-position programme's z-variance fell to 0.70-0.75); without the sub-threshold ones the
-// biases' z-variance was 1.10-1.52 under a wander of 1x the dwell error (0.93-1.05 with).
+// biases' z-variance was 1.10-1.52 under a wander of 1x the dwell error (0.94-1.05 with).
 constexpr double kFullVectorWanderLr = 5.99;
 
 // Whether the invariant fit weights with the wander the full vector estimated: a finding,
@@ -207,18 +207,23 @@ bool takes_full_vector_wander(const FitNoiseChoice& full, const FitNoiseOptions&
 }
 
 // 2 delta log L by which the full vector of the dwell means must favour white noise over a
-// wander the invariant rows estimated, for that wander to be set aside: chi2 with one
-// parameter at P = 0.05.
+// wander the invariant rows estimated, for that wander to be set aside: a likelihood ratio of
+// e^1.92 = 6.8 between two given models (not a nested fit, so no chi-square level applies;
+// were the wander the true one, its rows would favour white noise so in at most 1/6.8 = 15 %
+// of runs).
 constexpr double kFullVectorRejectsLr = 3.84;
 
-// The invariant rows' own wander (the full vector weighs none, or one below the evident
-// bar), as the full vector's three rows per position receive it: a wander they disfavour
-// against white noise (kFullVectorRejectsLr) gives way to the full vector's own choice, white
-// or weighted, and of the correlation times the biases' sigmas are averaged over, those they
-// disfavour are dropped. From 24 rows of a white unit's classic24 run the invariant rows
-// proposed wanders of 5-16 ug (tau 150-1200 s) that the full vector's 72 disfavoured by
-// 3.9-21 in 2 delta log L (their own estimate: none, or 2 delta log L 1-6, below any bar),
-// and the biases' sigmas came out 9.6-25 ug against white noise's 1.1.
+// The invariant rows' own wander, weighted below the bar of a finding where the full vector
+// weighs none or one below the evident bar, as the full vector's three rows per position
+// receive it: a wander they disfavour against white noise (kFullVectorRejectsLr) gives way
+// to the full vector's own choice, white or weighted (taking the latter always had made an
+// 18-position programme's white-noise sigmas too wide, kFullVectorWanderLr; taken only where
+// the joint rows' own is disfavoured, it did not), and of the correlation times the biases'
+// sigmas are averaged over, those they disfavour are dropped. From 24 rows of a white unit's
+// classic24 run the invariant rows proposed wanders of 5-16 ug (tau 150-1200 s) that the full
+// vector's 72 disfavoured by 3.9-21 in 2 delta log L (their own estimate: none, or 2 delta
+// log L 1.1-5.6, below the evident bar), and the biases' sigmas came out 9.6-25 ug against
+// white noise's 1.1.
 FitNoiseChoice checked_by_full_vector(const WanderAgainstWhite& against, FitNoiseChoice full,
                                       FitNoiseChoice own, const FitNoiseOptions& options) {
   const auto disfavoured = [&](const GaussMarkovNoise& n) {
@@ -263,8 +268,11 @@ FitNoiseChoice invariant_noise_choice(const InvariantData& d,
   FitNoiseChoice own = choose_fit_noise(
       noise_rows_of(d, positions), d.sigma.cwiseInverse().asDiagonal() * fitted_columns(d, fitted),
       white_residual.cwiseQuotient(d.sigma), options, positions);
-  // (A full vector with too few rows to estimate a wander from, lr_threshold 0, is no judge.)
-  if (full && full->finding.lr_threshold > 0 && !own.scales.empty())
+  // Only a wander weighted below the bar of a finding is judged; a full vector with too few
+  // rows to estimate one (lr_threshold 0), or whose model does not fit (no judge), is none.
+  const bool weighted_below_bar =
+      own.finding.source == "estimated" && !own.noise.white() && !own.finding.bias_instability;
+  if (full && full->finding.lr_threshold > 0 && against && weighted_below_bar)
     return checked_by_full_vector(against, *full, own, options);
   return own;
 }

@@ -394,8 +394,6 @@ SigmaWidening widen_for_estimated_noise(
   return w;
 }
 
-namespace {}  // namespace
-
 // Whether the correlation time was given (specified with the wander, or known: one value or a
 // range) and, where it was estimated or given as a range, the times of the grid the run
 // allows (`plausible`: what the sigmas were averaged over).

@@ -1,15 +1,15 @@
 #include "calib/norm_estimator.hpp"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
-#include <cstdio>
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "calib/invariant_estimator.hpp"
 #include "calib/parameters.hpp"
+#include "calib/units.hpp"
 
 namespace standcal {
 
@@ -195,48 +195,45 @@ void require_observable(const FitResult& r) {
         missing + " (hold the unit in orientations between the axes, not only along them)");
 }
 
-// |u_a u_b| below which an interval counts as lying along the sensor axes a and b: the size
-// of a unit's own misalignments (1e-3 rad is 206 arcsec), so what is left of the product
-// is the unit's error, not an orientation between the axes.
-constexpr double kAlongTheAxes = 1e-3;
+// Two intervals whose directions of gravity, in the unit's raw axes, lie within this angle
+// hold the unit in one orientation: well above a unit's misalignments (0.02 rad is 1.1
+// degrees) and the noise of a static mean.
+constexpr double kSameOrientationDeg = 5;
 
-// Intervals that all lie along the sensor axes do not determine the misalignments: gamma_ab
-// enters |f| only through u_a u_b. Noise-free ones do not even fix the ellipsoid
-// (ellipsoid_start refuses); with noise they do, badly (its cross terms are the noise's),
-// and the search then wanders without converging (a simulated classic24 recording, 24
-// dwells along +-x, +-y, +-z: "no convergence in 100 iterations"). The orientations are
-// judged from each axis's own range, which the undetermined cross terms do not touch.
-void require_orientations_between_the_axes(const std::vector<StaticInterval>& intervals) {
+// The nine parameters need gravity in at least nine distinct directions: intervals repeated
+// in fewer (a stand programme like classic24 read without its angles, 24 dwells in the six
+// directions +-x, +-y, +-z) leave the ellipsoid's cross terms, and so the misalignments, to
+// the noise. Noise-free, ellipsoid_start refuses them; with noise it fits the noise, and the
+// search wandered: "no convergence in 100 iterations (the static intervals do not fit ...)",
+// which blamed the data. The directions are read with each axis centred and scaled by its
+// own range, which no misalignment or undetermined cross term changes much.
+void require_distinct_orientations(const std::vector<StaticInterval>& intervals) {
   Vec3 low = Vec3::Constant(std::numeric_limits<double>::infinity()), high = -low;
   for (const StaticInterval& iv : intervals) {
     low = low.cwiseMin(iv.mean);
     high = high.cwiseMax(iv.mean);
   }
   const Vec3 centre = (low + high) / 2, half_range = (high - low) / 2;
-  constexpr std::array<std::array<int, 2>, 3> kPairs{{{0, 1}, {0, 2}, {1, 2}}};
-  Vec3 largest = Vec3::Zero();  // max |u_a u_b| over the intervals, per pair
+  // An axis that never moves: the ellipsoid start says what is wrong with it.
+  if (!half_range.allFinite() || (half_range.array() <= 0).any()) return;
+  const double same = std::cos(kSameOrientationDeg * kDegToRad);
+  std::vector<Vec3> orientations;
   for (const StaticInterval& iv : intervals) {
     const Vec3 u = (iv.mean - centre).cwiseQuotient(half_range).normalized();
-    for (std::size_t k = 0; k < kPairs.size(); ++k) {
-      const auto e = static_cast<Eigen::Index>(k);
-      largest[e] = std::max(largest[e], std::abs(u[kPairs[k][0]] * u[kPairs[k][1]]));
-    }
+    const auto seen = [&](const Vec3& o) { return u.dot(o) > same; };
+    if (u.allFinite() && std::none_of(orientations.begin(), orientations.end(), seen))
+      orientations.push_back(u);
   }
-  std::string missing;
-  for (std::size_t k = 0; k < kPairs.size(); ++k) {
-    const auto e = static_cast<Eigen::Index>(k);
-    if (!(largest[e] < kAlongTheAxes)) continue;
-    char product[48];
-    std::snprintf(product, sizeof product, " (|u_%c u_%c| at most %.1g)", "xyz"[kPairs[k][0]],
-                  "xyz"[kPairs[k][1]], largest[e]);
-    missing += (missing.empty() ? "" : ", ") + std::string(kUnitParameterNames[6 + k]) + product;
-  }
-  if (!missing.empty())
-    throw std::runtime_error(
-        "cannot calibrate: every one of the " + std::to_string(intervals.size()) +
-        " static intervals has gravity along a sensor axis, so their orientations do not "
-        "determine " +
-        missing + " (hold the unit in orientations between the axes, not only along them)");
+  if (static_cast<int>(orientations.size()) >= kNormParameters) return;
+  throw std::runtime_error(
+      "cannot calibrate: the " + std::to_string(intervals.size()) +
+      " static intervals hold the unit in only " + std::to_string(orientations.size()) +
+      " distinct orientations (gravity within " +
+      std::to_string(static_cast<int>(kSameOrientationDeg)) +
+      " degrees counts as one), and the attitude-free fit's nine parameters need at least " +
+      std::to_string(kNormParameters) +
+      ": with fewer the misalignments are not determined (hold the unit in more orientations, "
+      "between the axes as well as along them)");
 }
 
 // The nine paper quantities with their sigmas replace the invariant corrections.
@@ -334,7 +331,7 @@ NormFit fit_norm(const std::vector<StaticInterval>& intervals, double g, InputUn
                  const NormFitOptions& o) {
   require_enough(intervals);
   NormFit fit;
-  require_orientations_between_the_axes(intervals);
+  require_distinct_orientations(intervals);
   const Vec9 start = pack(ellipsoid_start(intervals, g));
   const NormCompensation solved =
       unpack(levenberg_marquardt(intervals, start, g, o.max_iterations, fit.iterations));

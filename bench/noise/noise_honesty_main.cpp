@@ -34,6 +34,10 @@ void print_result(const ScenarioResult& r) {
   for (const ZStats& z : r.stats) {
     std::printf("  %-6s %-10s %5d %5d ", z.estimator.c_str(), z.weighting.c_str(), z.runs,
                 z.wander_significant);
+    if (z.runs == 0) {  // e.g. the norm fit, refused classic24's six orientations
+      std::printf("  every one of the %d fits failed\n", z.failed);
+      continue;
+    }
     double lo = 1e300, hi = 0;
     for (std::size_t j = 0; j < z.z2_mean.size(); ++j) {
       if (z.n[j] == 0) {
@@ -47,8 +51,9 @@ void print_result(const ScenarioResult& r) {
     double worst_coverage = 1;
     for (std::size_t j = 0; j < z.n.size(); ++j)
       if (z.n[j] > 0) worst_coverage = std::min(worst_coverage, z.coverage95[j]);
-    std::printf("   %.2f-%.2f  %4.1f%%%s\n", lo, hi, 100 * worst_coverage,
-                z.failed ? " (some fits failed)" : "");
+    std::printf("   %.2f-%.2f  %4.1f%%", lo, hi, 100 * worst_coverage);
+    if (z.failed) std::printf(" (%d fits failed)", z.failed);
+    std::printf("\n");
   }
 }
 

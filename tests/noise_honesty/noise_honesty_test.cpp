@@ -305,17 +305,14 @@ TEST(FitNoise, GivenTheCorrelationTimeTheJointFitTakesAnyWanderTheFullVectorWeig
   }
 }
 
-// A full-vector model that does not fit the means (here 300 ug on the x axis following the
-// outer angle, which no parameter of it has) is no source of the wander: its misfit would
-// be taken for wander. The invariant fit then estimates from its own rows.
 // A white unit's classic24 run as `standcal simulate --program classic24 --dwell-s 10
 // --rate-hz 25` makes it: re-mounted, 1928 s.
 Recording white_classic24_run(std::uint64_t seed) {
   return test::simulate_default_run(classic24(), 10, 25, seed);
 }
 
-// A wander the joint fit's own 24 rows propose, below any bar, that the full vector's 72
-// rows of the same dwell means disfavour against white noise is not weighted for. On a white
+// A wander the joint fit's own 24 rows propose, below the bar of a finding, that the full vector's
+// 72 rows of the same dwell means disfavour against white noise is not weighted for. On a white
 // unit's classic24 runs the joint fit's own rows proposed wanders of 5-16 ug (tau 150-1200
 // s) where the full vector saw none or a weaker one, and the biases' sigmas came out 9.6-25
 // ug against white noise's 1.1; the full vector disfavoured those wanders by 3.9-21 in 2 delta
@@ -351,6 +348,9 @@ TEST(FitNoise, AWanderTheFullVectorDisfavoursIsNotWeightedByTheJointFit) {
   EXPECT_LT(z2 / biases, 1.3);
 }
 
+// A full-vector model that does not fit the means (here 300 ug on the x axis following the
+// outer angle, which no parameter of it has) is no source of the wander: its misfit would
+// be taken for wander. The invariant fit then estimates from its own rows.
 TEST(FitNoise, AFullVectorThatDoesNotFitIsNoSourceOfTheWander) {
   std::vector<PositionAverage> avg = average_positions(wander_ten_times_run());
   ASSERT_TRUE(full_vector_noise_choice(avg, FitNoiseOptions{}).has_value());
