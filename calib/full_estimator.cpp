@@ -517,7 +517,8 @@ std::optional<FitNoiseChoice> full_vector_noise_choice(
     const auto fits = [&](const WeightedProblem& p, const Eigen::VectorXd& at) {
       return dof <= 0 || chi_square_upper_tail(p.residuals(at).squaredNorm(), dof) >= kModelMisfitP;
     };
-    WanderAgainstWhite judge = wander_against_white(problem, q);
+    // The judge is of the white fit, which the search under the chosen noise moves from.
+    WanderAgainstWhite judge = against_white ? wander_against_white(problem, q) : nullptr;
     if (choice.noise.white()) {
       if (against_white && fits(problem, q)) *against_white = std::move(judge);
       return choice;

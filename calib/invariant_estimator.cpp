@@ -6,6 +6,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "calib/full_estimator.hpp"
 #include "calib/identifiability.hpp"
@@ -206,6 +207,15 @@ bool takes_full_vector_wander(const FitNoiseChoice& full, const FitNoiseOptions&
   return one_tau_given || full.finding.lr > kFullVectorWanderLr;
 }
 
+// The full vector's choice as the invariant fit takes it: said so in `how` (with `why`), and
+// with no noise parameter of its own rows to cost its chi-square test a degree of freedom.
+FitNoiseChoice taken_from_full_vector(FitNoiseChoice full, const std::string& why = "") {
+  full.finding.how = "from the full vector of the dwell means (3 rows per position)" + why + ": " +
+                     full.finding.how;
+  full.parameters = 0;
+  return full;
+}
+
 // 2 delta log L by which the full vector of the dwell means must favour white noise over a
 // wander the invariant rows estimated, for that wander to be set aside: a likelihood ratio of
 // e^1.92 = 6.8 between two given models (not a nested fit, so no chi-square level applies;
@@ -229,14 +239,9 @@ FitNoiseChoice checked_by_full_vector(const WanderAgainstWhite& against, FitNois
   const auto disfavoured = [&](const GaussMarkovNoise& n) {
     return against(n) > kFullVectorRejectsLr;
   };
-  if (disfavoured(own.noise)) {
-    full.finding.how =
-        "from the full vector of the dwell means (3 rows per position), which "
-        "disfavour the wander the invariant rows estimate: " +
-        full.finding.how;
-    full.parameters = 0;
-    return full;
-  }
+  if (disfavoured(own.noise))
+    return taken_from_full_vector(std::move(full),
+                                  ", which disfavour the wander the invariant rows estimate");
   std::erase_if(own.plausible, [&](const PlausibleNoise& p) { return disfavoured(p.noise); });
   set_tau_provenance(own.finding, own.plausible, options.known_tau);
   return own;
@@ -258,12 +263,7 @@ FitNoiseChoice invariant_noise_choice(const InvariantData& d,
   WanderAgainstWhite against;
   if (options.mode == FitNoiseOptions::Mode::estimate && options.estimate_from_full_vector) {
     full = full_vector_noise_choice(positions, options, &against);
-    if (full && takes_full_vector_wander(*full, options)) {
-      full->finding.how =
-          "from the full vector of the dwell means (3 rows per position): " + full->finding.how;
-      full->parameters = 0;
-      return *full;
-    }
+    if (full && takes_full_vector_wander(*full, options)) return taken_from_full_vector(*full);
   }
   FitNoiseChoice own = choose_fit_noise(
       noise_rows_of(d, positions), d.sigma.cwiseInverse().asDiagonal() * fitted_columns(d, fitted),

@@ -330,8 +330,8 @@ std::vector<PositionAverage> calibrated_averages(const std::vector<StaticInterva
 NormFit fit_norm(const std::vector<StaticInterval>& intervals, double g, InputUnits units,
                  const NormFitOptions& o) {
   require_enough(intervals);
-  NormFit fit;
   require_distinct_orientations(intervals);
+  NormFit fit;
   const Vec9 start = pack(ellipsoid_start(intervals, g));
   const NormCompensation solved =
       unpack(levenberg_marquardt(intervals, start, g, o.max_iterations, fit.iterations));
