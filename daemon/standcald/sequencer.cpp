@@ -43,6 +43,9 @@ Sequencer::~Sequencer() {
 }
 
 void Sequencer::start() {
+  // Before the thread: a status answered the moment the server runs must already show the
+  // stand (it had said lifecycle "" and no axes until the thread's first refresh).
+  refresh_stand_snapshot();
   thread_ = std::thread([this] { thread_main(); });
 }
 
@@ -104,7 +107,6 @@ std::vector<std::string_view> Sequencer::handled_methods() {
 }
 
 void Sequencer::thread_main() {
-  refresh_stand_snapshot();
   for (;;) {
     heartbeat_++;
     std::optional<Command> cmd;

@@ -120,6 +120,18 @@ TEST(SequencerInProcess, StandCommandsFollowTheLifecycleOnTheSimulatedBackend) {
   EXPECT_EQ(disabled.result, (json{{"enabled", false}}));
 }
 
+// The stand's status is there as soon as the sequencer has started: a status answered
+// before its thread's first refresh said lifecycle "" with no axes, and a daemon test that
+// compares two statuses
+// (DaemonJsonRpc.ABatchGetsOneInvalidRequestErrorSayingBatchesAreNotSupported) failed once in a
+// full Release run when the second said "unconfigured".
+TEST(SequencerInProcess, TheStandsStatusIsThereAsSoonAsItHasStarted) {
+  InProcessSequencer s(50);
+  const protocol::StandStatus stand = s.sequencer().status().stand;
+  EXPECT_EQ(stand.lifecycle, "unconfigured");
+  EXPECT_EQ(stand.axes.size(), 2u);
+}
+
 // The dwell, settle and run clock are the backend's: at 100x a 9-position run with 4 s
 // dwells records at least 36 s of stand time.
 TEST(SequencerInProcess, APaper9RunEndsDoneWithItsTimesOnTheStandsClock) {
