@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <mutex>
+#include <optional>
 #include <stdexcept>
 #include <thread>
 
@@ -82,6 +83,45 @@ void accumulate(ZStats& z, const FitResult& fit,
   }
 }
 
+ZStats empty_stats(const Method& m) {
+  ZStats z;
+  z.estimator = m.estimator;
+  z.weighting = m.weighting;
+  return z;
+}
+
+// Index in methods() of the white-weighted fit by the same estimator as method k.
+std::size_t white_of(std::size_t k) {
+  for (std::size_t w = 0; w < methods().size(); ++w)
+    if (methods()[w].estimator == methods()[k].estimator && methods()[w].weighting == "white")
+      return w;
+  throw std::logic_error("no white weighting for " + methods()[k].estimator);
+}
+
+void add_sigma_ratios(ZStats& z, const FitResult& fit, const FitResult& white) {
+  for (std::size_t j = 0; j < kUnitParameterCount; ++j) {
+    const std::optional<double>& s = fit.unit[j].sigma;
+    const std::optional<double>& w = white.unit[j].sigma;
+    if (s && w && *w > 0) z.sigma_over_white[j / 3].push_back(*s / *w);
+  }
+}
+
+void merge(ZStats& into, const ZStats& part) {
+  into.runs += part.runs;
+  into.failed += part.failed;
+  into.wander_significant += part.wander_significant;
+  for (std::size_t j = 0; j < into.n.size(); ++j) {
+    into.z2_mean[j] += part.z2_mean[j];
+    into.z_mean[j] += part.z_mean[j];
+    into.coverage95[j] += part.coverage95[j];
+    into.n[j] += part.n[j];
+  }
+  for (std::size_t g = 0; g < into.sigma_over_white.size(); ++g)
+    into.sigma_over_white[g].insert(into.sigma_over_white[g].end(),
+                                    part.sigma_over_white[g].begin(),
+                                    part.sigma_over_white[g].end());
+}
+
 }  // namespace
 
 std::vector<Scenario> issue21_scenarios() {
@@ -100,15 +140,13 @@ ScenarioResult run_scenario(const Setup& setup, const Scenario& scenario) {
     x_true[static_cast<std::size_t>(3 + a)] = truth.unit.scale[a];
     x_true[static_cast<std::size_t>(6 + a)] = truth.unit.gamma_pair_sums_rad()[a];
   }
-  for (const Method& m : methods())
-    out.stats.push_back({m.estimator, m.weighting, {}, {}, {}, {}, 0, 0, 0});
+  for (const Method& m : methods()) out.stats.push_back(empty_stats(m));
 
   std::mutex mutex;
   auto worker = [&](int first, int stride) {
     std::vector<ZStats> local;  // from methods(), not out.stats, which others merge into
     int samples_correlated = 0;
-    for (const Method& m : methods())
-      local.push_back({m.estimator, m.weighting, {}, {}, {}, {}, 0, 0, 0});
+    for (const Method& m : methods()) local.push_back(empty_stats(m));
     for (int run = first; run < setup.runs; run += stride) {
       SimulationRequest req;
       req.program = setup.program;
@@ -120,28 +158,21 @@ ScenarioResult run_scenario(const Setup& setup, const Scenario& scenario) {
       const AveragedRecording averaged = average_recording(rec);
       const std::vector<PositionAverage>& avg = averaged.averages;
       if (averaged.allan && averaged.allan->sample_correlation) ++samples_correlated;
+      std::vector<std::optional<FitResult>> fits(methods().size());
       for (std::size_t k = 0; k < methods().size(); ++k) {
         try {
-          accumulate(local[k], fit_with(methods()[k], rec, avg, truth, setup), x_true);
+          fits[k] = fit_with(methods()[k], rec, avg, truth, setup);
+          accumulate(local[k], *fits[k], x_true);
         } catch (const std::exception&) {
           ++local[k].failed;
         }
       }
+      for (std::size_t k = 0; k < methods().size(); ++k)
+        if (fits[k] && fits[white_of(k)]) add_sigma_ratios(local[k], *fits[k], *fits[white_of(k)]);
     }
     const std::lock_guard<std::mutex> lock(mutex);
     out.samples_correlated += samples_correlated;
-    for (std::size_t k = 0; k < local.size(); ++k) {
-      ZStats& z = out.stats[k];
-      z.runs += local[k].runs;
-      z.failed += local[k].failed;
-      z.wander_significant += local[k].wander_significant;
-      for (std::size_t j = 0; j < z.n.size(); ++j) {
-        z.z2_mean[j] += local[k].z2_mean[j];
-        z.z_mean[j] += local[k].z_mean[j];
-        z.coverage95[j] += local[k].coverage95[j];
-        z.n[j] += local[k].n[j];
-      }
-    }
+    for (std::size_t k = 0; k < local.size(); ++k) merge(out.stats[k], local[k]);
   };
   const int threads = std::max(1, setup.threads);
   std::vector<std::thread> pool;

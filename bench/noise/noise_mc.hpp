@@ -49,6 +49,11 @@ struct ZStats {
   std::array<double, kUnitParameterCount> z_mean{};
   std::array<double, kUnitParameterCount> coverage95{};  // share of runs with |z| <= 1.96
   std::array<int, kUnitParameterCount> n{};
+  // Per group of unit parameters (biases, scale factors, gammas), one entry per run and
+  // parameter: its sigma over the sigma the same estimator gives on the same run weighted as
+  // white noise. What weighting for a wander the run may not have costs (under white noise),
+  // or how far it widens (under wander).
+  std::array<std::vector<double>, 3> sigma_over_white;
   int wander_significant = 0;  // runs whose fit found the wander significant
   int runs = 0;
   int failed = 0;  // runs whose fit threw
