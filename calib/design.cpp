@@ -1004,4 +1004,109 @@ OptimizedProgram optimize_program(const OptimizeOptions& options) {
   return best;
 }
 
+std::optional<RevisitPlan> fastest_revisit(const Program& program, DesignModel model,
+                                           const AccuracyTarget& target,
+                                           const DesignSettings& settings, int max_repeats,
+                                           const std::optional<RevisitPlan>& one_pass) {
+  std::optional<RevisitPlan> best;
+  for (int times = 1; times <= std::max(1, max_repeats); ++times) {
+    RevisitPlan r;
+    if (times == 1 && one_pass) {
+      r = *one_pass;
+    } else {
+      const Program visited = repeated_program(program, times);
+      const DesignBasis basis = design_basis(poses_of(visited), model, settings.mounting);
+      r = {times, equal_dwell_for_target(basis, visited, target, settings), {}};
+      if (r.equal.feasible) r.time = bench_time(visited, settings, r.equal.dwell_s);
+    }
+    if (!r.equal.feasible) continue;
+    if (!best || r.time.total_s() < best->time.total_s()) best = r;
+  }
+  return best;
+}
+
+namespace {
+
+// The bench time a programme visited `times` passes would take to meet the target, judged at
+// `dwell_s` per visit: the dwell the target needs taken as dwell_s times the worst
+// parameter's load (exact for white noise, where a variance goes as 1 / dwell), plus the
+// moves and settling of its schedule. Infinite where a unit parameter is not observable.
+double bench_time_estimate(const Program& program, DesignModel model,
+                           const std::array<double, kUnitParameterCount>& target,
+                           const DesignSettings& settings, int times, double dwell_s) {
+  const Program visited = repeated_program(program, times);
+  const DesignBasis basis = design_basis(poses_of(visited), model, settings.mounting);
+  if (!first_unobservable(basis).empty()) return std::numeric_limits<double>::infinity();
+  const std::vector<double> dwells(visited.positions.size(), dwell_s);
+  const TargetLoad load =
+      load_of(basis, target, scheduled_information(basis, visited, settings, dwells));
+  if (!(load.worst > 0)) return std::numeric_limits<double>::infinity();
+  return bench_time(visited, settings,
+                    std::vector<double>(visited.positions.size(), dwell_s * load.worst))
+      .total_s();
+}
+
+// One round of the pattern search: each position's angles stepped by +-step, the step
+// quartered down to below a tenth of a degree (the stand's own setting resolution is finer,
+// but the bench time hardly moves below that).
+Program polish_at(Program program, DesignModel model, const StandLimits& limits,
+                  const AccuracyTarget& target, const DesignSettings& settings,
+                  const RevisitPlan& plan) {
+  const auto t = target.sigma_internal();
+  const double dwell_s = plan.equal.dwell_s.front();
+  const auto estimate = [&](const Program& p) {
+    return bench_time_estimate(p, model, t, settings, plan.times, dwell_s);
+  };
+  const auto moved = [&](double a, double by, const AxisRange& r) {
+    return r.continuous ? wrap_deg(a + by) : clamp_to_range(a + by, r);
+  };
+  double best = estimate(program);
+  for (double step = 8; step > 0.05; step /= 4) {
+    bool improved = true;
+    while (improved) {
+      improved = false;
+      for (ProgramPosition& p : program.positions)
+        for (int axis = 0; axis < 2; ++axis)
+          for (const double sign : {+1.0, -1.0}) {
+            double& angle = axis == 0 ? p.alpha1_deg : p.alpha2_deg;
+            const double old = angle;
+            angle = moved(old, sign * step, axis == 0 ? limits.alpha1 : limits.alpha2);
+            const double v = estimate(program);
+            if (v < best * (1 - 1e-9)) {
+              best = v;
+              improved = true;
+            } else {
+              angle = old;
+            }
+          }
+    }
+  }
+  return program;
+}
+
+}  // namespace
+
+WanderPolish polish_for_wander(const Program& start, DesignModel model, const StandLimits& limits,
+                               const AccuracyTarget& target, const DesignSettings& settings,
+                               int max_repeats) {
+  WanderPolish out;
+  out.program = start;
+  out.start_plan = fastest_revisit(start, model, target, settings, max_repeats);
+  out.plan = out.start_plan;
+  if (!settings.wander() || !out.plan) return out;
+  // Each round's estimate is made at the last exact plan; a round that does not shorten the
+  // exact plan (by at least 0.1 %) ends the search.
+  constexpr int kMaxRounds = 4;
+  for (int round = 0; round < kMaxRounds; ++round) {
+    const Program trial = polish_at(out.program, model, limits, target, settings, *out.plan);
+    const std::optional<RevisitPlan> plan =
+        fastest_revisit(trial, model, target, settings, max_repeats);
+    if (!plan || plan->time.total_s() >= out.plan->time.total_s() * (1 - 1e-3)) break;
+    out.program = trial;
+    out.plan = plan;
+    ++out.rounds;
+  }
+  return out;
+}
+
 }  // namespace standcal

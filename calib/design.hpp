@@ -181,4 +181,36 @@ struct OptimizedProgram {
 // D-optimal programme by coordinate exchange (grid scan per position, then local polish).
 OptimizedProgram optimize_program(const OptimizeOptions& options);
 
+// A programme visited `times` passes in a row, with the least equal dwell per visit that
+// meets the target on its schedule.
+struct RevisitPlan {
+  int times = 1;
+  DwellPlan equal;
+  BenchTime time;
+};
+// Of the programme visited 1 .. max_repeats times, the plan that meets the target in the
+// least bench time; none when no pass count does. `one_pass`: the programme's own plan,
+// when already made.
+std::optional<RevisitPlan> fastest_revisit(const Program& program, DesignModel model,
+                                           const AccuracyTarget& target,
+                                           const DesignSettings& settings, int max_repeats,
+                                           const std::optional<RevisitPlan>& one_pass = {});
+
+// Under bias wander, white noise's D-optimal angles are not the fastest way to a target: the
+// wander the dwell means share depends on where the unit points at each moment, and white
+// noise's information does not see the schedule. From `start`, a pattern search moves each
+// position's angles to shorten its fastest revisit plan: at that plan's passes and dwell, the
+// dwell the target needs taken as the dwell times the worst parameter's (sigma / target)^2,
+// plus the moves; re-planned exactly after each round, and kept only where the exact plan is
+// faster. A local search: it finds a faster programme near `start`, not the fastest.
+struct WanderPolish {
+  Program program;                        // the polished angles, or `start` unchanged
+  std::optional<RevisitPlan> plan;        // its fastest revisit
+  std::optional<RevisitPlan> start_plan;  // that of `start`
+  int rounds = 0;                         // rounds that shortened the exact plan
+};
+WanderPolish polish_for_wander(const Program& start, DesignModel model, const StandLimits& limits,
+                               const AccuracyTarget& target, const DesignSettings& settings,
+                               int max_repeats);
+
 }  // namespace standcal

@@ -302,5 +302,60 @@ TEST(DesignDwell, AWanderSlowerThanAnyRunSetsAFloorThePlanNames) {
       << plan.reason;
 }
 
+// Issue 21: "shows how the best programme ... change[s]" under wander. White noise's
+// D-optimal angles do not see when each position is visited; moved for a 10 ug wander of
+// 300 s (the issue-3 target, visited up to four times), the nine positions reach the target
+// in about two thirds of the bench time (measured: 80924 s -> 52770 s), and the moved
+// programme's plan meets the target, only just.
+TEST(DesignOptimize, UnderWanderAnglesMovedForItReachTheTargetSooner) {
+  OptimizeOptions options;
+  options.limits.alpha1.continuous = options.limits.alpha2.continuous = true;
+  const Program white_optimum = optimize_program(options).program;
+  const AccuracyTarget target;
+  DesignSettings settings;
+  settings.bias_instability_ug = 10;
+  const WanderPolish polish =
+      polish_for_wander(white_optimum, DesignModel::invariant, options.limits, target, settings, 4);
+  ASSERT_TRUE(polish.start_plan && polish.plan);
+  EXPECT_GE(polish.rounds, 1);
+  EXPECT_LT(polish.plan->time.total_s(), 0.8 * polish.start_plan->time.total_s())
+      << "moved: " << polish.plan->time.total_s()
+      << " s, white noise's angles: " << polish.start_plan->time.total_s() << " s";
+  const Program visited = repeated_program(polish.program, polish.plan->times);
+  EXPECT_NEAR(worst_sigma_over_target(visited, polish.plan->equal.dwell_s, target, settings), 1.0,
+              1e-3);
+  for (const ProgramPosition& p : polish.program.positions) {
+    EXPECT_LE(std::abs(p.alpha1_deg), 180.0);
+    EXPECT_LE(std::abs(p.alpha2_deg), 180.0);
+  }
+}
+
+// On a stand whose alpha2 turns only from -90 to 90 degrees the moved angles stay inside it,
+// and a programme is never handed back slower than it came; without wander it is not moved.
+TEST(DesignOptimize, AnglesMovedForTheWanderStayOnTheStandAndNeverSlowThePlan) {
+  OptimizeOptions options;
+  options.limits.alpha1 = AxisRange::continuous_axis();
+  options.limits.alpha2 = {false, -90.0, 90.0, CableWrap::nearest};
+  const Program white_optimum = optimize_program(options).program;
+  DesignSettings settings;
+  settings.bias_instability_ug = 3;
+  const WanderPolish polish = polish_for_wander(white_optimum, DesignModel::invariant,
+                                                options.limits, AccuracyTarget{}, settings, 4);
+  ASSERT_TRUE(polish.start_plan && polish.plan);
+  EXPECT_GE(polish.rounds, 1) << "nothing moved: the limits below are not put to the test";
+  EXPECT_LE(polish.plan->time.total_s(), polish.start_plan->time.total_s());
+  for (const ProgramPosition& p : polish.program.positions) {
+    EXPECT_GE(p.alpha2_deg, -90.0);
+    EXPECT_LE(p.alpha2_deg, 90.0);
+  }
+  const WanderPolish white = polish_for_wander(
+      white_optimum, DesignModel::invariant, options.limits, AccuracyTarget{}, DesignSettings{}, 4);
+  EXPECT_EQ(white.rounds, 0);
+  for (std::size_t k = 0; k < white_optimum.positions.size(); ++k) {
+    EXPECT_EQ(white.program.positions[k].alpha1_deg, white_optimum.positions[k].alpha1_deg);
+    EXPECT_EQ(white.program.positions[k].alpha2_deg, white_optimum.positions[k].alpha2_deg);
+  }
+}
+
 }  // namespace
 }  // namespace standcal

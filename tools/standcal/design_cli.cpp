@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -319,13 +320,6 @@ void run_evaluate(const EvaluateOptions& o) {
 
 // ---- optimize / compare --------------------------------------------------------------
 
-// The programme visited several times in a row, with the equal dwell that meets the target.
-struct Revisit {
-  int times = 1;
-  DwellPlan equal;
-  BenchTime time;
-};
-
 struct ProgrammeDwell {
   std::string name;
   DesignModel model;
@@ -335,25 +329,8 @@ struct ProgrammeDwell {
   // With bias wander: of the programme visited 1 .. max_repeats times, the one that meets
   // the target in the least bench time (none when no pass count does).
   bool revisits_tried = false;
-  std::optional<Revisit> best_revisit;
+  std::optional<RevisitPlan> best_revisit;
 };
-
-// `one_pass` is the programme's own plan, already made: the search starts from it.
-std::optional<Revisit> best_revisit(const Program& program, DesignModel model,
-                                    const AccuracyTarget& target, const DesignSettings& settings,
-                                    int max_repeats, const Revisit& one_pass) {
-  std::optional<Revisit> best;
-  if (one_pass.equal.feasible) best = one_pass;
-  for (int times = 2; times <= max_repeats; ++times) {
-    const Program visited = repeated_program(program, times);
-    const DesignBasis basis = design_basis(poses_of(visited), model, settings.mounting);
-    Revisit r{times, equal_dwell_for_target(basis, visited, target, settings), {}};
-    if (!r.equal.feasible) continue;
-    r.time = bench_time(visited, settings, r.equal.dwell_s);
-    if (!best || r.time.total_s() < best->time.total_s()) best = r;
-  }
-  return best;
-}
 
 ProgrammeDwell dwell_for(const Program& program, const std::string& requested_model,
                          const AccuracyTarget& target, const DesignSettings& settings,
@@ -368,12 +345,12 @@ ProgrammeDwell dwell_for(const Program& program, const std::string& requested_mo
   if (d.allocated.feasible) d.allocated_time = bench_time(program, settings, d.allocated.dwell_s);
   d.revisits_tried = settings.wander() && max_repeats > 1;
   if (d.revisits_tried)
-    d.best_revisit =
-        best_revisit(program, d.model, target, settings, max_repeats, {1, d.equal, d.equal_time});
+    d.best_revisit = fastest_revisit(program, d.model, target, settings, max_repeats,
+                                     RevisitPlan{1, d.equal, d.equal_time});
   return d;
 }
 
-json revisit_json(const std::optional<Revisit>& r) {
+json revisit_json(const std::optional<RevisitPlan>& r) {
   if (!r) return {{"feasible", false}};
   return {{"times", r->times},
           {"dwell_per_visit_s", r->equal.dwell_s.front()},
@@ -409,7 +386,7 @@ void print_revisit(const ProgrammeDwell& d) {
     std::printf("  %-28s %-9s no pass count tried meets the target\n", "", "");
     return;
   }
-  const Revisit& r = *d.best_revisit;
+  const RevisitPlan& r = *d.best_revisit;
   // Rounded up: a dwell given as printed still meets the target.
   const double per_visit_s = std::ceil(r.equal.dwell_s.front() * 10) / 10;
   std::printf("  %-28s %-9s revisited x%d: %.1f s per visit, %.1f s total dwell, bench %.0f s%s\n",
@@ -446,6 +423,56 @@ void print_dwell_header(const AccuracyTarget& t, const DesignSettings& s) {
               "equal s", "alloc s");
 }
 
+json positions_json(const Program& program, const std::vector<double>& allocated_dwell_s) {
+  json positions = json::array();
+  for (std::size_t k = 0; k < program.positions.size(); ++k) {
+    const auto& p = program.positions[k];
+    positions.push_back(
+        {{"alpha1_deg", p.alpha1_deg},
+         {"alpha2_deg", p.alpha2_deg},
+         {"allocated_dwell_s", k < allocated_dwell_s.size() ? allocated_dwell_s[k] : 0.0}});
+  }
+  return positions;
+}
+
+double plan_bench_s(const std::optional<RevisitPlan>& plan) {
+  return plan ? plan->time.total_s() : std::numeric_limits<double>::quiet_NaN();
+}
+
+json polish_json(const WanderPolish& polish, const OptimizedProgram& white_optimum) {
+  json j = {{"rounds", polish.rounds},
+            {"white_optimum_positions", positions_json(white_optimum.program, {})},
+            {"white_optimum_d_criterion", white_optimum.d_criterion}};
+  j["white_optimum_bench_s"] = polish.start_plan ? json(plan_bench_s(polish.start_plan)) : json();
+  j["bench_s"] = polish.plan ? json(plan_bench_s(polish.plan)) : json();
+  return j;
+}
+
+// What the angles were chosen for, under a wander.
+void print_polish(const std::optional<WanderPolish>& polish, const OptimizedProgram& white) {
+  if (!polish) {
+    std::printf(
+        "  the angles are D-optimal for white noise (the paper structure fixes their pattern); "
+        "the dwells and revisits planned here allow for the wander\n");
+  } else if (!polish->start_plan) {
+    std::printf(
+        "  the angles are D-optimal for white noise: no plan of them meets the target, so "
+        "there was none to polish them for the wander by\n");
+  } else if (polish->rounds == 0) {
+    std::printf(
+        "  the angles are D-optimal for white noise: moving them for the wander found no "
+        "faster plan (%.0f s on the bench)\n",
+        plan_bench_s(polish->start_plan));
+  } else {
+    std::printf(
+        "  the angles are white noise's D-optimum (det^(1/9) %.5f) moved for the wander in %d "
+        "round%s: its fastest plan takes %.0f s on the bench, against %.0f s at white noise's "
+        "angles\n",
+        white.d_criterion, polish->rounds, polish->rounds == 1 ? "" : "s",
+        plan_bench_s(polish->plan), plan_bench_s(polish->start_plan));
+  }
+}
+
 void run_optimize(const OptimizeCliOptions& o) {
   const DesignSettings settings = settings_of(o.flags);
   OptimizeOptions opt;
@@ -466,57 +493,53 @@ void run_optimize(const OptimizeCliOptions& o) {
   const OptimizedProgram best = optimize_program(opt);
   const AccuracyTarget target = parse_accuracy_target(o.target);
   const std::string model_name = design_model_name(opt.model);
-  const ProgrammeDwell dwell = dwell_for(best.program, model_name, target, settings, o.max_repeats);
+  // Under wander the angles are polished for it from white noise's D-optimum; the paper
+  // structure fixes their pattern, and is left as the exchange found it.
+  std::optional<WanderPolish> polish;
+  if (settings.wander() && !opt.paper_structure)
+    polish =
+        polish_for_wander(best.program, opt.model, opt.limits, target, settings, o.max_repeats);
+  const bool polished = polish && polish->rounds > 0;
+  const Program& chosen = polished ? polish->program : best.program;
+  const double d_chosen =
+      polished ? d_criterion(design_basis(poses_of(chosen), opt.model)) : best.d_criterion;
+  const ProgrammeDwell dwell = dwell_for(chosen, model_name, target, settings, o.max_repeats);
   const ProgrammeDwell paper = dwell_for(paper9(), model_name, target, settings, o.max_repeats);
-  const double gain = best.d_criterion / best.paper9_d_criterion;
+  const double gain = d_chosen / best.paper9_d_criterion;
   // det^(1/9) grows with the number of positions; dividing by it compares like with like.
   const double per_position_gain = gain * static_cast<double>(paper9().positions.size()) /
-                                   static_cast<double>(best.program.positions.size());
-  if (!o.program_out.empty())
-    write_timed_program(best.program, dwell.allocated.dwell_s, o.program_out);
+                                   static_cast<double>(chosen.positions.size());
+  if (!o.program_out.empty()) write_timed_program(chosen, dwell.allocated.dwell_s, o.program_out);
   if (o.flags.json) {
-    json positions = json::array();
-    for (std::size_t k = 0; k < best.program.positions.size(); ++k) {
-      const auto& p = best.program.positions[k];
-      positions.push_back(
-          {{"alpha1_deg", p.alpha1_deg},
-           {"alpha2_deg", p.alpha2_deg},
-           {"allocated_dwell_s",
-            k < dwell.allocated.dwell_s.size() ? dwell.allocated.dwell_s[k] : 0.0}});
-    }
-    json j = {{"program", best.program.name},
+    json j = {{"program", chosen.name},
               {"model", model_name},
               {"structure", o.structure.empty() ? "none" : o.structure},
-              {"positions", positions},
-              // The exchange maximises white noise's information: under a wander the
-              // dwells and revisits of dwell_for_target allow for it, the angles do not.
-              {"positions_chosen_for", "white noise"},
-              {"d_criterion", best.d_criterion},
+              {"positions", positions_json(chosen, dwell.allocated.dwell_s)},
+              {"positions_chosen_for", polished ? "the wander" : "white noise"},
+              {"d_criterion", d_chosen},
               {"paper9_d_criterion", best.paper9_d_criterion},
               {"gain_vs_paper9", gain},
               {"gain_per_position_vs_paper9", per_position_gain},
               {"noise_density_ug_rthz", settings.noise_density_ug_rthz},
               {"dwell_for_target", dwell_json(dwell)},
               {"paper9_dwell_for_target", dwell_json(paper)}};
+    if (polish) j["wander_polish"] = polish_json(*polish, best);
     add_wander_json(j, settings);
     print_json(j);
     return;
   }
   std::printf("D-optimal programme (%s model%s, %zu positions):\n", model_name.c_str(),
-              opt.paper_structure ? ", paper structure" : "", best.program.positions.size());
+              opt.paper_structure ? ", paper structure" : "", chosen.positions.size());
   std::printf("  %3s %11s %11s %12s\n", "pos", "alpha1 deg", "alpha2 deg", "alloc dwell s");
-  for (std::size_t k = 0; k < best.program.positions.size(); ++k) {
-    const auto& p = best.program.positions[k];
+  for (std::size_t k = 0; k < chosen.positions.size(); ++k) {
+    const auto& p = chosen.positions[k];
     std::printf("  %3zu %11.3f %11.3f %12.1f\n", k + 1, p.alpha1_deg, p.alpha2_deg,
                 k < dwell.allocated.dwell_s.size() ? dwell.allocated.dwell_s[k] : 0.0);
   }
-  std::printf("\nD-criterion det^(1/9) = %.5f; paper9: %.5f; gain %+.1f %%\n", best.d_criterion,
+  std::printf("\nD-criterion det^(1/9) = %.5f; paper9: %.5f; gain %+.1f %%\n", d_chosen,
               best.paper9_d_criterion, 100 * (gain - 1));
-  if (settings.wander())
-    std::printf(
-        "  the angles are D-optimal for white noise; the dwells and revisits planned here "
-        "allow for the wander\n");
-  if (best.program.positions.size() != paper9().positions.size())
+  if (settings.wander()) print_polish(polish, best);
+  if (chosen.positions.size() != paper9().positions.size())
     std::printf(
         "  per position (information per measurement, fair for different counts): %+.1f %%\n",
         100 * (per_position_gain - 1));
@@ -542,7 +565,12 @@ void run_compare(const CompareOptions& o) {
     OptimizeOptions opt;
     opt.positions = o.with_optimal;
     opt.limits = limits;
-    programs.push_back(optimize_program(opt).program);
+    const Program white_optimum = optimize_program(opt).program;
+    // Under wander, as `design optimize` plans it: polished for the wander.
+    programs.push_back(settings.wander() ? polish_for_wander(white_optimum, opt.model, limits,
+                                                             target, settings, o.max_repeats)
+                                               .program
+                                         : white_optimum);
   }
   std::vector<ProgrammeDwell> rows;
   for (const auto& p : programs)
