@@ -1030,13 +1030,17 @@ namespace {
 // The bench time a programme visited `times` passes would take to meet the target, judged at
 // `dwell_s` per visit: the dwell the target needs taken as dwell_s times the worst
 // parameter's load (exact for white noise, where a variance goes as 1 / dwell), plus the
-// moves and settling of its schedule. Infinite where a unit parameter is not observable.
+// moves and settling of its schedule. Infinite unless the programme estimates exactly
+// `estimated` (the start's parameters): a full-model programme that no longer sees a stand
+// parameter would leave it fixed at nominal and its sigmas would not show that.
 double bench_time_estimate(const Program& program, DesignModel model,
+                           const std::vector<std::string>& estimated,
                            const std::array<double, kUnitParameterCount>& target,
                            const DesignSettings& settings, int times, double dwell_s) {
   const Program visited = repeated_program(program, times);
   const DesignBasis basis = design_basis(poses_of(visited), model, settings.mounting);
-  if (!first_unobservable(basis).empty()) return std::numeric_limits<double>::infinity();
+  if (basis.parameter_names != estimated || !first_unobservable(basis).empty())
+    return std::numeric_limits<double>::infinity();
   const std::vector<double> dwells(visited.positions.size(), dwell_s);
   const TargetLoad load =
       load_of(basis, target, scheduled_information(basis, visited, settings, dwells));
@@ -1047,21 +1051,21 @@ double bench_time_estimate(const Program& program, DesignModel model,
 }
 
 // One round of the pattern search: each position's angles stepped by +-step, the step
-// quartered down to below a tenth of a degree (the stand's own setting resolution is finer,
-// but the bench time hardly moves below that).
-Program polish_at(Program program, DesignModel model, const StandLimits& limits,
-                  const AccuracyTarget& target, const DesignSettings& settings,
-                  const RevisitPlan& plan) {
+// quartered from 8 degrees down to 0.125 (the stand sets angles more finely, but the bench
+// time hardly moves below that).
+Program polish_at(Program program, DesignModel model, const std::vector<std::string>& estimated,
+                  const StandLimits& limits, const AccuracyTarget& target,
+                  const DesignSettings& settings, const RevisitPlan& plan) {
   const auto t = target.sigma_internal();
   const double dwell_s = plan.equal.dwell_s.front();
   const auto estimate = [&](const Program& p) {
-    return bench_time_estimate(p, model, t, settings, plan.times, dwell_s);
+    return bench_time_estimate(p, model, estimated, t, settings, plan.times, dwell_s);
   };
   const auto moved = [&](double a, double by, const AxisRange& r) {
     return r.continuous ? wrap_deg(a + by) : clamp_to_range(a + by, r);
   };
   double best = estimate(program);
-  for (double step = 8; step > 0.05; step /= 4) {
+  for (double step = 8; step > 0.1; step /= 4) {
     bool improved = true;
     while (improved) {
       improved = false;
@@ -1097,8 +1101,12 @@ WanderPolish polish_for_wander(const Program& start, DesignModel model, const St
   // Each round's estimate is made at the last exact plan; a round that does not shorten the
   // exact plan (by at least 0.1 %) ends the search.
   constexpr int kMaxRounds = 4;
+  const std::vector<std::string> estimated =
+      design_basis(poses_of(repeated_program(start, out.plan->times)), model, settings.mounting)
+          .parameter_names;
   for (int round = 0; round < kMaxRounds; ++round) {
-    const Program trial = polish_at(out.program, model, limits, target, settings, *out.plan);
+    const Program trial =
+        polish_at(out.program, model, estimated, limits, target, settings, *out.plan);
     const std::optional<RevisitPlan> plan =
         fastest_revisit(trial, model, target, settings, max_repeats);
     if (!plan || plan->time.total_s() >= out.plan->time.total_s() * (1 - 1e-3)) break;
@@ -1106,6 +1114,7 @@ WanderPolish polish_for_wander(const Program& start, DesignModel model, const St
     out.plan = plan;
     ++out.rounds;
   }
+  if (out.rounds > 0) out.program.name = start.name + "-wander";
   return out;
 }
 

@@ -202,9 +202,11 @@ std::optional<RevisitPlan> fastest_revisit(const Program& program, DesignModel m
 // position's angles to shorten its fastest revisit plan: at that plan's passes and dwell, the
 // dwell the target needs taken as the dwell times the worst parameter's (sigma / target)^2,
 // plus the moves; re-planned exactly after each round, and kept only where the exact plan is
-// faster. A local search: it finds a faster programme near `start`, not the fastest.
+// faster. A position moves only where the programme still estimates the parameters `start`
+// does. A local search: it finds a faster programme near `start`, not the fastest; the
+// visiting order stays `start`'s.
 struct WanderPolish {
-  Program program;                        // the polished angles, or `start` unchanged
+  Program program;  // the moved angles, named "<start>-wander", or `start` unchanged
   std::optional<RevisitPlan> plan;        // its fastest revisit
   std::optional<RevisitPlan> start_plan;  // that of `start`
   int rounds = 0;                         // rounds that shortened the exact plan

@@ -102,7 +102,7 @@ void add_sigma_ratios(ZStats& z, const FitResult& fit, const FitResult& white) {
   for (std::size_t j = 0; j < kUnitParameterCount; ++j) {
     const std::optional<double>& s = fit.unit[j].sigma;
     const std::optional<double>& w = white.unit[j].sigma;
-    if (s && w && *w > 0) z.sigma_over_white[j / 3].push_back(*s / *w);
+    if (s && w && *s > 0 && *w > 0) z.sigma_over_white[j / 3].push_back(*s / *w);
   }
 }
 

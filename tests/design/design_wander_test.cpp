@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <random>
 #include <vector>
 
@@ -321,21 +322,25 @@ TEST(DesignOptimize, UnderWanderAnglesMovedForItReachTheTargetSooner) {
   EXPECT_LT(polish.plan->time.total_s(), 0.8 * polish.start_plan->time.total_s())
       << "moved: " << polish.plan->time.total_s()
       << " s, white noise's angles: " << polish.start_plan->time.total_s() << " s";
+  // The plan reported is the moved programme's own, and it meets the target, only just.
+  const std::optional<RevisitPlan> replanned =
+      fastest_revisit(polish.program, DesignModel::invariant, target, settings, 4);
+  ASSERT_TRUE(replanned);
+  EXPECT_EQ(replanned->times, polish.plan->times);
+  EXPECT_DOUBLE_EQ(replanned->time.total_s(), polish.plan->time.total_s());
   const Program visited = repeated_program(polish.program, polish.plan->times);
   EXPECT_NEAR(worst_sigma_over_target(visited, polish.plan->equal.dwell_s, target, settings), 1.0,
               1e-3);
-  for (const ProgramPosition& p : polish.program.positions) {
-    EXPECT_LE(std::abs(p.alpha1_deg), 180.0);
-    EXPECT_LE(std::abs(p.alpha2_deg), 180.0);
-  }
+  EXPECT_EQ(polish.program.name, white_optimum.name + "-wander");
 }
 
-// On a stand whose alpha2 turns only from -90 to 90 degrees the moved angles stay inside it,
-// and a programme is never handed back slower than it came; without wander it is not moved.
+// On a stand whose alpha2 turns only from -30 to 30 degrees the moved angles stay inside it
+// (some press against its ends), and a programme is never handed back slower than it came;
+// without wander it is not moved.
 TEST(DesignOptimize, AnglesMovedForTheWanderStayOnTheStandAndNeverSlowThePlan) {
   OptimizeOptions options;
   options.limits.alpha1 = AxisRange::continuous_axis();
-  options.limits.alpha2 = {false, -90.0, 90.0, CableWrap::nearest};
+  options.limits.alpha2 = {false, -30.0, 30.0, CableWrap::nearest};
   const Program white_optimum = optimize_program(options).program;
   DesignSettings settings;
   settings.bias_instability_ug = 3;
@@ -344,10 +349,13 @@ TEST(DesignOptimize, AnglesMovedForTheWanderStayOnTheStandAndNeverSlowThePlan) {
   ASSERT_TRUE(polish.start_plan && polish.plan);
   EXPECT_GE(polish.rounds, 1) << "nothing moved: the limits below are not put to the test";
   EXPECT_LE(polish.plan->time.total_s(), polish.start_plan->time.total_s());
+  int at_an_end = 0;
   for (const ProgramPosition& p : polish.program.positions) {
-    EXPECT_GE(p.alpha2_deg, -90.0);
-    EXPECT_LE(p.alpha2_deg, 90.0);
+    EXPECT_GE(p.alpha2_deg, -30.0);
+    EXPECT_LE(p.alpha2_deg, 30.0);
+    at_an_end += std::abs(std::abs(p.alpha2_deg) - 30.0) < 1e-9 ? 1 : 0;
   }
+  EXPECT_GT(at_an_end, 0) << "no position meets the stand's limit: the clamp is not tested";
   const WanderPolish white = polish_for_wander(
       white_optimum, DesignModel::invariant, options.limits, AccuracyTarget{}, DesignSettings{}, 4);
   EXPECT_EQ(white.rounds, 0);

@@ -439,17 +439,18 @@ double plan_bench_s(const std::optional<RevisitPlan>& plan) {
   return plan ? plan->time.total_s() : std::numeric_limits<double>::quiet_NaN();
 }
 
-json polish_json(const WanderPolish& polish, const OptimizedProgram& white_optimum) {
+// white_d: white noise's optimum's D-criterion, from its own basis as the moved one's is.
+json polish_json(const WanderPolish& polish, const Program& white_optimum, double white_d) {
   json j = {{"rounds", polish.rounds},
-            {"white_optimum_positions", positions_json(white_optimum.program, {})},
-            {"white_optimum_d_criterion", white_optimum.d_criterion}};
+            {"white_optimum_positions", positions_json(white_optimum, {})},
+            {"white_optimum_d_criterion", white_d}};
   j["white_optimum_bench_s"] = polish.start_plan ? json(plan_bench_s(polish.start_plan)) : json();
   j["bench_s"] = polish.plan ? json(plan_bench_s(polish.plan)) : json();
   return j;
 }
 
 // What the angles were chosen for, under a wander.
-void print_polish(const std::optional<WanderPolish>& polish, const OptimizedProgram& white) {
+void print_polish(const std::optional<WanderPolish>& polish, double white_d) {
   if (!polish) {
     std::printf(
         "  the angles are D-optimal for white noise (the paper structure fixes their pattern); "
@@ -457,7 +458,7 @@ void print_polish(const std::optional<WanderPolish>& polish, const OptimizedProg
   } else if (!polish->start_plan) {
     std::printf(
         "  the angles are D-optimal for white noise: no plan of them meets the target, so "
-        "there was none to polish them for the wander by\n");
+        "none was there to move them for the wander by\n");
   } else if (polish->rounds == 0) {
     std::printf(
         "  the angles are D-optimal for white noise: moving them for the wander found no "
@@ -468,9 +469,23 @@ void print_polish(const std::optional<WanderPolish>& polish, const OptimizedProg
         "  the angles are white noise's D-optimum (det^(1/9) %.5f) moved for the wander in %d "
         "round%s: its fastest plan takes %.0f s on the bench, against %.0f s at white noise's "
         "angles\n",
-        white.d_criterion, polish->rounds, polish->rounds == 1 ? "" : "s",
-        plan_bench_s(polish->plan), plan_bench_s(polish->start_plan));
+        white_d, polish->rounds, polish->rounds == 1 ? "" : "s", plan_bench_s(polish->plan),
+        plan_bench_s(polish->start_plan));
   }
+}
+
+// Writes `-o`: under a wander the fastest plan the table prints (its passes, each visit's
+// dwell), otherwise the allocated dwells. Returns what was written, in words.
+std::string write_optimized_program(const Program& chosen, const ProgrammeDwell& dwell,
+                                    const DesignSettings& settings, const std::string& path) {
+  if (settings.wander() && dwell.best_revisit) {
+    const RevisitPlan& r = *dwell.best_revisit;
+    write_timed_program(repeated_program(chosen, r.times), r.equal.dwell_s, path);
+    return "programme visited " + std::to_string(r.times) + (r.times == 1 ? " time" : " times") +
+           " with the fastest plan's dwells (equal, for the wander) written to " + path;
+  }
+  write_timed_program(chosen, dwell.allocated.dwell_s, path);
+  return "programme with allocated dwells written to " + path;
 }
 
 void run_optimize(const OptimizeCliOptions& o) {
@@ -501,15 +516,19 @@ void run_optimize(const OptimizeCliOptions& o) {
         polish_for_wander(best.program, opt.model, opt.limits, target, settings, o.max_repeats);
   const bool polished = polish && polish->rounds > 0;
   const Program& chosen = polished ? polish->program : best.program;
+  // Both from the programme's own basis, as paper9's is (the exchange's figure is over the
+  // parameters the whole stand observes; the same for the white optimum, not for a moved one).
+  const double white_d = d_criterion(design_basis(poses_of(best.program), opt.model));
   const double d_chosen =
-      polished ? d_criterion(design_basis(poses_of(chosen), opt.model)) : best.d_criterion;
+      polished ? d_criterion(design_basis(poses_of(chosen), opt.model)) : white_d;
   const ProgrammeDwell dwell = dwell_for(chosen, model_name, target, settings, o.max_repeats);
   const ProgrammeDwell paper = dwell_for(paper9(), model_name, target, settings, o.max_repeats);
   const double gain = d_chosen / best.paper9_d_criterion;
   // det^(1/9) grows with the number of positions; dividing by it compares like with like.
   const double per_position_gain = gain * static_cast<double>(paper9().positions.size()) /
                                    static_cast<double>(chosen.positions.size());
-  if (!o.program_out.empty()) write_timed_program(chosen, dwell.allocated.dwell_s, o.program_out);
+  const std::string written =
+      o.program_out.empty() ? "" : write_optimized_program(chosen, dwell, settings, o.program_out);
   if (o.flags.json) {
     json j = {{"program", chosen.name},
               {"model", model_name},
@@ -523,13 +542,16 @@ void run_optimize(const OptimizeCliOptions& o) {
               {"noise_density_ug_rthz", settings.noise_density_ug_rthz},
               {"dwell_for_target", dwell_json(dwell)},
               {"paper9_dwell_for_target", dwell_json(paper)}};
-    if (polish) j["wander_polish"] = polish_json(*polish, best);
+    if (polish) j["wander_polish"] = polish_json(*polish, best.program, white_d);
     add_wander_json(j, settings);
     print_json(j);
     return;
   }
-  std::printf("D-optimal programme (%s model%s, %zu positions):\n", model_name.c_str(),
-              opt.paper_structure ? ", paper structure" : "", chosen.positions.size());
+  std::printf("%s (%s model%s, %zu positions):\n",
+              polished ? "Programme moved for the wander from white noise's D-optimum"
+                       : "D-optimal programme",
+              model_name.c_str(), opt.paper_structure ? ", paper structure" : "",
+              chosen.positions.size());
   std::printf("  %3s %11s %11s %12s\n", "pos", "alpha1 deg", "alpha2 deg", "alloc dwell s");
   for (std::size_t k = 0; k < chosen.positions.size(); ++k) {
     const auto& p = chosen.positions[k];
@@ -538,7 +560,7 @@ void run_optimize(const OptimizeCliOptions& o) {
   }
   std::printf("\nD-criterion det^(1/9) = %.5f; paper9: %.5f; gain %+.1f %%\n", d_chosen,
               best.paper9_d_criterion, 100 * (gain - 1));
-  if (settings.wander()) print_polish(polish, best);
+  if (settings.wander()) print_polish(polish, white_d);
   if (chosen.positions.size() != paper9().positions.size())
     std::printf(
         "  per position (information per measurement, fair for different counts): %+.1f %%\n",
@@ -547,8 +569,7 @@ void run_optimize(const OptimizeCliOptions& o) {
   print_dwell_header(target, settings);
   print_dwell_row(paper);
   print_dwell_row(dwell);
-  if (!o.program_out.empty())
-    std::printf("\nprogramme with allocated dwells written to %s\n", o.program_out.c_str());
+  if (!written.empty()) std::printf("\n%s\n", written.c_str());
 }
 
 void run_compare(const CompareOptions& o) {
@@ -565,6 +586,7 @@ void run_compare(const CompareOptions& o) {
     OptimizeOptions opt;
     opt.positions = o.with_optimal;
     opt.limits = limits;
+    opt.model = o.flags.model == "full" ? DesignModel::full : DesignModel::invariant;
     const Program white_optimum = optimize_program(opt).program;
     // Under wander, as `design optimize` plans it: polished for the wander.
     programs.push_back(settings.wander() ? polish_for_wander(white_optimum, opt.model, limits,
