@@ -488,8 +488,7 @@ std::string write_optimized_program(const Program& chosen, const ProgrammeDwell&
   return "programme with allocated dwells written to " + path;
 }
 
-void run_optimize(const OptimizeCliOptions& o) {
-  const DesignSettings settings = settings_of(o.flags);
+OptimizeOptions optimize_options_of(const OptimizeCliOptions& o) {
   OptimizeOptions opt;
   opt.positions = o.positions;
   opt.model = o.flags.model == "full" ? DesignModel::full : DesignModel::invariant;
@@ -505,70 +504,108 @@ void run_optimize(const OptimizeCliOptions& o) {
     opt.limits.alpha1.continuous = opt.limits.alpha2.continuous = true;
   opt.restarts = o.restarts;
   opt.seed = o.seed;
-  const OptimizedProgram best = optimize_program(opt);
-  const AccuracyTarget target = parse_accuracy_target(o.target);
-  const std::string model_name = design_model_name(opt.model);
-  // Under wander the angles are polished for it from white noise's D-optimum; the paper
-  // structure fixes their pattern, and is left as the exchange found it.
-  std::optional<WanderPolish> polish;
-  if (settings.wander() && !opt.paper_structure)
-    polish =
-        polish_for_wander(best.program, opt.model, opt.limits, target, settings, o.max_repeats);
-  const bool polished = polish && polish->rounds > 0;
-  const Program& chosen = polished ? polish->program : best.program;
-  // Both from the programme's own basis, as paper9's is (the exchange's figure is over the
-  // parameters the whole stand observes; the same for the white optimum, not for a moved one).
-  const double white_d = d_criterion(design_basis(poses_of(best.program), opt.model));
-  const double d_chosen =
-      polished ? d_criterion(design_basis(poses_of(chosen), opt.model)) : white_d;
-  const ProgrammeDwell dwell = dwell_for(chosen, model_name, target, settings, o.max_repeats);
-  const ProgrammeDwell paper = dwell_for(paper9(), model_name, target, settings, o.max_repeats);
-  const double gain = d_chosen / best.paper9_d_criterion;
+  return opt;
+}
+
+// What `design optimize` found: white noise's optimum, under a wander moved for it, and the
+// dwell plans of the programme chosen and of paper9.
+struct OptimizeOutcome {
+  DesignModel model = DesignModel::invariant;
+  OptimizedProgram white;
+  std::optional<WanderPolish> polish;  // under a wander, unless a structure fixes the angles
+  Program chosen;
+  // det^(1/9), each from the programme's own basis as paper9's is (the exchange's figure is
+  // over the parameters the whole stand observes: the same for the white optimum, not for a
+  // moved one).
+  double white_d = 0, chosen_d = 0;
+  ProgrammeDwell dwell, paper;
+  bool polished() const { return polish && polish->rounds > 0; }
+  double gain() const { return chosen_d / white.paper9_d_criterion; }
   // det^(1/9) grows with the number of positions; dividing by it compares like with like.
-  const double per_position_gain = gain * static_cast<double>(paper9().positions.size()) /
-                                   static_cast<double>(chosen.positions.size());
-  const std::string written =
-      o.program_out.empty() ? "" : write_optimized_program(chosen, dwell, settings, o.program_out);
-  if (o.flags.json) {
-    json j = {{"program", chosen.name},
-              {"model", model_name},
-              {"structure", o.structure.empty() ? "none" : o.structure},
-              {"positions", positions_json(chosen, dwell.allocated.dwell_s)},
-              {"positions_chosen_for", polished ? "the wander" : "white noise"},
-              {"d_criterion", d_chosen},
-              {"paper9_d_criterion", best.paper9_d_criterion},
-              {"gain_vs_paper9", gain},
-              {"gain_per_position_vs_paper9", per_position_gain},
-              {"noise_density_ug_rthz", settings.noise_density_ug_rthz},
-              {"dwell_for_target", dwell_json(dwell)},
-              {"paper9_dwell_for_target", dwell_json(paper)}};
-    if (polish) j["wander_polish"] = polish_json(*polish, best.program, white_d);
-    add_wander_json(j, settings);
-    print_json(j);
-    return;
+  double per_position_gain() const {
+    return gain() * static_cast<double>(paper9().positions.size()) /
+           static_cast<double>(chosen.positions.size());
   }
+};
+
+OptimizeOutcome optimize(const OptimizeOptions& opt, const AccuracyTarget& target,
+                         const DesignSettings& settings, int max_repeats) {
+  OptimizeOutcome out;
+  out.model = opt.model;
+  out.white = optimize_program(opt);
+  if (settings.wander() && !opt.paper_structure)
+    out.polish =
+        polish_for_wander(out.white.program, opt.model, opt.limits, target, settings, max_repeats);
+  out.chosen = out.polished() ? out.polish->program : out.white.program;
+  out.white_d = d_criterion(design_basis(poses_of(out.white.program), opt.model));
+  out.chosen_d =
+      out.polished() ? d_criterion(design_basis(poses_of(out.chosen), opt.model)) : out.white_d;
+  const std::string model_name = design_model_name(opt.model);
+  out.dwell = dwell_for(out.chosen, model_name, target, settings, max_repeats);
+  out.paper = dwell_for(paper9(), model_name, target, settings, max_repeats);
+  return out;
+}
+
+json optimized_json(const OptimizeOutcome& r, const OptimizeCliOptions& o,
+                    const DesignSettings& settings) {
+  json j = {{"program", r.chosen.name},
+            {"model", design_model_name(r.model)},
+            {"structure", o.structure.empty() ? "none" : o.structure},
+            {"positions", positions_json(r.chosen, r.dwell.allocated.dwell_s)},
+            {"positions_chosen_for", r.polished() ? "the wander" : "white noise"},
+            {"d_criterion", r.chosen_d},
+            {"paper9_d_criterion", r.white.paper9_d_criterion},
+            {"gain_vs_paper9", r.gain()},
+            {"gain_per_position_vs_paper9", r.per_position_gain()},
+            {"noise_density_ug_rthz", settings.noise_density_ug_rthz},
+            {"dwell_for_target", dwell_json(r.dwell)},
+            {"paper9_dwell_for_target", dwell_json(r.paper)}};
+  if (r.polish) j["wander_polish"] = polish_json(*r.polish, r.white.program, r.white_d);
+  add_wander_json(j, settings);
+  return j;
+}
+
+void print_optimized(const OptimizeOutcome& r, bool paper_structure, const AccuracyTarget& target,
+                     const DesignSettings& settings) {
+  const Program& chosen = r.chosen;
+  const std::vector<double>& allocated = r.dwell.allocated.dwell_s;
   std::printf("%s (%s model%s, %zu positions):\n",
-              polished ? "Programme moved for the wander from white noise's D-optimum"
-                       : "D-optimal programme",
-              model_name.c_str(), opt.paper_structure ? ", paper structure" : "",
+              r.polished() ? "Programme moved for the wander from white noise's D-optimum"
+                           : "D-optimal programme",
+              design_model_name(r.model).c_str(), paper_structure ? ", paper structure" : "",
               chosen.positions.size());
   std::printf("  %3s %11s %11s %12s\n", "pos", "alpha1 deg", "alpha2 deg", "alloc dwell s");
   for (std::size_t k = 0; k < chosen.positions.size(); ++k) {
     const auto& p = chosen.positions[k];
     std::printf("  %3zu %11.3f %11.3f %12.1f\n", k + 1, p.alpha1_deg, p.alpha2_deg,
-                k < dwell.allocated.dwell_s.size() ? dwell.allocated.dwell_s[k] : 0.0);
+                k < allocated.size() ? allocated[k] : 0.0);
   }
-  std::printf("\nD-criterion det^(1/9) = %.5f; paper9: %.5f; gain %+.1f %%\n", d_chosen,
-              best.paper9_d_criterion, 100 * (gain - 1));
-  if (settings.wander()) print_polish(polish, white_d);
+  std::printf("\nD-criterion det^(1/9) = %.5f; paper9: %.5f; gain %+.1f %%\n", r.chosen_d,
+              r.white.paper9_d_criterion, 100 * (r.gain() - 1));
+  if (settings.wander()) print_polish(r.polish, r.white_d);
   if (chosen.positions.size() != paper9().positions.size())
     std::printf(
         "  per position (information per measurement, fair for different counts): %+.1f %%\n",
-        100 * (per_position_gain - 1));
+        100 * (r.per_position_gain() - 1));
   std::printf("\n");
   print_dwell_header(target, settings);
-  print_dwell_row(paper);
-  print_dwell_row(dwell);
+  print_dwell_row(r.paper);
+  print_dwell_row(r.dwell);
+}
+
+void run_optimize(const OptimizeCliOptions& o) {
+  const DesignSettings settings = settings_of(o.flags);
+  const OptimizeOptions opt = optimize_options_of(o);
+  const AccuracyTarget target = parse_accuracy_target(o.target);
+  const OptimizeOutcome r = optimize(opt, target, settings, o.max_repeats);
+  const std::string written =
+      o.program_out.empty() ? ""
+                            : write_optimized_program(r.chosen, r.dwell, settings, o.program_out);
+  if (o.flags.json) {
+    print_json(optimized_json(r, o, settings));
+    return;
+  }
+  print_optimized(r, opt.paper_structure, target, settings);
   if (!written.empty()) std::printf("\n%s\n", written.c_str());
 }
 
