@@ -3,7 +3,6 @@
 #include <cmath>
 #include <cstdio>
 #include <iostream>
-#include <limits>
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -435,8 +434,8 @@ json positions_json(const Program& program, const std::vector<double>& allocated
   return positions;
 }
 
-double plan_bench_s(const std::optional<RevisitPlan>& plan) {
-  return plan ? plan->time.total_s() : std::numeric_limits<double>::quiet_NaN();
+json bench_s_json(const std::optional<RevisitPlan>& plan) {
+  return plan ? json(plan->time.total_s()) : json();
 }
 
 // white_d: white noise's optimum's D-criterion, from its own basis as the moved one's is.
@@ -444,8 +443,8 @@ json polish_json(const WanderPolish& polish, const Program& white_optimum, doubl
   json j = {{"rounds", polish.rounds},
             {"white_optimum_positions", positions_json(white_optimum, {})},
             {"white_optimum_d_criterion", white_d}};
-  j["white_optimum_bench_s"] = polish.start_plan ? json(plan_bench_s(polish.start_plan)) : json();
-  j["bench_s"] = polish.plan ? json(plan_bench_s(polish.plan)) : json();
+  j["white_optimum_bench_s"] = bench_s_json(polish.start_plan);
+  j["bench_s"] = bench_s_json(polish.plan);
   return j;
 }
 
@@ -463,14 +462,14 @@ void print_polish(const std::optional<WanderPolish>& polish, double white_d) {
     std::printf(
         "  the angles are D-optimal for white noise: moving them for the wander found no "
         "faster plan (%.0f s on the bench)\n",
-        plan_bench_s(polish->start_plan));
+        polish->start_plan->time.total_s());
   } else {
     std::printf(
         "  the angles are white noise's D-optimum (det^(1/9) %.5f) moved for the wander in %d "
         "round%s: its fastest plan takes %.0f s on the bench, against %.0f s at white noise's "
         "angles\n",
-        white_d, polish->rounds, polish->rounds == 1 ? "" : "s", plan_bench_s(polish->plan),
-        plan_bench_s(polish->start_plan));
+        white_d, polish->rounds, polish->rounds == 1 ? "" : "s", polish->plan->time.total_s(),
+        polish->start_plan->time.total_s());
   }
 }
 
@@ -488,10 +487,25 @@ std::string write_optimized_program(const Program& chosen, const ProgrammeDwell&
   return "programme with allocated dwells written to " + path;
 }
 
+// The model `design optimize` and `compare --with-optimal` optimise for: full when asked,
+// else the invariant one (`auto` too).
+DesignModel optimized_model(const std::string& requested) {
+  return requested == "full" ? DesignModel::full : DesignModel::invariant;
+}
+
+// Under a wander, white noise's optimum moved for it (a paper structure fixes the angles'
+// pattern, and keeps them); none without a wander.
+std::optional<WanderPolish> moved_for_wander(const OptimizeOptions& opt, const Program& white,
+                                             const AccuracyTarget& target,
+                                             const DesignSettings& settings, int max_repeats) {
+  if (!settings.wander() || opt.paper_structure) return std::nullopt;
+  return polish_for_wander(white, opt.model, opt.limits, target, settings, max_repeats);
+}
+
 OptimizeOptions optimize_options_of(const OptimizeCliOptions& o) {
   OptimizeOptions opt;
   opt.positions = o.positions;
-  opt.model = o.flags.model == "full" ? DesignModel::full : DesignModel::invariant;
+  opt.model = optimized_model(o.flags.model);
   if (o.flags.model != "full" && o.flags.model != "invariant" && o.flags.model != "auto")
     throw std::runtime_error("--model '" + o.flags.model + "': expected invariant or full");
   if (!o.structure.empty() && o.structure != "paper")
@@ -533,9 +547,7 @@ OptimizeOutcome optimize(const OptimizeOptions& opt, const AccuracyTarget& targe
   OptimizeOutcome out;
   out.model = opt.model;
   out.white = optimize_program(opt);
-  if (settings.wander() && !opt.paper_structure)
-    out.polish =
-        polish_for_wander(out.white.program, opt.model, opt.limits, target, settings, max_repeats);
+  out.polish = moved_for_wander(opt, out.white.program, target, settings, max_repeats);
   out.chosen = out.polished() ? out.polish->program : out.white.program;
   out.white_d = d_criterion(design_basis(poses_of(out.white.program), opt.model));
   out.chosen_d =
@@ -623,13 +635,12 @@ void run_compare(const CompareOptions& o) {
     OptimizeOptions opt;
     opt.positions = o.with_optimal;
     opt.limits = limits;
-    opt.model = o.flags.model == "full" ? DesignModel::full : DesignModel::invariant;
+    opt.model = optimized_model(o.flags.model);
     const Program white_optimum = optimize_program(opt).program;
-    // Under wander, as `design optimize` plans it: polished for the wander.
-    programs.push_back(settings.wander() ? polish_for_wander(white_optimum, opt.model, limits,
-                                                             target, settings, o.max_repeats)
-                                               .program
-                                         : white_optimum);
+    // As `design optimize` chooses it: under a wander, moved for it.
+    const std::optional<WanderPolish> moved =
+        moved_for_wander(opt, white_optimum, target, settings, o.max_repeats);
+    programs.push_back(moved ? moved->program : white_optimum);
   }
   std::vector<ProgrammeDwell> rows;
   for (const auto& p : programs)
