@@ -2,7 +2,9 @@
 #include <sqlite3.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <stdexcept>
+#include <thread>
 
 #include "records/db/sql_session.hpp"
 
@@ -35,11 +37,12 @@ class SqliteSession final : public SqlSession {
       throw std::runtime_error("cannot open the records database " + path_ + ": " + why);
     }
     // Another process (the CLI while the daemon writes) waits instead of failing at once.
-    sqlite3_busy_timeout(db_, 10000);
+    sqlite3_busy_timeout(db_, static_cast<int>(kBusyTimeout.count()));
     try {
       // WAL: readers never block the daemon's writes; foreign keys keep parameters tied
       // to their calibration.
-      exec_script("PRAGMA journal_mode=WAL; PRAGMA foreign_keys=ON; PRAGMA synchronous=FULL;");
+      use_wal();
+      exec_script("PRAGMA foreign_keys=ON; PRAGMA synchronous=FULL;");
     } catch (...) {
       sqlite3_close(db_);
       throw;
@@ -83,6 +86,48 @@ class SqliteSession final : public SqlSession {
   void begin_exclusive() override { exec_script("BEGIN IMMEDIATE"); }
 
  private:
+  static constexpr std::chrono::milliseconds kBusyTimeout{10000};
+
+  // Switches the file to WAL, waiting for other connections as every other statement does.
+  // The switch needs the file to itself, and SQLite does not run the busy handler for every
+  // way it meets another connection (benches opening a new file at once got "database is
+  // locked" at once), so this retries within the same time. WAL is kept in the file: after
+  // the first open the mode is only read. A file that cannot be WAL (no shared memory on its
+  // file system) keeps the mode SQLite leaves it in, as before.
+  void use_wal() {
+    const auto give_up = std::chrono::steady_clock::now() + kBusyTimeout;
+    for (;;) {
+      int rc = SQLITE_OK;
+      if (journal_mode(rc) == "wal") return;
+      if (rc == SQLITE_OK) {
+        char* message = nullptr;
+        rc = sqlite3_exec(db_, "PRAGMA journal_mode=WAL", nullptr, nullptr, &message);
+        sqlite3_free(message);
+        if (rc == SQLITE_OK) return;
+      }
+      if ((rc & 0xff) != SQLITE_BUSY || std::chrono::steady_clock::now() > give_up)
+        fail("cannot switch to write-ahead logging (PRAGMA journal_mode=WAL)");
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+  }
+
+  // The file's journal mode ("wal", "delete", ...), or "" with `rc` set when it cannot be read.
+  std::string journal_mode(int& rc) const {
+    sqlite3_stmt* stmt = nullptr;
+    rc = sqlite3_prepare_v2(db_, "PRAGMA journal_mode", -1, &stmt, nullptr);
+    std::string mode;
+    if (rc == SQLITE_OK) {
+      rc = sqlite3_step(stmt);
+      if (rc == SQLITE_ROW) {
+        const unsigned char* v = sqlite3_column_text(stmt, 0);
+        mode = v != nullptr ? reinterpret_cast<const char*>(v) : "";
+        rc = SQLITE_OK;
+      }
+    }
+    sqlite3_finalize(stmt);
+    return mode;
+  }
+
   [[noreturn]] void fail(const std::string& what) const {
     throw std::runtime_error("records database " + path_ + ": " + what + ": " +
                              sqlite3_errmsg(db_));
