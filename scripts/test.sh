@@ -8,7 +8,8 @@
 # Under the sanitizers CI builds and runs what takes input from outside the process: the
 # fuzz-regression replay (every reader of recordings, programmes, models, CAN layouts and
 # frames, Modbus URLs, configs and registers, JSON-RPC requests, the daemon's config), the
-# CAN and Modbus drivers, the recorded-traffic replay, and the fault-injection tests (the
+# CAN and Modbus drivers, the recorded-traffic replay, the records database (SQLite and
+# PostgreSQL through their C libraries, several benches at once), and the fault tests (the
 # daemon and the emulators built with the sanitizers, killed, cut off and resumed). The
 # whole tree under the sanitizers took five minutes more (measured 2026-12-04 on fresh
 # clones, 2 cores: ASan build 328 s and tests 201 s against 197 s and 25 s) and put CI at
@@ -25,12 +26,13 @@ case "${1:-}" in
   *) echo "test.sh: unknown option '$1' (--asan-all)" >&2; exit 2 ;;
 esac
 # What CI builds under the sanitizers (targets) and runs there (ctest labels; the faults
-# label runs in the last phase). fuzz_tree_configures configures the fuzz tree with cmake,
-# the same in either build: it runs in the Release build.
+# label runs in the last phase): a new test of code that reads outside input (a driver, a
+# reader, a fuzz target) belongs here. fuzz_tree_configures configures the fuzz tree with
+# cmake, the same in either build: it runs in the Release build.
 asan_targets=(standcal_test_fuzz_regressions standcal_test_drivers_can standcal_test_can_emu
               standcal_test_drivers_modbus standcal_test_stand_cli standcal_test_drivers_contract
-              standcal_test_replay fault_tests)
-asan_labels='^(fuzz_regressions|drivers_can|drivers_modbus|drivers_contract|replay)$'
+              standcal_test_replay records_tests fault_tests)
+asan_labels='^(fuzz_regressions|drivers_can|drivers_modbus|drivers_contract|replay|records)$'
 export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 
