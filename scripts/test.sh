@@ -8,22 +8,22 @@
 # Under the sanitizers CI builds and runs what takes input from outside the process: the
 # fuzz-regression replay (every reader of recordings, programmes, models, CAN layouts and
 # frames, Modbus URLs, configs and registers, JSON-RPC requests, the daemon's config), the
-# CAN and Modbus drivers, the recorded-traffic replay, the records database (SQLite and
-# PostgreSQL through their C libraries, several benches at once), and the fault tests (the
-# daemon and the emulators built with the sanitizers, killed, cut off and resumed). The
-# whole tree under the sanitizers took five minutes more (measured 2026-12-04 on fresh
-# clones, 2 cores: ASan build 328 s and tests 201 s against 197 s and 25 s) and put CI at
-# 17-18 minutes against the README's "well under 15" (docs/reliability.md, "Tests in CI");
-# `--asan-all` runs it. Slower checks (TSan, fuzzing) and the Debian package (g++,
-# scripts/package.sh) are separate scripts.
+# CAN and Modbus drivers, the recorded-traffic replay, the records database, its limits and
+# certificates (SQLite and PostgreSQL through their C libraries, several benches at once,
+# the lab's limit files), and the fault tests (the daemon and the emulators built with the
+# sanitizers, killed, cut off and resumed). The whole tree under the sanitizers took five
+# minutes more (measured 2026-12-04 on fresh clones, 2 cores: ASan build 328 s and tests
+# 201 s against 197 s and 25 s) and put CI at 17-18 minutes against the README's "well
+# under 15" (docs/reliability.md, "Tests in CI"); `--asan-all` runs it. Slower checks (TSan,
+# fuzzing) and the Debian package (g++, scripts/package.sh) are separate scripts.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 asan_all=false
-case "${1:-}" in
+case "$*" in
   "") ;;
   --asan-all) asan_all=true ;;
-  -h|--help) sed -n '2,16p' "$0"; exit 0 ;;
-  *) echo "test.sh: unknown option '$1' (--asan-all)" >&2; exit 2 ;;
+  -h|--help) sed -n '2,/^set -euo/{/^#/p}' "$0"; exit 0 ;;
+  *) echo "test.sh: unknown arguments '$*' (--asan-all, or none)" >&2; exit 2 ;;
 esac
 # What CI builds under the sanitizers (targets) and runs there (ctest labels; the faults
 # label runs in the last phase): a new test of code that reads outside input (a driver, a
@@ -31,7 +31,7 @@ esac
 # cmake, the same in either build: it runs in the Release build.
 asan_targets=(standcal_test_fuzz_regressions standcal_test_drivers_can standcal_test_can_emu
               standcal_test_drivers_modbus standcal_test_stand_cli standcal_test_drivers_contract
-              standcal_test_replay records_tests fault_tests)
+              standcal_test_replay records_tests records_limits_tests certificate_tests fault_tests)
 asan_labels='^(fuzz_regressions|drivers_can|drivers_modbus|drivers_contract|replay|records)$'
 export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
@@ -52,6 +52,19 @@ phase_start=$SECONDS
 phase_done() {
   echo "--- $1: $((SECONDS - phase_start)) s (total $SECONDS s)" >&2
   phase_start=$SECONDS
+}
+# ctest leaves out, without a word, the tests of a target it finds not built: every test
+# with the CI's labels in the Release build must be there under the sanitizers too.
+check_asan_subset() {
+  local count=(-N -L "$asan_labels" -E '^fuzz_tree_configures$')
+  local release asan
+  release=$(ctest --test-dir "$root/build/release" "${count[@]}" | sed -n 's/^Total Tests: //p')
+  asan=$(ctest --test-dir "$root/build/asan" "${count[@]}" | sed -n 's/^Total Tests: //p')
+  if [[ "$release" != "$asan" ]]; then
+    echo "test.sh: $release tests with the labels $asan_labels in the Release build, $asan" \
+      "under the sanitizers: a target carrying one of them is missing from asan_targets" >&2
+    exit 1
+  fi
 }
 main_tests() {
   ctest --test-dir "$1" -LE '^faults$' --output-on-failure -j "$((2 * $(nproc)))" --timeout 600 \
@@ -89,6 +102,7 @@ else
   "$root/scripts/build.sh" asan "${asan_targets[@]}"
   phase_done "asan build"
   echo "=== asan tests (labels $asan_labels) ===" >&2
+  check_asan_subset
   main_tests "$root/build/asan" -L "$asan_labels" -E '^fuzz_tree_configures$'
 fi
 phase_done "asan tests"

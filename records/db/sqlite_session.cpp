@@ -2,7 +2,9 @@
 #include <sqlite3.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cstdint>
 #include <stdexcept>
 #include <thread>
 
@@ -95,20 +97,26 @@ class SqliteSession final : public SqlSession {
   // the first open the mode is only read. A file that cannot be WAL (no shared memory on its
   // file system) keeps the mode SQLite leaves it in, as before.
   void use_wal() {
-    const auto give_up = std::chrono::steady_clock::now() + kBusyTimeout;
+    using std::chrono::steady_clock;
+    const auto give_up = steady_clock::now() + kBusyTimeout;
     for (;;) {
+      // Each try waits on a lock only for what is left of the one timeout.
+      const auto left =
+          std::chrono::duration_cast<std::chrono::milliseconds>(give_up - steady_clock::now());
+      sqlite3_busy_timeout(db_, static_cast<int>(std::max<std::int64_t>(left.count(), 1)));
       int rc = SQLITE_OK;
-      if (journal_mode(rc) == "wal") return;
+      if (journal_mode(rc) == "wal") break;
       if (rc == SQLITE_OK) {
         char* message = nullptr;
         rc = sqlite3_exec(db_, "PRAGMA journal_mode=WAL", nullptr, nullptr, &message);
         sqlite3_free(message);
-        if (rc == SQLITE_OK) return;
+        if (rc == SQLITE_OK) break;
       }
-      if ((rc & 0xff) != SQLITE_BUSY || std::chrono::steady_clock::now() > give_up)
-        fail("cannot switch to write-ahead logging (PRAGMA journal_mode=WAL)");
+      if ((rc & 0xff) != SQLITE_BUSY || steady_clock::now() > give_up)
+        fail("cannot read or set the journal mode (write-ahead logging)");
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }
+    sqlite3_busy_timeout(db_, static_cast<int>(kBusyTimeout.count()));
   }
 
   // The file's journal mode ("wal", "delete", ...), or "" with `rc` set when it cannot be read.
