@@ -33,6 +33,7 @@ asan_targets=(standcal_test_fuzz_regressions standcal_test_drivers_can standcal_
               standcal_test_drivers_modbus standcal_test_stand_cli standcal_test_drivers_contract
               standcal_test_replay records_tests records_limits_tests certificate_tests fault_tests)
 asan_labels='^(fuzz_regressions|drivers_can|drivers_modbus|drivers_contract|replay|records)$'
+asan_selection=(-L "$asan_labels" -E '^fuzz_tree_configures$')
 export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 
@@ -56,10 +57,10 @@ phase_done() {
 # ctest leaves out, without a word, the tests of a target it finds not built: every test
 # with the CI's labels in the Release build must be there under the sanitizers too.
 check_asan_subset() {
-  local count=(-N -L "$asan_labels" -E '^fuzz_tree_configures$')
   local release asan
-  release=$(ctest --test-dir "$root/build/release" "${count[@]}" | sed -n 's/^Total Tests: //p')
-  asan=$(ctest --test-dir "$root/build/asan" "${count[@]}" | sed -n 's/^Total Tests: //p')
+  release=$(ctest --test-dir "$root/build/release" -N "${asan_selection[@]}" |
+    sed -n 's/^Total Tests: //p')
+  asan=$(ctest --test-dir "$root/build/asan" -N "${asan_selection[@]}" | sed -n 's/^Total Tests: //p')
   if [[ "$release" != "$asan" ]]; then
     echo "test.sh: $release tests with the labels $asan_labels in the Release build, $asan" \
       "under the sanitizers: a target carrying one of them is missing from asan_targets" >&2
@@ -103,7 +104,7 @@ else
   phase_done "asan build"
   echo "=== asan tests (labels $asan_labels) ===" >&2
   check_asan_subset
-  main_tests "$root/build/asan" -L "$asan_labels" -E '^fuzz_tree_configures$'
+  main_tests "$root/build/asan" "${asan_selection[@]}"
 fi
 phase_done "asan tests"
 

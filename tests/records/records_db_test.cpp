@@ -296,8 +296,8 @@ TEST(RecordsDbOpen, BadLocationsAreClearErrors) {
 
 // Switching a new file to WAL needs it to itself, and SQLite does not run the busy handler
 // for every way that switch meets another connection: benches opening a new database at
-// once got "database is locked" at once (TwoBenchesMigratingAtOnce failed so about once in
-// 300 runs). A hundred new files, six benches opening each at the same moment.
+// once got "database is locked" at once (TwoBenchesMigratingAtOnce failed so within a
+// 300-repeat run). A hundred new files, six benches opening each at the same moment.
 TEST(RecordsDbOpen, BenchesOpeningANewFileAtOnceAllOpenItInWal) {
   test::TempDir dir;
   int refused = 0;
