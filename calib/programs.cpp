@@ -24,13 +24,6 @@ ProgramPosition at(double alpha1_deg, double alpha2_deg, Mount mount = Mount::x)
   return p;
 }
 
-// A number as an operator writes it: 122.5, not 122.500000.
-std::string number_text(double value) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.6g", value);
-  return buf;
-}
-
 std::string position_label(const std::string& source, std::size_t index, std::size_t count) {
   return source + ": position " + std::to_string(index + 1) + " of " + std::to_string(count);
 }

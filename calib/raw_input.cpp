@@ -3,6 +3,7 @@
 #include "calib/allan.hpp"
 #include "calib/line_source.hpp"
 #include "calib/order_statistics.hpp"
+#include "calib/text.hpp"
 
 #include <algorithm>
 #include <array>
@@ -54,13 +55,6 @@ bool parse_int(std::string_view text, int& out) {
   if (text.empty()) return false;
   const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), out);
   return ec == std::errc() && end == text.data() + text.size();
-}
-
-std::string number_text(double v) {
-  std::array<char, 32> buf{};
-  const auto [end, ec] =
-      std::to_chars(buf.data(), buf.data() + buf.size(), v, std::chars_format::general, 6);
-  return ec == std::errc() ? std::string(buf.data(), end) : std::to_string(v);
 }
 
 std::string lower(std::string_view s) {
@@ -992,7 +986,7 @@ class Reader {
                     ", found " + std::to_string(fields.size()));
       }
       for (std::size_t k = 0; k < 3; ++k)
-        out_.axis[k].push_back(field_number(layout, fields, layout.axis[k]));
+        out_.axis[k].push_back(axis_number(layout, fields, layout.axis[k]));
       if (layout.pos >= 0) {
         const auto p = static_cast<std::size_t>(layout.pos);
         int pos = 0;
@@ -1060,6 +1054,16 @@ class Reader {
       what += "'" + std::string(f) + "' is not a number";
     if (f.find(',') != std::string_view::npos) what += " (a decimal comma? write numbers with '.')";
     fail(index + 1, what);
+  }
+
+  // An accelerometer column's value: a number, and one an accelerometer can give.
+  double axis_number(const Layout& layout, const std::vector<std::string_view>& fields,
+                     int index) const {
+    const double v = field_number(layout, fields, index);
+    if (!is_plausible_accelerometer_value(v))
+      fail(index + 1, "column '" + layout.names[static_cast<std::size_t>(index)] +
+                          "': " + implausible_accelerometer_value_text(v));
+    return v;
   }
 
   static bool row_is_complete(const Layout& layout, const std::vector<std::string_view>& fields) {
@@ -1153,7 +1157,7 @@ class Reader {
       StaticMeanRow r;
       r.line = line.number;
       for (std::size_t k = 0; k < 3; ++k)
-        r.mean[static_cast<Eigen::Index>(k)] = field_number(layout, fields, layout.axis[k]);
+        r.mean[static_cast<Eigen::Index>(k)] = axis_number(layout, fields, layout.axis[k]);
       if (count_column >= 0) {
         const double n = optional_number(layout, fields, count_column);
         if (!std::isnan(n)) {

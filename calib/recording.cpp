@@ -278,6 +278,14 @@ class Parser {
          "fx_mps2, fy_mps2, fz_mps2 separated by ','");
   }
 
+  double force(const std::vector<std::string_view>& f, Column c) const {
+    const double v = number(f, c, false);
+    if (!is_plausible_accelerometer_value(v))
+      fail(index_[c] + 1, "column '" + std::string(kColumnNames[c]) +
+                              "': " + implausible_accelerometer_value_text(v));
+    return v;
+  }
+
   double number(const std::vector<std::string_view>& f, Column c, bool optional) const {
     const int i = index_[c];
     if (i < 0) return kNoValue;
@@ -393,6 +401,8 @@ class Parser {
     // The still columns repeat, so position and commanded angles do: of check_order's rules
     // only time's order is left.
     if (numbers[kQuickT] < previous_.t_s) return false;
+    for (int k = 1; k <= 3; ++k)  // parse_row names the field
+      if (!is_plausible_accelerometer_value(numbers[static_cast<std::size_t>(k)])) return false;
     previous_.t_s = numbers[kQuickT];
     previous_.f_mps2 = Vec3(numbers[1], numbers[2], numbers[3]);
     previous_.temp_c = numbers[kQuickTemp];
@@ -473,7 +483,7 @@ class Parser {
     if (!repeats(kA2Cmd)) s.alpha2_cmd_deg = number(f, kA2Cmd, false);
     if (!repeats(kA1)) s.alpha1_deg = number(f, kA1, true);
     if (!repeats(kA2)) s.alpha2_deg = number(f, kA2, true);
-    s.f_mps2 = Vec3(number(f, kFx, false), number(f, kFy, false), number(f, kFz, false));
+    s.f_mps2 = Vec3(force(f, kFx), force(f, kFy), force(f, kFz));
     s.temp_c = number(f, kTemp, true);
     if (!repeats(kTArrive)) s.t_arrive_s = number(f, kTArrive, true);
     if (!repeats(kMountCol)) parse_mount_field(f, s);
@@ -623,6 +633,13 @@ void Recording::set_header(const std::string& key, const std::string& value) {
       return;
     }
   header.emplace_back(key, value);
+}
+
+bool is_plausible_accelerometer_value(double v) { return std::abs(v) <= kMaxAbsAccelerometerValue; }
+
+std::string implausible_accelerometer_value_text(double v) {
+  return number_text(v) + " is beyond any accelerometer's output (at most 1e12 in counts, g or " +
+         "m/s^2): a corrupted value?";
 }
 
 bool is_assumed_gravity_warning(std::string_view warning) {

@@ -73,6 +73,15 @@ struct Recording {
 // The reader's warning that the recording has no g_local_mps2 header.
 bool is_assumed_gravity_warning(std::string_view warning);
 
+// The largest |value| an accelerometer column may hold, in counts, g or m/s^2: no
+// converter counts this far (a 32-bit one stops at 4.3e9) and no unit is built for this
+// force. A larger value is a corrupted field, and read as a sample it overflows the
+// squares of the noise analysis (an Allan deviation of infinity).
+inline constexpr double kMaxAbsAccelerometerValue = 1e12;
+bool is_plausible_accelerometer_value(double v);
+// What is wrong with such a value, for an error naming its line and column.
+std::string implausible_accelerometer_value_text(double v);
+
 // A bad recording: the message already names file, line and column.
 class RecordingError : public std::runtime_error {
  public:

@@ -32,4 +32,10 @@ std::string describe(const ControlCharacter& c) {
          std::to_string(c.character);
 }
 
+std::string number_text(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", v);
+  return buf;
+}
+
 }  // namespace standcal

@@ -21,4 +21,8 @@ std::optional<ControlCharacter> find_control_character(std::string_view text);
 // "the control character U+000A at character 3", for error messages.
 std::string describe(const ControlCharacter& c);
 
+// A number as an operator writes it, six significant digits: 122.5, not 122.500000;
+// 7.36e+161.
+std::string number_text(double v);
+
 }  // namespace standcal

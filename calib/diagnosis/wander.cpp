@@ -78,9 +78,12 @@ BetweenVisits between_visits(const Prepared& P, const std::vector<Candidate>& sl
   const auto means = static_cast<Eigen::Index>(column_of.size());
   bv.X = Eigen::MatrixXd::Zero(m, means + slow_cols.cols());
   for (Eigen::Index i = 0; i < m; ++i) {
+    const Eigen::Index r = bv.rows[static_cast<std::size_t>(i)];
     bv.X(i, row_column[static_cast<std::size_t>(i)]) =
-        1.0 / lp.row_sigma_g[static_cast<std::size_t>(bv.rows[static_cast<std::size_t>(i)])];
-    bv.X.row(i).tail(slow_cols.cols()) = slow_cols.row(bv.rows[static_cast<std::size_t>(i)]);
+        1.0 / lp.row_sigma_g[static_cast<std::size_t>(r)];
+    // Without a slow term there is nothing to copy, and a matrix without columns has no
+    // storage: taking a row of it offsets a null pointer (undefined behaviour).
+    if (slow_cols.cols() > 0) bv.X.row(i).tail(slow_cols.cols()) = slow_cols.row(r);
   }
   bv.y = lp.y_white(bv.rows);
   return bv;

@@ -205,6 +205,14 @@ std::string dwell_problem(const DwellAverage& dwell, const DwellExpectation& exp
   }
   const double ug_per_mps2 = 1e6 / expected.g_local_mps2;
   for (int a = 0; a < 3; ++a) {
+    // The recording must hold only what the offline readers take (calib/recording.hpp): a
+    // dwell of such values is a wrong CAN layout, not a unit. (One such value among sane
+    // ones makes the axis's sigma far exceed its limit below; a sum that overflowed, NaN.)
+    if (!is_plausible_accelerometer_value(dwell.mean_mps2[a]) ||
+        !std::isfinite(dwell.sigma_mps2[a]))
+      return "axis " + axis_name(a) + " read " + number_text(dwell.mean_mps2[a]) +
+             " m/s^2 on average, beyond any accelerometer's output: check the unit's CAN "
+             "layout (signal lengths, scale and offset)";
     const double sigma_ug = dwell.sigma_mps2[a] * ug_per_mps2;
     const double trend_ug = dwell.trend_mps2[a] * ug_per_mps2;
     if (sigma_ug > rule.sigma_limit_ug) {

@@ -115,6 +115,22 @@ TEST(RawInputImuTk, TheSameRowsUnderACommaHeaderReadTheSame) {
   EXPECT_DOUBLE_EQ(in.sample_rate_hz, plain.sample_rate_hz);
 }
 
+// A corrupted value was read as a sample and overflowed the noise analysis (`standcal
+// noise`: an Allan deviation of infinity; the raw_input fuzz target, 2026-12-04).
+TEST(RawInputErrors, AValueNoAccelerometerGivesNamesLineAndColumn) {
+  const std::string samples = input_error_of("t,ax,ay,az\n0,0,0,1\n1,-7.36E161,0,1\n");
+  EXPECT_TRUE(contains(samples,
+                       "in.csv:3: column 2: column 'ax': -7.36e+161 is beyond any "
+                       "accelerometer's output"))
+      << samples;
+  InputOptions means;
+  means.format = InputFormat::means;
+  const std::string table =
+      input_error_of("mean_x,mean_y,mean_z\n0,0,1\n0,2e12,0\n", means, "means.csv");
+  EXPECT_TRUE(contains(table, "means.csv:3: column 2: column 'mean_y': 2e+12 is beyond")) << table;
+  EXPECT_EQ(input_error_of("t ax ay az\n0 0 0 -1e12\n1 0 0 1e12\n"), "");
+}
+
 TEST(RawInputImuTk, ThreeColumnsNeedTheRateAndUseIt) {
   const std::string rows = "0.012 -0.004 0.998\n0.011 -0.003 0.999\n0.013 -0.005 0.997\n";
   const std::string message = input_error_of(rows);

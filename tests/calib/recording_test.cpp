@@ -143,6 +143,28 @@ TEST(RecordingErrors, NonNumberNamesLineAndColumn) {
             std::string::npos);
 }
 
+// A corrupted force field was read as a sample: `standcal noise` then printed a bias
+// instability of "inf" and white noise "not seen" on that axis (the raw_input fuzz target,
+// 2026-12-04, on a recording without angles; a stand recording the same).
+TEST(RecordingErrors, AForceNoAccelerometerGivesNamesLineAndColumn) {
+  const std::string exponent =
+      "5.020,0,0.0000,0.0000,0.000012,-0.000210,-7.36E161,9.816702,-0.000217,23.05\n";
+  const std::string message = error_of(kHeader + kColumns + kRow0 + exponent);
+  EXPECT_NE(message.find("rec.csv:8: column 7: column 'fx_mps2': -7.36e+161 is beyond any "
+                         "accelerometer's output"),
+            std::string::npos)
+      << message;
+  // Rows after the first whose still columns repeat are read by a quicker path.
+  const std::string plain =
+      "5.020,0,0.0000,0.0000,0.000012,-0.000210,0.000425,10000000000000.5,-0.000219,23.05\n";
+  const std::string quick = error_of(kHeader + kColumns + kRow0 + kRow1 + plain);
+  EXPECT_NE(quick.find("rec.csv:9: column 8: column 'fy_mps2': 1e+13 is beyond"), std::string::npos)
+      << quick;
+  const std::string largest =
+      "5.020,0,0.0000,0.0000,0.000012,-0.000210,0.000425,-1000000000000,-0.000219,23.05\n";
+  EXPECT_EQ(error_of(kHeader + kColumns + kRow0 + kRow1 + largest), "");
+}
+
 TEST(RecordingErrors, TimeGoingBackwards) {
   EXPECT_NE(
       error_of(kHeader + kColumns + kRow1 + kRow0).find("rec.csv:8: column 1: t_s goes backwards"),

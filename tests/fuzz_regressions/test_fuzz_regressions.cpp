@@ -83,8 +83,12 @@ class FuzzReplay : public ::testing::Test {
 };
 
 TEST_F(FuzzReplay, Recording) { replay_target("recording", standcal_fuzz_recording); }
+TEST_F(FuzzReplay, RawInput) { replay_target("raw_input", standcal_fuzz_raw_input); }
 TEST_F(FuzzReplay, ProgramJson) { replay_target("program_json", standcal_fuzz_program_json); }
 TEST_F(FuzzReplay, ModelJson) { replay_target("model_json", standcal_fuzz_model_json); }
+TEST_F(FuzzReplay, CertificateConfigs) {
+  replay_target("certificate_configs", standcal_fuzz_certificate_configs);
+}
 TEST_F(FuzzReplay, Diagnosis) { replay_target("diagnosis", standcal_fuzz_diagnosis); }
 TEST_F(FuzzReplay, CanLayoutJson) {
   replay_target("can_layout_json", standcal_fuzz_can_layout_json);
