@@ -23,6 +23,7 @@ namespace {
 // and the other files' anonymous namespaces hold helpers of the same names (trim...).
 namespace input_reader {
 
+constexpr double kLongestTime_s = 1e12;      // |t| of any sample, after its unit
 constexpr double kRelativeUnitWindow = 0.2;  // values within 20 % of 1 g tell the units
 constexpr double kMinCountsNorm = 50;        // raw counts are integers at least this large
 
@@ -997,6 +998,12 @@ class Reader {
       }
       if (layout.time < 0 || !time_ok) continue;
       const double t = field_number(layout, fields, layout.time) * layout.time_scale;
+      // Past this, the difference of two times can overflow and the rate read from the
+      // steps become 0 Hz; no recording spans 30 000 years.
+      if (!(std::abs(t) <= kLongestTime_s))
+        fail(layout.time + 1, "column '" + layout.names[static_cast<std::size_t>(layout.time)] +
+                                  "': " + number_text(t) + " s is not a time a recording " +
+                                  "holds (at most 1e12 s)");
       if (!first && t < previous_t) {
         const std::string name = layout.names[static_cast<std::size_t>(layout.time)];
         if (!layout.time_tentative)
@@ -1178,6 +1185,10 @@ class Reader {
           else if (e[static_cast<Eigen::Index>(k)] < 0)
             fail(se[k] + 1, "column '" + layout.names[static_cast<std::size_t>(se[k])] +
                                 "': a standard error cannot be negative");
+          else if (!is_plausible_accelerometer_value(e[static_cast<Eigen::Index>(k)]))
+            fail(se[k] + 1,
+                 "column '" + layout.names[static_cast<std::size_t>(se[k])] +
+                     "': " + implausible_accelerometer_value_text(e[static_cast<Eigen::Index>(k)]));
         }
         if (empty == 0) {
           r.standard_error = e;

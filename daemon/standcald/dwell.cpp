@@ -33,7 +33,11 @@ DwellAverage average_dwell(const std::vector<drivers::AccelSample>& s) {
   out.span_s = span;
   for (int a = 0; a < 3; ++a) {
     double mean = 0;
-    for (const auto& x : s) mean += x.force_mps2[a] / n;
+    for (const auto& x : s) {
+      mean += x.force_mps2[a] / n;
+      const double v = std::abs(x.force_mps2[a]);
+      if (!(v <= out.max_abs_mps2[a])) out.max_abs_mps2[a] = v;  // NaN sticks
+    }
     double var = 0, stt = 0, sty = 0;
     for (const auto& x : s) {
       const double d = x.force_mps2[a] - mean, dt = x.t_s - t_mean;
@@ -188,6 +192,15 @@ std::string unexplained_drift(const DwellAverage& dwell, const DwellExpectation&
 
 }  // namespace
 
+std::string implausible_force(const DwellAverage& dwell) {
+  for (int a = 0; a < 3; ++a)
+    if (!is_plausible_accelerometer_value(dwell.max_abs_mps2[a]))
+      return "axis " + axis_name(a) + " read " + number_text(dwell.max_abs_mps2[a]) +
+             " m/s^2, beyond any accelerometer's output: check the unit's CAN layout (signal "
+             "lengths, scale and offset)";
+  return {};
+}
+
 std::string dwell_problem(const DwellAverage& dwell, const DwellExpectation& expected,
                           const StabilityRule& rule) {
   const double expected_count = expected.dwell_s * expected.sample_rate_hz;
@@ -203,16 +216,9 @@ std::string dwell_problem(const DwellAverage& dwell, const DwellExpectation& exp
            std::to_string(static_cast<long>(expected_count)) + " expected samples (" +
            std::to_string(expected.incomplete) + " incomplete)";
   }
+  if (std::string wrong = implausible_force(dwell); !wrong.empty()) return wrong;
   const double ug_per_mps2 = 1e6 / expected.g_local_mps2;
   for (int a = 0; a < 3; ++a) {
-    // The recording must hold only what the offline readers take (calib/recording.hpp): a
-    // dwell of such values is a wrong CAN layout, not a unit. (One such value among sane
-    // ones makes the axis's sigma far exceed its limit below; a sum that overflowed, NaN.)
-    if (!is_plausible_accelerometer_value(dwell.mean_mps2[a]) ||
-        !std::isfinite(dwell.sigma_mps2[a]))
-      return "axis " + axis_name(a) + " read " + number_text(dwell.mean_mps2[a]) +
-             " m/s^2 on average, beyond any accelerometer's output: check the unit's CAN "
-             "layout (signal lengths, scale and offset)";
     const double sigma_ug = dwell.sigma_mps2[a] * ug_per_mps2;
     const double trend_ug = dwell.trend_mps2[a] * ug_per_mps2;
     if (sigma_ug > rule.sigma_limit_ug) {

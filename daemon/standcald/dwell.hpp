@@ -19,9 +19,10 @@ namespace standcal::daemon {
 // Per-axis statistics of a position's samples (m/s^2; trend = drift over the dwell).
 struct DwellAverage {
   std::array<double, 3> mean_mps2{};
-  std::array<double, 3> sigma_mps2{};  // sample standard deviation (n - 1)
-  std::array<double, 3> trend_mps2{};  // least-squares slope times the dwell's span
-  double temp_mean_c = kNoValue;       // NaN when no sample carries a temperature
+  std::array<double, 3> sigma_mps2{};    // sample standard deviation (n - 1)
+  std::array<double, 3> trend_mps2{};    // least-squares slope times the dwell's span
+  std::array<double, 3> max_abs_mps2{};  // the largest |sample| (NaN when one is NaN)
+  double temp_mean_c = kNoValue;         // NaN when no sample carries a temperature
   std::size_t count = 0;
   double span_s = 0;  // first to last sample
   // Sample standard deviation about the least-squares line (n - 2): the dwell's noise
@@ -95,6 +96,11 @@ double wander_trend_sigma(double span_s, double wander_sigma, double tau_s);
 // wander (same unit as `wander_sigma_mps2`).
 double explained_trend_sigma_mps2(const DwellAverage& dwell, int axis, double wander_sigma_mps2,
                                   double tau_s, double correlation_widening);
+
+// The axis whose samples no accelerometer gives (beyond calib's kMaxAbsAccelerometerValue:
+// a wrong CAN layout, not a unit), in the operator's words; empty when none. Such a dwell is
+// neither kept (the readers refuse its rows) nor pooled into the run's noise statistics.
+std::string implausible_force(const DwellAverage& dwell);
 
 // Why the dwell is not good enough to keep, in the operator's words, or empty when it is:
 // no sample at all, fewer than `rule.min_sample_fraction` of the expected samples, an axis

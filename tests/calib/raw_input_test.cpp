@@ -129,6 +129,27 @@ TEST(RawInputErrors, AValueNoAccelerometerGivesNamesLineAndColumn) {
       input_error_of("mean_x,mean_y,mean_z\n0,0,1\n0,2e12,0\n", means, "means.csv");
   EXPECT_TRUE(contains(table, "means.csv:3: column 2: column 'mean_y': 2e+12 is beyond")) << table;
   EXPECT_EQ(input_error_of("t ax ay az\n0 0 0 -1e12\n1 0 0 1e12\n"), "");
+  // A standard error is in the same units: 1e300 squared overflowed the fit's weights, which
+  // then said "position 0 has a mean or standard error that is not a finite number".
+  const std::string se = input_error_of(
+      "mean_x,mean_y,mean_z,se_x,se_y,se_z\n0.01,0.02,0.98,1e-5,1e-5,1e-5\n"
+      "0.01,0.99,0.02,1e-5,1e300,1e-5\n",
+      means, "means.csv");
+  EXPECT_TRUE(contains(se, "means.csv:3: column 5: column 'se_y': 1e+300 is beyond")) << se;
+}
+
+// Two times of +-1.7e308 s differ by infinity, and the rate read from the steps was 0 Hz (a
+// review of the raw_input fuzz target's property, 2026-12-04).
+TEST(RawInputErrors, ATimeNoRecordingHoldsNamesLineAndColumn) {
+  const std::string message =
+      input_error_of("t,ax,ay,az\n-1.7e308,0.01,0.02,0.98\n1.7e308,0.01,0.02,0.99\n");
+  EXPECT_TRUE(contains(message,
+                       "in.csv:2: column 1: column 't': -1.7e+308 s is not a time a "
+                       "recording holds (at most 1e12 s)"))
+      << message;
+  // After the column's unit: 2e15 microseconds are 2e9 s, a time since 1970.
+  EXPECT_EQ(input_error_of("t_us,ax,ay,az\n2e15,0.01,0.02,0.98\n2.00000001e15,0.01,0.02,0.99\n"),
+            "");
 }
 
 TEST(RawInputImuTk, ThreeColumnsNeedTheRateAndUseIt) {

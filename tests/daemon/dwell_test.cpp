@@ -99,19 +99,22 @@ TEST(DwellStability, EachReasonIsNamedInTheOperatorsWords) {
 
 // A wrong CAN layout (a 64-bit field at scale 1) reads a steady 1e13 m/s^2: quiet, so the
 // noise limit keeps it, and the recording would then hold a value `standcal fit` refuses.
-// A sum that overflowed leaves NaN, which no comparison with a limit catches.
+// Each sample is judged, and before the noise: one such sample among sane ones would
+// otherwise be named as noise on whichever axis comes first.
 TEST(DwellStability, ADwellNoAccelerometerGivesIsNotKept) {
   const StabilityRule rule;
   auto steady = dwell_samples(1000, 100, 0, 0);
   for (auto& x : steady) x.force_mps2[1] = 1e13;
   EXPECT_EQ(dwell_problem(average_dwell(steady), expect(10, 100), rule),
-            "axis y read 1e+13 m/s^2 on average, beyond any accelerometer's output: check the "
-            "unit's CAN layout (signal lengths, scale and offset)");
-  auto overflowing = dwell_samples(1000, 100, 0, 0);
-  overflowing[3].force_mps2[2] = 1.7e308;
-  overflowing[4].force_mps2[2] = 1.7e308;
-  const std::string problem = dwell_problem(average_dwell(overflowing), expect(10, 100), rule);
-  EXPECT_EQ(problem.rfind("axis z read ", 0), 0u) << problem;
+            "axis y read 1e+13 m/s^2, beyond any accelerometer's output: check the unit's CAN "
+            "layout (signal lengths, scale and offset)");
+  auto one = dwell_samples(1000, 100, 6000 * kUgMps2, 0);  // x too noisy as well
+  one[3].force_mps2[2] = -1.7e308;                         // its square overflows the variance
+  const std::string problem = dwell_problem(average_dwell(one), expect(10, 100), rule);
+  EXPECT_EQ(problem.rfind("axis z read 1.7e+308 m/s^2, beyond", 0), 0u) << problem;
+  auto largest = dwell_samples(1000, 100, 0, 0);
+  for (auto& x : largest) x.force_mps2[0] = -1e12;
+  EXPECT_EQ(implausible_force(average_dwell(largest)), "");
 }
 
 // `n` samples at `rate_hz`, each axis white with sigma `white_ug` plus a Gauss-Markov wander
