@@ -1067,10 +1067,16 @@ class Reader {
   double axis_number(const Layout& layout, const std::vector<std::string_view>& fields,
                      int index) const {
     const double v = field_number(layout, fields, index);
+    require_plausible(layout, index, v);
+    return v;
+  }
+
+  // A value in the accelerometer's units (a sample, a mean, its standard error) in column
+  // `index`: refused, naming the column, beyond any accelerometer's output.
+  void require_plausible(const Layout& layout, int index, double v) const {
     if (!is_plausible_accelerometer_value(v))
       fail(index + 1, "column '" + layout.names[static_cast<std::size_t>(index)] +
                           "': " + implausible_accelerometer_value_text(v));
-    return v;
   }
 
   static bool row_is_complete(const Layout& layout, const std::vector<std::string_view>& fields) {
@@ -1185,10 +1191,8 @@ class Reader {
           else if (e[static_cast<Eigen::Index>(k)] < 0)
             fail(se[k] + 1, "column '" + layout.names[static_cast<std::size_t>(se[k])] +
                                 "': a standard error cannot be negative");
-          else if (!is_plausible_accelerometer_value(e[static_cast<Eigen::Index>(k)]))
-            fail(se[k] + 1,
-                 "column '" + layout.names[static_cast<std::size_t>(se[k])] +
-                     "': " + implausible_accelerometer_value_text(e[static_cast<Eigen::Index>(k)]));
+          else
+            require_plausible(layout, se[k], e[static_cast<Eigen::Index>(k)]);
         }
         if (empty == 0) {
           r.standard_error = e;

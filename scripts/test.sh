@@ -6,12 +6,13 @@
 #   scripts/test.sh --asan-all   # every test under the sanitizers as well (before a release)
 #
 # Under the sanitizers CI builds and runs what takes input from outside the process: the
-# fuzz-regression replay (every reader of recordings, programmes, models, CAN layouts and
-# frames, Modbus URLs, configs and registers, JSON-RPC requests, the daemon's config), the
-# CAN and Modbus drivers, the recorded-traffic replay, the records database, its limits and
-# certificates (SQLite and PostgreSQL through their C libraries, several benches at once,
-# the lab's limit files), and the fault tests (the daemon and the emulators built with the
-# sanitizers, killed, cut off and resumed). The whole tree under the sanitizers took five
+# fuzz-regression replay (every reader of recordings — the stand's and other tools' —,
+# programmes, models, limits and budget files, CAN layouts and frames, Modbus URLs, configs
+# and registers, JSON-RPC requests, the daemon's config), the CAN and Modbus drivers, the
+# recorded-traffic replay, the records database, its limits and certificates (SQLite and
+# PostgreSQL through their C libraries, several benches at once, the lab's limit files),
+# and the fault tests (the daemon and the emulators built with the sanitizers, killed, cut
+# off and resumed). The whole tree under the sanitizers took five
 # minutes more (measured 2026-12-04 on fresh clones, 2 cores: ASan build 328 s and tests
 # 201 s against 197 s and 25 s) and put CI at 17-18 minutes against the README's "well
 # under 15" (docs/reliability.md, "Tests in CI"); `--asan-all` runs it. Slower checks (TSan,
