@@ -23,7 +23,6 @@ namespace {
 // and the other files' anonymous namespaces hold helpers of the same names (trim...).
 namespace input_reader {
 
-constexpr double kLongestTime_s = 1e12;      // |t| of any sample, after its unit
 constexpr double kRelativeUnitWindow = 0.2;  // values within 20 % of 1 g tell the units
 constexpr double kMinCountsNorm = 50;        // raw counts are integers at least this large
 
@@ -1000,7 +999,7 @@ class Reader {
       const double t = field_number(layout, fields, layout.time) * layout.time_scale;
       // Past this, the difference of two times can overflow and the rate read from the
       // steps become 0 Hz; no recording spans 30 000 years.
-      if (!(std::abs(t) <= kLongestTime_s))
+      if (!(std::abs(t) <= kMaxAbsTime_s))
         fail(layout.time + 1, "column '" + layout.names[static_cast<std::size_t>(layout.time)] +
                                   "': " + number_text(t) + " s is not a time a recording " +
                                   "holds (at most 1e12 s)");

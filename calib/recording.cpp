@@ -90,6 +90,52 @@ constexpr std::array<std::string_view, kColumnKinds> kColumnNames{
 constexpr int kRequiredColumns = 7;  // t_s, pos, both commanded angles, fx, fy, fz
 constexpr std::array<Column, kRequiredColumns> kRequired{kT, kPos, kA1Cmd, kA2Cmd, kFx, kFy, kFz};
 
+// Whether a number column's value lies where a measurement can (recording.hpp): beyond it
+// the field is corrupted.
+bool within_column(Column c, double v) {
+  switch (c) {
+    case kT:
+    case kTArrive:
+      return std::abs(v) <= kMaxAbsTime_s;
+    case kA1Cmd:
+    case kA2Cmd:
+    case kA1:
+    case kA2:
+      return std::abs(v) <= kMaxAbsAngle_deg;
+    case kFx:
+    case kFy:
+    case kFz:
+      return is_plausible_accelerometer_value(v);
+    case kTemp:
+      return is_plausible_temperature(v);
+    default:
+      return true;
+  }
+}
+
+// A number column that may be empty (NaN in a sample).
+bool is_optional(Column c) { return c == kA1 || c == kA2 || c == kTemp || c == kTArrive; }
+
+// What is wrong with a value beyond its column's range.
+std::string beyond_column_text(Column c, double v) {
+  switch (c) {
+    case kT:
+    case kTArrive:
+      return number_text(v) + " s is not a time a recording holds (at most 1e12 s): a " +
+             "corrupted value?";
+    case kA1Cmd:
+    case kA2Cmd:
+    case kA1:
+    case kA2:
+      return number_text(v) + " deg is not a stand angle (at most 1e6 deg, 2778 turns): a " +
+             "corrupted value?";
+    case kTemp:
+      return implausible_temperature_text(v);
+    default:
+      return implausible_accelerometer_value_text(v);
+  }
+}
+
 // Splits a line at commas into `fields` (views into the line). One pass over the bytes:
 // the fields are short, and a search call per field cost more than the scan (measured, as
 // did a 16-byte SSE2 compare: docs/performance.md).
@@ -278,14 +324,8 @@ class Parser {
          "fx_mps2, fy_mps2, fz_mps2 separated by ','");
   }
 
-  double force(const std::vector<std::string_view>& f, Column c) const {
-    const double v = number(f, c, false);
-    if (!is_plausible_accelerometer_value(v))
-      fail(index_[c] + 1, "column '" + std::string(kColumnNames[c]) +
-                              "': " + implausible_accelerometer_value_text(v));
-    return v;
-  }
-
+  // A number column's value, refused where it is beyond what the column can hold
+  // (recording.hpp: a corrupted field).
   double number(const std::vector<std::string_view>& f, Column c, bool optional) const {
     const int i = index_[c];
     if (i < 0) return kNoValue;
@@ -294,6 +334,8 @@ class Parser {
     if (!parse_double(f[static_cast<std::size_t>(i)], v))
       fail(i + 1, "column '" + std::string(kColumnNames[c]) + "': '" +
                       std::string(f[static_cast<std::size_t>(i)]) + "' is not a number");
+    if (!within_column(c, v))
+      fail(i + 1, "column '" + std::string(kColumnNames[c]) + "': " + beyond_column_text(c, v));
     return v;
   }
 
@@ -357,14 +399,14 @@ class Parser {
     QuickStep step = QuickStep::skip;
     std::uint8_t slot = 0;  // number: kQuickT...kQuickTemp; still_run: index in still_runs_
   };
-  static constexpr std::uint8_t kQuickT = 0, kQuickTemp = 4;  // fx, fy, fz: 1, 2, 3
+  static constexpr std::array<Column, 5> kQuickColumns{kT, kFx, kFy, kFz, kTemp};  // by slot
+  static constexpr std::uint8_t kQuickT = 0, kQuickTemp = 4;
 
   void plan_quick_rows() {
     quick_fields_.assign(field_count_, QuickField{});
-    const std::array<Column, 5> numbers{kT, kFx, kFy, kFz, kTemp};
-    for (std::size_t slot = 0; slot < numbers.size(); ++slot)
-      if (index_[numbers[slot]] >= 0)
-        quick_fields_[static_cast<std::size_t>(index_[numbers[slot]])] = {
+    for (std::size_t slot = 0; slot < kQuickColumns.size(); ++slot)
+      if (index_[kQuickColumns[slot]] >= 0)
+        quick_fields_[static_cast<std::size_t>(index_[kQuickColumns[slot]])] = {
             QuickStep::number, static_cast<std::uint8_t>(slot)};
     for (std::size_t r = 0; r < still_runs_.size(); ++r)
       quick_fields_[still_runs_[r].first] = {QuickStep::still_run, static_cast<std::uint8_t>(r)};
@@ -401,8 +443,9 @@ class Parser {
     // The still columns repeat, so position and commanded angles do: of check_order's rules
     // only time's order is left.
     if (numbers[kQuickT] < previous_.t_s) return false;
-    for (int k = 1; k <= 3; ++k)  // parse_row names the field
-      if (!is_plausible_accelerometer_value(numbers[static_cast<std::size_t>(k)])) return false;
+    for (std::size_t slot = 0; slot < kQuickColumns.size(); ++slot)  // parse_row names the field
+      if (index_[kQuickColumns[slot]] >= 0 && !within_column(kQuickColumns[slot], numbers[slot]))
+        return false;
     previous_.t_s = numbers[kQuickT];
     previous_.f_mps2 = Vec3(numbers[1], numbers[2], numbers[3]);
     previous_.temp_c = numbers[kQuickTemp];
@@ -483,7 +526,7 @@ class Parser {
     if (!repeats(kA2Cmd)) s.alpha2_cmd_deg = number(f, kA2Cmd, false);
     if (!repeats(kA1)) s.alpha1_deg = number(f, kA1, true);
     if (!repeats(kA2)) s.alpha2_deg = number(f, kA2, true);
-    s.f_mps2 = Vec3(force(f, kFx), force(f, kFy), force(f, kFz));
+    s.f_mps2 = Vec3(number(f, kFx, false), number(f, kFy, false), number(f, kFz, false));
     s.temp_c = number(f, kTemp, true);
     if (!repeats(kTArrive)) s.t_arrive_s = number(f, kTArrive, true);
     if (!repeats(kMountCol)) parse_mount_field(f, s);
@@ -541,6 +584,10 @@ class Parser {
     return v;
   }
 
+  [[noreturn]] void refuse_header(const std::string& key, const std::string& why) const {
+    throw RecordingError(rec_.source, header_lines_.at(key), 0, "header '" + key + "': " + why);
+  }
+
   void finish_header() {
     const std::string format = rec_.header_value("format");
     if (!seen_keys_.count("format"))
@@ -559,15 +606,19 @@ class Parser {
       rec_.g_local_mps2 = header_number(key, value);
       rec_.g_from_header = true;
       if (rec_.g_local_mps2 < 9.7 || rec_.g_local_mps2 > 9.9)
-        throw RecordingError(rec_.source, header_lines_.at(key), 0,
-                             "header 'g_local_mps2': " + value +
-                                 " m/s^2 is not a plausible local gravity (9.7 ... 9.9)");
+        refuse_header(key, value + " m/s^2 is not a plausible local gravity (9.7 ... 9.9)");
     } else if (key == "settle_s") {
       rec_.settle_s = header_number(key, value);
+      if (!(rec_.settle_s >= 0 && rec_.settle_s <= kMaxAbsTime_s))
+        refuse_header(key, value + " s is not a settling time (0 ... 1e12 s)");
     } else if (key == "sample_rate_hz") {
       rec_.sample_rate_hz = header_number(key, value);
+      if (!(rec_.sample_rate_hz > 0 && rec_.sample_rate_hz <= kMaxSampleRate_hz))
+        refuse_header(key, value + " Hz is not a sample rate (above 0, at most 1e6 Hz)");
     } else if (key == "temp_ref_c") {
       rec_.temp_ref_c = header_number(key, value);
+      if (!is_plausible_temperature(*rec_.temp_ref_c))
+        refuse_header(key, implausible_temperature_text(*rec_.temp_ref_c));
     } else if (key == "unit_serial") {
       rec_.unit_serial = value;
     } else if (key == "program") {
@@ -640,6 +691,33 @@ bool is_plausible_accelerometer_value(double v) { return std::abs(v) <= kMaxAbsA
 std::string implausible_accelerometer_value_text(double v) {
   return number_text(v) + " is beyond any accelerometer's output (at most 1e12 in counts, g or " +
          "m/s^2): a corrupted value?";
+}
+
+bool is_plausible_temperature(double temp_c) {
+  return temp_c >= kLowestTemperature_c && temp_c <= kHighestTemperature_c;
+}
+
+std::string implausible_temperature_text(double temp_c) {
+  return number_text(temp_c) + " degC is not a unit's temperature (-273.15 ... 1000 degC): a " +
+         "corrupted value?";
+}
+
+std::string implausible_sample_text(const RecordingSample& s) {
+  const std::array<std::pair<Column, double>, 10> numbers{{{kT, s.t_s},
+                                                           {kA1Cmd, s.alpha1_cmd_deg},
+                                                           {kA2Cmd, s.alpha2_cmd_deg},
+                                                           {kA1, s.alpha1_deg},
+                                                           {kA2, s.alpha2_deg},
+                                                           {kFx, s.f_mps2.x()},
+                                                           {kFy, s.f_mps2.y()},
+                                                           {kFz, s.f_mps2.z()},
+                                                           {kTemp, s.temp_c},
+                                                           {kTArrive, s.t_arrive_s}}};
+  for (const auto& [column, value] : numbers)
+    if (!(std::isnan(value) && is_optional(column)) && !within_column(column, value))
+      return "column '" + std::string(kColumnNames[column]) +
+             "': " + beyond_column_text(column, value);
+  return {};
 }
 
 bool is_assumed_gravity_warning(std::string_view warning) {

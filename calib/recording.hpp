@@ -82,6 +82,22 @@ bool is_plausible_accelerometer_value(double v);
 // What is wrong with such a value, for an error naming its line and column.
 std::string implausible_accelerometer_value_text(double v);
 
+// The other numbers a recording holds, bounded the same way: beyond these a value is a
+// corrupted field, not a measurement, and read as one it overflows the arithmetic done on
+// it (two times of 1e308 s differ by infinity; a temperature term squares 1e300) or
+// carries no arcsecond (the sine of 1e300 degrees).
+inline constexpr double kMaxAbsTime_s = 1e12;            // any time, after its unit
+inline constexpr double kMaxAbsAngle_deg = 1e6;          // 2778 turns
+inline constexpr double kLowestTemperature_c = -273.15;  // absolute zero
+inline constexpr double kHighestTemperature_c = 1000;    // no accelerometer unit works there
+inline constexpr double kMaxSampleRate_hz = 1e6;
+bool is_plausible_temperature(double temp_c);
+// What is wrong with such a temperature, in the words of the errors above.
+std::string implausible_temperature_text(double temp_c);
+// What in a row is beyond these bounds ("column 'temp_c': 1e+300 degC is not ..."), for a
+// writer that must not write what the reader refuses; empty when nothing is.
+std::string implausible_sample_text(const RecordingSample& sample);
+
 // A bad recording: the message already names file, line and column.
 class RecordingError : public std::runtime_error {
  public:

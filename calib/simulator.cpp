@@ -536,6 +536,9 @@ Recording simulate_run(const SimulationRequest& req) {
       if (rec.columns.mount) s.mount = p.mount;
       s.t_arrive_s = t_arrive_s;
       s.approach = static_cast<std::int8_t>(approach[i]);
+      if (const std::string wrong = implausible_sample_text(s); !wrong.empty())
+        throw std::runtime_error("simulating position " + std::to_string(i + 1) +
+                                 ": the model gives a sample no recording holds: " + wrong);
       rec.samples.push_back(s);
       t_s = s.t_s;
     }

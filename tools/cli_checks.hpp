@@ -19,6 +19,19 @@ inline CLI::Validator lower_bound(double bound, bool inclusive) {
       "NUMBER " + wanted);
 }
 
+// A number above 0 and at most `upper`, said as lower_bound says its bound.
+inline CLI::Validator positive_at_most(double upper) {
+  const std::string wanted = "> 0 and <= " + CLI::detail::to_string(upper);
+  return CLI::Validator(
+      [upper, wanted](std::string& text) -> std::string {
+        double value = 0;
+        if (!CLI::detail::lexical_cast(text, value)) return "'" + text + "' is not a number";
+        return value > 0 && value <= upper ? std::string()
+                                           : "must be " + wanted + " (got " + text + ")";
+      },
+      "NUMBER " + wanted);
+}
+
 inline const CLI::Validator kPositive = lower_bound(0, false);
 inline const CLI::Validator kNonNegative = lower_bound(0, true);
 

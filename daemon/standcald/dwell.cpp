@@ -26,6 +26,8 @@ DwellAverage average_dwell(const std::vector<drivers::AccelSample>& s) {
     if (std::isfinite(x.temperature_c)) {
       temp_sum += x.temperature_c;
       ++temp_n;
+      out.temp_min_c = std::fmin(out.temp_min_c, x.temperature_c);  // fmin passes NaN over
+      out.temp_max_c = std::fmax(out.temp_max_c, x.temperature_c);
     }
   }
   if (temp_n > 0) out.temp_mean_c = temp_sum / temp_n;
@@ -192,12 +194,17 @@ std::string unexplained_drift(const DwellAverage& dwell, const DwellExpectation&
 
 }  // namespace
 
-std::string implausible_force(const DwellAverage& dwell) {
+std::string implausible_reading(const DwellAverage& dwell) {
   for (int a = 0; a < 3; ++a)
     if (!is_plausible_accelerometer_value(dwell.max_abs_mps2[a]))
       return "axis " + axis_name(a) + " read " + number_text(dwell.max_abs_mps2[a]) +
              " m/s^2, beyond any accelerometer's output: check the unit's CAN layout (signal "
              "lengths, scale and offset)";
+  for (const double temp_c : {dwell.temp_min_c, dwell.temp_max_c})
+    if (std::isfinite(temp_c) && !is_plausible_temperature(temp_c))
+      return "the unit's temperature read " + number_text(temp_c) +
+             " degC, which no unit has: check the temperature signal of the unit's CAN layout "
+             "(length, scale and offset)";
   return {};
 }
 
@@ -216,7 +223,7 @@ std::string dwell_problem(const DwellAverage& dwell, const DwellExpectation& exp
            std::to_string(static_cast<long>(expected_count)) + " expected samples (" +
            std::to_string(expected.incomplete) + " incomplete)";
   }
-  if (std::string wrong = implausible_force(dwell); !wrong.empty()) return wrong;
+  if (std::string wrong = implausible_reading(dwell); !wrong.empty()) return wrong;
   const double ug_per_mps2 = 1e6 / expected.g_local_mps2;
   for (int a = 0; a < 3; ++a) {
     const double sigma_ug = dwell.sigma_mps2[a] * ug_per_mps2;

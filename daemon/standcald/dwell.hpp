@@ -23,6 +23,8 @@ struct DwellAverage {
   std::array<double, 3> trend_mps2{};    // least-squares slope times the dwell's span
   std::array<double, 3> max_abs_mps2{};  // the largest |sample| (NaN when one is NaN)
   double temp_mean_c = kNoValue;         // NaN when no sample carries a temperature
+  double temp_min_c = kNoValue;          // the extremes of the samples' temperatures
+  double temp_max_c = kNoValue;
   std::size_t count = 0;
   double span_s = 0;  // first to last sample
   // Sample standard deviation about the least-squares line (n - 2): the dwell's noise
@@ -97,10 +99,11 @@ double wander_trend_sigma(double span_s, double wander_sigma, double tau_s);
 double explained_trend_sigma_mps2(const DwellAverage& dwell, int axis, double wander_sigma_mps2,
                                   double tau_s, double correlation_widening);
 
-// The axis whose samples no accelerometer gives (beyond calib's kMaxAbsAccelerometerValue:
-// a wrong CAN layout, not a unit), in the operator's words; empty when none. Such a dwell is
-// neither kept (the readers refuse its rows) nor pooled into the run's noise statistics.
-std::string implausible_force(const DwellAverage& dwell);
+// The axis whose samples no accelerometer gives (beyond calib's kMaxAbsAccelerometerValue),
+// or a temperature no unit has (calib's is_plausible_temperature): a wrong CAN layout, not a
+// unit, in the operator's words; empty when none. Such a dwell is neither kept (the readers
+// refuse its rows) nor pooled into the run's noise statistics.
+std::string implausible_reading(const DwellAverage& dwell);
 
 // Why the dwell is not good enough to keep, in the operator's words, or empty when it is:
 // no sample at all, fewer than `rule.min_sample_fraction` of the expected samples, an axis

@@ -583,7 +583,7 @@ Sequencer::SampledDwell Sequencer::sample_stable_dwell(const RunRecord& record, 
                               record.g_local_mps2};
     expected.bias_wander_ug = config_.unit_bias_instability_ug;
     expected.bias_wander_tau_s = unit_bias_wander().tau_s;
-    if (dwell_correlation_ && implausible_force(d.average).empty())
+    if (dwell_correlation_ && implausible_reading(d.average).empty())
       expected.sample_correlation_widening = dwell_correlation_->add_dwell(d.samples, d.average);
     const std::string problem = dwell_problem(d.average, expected, config_.stability);
     if (problem.empty()) return d;

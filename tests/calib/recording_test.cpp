@@ -165,6 +165,104 @@ TEST(RecordingErrors, AForceNoAccelerometerGivesNamesLineAndColumn) {
   EXPECT_EQ(error_of(kHeader + kColumns + kRow0 + kRow1 + largest), "");
 }
 
+// A corrupted time, angle or temperature was read as a measurement: one time of 1.7e308 s
+// at the end of a paper9 recording without a rate header made `standcal diagnose` call
+// every drift untestable and propose no position, and one temperature of 1e300 degC did the
+// same to the temperature terms, silently.
+TEST(RecordingErrors, ATimeAngleOrTemperatureNoRunHoldsNamesLineAndColumn) {
+  const auto row = [](const std::string& t, const std::string& a1, const std::string& temp) {
+    return t + ",0,0.0000,0.0000," + a1 + ",-0.000210,0.000425,9.816700,-0.000219," + temp + "\n";
+  };
+  const std::string ordinary = kHeader + kColumns + kRow0;  // the next row takes the quick path
+  EXPECT_NE(error_of(ordinary + row("1.7e308", "0.000012", "23.05"))
+                .find("rec.csv:8: column 1: column 't_s': 1.7e+308 s is not a time a recording "
+                      "holds (at most 1e12 s)"),
+            std::string::npos);
+  EXPECT_NE(error_of(ordinary + row("170000000000000", "0.000012", "23.05"))
+                .find("rec.csv:8: column 1: column 't_s': 1.7e+14 s is not a time"),
+            std::string::npos);
+  EXPECT_NE(error_of(ordinary + row("5.020", "0.000012", "1e300"))
+                .find("rec.csv:8: column 10: column 'temp_c': 1e+300 degC is not a unit's "
+                      "temperature (-273.15 ... 1000 degC)"),
+            std::string::npos);
+  EXPECT_NE(error_of(ordinary + row("5.020", "0.000012", "-300"))
+                .find("rec.csv:8: column 10: column 'temp_c': -300 degC is not"),
+            std::string::npos);
+  EXPECT_NE(error_of(ordinary + row("5.020", "-2e6", "23.05"))
+                .find("rec.csv:8: column 5: column 'alpha1_deg': -2e+06 deg is not a stand angle "
+                      "(at most 1e6 deg, 2778 turns)"),
+            std::string::npos);
+  const std::string commanded = "5.000,0,1e300,0.0000,,,0.000421,9.816702,-0.000217,\n";
+  EXPECT_NE(error_of(kHeader + kColumns + commanded)
+                .find("rec.csv:7: column 3: column 'alpha1_cmd_deg': 1e+300 deg is not"),
+            std::string::npos);
+  // The bounds themselves are values a recording may hold.
+  EXPECT_EQ(error_of(ordinary + row("1000000000000", "-1000000", "1000")), "");
+  EXPECT_EQ(error_of(ordinary + row("5.020", "0.000012", "-273.15")), "");
+  const std::string arrival_columns =
+      "t_s,pos,alpha1_cmd_deg,alpha2_cmd_deg,fx_mps2,fy_mps2,fz_mps2,t_arrive_s\n";
+  EXPECT_NE(error_of(kHeader + arrival_columns + "5,0,0,0,0,9.8,0,-1e13\n")
+                .find("rec.csv:7: column 8: column 't_arrive_s': -1e+13 s is not a time"),
+            std::string::npos);
+}
+
+// A header number beyond what it can be: a rate of 1e300 Hz was taken over the rows' times
+// (`standcal fit` then gave a sample period of 1e-300 s and no white noise), and a rate of 0
+// or below, a negative settling time and a reference temperature of 1e300 degC were read
+// without a word.
+TEST(RecordingErrors, AHeaderNumberNoRunHoldsNamesItsLine) {
+  const auto with_header = [](const std::string& line) {
+    return "# format: standcal-recording/1\n" + line + "\n" + kColumns + kRow0;
+  };
+  EXPECT_NE(error_of(with_header("# sample_rate_hz: 1e300"))
+                .find("rec.csv:2: header 'sample_rate_hz': 1e300 Hz is not a sample rate (above "
+                      "0, at most 1e6 Hz)"),
+            std::string::npos);
+  EXPECT_NE(error_of(with_header("# sample_rate_hz: 0")).find("header 'sample_rate_hz': 0 Hz"),
+            std::string::npos);
+  EXPECT_NE(error_of(with_header("# settle_s: -1"))
+                .find("rec.csv:2: header 'settle_s': -1 s is not a settling time (0 ... 1e12 s)"),
+            std::string::npos);
+  EXPECT_NE(error_of(with_header("# temp_ref_c: 1e300"))
+                .find("rec.csv:2: header 'temp_ref_c': 1e+300 degC is not a unit's temperature"),
+            std::string::npos);
+  EXPECT_EQ(error_of(with_header("# sample_rate_hz: 1000000")), "");
+  EXPECT_EQ(error_of(with_header("# settle_s: 0")), "");
+}
+
+// The simulator writes only what the reader reads: a model whose temperature profile starts
+// at 1e300 degC is refused, naming the column, where it wrote a recording `fit` refused.
+TEST(RecordingWriter, TheSimulatorRefusesAModelNoRecordingHolds) {
+  SimulationRequest req;
+  req.program = paper9();
+  req.timing.dwell_s = 0.1;
+  req.truth.temperature.start_c = 1e300;
+  try {
+    (void)simulate_run(req);
+    FAIL() << "simulated a temperature of 1e300 degC";
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("simulating position 1: the model gives a sample no "
+                                          "recording holds: column 'temp_c': 1e+300 degC",
+                                          0),
+              0u)
+        << e.what();
+  }
+  req.truth.temperature.start_c = 23;
+  EXPECT_EQ(simulate_run(req).samples.size(), 90u);
+  req.truth.unit.bias_g.x() = 1e300;  // a force beyond any accelerometer's
+  EXPECT_THROW(
+      {
+        try {
+          (void)simulate_run(req);
+        } catch (const std::runtime_error& e) {
+          EXPECT_NE(std::string(e.what()).find("column 'fx_mps2': "), std::string::npos)
+              << e.what();
+          throw;
+        }
+      },
+      std::runtime_error);
+}
+
 TEST(RecordingErrors, TimeGoingBackwards) {
   EXPECT_NE(
       error_of(kHeader + kColumns + kRow1 + kRow0).find("rec.csv:8: column 1: t_s goes backwards"),

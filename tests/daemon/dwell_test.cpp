@@ -114,7 +114,24 @@ TEST(DwellStability, ADwellNoAccelerometerGivesIsNotKept) {
   EXPECT_EQ(problem.rfind("axis z read 1.7e+308 m/s^2, beyond", 0), 0u) << problem;
   auto largest = dwell_samples(1000, 100, 0, 0);
   for (auto& x : largest) x.force_mps2[0] = -1e12;
-  EXPECT_EQ(implausible_force(average_dwell(largest)), "");
+  EXPECT_EQ(implausible_reading(average_dwell(largest)), "");
+}
+
+// The same for the temperature signal: a layout whose temperature reads 1e300 degC made a
+// recording every reader refuses (their temperature bound), so the dwell is not kept.
+TEST(DwellStability, ADwellNoUnitsTemperatureGivesIsNotKept) {
+  const StabilityRule rule;
+  auto hot = dwell_samples(1000, 100, 0, 0);
+  for (auto& x : hot) x.temperature_c = 23;
+  hot[10].temperature_c = 1e300;
+  EXPECT_EQ(dwell_problem(average_dwell(hot), expect(10, 100), rule),
+            "the unit's temperature read 1e+300 degC, which no unit has: check the temperature "
+            "signal of the unit's CAN layout (length, scale and offset)");
+  hot[10].temperature_c = -300;
+  EXPECT_NE(implausible_reading(average_dwell(hot)).find("read -300 degC"), std::string::npos);
+  hot[10].temperature_c = kNoValue;  // a sample without a temperature is not judged
+  EXPECT_EQ(implausible_reading(average_dwell(hot)), "");
+  EXPECT_EQ(average_dwell(hot).temp_max_c, 23);
 }
 
 // `n` samples at `rate_hz`, each axis white with sigma `white_ug` plus a Gauss-Markov wander

@@ -186,13 +186,13 @@ void add_calibrate_commands(CLI::App& app) {
   // The daemon's run limits: past them a simulated run only exhausts the memory.
   sim->add_option("--dwell-s", sim_opts->timing.dwell_s)
       ->capture_default_str()
-      ->check(cli_checks::kPositive & CLI::Range(0.0, kMaxDwell_s));
+      ->check(cli_checks::positive_at_most(kMaxDwell_s));
   sim->add_option("--settle-s", sim_opts->timing.settle_s)
       ->capture_default_str()
       ->check(CLI::Range(0.0, kMaxSettle_s));
   sim->add_option("--rate-hz", sim_opts->timing.sample_rate_hz)
       ->capture_default_str()
-      ->check(cli_checks::kPositive);
+      ->check(cli_checks::positive_at_most(kMaxSampleRate_hz));
   sim->add_option("--move-rate-deg-s", sim_opts->timing.move_rate_deg_s)
       ->capture_default_str()
       ->check(cli_checks::kPositive);
