@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "calib/atomic_file.hpp"
+#include "calib/json_text.hpp"
 #include "calib/model.hpp"
 #include "calib/norm_estimator.hpp"
 #include "calib/parameters.hpp"
@@ -367,8 +368,8 @@ std::string write_compensation(Compensation c, const std::string& path, unsigned
   stamp_written(c);
   std::string stem = path;
   if (stem.ends_with(".json")) stem.resize(stem.size() - 5);
-  write_file_atomically(stem + ".json", compensation_to_json(c).dump(2) + "\n", "the compensation",
-                        static_cast<mode_t>(mode));
+  write_file_atomically(stem + ".json", json_text(compensation_to_json(c)) + "\n",
+                        "the compensation", static_cast<mode_t>(mode));
   write_file_atomically(stem + ".csv", compensation_to_csv(c), "the compensation",
                         static_cast<mode_t>(mode));
   return stem;

@@ -23,6 +23,7 @@ namespace {
 // and the other files' anonymous namespaces hold helpers of the same names (trim...).
 namespace input_reader {
 
+constexpr double kMaxSampleCount = 1e12;     // a mean's samples: 11.6 days at 1 MHz
 constexpr double kRelativeUnitWindow = 0.2;  // values within 20 % of 1 g tell the units
 constexpr double kMinCountsNorm = 50;        // raw counts are integers at least this large
 
@@ -453,8 +454,9 @@ class Reader {
 
   void check_options() const {
     if (options_.skip_lines < 0) throw std::invalid_argument("--skip-lines must be 0 or more");
-    if (options_.rate_hz && !(std::isfinite(*options_.rate_hz) && *options_.rate_hz > 0))
-      throw std::invalid_argument("--rate-hz must be a positive number of samples per second");
+    if (options_.rate_hz && !(*options_.rate_hz > 0 && *options_.rate_hz <= kMaxSampleRate_hz))
+      throw std::invalid_argument(
+          "--rate-hz must be a number of samples per second above 0 and at most 1e6");
     if (options_.g_mps2 && !(std::isfinite(*options_.g_mps2) && *options_.g_mps2 > 0))
       throw std::invalid_argument("--g-mps2 must be a positive acceleration in m/s^2");
     if (!options_.columns.empty() && options_.columns.size() != 3)
@@ -544,8 +546,12 @@ class Reader {
         header_g_ = v;
         g_seen = true;
       } else {
-        if (v <= 0) fail_at(k.line, 0, "header 'sample_rate_hz': " + k.value + " is not a rate");
+        if (!(v > 0 && v <= kMaxSampleRate_hz))
+          fail_at(k.line, 0,
+                  "header 'sample_rate_hz': " + k.value +
+                      " Hz is not a sample rate (above 0, at most 1e6 Hz)");
         header_rate_ = v;
+        header_rate_line_ = k.line;
         rate_seen = true;
       }
     }
@@ -1002,7 +1008,7 @@ class Reader {
       if (!(std::abs(t) <= kMaxAbsTime_s))
         fail(layout.time + 1, "column '" + layout.names[static_cast<std::size_t>(layout.time)] +
                                   "': " + number_text(t) + " s is not a time a recording " +
-                                  "holds (at most 1e12 s)");
+                                  "holds (within +-1e12 s)");
       if (!first && t < previous_t) {
         const std::string name = layout.names[static_cast<std::size_t>(layout.time)];
         if (!layout.time_tentative)
@@ -1029,6 +1035,7 @@ class Reader {
       out_.t_s.resize(out_.axis[0].size());
       for (std::size_t i = 0; i < out_.t_s.size(); ++i)
         out_.t_s[i] = static_cast<double>(i) / *rate;
+      if (!out_.t_s.empty() && !(out_.t_s.back() <= kMaxAbsTime_s)) refuse_rate_for_times(*rate);
       times_from_rate_ = true;
     }
   }
@@ -1173,10 +1180,14 @@ class Reader {
       if (count_column >= 0) {
         const double n = optional_number(layout, fields, count_column);
         if (!std::isnan(n)) {
-          if (n <= 0)
+          // Past the bound the count is a corrupted field (4e89 overflowed the interval's
+          // integer count: the raw_input fuzz target, 2026-12-05).
+          if (!(n > 0 && n <= kMaxSampleCount))
             fail(count_column + 1, "column '" +
                                        layout.names[static_cast<std::size_t>(count_column)] +
-                                       "': the sample count must be positive");
+                                       "': the sample count must be positive and at most 1e12, "
+                                       "not " +
+                                       number_text(n));
           r.samples = n;
         }
       }
@@ -1352,6 +1363,16 @@ class Reader {
     }
   }
 
+  // A rate so slow that the rows' times it makes pass the bound on any time (a corrupted
+  // rate: 1e-300 Hz made times of 1e300 s), named where it was given.
+  [[noreturn]] void refuse_rate_for_times(double rate_hz) const {
+    const std::string why = number_text(rate_hz) + " Hz gives the last of " +
+                            std::to_string(out_.t_s.size()) + " rows the time " +
+                            number_text(out_.t_s.back()) + " s, beyond 1e12 s";
+    if (options_.rate_hz) throw std::invalid_argument("--rate-hz: " + why);
+    fail_at(header_rate_line_, 0, "header 'sample_rate_hz': " + why);
+  }
+
   // The rate that makes times for rows without a time column.
   std::optional<double> time_rate() const {
     if (options_.rate_hz) return options_.rate_hz;
@@ -1381,6 +1402,14 @@ class Reader {
                               "(pass --rate-hz)");
       return kNaN;
     }
+    // Steps of 1e-300 s made a rate of 1e300 Hz, and the static detector's window of that
+    // many samples overflowed its integer.
+    if (!(1 / step <= kMaxSampleRate_hz)) {
+      out_.warnings.push_back(out_.source + ": the median time step is " + number_text(step) +
+                              " s, more than 1e6 samples a second; sample rate unknown (are "
+                              "the times in another unit? pass --rate-hz)");
+      return kNaN;
+    }
     return 1 / step;
   }
 
@@ -1398,6 +1427,7 @@ class Reader {
   std::vector<CommentKey> comments_;
   std::optional<double> header_g_;
   std::optional<double> header_rate_;
+  int header_rate_line_ = 0;
   RawInput out_;
 };
 

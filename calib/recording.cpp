@@ -121,13 +121,13 @@ std::string beyond_column_text(Column c, double v) {
   switch (c) {
     case kT:
     case kTArrive:
-      return number_text(v) + " s is not a time a recording holds (at most 1e12 s): a " +
+      return number_text(v) + " s is not a time a recording holds (within +-1e12 s): a " +
              "corrupted value?";
     case kA1Cmd:
     case kA2Cmd:
     case kA1:
     case kA2:
-      return number_text(v) + " deg is not a stand angle (at most 1e6 deg, 2778 turns): a " +
+      return number_text(v) + " deg is not a stand angle (within +-1e6 deg, 2778 turns): a " +
              "corrupted value?";
     case kTemp:
       return implausible_temperature_text(v);
@@ -618,7 +618,8 @@ class Parser {
     } else if (key == "temp_ref_c") {
       rec_.temp_ref_c = header_number(key, value);
       if (!is_plausible_temperature(*rec_.temp_ref_c))
-        refuse_header(key, implausible_temperature_text(*rec_.temp_ref_c));
+        refuse_header(
+            key, value + " degC is not a temperature a unit works at (-273.15 ... " + "1000 degC)");
     } else if (key == "unit_serial") {
       rec_.unit_serial = value;
     } else if (key == "program") {

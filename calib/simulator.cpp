@@ -10,6 +10,7 @@
 
 #include "calib/atomic_file.hpp"
 #include "calib/averaging.hpp"
+#include "calib/text.hpp"
 
 namespace standcal {
 
@@ -489,12 +490,15 @@ Recording simulate_run(const SimulationRequest& req) {
   rec.set_header("format", std::string(kRecordingFormat));
   rec.set_header("g_local_mps2", std::to_string(req.truth.g_local_mps2));
   rec.set_header("settle_s", std::to_string(req.timing.settle_s));
-  rec.set_header("sample_rate_hz", std::to_string(req.timing.sample_rate_hz));
+  rec.set_header("sample_rate_hz", round_trip_text(req.timing.sample_rate_hz));
   rec.set_header("unit_serial", req.unit_serial);
   rec.set_header("program", program.name);
   rec.set_header("simulation_seed", std::to_string(req.seed));
   if (!req.truth.extra_physics.empty()) {
     // Temperature terms of the extra physics are referenced to the profile's start.
+    if (!is_plausible_temperature(req.truth.temperature.start_c))
+      throw std::runtime_error("the model's temperature.start_c (the recording's temp_ref_c): " +
+                               implausible_temperature_text(req.truth.temperature.start_c));
     rec.set_header("temp_ref_c", std::to_string(req.truth.temperature.start_c));
     rec.temp_ref_c = req.truth.temperature.start_c;
   }

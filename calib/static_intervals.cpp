@@ -6,6 +6,9 @@
 #include <limits>
 #include <stdexcept>
 
+#include "calib/recording.hpp"
+#include "calib/text.hpp"
+
 namespace standcal {
 
 namespace {
@@ -263,6 +266,9 @@ StaticDetection detect_static_intervals(const RawInput& in, const StaticDetector
     throw std::runtime_error(in.source + ": no samples to find static intervals in");
   if (!(in.sample_rate_hz > 0))
     throw std::runtime_error(in.source + ": no sample rate (give --rate-hz)");
+  if (!(in.sample_rate_hz <= kMaxSampleRate_hz))  // the readers refuse it; the windows overflow
+    throw std::runtime_error(in.source + ": a sample rate of " + number_text(in.sample_rate_hz) +
+                             " Hz, above 1e6 Hz");
   StaticDetection d;
   d.threshold_factor = o.threshold_factor;
   const double g_in_input = in.units == InputUnits::g ? 1.0 : in.g_mps2;

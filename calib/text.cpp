@@ -1,5 +1,7 @@
 #include "calib/text.hpp"
 
+#include <array>
+#include <charconv>
 #include <cstdio>
 
 namespace standcal {
@@ -30,6 +32,12 @@ std::string describe(const ControlCharacter& c) {
   std::snprintf(code, sizeof code, "U+%04X", static_cast<unsigned>(c.code_point));
   return std::string("the control character ") + code + " at character " +
          std::to_string(c.character);
+}
+
+std::string round_trip_text(double v) {
+  std::array<char, 32> buf{};  // the longest shortest double: 24 characters
+  const auto [end, ec] = std::to_chars(buf.data(), buf.data() + buf.size(), v);
+  return ec == std::errc() ? std::string(buf.data(), end) : number_text(v);
 }
 
 std::string number_text(double v) {

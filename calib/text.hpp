@@ -24,5 +24,8 @@ std::string describe(const ControlCharacter& c);
 // A number as an operator writes it, six significant digits: 122.5, not 122.500000;
 // 7.36e+161.
 std::string number_text(double v);
+// The shortest text that reads back as exactly `v` (100, 0.5, 1e-07): for a value a file
+// must keep, where std::to_string's six decimals write 1e-07 as 0.000000.
+std::string round_trip_text(double v);
 
 }  // namespace standcal

@@ -19,9 +19,9 @@ inline CLI::Validator lower_bound(double bound, bool inclusive) {
       "NUMBER " + wanted);
 }
 
-// A number above 0 and at most `upper`, said as lower_bound says its bound.
+// A number above 0 and at most `upper` (a whole number, said in full: 1000000, not 1e+06).
 inline CLI::Validator positive_at_most(double upper) {
-  const std::string wanted = "> 0 and <= " + CLI::detail::to_string(upper);
+  const std::string wanted = "> 0 and <= " + std::to_string(static_cast<long long>(upper));
   return CLI::Validator(
       [upper, wanted](std::string& text) -> std::string {
         double value = 0;

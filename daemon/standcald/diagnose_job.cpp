@@ -8,6 +8,7 @@
 #include <string>
 
 #include "calib/diagnosis/diagnosis.hpp"
+#include "calib/json_text.hpp"
 #include "calib/recording.hpp"
 #include "daemon/standcald/diagnose_worker.hpp"
 #include "protocol/jsonrpc/jsonrpc.hpp"
@@ -41,7 +42,7 @@ void save_beside_recording(json& out, const std::string& recording_path) {
       (std::filesystem::path(recording_path).parent_path() / "diagnosis.json").string();
   try {
     out["saved_path"] = saved;
-    write_state_file(saved, out.dump(2) + "\n");
+    write_state_file(saved, json_text(out) + "\n");
   } catch (const std::exception& e) {
     out["saved_path"] = nullptr;
     out["save_error"] = e.what();

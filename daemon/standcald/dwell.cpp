@@ -203,8 +203,8 @@ std::string implausible_reading(const DwellAverage& dwell) {
   for (const double temp_c : {dwell.temp_min_c, dwell.temp_max_c})
     if (std::isfinite(temp_c) && !is_plausible_temperature(temp_c))
       return "the unit's temperature read " + number_text(temp_c) +
-             " degC, which no unit has: check the temperature signal of the unit's CAN layout "
-             "(length, scale and offset)";
+             " degC, which no unit has (-273.15 ... 1000 degC): check the temperature signal "
+             "of the unit's CAN layout (length, scale and offset)";
   return {};
 }
 

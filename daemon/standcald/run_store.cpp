@@ -17,6 +17,7 @@
 #include <stdexcept>
 
 #include "calib/atomic_file.hpp"
+#include "calib/json_text.hpp"
 #include "daemon/standcald/errno_text.hpp"
 #include "protocol/jsonrpc/methods.hpp"
 #include "protocol/jsonrpc/run_id.hpp"
@@ -204,7 +205,7 @@ RunStore::RunStore(std::string state_dir) : state_dir_(std::move(state_dir)) {
       r.state = st::interrupted;
       r.reason =
           "standcald stopped during the run (crash, kill or power loss); run.resume continues it";
-      write_state_file(run_dir(r.run_id) + "/run.json", to_json(r).dump(2) + "\n");
+      write_state_file(run_dir(r.run_id) + "/run.json", json_text(to_json(r)) + "\n");
     }
     runs_.push_back(summary_of(r));
   }
@@ -258,7 +259,7 @@ void RunStore::save(const RunRecord& r) {
   std::erase_if(held_,
                 [&](const HeldRecord& h) { return h.on_disk || h.record.run_id == r.run_id; });
   held_.push_back(HeldRecord{r, false});
-  write_state_file(run_dir(r.run_id) + "/run.json", to_json(r).dump(2) + "\n");
+  write_state_file(run_dir(r.run_id) + "/run.json", json_text(to_json(r)) + "\n");
   held_.back().on_disk = true;
   if (is_new) write_unit_index(r.unit_serial);
 }
@@ -270,7 +271,7 @@ void RunStore::write_unit_index(const std::string& unit_serial) const {
   }
   const std::string path =
       (fs::path(state_dir_) / "units" / unit_index_file_name(unit_serial)).string();
-  write_state_file(path, json{{"unit_serial", unit_serial}, {"runs", ids}}.dump(2) + "\n");
+  write_state_file(path, json_text(json{{"unit_serial", unit_serial}, {"runs", ids}}) + "\n");
 }
 
 std::optional<RunRecord> RunStore::get(const std::string& run_id) const {

@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "calib/averaging.hpp"
+#include "calib/json_text.hpp"
 #include "calib/recording.hpp"
 #include "calib/utc_time.hpp"
 #include "daemon/standcald/dwell.hpp"
@@ -605,7 +606,7 @@ void Sequencer::finish_with_fit(RunRecord& record) {
   json result = fit_finished_run(record, store_.run_dir(record.run_id), unit_bias_wander(),
                                  unit_known_tau(), config_.budget);
   const std::string path = store_.run_dir(record.run_id) + "/result.json";
-  write_state_file(path, result.dump(2) + "\n");
+  write_state_file(path, json_text(result) + "\n");
   record.result_path = path;
   set_state(record, st::done);
 }

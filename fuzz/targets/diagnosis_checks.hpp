@@ -6,6 +6,7 @@
 #include <string>
 
 #include "calib/diagnosis/diagnosis.hpp"
+#include "calib/json_text.hpp"
 #include "fuzz/targets/fuzz_support.hpp"
 
 namespace standcal::fuzz {
@@ -18,7 +19,7 @@ inline void check_diagnosis_output(const Diagnosis& d) {
   for (const auto& f : d.findings)
     require(std::isfinite(f.value) && std::isfinite(f.sigma),
             "diagnosis: finding " + f.effect + " is not finite");
-  (void)diagnose_to_json(d).dump();
+  (void)json_text(diagnose_to_json(d));  // as `diagnose --json` prints it
 }
 
 }  // namespace standcal::fuzz

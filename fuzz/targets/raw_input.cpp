@@ -12,8 +12,9 @@
 // option.
 //
 // Properties: the reader accepts with its format and units decided, one time and three
-// axis values per sample, every value finite (an accelerometer's within 1e12) and time
-// never going backwards, a rate that is positive or unknown (NaN); or refuses with a
+// axis values per sample, every value finite (an accelerometer's within 1e12, a time within
+// 1e12 s) and time never going backwards, a rate above 0 and at most 1e6 Hz or unknown
+// (NaN); or refuses with a
 // RecordingError / std::runtime_error. A calibration reports finite values and sigmas
 // that are finite and not negative, serialises, and reports in words; a diagnosis gives
 // one of its verdicts with finite findings; the Allan curves are finite.
@@ -22,6 +23,7 @@
 #include <string>
 
 #include "calib/allan.hpp"
+#include "calib/json_text.hpp"
 #include "calib/norm_calibration.hpp"
 #include "calib/raw_input.hpp"
 #include "calib/static_noise.hpp"
@@ -63,23 +65,25 @@ void check_read(const standcal::RawInput& in) {
                                   " values for " + std::to_string(n) + " times");
   require(in.block.empty() || in.block.size() == n, "raw_input: dwell blocks not one per sample");
   for (std::size_t i = 0; i < n; ++i) {
-    require(std::isfinite(in.t_s[i]) && is_plausible_accelerometer_value(in.axis[0][i]) &&
+    require(std::abs(in.t_s[i]) <= kMaxAbsTime_s &&
+                is_plausible_accelerometer_value(in.axis[0][i]) &&
                 is_plausible_accelerometer_value(in.axis[1][i]) &&
                 is_plausible_accelerometer_value(in.axis[2][i]),
             "raw_input: sample " + std::to_string(i) +
-                " is not finite or beyond any accelerometer's output");
+                " has a time beyond 1e12 s or a value beyond any accelerometer's output");
     require(i == 0 || in.t_s[i] >= in.t_s[i - 1],
             "raw_input: time goes backwards at sample " + std::to_string(i));
   }
   // NaN: no rate known (one sample and no header or --rate-hz), which the detector refuses.
-  require(
-      std::isnan(in.sample_rate_hz) || (std::isfinite(in.sample_rate_hz) && in.sample_rate_hz > 0),
-      "raw_input: a sample rate that is infinite or not positive");
+  require(std::isnan(in.sample_rate_hz) ||
+              (in.sample_rate_hz > 0 && in.sample_rate_hz <= kMaxSampleRate_hz),
+          "raw_input: a sample rate outside (0, 1e6] Hz");
   for (const StaticMeanRow& row : in.means)
     require(row.mean.cwiseAbs().maxCoeff() <= kMaxAbsAccelerometerValue &&
-                (!row.samples || std::isfinite(*row.samples)) &&
+                (!row.samples || (*row.samples > 0 && *row.samples <= 1e12)) &&
                 (!row.standard_error || row.standard_error->allFinite()),
-            "raw_input: a means row (line " + std::to_string(row.line) + ") is not finite");
+            "raw_input: a means row (line " + std::to_string(row.line) +
+                ") is not finite or its sample count beyond 1e12");
 }
 
 void check_calibration(const standcal::NormCalibration& c, const standcal::RawInput& in) {
@@ -93,7 +97,8 @@ void check_calibration(const standcal::NormCalibration& c, const standcal::RawIn
     if (p.value)
       require(std::isfinite(*p.value) && p.sigma && std::isfinite(*p.sigma) && *p.sigma >= 0,
               "norm fit: a reported parameter or its sigma is not finite");
-  (void)standcal::norm_calibration_to_json(c, in).dump();
+  (void)standcal::json_text(
+      standcal::norm_calibration_to_json(c, in));  // as `fit --json` prints it
   require(!standcal::format_norm_report(c, in).empty(), "norm fit: an empty report");
 }
 

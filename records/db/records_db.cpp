@@ -7,6 +7,7 @@
 #include <ctime>
 #include <stdexcept>
 
+#include "calib/json_text.hpp"
 #include "calib/parameters.hpp"
 #include "calib/utc_time.hpp"
 #include "records/db/sql_session.hpp"
@@ -111,11 +112,11 @@ std::vector<SqlValue> record_params(const CalibrationRecord& r) {
           r.program_name,
           r.recording_path,
           r.method,
-          r.result.dump(),
+          json_text(r.result, -1),
           r.verdict,
           r.origin,
           r.recorded_utc.empty() ? utc_now_iso() : r.recorded_utc,
-          r.assessment.is_null() ? SqlValue() : SqlValue(r.assessment.dump()),
+          r.assessment.is_null() ? SqlValue() : SqlValue(json_text(r.assessment, -1)),
           r.diagnosis_verdict};
 }
 
@@ -278,7 +279,7 @@ class SqlRecordsDb final : public RecordsDb {
     require_current();
     const auto res = s_->exec(
         "UPDATE calibrations SET verdict = $1, assessment_json = $2 WHERE run_id = $3",
-        {verdict, assessment.is_null() ? SqlValue() : SqlValue(assessment.dump()), run_id});
+        {verdict, assessment.is_null() ? SqlValue() : SqlValue(json_text(assessment, -1)), run_id});
     return res.affected > 0;
   }
 

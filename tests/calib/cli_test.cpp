@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -573,6 +574,35 @@ TEST_F(Cli, IntegersThatCouldBeAnyUnitAskForUnits) {
 // buffer was written only at the close, unchecked, so `noise --curve /dev/full` exited 0
 // (a longer one, like the model file, failed at the check). Now every output goes through
 // write_file_atomically. (--compensation takes a stem, FILE.json and FILE.csv: not a device.)
+// Names from another tool's file need not be UTF-8: `noise --json` of a file named in
+// Latin-1 ("\xd6l.csv") and `fit --json` of one whose column name holds a Latin-1 byte printed
+// only "[json.exception.type_error.316] invalid UTF-8 byte" (the raw_input fuzz target,
+// 2026-12-05). The JSON is printed, the byte written as U+FFFD.
+TEST_F(Cli, JsonOfALatin1NameIsPrinted) {
+  ASSERT_EQ(run_cli("simulate --program paper9 --dwell-s 10 -o " + path("\xd6l.csv")).exit_code, 0);
+  const CliRun noise = run_cli("noise --json " + path("\xd6l.csv"));
+  ASSERT_EQ(noise.exit_code, 0) << noise.output;
+  EXPECT_NE(nlohmann::json::parse(noise.output)["recording"].get<std::string>().find("\ufffdl.csv"),
+            std::string::npos)
+      << noise.output;
+  // Twelve dwells on a spiral over the sphere, 1 g each; the units are told from the column
+  // names, which the JSON states, one of them with a Latin-1 byte.
+  {
+    std::ofstream rows(path("column.csv"));
+    rows << "t_s,pos,fx_mps2,fy_mps2,fz_mps2\xd6\n";
+    for (int pose = 0; pose < 12; ++pose) {
+      const double z = 1 - (2 * pose + 1) / 12.0, r = std::sqrt(1 - z * z), phi = 2.4 * pose;
+      for (int i = 0; i < 4; ++i)
+        rows << pose * 5 + i << "," << pose << "," << 9.81 * r * std::cos(phi) + 1e-4 * i << ","
+             << 9.81 * r * std::sin(phi) << "," << 9.81 * z + 2e-3 << "\n";
+    }
+  }
+  const CliRun fit = run_cli("fit --json --columns 3,4,5 --g-mps2 9.81 " + path("column.csv"));
+  ASSERT_EQ(fit.exit_code, 0) << fit.output;
+  EXPECT_NE(fit.output.find("fz_mps2\ufffd"), std::string::npos) << fit.output;
+  EXPECT_NO_THROW((void)nlohmann::json::parse(fit.output)) << fit.output;
+}
+
 TEST_F(Cli, AFullDiskIsAnErrorForEveryOutput) {
   ASSERT_EQ(
       run_cli("simulate --program paper9 --seed 5 --dwell-s 10 -o " + path("r.csv")).exit_code, 0);

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "calib/raw_input.hpp"
+#include "calib/static_intervals.hpp"
 #include "tests/calib/test_support.hpp"
 
 namespace standcal {
@@ -138,6 +139,21 @@ TEST(RawInputErrors, AValueNoAccelerometerGivesNamesLineAndColumn) {
   EXPECT_TRUE(contains(se, "means.csv:3: column 5: column 'se_y': 1e+300 is beyond")) << se;
 }
 
+// A means table's sample count of 4e89 overflowed the interval's integer count in the norm fit
+// (UBSan: "outside the range of representable values of type 'unsigned long'"; the raw_input
+// fuzz target, 2026-12-05): a count beyond 1e12 is refused at its line and column.
+TEST(RawInputErrors, ASampleCountNoMeanHoldsNamesLineAndColumn) {
+  InputOptions means;
+  means.format = InputFormat::means;
+  const std::string header = "mean_x,mean_y,mean_z,n\n0.01,0.02,0.98,400\n";
+  const std::string huge = input_error_of(header + "0.01,0.99,0.02,4e89\n", means, "means.csv");
+  EXPECT_TRUE(contains(huge,
+                       "means.csv:3: column 4: column 'n': the sample count must be "
+                       "positive and at most 1e12, not 4e+89"))
+      << huge;
+  EXPECT_EQ(input_error_of(header + "0.01,0.99,0.02,1e12\n", means, "means.csv"), "");
+}
+
 // Two times of +-1.7e308 s differ by infinity, and the rate read from the steps was 0 Hz (a
 // review of the raw_input fuzz target's property, 2026-12-04).
 TEST(RawInputErrors, ATimeNoRecordingHoldsNamesLineAndColumn) {
@@ -145,11 +161,62 @@ TEST(RawInputErrors, ATimeNoRecordingHoldsNamesLineAndColumn) {
       input_error_of("t,ax,ay,az\n-1.7e308,0.01,0.02,0.98\n1.7e308,0.01,0.02,0.99\n");
   EXPECT_TRUE(contains(message,
                        "in.csv:2: column 1: column 't': -1.7e+308 s is not a time a "
-                       "recording holds (at most 1e12 s)"))
+                       "recording holds (within +-1e12 s)"))
       << message;
   // After the column's unit: 2e15 microseconds are 2e9 s, a time since 1970.
   EXPECT_EQ(input_error_of("t_us,ax,ay,az\n2e15,0.01,0.02,0.98\n2.00000001e15,0.01,0.02,0.99\n"),
             "");
+}
+
+// A header rate of 1e300 Hz was taken over the rows' times (a sample period of 1e-300 s) in a
+// standcal recording without angle columns, as the stand recordings' reader had taken it; one
+// of 1e-300 Hz, or --rate-hz as slow, made rows without a time column times of 1e300 s.
+TEST(RawInputErrors, ARateNoRecordingHoldsNamesWhereItWasGiven) {
+  const std::string rows = "t_s,pos,fx_mps2,fy_mps2,fz_mps2\n0,0,0,0,9.8\n0.01,0,0,0,9.8\n";
+  const std::string fast =
+      input_error_of("# format: standcal-recording/1\n# sample_rate_hz: 1e300\n" + rows);
+  EXPECT_TRUE(contains(fast,
+                       "in.csv:2: header 'sample_rate_hz': 1e300 Hz is not a sample rate "
+                       "(above 0, at most 1e6 Hz)"))
+      << fast;
+  const std::string untimed = "ax,ay,az\n0.01,0.02,0.98\n0.01,0.02,0.99\n0.01,0.02,0.97\n";
+  const std::string slow = input_error_of("# sample_rate_hz: 1e-300\n" + untimed);
+  EXPECT_TRUE(contains(slow,
+                       "in.csv:1: header 'sample_rate_hz': 1e-300 Hz gives the last of 3 "
+                       "rows the time 2e+300 s, beyond 1e12 s"))
+      << slow;
+  InputOptions options;
+  options.rate_hz = 1e-300;
+  try {
+    parse_input(untimed, "in.csv", options);
+    ADD_FAILURE() << "--rate-hz 1e-300 was taken";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_TRUE(contains(e.what(), "--rate-hz: 1e-300 Hz gives the last of 3 rows the time"))
+        << e.what();
+  }
+  options.rate_hz = 2e6;
+  EXPECT_THROW(parse_input(untimed, "in.csv", options), std::invalid_argument);
+  options.rate_hz = 1e-9;  // a slow rate whose times stay within the bound is a rate
+  EXPECT_DOUBLE_EQ(parse_input(untimed, "in.csv", options).t_s[2], 2e9);
+}
+
+// Times 1e-300 s apart made a rate of 1e300 Hz from the steps, and the static detector a
+// window of 9223372036854775809 samples (`standcal noise` said so): a float-to-integer
+// overflow. Steps faster than 1e6 a second leave the rate unknown, as a zero step does.
+TEST(RawInputErrors, TimeStepsFasterThanAnyUnitLeaveTheRateUnknown) {
+  std::string text = "t,ax,ay,az\n";
+  for (int i = 0; i < 400; ++i)
+    text += std::to_string(i) + "e-300," + (i % 2 ? "0.01" : "0.011") + ",0.02,0.98\n";
+  const RawInput in = parse_input(text, "tiny.csv");
+  EXPECT_TRUE(std::isnan(in.sample_rate_hz)) << in.sample_rate_hz;
+  ASSERT_FALSE(in.warnings.empty());
+  EXPECT_TRUE(contains(in.warnings.back(),
+                       "tiny.csv: the median time step is 1e-300 s, more "
+                       "than 1e6 samples a second; sample rate unknown"))
+      << in.warnings.back();
+  RawInput fast = in;
+  fast.sample_rate_hz = 1e300;  // from a caller that did not read it through the readers
+  EXPECT_THROW((void)detect_static_intervals(fast), std::runtime_error);
 }
 
 TEST(RawInputImuTk, ThreeColumnsNeedTheRateAndUseIt) {

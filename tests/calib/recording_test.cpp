@@ -176,7 +176,7 @@ TEST(RecordingErrors, ATimeAngleOrTemperatureNoRunHoldsNamesLineAndColumn) {
   const std::string ordinary = kHeader + kColumns + kRow0;  // the next row takes the quick path
   EXPECT_NE(error_of(ordinary + row("1.7e308", "0.000012", "23.05"))
                 .find("rec.csv:8: column 1: column 't_s': 1.7e+308 s is not a time a recording "
-                      "holds (at most 1e12 s)"),
+                      "holds (within +-1e12 s)"),
             std::string::npos);
   EXPECT_NE(error_of(ordinary + row("170000000000000", "0.000012", "23.05"))
                 .find("rec.csv:8: column 1: column 't_s': 1.7e+14 s is not a time"),
@@ -190,7 +190,7 @@ TEST(RecordingErrors, ATimeAngleOrTemperatureNoRunHoldsNamesLineAndColumn) {
             std::string::npos);
   EXPECT_NE(error_of(ordinary + row("5.020", "-2e6", "23.05"))
                 .find("rec.csv:8: column 5: column 'alpha1_deg': -2e+06 deg is not a stand angle "
-                      "(at most 1e6 deg, 2778 turns)"),
+                      "(within +-1e6 deg, 2778 turns)"),
             std::string::npos);
   const std::string commanded = "5.000,0,1e300,0.0000,,,0.000421,9.816702,-0.000217,\n";
   EXPECT_NE(error_of(kHeader + kColumns + commanded)
@@ -224,7 +224,8 @@ TEST(RecordingErrors, AHeaderNumberNoRunHoldsNamesItsLine) {
                 .find("rec.csv:2: header 'settle_s': -1 s is not a settling time (0 ... 1e12 s)"),
             std::string::npos);
   EXPECT_NE(error_of(with_header("# temp_ref_c: 1e300"))
-                .find("rec.csv:2: header 'temp_ref_c': 1e+300 degC is not a unit's temperature"),
+                .find("rec.csv:2: header 'temp_ref_c': 1e300 degC is not a temperature a unit "
+                      "works at (-273.15 ... 1000 degC)"),
             std::string::npos);
   EXPECT_EQ(error_of(with_header("# sample_rate_hz: 1000000")), "");
   EXPECT_EQ(error_of(with_header("# settle_s: 0")), "");
@@ -249,6 +250,19 @@ TEST(RecordingWriter, TheSimulatorRefusesAModelNoRecordingHolds) {
   }
   req.truth.temperature.start_c = 23;
   EXPECT_EQ(simulate_run(req).samples.size(), 90u);
+  // A profile whose samples are plausible but whose start, the temp_ref_c header of a model
+  // with temperature terms, is not (1004 degC falling 1 degC/s).
+  SimulationRequest falling = req;
+  falling.truth.temperature = {1004, -3600, 0, 0, 1};
+  falling.truth.extra_physics.push_back({"bias_temperature", "x", 1.0});
+  EXPECT_THROW(simulate_run(falling), std::runtime_error);
+  // The rate is written as it was given (std::to_string wrote 1e-7 Hz as 0.000000).
+  SimulationRequest slow = req;
+  slow.timing.sample_rate_hz = 1e-7;
+  slow.timing.dwell_s = 1e7;
+  const Recording one_each = simulate_run(slow);
+  EXPECT_EQ(one_each.header_value("sample_rate_hz"), "1e-07");
+  EXPECT_EQ(parse_recording(format_recording_header(one_each), "slow.csv").sample_rate_hz, 1e-7);
   req.truth.unit.bias_g.x() = 1e300;  // a force beyond any accelerometer's
   EXPECT_THROW(
       {

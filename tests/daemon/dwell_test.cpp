@@ -125,8 +125,8 @@ TEST(DwellStability, ADwellNoUnitsTemperatureGivesIsNotKept) {
   for (auto& x : hot) x.temperature_c = 23;
   hot[10].temperature_c = 1e300;
   EXPECT_EQ(dwell_problem(average_dwell(hot), expect(10, 100), rule),
-            "the unit's temperature read 1e+300 degC, which no unit has: check the temperature "
-            "signal of the unit's CAN layout (length, scale and offset)");
+            "the unit's temperature read 1e+300 degC, which no unit has (-273.15 ... 1000 degC): "
+            "check the temperature signal of the unit's CAN layout (length, scale and offset)");
   hot[10].temperature_c = -300;
   EXPECT_NE(implausible_reading(average_dwell(hot)).find("read -300 degC"), std::string::npos);
   hot[10].temperature_c = kNoValue;  // a sample without a temperature is not judged

@@ -11,6 +11,7 @@
 #include "calib/compensation.hpp"
 #include "calib/full_estimator.hpp"
 #include "calib/invariant_estimator.hpp"
+#include "calib/json_text.hpp"
 #include "calib/norm_calibration.hpp"
 #include "calib/programs.hpp"
 #include "calib/raw_input.hpp"
@@ -93,7 +94,7 @@ void run_norm_fit(const FitOptions& o, const RawInput& in) {
   options.fit.noise = noise_weighting(o);
   const NormCalibration c = calibrate_without_angles(in, options);
   if (o.json) {
-    std::cout << norm_calibration_to_json(c, in).dump(2) << "\n";
+    std::cout << json_text(norm_calibration_to_json(c, in)) << "\n";
   } else {
     std::cout << format_norm_report(c, in);
   }
@@ -122,7 +123,7 @@ void fit_stand_averages(const FitOptions& o, const std::string& method, const Re
   if (o.json) {
     nlohmann::json j = fit_to_json(fit);
     if (budget) j["uncertainty_budget"] = budget_to_json(*budget);
-    std::cout << j.dump(2) << "\n";
+    std::cout << json_text(j) << "\n";
   } else {
     std::cout << format_report(fit, report_context(rec, std::move(averages)));
     if (budget) std::cout << format_budget_summary(*budget);

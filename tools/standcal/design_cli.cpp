@@ -12,6 +12,7 @@
 
 #include "calib/atomic_file.hpp"
 #include "calib/design.hpp"
+#include "calib/json_text.hpp"
 #include "calib/programs.hpp"
 #include "tools/cli_checks.hpp"
 #include "tools/standcal/commands.hpp"
@@ -208,7 +209,7 @@ void add_wander_json(json& j, const DesignSettings& s) {
       s.wander_tau().range() ? json(s.bias_instability_tau_max_s) : json(nullptr);
 }
 
-void print_json(const json& j) { std::cout << j.dump(2) << "\n"; }
+void print_json(const json& j) { std::cout << json_text(j) << "\n"; }
 
 // ---- evaluate ------------------------------------------------------------------------
 
@@ -219,7 +220,7 @@ void write_timed_program(const Program& program, const std::vector<double>& dwel
   Program timed = program;
   for (std::size_t k = 0; k < timed.positions.size() && k < dwell_s.size(); ++k)
     timed.positions[k].dwell_s = dwell_s[k];
-  write_file_atomically(path, program_to_json(timed).dump(2) + "\n", "the programme");
+  write_file_atomically(path, json_text(program_to_json(timed)) + "\n", "the programme");
 }
 
 void run_evaluate(const EvaluateOptions& o) {

@@ -9,6 +9,7 @@
 
 #include "calib/atomic_file.hpp"
 #include "calib/diagnosis/diagnosis.hpp"
+#include "calib/json_text.hpp"
 #include "calib/norm_calibration.hpp"
 #include "calib/raw_input.hpp"
 #include "calib/recording.hpp"
@@ -85,7 +86,7 @@ void run_diagnose(const DiagnoseCliOptions& o) {
                  o.model_out.c_str(), o.model_out.c_str());
   }
   if (o.json) {
-    std::cout << diagnose_to_json(d).dump(2) << "\n";
+    std::cout << json_text(diagnose_to_json(d)) << "\n";
     return;
   }
   std::cout << "verdict: " << d.verdict << "\n";

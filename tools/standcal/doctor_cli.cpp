@@ -23,6 +23,7 @@
 #include <thread>
 #include <vector>
 
+#include "calib/json_text.hpp"
 #include "daemon/standcald/config.hpp"
 #include "daemon/standcald/hardware.hpp"
 #include "protocol/jsonrpc/client.hpp"
@@ -384,7 +385,7 @@ void print(const std::vector<CheckLine>& lines, bool as_json) {
                      {"verdict", verdict_word(l.verdict)},
                      {"detail", l.detail},
                      {"fix", l.fix}});
-    std::cout << out.dump(2) << "\n";
+    std::cout << json_text(out) << "\n";
     return;
   }
   for (const CheckLine& l : lines) {

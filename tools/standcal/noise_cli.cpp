@@ -16,6 +16,7 @@
 #include "calib/allan.hpp"
 #include "calib/atomic_file.hpp"
 #include "calib/diagnosis/words.hpp"
+#include "calib/json_text.hpp"
 #include "calib/noise_model.hpp"
 #include "calib/raw_input.hpp"
 #include "calib/recording_digest.hpp"
@@ -201,7 +202,7 @@ void run_noise(const NoiseOptions& o) {
     }
     j["static"] = source.raw ? static_json(*source.raw) : json(nullptr);
     j["gauss_markov"] = wander ? gauss_markov_json(*wander) : json(nullptr);
-    std::cout << j.dump(2) << "\n";
+    std::cout << json_text(j) << "\n";
     return;
   }
   std::printf("%s: %zu samples every %.4g s in %zu static segment(s)\n", o.recording.c_str(),

@@ -17,6 +17,7 @@
 #include "calib/averaging.hpp"
 #include "calib/full_estimator.hpp"
 #include "calib/invariant_estimator.hpp"
+#include "calib/json_text.hpp"
 #include "calib/recording.hpp"
 #include "calib/report.hpp"
 #include "calib/utc_time.hpp"
@@ -325,7 +326,7 @@ void add_history_command(CLI::App& app) {
       throw std::runtime_error("no calibrations of unit " + *serial + " in " + d->location());
     if (!plot->empty()) write_history_page(h, *plot);
     if (*as_json) {
-      std::cout << history_to_json(h).dump(2) << "\n";
+      std::cout << json_text(history_to_json(h)) << "\n";
     } else {
       print_history(h);
     }
@@ -355,7 +356,7 @@ void add_records_command(CLI::App& app) {
     if (*as_json) {
       json out = json::array();
       for (const CalibrationRecord& r : list) out.push_back(records::to_json(r));
-      std::cout << out.dump(2) << "\n";
+      std::cout << json_text(out) << "\n";
     } else {
       print_records(list);
     }

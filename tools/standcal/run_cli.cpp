@@ -16,6 +16,7 @@
 #include "calib/averaging.hpp"
 #include "calib/compensation.hpp"
 #include "calib/invariant_estimator.hpp"
+#include "calib/json_text.hpp"
 #include "calib/recording.hpp"
 #include "calib/report.hpp"
 #include "calib/traceability.hpp"
@@ -294,7 +295,7 @@ void run_diagnose(const DaemonOptions& o, const DiagnoseArgs& a) {
   if (a.run_proposed) follow_up = call(c, protocol::method::run_start, follow_up_params(d, a));
   if (o.json) {
     if (a.run_proposed) d["follow_up_run"] = follow_up;
-    std::cout << d.dump(2) << "\n";
+    std::cout << json_text(d) << "\n";
     return;
   }
   print_diagnosis(d);
@@ -314,7 +315,7 @@ void add_status(CLI::App& app) {
     protocol::Client& c = *connection;
     const json s = call(c, protocol::method::status);
     if (o->json) {
-      std::cout << s.dump(2) << "\n";
+      std::cout << json_text(s) << "\n";
     } else {
       print_status(s.get<protocol::StatusResult>());
     }
@@ -333,7 +334,7 @@ void add_estop(CLI::App& app) {
     const json r = call(c, *reset_flag ? protocol::method::estop_reset : protocol::method::estop,
                         json::object(), 10s);
     if (o->json) {
-      std::cout << r.dump(2) << "\n";
+      std::cout << json_text(r) << "\n";
     } else {
       std::printf("%s\n", r.get<protocol::EstopResult>().message.c_str());
     }
@@ -404,7 +405,7 @@ void add_runs(CLI::App& app) {
     const auto connection = connect_daemon(*o);
     const protocol::RunsPage r = list_runs(*connection, *a);
     if (o->json) {
-      std::cout << json(r).dump(2) << "\n";
+      std::cout << json_text(json(r)) << "\n";
     } else {
       print_runs(r, *a);
     }
@@ -461,7 +462,7 @@ void add_run(CLI::App& app) {
     const std::string& id = started.run_id;
     if (!sa->wait) {
       if (so->json) {
-        std::cout << r.dump(2) << "\n";
+        std::cout << json_text(r) << "\n";
       } else {
         std::printf("run %s started (%d positions); follow it with `standcal run watch`\n",
                     id.c_str(), started.positions);
@@ -473,7 +474,7 @@ void add_run(CLI::App& app) {
     if (state != "done") throw std::runtime_error("run " + id + " ended " + state);
     const json result = call(c, protocol::method::run_result, protocol::RunResultParams{id});
     if (so->json) {
-      std::cout << result.dump(2) << "\n";
+      std::cout << json_text(result) << "\n";
     } else {
       print_result(result);
     }
@@ -506,7 +507,7 @@ void add_run(CLI::App& app) {
     const json r = call(c, protocol::method::run_result, protocol::RunResultParams{*result_id});
     if (!compensation_path->empty()) export_compensation(r, *result_id, *compensation_path);
     if (ro->json) {
-      std::cout << r.dump(2) << "\n";
+      std::cout << json_text(r) << "\n";
     } else {
       print_result(r);
     }
@@ -552,7 +553,7 @@ void add_run(CLI::App& app) {
       const json r = call(
           c, method, protocol::RunTargetParams{id->empty() ? std::nullopt : std::optional(*id)});
       if (o->json) {
-        std::cout << r.dump(2) << "\n";
+        std::cout << json_text(r) << "\n";
       } else {
         print_run_answer(method, r);
       }

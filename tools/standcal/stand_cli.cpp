@@ -11,6 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "calib/json_text.hpp"
 #include "drivers/modbus/modbus_stand.hpp"
 #include "drivers/stand.hpp"
 #include "tools/standcal/commands.hpp"
@@ -82,7 +83,7 @@ void print_status(const StandOptions& o) {
   if (o.json) {
     const nlohmann::json out = {
         {"class", "STAND"}, {"url", o.url}, {"stand", stand->name()}, {"axes", axes}};
-    std::printf("%s\n", out.dump().c_str());
+    std::printf("%s\n", json_text(out, -1).c_str());
   }
 }
 
