@@ -454,7 +454,7 @@ class Reader {
 
   void check_options() const {
     if (options_.skip_lines < 0) throw std::invalid_argument("--skip-lines must be 0 or more");
-    if (options_.rate_hz && !(*options_.rate_hz > 0 && *options_.rate_hz <= kMaxSampleRate_hz))
+    if (options_.rate_hz && !is_plausible_sample_rate(*options_.rate_hz))
       throw std::invalid_argument(
           "--rate-hz must be a number of samples per second above 0 and at most 1e6");
     if (options_.g_mps2 && !(std::isfinite(*options_.g_mps2) && *options_.g_mps2 > 0))
@@ -546,7 +546,7 @@ class Reader {
         header_g_ = v;
         g_seen = true;
       } else {
-        if (!(v > 0 && v <= kMaxSampleRate_hz))
+        if (!is_plausible_sample_rate(v))
           fail_at(k.line, 0,
                   "header 'sample_rate_hz': " + k.value +
                       " Hz is not a sample rate (above 0, at most 1e6 Hz)");
@@ -1404,7 +1404,7 @@ class Reader {
     }
     // Steps of 1e-300 s made a rate of 1e300 Hz, and the static detector's window of that
     // many samples overflowed its integer.
-    if (!(1 / step <= kMaxSampleRate_hz)) {
+    if (!is_plausible_sample_rate(1 / step)) {
       out_.warnings.push_back(out_.source + ": the median time step is " + number_text(step) +
                               " s, more than 1e6 samples a second; sample rate unknown (are "
                               "the times in another unit? pass --rate-hz)");

@@ -613,7 +613,7 @@ class Parser {
         refuse_header(key, value + " s is not a settling time (0 ... 1e12 s)");
     } else if (key == "sample_rate_hz") {
       rec_.sample_rate_hz = header_number(key, value);
-      if (!(rec_.sample_rate_hz > 0 && rec_.sample_rate_hz <= kMaxSampleRate_hz))
+      if (!is_plausible_sample_rate(rec_.sample_rate_hz))
         refuse_header(key, value + " Hz is not a sample rate (above 0, at most 1e6 Hz)");
     } else if (key == "temp_ref_c") {
       rec_.temp_ref_c = header_number(key, value);
@@ -692,6 +692,10 @@ bool is_plausible_accelerometer_value(double v) { return std::abs(v) <= kMaxAbsA
 std::string implausible_accelerometer_value_text(double v) {
   return number_text(v) + " is beyond any accelerometer's output (at most 1e12 in counts, g or " +
          "m/s^2): a corrupted value?";
+}
+
+bool is_plausible_sample_rate(double rate_hz) {
+  return rate_hz > 0 && rate_hz <= kMaxSampleRate_hz * (1 + 1e-6);
 }
 
 bool is_plausible_temperature(double temp_c) {

@@ -91,6 +91,9 @@ inline constexpr double kMaxAbsAngle_deg = 1e6;          // 2778 turns
 inline constexpr double kLowestTemperature_c = -273.15;  // absolute zero
 inline constexpr double kHighestTemperature_c = 1000;    // no accelerometer unit works there
 inline constexpr double kMaxSampleRate_hz = 1e6;
+// Above 0 and at most 1e6 Hz, with room for the rounding of a rate read from 1 MHz times
+// written to the microsecond (1000000.0025 Hz).
+bool is_plausible_sample_rate(double rate_hz);
 bool is_plausible_temperature(double temp_c);
 // What is wrong with such a temperature, in the words of the errors above.
 std::string implausible_temperature_text(double temp_c);

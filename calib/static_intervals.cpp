@@ -266,7 +266,7 @@ StaticDetection detect_static_intervals(const RawInput& in, const StaticDetector
     throw std::runtime_error(in.source + ": no samples to find static intervals in");
   if (!(in.sample_rate_hz > 0))
     throw std::runtime_error(in.source + ": no sample rate (give --rate-hz)");
-  if (!(in.sample_rate_hz <= kMaxSampleRate_hz))  // the readers refuse it; the windows overflow
+  if (!is_plausible_sample_rate(in.sample_rate_hz))  // the readers refuse it; windows overflow
     throw std::runtime_error(in.source + ": a sample rate of " + number_text(in.sample_rate_hz) +
                              " Hz, above 1e6 Hz");
   StaticDetection d;

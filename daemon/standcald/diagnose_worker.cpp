@@ -17,6 +17,7 @@
 #include <iostream>
 #include <iterator>
 
+#include "calib/json_text.hpp"
 #include "daemon/standcald/diagnose_job.hpp"
 #include "daemon/standcald/errno_text.hpp"
 #include "protocol/jsonrpc/jsonrpc.hpp"
@@ -208,6 +209,9 @@ json error_answer(int code, const std::string& message) {
 
 json diagnose_in_child(const DiagnoseJob& job, const std::string& exe, double timeout_s,
                        std::atomic<pid_t>& child_pid) {
+  // Made before any pipe or child exists: nothing after the spawn may throw and leave the
+  // worker waiting on its stdin.
+  const std::string job_text = json_text(job_to_json(job), -1);
   int to_child[2], from_child[2];
   make_pipe(to_child);
   make_pipe(from_child);
@@ -221,7 +225,7 @@ json diagnose_in_child(const DiagnoseJob& job, const std::string& exe, double ti
   child_pid = pid;
   ::close(to_child[0]);
   ::close(from_child[1]);
-  write_all(to_child[1], job_to_json(job).dump());
+  write_all(to_child[1], job_text);
   ::close(to_child[1]);
   std::string out;
   const bool finished = read_all(from_child[0], timeout_s, out);

@@ -13,6 +13,7 @@
 #include <cstdlib>
 #include <exception>
 #include <memory>
+#include <utility>
 
 #include "daemon/standcald/config.hpp"
 #include "daemon/standcald/diagnose_worker.hpp"
@@ -22,6 +23,7 @@
 #include "daemon/standcald/sequencer.hpp"
 #include "daemon/standcald/server.hpp"
 #include "protocol/jsonrpc/exit_codes.hpp"
+#include "protocol/jsonrpc/text.hpp"
 #include "standcal/version.hpp"
 
 namespace {
@@ -59,6 +61,12 @@ standcal::daemon::DaemonConfig effective_config(const Options& o) {
     }
   }
   require_named_backends(c);
+  // The paths go into run.json, result.json and the records database as JSON text: a byte
+  // that is not UTF-8 made run.start fail with nlohmann's "type_error.316" (the config hash).
+  for (const auto& [what, path] :
+       {std::pair{"the state directory", c.state_dir}, std::pair{"the socket path", c.socket_path}})
+    if (const auto problem = standcal::protocol::text_field_problem(path, 4096))
+      throw ConfigError(std::string(what) + " '" + path + "' must " + *problem);
   if (o.tcp_port >= 0) {
     c.tcp_enabled = true;
     c.tcp_port = o.tcp_port;

@@ -75,8 +75,7 @@ void check_read(const standcal::RawInput& in) {
             "raw_input: time goes backwards at sample " + std::to_string(i));
   }
   // NaN: no rate known (one sample and no header or --rate-hz), which the detector refuses.
-  require(std::isnan(in.sample_rate_hz) ||
-              (in.sample_rate_hz > 0 && in.sample_rate_hz <= kMaxSampleRate_hz),
+  require(std::isnan(in.sample_rate_hz) || is_plausible_sample_rate(in.sample_rate_hz),
           "raw_input: a sample rate outside (0, 1e6] Hz");
   for (const StaticMeanRow& row : in.means)
     require(row.mean.cwiseAbs().maxCoeff() <= kMaxAbsAccelerometerValue &&

@@ -46,8 +46,7 @@ void check_bounds(const standcal::Recording& rec) {
     fuzz::require(wrong.empty(), "recording: sample " + std::to_string(i) +
                                      " was read beyond the bounds: " + wrong);
   }
-  fuzz::require(std::isnan(rec.sample_rate_hz) ||
-                    (rec.sample_rate_hz > 0 && rec.sample_rate_hz <= kMaxSampleRate_hz),
+  fuzz::require(std::isnan(rec.sample_rate_hz) || is_plausible_sample_rate(rec.sample_rate_hz),
                 "recording: a sample rate beyond the bounds was read");
   fuzz::require(std::isnan(rec.settle_s) || (rec.settle_s >= 0 && rec.settle_s <= kMaxAbsTime_s),
                 "recording: a settling time beyond the bounds was read");

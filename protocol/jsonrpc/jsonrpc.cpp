@@ -1,6 +1,8 @@
 #include "protocol/jsonrpc/jsonrpc.hpp"
 
 #include <cmath>
+#include <cstdint>
+#include <stdexcept>
 
 #include "protocol/jsonrpc/text.hpp"
 
@@ -98,6 +100,15 @@ std::variant<Request, BadRequest> parse_request(std::string_view line) {
 }
 
 std::string make_request(const json& id, const std::string& method, const json& params) {
+  // Not replaced as the answers' bytes are: a serial or operator name given on the command
+  // line in Latin-1 would reach the daemon changed. Refused, naming the parameter (it printed
+  // only nlohmann's "type_error.316 invalid UTF-8 byte").
+  if (params.is_object())
+    for (const auto& [key, value] : params.items())
+      if (value.is_string())
+        if (const auto problem = text_field_problem(value.get_ref<const std::string&>(), SIZE_MAX);
+            problem && problem->rfind("be UTF-8", 0) == 0)
+          throw std::invalid_argument(method + ": parameter \"" + key + "\" must " + *problem);
   return json{{"jsonrpc", "2.0"}, {"id", id}, {"method", method}, {"params", params}}.dump();
 }
 

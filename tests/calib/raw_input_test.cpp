@@ -214,9 +214,20 @@ TEST(RawInputErrors, TimeStepsFasterThanAnyUnitLeaveTheRateUnknown) {
                        "tiny.csv: the median time step is 1e-300 s, more "
                        "than 1e6 samples a second; sample rate unknown"))
       << in.warnings.back();
+  // 1 MHz itself, its times written to the microsecond: a rate (1000000.0025 Hz from the steps).
+  std::string mhz = "t_us,ax,ay,az\n";
+  for (int i = 0; i < 400; ++i)
+    mhz += std::to_string(1000000000 + i) + "," + (i % 2 ? "0.01" : "0.011") + ",0.02,0.98\n";
+  EXPECT_NEAR(parse_input(mhz, "mhz.csv").sample_rate_hz, 1e6, 0.01);
   RawInput fast = in;
   fast.sample_rate_hz = 1e300;  // from a caller that did not read it through the readers
-  EXPECT_THROW((void)detect_static_intervals(fast), std::runtime_error);
+  try {
+    (void)detect_static_intervals(fast);
+    ADD_FAILURE() << "a rate of 1e300 Hz was taken";
+  } catch (const std::runtime_error& e) {
+    EXPECT_TRUE(contains(e.what(), "tiny.csv: a sample rate of 1e+300 Hz, above 1e6 Hz"))
+        << e.what();
+  }
 }
 
 TEST(RawInputImuTk, ThreeColumnsNeedTheRateAndUseIt) {

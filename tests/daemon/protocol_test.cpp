@@ -1,6 +1,9 @@
 // The protocol library on its own: request validation, framing, typed parameters.
 #include <gtest/gtest.h>
 
+#include <stdexcept>
+#include <string>
+
 #include "protocol/jsonrpc/jsonrpc.hpp"
 #include "protocol/jsonrpc/line_buffer.hpp"
 #include "protocol/jsonrpc/text.hpp"
@@ -119,6 +122,21 @@ TEST(JsonRpc, AnIntegerParameterMustBeWholeAndInRange) {
           << e.what();
     }
   }
+}
+
+// A unit serial given on the command line in Latin-1 made `standcal run start` print only
+// nlohmann's "type_error.316 invalid UTF-8 byte" (a review, 2026-12-05): the request is
+// refused naming the parameter, not sent with the byte replaced (a changed serial).
+TEST(JsonRpc, ARequestParameterThatIsNotUtf8IsRefusedByName) {
+  try {
+    (void)make_request(1, "run.start", {{"program", "paper9"}, {"unit_serial", "SN\xd6"}});
+    ADD_FAILURE() << "a Latin-1 serial was sent";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "run.start: parameter \"unit_serial\" must be UTF-8 text: byte 3 is not");
+  }
+  EXPECT_NE(make_request(1, "run.start", {{"unit_serial", "SN-\u00d6"}}).find("SN-\u00d6"),
+            std::string::npos);
 }
 
 TEST(LineBuffer, JoinsPiecesIntoLines) {

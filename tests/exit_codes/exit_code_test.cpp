@@ -60,6 +60,20 @@ TEST(ExitCodes, ARuntimeErrorIsOne) {
             code(ExitCode::runtime_error));
 }
 
+// A state directory whose name is not UTF-8 started, and every run.start then failed with
+// nlohmann's "type_error.316" (its path goes into run.json and the config hash as JSON text;
+// a review, 2026-12-05). It is refused at startup, named.
+TEST(ExitCodes, AStateDirectoryNamedInLatin1IsRefusedAtStartup) {
+  // Under timeout(1): before the mend the daemon started and ran until killed.
+  const CommandOutcome r = run_command("timeout 20 " + std::string(STANDCALD_PATH) +
+                                       " --sim --socket /tmp/standcal-exit-code-test.sock "
+                                       "--state-dir /tmp/st\xd6te");
+  EXPECT_EQ(r.exit_code, code(ExitCode::runtime_error)) << r.output;
+  EXPECT_NE(r.output.find("the state directory '/tmp/st\xd6te' must be UTF-8 text: byte 8 is not"),
+            std::string::npos)
+      << r.output;
+}
+
 TEST(ExitCodes, VersionNamesVersionCommitAndBuildType) {
   for (const std::string& program : {std::string(STANDCAL_CLI_PATH), std::string(STANDCALD_PATH)}) {
     const CommandOutcome r = run_command(program + " --version");
