@@ -7,13 +7,14 @@
 // (median, 99th percentile, share above 3x): what weighting for a wander the run may not
 // have costs a single run under white noise, and how far it widens under wander.
 //   standcal-bench-noise-honesty [--runs 1000] [--threads 2] [--program diagnostic32]
-//                                [--repeat 1] [--tau-s 300]
+//                                [--repeat 1] [--tau-s 300 [--tau-max-s 1200]]
 //                                [--tau-given-range 1 | --tau-given-factor 1]
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <string>
 
 #include "bench/noise/noise_mc.hpp"
 #include "calib/design.hpp"
@@ -59,12 +60,22 @@ void print_sigma_over_white(const ScenarioResult& r) {
   }
 }
 
+std::string tau_words(const Scenario& s) {
+  char b[96];
+  if (s.tau_drawn())
+    std::snprintf(b, sizeof b, "tau drawn log-uniformly from %.0f-%.0f s each run", s.tau_s,
+                  s.tau_max_s);
+  else
+    std::snprintf(b, sizeof b, "tau %.0f s", s.tau_s);
+  return b;
+}
+
 void print_result(const ScenarioResult& r) {
   std::printf(
-      "\n%s (wander %.1f ug, tau %.0f s; white error of one dwell mean %.2f ug; samples taken as "
+      "\n%s (wander %.1f ug, %s; white error of one dwell mean %.2f ug; samples taken as "
       "correlated within the dwells in %d runs)\n",
       r.scenario.name.c_str(), r.scenario.wander_per_dwell_error * r.white_dwell_error_ug,
-      r.scenario.tau_s, r.white_dwell_error_ug, r.samples_correlated);
+      tau_words(r.scenario).c_str(), r.white_dwell_error_ug, r.samples_correlated);
   std::printf("  %-6s %-10s %5s %5s  z-variance per parameter", "fit", "weighting", "runs",
               "wand.");
   std::printf("\n  %-6s %-10s %5s %5s ", "", "", "", "");
@@ -104,6 +115,7 @@ int main(int argc, char** argv) {
   Setup setup;
   std::string program = "diagnostic32";
   double tau_s = 300;
+  double tau_max_s = 0;
   int repeat = 1;
   app.add_option("--runs", setup.runs, "simulated runs per scenario")->capture_default_str();
   app.add_option("--threads", setup.threads, "worker threads")->capture_default_str();
@@ -117,7 +129,13 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--dwell-s", setup.dwell_s)->capture_default_str();
   app.add_option("--rate-hz", setup.sample_rate_hz)->capture_default_str();
-  app.add_option("--tau-s", tau_s, "correlation time of the wander")->capture_default_str();
+  app.add_option("--tau-s", tau_s, "correlation time of the wander")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--tau-max-s", tau_max_s,
+                 "each run draws its wander's correlation time log-uniformly from --tau-s to "
+                 "this: are the sigmas honest over units whose tau nobody measured?")
+      ->check(CLI::PositiveNumber);
   app.add_option("--tau-given-factor", setup.tau_given_factor,
                  "the 'tau given' rows weight with this multiple of the true correlation time")
       ->check(CLI::PositiveNumber)
@@ -134,6 +152,11 @@ int main(int argc, char** argv) {
                  "the unit's output filter: first-order low-pass of the white noise (s)")
       ->check(CLI::NonNegativeNumber);
   CLI11_PARSE(app, argc, argv);
+  if (tau_max_s > 0 && tau_max_s <= tau_s) {
+    std::fprintf(stderr, "--tau-max-s %g must exceed --tau-s %g (the range tau is drawn from)\n",
+                 tau_max_s, tau_s);
+    return 2;
+  }
   setup.program =
       repeated_program(program == "diagnostic32" ? diagnostic32() : load_program(program), repeat);
 
@@ -156,6 +179,7 @@ int main(int argc, char** argv) {
   const auto start = std::chrono::steady_clock::now();
   for (Scenario s : issue21_scenarios()) {
     s.tau_s = tau_s;
+    s.tau_max_s = tau_max_s;
     print_result(run_scenario(setup, s));
   }
   std::printf("\n%.1f s\n",

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <mutex>
 #include <optional>
+#include <random>
 #include <stdexcept>
 #include <thread>
 
@@ -66,6 +67,17 @@ TruthModel truth_for(const Scenario& s, const Setup& setup, double* dwell_error_
   for (Vec3& m : t.stand.mounting_rad) m = t.stand.mounting_rad[static_cast<std::size_t>(Mount::x)];
   *dwell_error_g = dwell_error_ug * kUg;
   return t;
+}
+
+// The scenario's correlation time for one run: its own draw where the scenario draws one,
+// from a generator of the run's seed (the same runs whatever the threads).
+Scenario scenario_of_run(const Scenario& s, std::uint64_t seed) {
+  if (!s.tau_drawn()) return s;
+  std::mt19937_64 rng(seed ^ 0x7a75'6472'6177'6e00ULL);
+  const double u = std::uniform_real_distribution<double>(0, 1)(rng);
+  Scenario one = s;
+  one.tau_s = s.tau_s * std::pow(s.tau_max_s / s.tau_s, u);
+  return one;
 }
 
 void accumulate(ZStats& z, const FitResult& fit,
@@ -150,10 +162,13 @@ ScenarioResult run_scenario(const Setup& setup, const Scenario& scenario) {
     for (int run = first; run < setup.runs; run += stride) {
       SimulationRequest req;
       req.program = setup.program;
-      req.truth = truth;
+      req.seed = setup.first_seed + static_cast<std::uint64_t>(run);
+      double unused_dwell_error_g = 0;
+      req.truth = scenario.tau_drawn()
+                      ? truth_for(scenario_of_run(scenario, req.seed), setup, &unused_dwell_error_g)
+                      : truth;
       req.timing.dwell_s = setup.dwell_s;
       req.timing.sample_rate_hz = setup.sample_rate_hz;
-      req.seed = setup.first_seed + static_cast<std::uint64_t>(run);
       const Recording rec = simulate_run(req);
       const AveragedRecording averaged = average_recording(rec);
       const std::vector<PositionAverage>& avg = averaged.averages;
@@ -161,7 +176,7 @@ ScenarioResult run_scenario(const Setup& setup, const Scenario& scenario) {
       std::vector<std::optional<FitResult>> fits(methods().size());
       for (std::size_t k = 0; k < methods().size(); ++k) {
         try {
-          fits[k] = fit_with(methods()[k], rec, avg, truth, setup);
+          fits[k] = fit_with(methods()[k], rec, avg, req.truth, setup);
           accumulate(local[k], *fits[k], x_true);
         } catch (const std::exception&) {
           ++local[k].failed;

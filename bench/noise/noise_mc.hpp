@@ -19,6 +19,10 @@ struct Scenario {
   std::string name;
   double wander_per_dwell_error = 0;  // Gauss-Markov sigma / white error of one dwell mean
   double tau_s = 300;
+  // Above tau_s: each run draws its own correlation time, log-uniformly from tau_s to this
+  // (units whose tau nobody measured, of which one run cannot tell which it is).
+  double tau_max_s = 0;
+  bool tau_drawn() const { return tau_max_s > tau_s; }
 };
 
 struct Setup {
