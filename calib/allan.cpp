@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "calib/golden_section.hpp"
+#include "calib/text.hpp"
 #include "calib/units.hpp"
 
 namespace standcal {
@@ -384,7 +385,18 @@ double sample_period_s(const Recording& rec) {
   if (!step)
     throw std::runtime_error(rec.source +
                              ": cannot tell the sample rate (no sample_rate_hz header)");
+  if (const std::string why = unusable_step_text(*step); !why.empty())
+    throw std::runtime_error(rec.source + ": " + why + " (no sample_rate_hz header)");
   return *step;
+}
+
+std::string unusable_step_text(double step_s) {
+  if (!(step_s > 0)) return "the median time step is zero: repeated time stamps, no sample period";
+  if (!is_plausible_sample_rate(1 / step_s))
+    return "the median time step is " + number_text(step_s) +
+           " s, more than 1e6 samples a second: no sample period (are the times in another "
+           "unit?)";
+  return "";
 }
 
 std::optional<double> median_step_s(std::vector<double> steps_s) {

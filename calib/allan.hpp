@@ -5,6 +5,7 @@
 #include <array>
 #include <cstddef>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "calib/recording.hpp"
@@ -180,6 +181,11 @@ double sample_period_s(const Recording& rec);
 // That median step, from the steps between consecutive samples of one position; nullopt
 // when there are none.
 std::optional<double> median_step_s(std::vector<double> steps_s);
+// Why a median step gives no sample period ("repeated time stamps ..."), or "" when it gives
+// one: a step of zero, or one shorter than 1e6 samples a second allow (times in another unit;
+// steps of 1e-300 s made a rate of 1e300 Hz, and a window of that many samples overflowed
+// its integer).
+std::string unusable_step_text(double step_s);
 
 // The samples' own correlation as it bears on a dwell mean: sigma / sqrt(n) takes the samples
 // as independent, and the mean of correlated ones has the error of the white noise a dwell

@@ -455,8 +455,8 @@ class Reader {
   void check_options() const {
     if (options_.skip_lines < 0) throw std::invalid_argument("--skip-lines must be 0 or more");
     if (options_.rate_hz && !is_plausible_sample_rate(*options_.rate_hz))
-      throw std::invalid_argument(
-          "--rate-hz must be a number of samples per second above 0 and at most 1e6");
+      throw std::invalid_argument("--rate-hz: " +
+                                  implausible_sample_rate_text(number_text(*options_.rate_hz)));
     if (options_.g_mps2 && !(std::isfinite(*options_.g_mps2) && *options_.g_mps2 > 0))
       throw std::invalid_argument("--g-mps2 must be a positive acceleration in m/s^2");
     if (!options_.columns.empty() && options_.columns.size() != 3)
@@ -547,9 +547,7 @@ class Reader {
         g_seen = true;
       } else {
         if (!is_plausible_sample_rate(v))
-          fail_at(k.line, 0,
-                  "header 'sample_rate_hz': " + k.value +
-                      " Hz is not a sample rate (above 0, at most 1e6 Hz)");
+          fail_at(k.line, 0, "header 'sample_rate_hz': " + implausible_sample_rate_text(k.value));
         header_rate_ = v;
         header_rate_line_ = k.line;
         rate_seen = true;
@@ -1005,10 +1003,9 @@ class Reader {
       const double t = field_number(layout, fields, layout.time) * layout.time_scale;
       // Past this, the difference of two times can overflow and the rate read from the
       // steps become 0 Hz; no recording spans 30 000 years.
-      if (!(std::abs(t) <= kMaxAbsTime_s))
+      if (!is_plausible_time(t))
         fail(layout.time + 1, "column '" + layout.names[static_cast<std::size_t>(layout.time)] +
-                                  "': " + number_text(t) + " s is not a time a recording " +
-                                  "holds (within +-1e12 s)");
+                                  "': " + implausible_time_text(t));
       if (!first && t < previous_t) {
         const std::string name = layout.names[static_cast<std::size_t>(layout.time)];
         if (!layout.time_tentative)
@@ -1396,18 +1393,8 @@ class Reader {
     std::vector<double> steps(t.size() - 1);
     for (std::size_t i = 1; i < t.size(); ++i) steps[i - 1] = t[i] - t[i - 1];
     const double step = median_of(std::move(steps));
-    if (!(step > 0)) {
-      out_.warnings.push_back(out_.source +
-                              ": the median time step is zero; sample rate unknown "
-                              "(pass --rate-hz)");
-      return kNaN;
-    }
-    // Steps of 1e-300 s made a rate of 1e300 Hz, and the static detector's window of that
-    // many samples overflowed its integer.
-    if (!is_plausible_sample_rate(1 / step)) {
-      out_.warnings.push_back(out_.source + ": the median time step is " + number_text(step) +
-                              " s, more than 1e6 samples a second; sample rate unknown (are "
-                              "the times in another unit? pass --rate-hz)");
+    if (const std::string why = unusable_step_text(step); !why.empty()) {
+      out_.warnings.push_back(out_.source + ": " + why + "; sample rate unknown (pass --rate-hz)");
       return kNaN;
     }
     return 1 / step;
@@ -1451,12 +1438,13 @@ RawInput raw_input_of(const Recording& rec) {
     for (int k = 0; k < 3; ++k) out.axis[static_cast<std::size_t>(k)].push_back(s.f_mps2[k]);
     out.block.push_back(s.pos);
   }
+  out.warnings = rec.warnings;
   try {
     out.sample_rate_hz = 1.0 / sample_period_s(rec);
-  } catch (const std::exception&) {
-    // no rate header and no two samples in one position: the rate stays unknown
+  } catch (const std::exception& e) {
+    // No rate header, and no two samples in one position or no step a unit makes.
+    out.warnings.push_back(std::string(e.what()) + "; sample rate unknown");
   }
-  out.warnings = rec.warnings;
   return out;
 }
 

@@ -96,7 +96,7 @@ bool within_column(Column c, double v) {
   switch (c) {
     case kT:
     case kTArrive:
-      return std::abs(v) <= kMaxAbsTime_s;
+      return is_plausible_time(v);
     case kA1Cmd:
     case kA2Cmd:
     case kA1:
@@ -121,14 +121,13 @@ std::string beyond_column_text(Column c, double v) {
   switch (c) {
     case kT:
     case kTArrive:
-      return number_text(v) + " s is not a time a recording holds (within +-1e12 s): a " +
-             "corrupted value?";
+      return implausible_time_text(v);
     case kA1Cmd:
     case kA2Cmd:
     case kA1:
     case kA2:
-      return number_text(v) + " deg is not a stand angle (within +-1e6 deg, 2778 turns): a " +
-             "corrupted value?";
+      return number_text(v) +
+             " deg is not a stand angle (within +-1e6 deg, 2778 turns): a corrupted value?";
     case kTemp:
       return implausible_temperature_text(v);
     default:
@@ -269,6 +268,12 @@ class Parser {
     if (const auto c = find_control_character(line))
       fail(static_cast<int>(c->character),
            "header line contains " + describe(*c) + "; header lines are printable text");
+    // A Latin-1 unit serial would reach the records database and every JSON output as
+    // something else (U+FFFD), or not at all (PostgreSQL refuses the row).
+    if (const auto at = first_non_utf8_byte(line))
+      fail(static_cast<int>(*at + 1), "header line is not UTF-8 text: byte " +
+                                          std::to_string(*at + 1) +
+                                          " is not (save the file as UTF-8)");
     std::string key(trim(body.substr(0, colon)));
     std::string value(trim(body.substr(colon + 1)));
     if (seen_keys_.count(key)) fail(3, "header key '" + key + "' appears twice");
@@ -614,12 +619,12 @@ class Parser {
     } else if (key == "sample_rate_hz") {
       rec_.sample_rate_hz = header_number(key, value);
       if (!is_plausible_sample_rate(rec_.sample_rate_hz))
-        refuse_header(key, value + " Hz is not a sample rate (above 0, at most 1e6 Hz)");
+        refuse_header(key, implausible_sample_rate_text(value));
     } else if (key == "temp_ref_c") {
       rec_.temp_ref_c = header_number(key, value);
       if (!is_plausible_temperature(*rec_.temp_ref_c))
-        refuse_header(
-            key, value + " degC is not a temperature a unit works at (-273.15 ... " + "1000 degC)");
+        refuse_header(key,
+                      value + " degC is not a temperature a unit works at (-273.15 ... 1000 degC)");
     } else if (key == "unit_serial") {
       rec_.unit_serial = value;
     } else if (key == "program") {
@@ -690,12 +695,24 @@ void Recording::set_header(const std::string& key, const std::string& value) {
 bool is_plausible_accelerometer_value(double v) { return std::abs(v) <= kMaxAbsAccelerometerValue; }
 
 std::string implausible_accelerometer_value_text(double v) {
-  return number_text(v) + " is beyond any accelerometer's output (at most 1e12 in counts, g or " +
-         "m/s^2): a corrupted value?";
+  return number_text(v) +
+         " is beyond any accelerometer's output (at most 1e12 in counts, g or m/s^2): a corrupted "
+         "value?";
+}
+
+bool is_plausible_time(double t_s) { return std::abs(t_s) <= kMaxAbsTime_s; }
+
+std::string implausible_time_text(double t_s) {
+  return number_text(t_s) +
+         " s is not a time a recording holds (within +-1e12 s): a corrupted value?";
 }
 
 bool is_plausible_sample_rate(double rate_hz) {
-  return rate_hz > 0 && rate_hz <= kMaxSampleRate_hz * (1 + 1e-6);
+  return rate_hz >= kMinSampleRate_hz && rate_hz <= kMaxSampleRate_hz * (1 + 1e-6);
+}
+
+std::string implausible_sample_rate_text(const std::string& rate_as_written) {
+  return rate_as_written + " Hz is not a sample rate (at least 1e-12, at most 1e6 Hz)";
 }
 
 bool is_plausible_temperature(double temp_c) {
@@ -703,8 +720,8 @@ bool is_plausible_temperature(double temp_c) {
 }
 
 std::string implausible_temperature_text(double temp_c) {
-  return number_text(temp_c) + " degC is not a unit's temperature (-273.15 ... 1000 degC): a " +
-         "corrupted value?";
+  return number_text(temp_c) +
+         " degC is not a unit's temperature (-273.15 ... 1000 degC): a corrupted value?";
 }
 
 std::string implausible_sample_text(const RecordingSample& s) {
@@ -854,6 +871,11 @@ void check_header_entry(const std::string& key, const std::string& value) {
     throw std::invalid_argument("recording header '" + key + "': the value contains " +
                                 describe(*c) +
                                 "; header values must be printable text on one line");
+  for (const std::string* text : {&key, &value})
+    if (const auto at = first_non_utf8_byte(*text))
+      throw std::invalid_argument("recording header '" + key + "': byte " +
+                                  std::to_string(*at + 1) + " of the " +
+                                  (text == &key ? "key" : "value") + " is not UTF-8 text");
 }
 
 }  // namespace

@@ -91,9 +91,17 @@ inline constexpr double kMaxAbsAngle_deg = 1e6;          // 2778 turns
 inline constexpr double kLowestTemperature_c = -273.15;  // absolute zero
 inline constexpr double kHighestTemperature_c = 1000;    // no accelerometer unit works there
 inline constexpr double kMaxSampleRate_hz = 1e6;
-// Above 0 and at most 1e6 Hz, with room for the rounding of a rate read from 1 MHz times
-// written to the microsecond (1000000.0025 Hz).
+inline constexpr double kMinSampleRate_hz = 1 / kMaxAbsTime_s;  // a period of at most 1e12 s
+bool is_plausible_time(double t_s);
+// "1e+13 s is not a time a recording holds (within +-1e12 s): a corrupted value?"
+std::string implausible_time_text(double t_s);
+// At least 1e-12 Hz and at most 1e6 Hz, with room for the rounding of a rate read from 1 MHz
+// times written to the microsecond (1000000.0025 Hz). A period beyond the bound on any time
+// is no period (1e-320 Hz: a period of infinity).
 bool is_plausible_sample_rate(double rate_hz);
+// "1e300 Hz is not a sample rate (at least 1e-12, at most 1e6 Hz)", of the rate as it was
+// written.
+std::string implausible_sample_rate_text(const std::string& rate_as_written);
 bool is_plausible_temperature(double temp_c);
 // What is wrong with such a temperature, in the words of the errors above.
 std::string implausible_temperature_text(double temp_c);

@@ -112,8 +112,8 @@ void RecordingDigester::finish_allan(const Recording& read, RecordingDigest& out
           read.source + ": cannot tell the sample rate (no sample_rate_hz header)";
       return;
     }
-    if (!(*step_s > 0)) {
-      out.allan_unavailable = read.source + ": repeated time stamps (no sample period)";
+    if (const std::string why = unusable_step_text(*step_s); !why.empty()) {
+      out.allan_unavailable = read.source + ": " + why;
       return;
     }
     start_allan(*step_s);

@@ -488,8 +488,8 @@ Recording simulate_run(const SimulationRequest& req) {
   Recording rec;
   rec.source = "simulation";
   rec.set_header("format", std::string(kRecordingFormat));
-  rec.set_header("g_local_mps2", std::to_string(req.truth.g_local_mps2));
-  rec.set_header("settle_s", std::to_string(req.timing.settle_s));
+  rec.set_header("g_local_mps2", round_trip_text(req.truth.g_local_mps2));
+  rec.set_header("settle_s", round_trip_text(req.timing.settle_s));
   rec.set_header("sample_rate_hz", round_trip_text(req.timing.sample_rate_hz));
   rec.set_header("unit_serial", req.unit_serial);
   rec.set_header("program", program.name);
@@ -499,7 +499,7 @@ Recording simulate_run(const SimulationRequest& req) {
     if (!is_plausible_temperature(req.truth.temperature.start_c))
       throw std::runtime_error("the model's temperature.start_c (the recording's temp_ref_c): " +
                                implausible_temperature_text(req.truth.temperature.start_c));
-    rec.set_header("temp_ref_c", std::to_string(req.truth.temperature.start_c));
+    rec.set_header("temp_ref_c", round_trip_text(req.truth.temperature.start_c));
     rec.temp_ref_c = req.truth.temperature.start_c;
   }
   rec.g_local_mps2 = req.truth.g_local_mps2;

@@ -21,6 +21,12 @@ std::optional<ControlCharacter> find_control_character(std::string_view text);
 // "the control character U+000A at character 3", for error messages.
 std::string describe(const ControlCharacter& c);
 
+// The 0-based offset of the first byte where `text` stops being well-formed UTF-8 (a
+// stray continuation byte, a Latin-1 letter, a cut-short, overlong or surrogate sequence,
+// past U+10FFFF), or nothing when all of it is. Text other programs must read as text
+// (JSON, PostgreSQL, a browser) has to be UTF-8; replacing a byte would change a serial.
+std::optional<std::size_t> first_non_utf8_byte(std::string_view text);
+
 // A number as an operator writes it, six significant digits: 122.5, not 122.500000;
 // 7.36e+161.
 std::string number_text(double v);

@@ -3,34 +3,42 @@
 // NonNegativeNumber report a bad value as "not in range 0.000000 to 17976931348623157...",
 // the largest double written out in 309 digits.
 #include <CLI/CLI.hpp>
+#include <cmath>
+#include <optional>
 #include <string>
 
 namespace standcal::cli_checks {
 
-inline CLI::Validator lower_bound(double bound, bool inclusive) {
-  const std::string wanted = std::string(inclusive ? ">= " : "> ") + CLI::detail::to_string(bound);
+// A bound as an operator reads it: a whole number in full (1000000, not 1e+06), else
+// CLI11's shortest form (1e-12).
+inline std::string bound_text(double bound) {
+  if (bound == static_cast<double>(static_cast<long long>(bound)) && std::abs(bound) < 1e15)
+    return std::to_string(static_cast<long long>(bound));
+  return CLI::detail::to_string(bound);
+}
+
+// A number above `lower` (or at least it, `inclusive`) and, where given, at most `upper`;
+// the message says which ("must be > 0 and <= 1000000 (got 2e6)").
+inline CLI::Validator number_within(double lower, bool inclusive,
+                                    std::optional<double> upper = std::nullopt) {
+  std::string wanted = std::string(inclusive ? ">= " : "> ") + bound_text(lower);
+  if (upper) wanted += " and <= " + bound_text(*upper);
   return CLI::Validator(
-      [bound, inclusive, wanted](std::string& text) -> std::string {
+      [lower, inclusive, upper, wanted](std::string& text) -> std::string {
         double value = 0;
         if (!CLI::detail::lexical_cast(text, value)) return "'" + text + "' is not a number";
-        const bool ok = inclusive ? value >= bound : value > bound;
+        const bool above = inclusive ? value >= lower : value > lower;
+        const bool ok = above && (!upper || value <= *upper);
         return ok ? std::string() : "must be " + wanted + " (got " + text + ")";
       },
       "NUMBER " + wanted);
 }
 
-// A number above 0 and at most `upper` (a whole number, said in full: 1000000, not 1e+06).
-inline CLI::Validator positive_at_most(double upper) {
-  const std::string wanted = "> 0 and <= " + std::to_string(static_cast<long long>(upper));
-  return CLI::Validator(
-      [upper, wanted](std::string& text) -> std::string {
-        double value = 0;
-        if (!CLI::detail::lexical_cast(text, value)) return "'" + text + "' is not a number";
-        return value > 0 && value <= upper ? std::string()
-                                           : "must be " + wanted + " (got " + text + ")";
-      },
-      "NUMBER " + wanted);
+inline CLI::Validator lower_bound(double bound, bool inclusive) {
+  return number_within(bound, inclusive);
 }
+
+inline CLI::Validator positive_at_most(double upper) { return number_within(0, false, upper); }
 
 inline const CLI::Validator kPositive = lower_bound(0, false);
 inline const CLI::Validator kNonNegative = lower_bound(0, true);

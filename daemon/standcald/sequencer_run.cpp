@@ -7,6 +7,7 @@
 #include "calib/averaging.hpp"
 #include "calib/json_text.hpp"
 #include "calib/recording.hpp"
+#include "calib/text.hpp"
 #include "calib/utc_time.hpp"
 #include "daemon/standcald/dwell.hpp"
 #include "daemon/standcald/run_result.hpp"
@@ -276,9 +277,10 @@ void Sequencer::run_loop(RunRecord record, const std::function<void()>& started)
                            read_axis(StandAxis::inner).angle_deg};
           if (fresh) {
             Recording header;
-            header.set_header("g_local_mps2", number_text(record.g_local_mps2));
-            header.set_header("settle_s", number_text(record.settle_s));
-            header.set_header("sample_rate_hz", number_text(config_.sample_rate_hz));
+            // Exactly: the recording is what every later fit of the run reads g from.
+            header.set_header("g_local_mps2", round_trip_text(record.g_local_mps2));
+            header.set_header("settle_s", round_trip_text(record.settle_s));
+            header.set_header("sample_rate_hz", round_trip_text(config_.sample_rate_hz));
             header.set_header("unit_serial", record.unit_serial);
             if (!record.unit_type.empty()) header.set_header("unit_type", record.unit_type);
             header.set_header("program", record.program_name);

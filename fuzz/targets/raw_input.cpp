@@ -76,7 +76,7 @@ void check_read(const standcal::RawInput& in) {
   }
   // NaN: no rate known (one sample and no header or --rate-hz), which the detector refuses.
   require(std::isnan(in.sample_rate_hz) || is_plausible_sample_rate(in.sample_rate_hz),
-          "raw_input: a sample rate outside (0, 1e6] Hz");
+          "raw_input: a sample rate outside [1e-12, 1e6] Hz");
   for (const StaticMeanRow& row : in.means)
     require(row.mean.cwiseAbs().maxCoeff() <= kMaxAbsAccelerometerValue &&
                 (!row.samples || (*row.samples > 0 && *row.samples <= 1e12)) &&

@@ -99,16 +99,37 @@ std::variant<Request, BadRequest> parse_request(std::string_view line) {
   return r;
 }
 
+namespace {
+
+// Throws naming the first text in `j` (a string, or an object's key) that is not UTF-8, by
+// its path from the parameters ("program/0/name"; the parameter's name at the top).
+void require_utf8_texts(const std::string& method, const json& j, const std::string& path) {
+  const auto refuse = [&](const std::string& where, std::size_t at) {
+    throw std::invalid_argument(method + ": parameter \"" + where + "\" must be UTF-8 text: byte " +
+                                std::to_string(at + 1) + " is not");
+  };
+  if (j.is_string()) {
+    if (const auto at = first_non_utf8_byte(j.get_ref<const std::string&>())) refuse(path, *at);
+  } else if (j.is_object()) {
+    for (const auto& [key, value] : j.items()) {
+      const std::string inner = path.empty() ? key : path + "/" + key;
+      if (const auto at = first_non_utf8_byte(key)) refuse(inner, *at);
+      require_utf8_texts(method, value, inner);
+    }
+  } else if (j.is_array()) {
+    for (std::size_t i = 0; i < j.size(); ++i)
+      require_utf8_texts(method, j[i], path + "/" + std::to_string(i));
+  }
+}
+
+}  // namespace
+
 std::string make_request(const json& id, const std::string& method, const json& params) {
   // Not replaced as the answers' bytes are: a serial or operator name given on the command
   // line in Latin-1 would reach the daemon changed. Refused, naming the parameter (it printed
-  // only nlohmann's "type_error.316 invalid UTF-8 byte").
-  if (params.is_object())
-    for (const auto& [key, value] : params.items())
-      if (value.is_string())
-        if (const auto problem = text_field_problem(value.get_ref<const std::string&>(), SIZE_MAX);
-            problem && problem->rfind("be UTF-8", 0) == 0)
-          throw std::invalid_argument(method + ": parameter \"" + key + "\" must " + *problem);
+  // only nlohmann's "type_error.316 invalid UTF-8 byte"), however deep it lies (a
+  // programme's position names).
+  require_utf8_texts(method, params, "");
   return json{{"jsonrpc", "2.0"}, {"id", id}, {"method", method}, {"params", params}}.dump();
 }
 

@@ -72,6 +72,14 @@ std::optional<std::string> text_field_problem(std::string_view text, std::size_t
   return std::nullopt;
 }
 
+std::optional<std::size_t> first_non_utf8_byte(std::string_view text) {
+  for (std::size_t i = 0; i < text.size();) {
+    const std::size_t at = i;
+    if (!next_code_point(text, i)) return at;
+  }
+  return std::nullopt;
+}
+
 void require_text_field(const std::string& what, std::string_view text, std::size_t max_chars) {
   if (const auto problem = text_field_problem(text, max_chars)) {
     throw RpcError(ErrorCode::invalid_params, what + " must " + *problem);

@@ -17,6 +17,11 @@ namespace standcal::protocol {
 // separators U+2028/U+2029.
 std::optional<std::string> text_field_problem(std::string_view text, std::size_t max_chars);
 
+// The 0-based offset of the first byte of `text` that is not part of a UTF-8 character, or
+// nothing when all of it is UTF-8. (calib/text.hpp has its own for the file formats: this
+// room depends on nlohmann-json alone.)
+std::optional<std::size_t> first_non_utf8_byte(std::string_view text);
+
 // Throws RpcError(invalid_params) "WHAT must be …" when text_field_problem finds one;
 // `what` names the method and the field ("run.start: parameter \"unit_serial\"").
 void require_text_field(const std::string& what, std::string_view text, std::size_t max_chars);

@@ -9,6 +9,7 @@
 
 #include "calib/json_text.hpp"
 #include "calib/parameters.hpp"
+#include "calib/text.hpp"
 #include "calib/utc_time.hpp"
 #include "records/db/sql_session.hpp"
 
@@ -326,7 +327,27 @@ class SqlRecordsDb final : public RecordsDb {
       throw std::runtime_error("calibration " + r.run_id + " has no unit serial");
     if (r.started_utc.empty())
       throw std::runtime_error("calibration " + r.run_id + " has no start time");
+    require_utf8_text(r);
     return r;
+  }
+
+  // The database keeps text: PostgreSQL refuses a byte that is not UTF-8 ("invalid byte
+  // sequence for encoding UTF8") and SQLite would keep it for every JSON output to print as
+  // U+FFFD, so that a serial copied from `records --json` finds nothing. Refused, named.
+  static void require_utf8_text(const CalibrationRecord& r) {
+    const std::pair<const char*, const std::string*> fields[] = {
+        {"run id", &r.run_id},           {"unit serial", &r.unit_serial},
+        {"unit type", &r.unit_type},     {"stand id", &r.stand_id},
+        {"programme", &r.program_name},  {"operator", &r.operator_name},
+        {"config hash", &r.config_hash}, {"software version", &r.software_version},
+        {"g source", &r.g_source},       {"recording path", &r.recording_path},
+        {"method", &r.method},           {"origin", &r.origin}};
+    for (const auto& [what, text] : fields)
+      if (const auto at = first_non_utf8_byte(*text))
+        throw std::runtime_error("calibration of unit " + json_text(r.unit_serial, -1) + ": its " +
+                                 what + " " + json_text(*text, -1) + " is not UTF-8 text (byte " +
+                                 std::to_string(*at + 1) +
+                                 "); the records database keeps UTF-8 text only");
   }
 
   // Reads and writes assume the newest schema: an older database is migrated first.

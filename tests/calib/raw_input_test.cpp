@@ -177,22 +177,39 @@ TEST(RawInputErrors, ARateNoRecordingHoldsNamesWhereItWasGiven) {
       input_error_of("# format: standcal-recording/1\n# sample_rate_hz: 1e300\n" + rows);
   EXPECT_TRUE(contains(fast,
                        "in.csv:2: header 'sample_rate_hz': 1e300 Hz is not a sample rate "
-                       "(above 0, at most 1e6 Hz)"))
+                       "(at least 1e-12, at most 1e6 Hz)"))
       << fast;
   const std::string untimed = "ax,ay,az\n0.01,0.02,0.98\n0.01,0.02,0.99\n0.01,0.02,0.97\n";
-  const std::string slow = input_error_of("# sample_rate_hz: 1e-300\n" + untimed);
+  const std::string slow = input_error_of("# sample_rate_hz: 1.5e-12\n" + untimed);
   EXPECT_TRUE(contains(slow,
-                       "in.csv:1: header 'sample_rate_hz': 1e-300 Hz gives the last of 3 "
-                       "rows the time 2e+300 s, beyond 1e12 s"))
+                       "in.csv:1: header 'sample_rate_hz': 1.5e-12 Hz gives the last of 3 "
+                       "rows the time 1.33333e+12 s, beyond 1e12 s"))
       << slow;
   InputOptions options;
-  options.rate_hz = 1e-300;
+  options.rate_hz = 1.5e-12;
   try {
     parse_input(untimed, "in.csv", options);
-    ADD_FAILURE() << "--rate-hz 1e-300 was taken";
+    ADD_FAILURE() << "--rate-hz 1.5e-12 was taken";
   } catch (const std::invalid_argument& e) {
-    EXPECT_TRUE(contains(e.what(), "--rate-hz: 1e-300 Hz gives the last of 3 rows the time"))
+    EXPECT_TRUE(contains(e.what(), "--rate-hz: 1.5e-12 Hz gives the last of 3 rows the time"))
         << e.what();
+  }
+  // Slower than one sample in 1e12 s is no rate, with or without a time column: a rate of
+  // 1e-320 Hz gave a sample period of infinity (a subnormal's reciprocal).
+  const std::string timed = "t,ax,ay,az\n0,0.01,0.02,0.98\n1,0.01,0.02,0.99\n";
+  for (const std::string& body : {untimed, timed}) {
+    const std::string tiny = input_error_of("# sample_rate_hz: 1e-320\n" + body);
+    EXPECT_TRUE(contains(tiny,
+                         "in.csv:1: header 'sample_rate_hz': 1e-320 Hz is not a sample rate (at "
+                         "least 1e-12, at most 1e6 Hz)"))
+        << tiny;
+    options.rate_hz = 1e-300;
+    try {
+      parse_input(body, "in.csv", options);
+      ADD_FAILURE() << "--rate-hz 1e-300 was taken";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_TRUE(contains(e.what(), "--rate-hz: 1e-300 Hz is not a sample rate")) << e.what();
+    }
   }
   options.rate_hz = 2e6;
   EXPECT_THROW(parse_input(untimed, "in.csv", options), std::invalid_argument);
@@ -211,8 +228,9 @@ TEST(RawInputErrors, TimeStepsFasterThanAnyUnitLeaveTheRateUnknown) {
   EXPECT_TRUE(std::isnan(in.sample_rate_hz)) << in.sample_rate_hz;
   ASSERT_FALSE(in.warnings.empty());
   EXPECT_TRUE(contains(in.warnings.back(),
-                       "tiny.csv: the median time step is 1e-300 s, more "
-                       "than 1e6 samples a second; sample rate unknown"))
+                       "tiny.csv: the median time step is 1e-300 s, more than 1e6 samples a "
+                       "second: no sample period (are the times in another unit?); sample rate "
+                       "unknown"))
       << in.warnings.back();
   // 1 MHz itself, its times written to the microsecond: a rate (1000000.0025 Hz from the steps).
   std::string mhz = "t_us,ax,ay,az\n";

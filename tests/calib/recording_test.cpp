@@ -215,11 +215,15 @@ TEST(RecordingErrors, AHeaderNumberNoRunHoldsNamesItsLine) {
     return "# format: standcal-recording/1\n" + line + "\n" + kColumns + kRow0;
   };
   EXPECT_NE(error_of(with_header("# sample_rate_hz: 1e300"))
-                .find("rec.csv:2: header 'sample_rate_hz': 1e300 Hz is not a sample rate (above "
-                      "0, at most 1e6 Hz)"),
+                .find("rec.csv:2: header 'sample_rate_hz': 1e300 Hz is not a sample rate (at "
+                      "least 1e-12, at most 1e6 Hz)"),
             std::string::npos);
   EXPECT_NE(error_of(with_header("# sample_rate_hz: 0")).find("header 'sample_rate_hz': 0 Hz"),
             std::string::npos);
+  EXPECT_NE(error_of(with_header("# sample_rate_hz: 1e-320"))
+                .find("header 'sample_rate_hz': 1e-320 Hz is not a sample rate"),
+            std::string::npos);  // a period of infinity
+  EXPECT_EQ(error_of(with_header("# sample_rate_hz: 1e-12")), "");
   EXPECT_NE(error_of(with_header("# settle_s: -1"))
                 .find("rec.csv:2: header 'settle_s': -1 s is not a settling time (0 ... 1e12 s)"),
             std::string::npos);
@@ -229,6 +233,29 @@ TEST(RecordingErrors, AHeaderNumberNoRunHoldsNamesItsLine) {
             std::string::npos);
   EXPECT_EQ(error_of(with_header("# sample_rate_hz: 1000000")), "");
   EXPECT_EQ(error_of(with_header("# settle_s: 0")), "");
+}
+
+// A header in Latin-1 (a serial typed on an old bench PC): `standcal import` stored the
+// serial's raw bytes, which every JSON output then printed as U+FFFD (so a serial copied
+// from `records --json` found nothing in `history`) and PostgreSQL refused.
+TEST(RecordingErrors, AHeaderThatIsNotUtf8NamesItsLineAndByte) {
+  const auto with_header = [](const std::string& line) {
+    return "# format: standcal-recording/1\n" + line + "\n" + kColumns + kRow0;
+  };
+  EXPECT_NE(error_of(with_header("# unit_serial: M\xFC"
+                                 "ller-7"))
+                .find("rec.csv:2: column 17: header line is not UTF-8 text: byte 17 is not (save "
+                      "the file as UTF-8)"),
+            std::string::npos);
+  EXPECT_NE(error_of(with_header("# program: p\xC3")).find("rec.csv:2: column 13: header line"),
+            std::string::npos);  // cut short
+  EXPECT_NE(error_of(with_header("# program: \xED\xA0\x80")).find("column 12"),
+            std::string::npos);  // a surrogate
+  EXPECT_NE(error_of(with_header("# program: \xC0\xAF")).find("column 12"),
+            std::string::npos);  // overlong '/'
+  EXPECT_NE(error_of(with_header("# program: \xF4\x90\x80\x80")).find("column 12"),
+            std::string::npos);  // past U+10FFFF
+  EXPECT_EQ(error_of(with_header("# unit_serial: M\xC3\xBCller-7 \xF0\x9F\x94\xA7")), "");
 }
 
 // The simulator writes only what the reader reads: a model whose temperature profile starts
@@ -402,6 +429,8 @@ TEST(RecordingWriter, RefusesControlCharactersInTheHeaderNamingTheKey) {
   EXPECT_NE(error_of_header("bad\nkey", "v").find("key"), std::string::npos);
   EXPECT_NE(error_of_header("a: b", "v").find("':'"), std::string::npos);
   EXPECT_EQ(error_of_header("unit_type", "QA-7 \xC3\xA9"), "");  // printable UTF-8 is fine
+  EXPECT_EQ(error_of_header("unit_serial", "M\xFCller"),
+            "recording header 'unit_serial': byte 2 of the value is not UTF-8 text");
 }
 
 namespace {

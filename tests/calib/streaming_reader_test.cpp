@@ -24,6 +24,7 @@
 #include "calib/averaging.hpp"
 #include "calib/decimal.hpp"
 #include "calib/line_source.hpp"
+#include "calib/raw_input.hpp"
 #include "calib/recording_digest.hpp"
 #include "calib/simulator.hpp"
 #include "tests/support/command.hpp"
@@ -247,6 +248,48 @@ TEST_F(StreamingReader, TheDigestIsWhatTheWholeRecordingGives) {
       for (std::size_t i = 0; i < expected.curves[a].size(); ++i)
         EXPECT_DOUBLE_EQ(digest.allan->curves[a][i].deviation, expected.curves[a][i].deviation);
     }
+  }
+}
+
+// A stand recording without a rate header whose times are 1e-300 s apart (or all equal):
+// the Allan curves of `noise`, `fit` and `diagnose` took a sample period of 1e-300 s (0 s)
+// from the median step, without a word. No unit samples faster than 1e6 a second: the
+// period is refused, the same words in the whole reader, the digest and other tools' reader.
+TEST_F(StreamingReader, TimeStepsNoUnitMakesGiveNoSamplePeriod) {
+  const std::string written = (dir_ / "run.csv").string();
+  write_recording(small_run(false), written);
+  std::ifstream in(written);
+  for (const bool tiny : {true, false}) {  // steps of 1e-300 s, or every time 5 s
+    SCOPED_TRACE(tiny ? "1e-300 s apart" : "all at 5 s");
+    std::string text, line;
+    bool rows = false;
+    int k = 0;
+    in.clear();
+    in.seekg(0);
+    while (std::getline(in, line)) {
+      if (rows) line = (tiny ? std::to_string(++k) + "e-300" : "5") + line.substr(line.find(','));
+      rows = rows || line.rfind("t_s,", 0) == 0;
+      text += line + "\n";
+    }
+    const std::string path = write("tiny_steps.csv", text);
+    const std::string why = tiny
+                                ? "the median time step is 1e-300 s, more than 1e6 samples a second"
+                                : "the median time step is zero: repeated time stamps";
+    try {
+      (void)dwell_allan(read_recording(path));
+      ADD_FAILURE() << "an Allan curve with a sample period of " << (tiny ? "1e-300" : "0") << " s";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find("tiny_steps.csv: " + why), std::string::npos)
+          << e.what();
+    }
+    const RecordingDigest digest = digest_recording(path);
+    EXPECT_FALSE(digest.allan);
+    EXPECT_NE(digest.allan_unavailable.find("tiny_steps.csv: " + why), std::string::npos)
+        << digest.allan_unavailable;
+    const RawInput raw = read_input(path);
+    EXPECT_TRUE(std::isnan(raw.sample_rate_hz)) << raw.sample_rate_hz;
+    ASSERT_FALSE(raw.warnings.empty());
+    EXPECT_NE(raw.warnings.back().find(why), std::string::npos) << raw.warnings.back();
   }
 }
 

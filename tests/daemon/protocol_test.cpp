@@ -137,6 +137,22 @@ TEST(JsonRpc, ARequestParameterThatIsNotUtf8IsRefusedByName) {
   }
   EXPECT_NE(make_request(1, "run.start", {{"unit_serial", "SN-\u00d6"}}).find("SN-\u00d6"),
             std::string::npos);
+  // Inside a parameter too: it printed only "type_error.316".
+  const json positions = json::array({{{"alpha1_deg", 0}}, {{"alpha1_deg", 90}, {"name", "\xd6"}}});
+  try {
+    (void)make_request(1, "run.start", {{"program", positions}});
+    ADD_FAILURE() << "a Latin-1 position name was sent";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "run.start: parameter \"program/1/name\" must be UTF-8 text: byte 1 is not");
+  }
+  try {
+    (void)make_request(1, "run.start", {{"options", {{"k\xd6", 1}}}});
+    ADD_FAILURE() << "a Latin-1 key was sent";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "run.start: parameter \"options/k\xd6\" must be UTF-8 text: byte 2 is not");
+  }
 }
 
 TEST(LineBuffer, JoinsPiecesIntoLines) {

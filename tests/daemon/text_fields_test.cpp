@@ -4,6 +4,8 @@
 // refused at the protocol boundary, naming the field, and no run is created.
 #include <gtest/gtest.h>
 
+#include <fstream>
+
 #include "calib/recording.hpp"
 #include "daemon_process.hpp"
 
@@ -86,4 +88,30 @@ TEST(DaemonTextFields, LengthsAreCountedInCharactersNotBytes) {
   const RpcError c1 = refusal_of(c, "run.start", paper9_start("AU-\xC2\x85-1"));
   EXPECT_EQ(c1.code(), -32602);
   EXPECT_NE(std::string(c1.what()).find("U+0085"), std::string::npos) << c1.what();
+}
+
+// The recording header keeps the run's numbers exactly: standcald wrote them to ten
+// significant digits, so a g of 9.8162538712345 m/s^2 (as a gravimeter survey plus a tidal
+// correction gives it) reached the recording, and every later fit of it (`standcal fit`,
+// `import`), as 9.816253871: not the g the daemon's own fit used.
+TEST(DaemonTextFields, TheRecordingHeaderKeepsTheRunsNumbersExactly) {
+  TempDir dir;
+  const std::string config = dir.path() + "/standcald.json";
+  std::ofstream(config) << json{{"socket", {{"path", socket_of(dir)}}},
+                                {"state_dir", dir.path() + "/state"},
+                                {"unit", {{"sample_rate_hz", 100.00000012345}}},
+                                {"run", {{"g_local_mps2", 9.8162538712345}}}}
+                               .dump();
+  DaemonProcess daemon(dir.path(), {"--config", config, "--sim", "--time-scale", "300"});
+  daemon.wait_ready(socket_of(dir));
+  Client c(socket_of(dir));
+  json params = paper9_start("AU-0042");
+  params["program"] = json::array({{{"alpha1_deg", 0}, {"alpha2_deg", 0}}});
+  params["settle_s"] = 0.12345678912345;
+  const std::string run_id = c.call("run.start", params)["run_id"];
+  const Recording rec = read_recording(wait_run(c, run_id, finished)["recording_path"]);
+  EXPECT_EQ(rec.g_local_mps2, 9.8162538712345);
+  EXPECT_EQ(rec.header_value("g_local_mps2"), "9.8162538712345");
+  EXPECT_EQ(rec.settle_s, 0.12345678912345);
+  EXPECT_EQ(rec.sample_rate_hz, 100.00000012345);
 }

@@ -44,13 +44,16 @@ TEST(ExitCodes, ARangeErrorSaysTheBoundReadably) {
   EXPECT_NE(r.output.find("--rate-hz: 'abc' is not a number"), std::string::npos) << r.output;
   EXPECT_LT(r.output.size(), 200u) << r.output;
   const CommandOutcome negative = standcal_cli("simulate --program paper9 -o x.csv --rate-hz -5");
-  EXPECT_NE(negative.output.find("must be > 0 and <= 1000000 (got -5)"), std::string::npos)
+  EXPECT_NE(negative.output.find("must be >= 1e-12 and <= 1000000 (got -5)"), std::string::npos)
       << negative.output;
   // Past the recording format's largest rate (a recording the readers would refuse).
   const CommandOutcome fast = standcal_cli("simulate --program paper9 -o x.csv --rate-hz 1e7");
   EXPECT_EQ(fast.exit_code, code(ExitCode::usage_error));
-  EXPECT_NE(fast.output.find("--rate-hz: must be > 0 and <= 1000000 (got 1e7)"), std::string::npos)
+  EXPECT_NE(fast.output.find("--rate-hz: must be >= 1e-12 and <= 1000000 (got 1e7)"),
+            std::string::npos)
       << fast.output;
+  const CommandOutcome dwell = standcal_cli("simulate --program paper9 -o x.csv --dwell-s 0");
+  EXPECT_NE(dwell.output.find("--dwell-s: must be > 0 and <= "), std::string::npos) << dwell.output;
 }
 
 TEST(ExitCodes, ARuntimeErrorIsOne) {

@@ -140,6 +140,31 @@ TEST_P(RecordsDbTest, ARecordRoundTripsWithEveryField) {
   EXPECT_FALSE(db->get("no-such-run").has_value());
 }
 
+// Text that is not UTF-8 (`standcal import --operator` typed in Latin-1, a recording's file
+// name): PostgreSQL refused the row with "invalid byte sequence for encoding UTF8", SQLite
+// kept bytes every JSON output shows as U+FFFD. Refused on both, naming the field.
+TEST_P(RecordsDbTest, TextThatIsNotUtf8IsRefusedNamingTheField) {
+  auto db = open_and_migrate(url_);
+  CalibrationRecord r = sample_record("run-1", "AU-1", "2026-11-01T08:00:00Z");
+  r.operator_name = "J. M\xFCller";
+  try {
+    db->insert(r);
+    ADD_FAILURE() << "a Latin-1 operator name was stored";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("calibration of unit \"AU-1\": its operator \"J. "
+                                         "M\xEF\xBF\xBDller\" is not UTF-8 text (byte 5)"),
+              std::string::npos)
+        << e.what();
+  }
+  r.operator_name = "J. M\xC3\xBCller";
+  r.recording_path = "/data/\xD6l.csv";
+  EXPECT_THROW(db->upsert(r), std::runtime_error);
+  EXPECT_TRUE(db->list({}).empty());
+  r.recording_path = "/data/\xC3\x96l.csv";
+  EXPECT_TRUE(db->insert(r));
+  EXPECT_EQ(db->get("run-1")->operator_name, "J. M\xC3\xBCller");
+}
+
 TEST_P(RecordsDbTest, InsertKeepsTheFirstAndUpsertReplaces) {
   auto db = open_and_migrate(url_);
   CalibrationRecord r = sample_record("run-1", "AU-1", "2026-11-01T08:00:00Z");

@@ -193,7 +193,7 @@ void add_calibrate_commands(CLI::App& app) {
       ->check(CLI::Range(0.0, kMaxSettle_s));
   sim->add_option("--rate-hz", sim_opts->timing.sample_rate_hz)
       ->capture_default_str()
-      ->check(cli_checks::positive_at_most(kMaxSampleRate_hz));
+      ->check(cli_checks::number_within(kMinSampleRate_hz, true, kMaxSampleRate_hz));
   sim->add_option("--move-rate-deg-s", sim_opts->timing.move_rate_deg_s)
       ->capture_default_str()
       ->check(cli_checks::kPositive);

@@ -33,7 +33,7 @@ void add_input_options(CLI::App* cmd, InputCliOptions& o) {
   cmd->add_option("--columns", o.columns,
                   "the three accelerometer columns, by header name or 1-based index: x,y,z");
   cmd->add_option("--rate-hz", o.rate_hz, "sample rate, where the file has no time column")
-      ->check(cli_checks::positive_at_most(kMaxSampleRate_hz));
+      ->check(cli_checks::number_within(kMinSampleRate_hz, true, kMaxSampleRate_hz));
   cmd->add_option("--skip-lines", o.skip_lines, "preamble lines before the header or first row")
       ->check(cli_checks::kNonNegative);
   cmd->add_option("--units", o.units, "auto | counts | g | mps2")
