@@ -392,6 +392,8 @@ double sample_period_s(const Recording& rec) {
 
 std::string unusable_step_text(double step_s) {
   if (!(step_s > 0)) return "the median time step is zero: repeated time stamps, no sample period";
+  if (step_s > kMaxAbsTime_s)
+    return "the median time step is " + number_text(step_s) + " s, beyond 1e12 s: no sample period";
   if (!is_plausible_sample_rate(1 / step_s))
     return "the median time step is " + number_text(step_s) +
            " s, more than 1e6 samples a second: no sample period (are the times in another "
@@ -464,15 +466,23 @@ Vec3 widening_factor(const SampleCorrelation& correlation, const Vec3& sample_si
   return factor;
 }
 
-std::optional<AllanFinding> allan_finding(const Recording& rec) {
+std::optional<AllanFinding> allan_finding(const Recording& rec, std::string* why_none) {
   try {
     const DwellAllan a = dwell_allan(rec);
     return AllanFinding{a.sample_period_s, a.segments, a.figures, a.sample_correlation};
-  } catch (const std::exception&) {
+  } catch (const std::exception& e) {
     // Too few samples, no rate or repeated time stamps (a zero period): the fit's noise says
     // nothing of Allan rather than refusing the calibration.
+    if (why_none) *why_none = e.what();
     return std::nullopt;
   }
+}
+
+std::string allan_unavailable_warning(std::size_t samples, const std::string& why_none) {
+  if (samples < kMinAllanSamples || why_none.empty()) return "";
+  return why_none +
+         "; the dwells have no Allan curve, so samples correlated within a dwell (a unit's "
+         "output filter) are not allowed for in the means' errors";
 }
 
 }  // namespace standcal

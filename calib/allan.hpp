@@ -235,6 +235,12 @@ struct AllanFinding {
   std::array<NoiseFigures, 3> figures;
   std::optional<SampleCorrelation> sample_correlation;
 };
-std::optional<AllanFinding> allan_finding(const Recording& rec);
+// `why_none`, where given, is set when a recording of kMinAllanSamples or more has no curve
+// (its sample period unknown): a fit then cannot allow for samples correlated within a
+// dwell, which the operator is told (allan_unavailable_warning).
+std::optional<AllanFinding> allan_finding(const Recording& rec, std::string* why_none = nullptr);
+// The warning of a recording long enough for an Allan curve that has none ("" when it has
+// one or is too short for one).
+std::string allan_unavailable_warning(std::size_t samples, const std::string& why_none);
 
 }  // namespace standcal

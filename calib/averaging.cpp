@@ -140,7 +140,9 @@ AveragedRecording average_recording(const Recording& rec) {
   }
   out.push_back(average_dwell(dwell, rec));
   derive_missing_approaches(out);
-  AveragedRecording averaged{std::move(out), allan_finding(rec)};
+  std::string why_no_allan;
+  AveragedRecording averaged{std::move(out), allan_finding(rec, &why_no_allan), ""};
+  averaged.allan_warning = allan_unavailable_warning(rec.samples.size(), why_no_allan);
   if (averaged.allan && averaged.allan->sample_correlation)
     widen_for_sample_correlation(averaged.averages, *averaged.allan->sample_correlation);
   return averaged;

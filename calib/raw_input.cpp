@@ -456,7 +456,7 @@ class Reader {
     if (options_.skip_lines < 0) throw std::invalid_argument("--skip-lines must be 0 or more");
     if (options_.rate_hz && !is_plausible_sample_rate(*options_.rate_hz))
       throw std::invalid_argument("--rate-hz: " +
-                                  implausible_sample_rate_text(number_text(*options_.rate_hz)));
+                                  implausible_sample_rate_text(round_trip_text(*options_.rate_hz)));
     if (options_.g_mps2 && !(std::isfinite(*options_.g_mps2) && *options_.g_mps2 > 0))
       throw std::invalid_argument("--g-mps2 must be a positive acceleration in m/s^2");
     if (!options_.columns.empty() && options_.columns.size() != 3)

@@ -228,6 +228,7 @@ class Parser {
       if (trim(line).empty()) continue;
       const std::optional<std::string_view> header = header_text(line, storage);
       if (!header) return line;
+      require_utf8_header(line);
       parse_header_line(*header);
     }
   }
@@ -257,6 +258,17 @@ class Parser {
     return std::string_view(storage);
   }
 
+  // A Latin-1 unit serial would reach the records database and every JSON output as
+  // something else (U+FFFD), or not at all (PostgreSQL refuses the row). Judged on the line
+  // as in the file, so that the byte named is the file's (a spreadsheet's quotes and
+  // padding are taken off after).
+  void require_utf8_header(std::string_view line_as_written) const {
+    if (const auto at = first_non_utf8_byte(line_as_written))
+      fail(static_cast<int>(*at + 1), "header line is not UTF-8 text: byte " +
+                                          std::to_string(*at + 1) +
+                                          " is not (save the file as UTF-8)");
+  }
+
   void parse_header_line(std::string_view line) {
     std::string_view body = line.substr(1);
     if (body.empty() || body.front() != ' ') fail(1, "header line must look like '# key: value'");
@@ -268,12 +280,6 @@ class Parser {
     if (const auto c = find_control_character(line))
       fail(static_cast<int>(c->character),
            "header line contains " + describe(*c) + "; header lines are printable text");
-    // A Latin-1 unit serial would reach the records database and every JSON output as
-    // something else (U+FFFD), or not at all (PostgreSQL refuses the row).
-    if (const auto at = first_non_utf8_byte(line))
-      fail(static_cast<int>(*at + 1), "header line is not UTF-8 text: byte " +
-                                          std::to_string(*at + 1) +
-                                          " is not (save the file as UTF-8)");
     std::string key(trim(body.substr(0, colon)));
     std::string value(trim(body.substr(colon + 1)));
     if (seen_keys_.count(key)) fail(3, "header key '" + key + "' appears twice");
@@ -565,8 +571,8 @@ class Parser {
     if (!first_row_) {
       const RecordingSample& prev = previous_;
       if (s.t_s < prev.t_s)
-        fail(index_[kT] + 1, "t_s goes backwards (" + std::to_string(s.t_s) + " after " +
-                                 std::to_string(prev.t_s) + "); times must not decrease");
+        fail(index_[kT] + 1, "t_s goes backwards (" + round_trip_text(s.t_s) + " after " +
+                                 round_trip_text(prev.t_s) + "); times must not decrease");
       if (s.pos == prev.pos) {
         if (s.alpha1_cmd_deg != prev.alpha1_cmd_deg || s.alpha2_cmd_deg != prev.alpha2_cmd_deg)
           fail(index_[kA1Cmd] + 1, "commanded angles change inside position " +

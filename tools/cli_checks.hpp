@@ -7,12 +7,14 @@
 #include <optional>
 #include <string>
 
+#include "calib/text.hpp"
+
 namespace standcal::cli_checks {
 
 // A bound as an operator reads it: a whole number in full (1000000, not 1e+06), else
 // CLI11's shortest form (1e-12).
 inline std::string bound_text(double bound) {
-  if (bound == static_cast<double>(static_cast<long long>(bound)) && std::abs(bound) < 1e15)
+  if (std::abs(bound) < 1e15 && bound == static_cast<double>(static_cast<long long>(bound)))
     return std::to_string(static_cast<long long>(bound));
   return CLI::detail::to_string(bound);
 }
@@ -39,6 +41,15 @@ inline CLI::Validator lower_bound(double bound, bool inclusive) {
 }
 
 inline CLI::Validator positive_at_most(double upper) { return number_within(0, false, upper); }
+
+// Text the records database keeps, refused before any work where it is not UTF-8 (a name
+// typed in Latin-1): the database would refuse it only after the fit.
+inline const CLI::Validator kUtf8Text(
+    [](std::string& text) -> std::string {
+      const auto at = first_non_utf8_byte(text);
+      return at ? "must be UTF-8 text: byte " + std::to_string(*at + 1) + " is not" : "";
+    },
+    "TEXT");
 
 inline const CLI::Validator kPositive = lower_bound(0, false);
 inline const CLI::Validator kNonNegative = lower_bound(0, true);

@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "calib/diagnosis/diagnosis.hpp"
+#include "calib/text.hpp"
 #include "calib/units.hpp"
 
 namespace standcal::bench {
@@ -208,13 +209,13 @@ Recording empty_recording(const GeneratorTruth& truth, const GeneratorRun& run,
   Recording rec;
   rec.source = "effect generator";
   rec.set_header("format", std::string(kRecordingFormat));
-  rec.set_header("g_local_mps2", std::to_string(truth.g_local_mps2));
-  rec.set_header("settle_s", std::to_string(run.settle_s));
-  rec.set_header("sample_rate_hz", std::to_string(run.sample_rate_hz));
+  rec.set_header("g_local_mps2", round_trip_text(truth.g_local_mps2));
+  rec.set_header("settle_s", round_trip_text(run.settle_s));
+  rec.set_header("sample_rate_hz", round_trip_text(run.sample_rate_hz));
   rec.set_header("unit_serial", "AU-GEN");
   rec.set_header("program", program.name);
   rec.set_header("generator_seed", std::to_string(seed));
-  rec.set_header("temp_ref_c", std::to_string(truth.chamber.start_c));
+  rec.set_header("temp_ref_c", round_trip_text(truth.chamber.start_c));
   rec.temp_ref_c = truth.chamber.start_c;
   rec.g_local_mps2 = truth.g_local_mps2;
   rec.g_from_header = true;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
+#include "calib/allan.hpp"
 #include "calib/averaging.hpp"
 #include "calib/diagnosis/catalog.hpp"
 #include "calib/report.hpp"
@@ -14,6 +15,16 @@ namespace standcal {
 namespace diagnosis {
 
 namespace {
+
+// The recording's rate: its header, else its time steps (a recording without the header was
+// taken as 100 Hz); 100 Hz only where it has neither.
+double sample_rate_or_assumed_hz(const Recording& rec) {
+  try {
+    return 1 / sample_period_s(rec);
+  } catch (const std::exception&) {
+    return 100.0;
+  }
+}
 
 // A white-noise density (ug/rtHz) from the median dwell sigma, widened where the samples
 // are correlated among themselves (a unit's output filter, calib/averaging.hpp): the density
@@ -27,9 +38,7 @@ double noise_density_ug_rthz(const Recording& rec, const std::vector<PositionAve
   }
   std::nth_element(sig.begin(), sig.begin() + static_cast<std::ptrdiff_t>(sig.size() / 2),
                    sig.end());
-  const double fs =
-      std::isfinite(rec.sample_rate_hz) && rec.sample_rate_hz > 0 ? rec.sample_rate_hz : 100.0;
-  return sig[sig.size() / 2] / kUg / std::sqrt(fs);
+  return sig[sig.size() / 2] / kUg / std::sqrt(sample_rate_or_assumed_hz(rec));
 }
 
 }  // namespace

@@ -102,19 +102,21 @@ std::variant<Request, BadRequest> parse_request(std::string_view line) {
 namespace {
 
 // Throws naming the first text in `j` (a string, or an object's key) that is not UTF-8, by
-// its path from the parameters ("program/0/name"; the parameter's name at the top).
+// its path from the parameters ("program/1/name"; the parameter's name at the top). A key
+// is named by its object's path, not echoed: its bytes are what is wrong.
 void require_utf8_texts(const std::string& method, const json& j, const std::string& path) {
-  const auto refuse = [&](const std::string& where, std::size_t at) {
-    throw std::invalid_argument(method + ": parameter \"" + where + "\" must be UTF-8 text: byte " +
+  const auto refuse = [&](const std::string& what, std::size_t at) {
+    throw std::invalid_argument(method + ": " + what + " must be UTF-8 text: byte " +
                                 std::to_string(at + 1) + " is not");
   };
   if (j.is_string()) {
-    if (const auto at = first_non_utf8_byte(j.get_ref<const std::string&>())) refuse(path, *at);
+    if (const auto at = first_non_utf8_byte(j.get_ref<const std::string&>()))
+      refuse("parameter \"" + path + "\"", *at);
   } else if (j.is_object()) {
     for (const auto& [key, value] : j.items()) {
-      const std::string inner = path.empty() ? key : path + "/" + key;
-      if (const auto at = first_non_utf8_byte(key)) refuse(inner, *at);
-      require_utf8_texts(method, value, inner);
+      if (const auto at = first_non_utf8_byte(key))
+        refuse(path.empty() ? "a parameter's name" : "a key of parameter \"" + path + "\"", *at);
+      require_utf8_texts(method, value, path.empty() ? key : path + "/" + key);
     }
   } else if (j.is_array()) {
     for (std::size_t i = 0; i < j.size(); ++i)

@@ -256,6 +256,35 @@ TEST(RecordingErrors, AHeaderThatIsNotUtf8NamesItsLineAndByte) {
   EXPECT_NE(error_of(with_header("# program: \xF4\x90\x80\x80")).find("column 12"),
             std::string::npos);  // past U+10FFFF
   EXPECT_EQ(error_of(with_header("# unit_serial: M\xC3\xBCller-7 \xF0\x9F\x94\xA7")), "");
+  // A line a spreadsheet quoted and padded: the byte is counted in the line as in the file.
+  EXPECT_NE(error_of(with_header("  \"# unit_serial: M\xFC"
+                                 "ller, 7\",,,,,,"))
+                .find("rec.csv:2: column 20: header line is not UTF-8 text: byte 20 is not"),
+            std::string::npos);
+  // The writer's check (simulate --unit-serial in Latin-1) and the reader's agree.
+  Recording rec;
+  rec.set_header("unit_serial",
+                 "M\xFC"
+                 "ller");
+  EXPECT_THROW((void)format_recording_header(rec), std::invalid_argument);
+}
+
+// The simulator writes its header numbers exactly (std::to_string wrote six decimals: a g
+// of 9.8162538712345 m/s^2 as 9.816254), so a simulated file read back holds its own g.
+TEST(RecordingWriter, TheSimulatorWritesItsHeaderNumbersExactly) {
+  SimulationRequest req;
+  req.program = paper9();
+  req.timing.dwell_s = 0.1;
+  req.timing.settle_s = 0.12345678912345;
+  req.truth.g_local_mps2 = 9.8162538712345;
+  req.truth.temperature.start_c = 23.123456789012;
+  req.truth.extra_physics.push_back({"bias_temperature", "x", 1.0});  // writes temp_ref_c
+  const Recording written = simulate_run(req);
+  const Recording read = parse_recording(format_recording_header(written), "sim.csv");
+  EXPECT_EQ(read.g_local_mps2, 9.8162538712345);
+  EXPECT_EQ(read.settle_s, 0.12345678912345);
+  ASSERT_TRUE(read.temp_ref_c.has_value());
+  EXPECT_EQ(*read.temp_ref_c, 23.123456789012);
 }
 
 // The simulator writes only what the reader reads: a model whose temperature profile starts

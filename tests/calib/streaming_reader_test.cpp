@@ -12,6 +12,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -254,42 +255,61 @@ TEST_F(StreamingReader, TheDigestIsWhatTheWholeRecordingGives) {
 // A stand recording without a rate header whose times are 1e-300 s apart (or all equal):
 // the Allan curves of `noise`, `fit` and `diagnose` took a sample period of 1e-300 s (0 s)
 // from the median step, without a word. No unit samples faster than 1e6 a second: the
-// period is refused, the same words in the whole reader, the digest and other tools' reader.
+// period is refused, the same words in the whole reader, the digest and other tools' reader,
+// and `fit` says what it does without the curve.
 TEST_F(StreamingReader, TimeStepsNoUnitMakesGiveNoSamplePeriod) {
   const std::string written = (dir_ / "run.csv").string();
   write_recording(small_run(false), written);
-  std::ifstream in(written);
-  for (const bool tiny : {true, false}) {  // steps of 1e-300 s, or every time 5 s
-    SCOPED_TRACE(tiny ? "1e-300 s apart" : "all at 5 s");
+  const auto with_times = [&](const std::function<std::string(int)>& time_of) {
+    std::ifstream in(written);
     std::string text, line;
     bool rows = false;
     int k = 0;
-    in.clear();
-    in.seekg(0);
     while (std::getline(in, line)) {
-      if (rows) line = (tiny ? std::to_string(++k) + "e-300" : "5") + line.substr(line.find(','));
+      if (rows) line = time_of(++k) + line.substr(line.find(','));
       rows = rows || line.rfind("t_s,", 0) == 0;
       text += line + "\n";
     }
-    const std::string path = write("tiny_steps.csv", text);
-    const std::string why = tiny
-                                ? "the median time step is 1e-300 s, more than 1e6 samples a second"
-                                : "the median time step is zero: repeated time stamps";
+    return write("steps.csv", text);
+  };
+  const auto apart = [](const char* step) {
+    return [step](int k) { return std::to_string(k) + step; };
+  };
+  struct Case {
+    std::function<std::string(int)> time_of;
+    std::string why;  // "": a sample period
+  };
+  const std::vector<Case> cases{
+      {apart("e-300"), "the median time step is 1e-300 s, more than 1e6 samples a second"},
+      {[](int) { return std::string("5"); }, "the median time step is zero: repeated time stamps"},
+      {apart("e-6"), ""},  // 1 MHz: a rate
+      {apart("e-7"), "the median time step is 1e-07 s, more than 1e6 samples a second"}};
+  for (const Case& c : cases) {
+    const std::string path = with_times(c.time_of);
+    SCOPED_TRACE(c.time_of(1) + " s for the first sample");
+    if (c.why.empty()) {
+      EXPECT_NEAR(dwell_allan(read_recording(path)).sample_period_s, 1e-6, 1e-15);
+      EXPECT_TRUE(digest_recording(path).allan);
+      EXPECT_NEAR(read_input(path).sample_rate_hz, 1e6, 1e-3);
+      continue;
+    }
     try {
       (void)dwell_allan(read_recording(path));
-      ADD_FAILURE() << "an Allan curve with a sample period of " << (tiny ? "1e-300" : "0") << " s";
+      ADD_FAILURE() << "an Allan curve from these steps";
     } catch (const std::runtime_error& e) {
-      EXPECT_NE(std::string(e.what()).find("tiny_steps.csv: " + why), std::string::npos)
-          << e.what();
+      EXPECT_NE(std::string(e.what()).find("steps.csv: " + c.why), std::string::npos) << e.what();
     }
     const RecordingDigest digest = digest_recording(path);
     EXPECT_FALSE(digest.allan);
-    EXPECT_NE(digest.allan_unavailable.find("tiny_steps.csv: " + why), std::string::npos)
+    EXPECT_NE(digest.allan_unavailable.find("steps.csv: " + c.why), std::string::npos)
         << digest.allan_unavailable;
     const RawInput raw = read_input(path);
     EXPECT_TRUE(std::isnan(raw.sample_rate_hz)) << raw.sample_rate_hz;
     ASSERT_FALSE(raw.warnings.empty());
-    EXPECT_NE(raw.warnings.back().find(why), std::string::npos) << raw.warnings.back();
+    EXPECT_NE(raw.warnings.back().find(c.why), std::string::npos) << raw.warnings.back();
+    const test::CommandOutcome fit = test::standcal_cli("fit " + path);
+    EXPECT_NE(fit.output.find("warning: " + path + ": " + c.why), std::string::npos) << fit.output;
+    EXPECT_NE(fit.output.find("the dwells have no Allan curve"), std::string::npos) << fit.output;
   }
 }
 

@@ -7,6 +7,7 @@
 #include "protocol/jsonrpc/jsonrpc.hpp"
 #include "protocol/jsonrpc/line_buffer.hpp"
 #include "protocol/jsonrpc/text.hpp"
+#include "tests/support/utf8_cases.hpp"
 
 using namespace standcal::protocol;
 using nlohmann::json;
@@ -151,8 +152,15 @@ TEST(JsonRpc, ARequestParameterThatIsNotUtf8IsRefusedByName) {
     ADD_FAILURE() << "a Latin-1 key was sent";
   } catch (const std::invalid_argument& e) {
     EXPECT_EQ(std::string(e.what()),
-              "run.start: parameter \"options/k\xd6\" must be UTF-8 text: byte 2 is not");
+              "run.start: a key of parameter \"options\" must be UTF-8 text: byte 2 is not");
   }
+}
+
+// The protocol's own decoder (this room depends on nlohmann-json alone) agrees with the file
+// formats' on every boundary of the standard's table (tests/calib/text_test.cpp).
+TEST(JsonRpc, TheProtocolsUtf8DecoderFollowsTheStandardsTable) {
+  for (const standcal::test::Utf8Case& c : standcal::test::utf8_cases())
+    EXPECT_EQ(first_non_utf8_byte(c.bytes), c.first_bad_byte) << c.what;
 }
 
 TEST(LineBuffer, JoinsPiecesIntoLines) {

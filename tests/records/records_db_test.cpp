@@ -142,27 +142,55 @@ TEST_P(RecordsDbTest, ARecordRoundTripsWithEveryField) {
 
 // Text that is not UTF-8 (`standcal import --operator` typed in Latin-1, a recording's file
 // name): PostgreSQL refused the row with "invalid byte sequence for encoding UTF8", SQLite
-// kept bytes every JSON output shows as U+FFFD. Refused on both, naming the field.
+// kept bytes every JSON output shows as U+FFFD. Refused on both, naming the field, by insert
+// and upsert alike, and nothing is stored.
 TEST_P(RecordsDbTest, TextThatIsNotUtf8IsRefusedNamingTheField) {
   auto db = open_and_migrate(url_);
-  CalibrationRecord r = sample_record("run-1", "AU-1", "2026-11-01T08:00:00Z");
-  r.operator_name = "J. M\xFCller";
-  try {
-    db->insert(r);
-    ADD_FAILURE() << "a Latin-1 operator name was stored";
-  } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("calibration of unit \"AU-1\": its operator \"J. "
-                                         "M\xEF\xBF\xBDller\" is not UTF-8 text (byte 5)"),
-              std::string::npos)
-        << e.what();
+  const std::pair<const char*, std::string CalibrationRecord::*> fields[] = {
+      {"run id", &CalibrationRecord::run_id},
+      {"unit serial", &CalibrationRecord::unit_serial},
+      {"unit type", &CalibrationRecord::unit_type},
+      {"stand id", &CalibrationRecord::stand_id},
+      {"programme", &CalibrationRecord::program_name},
+      {"operator", &CalibrationRecord::operator_name},
+      {"config hash", &CalibrationRecord::config_hash},
+      {"software version", &CalibrationRecord::software_version},
+      {"g source", &CalibrationRecord::g_source},
+      {"recording path", &CalibrationRecord::recording_path},
+      {"method", &CalibrationRecord::method},
+      {"origin", &CalibrationRecord::origin}};
+  for (const auto& [name, field] : fields) {
+    for (const bool upsert : {false, true}) {
+      CalibrationRecord r = sample_record("run-1", "AU-1", "2026-11-01T08:00:00Z");
+      r.*field =
+          "J. M\xFC"
+          "ller";
+      try {
+        if (upsert)
+          db->upsert(r);
+        else
+          db->insert(r);
+        ADD_FAILURE() << "a Latin-1 " << name << " was stored";
+      } catch (const std::runtime_error& e) {
+        EXPECT_NE(std::string(e.what()).find(std::string("its ") + name +
+                                             " \"J. M\xEF\xBF\xBD"
+                                             "ller\" is not UTF-8 text (byte 5); the records "
+                                             "database keeps UTF-8 text only"),
+                  std::string::npos)
+            << e.what();
+      }
+    }
   }
-  r.operator_name = "J. M\xC3\xBCller";
-  r.recording_path = "/data/\xD6l.csv";
-  EXPECT_THROW(db->upsert(r), std::runtime_error);
   EXPECT_TRUE(db->list({}).empty());
+  CalibrationRecord r = sample_record("run-1", "AU-1", "2026-11-01T08:00:00Z");
+  r.operator_name =
+      "J. M\xC3\xBC"
+      "ller";
   r.recording_path = "/data/\xC3\x96l.csv";
   EXPECT_TRUE(db->insert(r));
-  EXPECT_EQ(db->get("run-1")->operator_name, "J. M\xC3\xBCller");
+  EXPECT_EQ(db->get("run-1")->operator_name,
+            "J. M\xC3\xBC"
+            "ller");
 }
 
 TEST_P(RecordsDbTest, InsertKeepsTheFirstAndUpsertReplaces) {

@@ -142,6 +142,8 @@ void run_fit(const FitOptions& o) {
     if (o.input.g_mps2 > 0) options.g_mps2 = o.input.g_mps2;
     RecordingDigest digest = digest_on_two_threads(o.recording, options);
     print_warnings(digest.recording.warnings);
+    if (!digest.allan)
+      print_warnings({allan_unavailable_warning(digest.samples, digest.allan_unavailable)});
     const std::string method = o.method == "auto" ? "joint" : o.method;
     return fit_stand_averages(o, method, digest.recording, std::move(digest.averages),
                               digest.allan_finding());
@@ -165,6 +167,7 @@ void run_fit(const FitOptions& o) {
   Recording rec = *in.recording;
   if (o.input.g_mps2 > 0) rec.use_given_g(o.input.g_mps2);
   AveragedRecording averaged = average_recording(rec);
+  print_warnings({averaged.allan_warning});
   fit_stand_averages(o, method, rec, std::move(averaged.averages), std::move(averaged.allan));
 }
 

@@ -62,7 +62,8 @@ bool streams_as_stand_recording(const InputCliOptions& o, const std::string& pat
 }
 
 void print_warnings(const std::vector<std::string>& warnings) {
-  for (const std::string& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  for (const std::string& w : warnings)
+    if (!w.empty()) std::fprintf(stderr, "warning: %s\n", w.c_str());
 }
 
 void add_noise_options(CLI::App* cmd, NoiseCliOptions& o) {

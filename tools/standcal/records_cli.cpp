@@ -115,6 +115,7 @@ CalibrationRecord import_record(const ImportOptions& o, const std::string& path)
     throw std::runtime_error(path + ": the recording names no unit_serial");
   std::vector<std::string> warnings = rec.warnings;
   AveragedRecording averaged = average_recording(rec);
+  if (!averaged.allan_warning.empty()) warnings.push_back(averaged.allan_warning);
   FitResult fit = fit_by_method(o.method, averaged.averages, fit_noise_options(o.noise));
   fit.noise.allan = std::move(averaged.allan);
   CalibrationRecord r;
@@ -256,15 +257,20 @@ void add_import_command(CLI::App& app) {
   auto* cmd = app.add_subcommand("import",
                                  "re-fit recordings (from before the database, or another bench) "
                                  "and store them in the records database");
+  // A file name the database cannot keep (it stores the path) is refused before the first
+  // file is fitted, not after the earlier files are stored.
   cmd->add_option("recordings", o->recordings, "recordings (standcal-recording/1 CSV)")
       ->required()
-      ->check(CLI::ExistingFile);
+      ->check(cli_checks::kUtf8Text & CLI::ExistingFile);
   add_db_option(cmd, o->db);
-  cmd->add_option("--unit-type", o->unit_type, "the units' type (limits are per type)");
+  cmd->add_option("--unit-type", o->unit_type, "the units' type (limits are per type)")
+      ->check(cli_checks::kUtf8Text);
   cmd->add_option("--stand-id", o->stand_id,
-                  "the stand that recorded them (default: the recording's stand_id)");
+                  "the stand that recorded them (default: the recording's stand_id)")
+      ->check(cli_checks::kUtf8Text);
   cmd->add_option("--operator", o->operator_name,
-                  "who ran them (default: the recording's operator)");
+                  "who ran them (default: the recording's operator)")
+      ->check(cli_checks::kUtf8Text);
   cmd->add_option("--started", o->started_utc,
                   "when they ran, UTC (default: the recording's started_utc, else the file time)");
   cmd->add_option("--method", o->method, "joint | paper-sequential | full")->capture_default_str();
@@ -310,7 +316,7 @@ void add_history_command(CLI::App& app) {
   auto plot = std::make_shared<std::string>();
   auto* cmd = app.add_subcommand(
       "history", "every calibration of one unit, each parameter over time, ageing flagged");
-  cmd->add_option("serial", *serial, "unit serial")->required();
+  cmd->add_option("serial", *serial, "unit serial")->required()->check(cli_checks::kUtf8Text);
   add_db_option(cmd, *db);
   cmd->add_option("--k", *k, "flag a change beyond k combined σ")
       ->capture_default_str()
@@ -343,8 +349,10 @@ void add_records_command(CLI::App& app) {
   cmd->add_option("--since", f->since_utc,
                   "from this date or UTC time (2026-11-01, 2026-11-01T08:00:00Z)");
   cmd->add_option("--until", f->until_utc, "up to this date (whole day) or UTC time");
-  cmd->add_option("--unit-serial,--serial", f->unit_serial, "only this unit");
-  cmd->add_option("--unit-type", f->unit_type, "only this unit type");
+  // The database holds UTF-8 text only (PostgreSQL refused such a filter with its own error).
+  cmd->add_option("--unit-serial,--serial", f->unit_serial, "only this unit")
+      ->check(cli_checks::kUtf8Text);
+  cmd->add_option("--unit-type", f->unit_type, "only this unit type")->check(cli_checks::kUtf8Text);
   cmd->add_option("--verdict", f->verdict, "pass, indeterminate, fail or none (not assessed)")
       ->check(CLI::IsMember({"pass", "indeterminate", "fail", "none"}));
   cmd->add_option("--limit", f->limit, "at most this many")->check(cli_checks::kNonNegative);
