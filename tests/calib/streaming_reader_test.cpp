@@ -307,9 +307,15 @@ TEST_F(StreamingReader, TimeStepsNoUnitMakesGiveNoSamplePeriod) {
     EXPECT_TRUE(std::isnan(raw.sample_rate_hz)) << raw.sample_rate_hz;
     ASSERT_FALSE(raw.warnings.empty());
     EXPECT_NE(raw.warnings.back().find(c.why), std::string::npos) << raw.warnings.back();
-    const test::CommandOutcome fit = test::standcal_cli("fit " + path);
-    EXPECT_NE(fit.output.find("warning: " + path + ": " + c.why), std::string::npos) << fit.output;
-    EXPECT_NE(fit.output.find("the dwells have no Allan curve"), std::string::npos) << fit.output;
+    const std::string db = "sqlite://" + (dir_ / "lab.sqlite").string();
+    for (const std::string& command :
+         {"fit " + path, "diagnose " + path, "import " + path + " --db " + db}) {
+      const test::CommandOutcome said = test::standcal_cli(command);
+      EXPECT_NE(said.output.find(path + ": " + c.why), std::string::npos)
+          << command << ": " << said.output;
+      EXPECT_NE(said.output.find("the dwells have no Allan curve"), std::string::npos)
+          << command << ": " << said.output;
+    }
   }
 }
 
