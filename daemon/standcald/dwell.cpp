@@ -6,11 +6,10 @@
 #include <cmath>
 #include <limits>
 
+#include "calib/text.hpp"
 #include "daemon/standcald/sequencer_detail.hpp"
 
 namespace standcal::daemon {
-
-using detail::number_text;
 
 std::string axis_name(int axis) { return axis == 0 ? "x" : axis == 1 ? "y" : "z"; }
 

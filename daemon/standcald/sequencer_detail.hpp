@@ -4,7 +4,6 @@
 // the one mapping from a driver's error to the protocol error the operator sees, and the
 // names the three files use. Not for use outside daemon/standcald.
 #include <chrono>
-#include <sstream>
 #include <string>
 #include <utility>
 
@@ -66,14 +65,6 @@ T check_wait(drivers::Result<T> r) {
                              r.status().message);
   }
   return std::move(r.value());
-}
-
-// A number in a message or a recording header: up to ten significant digits.
-inline std::string number_text(double v) {
-  std::ostringstream s;
-  s.precision(10);
-  s << v;
-  return s.str();
 }
 
 }  // namespace standcal::daemon::detail
