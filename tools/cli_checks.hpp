@@ -49,7 +49,7 @@ inline const CLI::Validator kUtf8Text(
       const auto at = first_non_utf8_byte(text);
       return at ? "must be UTF-8 text: byte " + std::to_string(*at + 1) + " is not" : "";
     },
-    "TEXT");
+    "");  // no word in --help: the option's own type already says TEXT
 
 inline const CLI::Validator kPositive = lower_bound(0, false);
 inline const CLI::Validator kNonNegative = lower_bound(0, true);

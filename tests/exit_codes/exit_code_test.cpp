@@ -56,6 +56,24 @@ TEST(ExitCodes, ARangeErrorSaysTheBoundReadably) {
   EXPECT_NE(dwell.output.find("--dwell-s: must be > 0 and <= "), std::string::npos) << dwell.output;
 }
 
+// A validator's description is appended to the option's type in --help: the UTF-8 check of
+// import's text options had it read "--operator TEXT:TEXT", the recordings "TEXT:(TEXT) AND
+// (FILE)".
+TEST(ExitCodes, HelpSaysEachOptionsTypeOnce) {
+  const CommandOutcome help = standcal_cli("import --help");
+  EXPECT_EQ(help.exit_code, 0);
+  EXPECT_EQ(help.output.find("TEXT:TEXT"), std::string::npos) << help.output;
+  EXPECT_EQ(help.output.find("(TEXT)"), std::string::npos) << help.output;
+  EXPECT_NE(help.output.find("--operator TEXT "), std::string::npos) << help.output;
+  // Refused before any file is read (the database would refuse it after the fit).
+  const CommandOutcome latin1 = standcal_cli(std::string("import ") + STANDCAL_CLI_PATH +
+                                             " --operator 'M\xfc"
+                                             "ller'");
+  EXPECT_EQ(latin1.exit_code, code(ExitCode::usage_error)) << latin1.output;
+  EXPECT_NE(latin1.output.find("--operator: must be UTF-8 text: byte 2 is not"), std::string::npos)
+      << latin1.output;
+}
+
 TEST(ExitCodes, ARuntimeErrorIsOne) {
   const CommandOutcome r = standcal_cli("fit /nonexistent/rec.csv");
   EXPECT_EQ(r.exit_code, code(ExitCode::runtime_error)) << r.output;
