@@ -29,9 +29,11 @@ std::string position_label(const std::string& source, std::size_t index, std::si
 }
 
 void require_at_most(double value, double limit, const char* key, const std::string& where) {
-  if (value > limit)
-    throw ProgramError(where + ": '" + key + "' must be at most " + number_text(limit) +
-                       " s (the run limit), not " + number_text(value));
+  if (value > limit) {
+    const auto [value_text, limit_text] = number_texts_apart(value, limit);
+    throw ProgramError(where + ": '" + key + "' must be at most " + limit_text +
+                       " s (the run limit), not " + value_text);
+  }
 }
 
 double require_number(const nlohmann::json& p, const char* key, const std::string& where) {
@@ -178,21 +180,16 @@ Program normalise_program(const Program& program, const StandLimits& limits) {
     auto& p = out.positions[i];
     const auto a1 = normalise_angle_deg(p.alpha1_deg, limits.alpha1);
     const auto a2 = normalise_angle_deg(p.alpha2_deg, limits.alpha2);
-    const auto range_text = [](const AxisRange& r) {
-      return "[" + number_text(r.min_deg) + ", " + number_text(r.max_deg) + "] deg";
+    // The angle as the programme wrote it: one just past an end reads as past it (90.00001,
+    // not 90, outside [-90, 90]).
+    const auto outside_text = [&](const char* name, double angle_deg, const AxisRange& r,
+                                  const char* axis) {
+      return position_label(program.name, i, n) + ": " + name + " = " + round_trip_text(angle_deg) +
+             " deg has no equivalent angle in the " + axis + " axis range [" +
+             number_text(r.min_deg) + ", " + number_text(r.max_deg) + "] deg";
     };
-    if (!a1)
-      throw ProgramError(position_label(program.name, i, n) +
-                         ": alpha1 = " + number_text(p.alpha1_deg) +
-                         " deg has no equivalent angle in the "
-                         "outer axis range " +
-                         range_text(limits.alpha1));
-    if (!a2)
-      throw ProgramError(position_label(program.name, i, n) +
-                         ": alpha2 = " + number_text(p.alpha2_deg) +
-                         " deg has no equivalent angle in the "
-                         "inner axis range " +
-                         range_text(limits.alpha2));
+    if (!a1) throw ProgramError(outside_text("alpha1", p.alpha1_deg, limits.alpha1, "outer"));
+    if (!a2) throw ProgramError(outside_text("alpha2", p.alpha2_deg, limits.alpha2, "inner"));
     p.alpha1_deg = *a1;
     p.alpha2_deg = *a2;
   }

@@ -29,6 +29,29 @@ constexpr double kMinCountsNorm = 50;        // raw counts are integers at least
 
 bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
 
+// A standcal recording's samples, its units and gravity as raw input; its sample rate is
+// the caller's to decide.
+RawInput samples_of(const Recording& rec) {
+  RawInput out;
+  out.source = rec.source;
+  out.format = InputFormat::standcal;
+  out.units = InputUnits::mps2;
+  out.units_how = "the " + std::string(kRecordingFormat) + " format (m/s^2)";
+  out.g_mps2 = rec.g_local_mps2;
+  out.g_given = rec.g_from_header;
+  const std::size_t n = rec.samples.size();
+  out.t_s.reserve(n);
+  out.block.reserve(n);
+  for (auto& a : out.axis) a.reserve(n);
+  for (const RecordingSample& s : rec.samples) {
+    out.t_s.push_back(s.t_s);
+    for (int k = 0; k < 3; ++k) out.axis[static_cast<std::size_t>(k)].push_back(s.f_mps2[k]);
+    out.block.push_back(s.pos);
+  }
+  out.warnings = rec.warnings;
+  return out;
+}
+
 std::string_view trim(std::string_view s) {
   while (!s.empty() && is_blank(s.front())) s.remove_prefix(1);
   while (!s.empty() && is_blank(s.back())) s.remove_suffix(1);
@@ -632,7 +655,8 @@ class Reader {
   // A recording with its angle columns: parse_recording reads it, the samples are copied.
   void read_full_recording() {
     Recording rec = read_recording_again();
-    RawInput samples = raw_input_of(rec);
+    if (options_.rate_hz) rec.use_given_sample_rate(*options_.rate_hz);
+    RawInput samples = samples_of(rec);
     out_.t_s = std::move(samples.t_s);
     out_.axis = std::move(samples.axis);
     out_.block = std::move(samples.block);
@@ -652,12 +676,8 @@ class Reader {
       out_.g_mps2 = rec.g_local_mps2;
       out_.g_given = rec.g_from_header;
     }
-    if (std::isfinite(rec.sample_rate_hz) && rec.sample_rate_hz > 0)
-      out_.sample_rate_hz = rec.sample_rate_hz;
-    else if (options_.rate_hz)
-      out_.sample_rate_hz = *options_.rate_hz;
-    else
-      out_.sample_rate_hz = rate_from_steps();
+    // The header's rate, else --rate-hz (both in rec now), else the steps'.
+    out_.sample_rate_hz = rec.sample_rate_hz > 0 ? rec.sample_rate_hz : rate_from_steps();
     out_.recording = std::move(rec);
   }
 
@@ -1032,7 +1052,7 @@ class Reader {
       out_.t_s.resize(out_.axis[0].size());
       for (std::size_t i = 0; i < out_.t_s.size(); ++i)
         out_.t_s[i] = static_cast<double>(i) / *rate;
-      if (!out_.t_s.empty() && !(out_.t_s.back() <= kMaxAbsTime_s)) refuse_rate_for_times(*rate);
+      if (!out_.t_s.empty() && !is_plausible_time(out_.t_s.back())) refuse_rate_for_times(*rate);
       times_from_rate_ = true;
     }
   }
@@ -1422,23 +1442,7 @@ class Reader {
 }  // namespace
 
 RawInput raw_input_of(const Recording& rec) {
-  RawInput out;
-  out.source = rec.source;
-  out.format = InputFormat::standcal;
-  out.units = InputUnits::mps2;
-  out.units_how = "the " + std::string(kRecordingFormat) + " format (m/s^2)";
-  out.g_mps2 = rec.g_local_mps2;
-  out.g_given = rec.g_from_header;
-  const std::size_t n = rec.samples.size();
-  out.t_s.reserve(n);
-  out.block.reserve(n);
-  for (auto& a : out.axis) a.reserve(n);
-  for (const RecordingSample& s : rec.samples) {
-    out.t_s.push_back(s.t_s);
-    for (int k = 0; k < 3; ++k) out.axis[static_cast<std::size_t>(k)].push_back(s.f_mps2[k]);
-    out.block.push_back(s.pos);
-  }
-  out.warnings = rec.warnings;
+  RawInput out = input_reader::samples_of(rec);
   try {
     out.sample_rate_hz = 1.0 / sample_period_s(rec);
   } catch (const std::exception& e) {

@@ -226,7 +226,7 @@ class Parser {
     while (true) {
       if (!next_line(line)) fail(0, "no column-header line: the file ends inside its header");
       if (trim(line).empty()) continue;
-      const std::optional<std::string_view> header = header_text(line, storage);
+      const std::optional<HeaderText> header = header_text(line, storage);
       if (!header) return line;
       require_utf8_header(line);
       parse_header_line(*header);
@@ -238,24 +238,36 @@ class Parser {
   // quoted when its value holds a comma ("\"# stand: lab 2, stand A\",,,,,,"). Nothing when
   // the line is not a header line. Padding is told from a value that ends in ',' or ';' by
   // its length: a recording has at least 7 columns, so a spreadsheet adds 6 or more.
-  std::optional<std::string_view> header_text(std::string_view line, std::string& storage) const {
-    line = trim(line);
+  // The text from its '#', and where that text is in the line as written, so that an error
+  // names the file's column.
+  struct HeaderText {
+    std::string_view text;     // unquoted
+    std::string_view written;  // the same in the line as written (its quotes doubled)
+    int column_before = 0;     // the columns before it: blanks, an opening quote
+  };
+  std::optional<HeaderText> header_text(std::string_view as_written, std::string& storage) const {
+    std::string_view line = trim(as_written);
     std::size_t separators = 0;
     while (separators < line.size() &&
            (line[line.size() - 1 - separators] == ',' || line[line.size() - 1 - separators] == ';'))
       ++separators;
     if (separators >= static_cast<std::size_t>(kRequiredColumns - 1))
       line = trim(line.substr(0, line.size() - separators));
-    if (!line.empty() && line.front() == '#') return line;
+    // Blanks and a quote: one byte a column.
+    const auto column_of = [&](std::string_view part) {
+      return static_cast<int>(part.data() - as_written.data());
+    };
+    if (!line.empty() && line.front() == '#') return HeaderText{line, line, column_of(line)};
     if (line.size() < 3 || line.substr(0, 2) != "\"#" || line.back() != '"') return std::nullopt;
     storage.clear();
     for (std::size_t i = 1; i + 1 < line.size(); ++i) {
       if (line[i] == '"' && line[i + 1] != '"')
-        fail(static_cast<int>(i) + 1, "a quote inside a quoted header line");
+        fail(column_of(line) + static_cast<int>(i) + 1, "a quote inside a quoted header line");
       storage += line[i];
       if (line[i] == '"') ++i;  // "" is one quote
     }
-    return std::string_view(storage);
+    const std::string_view written = line.substr(1, line.size() - 2);
+    return HeaderText{storage, written, column_of(written)};
   }
 
   // A Latin-1 unit serial would reach the records database and every JSON output as
@@ -269,20 +281,26 @@ class Parser {
                                           " is not (save the file as UTF-8)");
   }
 
-  void parse_header_line(std::string_view line) {
-    std::string_view body = line.substr(1);
-    if (body.empty() || body.front() != ' ') fail(1, "header line must look like '# key: value'");
+  void parse_header_line(const HeaderText& header) {
+    const int before = header.column_before;
+    std::string_view body = header.text.substr(1);
+    if (body.empty() || body.front() != ' ')
+      fail(before + 1, "header line must look like '# key: value'");
     body = trim(body);
     const std::size_t colon = body.find(':');
     if (colon == std::string_view::npos || colon == 0)
-      fail(2, "header line must look like '# key: value' (no ':' found)");
+      fail(before + 2, "header line must look like '# key: value' (no ':' found)");
     // What the writer refuses, the reader refuses too: every recording read can be written.
-    if (const auto c = find_control_character(line))
+    // Found in the text as written (a quote doubled there is one here, and no control
+    // character), so that its column is the file's.
+    if (auto c = find_control_character(header.written)) {
+      c->character += static_cast<std::size_t>(before);  // one byte a column before it
       fail(static_cast<int>(c->character),
            "header line contains " + describe(*c) + "; header lines are printable text");
+    }
     std::string key(trim(body.substr(0, colon)));
     std::string value(trim(body.substr(colon + 1)));
-    if (seen_keys_.count(key)) fail(3, "header key '" + key + "' appears twice");
+    if (seen_keys_.count(key)) fail(before + 3, "header key '" + key + "' appears twice");
     seen_keys_.insert(key);
     header_lines_[key] = line_no_;
     rec_.header.emplace_back(std::move(key), std::move(value));
@@ -756,6 +774,10 @@ void Recording::use_given_g(double g_mps2) {
   g_local_mps2 = g_mps2;
   g_from_header = true;  // given, not assumed
   std::erase_if(warnings, [](const std::string& w) { return is_assumed_gravity_warning(w); });
+}
+
+void Recording::use_given_sample_rate(double rate_hz) {
+  if (!(sample_rate_hz > 0)) sample_rate_hz = rate_hz;
 }
 
 Recording parse_recording(std::string_view text, const std::string& source) {

@@ -68,6 +68,10 @@ struct Recording {
   // Local gravity the operator gave (--g-mps2): it replaces the header's, and the reader's
   // "g assumed" warning no longer holds.
   void use_given_g(double g_mps2);
+  // The sample rate the operator gave (--rate-hz) for a recording with no sample_rate_hz
+  // header: its Allan curves then need no period from the times' steps. A header's rate
+  // is kept (it was written with the samples).
+  void use_given_sample_rate(double rate_hz);
 };
 
 // The reader's warning that the recording has no g_local_mps2 header.

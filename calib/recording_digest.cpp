@@ -26,6 +26,7 @@ void RecordingDigester::expect_rows(std::size_t rows) { dwell_.reserve(rows + 1)
 void RecordingDigester::header(const Recording& rec) {
   header_ = rec;
   if (options_.g_mps2) header_.use_given_g(*options_.g_mps2);
+  if (options_.sample_rate_hz) header_.use_given_sample_rate(*options_.sample_rate_hz);
   rate_known_ = std::isfinite(header_.sample_rate_hz) && header_.sample_rate_hz > 0;
   if (rate_known_) start_allan(1.0 / header_.sample_rate_hz);
 }
@@ -50,6 +51,7 @@ RecordingDigest RecordingDigester::finish(Recording&& read) {
   if (out.allan && out.allan->sample_correlation && !out.averages.empty())
     widen_for_sample_correlation(out.averages, *out.allan->sample_correlation);
   if (options_.g_mps2) read.use_given_g(*options_.g_mps2);
+  if (options_.sample_rate_hz) read.use_given_sample_rate(*options_.sample_rate_hz);
   out.recording = std::move(read);
   return out;
 }

@@ -19,7 +19,9 @@ namespace standcal {
 
 struct DigestOptions {
   std::optional<double> g_mps2;  // replaces the header's local gravity (m/s^2)
-  bool averages = true;          // per-position averages
+  // The sample rate where the header has none (Recording::use_given_sample_rate).
+  std::optional<double> sample_rate_hz;
+  bool averages = true;  // per-position averages
   // The pooled dwell Allan deviation; without it the averages' standard errors are sigma /
   // sqrt(n) as read, not widened for correlated samples as average_positions' are.
   bool allan = true;

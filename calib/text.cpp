@@ -2,6 +2,7 @@
 
 #include <array>
 #include <charconv>
+#include <cmath>
 #include <cstdio>
 
 namespace standcal {
@@ -77,10 +78,25 @@ std::string round_trip_text(double v) {
   return ec == std::errc() ? std::string(buf.data(), end) : number_text(v);
 }
 
-std::string number_text(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.6g", v);
+namespace {
+
+std::string significant_digits_text(double v, int digits) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.*g", digits, v);
   return buf;
+}
+
+}  // namespace
+
+std::string number_text(double v) { return significant_digits_text(v, 6); }
+
+NumberTextsApart number_texts_apart(double value, double limit) {
+  int digits = 6;
+  // 17 significant digits tell any two doubles apart.
+  while (digits < 17 && significant_digits_text(std::abs(value), digits) ==
+                            significant_digits_text(std::abs(limit), digits))
+    ++digits;
+  return {significant_digits_text(value, digits), significant_digits_text(limit, digits)};
 }
 
 }  // namespace standcal

@@ -30,6 +30,14 @@ std::optional<std::size_t> first_non_utf8_byte(std::string_view text);
 // A number as an operator writes it, six significant digits: 122.5, not 122.500000;
 // 7.36e+161.
 std::string number_text(double v);
+// A value found past its limit and the limit, as number_text writes them, with more digits
+// (the same for both) where six would show them equal in size: "5000.004 µg above the
+// limit 5000 µg", not "5000 µg above the limit 5000 µg".
+struct NumberTextsApart {
+  std::string value;
+  std::string limit;
+};
+NumberTextsApart number_texts_apart(double value, double limit);
 // The shortest text that reads back as exactly `v` (100, 0.5, 1e-07): for a value a file
 // must keep, where std::to_string's six decimals write 1e-07 as 0.000000.
 std::string round_trip_text(double v);

@@ -4,6 +4,7 @@
 // the largest double written out in 309 digits.
 #include <CLI/CLI.hpp>
 #include <cmath>
+#include <filesystem>
 #include <optional>
 #include <string>
 
@@ -50,6 +51,20 @@ inline const CLI::Validator kUtf8Text(
       return at ? "must be UTF-8 text: byte " + std::to_string(*at + 1) + " is not" : "";
     },
     "");  // no word in --help: the option's own type already says TEXT
+
+// A file whose full path the records database keeps (import stores it absolute): a working
+// directory whose name is not UTF-8 is refused before any work, as such a file name is.
+inline const CLI::Validator kUtf8FullPath(
+    [](std::string& path) -> std::string {
+      std::error_code error;
+      const std::string full = std::filesystem::absolute(path, error).string();
+      if (error) return "its full path is unknown: " + error.message();
+      const auto at = first_non_utf8_byte(full);
+      return at ? "its full path, which the records keep, must be UTF-8 text: byte " +
+                      std::to_string(*at + 1) + " is not"
+                : "";
+    },
+    "");
 
 inline const CLI::Validator kPositive = lower_bound(0, false);
 inline const CLI::Validator kNonNegative = lower_bound(0, true);

@@ -182,13 +182,15 @@ std::string unexplained_drift(const DwellAverage& dwell, const DwellExpectation&
       ug_per_mps2;
   if (!(explained_ug > 0) || !(std::abs(trend_ug) > rule.trend_limit_sigmas * explained_ug))
     return {};
+  const auto [times, limit] =
+      number_texts_apart(std::abs(trend_ug) / explained_ug, rule.trend_limit_sigmas);
   return "axis " + axis_name(a) + " drifted " + number_text(trend_ug) + " µg during the dwell, " +
-         number_text(std::abs(trend_ug) / explained_ug) + " times what its noise explains (" +
-         number_text(explained_ug) + " µg from its sample σ" +
+         times + " times what its noise explains (" + number_text(explained_ug) +
+         " µg from its sample σ" +
          (widening > 1 ? fmt::format(" widened {:.3g} times for its correlated samples", widening)
                        : std::string()) +
          (expected.bias_wander_ug > 0 ? std::string(" and the unit's bias wander") : "") +
-         "; limit " + number_text(rule.trend_limit_sigmas) + " times)";
+         "; limit " + limit + " times)";
 }
 
 }  // namespace
@@ -228,12 +230,13 @@ std::string dwell_problem(const DwellAverage& dwell, const DwellExpectation& exp
     const double sigma_ug = dwell.sigma_mps2[a] * ug_per_mps2;
     const double trend_ug = dwell.trend_mps2[a] * ug_per_mps2;
     if (sigma_ug > rule.sigma_limit_ug) {
-      return "axis " + axis_name(a) + " noise " + number_text(sigma_ug) + " µg above the limit " +
-             number_text(rule.sigma_limit_ug) + " µg";
+      const auto [noise, limit] = number_texts_apart(sigma_ug, rule.sigma_limit_ug);
+      return "axis " + axis_name(a) + " noise " + noise + " µg above the limit " + limit + " µg";
     }
     if (std::abs(trend_ug) > rule.trend_limit_ug) {
-      return "axis " + axis_name(a) + " drifted " + number_text(trend_ug) +
-             " µg during the dwell (limit " + number_text(rule.trend_limit_ug) + " µg)";
+      const auto [trend, limit] = number_texts_apart(trend_ug, rule.trend_limit_ug);
+      return "axis " + axis_name(a) + " drifted " + trend + " µg during the dwell (limit " + limit +
+             " µg)";
     }
     if (std::string drift = unexplained_drift(dwell, expected, rule, a, ug_per_mps2);
         !drift.empty())

@@ -424,9 +424,10 @@ void Sequencer::wait_thermal_stability(RunRecord& record) {
     const double rate_c_per_min = stt > 0 ? stc / stt * 60.0 : 0.0;
     if (std::abs(rate_c_per_min) < tw.rate_limit_c_per_min) return;
     if (run_clock_s() - start > tw.timeout_s) {
+      const auto [rate, limit] = number_texts_apart(rate_c_per_min, tw.rate_limit_c_per_min);
       throw RpcError(ErrorCode::hardware_fault,
-                     "the unit temperature still changes by " + number_text(rate_c_per_min) +
-                         " °C/min after the thermal wait's " + number_text(tw.timeout_s) + " s");
+                     "the unit temperature still changes by " + rate + " °C/min (limit " + limit +
+                         " °C/min) after the thermal wait's " + number_text(tw.timeout_s) + " s");
     }
   }
 }

@@ -11,6 +11,7 @@
 #include "calib/full_estimator.hpp"
 #include "calib/invariant_estimator.hpp"
 #include "calib/recording.hpp"
+#include "calib/text.hpp"
 #include "calib/utc_time.hpp"
 #include "report/certificate/certificate.hpp"
 #include "standcal/version.hpp"
@@ -89,7 +90,7 @@ LoadedRun load_state_run(const CertificateRequest& req) {
       std::abs(record["g_local_mps2"].get<double>() - t.g_local_mps2) > 1e-9)
     run.recording.warnings.push_back("run.json says g = " + record["g_local_mps2"].dump() +
                                      " m/s^2 but the recording header says " +
-                                     std::to_string(t.g_local_mps2) +
+                                     round_trip_text(t.g_local_mps2) +
                                      "; the recording's value was used");
   return run;
 }
@@ -164,6 +165,7 @@ CertificateInput prepare_certificate(const CertificateRequest& req) {
   in.program_name = run.recording.program;
   in.warnings = run.recording.warnings;
   AveragedRecording averaged = average_recording(run.recording);
+  if (!averaged.allan_warning.empty()) in.warnings.push_back(averaged.allan_warning);
   in.positions = std::move(averaged.averages);
   in.issued_utc = utc_now_iso();
   in.issuing_software_version = kVersion;

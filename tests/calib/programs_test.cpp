@@ -127,6 +127,20 @@ TEST(AxisRange, UnreachableAngleIsAnErrorNamingPositionAndAxis) {
               std::string::npos);
     EXPECT_NE(std::string(e.what()).find("inner axis range"), std::string::npos);
   }
+  // An angle just past the end is said as written: six digits said "alpha2 = 90 deg has no
+  // equivalent angle in the inner axis range [-90, 90] deg".
+  Program past_end = paper9();
+  past_end.positions.resize(1);
+  past_end.positions[0].alpha2_deg = 90.00001;
+  try {
+    normalise_program(past_end, limits);
+    FAIL() << "alpha2 = 90.00001 is outside [-90, 90]";
+  } catch (const ProgramError& e) {
+    EXPECT_NE(std::string(e.what()).find("alpha2 = 90.00001 deg has no equivalent angle in the "
+                                         "inner axis range [-90, 90] deg"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(AxisRange, WideRangeKeepsAnAngleAlreadyInside) {

@@ -42,6 +42,11 @@ std::string error_of(const std::string& text) {
   return "";
 }
 
+// A one-sample recording with `line` as its second header line.
+std::string with_header(const std::string& line) {
+  return "# format: standcal-recording/1\n" + line + "\n" + kColumns + kRow0;
+}
+
 }  // namespace
 
 TEST(RecordingReader, ReadsTheExampleOfTheFormatDocument) {
@@ -211,9 +216,6 @@ TEST(RecordingErrors, ATimeAngleOrTemperatureNoRunHoldsNamesLineAndColumn) {
 // or below, a negative settling time and a reference temperature of 1e300 degC were read
 // without a word.
 TEST(RecordingErrors, AHeaderNumberNoRunHoldsNamesItsLine) {
-  const auto with_header = [](const std::string& line) {
-    return "# format: standcal-recording/1\n" + line + "\n" + kColumns + kRow0;
-  };
   EXPECT_NE(error_of(with_header("# sample_rate_hz: 1e300"))
                 .find("rec.csv:2: header 'sample_rate_hz': 1e300 Hz is not a sample rate (at "
                       "least 1e-12, at most 1e6 Hz)"),
@@ -239,9 +241,6 @@ TEST(RecordingErrors, AHeaderNumberNoRunHoldsNamesItsLine) {
 // serial's raw bytes, which every JSON output then printed as U+FFFD (so a serial copied
 // from `records --json` found nothing in `history`) and PostgreSQL refused.
 TEST(RecordingErrors, AHeaderThatIsNotUtf8NamesItsLineAndByte) {
-  const auto with_header = [](const std::string& line) {
-    return "# format: standcal-recording/1\n" + line + "\n" + kColumns + kRow0;
-  };
   EXPECT_NE(error_of(with_header("# unit_serial: M\xFC"
                                  "ller-7"))
                 .find("rec.csv:2: column 17: header line is not UTF-8 text: byte 17 is not (save "
@@ -267,6 +266,29 @@ TEST(RecordingErrors, AHeaderThatIsNotUtf8NamesItsLineAndByte) {
                  "M\xFC"
                  "ller");
   EXPECT_THROW((void)format_recording_header(rec), std::invalid_argument);
+}
+
+// A header line indented, or quoted by a spreadsheet: its errors name the file's column.
+// They were counted in the text after its blanks and quotes were taken off (column 13 for
+// the tab at the file's column 16 of the first line).
+TEST(RecordingErrors, AHeaderLinesErrorNamesTheFilesColumn) {
+  EXPECT_NE(error_of(with_header("  \"# program: a\tb\",,,,,,"))
+                .find("rec.csv:2: column 16: header line contains the control character U+0009 "
+                      "at character 16"),
+            std::string::npos);
+  EXPECT_NE(error_of(with_header("  # program: a\tb")).find("rec.csv:2: column 15: "),
+            std::string::npos);
+  EXPECT_NE(error_of(with_header("# program: a\tb")).find("rec.csv:2: column 13: "),
+            std::string::npos);
+  // A doubled quote is one character of the value but two of the file.
+  EXPECT_NE(error_of(with_header("\"# program: \"\"x\"\"\x01\",,,,,,"))
+                .find("rec.csv:2: column 18: header line contains the control character U+0001"),
+            std::string::npos);
+  EXPECT_NE(error_of(with_header("  \"# program: a\"b\",,,,,,"))
+                .find("rec.csv:2: column 16: a quote inside a quoted header line"),
+            std::string::npos);
+  EXPECT_NE(error_of(with_header("  #program: a")).find("rec.csv:2: column 3: header line must"),
+            std::string::npos);
 }
 
 // The simulator writes its header numbers exactly (std::to_string wrote six decimals: a g

@@ -316,6 +316,55 @@ TEST_F(StreamingReader, TimeStepsNoUnitMakesGiveNoSamplePeriod) {
       EXPECT_NE(said.output.find("the dwells have no Allan curve"), std::string::npos)
           << command << ": " << said.output;
     }
+    // The operator's --rate-hz is the period, streamed or read whole (a pipe): it was not
+    // applied to a stand recording, whose reader then still said "(pass --rate-hz)".
+    for (const std::string& command :
+         {std::string(STANDCAL_CLI_PATH) + " fit " + path + " --rate-hz 1000",
+          std::string(STANDCAL_CLI_PATH) + " diagnose " + path + " --rate-hz 1000",
+          "cat " + path + " | " + STANDCAL_CLI_PATH + " fit /dev/stdin --rate-hz 1000",
+          "cat " + path + " | " + STANDCAL_CLI_PATH + " diagnose /dev/stdin --rate-hz 1000"}) {
+      const test::CommandOutcome said = test::run_command(command);
+      EXPECT_EQ(said.output.find("no Allan curve"), std::string::npos)
+          << command << ": " << said.output;
+      EXPECT_EQ(said.output.find("pass --rate-hz"), std::string::npos)
+          << command << ": " << said.output;
+      // fit exits 0; diagnose with its verdict's status, not an error's (1) or usage's (2).
+      EXPECT_TRUE(said.exit_code == 0 ||
+                  (command.find(" diagnose ") != std::string::npos && said.exit_code > 2))
+          << command << ": " << said.exit_code << " " << said.output;
+    }
+    InputOptions given;
+    given.rate_hz = 1000;
+    const RawInput given_raw = read_input(path, given);
+    EXPECT_EQ(given_raw.sample_rate_hz, 1000);
+    ASSERT_TRUE(given_raw.recording);
+    EXPECT_NEAR(dwell_allan(*given_raw.recording).sample_period_s, 1e-3, 1e-15);
+    DigestOptions digest_given;
+    digest_given.sample_rate_hz = 1000;
+    EXPECT_TRUE(digest_recording(path, digest_given).allan);
+  }
+}
+
+// A step longer than any time a recording holds (two samples 1.8e12 s apart) is no period;
+// a period of 1e12 s is the slowest rate taken, 1e-12 Hz.
+TEST_F(StreamingReader, AStepBeyondAnyTimeIsNoSamplePeriod) {
+  EXPECT_NE(unusable_step_text(1.8e12).find("the median time step is 1.8e+12 s, beyond 1e12 s"),
+            std::string::npos);
+  EXPECT_EQ(unusable_step_text(1e12), "");
+  Recording rec;
+  rec.source = "far.csv";
+  for (const double t_s : {-9e11, 9e11}) {
+    RecordingSample s;
+    s.t_s = t_s;
+    rec.samples.push_back(s);
+  }
+  try {
+    (void)sample_period_s(rec);
+    ADD_FAILURE() << "a sample period of 1.8e12 s";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("far.csv: the median time step is 1.8e+12 s, beyond"),
+              std::string::npos)
+        << e.what();
   }
 }
 

@@ -25,5 +25,20 @@ TEST(RoundTripText, WritesTheShortestTextThatReadsBackExactly) {
   EXPECT_EQ(round_trip_text(1e-7), "1e-07");
 }
 
+// A value found past its limit never reads as equal to it (standcald said "noise 5000 µg
+// above the limit 5000 µg" of 5000.004 µg).
+TEST(NumberTextsApart, AValuePastItsLimitReadsAsPastIt) {
+  const auto texts = [](double v, double limit) {
+    const NumberTextsApart t = number_texts_apart(v, limit);
+    return t.value + " " + t.limit;
+  };
+  EXPECT_EQ(texts(6003.002252, 5000), "6003 5000");  // six digits when they tell them apart
+  EXPECT_EQ(texts(5000.004, 5000), "5000.004 5000");
+  EXPECT_EQ(texts(-5000.004, 5000), "-5000.004 5000");            // a trend past the limit in size
+  EXPECT_EQ(texts(1234.5679, 1234.5678), "1234.5679 1234.5678");  // both with more digits
+  EXPECT_EQ(texts(3.0000000000000004, 3), "3.0000000000000004 3");
+  EXPECT_EQ(texts(3, 3), "3 3");  // equal: 17 digits and no further
+}
+
 }  // namespace
 }  // namespace standcal

@@ -190,6 +190,25 @@ TEST_F(CertificateOfSimulatedRun, ImportedRecordingNamesWhatIsNotRecorded) {
             std::string::npos);
 }
 
+// A recording whose steps give no sample period has no Allan curve, so its means' errors
+// make no allowance for samples correlated within a dwell: `fit` says so, and the
+// certificate's remarks did not.
+TEST_F(CertificateOfSimulatedRun, SaysWhenTheDwellsHaveNoAllanCurve) {
+  Recording no_period = rec_;
+  no_period.sample_rate_hz = kNoValue;
+  std::erase_if(no_period.header, [](const auto& kv) { return kv.first == "sample_rate_hz"; });
+  for (RecordingSample& s : no_period.samples) s.t_s = 5;  // repeated time stamps
+  CertificateRequest r;
+  r.recording_path = state_.file("no-period.csv");
+  write_recording(no_period, r.recording_path);
+  const report::CertificateInput in = report::prepare_certificate(r);
+  const HtmlDocument page(report::render_certificate_html(in));
+  EXPECT_NE(page.text("//ul[@id='remarks']").find("the median time step is zero"),
+            std::string::npos);
+  EXPECT_NE(page.text("//ul[@id='remarks']").find("the dwells have no Allan curve"),
+            std::string::npos);
+}
+
 TEST_F(CertificateOfSimulatedRun, RefusesAnUnfinishedRunOrAMissingOne) {
   write_done_run(state_.path(), "20261122T010000Z-AU-0042", rec_, "faulted");
   CertificateRequest r = request();

@@ -85,6 +85,17 @@ TEST(DwellStability, EachReasonIsNamedInTheOperatorsWords) {
   // Said to six significant digits (calib's number_text): 6003 µg.
   EXPECT_NEAR(std::stod(noisy.substr(13)), 6000 * std::sqrt(1000 / 999.0), 0.5) << noisy;
   EXPECT_NE(noisy.find("µg above the limit 5000 µg"), std::string::npos) << noisy;
+  // Just past the limit it reads as past it: six digits said "6003 µg above the limit 6003 µg".
+  const DwellAverage noisy_dwell = average_dwell(dwell_samples(1000, 100, 6000 * kUgMps2, 0));
+  StabilityRule close = rule;
+  close.sigma_limit_ug =
+      noisy_dwell.sigma_mps2[0] * 1e6 / expect(10, 100).g_local_mps2 * (1 - 1e-7);
+  const std::string just_past = dwell_problem(noisy_dwell, expect(10, 100), close);
+  const std::size_t limit_at = just_past.find(" µg above the limit ");
+  ASSERT_NE(limit_at, std::string::npos) << just_past;
+  const double said_ug = std::stod(just_past.substr(13, limit_at - 13));
+  const double said_limit_ug = std::stod(just_past.substr(limit_at + 21));
+  EXPECT_GT(said_ug, said_limit_ug) << just_past;
   // y drifted 2500 µg over the dwell against 2000 µg.
   const std::string drift = dwell_problem(
       average_dwell(dwell_samples(1000, 100, 0, 2500 * kUgMps2)), expect(10, 100), rule);

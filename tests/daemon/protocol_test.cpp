@@ -154,6 +154,13 @@ TEST(JsonRpc, ARequestParameterThatIsNotUtf8IsRefusedByName) {
     EXPECT_EQ(std::string(e.what()),
               "run.start: a key of parameter \"options\" must be UTF-8 text: byte 2 is not");
   }
+  try {
+    (void)make_request(1, "run.start", {{"unit_\xd6", "SN-1"}});
+    ADD_FAILURE() << "a Latin-1 parameter name was sent";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "run.start: a parameter's name must be UTF-8 text: byte 6 is not");
+  }
 }
 
 // The protocol's own decoder (this room depends on nlohmann-json alone) agrees with the file

@@ -1,6 +1,7 @@
 // Exit status as a bench script sees it (README "Exit status", man pages EXIT STATUS).
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -72,6 +73,44 @@ TEST(ExitCodes, HelpSaysEachOptionsTypeOnce) {
   EXPECT_EQ(latin1.exit_code, code(ExitCode::usage_error)) << latin1.output;
   EXPECT_NE(latin1.output.find("--operator: must be UTF-8 text: byte 2 is not"), std::string::npos)
       << latin1.output;
+}
+
+// import keeps a recording's full path: run from a directory whose name is not UTF-8, it
+// fitted the file and the database then refused the row (exit 1, after any earlier files
+// were stored). It is refused before the first fit, as a file name in Latin-1 is.
+TEST(ExitCodes, ImportFromADirectoryNamedInLatin1IsRefusedBeforeAnyFit) {
+  TempDir dir;
+  const std::string latin1 = dir.file("st\xf6nd");
+  std::filesystem::create_directory(latin1);
+  std::ofstream(latin1 + "/rec.csv") << "not read\n";
+  const CommandOutcome r = run_command("cd '" + latin1 + "' && " + STANDCAL_CLI_PATH +
+                                       " import rec.csv --db sqlite://" + dir.file("lab.sqlite"));
+  EXPECT_EQ(r.exit_code, code(ExitCode::usage_error)) << r.output;
+  const std::size_t byte = dir.path().size() + 4;  // the 0xF6 of "/st\xf6nd"
+  EXPECT_NE(r.output.find("its full path, which the records keep, must be UTF-8 text: byte " +
+                          std::to_string(byte) + " is not"),
+            std::string::npos)
+      << r.output;
+}
+
+// Each warning of import names its file once: the reader's began with it, and import put it
+// in front again ("warning: rec.csv: rec.csv: ...").
+TEST(ExitCodes, ImportNamesTheFileOnceInAWarning) {
+  TempDir dir;
+  const std::string rec = dir.file("rec.csv");
+  ASSERT_EQ(standcal_cli(
+                "simulate --program paper9 --dwell-s 2 --settle-s 0 --unit-serial SN-1 -o " + rec)
+                .exit_code,
+            0);
+  // A last line cut short: the reader's warning names the file and line.
+  std::filesystem::resize_file(rec, std::filesystem::file_size(rec) - 5);
+  const CommandOutcome r =
+      standcal_cli("import " + rec + " --db sqlite://" + dir.file("lab.sqlite"));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("warning: " + rec + ": the recording states no started_utc"),
+            std::string::npos)
+      << r.output;
+  EXPECT_EQ(r.output.find(rec + ": " + rec), std::string::npos) << r.output;
 }
 
 TEST(ExitCodes, ARuntimeErrorIsOne) {

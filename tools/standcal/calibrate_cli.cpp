@@ -138,9 +138,7 @@ void run_fit(const FitOptions& o) {
         "method (joint, full), not norm");
   }
   if (o.method != "norm" && streams_as_stand_recording(o.input, o.recording)) {
-    DigestOptions options;
-    if (o.input.g_mps2 > 0) options.g_mps2 = o.input.g_mps2;
-    RecordingDigest digest = digest_on_two_threads(o.recording, options);
+    RecordingDigest digest = digest_on_two_threads(o.recording, digest_options(o.input));
     print_warnings(digest.recording.warnings);
     if (!digest.allan)
       print_warnings({allan_unavailable_warning(digest.samples, digest.allan_unavailable)});

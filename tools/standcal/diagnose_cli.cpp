@@ -57,6 +57,7 @@ std::string no_sample_period_warning(const Recording& rec) {
 std::pair<Diagnosis, Recording> diagnose_stand_recording(const DiagnoseCliOptions& o,
                                                          Recording rec) {
   if (o.input.g_mps2 > 0) rec.use_given_g(o.input.g_mps2);
+  if (o.input.rate_hz > 0) rec.use_given_sample_rate(o.input.rate_hz);
   print_warnings(rec.warnings);
   print_warnings({no_sample_period_warning(rec)});
   Diagnosis d = diagnose_recording(rec, diagnose_options(o));

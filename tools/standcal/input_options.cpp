@@ -32,7 +32,9 @@ void add_input_options(CLI::App* cmd, InputCliOptions& o) {
       ->capture_default_str();
   cmd->add_option("--columns", o.columns,
                   "the three accelerometer columns, by header name or 1-based index: x,y,z");
-  cmd->add_option("--rate-hz", o.rate_hz, "sample rate, where the file has no time column")
+  cmd->add_option("--rate-hz", o.rate_hz,
+                  "sample rate, where the file has no time column or rate header, or its times "
+                  "give no sample period")
       ->check(cli_checks::number_within(kMinSampleRate_hz, true, kMaxSampleRate_hz));
   cmd->add_option("--skip-lines", o.skip_lines, "preamble lines before the header or first row")
       ->check(cli_checks::kNonNegative);
@@ -52,6 +54,13 @@ InputOptions input_options(const InputCliOptions& o) {
   in.skip_lines = o.skip_lines;
   if (o.g_mps2 > 0) in.g_mps2 = o.g_mps2;
   return in;
+}
+
+DigestOptions digest_options(const InputCliOptions& o) {
+  DigestOptions digest;
+  if (o.g_mps2 > 0) digest.g_mps2 = o.g_mps2;
+  if (o.rate_hz > 0) digest.sample_rate_hz = o.rate_hz;
+  return digest;
 }
 
 bool streams_as_stand_recording(const InputCliOptions& o, const std::string& path) {

@@ -8,6 +8,7 @@
 
 #include "calib/noise_model.hpp"
 #include "calib/raw_input.hpp"
+#include "calib/recording_digest.hpp"
 
 namespace standcal::cli {
 
@@ -22,6 +23,8 @@ struct InputCliOptions {
 
 void add_input_options(CLI::App* cmd, InputCliOptions& o);
 InputOptions input_options(const InputCliOptions& o);
+// The same options for a stand recording that is streamed: --g-mps2 and --rate-hz.
+DigestOptions digest_options(const InputCliOptions& o);
 // The file is a standcal recording with the stand's angles and no option asks to read it
 // otherwise: it can be streamed (calib/recording_digest.hpp) instead of read whole.
 bool streams_as_stand_recording(const InputCliOptions& o, const std::string& path);

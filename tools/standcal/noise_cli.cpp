@@ -54,9 +54,8 @@ NoiseSource read_noise_source(const NoiseOptions& o) {
     if (o.counts_per_g > 0)
       throw CLI::ValidationError("--counts-per-g",
                                  o.recording + " is a stand recording in m/s^2, not counts");
-    DigestOptions reading;
+    DigestOptions reading = digest_options(o.input);
     reading.averages = false;  // the Allan deviation alone: each dwell is dropped once added
-    if (o.input.g_mps2 > 0) reading.g_mps2 = o.input.g_mps2;
     RecordingDigest digest = digest_on_two_threads(o.recording, reading);
     print_warnings(digest.recording.warnings);
     if (!digest.allan) throw std::runtime_error(digest.allan_unavailable);

@@ -104,7 +104,9 @@ std::string start_of(const ImportOptions& o, const Recording& rec, const std::st
   if (!o.started_utc.empty()) return records::canonical_utc(o.started_utc);
   const std::string header = rec.header_value("started_utc");
   if (!header.empty()) return records::canonical_utc(header);
-  warnings.push_back("the recording states no started_utc: the file's modification time is used");
+  warnings.push_back(path +
+                     ": the recording states no started_utc: the file's modification "
+                     "time is used");
   return file_time_utc(path);
 }
 
@@ -149,9 +151,9 @@ void run_import(const ImportOptions& o) {
   int stored = 0;
   for (const std::string& path : o.recordings) {
     const CalibrationRecord r = import_record(o, path);
-    for (const json& w : r.result["recording_warnings"]) {
-      std::fprintf(stderr, "warning: %s: %s\n", path.c_str(), w.get<std::string>().c_str());
-    }
+    // Each begins with the file's name, as the reader's do.
+    for (const json& w : r.result["recording_warnings"])
+      std::fprintf(stderr, "warning: %s\n", w.get<std::string>().c_str());
     const bool inserted = db->insert(r);
     stored += inserted ? 1 : 0;
     std::printf("%s: %s %s (%s, %s, %s)\n", path.c_str(), r.run_id.c_str(),
@@ -261,7 +263,7 @@ void add_import_command(CLI::App& app) {
   // file is fitted, not after the earlier files are stored.
   cmd->add_option("recordings", o->recordings, "recordings (standcal-recording/1 CSV)")
       ->required()
-      ->check(cli_checks::kUtf8Text & CLI::ExistingFile);
+      ->check(cli_checks::kUtf8Text & cli_checks::kUtf8FullPath & CLI::ExistingFile);
   add_db_option(cmd, o->db);
   cmd->add_option("--unit-type", o->unit_type, "the units' type (limits are per type)")
       ->check(cli_checks::kUtf8Text);

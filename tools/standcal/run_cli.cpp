@@ -160,6 +160,10 @@ void print_result(const json& r) {
       }
     }
   }
+  // What the daemon saw in the recording (a truncated line, g assumed, no Allan curve).
+  if (r.contains("recording_warnings") && r["recording_warnings"].is_array())
+    for (const json& w : r["recording_warnings"])
+      if (w.is_string()) std::fprintf(stderr, "warning: %s\n", w.get<std::string>().c_str());
   const Traceability t = traceability_from_json(r.value("traceability", json::object()));
   std::printf("\nrun %s, unit %s, stand %s, operator %s\n", t.run_id.c_str(), t.unit_serial.c_str(),
               t.stand_id.c_str(), t.operator_name.c_str());
