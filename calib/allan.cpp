@@ -393,9 +393,10 @@ double sample_period_s(const Recording& rec) {
 std::string unusable_step_text(double step_s) {
   if (!(step_s > 0)) return "the median time step is zero: repeated time stamps, no sample period";
   if (step_s > kMaxAbsTime_s)
-    return "the median time step is " + number_text(step_s) + " s, beyond 1e12 s: no sample period";
+    return "the median time step is " + number_texts_apart(step_s, kMaxAbsTime_s).value +
+           " s, beyond 1e12 s: no sample period";
   if (!is_plausible_sample_rate(1 / step_s))
-    return "the median time step is " + number_text(step_s) +
+    return "the median time step is " + number_texts_apart(step_s, 1 / kMaxSampleRate_hz).value +
            " s, more than 1e6 samples a second: no sample period (are the times in another "
            "unit?)";
   return "";
@@ -475,6 +476,15 @@ std::optional<AllanFinding> allan_finding(const Recording& rec, std::string* why
     // nothing of Allan rather than refusing the calibration.
     if (why_none) *why_none = e.what();
     return std::nullopt;
+  }
+}
+
+std::string no_sample_period_warning(const Recording& rec) {
+  try {
+    (void)sample_period_s(rec);
+    return "";
+  } catch (const std::exception& e) {
+    return allan_unavailable_warning(rec.samples.size(), e.what());
   }
 }
 

@@ -242,5 +242,8 @@ std::optional<AllanFinding> allan_finding(const Recording& rec, std::string* why
 // The warning of a recording long enough for an Allan curve that has none ("" when it has
 // one or is too short for one).
 std::string allan_unavailable_warning(std::size_t samples, const std::string& why_none);
+// The same of a recording whose rate and steps give no sample period, "" when they give one:
+// for a caller that draws no curve itself (the diagnosis draws its own).
+std::string no_sample_period_warning(const Recording& rec);
 
 }  // namespace standcal

@@ -1029,8 +1029,8 @@ class Reader {
       if (!first && t < previous_t) {
         const std::string name = layout.names[static_cast<std::size_t>(layout.time)];
         if (!layout.time_tentative)
-          fail(layout.time + 1, "'" + name + "' goes backwards (" + number_text(t) + " after " +
-                                    number_text(previous_t) + "); times must not decrease");
+          fail(layout.time + 1, "'" + name + "' goes backwards (" + round_trip_text(t) + " after " +
+                                    round_trip_text(previous_t) + "); times must not decrease");
         time_ok = false;  // column 1 is no time after all
         time_broken_line_ = line.number;
         continue;
@@ -1385,7 +1385,8 @@ class Reader {
   [[noreturn]] void refuse_rate_for_times(double rate_hz) const {
     const std::string why = number_text(rate_hz) + " Hz gives the last of " +
                             std::to_string(out_.t_s.size()) + " rows the time " +
-                            number_text(out_.t_s.back()) + " s, beyond 1e12 s";
+                            number_texts_apart(out_.t_s.back(), kMaxAbsTime_s).value +
+                            " s, beyond 1e12 s";
     if (options_.rate_hz) throw std::invalid_argument("--rate-hz: " + why);
     fail_at(header_rate_line_, 0, "header 'sample_rate_hz': " + why);
   }

@@ -50,8 +50,10 @@ struct InputOptions {
   // The three accelerometer columns (x, y, z) by header name or 1-based index; empty: found
   // by name (fx/fy/fz, ax/ay/az, acc_x..., x/y/z, any case, with or without unit suffixes).
   std::vector<std::string> columns;
-  std::optional<double> rate_hz;  // sample rate where the file has no time column
-  int skip_lines = 0;             // preamble lines before the header (or the first row)
+  // The sample rate: it gives the times of rows without a time column (over a header's
+  // rate); otherwise the rate of a file that states none (over its steps').
+  std::optional<double> rate_hz;
+  int skip_lines = 0;  // preamble lines before the header (or the first row)
   InputUnits units = InputUnits::automatic;
   std::optional<double> g_mps2;  // local gravity; overrides the file's own
 };

@@ -70,7 +70,8 @@ struct Recording {
   void use_given_g(double g_mps2);
   // The sample rate the operator gave (--rate-hz) for a recording with no sample_rate_hz
   // header: its Allan curves then need no period from the times' steps. A header's rate
-  // is kept (it was written with the samples).
+  // is kept (it was written with the samples). Throws std::invalid_argument for a rate no
+  // recording has (is_plausible_sample_rate).
   void use_given_sample_rate(double rate_hz);
 };
 

@@ -67,7 +67,7 @@ void RecordingDigester::close_dwell() {
 
 void RecordingDigester::append(RecordingDigester&& later) {
   if (!rate_known_ || !later.rate_known_)
-    throw std::logic_error("RecordingDigester::append needs the sample rate from the header");
+    throw std::logic_error("RecordingDigester::append needs the sample rate before the rows");
   close_dwell();
   later.close_dwell();
   averages_.insert(averages_.end(), std::make_move_iterator(later.averages_.begin()),

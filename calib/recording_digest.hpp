@@ -54,7 +54,9 @@ class RecordingDigester : public RecordingRowSink {
   // A file read in two parts at once (tools/standcal/threaded_rows.cpp): the digester of
   // the later part keeps what append needs (call after header()), is closed when its rows
   // end, and is appended to the first part's, which then holds what one digester given
-  // every row in order would hold, bit for bit. Only with the sample rate in the header.
+  // every row in order would hold, bit for bit. Only with the sample rate known before the
+  // rows (the header's, or the options').
+  bool rate_known() const { return rate_known_; }
   void keep_for_append();
   void close_dwell();  // averages the dwell being read, if any
   void append(RecordingDigester&& later);

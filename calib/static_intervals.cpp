@@ -267,8 +267,8 @@ StaticDetection detect_static_intervals(const RawInput& in, const StaticDetector
   if (!(in.sample_rate_hz > 0))
     throw std::runtime_error(in.source + ": no sample rate (give --rate-hz)");
   if (!is_plausible_sample_rate(in.sample_rate_hz))  // the readers refuse it; windows overflow
-    throw std::runtime_error(in.source + ": a sample rate of " + number_text(in.sample_rate_hz) +
-                             " Hz, above 1e6 Hz");
+    throw std::runtime_error(in.source + ": " +
+                             implausible_sample_rate_text(round_trip_text(in.sample_rate_hz)));
   StaticDetection d;
   d.threshold_factor = o.threshold_factor;
   const double g_in_input = in.units == InputUnits::g ? 1.0 : in.g_mps2;

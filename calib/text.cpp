@@ -1,5 +1,6 @@
 #include "calib/text.hpp"
 
+#include <algorithm>
 #include <array>
 #include <charconv>
 #include <cmath>
@@ -86,17 +87,35 @@ std::string significant_digits_text(double v, int digits) {
   return buf;
 }
 
+std::string fixed_decimals_text(double v, int decimals) {
+  char buf[360];  // 1e308 in full, and its decimals
+  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+  return buf;
+}
+
+// Both at `precision`, raised (up to `most`) while it shows them equal in size. A value
+// equal to its limit stays at `precision`: more digits would only show the binary fraction
+// of both (0.10000000000000001).
+template <typename Format>
+NumberTextsApart texts_apart(double value, double limit, int precision, int most, Format text) {
+  if (std::abs(value) != std::abs(limit))
+    while (precision < most && text(std::abs(value), precision) == text(std::abs(limit), precision))
+      ++precision;
+  return {text(value, precision), text(limit, precision)};
+}
+
 }  // namespace
 
 std::string number_text(double v) { return significant_digits_text(v, 6); }
 
 NumberTextsApart number_texts_apart(double value, double limit) {
-  int digits = 6;
   // 17 significant digits tell any two doubles apart.
-  while (digits < 17 && significant_digits_text(std::abs(value), digits) ==
-                            significant_digits_text(std::abs(limit), digits))
-    ++digits;
-  return {significant_digits_text(value, digits), significant_digits_text(limit, digits)};
+  return texts_apart(value, limit, 6, 17, significant_digits_text);
+}
+
+NumberTextsApart fixed_texts_apart(double value, double limit, int decimals) {
+  // Past 20 decimals a difference is of no certificate's concern.
+  return texts_apart(value, limit, decimals, std::max(decimals, 20), fixed_decimals_text);
 }
 
 }  // namespace standcal

@@ -38,6 +38,10 @@ struct NumberTextsApart {
   std::string limit;
 };
 NumberTextsApart number_texts_apart(double value, double limit);
+// The same with a fixed number of decimals, at least `decimals` (a certificate's "1.00 µg"):
+// "σ 1.004 µg EXCEEDS the allowed 1.000 µg", not "σ 1.00 µg EXCEEDS the allowed 1.00 µg".
+// A margin past zero is such a pair too: fixed_texts_apart(0.004, 0, 2).value is "0.004".
+NumberTextsApart fixed_texts_apart(double value, double limit, int decimals);
 // The shortest text that reads back as exactly `v` (100, 0.5, 1e-07): for a value a file
 // must keep, where std::to_string's six decimals write 1e-07 as 0.000000.
 std::string round_trip_text(double v);

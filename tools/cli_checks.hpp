@@ -53,9 +53,11 @@ inline const CLI::Validator kUtf8Text(
     "");  // no word in --help: the option's own type already says TEXT
 
 // A file whose full path the records database keeps (import stores it absolute): a working
-// directory whose name is not UTF-8 is refused before any work, as such a file name is.
+// directory whose name is not UTF-8 is refused before any work, as such a file name is
+// (by kUtf8Text, which alone speaks of a name that is not UTF-8 itself).
 inline const CLI::Validator kUtf8FullPath(
     [](std::string& path) -> std::string {
+      if (first_non_utf8_byte(path)) return "";
       std::error_code error;
       const std::string full = std::filesystem::absolute(path, error).string();
       if (error) return "its full path is unknown: " + error.message();

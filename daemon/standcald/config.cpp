@@ -96,11 +96,9 @@ class Section {
     if (v == nullptr) return nullptr;
     return std::make_unique<Section>(*v, path_.empty() ? key : path_ + "." + key, source_);
   }
-  static std::string fmt(double d) {
-    std::ostringstream s;
-    s << d;
-    return s.str();
-  }
+  // Exactly, as the file wrote it: six digits said "must be between 0 and 3600 (got 3600)"
+  // of 3600.0000001.
+  static std::string fmt(double d) { return round_trip_text(d); }
   void reject_unknown() const {
     for (auto it = j_.begin(); it != j_.end(); ++it) {
       if (!seen_.count(it.key())) fail(it.key(), "unknown key (see docs/daemon.md for the keys)");

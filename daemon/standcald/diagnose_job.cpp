@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <string>
 
+#include "calib/allan.hpp"
 #include "calib/diagnosis/diagnosis.hpp"
 #include "calib/json_text.hpp"
 #include "calib/recording.hpp"
@@ -82,6 +83,8 @@ json diagnose_run(const json& run_status, const StandLimits& limits,
   out["recording_path"] = path;
   out["mount"] = first_mount(rec);
   out["recording_warnings"] = rec.warnings;
+  if (std::string why = no_sample_period_warning(rec); !why.empty())
+    out["recording_warnings"].push_back(std::move(why));
   save_beside_recording(out, path);
   if (with_report) {
     std::string html = report::diagnosis_html(d, rec);

@@ -180,10 +180,11 @@ std::string unexplained_drift(const DwellAverage& dwell, const DwellExpectation&
       explained_trend_sigma_mps2(dwell, a, expected.bias_wander_ug / ug_per_mps2,
                                  expected.bias_wander_tau_s, widening) *
       ug_per_mps2;
-  if (!(explained_ug > 0) || !(std::abs(trend_ug) > rule.trend_limit_sigmas * explained_ug))
-    return {};
-  const auto [times, limit] =
-      number_texts_apart(std::abs(trend_ug) / explained_ug, rule.trend_limit_sigmas);
+  if (!(explained_ug > 0)) return {};
+  // The ratio said is the ratio judged.
+  const double times_explained = std::abs(trend_ug) / explained_ug;
+  if (!(times_explained > rule.trend_limit_sigmas)) return {};
+  const auto [times, limit] = number_texts_apart(times_explained, rule.trend_limit_sigmas);
   return "axis " + axis_name(a) + " drifted " + number_text(trend_ug) + " µg during the dwell, " +
          times + " times what its noise explains (" + number_text(explained_ug) +
          " µg from its sample σ" +

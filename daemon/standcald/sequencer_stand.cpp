@@ -4,6 +4,7 @@
 #include <cmath>
 #include <thread>
 
+#include "calib/text.hpp"
 #include "daemon/standcald/dwell.hpp"
 #include "daemon/standcald/sequencer.hpp"
 #include "daemon/standcald/sequencer_detail.hpp"
@@ -102,12 +103,13 @@ json Sequencer::read_unit(const Command& cmd) {
   // Shorter than one sample period reads nothing, and a mean of nothing is not 0.
   const double min_s = 1.0 / config_.sample_rate_hz;
   if (!(seconds >= min_s && seconds <= 3600)) {
+    // Said apart from the bound it is past (0.0099999 below 0.01, not 0.01 below 0.01).
+    const auto [got, bound] = number_texts_apart(seconds, seconds < min_s ? min_s : 3600);
     throw RpcError(
         ErrorCode::invalid_params,
-        fmt::format(
-            "unit.read: \"seconds\" must be between {:g} (one sample at unit.sample_rate_hz "
-            "{:g} Hz) and 3600 (got {:g})",
-            min_s, config_.sample_rate_hz, seconds));
+        fmt::format("unit.read: \"seconds\" must be between {} (one sample at "
+                    "unit.sample_rate_hz {:g} Hz) and 3600 (got {})",
+                    seconds < min_s ? bound : number_text(min_s), config_.sample_rate_hz, got));
   }
   return unit_read(seconds);
 }

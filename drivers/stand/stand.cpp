@@ -8,6 +8,8 @@
 #include <limits>
 #include <thread>
 
+#include "calib/text.hpp"
+
 namespace standcal::drivers {
 
 namespace {
@@ -122,9 +124,11 @@ Result<double> normalise_target_deg(const AxisRange& range, double angle_deg, do
       range.cable_wrap == CableWrap::nearest ? current_deg : range.middle_deg();
   if (const auto target_deg = equivalent_angle_deg(range, angle_deg, reference_deg))
     return *target_deg;
-  return Status::error(ErrorKind::limit, "angle " + format_deg(angle_deg) +
-                                             " is outside the range [" + format_deg(range.min_deg) +
-                                             ", " + format_deg(range.max_deg) + "]");
+  // The angle as commanded: one just past an end reads as past it (90.00001°, not
+  // 90.0000°, outside [-90.0000°, 90.0000°]).
+  return Status::error(ErrorKind::limit,
+                       "angle " + round_trip_text(angle_deg) + "° is outside the range [" +
+                           format_deg(range.min_deg) + ", " + format_deg(range.max_deg) + "]");
 }
 
 Result<double> path_target_deg(const AxisRange& range, double angle_deg, double current_deg) {

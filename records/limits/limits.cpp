@@ -1,11 +1,14 @@
 #include "records/limits/limits.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <stdexcept>
+
+#include "calib/text.hpp"
 
 namespace standcal::records {
 
@@ -128,6 +131,9 @@ std::string number(double v, int decimals = 2) {
   return buf;
 }
 
+// A margin that decides an outcome is never said as 0.00 unless it is none.
+std::string margin_number(double margin) { return fixed_texts_apart(margin, 0, 2).value; }
+
 Outcome combine(Outcome a, Outcome b) {
   // Severity order for one parameter: fail > indeterminate (incl. not measured) > pass.
   auto rank = [](Outcome o) {
@@ -169,15 +175,16 @@ std::string value_explanation(const ParameterConformity& c, double k) {
       " (k = " + coverage_text(k) + ") against the limit " + number(*c.limit.max_abs) + u;
   switch (d.outcome) {
     case Outcome::pass:
-      return numbers + ": inside even with the uncertainty added, " + number(d.guarded_margin) + u +
-             " to spare";
+      // Within the decision's tolerance of the limit, none to spare.
+      return numbers + ": inside even with the uncertainty added, " +
+             margin_number(std::max(d.guarded_margin, 0.0)) + u + " to spare";
     case Outcome::fail:
       return numbers + ": outside even with the uncertainty subtracted, by " +
-             number(-(d.margin + *c.expanded_uncertainty)) + u;
+             margin_number(-(d.margin + *c.expanded_uncertainty)) + u;
     case Outcome::indeterminate:
       return numbers + ": the limit lies within value ± U; the value itself is " +
              (d.value_within_limit ? "inside" : "outside") + " the limit by " +
-             number(std::abs(d.margin)) + u;
+             margin_number(std::abs(d.margin)) + u;
     default:
       return numbers;
   }
@@ -217,9 +224,14 @@ ParameterConformity assess_parameter(const FitResult& fit, const UnitTypeLimits&
   if (c.limit.max_sigma) {
     // The uncertainty itself is compared plainly: it has no uncertainty we could add.
     c.sigma_outcome = *c.sigma <= *c.limit.max_sigma * (1 + 1e-9) ? Outcome::pass : Outcome::fail;
-    parts.push_back("σ " + number(*c.sigma) + " " + symbol(c.unit) +
+    // A σ within the check's tolerance of the limit passes, and is said as the limit is.
+    const auto [sigma, allowed] =
+        c.sigma_outcome == Outcome::pass
+            ? NumberTextsApart{number(*c.sigma), number(*c.limit.max_sigma)}
+            : fixed_texts_apart(*c.sigma, *c.limit.max_sigma, 2);
+    parts.push_back("σ " + sigma + " " + symbol(c.unit) +
                     (c.sigma_outcome == Outcome::pass ? " within" : " EXCEEDS") + " the allowed " +
-                    number(*c.limit.max_sigma) + " " + symbol(c.unit));
+                    allowed + " " + symbol(c.unit));
   }
   c.outcome = combine(c.value_decision.outcome, c.sigma_outcome);
   for (const std::string& s : parts) c.explanation += (c.explanation.empty() ? "" : "; ") + s;
@@ -241,8 +253,9 @@ ModelCheckConformity assess_model_check(const FitResult& fit, const UnitTypeLimi
         "position and cannot show a wrong model";
   } else {
     m.outcome = *m.chi2_dof <= *m.max_chi2_dof ? Outcome::pass : Outcome::fail;
-    m.explanation = "chi2/dof " + number(*m.chi2_dof) + " with " + std::to_string(m.redundancy) +
-                    " degrees of freedom against the limit " + number(*m.max_chi2_dof) +
+    const auto [chi2_dof, limit] = fixed_texts_apart(*m.chi2_dof, *m.max_chi2_dof, 2);
+    m.explanation = "chi2/dof " + chi2_dof + " with " + std::to_string(m.redundancy) +
+                    " degrees of freedom against the limit " + limit +
                     (m.outcome == Outcome::pass
                          ? ": the model describes the data"
                          : ": the residuals exceed the noise, the model misses something");

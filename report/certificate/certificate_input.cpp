@@ -208,7 +208,7 @@ CertificateInput prepare_certificate(const CertificateRequest& req) {
   }
   if (limits && in.budget && limits->coverage_factor != records::kDefaultCoverageFactor) {
     in.warnings.push_back("the limits file's coverage_factor " +
-                          std::to_string(limits->coverage_factor) +
+                          round_trip_text(limits->coverage_factor) +
                           " is not used: with the uncertainty budget, U is the 95 % expanded "
                           "uncertainty, k from each "
                           "parameter's effective degrees of freedom");

@@ -243,8 +243,17 @@ TEST(RawInputErrors, TimeStepsFasterThanAnyUnitLeaveTheRateUnknown) {
     (void)detect_static_intervals(fast);
     ADD_FAILURE() << "a rate of 1e300 Hz was taken";
   } catch (const std::runtime_error& e) {
-    EXPECT_TRUE(contains(e.what(), "tiny.csv: a sample rate of 1e+300 Hz, above 1e6 Hz"))
+    EXPECT_TRUE(contains(e.what(),
+                         "tiny.csv: 1e+300 Hz is not a sample rate (at least 1e-12, "
+                         "at most 1e6 Hz)"))
         << e.what();
+  }
+  fast.sample_rate_hz = 1e-13;  // it said "above 1e6 Hz" of a rate below the slowest too
+  try {
+    (void)detect_static_intervals(fast);
+    ADD_FAILURE() << "a rate of 1e-13 Hz was taken";
+  } catch (const std::runtime_error& e) {
+    EXPECT_TRUE(contains(e.what(), "tiny.csv: 1e-13 Hz is not a sample rate")) << e.what();
   }
 }
 

@@ -37,7 +37,16 @@ TEST(NumberTextsApart, AValuePastItsLimitReadsAsPastIt) {
   EXPECT_EQ(texts(-5000.004, 5000), "-5000.004 5000");            // a trend past the limit in size
   EXPECT_EQ(texts(1234.5679, 1234.5678), "1234.5679 1234.5678");  // both with more digits
   EXPECT_EQ(texts(3.0000000000000004, 3), "3.0000000000000004 3");
-  EXPECT_EQ(texts(3, 3), "3 3");  // equal: 17 digits and no further
+  EXPECT_EQ(texts(3, 3), "3 3");
+  EXPECT_EQ(texts(0.1, 0.1), "0.1 0.1");  // equal: not its binary fraction's 17 digits
+  const auto fixed = [](double v, double limit) {
+    const NumberTextsApart t = fixed_texts_apart(v, limit, 2);
+    return t.value + " " + t.limit;
+  };
+  EXPECT_EQ(fixed(1.5, 1), "1.50 1.00");
+  EXPECT_EQ(fixed(1.004, 1), "1.004 1.000");
+  EXPECT_EQ(fixed(0.004, 0), "0.004 0.000");  // a margin past zero
+  EXPECT_EQ(fixed(2, 2), "2.00 2.00");
 }
 
 }  // namespace

@@ -46,8 +46,14 @@ TEST(AxisRangeNormalisation, AngleWithNoEquivalentInsideIsALimitError) {
   auto r = normalise_target_deg(limited(-90.0, 90.0), 200.0, 0.0);
   ASSERT_FALSE(r);
   EXPECT_EQ(r.status().kind, ErrorKind::limit);
-  EXPECT_NE(r.status().message.find("outside the range [-90.0000°, 90.0000°]"), std::string::npos)
+  EXPECT_NE(r.status().message.find("angle 200° is outside the range [-90.0000°, 90.0000°]"),
+            std::string::npos)
       << r.status().message;
+  // Just past an end, said as commanded: "angle 90.0000° is outside [..., 90.0000°]" before.
+  const auto past = normalise_target_deg(limited(-90.0, 90.0), 90.00001, 0.0);
+  ASSERT_FALSE(past);
+  EXPECT_NE(past.status().message.find("angle 90.00001° is outside"), std::string::npos)
+      << past.status().message;
   auto nan = normalise_target_deg(AxisRange::continuous_axis(),
                                   std::numeric_limits<double>::quiet_NaN(), 0.0);
   ASSERT_FALSE(nan);

@@ -148,6 +148,39 @@ TEST(LimitsAssess, ModelCheckFailsWhenChi2PerDofExceedsTheLimit) {
             Outcome::pass);
 }
 
+// What decides an outcome reads as deciding it: two decimals said "σ 5.00 arcsec EXCEEDS the
+// allowed 5.00 arcsec", "chi2/dof 3.00 ... against the limit 3.00: the residuals exceed" and
+// "outside even with the uncertainty subtracted, by 0.00".
+TEST(LimitsAssess, AnOutcomeJustPastItsLimitIsSaidWithTheDigitsThatShowIt) {
+  const UnitTypeLimits limits = limits_from_json(example_config(), "x").for_unit_type("QA-2000");
+  // gamma12's sigma 5.004 against 5; gamma13 at 70.004 +- 5 (U = 10) against 60.
+  const FitResult fit =
+      fit_with({0, 0, 0, 0, 0, 0, 1, 70.004, 1}, {1, 1, 1, 1, 1, 1, 5.004, 5, 1}, 15, 3.001);
+  const ConformityReport r = assess_conformity(fit, limits);
+  ASSERT_EQ(r.parameters[kGamma12].sigma_outcome, Outcome::fail);
+  EXPECT_NE(r.parameters[kGamma12].explanation.find("EXCEEDS the allowed 5.000 "),
+            std::string::npos)
+      << r.parameters[kGamma12].explanation;
+  EXPECT_NE(r.parameters[kGamma12].explanation.find("σ 5.004 "), std::string::npos)
+      << r.parameters[kGamma12].explanation;
+  ASSERT_EQ(r.parameters[kGamma13].value_decision.outcome, Outcome::fail);
+  EXPECT_NE(r.parameters[kGamma13].explanation.find("subtracted, by 0.004 "), std::string::npos)
+      << r.parameters[kGamma13].explanation;
+  ASSERT_EQ(r.model_check.outcome, Outcome::fail);
+  EXPECT_NE(r.model_check.explanation.find("chi2/dof 3.001 with 15 degrees of freedom against "
+                                           "the limit 3.000: the residuals exceed"),
+            std::string::npos)
+      << r.model_check.explanation;
+  // A pass keeps its two decimals.
+  const FitResult inside = fit_with({}, {1, 1, 1, 1, 1, 1, 5, 1, 1}, 15, 1.1);
+  const ConformityReport ok = assess_conformity(inside, limits);
+  EXPECT_NE(ok.parameters[kGamma12].explanation.find("σ 5.00 ″ within the allowed 5.00 ″"),
+            std::string::npos)
+      << ok.parameters[kGamma12].explanation;
+  EXPECT_NE(ok.model_check.explanation.find("chi2/dof 1.10 with"), std::string::npos)
+      << ok.model_check.explanation;
+}
+
 TEST(LimitsAssess, UnmeasuredLimitedParameterMakesTheVerdictIndeterminate) {
   const UnitTypeLimits limits = limits_from_json(example_config(), "x").for_unit_type("QA-2000");
   FitResult fit = fit_with({}, {1, 1, 1, 1, 1, 1, 1, 1, 1});

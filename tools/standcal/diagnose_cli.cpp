@@ -41,18 +41,6 @@ DiagnoseOptions diagnose_options(const DiagnoseCliOptions& o) {
   return d;
 }
 
-// What `fit` says of a recording whose steps give no sample period (no Allan curve, so no
-// allowance for samples correlated within a dwell); "" when they give one. The period alone
-// is found here: the diagnosis draws the curve itself.
-std::string no_sample_period_warning(const Recording& rec) {
-  try {
-    (void)sample_period_s(rec);
-    return "";
-  } catch (const std::exception& e) {
-    return allan_unavailable_warning(rec.samples.size(), e.what());
-  }
-}
-
 // A stand recording is diagnosed as it is; one without angles through the norm fit.
 std::pair<Diagnosis, Recording> diagnose_stand_recording(const DiagnoseCliOptions& o,
                                                          Recording rec) {

@@ -2,8 +2,8 @@
 
 #include <cstdio>
 
-#include "calib/diagnosis/words.hpp"
 #include "calib/recording_digest.hpp"
+#include "calib/text.hpp"
 #include "calib/units.hpp"
 #include "tools/cli_checks.hpp"
 
@@ -33,8 +33,8 @@ void add_input_options(CLI::App* cmd, InputCliOptions& o) {
   cmd->add_option("--columns", o.columns,
                   "the three accelerometer columns, by header name or 1-based index: x,y,z");
   cmd->add_option("--rate-hz", o.rate_hz,
-                  "sample rate, where the file has no time column or rate header, or its times "
-                  "give no sample period")
+                  "sample rate: the times of rows without a time column; else the rate of a file "
+                  "whose header states none")
       ->check(cli_checks::number_within(kMinSampleRate_hz, true, kMaxSampleRate_hz));
   cmd->add_option("--skip-lines", o.skip_lines, "preamble lines before the header or first row")
       ->check(cli_checks::kNonNegative);
@@ -112,8 +112,8 @@ std::optional<KnownTau> WanderCliOptions::known_tau() const {
   if (bias_instability_tau_max_s < bias_instability_tau_s)
     throw CLI::ValidationError(
         "--bias-instability-tau-max-s",
-        diagnosis::fmt("%g", bias_instability_tau_max_s) + " s is below --bias-instability-tau-s " +
-            diagnosis::fmt("%g", bias_instability_tau_s) + " s: the range is MIN to MAX");
+        round_trip_text(bias_instability_tau_max_s) + " s is below --bias-instability-tau-s " +
+            round_trip_text(bias_instability_tau_s) + " s: the range is MIN to MAX");
   return KnownTau{bias_instability_tau_s, bias_instability_tau_max_s};
 }
 

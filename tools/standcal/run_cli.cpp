@@ -131,6 +131,13 @@ void export_compensation(const json& result, const std::string& run_id, const st
                stem.c_str(), stem.c_str());
 }
 
+// What the daemon saw in a run's recording (a truncated line, g assumed, no Allan curve).
+void print_recording_warnings(const json& r) {
+  if (!r.contains("recording_warnings") || !r["recording_warnings"].is_array()) return;
+  for (const json& w : r["recording_warnings"])
+    if (w.is_string()) std::fprintf(stderr, "warning: %s\n", w.get<std::string>().c_str());
+}
+
 void print_result(const json& r) {
   // The same report as `standcal fit`, when the recording is readable here.
   const std::string path = r.value("recording_path", "");
@@ -160,10 +167,7 @@ void print_result(const json& r) {
       }
     }
   }
-  // What the daemon saw in the recording (a truncated line, g assumed, no Allan curve).
-  if (r.contains("recording_warnings") && r["recording_warnings"].is_array())
-    for (const json& w : r["recording_warnings"])
-      if (w.is_string()) std::fprintf(stderr, "warning: %s\n", w.get<std::string>().c_str());
+  print_recording_warnings(r);
   const Traceability t = traceability_from_json(r.value("traceability", json::object()));
   std::printf("\nrun %s, unit %s, stand %s, operator %s\n", t.run_id.c_str(), t.unit_serial.c_str(),
               t.stand_id.c_str(), t.operator_name.c_str());
@@ -254,6 +258,7 @@ void print_diagnosis(const json& d) {
   for (const json& p : d.value("proposed_positions", json::array()))
     std::printf("proposed position: alpha1 %.0f deg, alpha2 %.0f deg (%s)\n",
                 p.value("alpha1_deg", 0.0), p.value("alpha2_deg", 0.0), p.value("why", "").c_str());
+  print_recording_warnings(d);
 }
 
 // "The daemon can run those positions on request": the proposed positions as an inline

@@ -165,12 +165,11 @@ RecordingDigest digest_on_two_threads(const std::string& path, const DigestOptio
   RecordingDigester digester(options);
   RecordingReader reader(path);
   const Recording& head = reader.read_header(digester);
-  const bool rate_known =
-      (std::isfinite(head.sample_rate_hz) && head.sample_rate_hz > 0) || options.sample_rate_hz;
   const std::size_t size = reader.bytes_total();
   const std::optional<std::size_t> split =
-      rate_known && size >= kTwoPartBytes ? reader.dwell_start_after(size / 2, kDwellSearchBytes)
-                                          : std::nullopt;
+      digester.rate_known() && size >= kTwoPartBytes
+          ? reader.dwell_start_after(size / 2, kDwellSearchBytes)
+          : std::nullopt;
   if (!split) return finish_digest(digester, read_rest_threaded(reader, digester));
 
   RecordingDigester later(options);

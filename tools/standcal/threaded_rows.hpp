@@ -54,13 +54,14 @@ class ThreadedRows : public RecordingRowSink {
   std::thread worker_;
 };
 
-// Files at least this long whose rate is in the header are read in two parts at once.
+// Files at least this long whose rate is known before the rows (the header's, or --rate-hz)
+// are read in two parts at once.
 inline constexpr std::size_t kTwoPartBytes = std::size_t{4} << 20;
 
 // digest_recording on two threads: a file of kTwoPartBytes or more, with its sample rate
-// in the header, in two parts at once, each parsed and reduced by its own thread (the second
-// part begins with a dwell, found after the middle of the file); any other with the parsing
-// on this thread and the reduction on a second (ThreadedRows).
+// in the header or the options, in two parts at once, each parsed and reduced by its own thread
+// (the second part begins with a dwell, found after the middle of the file); any other with the
+// parsing on this thread and the reduction on a second (ThreadedRows).
 RecordingDigest digest_on_two_threads(const std::string& path, const DigestOptions& options);
 
 }  // namespace standcal::cli
