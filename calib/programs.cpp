@@ -186,7 +186,7 @@ Program normalise_program(const Program& program, const StandLimits& limits) {
                                   const char* axis) {
       return position_label(program.name, i, n) + ": " + name + " = " + round_trip_text(angle_deg) +
              " deg has no equivalent angle in the " + axis + " axis range [" +
-             number_text(r.min_deg) + ", " + number_text(r.max_deg) + "] deg";
+             round_trip_text(r.min_deg) + ", " + round_trip_text(r.max_deg) + "] deg";
     };
     if (!a1) throw ProgramError(outside_text("alpha1", p.alpha1_deg, limits.alpha1, "outer"));
     if (!a2) throw ProgramError(outside_text("alpha2", p.alpha2_deg, limits.alpha2, "inner"));

@@ -991,6 +991,7 @@ class Reader {
     reserve_rows(layout);
     lines_.stop_keeping();
     double previous_t = 0;
+    double previous_t_as_read = 0;  // in the column's unit, for a message
     bool first = true;
     bool time_ok = true;
     while (next_content_line(line)) {
@@ -1020,7 +1021,8 @@ class Reader {
         out_.block.push_back(pos);
       }
       if (layout.time < 0 || !time_ok) continue;
-      const double t = field_number(layout, fields, layout.time) * layout.time_scale;
+      const double t_as_read = field_number(layout, fields, layout.time);
+      const double t = t_as_read * layout.time_scale;
       // Past this, the difference of two times can overflow and the rate read from the
       // steps become 0 Hz; no recording spans 30 000 years.
       if (!is_plausible_time(t))
@@ -1029,14 +1031,16 @@ class Reader {
       if (!first && t < previous_t) {
         const std::string name = layout.names[static_cast<std::size_t>(layout.time)];
         if (!layout.time_tentative)
-          fail(layout.time + 1, "'" + name + "' goes backwards (" + round_trip_text(t) + " after " +
-                                    round_trip_text(previous_t) + "); times must not decrease");
+          fail(layout.time + 1, "'" + name + "' goes backwards (" + round_trip_text(t_as_read) +
+                                    " after " + round_trip_text(previous_t_as_read) +
+                                    "); times must not decrease");
         time_ok = false;  // column 1 is no time after all
         time_broken_line_ = line.number;
         continue;
       }
       out_.t_s.push_back(t);
       previous_t = t;
+      previous_t_as_read = t_as_read;
       first = false;
     }
     if (out_.axis[0].empty()) {
@@ -1204,7 +1208,7 @@ class Reader {
                                        layout.names[static_cast<std::size_t>(count_column)] +
                                        "': the sample count must be positive and at most 1e12, "
                                        "not " +
-                                       number_text(n));
+                                       number_texts_apart(n, kMaxSampleCount).value);
           r.samples = n;
         }
       }

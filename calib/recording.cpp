@@ -126,7 +126,7 @@ std::string beyond_column_text(Column c, double v) {
     case kA2Cmd:
     case kA1:
     case kA2:
-      return round_trip_text(v) +
+      return number_texts_apart(v, kMaxAbsAngle_deg).value +
              " deg is not a stand angle (within +-1e6 deg, 2778 turns): a corrupted value?";
     case kTemp:
       return implausible_temperature_text(v);
@@ -718,10 +718,10 @@ void Recording::set_header(const std::string& key, const std::string& value) {
 
 bool is_plausible_accelerometer_value(double v) { return std::abs(v) <= kMaxAbsAccelerometerValue; }
 
-// Each value said as read: one just past its bound reads as past it (1000000000001, not
-// 1e+12, beyond 1e12).
+// Each value said with the digits that show it past its bound (1000000000000.5, not 1e+12,
+// beyond 1e12).
 std::string implausible_accelerometer_value_text(double v) {
-  return round_trip_text(v) +
+  return number_texts_apart(v, kMaxAbsAccelerometerValue).value +
          " is beyond any accelerometer's output (at most 1e12 in counts, g or m/s^2): a corrupted "
          "value?";
 }
@@ -729,7 +729,7 @@ std::string implausible_accelerometer_value_text(double v) {
 bool is_plausible_time(double t_s) { return std::abs(t_s) <= kMaxAbsTime_s; }
 
 std::string implausible_time_text(double t_s) {
-  return round_trip_text(t_s) +
+  return number_texts_apart(t_s, kMaxAbsTime_s).value +
          " s is not a time a recording holds (within +-1e12 s): a corrupted value?";
 }
 
@@ -746,7 +746,9 @@ bool is_plausible_temperature(double temp_c) {
 }
 
 std::string implausible_temperature_text(double temp_c) {
-  return round_trip_text(temp_c) +
+  const double bound_c =
+      temp_c < kLowestTemperature_c ? kLowestTemperature_c : kHighestTemperature_c;
+  return number_texts_apart(temp_c, bound_c).value +
          " degC is not a unit's temperature (-273.15 ... 1000 degC): a corrupted value?";
 }
 

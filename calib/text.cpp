@@ -79,6 +79,14 @@ std::string round_trip_text(double v) {
   return ec == std::errc() ? std::string(buf.data(), end) : number_text(v);
 }
 
+std::string plain_round_trip_text(double v) {
+  if (!(v == 0 || (std::abs(v) >= 1e-4 && std::abs(v) < 1e15))) return round_trip_text(v);
+  std::array<char, 48> buf{};  // 15 digits before the point, 17 significant after 0.000
+  const auto [end, ec] =
+      std::to_chars(buf.data(), buf.data() + buf.size(), v, std::chars_format::fixed);
+  return ec == std::errc() ? std::string(buf.data(), end) : round_trip_text(v);
+}
+
 namespace {
 
 std::string significant_digits_text(double v, int digits) {
@@ -93,15 +101,15 @@ std::string fixed_decimals_text(double v, int decimals) {
   return buf;
 }
 
-// Both at `precision`, raised (up to `most`) while it shows them equal in size. A value
-// equal to its limit stays at `precision`: more digits would only show the binary fraction
-// of both (0.10000000000000001).
+// The least precision from `precision` up to `most` that shows the two apart in size. A value
+// equal to its limit, or alike even at `most`, stays at `precision`: more digits would only
+// show the binary fraction of both (0.10000000000000001) or a row of zeros.
 template <typename Format>
-NumberTextsApart texts_apart(double value, double limit, int precision, int most, Format text) {
-  if (std::abs(value) != std::abs(limit))
-    while (precision < most && text(std::abs(value), precision) == text(std::abs(limit), precision))
-      ++precision;
-  return {text(value, precision), text(limit, precision)};
+int precision_apart(double value, double limit, int precision, int most, Format text) {
+  if (std::abs(value) == std::abs(limit)) return precision;
+  for (int p = precision; p <= most; ++p)
+    if (text(std::abs(value), p) != text(std::abs(limit), p)) return p;
+  return precision;
 }
 
 }  // namespace
@@ -110,12 +118,18 @@ std::string number_text(double v) { return significant_digits_text(v, 6); }
 
 NumberTextsApart number_texts_apart(double value, double limit) {
   // 17 significant digits tell any two doubles apart.
-  return texts_apart(value, limit, 6, 17, significant_digits_text);
+  const int digits = precision_apart(value, limit, 6, 17, significant_digits_text);
+  return {significant_digits_text(value, digits), significant_digits_text(limit, digits)};
+}
+
+int fixed_decimals_apart(double value, double limit, int decimals) {
+  // Past 20 decimals a difference is of no certificate's concern (and 40 fit the buffer).
+  return precision_apart(value, limit, decimals, std::clamp(decimals, 20, 40), fixed_decimals_text);
 }
 
 NumberTextsApart fixed_texts_apart(double value, double limit, int decimals) {
-  // Past 20 decimals a difference is of no certificate's concern.
-  return texts_apart(value, limit, decimals, std::max(decimals, 20), fixed_decimals_text);
+  const int apart = fixed_decimals_apart(value, limit, decimals);
+  return {fixed_decimals_text(value, apart), fixed_decimals_text(limit, apart)};
 }
 
 }  // namespace standcal

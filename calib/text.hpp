@@ -42,8 +42,13 @@ NumberTextsApart number_texts_apart(double value, double limit);
 // "σ 1.004 µg EXCEEDS the allowed 1.000 µg", not "σ 1.00 µg EXCEEDS the allowed 1.00 µg".
 // A margin past zero is such a pair too: fixed_texts_apart(0.004, 0, 2).value is "0.004".
 NumberTextsApart fixed_texts_apart(double value, double limit, int decimals);
+// The decimals fixed_texts_apart writes both at.
+int fixed_decimals_apart(double value, double limit, int decimals);
 // The shortest text that reads back as exactly `v` (100, 0.5, 1e-07): for a value a file
 // must keep, where std::to_string's six decimals write 1e-07 as 0.000000.
 std::string round_trip_text(double v);
+// The same in plain decimals from 0.0001 to below 1e15 (100000 and 0.0005, where
+// round_trip_text writes 1e+05 and 5e-04): for a number an operator reads beside a bound.
+std::string plain_round_trip_text(double v);
 
 }  // namespace standcal

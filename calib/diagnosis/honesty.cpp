@@ -5,6 +5,7 @@
 
 #include "calib/diagnosis/residual_checks.hpp"
 #include "calib/diagnosis/words.hpp"
+#include "calib/text.hpp"
 
 namespace standcal::diagnosis {
 
@@ -130,12 +131,14 @@ std::vector<std::string> implausible_values(const std::vector<Finding>& findings
   for (const Finding& f : findings) {
     const double bound = options.implausible_factor * catalog_entry(f.effect).typical_max *
                          options.plausible_size_factor;
-    if (std::abs(f.value) > bound)
-      out.push_back(f.effect + " " + f.axis + " " + num(f.value) + " " + f.unit + " is beyond " +
-                    fmt("%.0f", bound) + " " + f.unit +
-                    (options.plausible_size_factor == 1
-                         ? ", ten times the largest a navigation-grade unit on a good stand shows"
-                         : ", ten times the largest a unit of this grade shows"));
+    if (std::abs(f.value) <= bound) continue;
+    // Both at the decimals that show the value past the bound (not "+500.0 is beyond 500").
+    const auto [size, beyond] = fixed_texts_apart(f.value, bound, 1);
+    out.push_back(f.effect + " " + f.axis + " " + (f.value > 0 ? "+" : "") + size + " " + f.unit +
+                  " is beyond " + beyond + " " + f.unit +
+                  (options.plausible_size_factor == 1
+                       ? ", ten times the largest a navigation-grade unit on a good stand shows"
+                       : ", ten times the largest a unit of this grade shows"));
   }
   return out;
 }

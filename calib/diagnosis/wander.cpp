@@ -5,6 +5,7 @@
 #include <iterator>
 
 #include "calib/diagnosis/words.hpp"
+#include "calib/text.hpp"
 #include "calib/units.hpp"
 
 namespace standcal::diagnosis {
@@ -165,9 +166,10 @@ NoiseAndTerms select_terms_and_noise(Prepared& P, const DiagnoseOptions& options
       out.noise.noise.q_g.maxCoeff() > options.max_bias_instability_ug * kUg) {
     out.noise.significant = false;
     out.noise.noise = GaussMarkovNoise{};
-    out.noise.how += "; not taken as noise: " + fmt("%.1f", out.noise.best.q_g.maxCoeff() / kUg) +
-                     " ug is beyond the bias instability of this class of unit (" +
-                     fmt("%.0f", options.max_bias_instability_ug) + " ug)";
+    const auto [wander, most] =
+        fixed_texts_apart(out.noise.best.q_g.maxCoeff() / kUg, options.max_bias_instability_ug, 1);
+    out.noise.how += "; not taken as noise: " + wander +
+                     " ug is beyond the bias instability of this class of unit (" + most + " ug)";
   }
   if (!out.noise.significant && !options.specified_wander.white()) {
     out.noise.noise = options.specified_wander;

@@ -98,7 +98,7 @@ class Section {
   }
   // Exactly, as the file wrote it: six digits said "must be between 0 and 3600 (got 3600)"
   // of 3600.0000001.
-  static std::string fmt(double d) { return round_trip_text(d); }
+  static std::string fmt(double d) { return plain_round_trip_text(d); }
   void reject_unknown() const {
     for (auto it = j_.begin(); it != j_.end(); ++it) {
       if (!seen_.count(it.key())) fail(it.key(), "unknown key (see docs/daemon.md for the keys)");

@@ -199,12 +199,16 @@ std::string unexplained_drift(const DwellAverage& dwell, const DwellExpectation&
 std::string implausible_reading(const DwellAverage& dwell) {
   for (int a = 0; a < 3; ++a)
     if (!is_plausible_accelerometer_value(dwell.max_abs_mps2[a]))
-      return "axis " + axis_name(a) + " read " + number_text(dwell.max_abs_mps2[a]) +
+      return "axis " + axis_name(a) + " read " +
+             number_texts_apart(dwell.max_abs_mps2[a], kMaxAbsAccelerometerValue).value +
              " m/s^2, beyond any accelerometer's output: check the unit's CAN layout (signal "
              "lengths, scale and offset)";
   for (const double temp_c : {dwell.temp_min_c, dwell.temp_max_c})
     if (std::isfinite(temp_c) && !is_plausible_temperature(temp_c))
-      return "the unit's temperature read " + number_text(temp_c) +
+      return "the unit's temperature read " +
+             number_texts_apart(temp_c, temp_c < kLowestTemperature_c ? kLowestTemperature_c
+                                                                      : kHighestTemperature_c)
+                 .value +
              " degC, which no unit has (-273.15 ... 1000 degC): check the temperature signal "
              "of the unit's CAN layout (length, scale and offset)";
   return {};

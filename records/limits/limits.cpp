@@ -131,8 +131,10 @@ std::string number(double v, int decimals = 2) {
   return buf;
 }
 
-// A margin that decides an outcome is never said as 0.00 unless it is none.
-std::string margin_number(double margin) { return fixed_texts_apart(margin, 0, 2).value; }
+// Equal under the limit rule (kLimitTolerance).
+bool within_tolerance(double a, double limit) {
+  return std::abs(a - limit) <= kLimitTolerance * std::abs(limit);
+}
 
 Outcome combine(Outcome a, Outcome b) {
   // Severity order for one parameter: fail > indeterminate (incl. not measured) > pass.
@@ -167,24 +169,54 @@ std::string coverage_text(double k) {
   return buf;
 }
 
+// What decided the outcome against the limit: |v| + U for a pass, |v| - U for a fail, |v|
+// for an indeterminate.
+double decisive_magnitude(const ParameterConformity& c) {
+  const double v = std::abs(*c.value);
+  const double U = *c.expanded_uncertainty;
+  switch (c.value_decision.outcome) {
+    case Outcome::pass:
+      return v + U;
+    case Outcome::fail:
+      return v - U;
+    default:
+      return v;
+  }
+}
+
+// Two decimals, or the more that show what decided the outcome apart from the limit
+// (|70.004| with U = 10.000 against 60.000: outside by 0.004, where two decimals said
+// |70.00| with U = 10.00 against 60.00, outside by 0.00).
+int explanation_decimals(const ParameterConformity& c) {
+  const double decisive = decisive_magnitude(c);
+  if (within_tolerance(decisive, *c.limit.max_abs)) return 2;
+  return fixed_decimals_apart(decisive, *c.limit.max_abs, 2);
+}
+
 std::string value_explanation(const ParameterConformity& c, double k) {
   const LimitDecision& d = c.value_decision;
+  const double limit = *c.limit.max_abs;
+  const int decimals = explanation_decimals(c);
+  const auto said = [&](double v) { return number(v, decimals); };
   const std::string u = " " + symbol(c.unit);
   const std::string numbers =
-      "|" + number(*c.value) + "|" + u + " with U = " + number(*c.expanded_uncertainty) + u +
-      " (k = " + coverage_text(k) + ") against the limit " + number(*c.limit.max_abs) + u;
+      "|" + said(*c.value) + "|" + u + " with U = " + said(*c.expanded_uncertainty) + u +
+      " (k = " + coverage_text(k) + ") against the limit " + said(limit) + u;
   switch (d.outcome) {
     case Outcome::pass:
-      // Within the decision's tolerance of the limit, none to spare.
+      // Within the rule's tolerance of the limit, none to spare.
       return numbers + ": inside even with the uncertainty added, " +
-             margin_number(std::max(d.guarded_margin, 0.0)) + u + " to spare";
+             said(within_tolerance(decisive_magnitude(c), limit) ? 0.0 : d.guarded_margin) + u +
+             " to spare";
     case Outcome::fail:
       return numbers + ": outside even with the uncertainty subtracted, by " +
-             margin_number(-(d.margin + *c.expanded_uncertainty)) + u;
+             said(-(d.margin + *c.expanded_uncertainty)) + u;
     case Outcome::indeterminate:
+      if (within_tolerance(std::abs(*c.value), limit))
+        return numbers + ": the limit lies within value ± U; the value itself is at the limit";
       return numbers + ": the limit lies within value ± U; the value itself is " +
              (d.value_within_limit ? "inside" : "outside") + " the limit by " +
-             margin_number(std::abs(d.margin)) + u;
+             said(std::abs(d.margin)) + u;
     default:
       return numbers;
   }
@@ -223,11 +255,13 @@ ParameterConformity assess_parameter(const FitResult& fit, const UnitTypeLimits&
   }
   if (c.limit.max_sigma) {
     // The uncertainty itself is compared plainly: it has no uncertainty we could add.
-    c.sigma_outcome = *c.sigma <= *c.limit.max_sigma * (1 + 1e-9) ? Outcome::pass : Outcome::fail;
+    c.sigma_outcome =
+        *c.sigma <= *c.limit.max_sigma * (1 + kLimitTolerance) ? Outcome::pass : Outcome::fail;
     // A σ within the check's tolerance of the limit passes, and is said as the limit is.
     const auto [sigma, allowed] =
         c.sigma_outcome == Outcome::pass
-            ? NumberTextsApart{number(*c.sigma), number(*c.limit.max_sigma)}
+            ? NumberTextsApart{number(std::min(*c.sigma, *c.limit.max_sigma)),
+                               number(*c.limit.max_sigma)}
             : fixed_texts_apart(*c.sigma, *c.limit.max_sigma, 2);
     parts.push_back("σ " + sigma + " " + symbol(c.unit) +
                     (c.sigma_outcome == Outcome::pass ? " within" : " EXCEEDS") + " the allowed " +
@@ -253,7 +287,12 @@ ModelCheckConformity assess_model_check(const FitResult& fit, const UnitTypeLimi
         "position and cannot show a wrong model";
   } else {
     m.outcome = *m.chi2_dof <= *m.max_chi2_dof ? Outcome::pass : Outcome::fail;
-    const auto [chi2_dof, limit] = fixed_texts_apart(*m.chi2_dof, *m.max_chi2_dof, 2);
+    // A pass keeps two decimals; a fail shows the excess.
+    const auto [chi2_dof, limit] =
+        m.outcome == Outcome::pass
+            ? NumberTextsApart{number(std::min(*m.chi2_dof, *m.max_chi2_dof)),
+                               number(*m.max_chi2_dof)}
+            : fixed_texts_apart(*m.chi2_dof, *m.max_chi2_dof, 2);
     m.explanation = "chi2/dof " + chi2_dof + " with " + std::to_string(m.redundancy) +
                     " degrees of freedom against the limit " + limit +
                     (m.outcome == Outcome::pass
@@ -348,7 +387,7 @@ std::string outcome_name(Outcome o) {
 }
 
 LimitDecision decide(double value, double expanded_uncertainty, double limit) {
-  const double tolerance = 1e-9 * std::abs(limit);
+  const double tolerance = kLimitTolerance * std::abs(limit);
   const double magnitude = std::abs(value);
   const double U = std::abs(expanded_uncertainty);
   LimitDecision d;

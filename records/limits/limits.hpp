@@ -72,6 +72,7 @@ struct LimitDecision {
 // The rule itself, exposed so tests and callers can apply it to any number.
 // Values equal to within 1e-9 of the limit count as equal (unit conversions round at
 // ~1e-16 relative), so |value| + U == limit passes and |value| - U == limit is indeterminate.
+inline constexpr double kLimitTolerance = 1e-9;  // relative to the limit
 LimitDecision decide(double value, double expanded_uncertainty, double limit);
 
 struct ParameterConformity {

@@ -9,6 +9,7 @@
 #include "calib/distributions.hpp"
 #include "calib/parameters.hpp"
 #include "calib/report.hpp"
+#include "calib/text.hpp"
 #include "report/certificate/certificate.hpp"
 #include "report/history/html_page.hpp"
 #include "report/plot/figure.hpp"
@@ -165,6 +166,14 @@ const records::ParameterConformity* conformity_of(const CertificateInput& in, in
   return nullptr;
 }
 
+// The guarded margin L - (|value| + U) with the digits that show its sign (a fail by 0.004
+// read "-0.00"); none within the limit rule's tolerance.
+std::string margin_text(const records::ParameterConformity& c) {
+  const double margin = c.value_decision.guarded_margin;
+  if (std::abs(margin) <= records::kLimitTolerance * std::abs(*c.limit.max_abs)) return "0.00";
+  return fixed(margin, fixed_decimals_apart(margin, 0, 2), true);
+}
+
 std::string parameter_row(const CertificateInput& in, int p) {
   const ParameterEstimate& e = in.fit.unit[static_cast<std::size_t>(p)];
   const std::string name(kUnitParameterNames[static_cast<std::size_t>(p)]);
@@ -185,10 +194,12 @@ std::string parameter_row(const CertificateInput& in, int p) {
     row += "<td class=\"value\" colspan=\"2\">not measured</td><td>" + unit + "</td>";
   }
   std::string limit = "—", margin = "—";
-  if (c && c->limit.max_abs) limit = "|value| ≤ " + fixed(*c->limit.max_abs, 1);
+  // The limits as the lab wrote them (one decimal said 5.005 as 5.0).
+  if (c && c->limit.max_abs) limit = "|value| ≤ " + round_trip_text(*c->limit.max_abs);
   if (c && c->limit.max_sigma)
-    limit += (limit == "—" ? "" : "<br>") + std::string("σ ≤ ") + fixed(*c->limit.max_sigma, 1);
-  if (c && c->value && c->limit.max_abs) margin = fixed(c->value_decision.guarded_margin, 2, true);
+    limit +=
+        (limit == "—" ? "" : "<br>") + std::string("σ ≤ ") + round_trip_text(*c->limit.max_sigma);
+  if (c && c->value && c->limit.max_abs) margin = margin_text(*c);
   row += "<td class=\"num limit\">" + limit + "</td><td class=\"num margin\">" + margin +
          "</td><td class=\"outcome " + o + "\">" + outcome_label(outcome) +
          "</td><td class=\"explanation\">" +

@@ -163,10 +163,9 @@ TEST(RecordingErrors, AForceNoAccelerometerGivesNamesLineAndColumn) {
   const std::string plain =
       "5.020,0,0.0000,0.0000,0.000012,-0.000210,0.000425,10000000000000.5,-0.000219,23.05\n";
   const std::string quick = error_of(kHeader + kColumns + kRow0 + kRow1 + plain);
-  // Said as read: six digits said 1e+13, and of 1000000000000.5, "1e+12 is beyond ... at most
-  // 1e12".
-  EXPECT_NE(quick.find("rec.csv:9: column 8: column 'fy_mps2': 10000000000000.5 is beyond"),
-            std::string::npos)
+  // Said with the digits that show it past the bound: six digits said of 1000000000000.5 "1e+12
+  // is beyond ... at most 1e12".
+  EXPECT_NE(quick.find("rec.csv:9: column 8: column 'fy_mps2': 1e+13 is beyond"), std::string::npos)
       << quick;
   const std::string just_past =
       "5.020,0,0.0000,0.0000,0.000012,-0.000210,0.000425,1000000000000.5,-0.000219,23.05\n";

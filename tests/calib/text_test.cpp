@@ -23,6 +23,13 @@ TEST(RoundTripText, WritesTheShortestTextThatReadsBackExactly) {
   }
   EXPECT_EQ(round_trip_text(100.0), "100");
   EXPECT_EQ(round_trip_text(1e-7), "1e-07");
+  EXPECT_EQ(plain_round_trip_text(100000), "100000");  // round_trip_text: 1e+05
+  EXPECT_EQ(plain_round_trip_text(0.0005), "0.0005");  // 5e-04
+  EXPECT_EQ(plain_round_trip_text(3600.0000001), "3600.0000001");
+  EXPECT_EQ(plain_round_trip_text(1e-7), "1e-07");
+  EXPECT_EQ(plain_round_trip_text(9e15), "9e+15");
+  for (const double v : {0.1 + 0.2, 123456789012345.6, -0.00012345678901234567})
+    EXPECT_EQ(std::stod(plain_round_trip_text(v)), v);
 }
 
 // A value found past its limit never reads as equal to it (standcald said "noise 5000 µg

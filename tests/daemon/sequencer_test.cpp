@@ -192,6 +192,41 @@ TEST(SequencerInProcess, TheDriftRuleAgainstTheNoiseDecidesTheReMeasurements) {
   EXPECT_EQ(s.count_events(protocol::event::fault), 2u) << "one re-measurement, then the fault";
 }
 
+// The thermal wait gives up after its time-out, saying how fast the temperature still
+// changes against the limit (the simulated unit's 0.005 degC of temperature noise fits a
+// slope far above 1e-6 degC/min over a 1 s window); a limit it meets lets the run go on.
+TEST(SequencerInProcess, TheThermalWaitFaultsARunWhoseTemperatureStillChanges) {
+  const json start{
+      {"program", "paper9"}, {"unit_serial", "SEQ-T"}, {"dwell_s", 1}, {"settle_s", 0}};
+  const auto thermal = [](double limit_c_per_min) {
+    return [limit_c_per_min](DaemonConfig& c) {
+      c.thermal.enabled = true;
+      c.thermal.rate_limit_c_per_min = limit_c_per_min;
+      c.thermal.window_s = 1;
+      c.thermal.timeout_s = 1;
+    };
+  };
+  {
+    InProcessSequencer s(100, thermal(1e-6));
+    const Outcome started = s.call("run.start", start);
+    ASSERT_EQ(started.error_code, 0) << started.error_message;
+    const json faulted = s.wait_run(started.result["run_id"],
+                                    [](const json& st) { return st["state"] != "running"; });
+    EXPECT_EQ(faulted["state"], "faulted") << faulted.dump();
+    EXPECT_NE(faulted.dump().find("the unit temperature still changes by "), std::string::npos)
+        << faulted.dump();
+    EXPECT_NE(faulted.dump().find(" °C/min (limit 1e-06 °C/min) after the thermal wait's 1 s"),
+              std::string::npos)
+        << faulted.dump();
+  }
+  InProcessSequencer s(100, thermal(100));
+  const Outcome started = s.call("run.start", start);
+  ASSERT_EQ(started.error_code, 0) << started.error_message;
+  const json done =
+      s.wait_run(started.result["run_id"], [](const json& st) { return st["state"] != "running"; });
+  EXPECT_EQ(done["state"], "done") << done.dump();
+}
+
 // Issue 21: a unit whose output filter correlates its samples (five sample periods at
 // 100 Hz: a dwell's drift scatters 3.2 times what its samples' sigma says) is judged against
 // that correlation, as the run's dwells pooled show it. Asked for at 3 times what the noise

@@ -164,21 +164,33 @@ TEST(LimitsAssess, AnOutcomeJustPastItsLimitIsSaidWithTheDigitsThatShowIt) {
   EXPECT_NE(r.parameters[kGamma12].explanation.find("σ 5.004 "), std::string::npos)
       << r.parameters[kGamma12].explanation;
   ASSERT_EQ(r.parameters[kGamma13].value_decision.outcome, Outcome::fail);
-  EXPECT_NE(r.parameters[kGamma13].explanation.find("subtracted, by 0.004 "), std::string::npos)
+  // Every number at the decimals that show the decision: |v| - U past the limit.
+  EXPECT_NE(r.parameters[kGamma13].explanation.find(
+                "|70.004| ″ with U = 10.000 ″ (k = 2) against the limit 60.000 ″: outside even "
+                "with the uncertainty subtracted, by 0.004 ″"),
+            std::string::npos)
       << r.parameters[kGamma13].explanation;
   ASSERT_EQ(r.model_check.outcome, Outcome::fail);
   EXPECT_NE(r.model_check.explanation.find("chi2/dof 3.001 with 15 degrees of freedom against "
                                            "the limit 3.000: the residuals exceed"),
             std::string::npos)
       << r.model_check.explanation;
-  // A pass keeps its two decimals.
-  const FitResult inside = fit_with({}, {1, 1, 1, 1, 1, 1, 5, 1, 1}, 15, 1.1);
+  // A pass keeps its two decimals; |v| + U at the limit within the rule's tolerance (through
+  // report units and back) has none to spare, not 0.00000000000001.
+  const FitResult inside =
+      fit_with({0, 0, 0, 0, 0, 0, 0, 50, 0}, {1, 1, 1, 1, 1, 1, 5, 5, 1}, 15, 1.1);
   const ConformityReport ok = assess_conformity(inside, limits);
   EXPECT_NE(ok.parameters[kGamma12].explanation.find("σ 5.00 ″ within the allowed 5.00 ″"),
             std::string::npos)
       << ok.parameters[kGamma12].explanation;
   EXPECT_NE(ok.model_check.explanation.find("chi2/dof 1.10 with"), std::string::npos)
       << ok.model_check.explanation;
+  ASSERT_EQ(ok.parameters[kGamma13].value_decision.outcome, Outcome::pass);
+  EXPECT_NE(ok.parameters[kGamma13].explanation.find("|50.00| ″ with U = 10.00 ″ (k = 2) against "
+                                                     "the limit 60.00 ″: inside even with the "
+                                                     "uncertainty added, 0.00 ″ to spare"),
+            std::string::npos)
+      << ok.parameters[kGamma13].explanation;
 }
 
 TEST(LimitsAssess, UnmeasuredLimitedParameterMakesTheVerdictIndeterminate) {
