@@ -1402,14 +1402,18 @@ class Reader {
   }
 
   void resolve_rate() {
-    if (times_from_rate_)
+    if (times_from_rate_) {
       out_.sample_rate_hz = *time_rate();
-    else if (header_rate_)
+    } else if (header_rate_) {
       out_.sample_rate_hz = *header_rate_;
-    else if (options_.rate_hz)
+      if (options_.rate_hz && *options_.rate_hz != *header_rate_)
+        out_.warnings.push_back(
+            rate_option_not_used_warning(out_.source, *options_.rate_hz, *header_rate_));
+    } else if (options_.rate_hz) {
       out_.sample_rate_hz = *options_.rate_hz;
-    else
+    } else {
       out_.sample_rate_hz = rate_from_steps();
+    }
   }
 
   double rate_from_steps() {

@@ -783,7 +783,17 @@ void Recording::use_given_g(double g_mps2) {
 void Recording::use_given_sample_rate(double rate_hz) {
   if (!is_plausible_sample_rate(rate_hz))
     throw std::invalid_argument(implausible_sample_rate_text(round_trip_text(rate_hz)));
-  if (!(sample_rate_hz > 0)) sample_rate_hz = rate_hz;
+  if (!(sample_rate_hz > 0))
+    sample_rate_hz = rate_hz;
+  else if (rate_hz != sample_rate_hz)
+    warnings.push_back(rate_option_not_used_warning(source, rate_hz, sample_rate_hz));
+}
+
+std::string rate_option_not_used_warning(const std::string& source, double given_hz,
+                                         double header_hz) {
+  return source + ": --rate-hz " + round_trip_text(given_hz) +
+         " is not used: the header's sample_rate_hz " + round_trip_text(header_hz) +
+         " was written with the samples";
 }
 
 Recording parse_recording(std::string_view text, const std::string& source) {

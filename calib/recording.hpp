@@ -70,10 +70,15 @@ struct Recording {
   void use_given_g(double g_mps2);
   // The sample rate the operator gave (--rate-hz) for a recording with no sample_rate_hz
   // header: its Allan curves then need no period from the times' steps. A header's rate
-  // is kept (it was written with the samples). Throws std::invalid_argument for a rate no
-  // recording has (is_plausible_sample_rate).
+  // is kept (it was written with the samples), with a warning when the two differ. Throws
+  // std::invalid_argument for a rate no recording has (is_plausible_sample_rate).
   void use_given_sample_rate(double rate_hz);
 };
+
+// "SOURCE: --rate-hz 100 is not used: the header's sample_rate_hz 25 was written with the
+// samples", for a reader that keeps a header's rate over the option.
+std::string rate_option_not_used_warning(const std::string& source, double given_hz,
+                                         double header_hz);
 
 // The reader's warning that the recording has no g_local_mps2 header.
 bool is_assumed_gravity_warning(std::string_view warning);

@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <random>
+#include <sstream>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -28,6 +29,7 @@
 #include "calib/raw_input.hpp"
 #include "calib/recording_digest.hpp"
 #include "calib/simulator.hpp"
+#include "calib/text.hpp"
 #include "tests/support/command.hpp"
 
 namespace fs = std::filesystem;
@@ -343,6 +345,33 @@ TEST_F(StreamingReader, TimeStepsNoUnitMakesGiveNoSamplePeriod) {
     digest_given.sample_rate_hz = 1000;
     EXPECT_TRUE(digest_recording(path, digest_given).allan);
   }
+}
+
+// A recording's own rate is kept over --rate-hz (it was written with the samples), and the
+// operator is told once, whichever reader reads it: the option was dropped without a word.
+TEST_F(StreamingReader, ARateGivenBesideTheHeadersIsNotUsedAndSaidSo) {
+  const std::string path = (dir_ / "run.csv").string();
+  write_recording(small_run(true), path);
+  const std::string header_rate = round_trip_text(read_recording(path).sample_rate_hz);
+  // After the source, which a pipe names /dev/stdin.
+  const std::string said = ": --rate-hz 1000 is not used: the header's sample_rate_hz " +
+                           header_rate + " was written with the samples";
+  for (const std::string& command :
+       {std::string(STANDCAL_CLI_PATH) + " fit " + path + " --rate-hz 1000",
+        std::string(STANDCAL_CLI_PATH) + " diagnose " + path + " --rate-hz 1000",
+        std::string(STANDCAL_CLI_PATH) + " noise " + path + " --rate-hz 1000",
+        "cat " + path + " | " + STANDCAL_CLI_PATH + " fit /dev/stdin --rate-hz 1000",
+        "cat " + path + " | " + STANDCAL_CLI_PATH + " diagnose /dev/stdin --rate-hz 1000"}) {
+    const test::CommandOutcome r = test::run_command(command);
+    // One "warning:" line says it (the fit's report lists the recording's warnings too).
+    std::istringstream lines(r.output);
+    int warned = 0;
+    for (std::string line; std::getline(lines, line);)
+      warned += line.rfind("warning: ", 0) == 0 && line.find(said) != std::string::npos ? 1 : 0;
+    EXPECT_EQ(warned, 1) << command << ": " << r.output;
+  }
+  EXPECT_EQ(read_input(path, InputOptions{}).warnings, read_recording(path).warnings)
+      << "no option, no word";
 }
 
 // A step longer than any time a recording holds (two samples 1.8e12 s apart) is no period;

@@ -45,7 +45,6 @@ DiagnoseOptions diagnose_options(const DiagnoseCliOptions& o) {
 std::pair<Diagnosis, Recording> diagnose_stand_recording(const DiagnoseCliOptions& o,
                                                          Recording rec) {
   if (o.input.g_mps2 > 0) rec.use_given_g(o.input.g_mps2);
-  if (o.input.rate_hz > 0) rec.use_given_sample_rate(o.input.rate_hz);
   print_warnings(rec.warnings);
   print_warnings({no_sample_period_warning(rec)});
   Diagnosis d = diagnose_recording(rec, diagnose_options(o));
@@ -54,8 +53,12 @@ std::pair<Diagnosis, Recording> diagnose_stand_recording(const DiagnoseCliOption
 
 std::pair<Diagnosis, Recording> diagnose_input(const DiagnoseCliOptions& o) {
   // A stand recording is read straight into its samples: no copy of the text, no raw columns.
-  if (streams_as_stand_recording(o.input, o.recording))
-    return diagnose_stand_recording(o, read_recording(o.recording));
+  if (streams_as_stand_recording(o.input, o.recording)) {
+    Recording rec = read_recording(o.recording);
+    // The other reader applies it itself (read_input).
+    if (o.input.rate_hz > 0) rec.use_given_sample_rate(o.input.rate_hz);
+    return diagnose_stand_recording(o, std::move(rec));
+  }
   RawInput in = read_input(o.recording, input_options(o.input));
   if (in.recording) {
     in.recording->warnings = in.warnings;  // the reader's, with what the options changed
