@@ -745,10 +745,12 @@ bool is_plausible_temperature(double temp_c) {
   return temp_c >= kLowestTemperature_c && temp_c <= kHighestTemperature_c;
 }
 
+double temperature_bound_past_c(double temp_c) {
+  return temp_c < kLowestTemperature_c ? kLowestTemperature_c : kHighestTemperature_c;
+}
+
 std::string implausible_temperature_text(double temp_c) {
-  const double bound_c =
-      temp_c < kLowestTemperature_c ? kLowestTemperature_c : kHighestTemperature_c;
-  return number_texts_apart(temp_c, bound_c).value +
+  return number_texts_apart(temp_c, temperature_bound_past_c(temp_c)).value +
          " degC is not a unit's temperature (-273.15 ... 1000 degC): a corrupted value?";
 }
 

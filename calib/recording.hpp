@@ -113,6 +113,9 @@ bool is_plausible_sample_rate(double rate_hz);
 // written.
 std::string implausible_sample_rate_text(const std::string& rate_as_written);
 bool is_plausible_temperature(double temp_c);
+// The end of -273.15 ... 1000 degC that a temperature outside it is past: the lowest for one
+// below it, else the highest.
+double temperature_bound_past_c(double temp_c);
 // What is wrong with such a temperature, in the words of the errors above.
 std::string implausible_temperature_text(double temp_c);
 // What in a row is beyond these bounds ("column 'temp_c': 1e+300 degC is not ..."), for a

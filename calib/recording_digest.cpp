@@ -134,6 +134,10 @@ std::optional<AllanFinding> RecordingDigest::allan_finding() const {
                       allan->sample_correlation};
 }
 
+std::string RecordingDigest::allan_warning() const {
+  return allan ? "" : allan_unavailable_warning(samples, allan_unavailable);
+}
+
 RecordingDigest digest_recording(const std::string& path, const DigestOptions& options) {
   RecordingDigester sink(options);
   Recording read = stream_recording(path, sink);

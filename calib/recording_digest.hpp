@@ -37,6 +37,8 @@ struct RecordingDigest {
 
   // The figures alone, as allan_finding(recording) gives them (the fit's `noise.allan`).
   std::optional<AllanFinding> allan_finding() const;
+  // allan_unavailable_warning of a recording with no curve, as AveragedRecording's, or "".
+  std::string allan_warning() const;
 };
 
 // The reduction as a row sink: give it to stream_recording (or feed header() and row()

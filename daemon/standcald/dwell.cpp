@@ -206,9 +206,7 @@ std::string implausible_reading(const DwellAverage& dwell) {
   for (const double temp_c : {dwell.temp_min_c, dwell.temp_max_c})
     if (std::isfinite(temp_c) && !is_plausible_temperature(temp_c))
       return "the unit's temperature read " +
-             number_texts_apart(temp_c, temp_c < kLowestTemperature_c ? kLowestTemperature_c
-                                                                      : kHighestTemperature_c)
-                 .value +
+             number_texts_apart(temp_c, temperature_bound_past_c(temp_c)).value +
              " degC, which no unit has (-273.15 ... 1000 degC): check the temperature signal "
              "of the unit's CAN layout (length, scale and offset)";
   return {};

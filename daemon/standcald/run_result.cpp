@@ -93,11 +93,8 @@ json fit_finished_run(RunRecord& record, const std::string& run_dir,
   result["recording_path"] = record.recording_path;
   result["traceability"] = traceability_to_json(record);
   result["recording_warnings"] = digest.recording.warnings;
-  if (!digest.allan) {
-    if (std::string why = allan_unavailable_warning(digest.samples, digest.allan_unavailable);
-        !why.empty())
-      result["recording_warnings"].push_back(std::move(why));
-  }
+  if (std::string why = digest.allan_warning(); !why.empty())
+    result["recording_warnings"].push_back(std::move(why));
   if (joint.fit && budget)
     result["uncertainty_budget"] = run_budget(*joint.fit, record, averages, *budget);
   if (joint.fit) {

@@ -132,8 +132,13 @@ std::string number(double v, int decimals = 2) {
 }
 
 // Equal under the limit rule (kLimitTolerance).
-bool within_tolerance(double a, double limit) {
-  return std::abs(a - limit) <= kLimitTolerance * std::abs(limit);
+bool within_tolerance(double a, double limit) { return negligible_against_limit(a - limit, limit); }
+
+// A value compared plainly with its limit (a σ, a χ²/dof): two decimals when it passed, and
+// never said above the limit then; else the digits that show the excess.
+NumberTextsApart plain_comparison_texts(double value, double limit, bool passed) {
+  if (passed) return {number(std::min(value, limit)), number(limit)};
+  return fixed_texts_apart(value, limit, 2);
 }
 
 Outcome combine(Outcome a, Outcome b) {
@@ -259,10 +264,7 @@ ParameterConformity assess_parameter(const FitResult& fit, const UnitTypeLimits&
         *c.sigma <= *c.limit.max_sigma * (1 + kLimitTolerance) ? Outcome::pass : Outcome::fail;
     // A σ within the check's tolerance of the limit passes, and is said as the limit is.
     const auto [sigma, allowed] =
-        c.sigma_outcome == Outcome::pass
-            ? NumberTextsApart{number(std::min(*c.sigma, *c.limit.max_sigma)),
-                               number(*c.limit.max_sigma)}
-            : fixed_texts_apart(*c.sigma, *c.limit.max_sigma, 2);
+        plain_comparison_texts(*c.sigma, *c.limit.max_sigma, c.sigma_outcome == Outcome::pass);
     parts.push_back("σ " + sigma + " " + symbol(c.unit) +
                     (c.sigma_outcome == Outcome::pass ? " within" : " EXCEEDS") + " the allowed " +
                     allowed + " " + symbol(c.unit));
@@ -287,12 +289,8 @@ ModelCheckConformity assess_model_check(const FitResult& fit, const UnitTypeLimi
         "position and cannot show a wrong model";
   } else {
     m.outcome = *m.chi2_dof <= *m.max_chi2_dof ? Outcome::pass : Outcome::fail;
-    // A pass keeps two decimals; a fail shows the excess.
     const auto [chi2_dof, limit] =
-        m.outcome == Outcome::pass
-            ? NumberTextsApart{number(std::min(*m.chi2_dof, *m.max_chi2_dof)),
-                               number(*m.max_chi2_dof)}
-            : fixed_texts_apart(*m.chi2_dof, *m.max_chi2_dof, 2);
+        plain_comparison_texts(*m.chi2_dof, *m.max_chi2_dof, m.outcome == Outcome::pass);
     m.explanation = "chi2/dof " + chi2_dof + " with " + std::to_string(m.redundancy) +
                     " degrees of freedom against the limit " + limit +
                     (m.outcome == Outcome::pass
@@ -384,6 +382,10 @@ std::string outcome_name(Outcome o) {
       return "no_limit";
   }
   return "no_limit";
+}
+
+bool negligible_against_limit(double difference, double limit) {
+  return std::abs(difference) <= kLimitTolerance * std::abs(limit);
 }
 
 LimitDecision decide(double value, double expanded_uncertainty, double limit) {

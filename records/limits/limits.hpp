@@ -73,6 +73,8 @@ struct LimitDecision {
 // Values equal to within 1e-9 of the limit count as equal (unit conversions round at
 // ~1e-16 relative), so |value| + U == limit passes and |value| - U == limit is indeterminate.
 inline constexpr double kLimitTolerance = 1e-9;  // relative to the limit
+// A difference from the limit within that tolerance: none, under the rule.
+bool negligible_against_limit(double difference, double limit);
 LimitDecision decide(double value, double expanded_uncertainty, double limit);
 
 struct ParameterConformity {

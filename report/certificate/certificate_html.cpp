@@ -170,7 +170,7 @@ const records::ParameterConformity* conformity_of(const CertificateInput& in, in
 // read "-0.00"); none within the limit rule's tolerance.
 std::string margin_text(const records::ParameterConformity& c) {
   const double margin = c.value_decision.guarded_margin;
-  if (std::abs(margin) <= records::kLimitTolerance * std::abs(*c.limit.max_abs)) return "0.00";
+  if (records::negligible_against_limit(margin, *c.limit.max_abs)) return "0.00";
   return fixed(margin, fixed_decimals_apart(margin, 0, 2), true);
 }
 

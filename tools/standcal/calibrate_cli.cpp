@@ -140,8 +140,7 @@ void run_fit(const FitOptions& o) {
   if (o.method != "norm" && streams_as_stand_recording(o.input, o.recording)) {
     RecordingDigest digest = digest_on_two_threads(o.recording, digest_options(o.input));
     print_warnings(digest.recording.warnings);
-    if (!digest.allan)
-      print_warnings({allan_unavailable_warning(digest.samples, digest.allan_unavailable)});
+    print_warnings({digest.allan_warning()});
     const std::string method = o.method == "auto" ? "joint" : o.method;
     return fit_stand_averages(o, method, digest.recording, std::move(digest.averages),
                               digest.allan_finding());
