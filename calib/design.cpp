@@ -10,6 +10,7 @@
 #include <stdexcept>
 
 #include "calib/model.hpp"
+#include "calib/noise_model.hpp"
 #include "calib/units.hpp"
 
 namespace standcal {
@@ -271,18 +272,10 @@ std::vector<DwellWindow> dwell_windows(const Program& program, const DesignSetti
 double wander_mean_covariance(const DwellWindow& a, const DwellWindow& b, double tau_s) {
   const DwellWindow& first = a.start_s <= b.start_s ? a : b;
   const DwellWindow& second = a.start_s <= b.start_s ? b : a;
-  const double xa = first.length_s / tau_s, xb = second.length_s / tau_s;
-  if (first.start_s == second.start_s && first.length_s == second.length_s) {
-    // Var of the mean of a window: 2 (x - 1 + e^-x) / x^2, which is 1 - x/3 + ... as x -> 0.
-    if (xa < 1e-4) return 1 - xa / 3;
-    return 2 * (xa + std::expm1(-xa)) / (xa * xa);
-  }
-  if (second.start_s < first.start_s + first.length_s)
+  const bool same = first.start_s == second.start_s && first.length_s == second.length_s;
+  if (!same && second.start_s < first.start_s + first.length_s)
     throw std::invalid_argument("wander_mean_covariance: dwell windows that partly overlap");
-  // Disjoint windows: each mean sees the process through (1 - e^-x) / x, the gap as e^-gap.
-  const auto through = [](double x) { return x < 1e-8 ? 1.0 : -std::expm1(-x) / x; };
-  const double gap_s = second.start_s - (first.start_s + first.length_s);
-  return through(xa) * through(xb) * std::exp(-gap_s / tau_s);
+  return gauss_markov_window_correlation(a.start_s, a.length_s, b.start_s, b.length_s, tau_s);
 }
 
 KnownTau DesignSettings::wander_tau() const {

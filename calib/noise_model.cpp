@@ -34,8 +34,8 @@ std::vector<NoiseRow> full_vector_noise_rows(const std::vector<PositionAverage>&
   rows.reserve(3 * positions.size());
   for (const PositionAverage& p : positions)
     for (int a = 0; a < 3; ++a)
-      rows.push_back(
-          {p.mid_time_s(), Vec3::Unit(a), std::max(p.standard_error_g[a], sigma_floor_g)});
+      rows.push_back({p.mid_time_s(), Vec3::Unit(a), std::max(p.standard_error_g[a], sigma_floor_g),
+                      p.span_s()});
   return rows;
 }
 
@@ -44,8 +44,52 @@ std::vector<NoiseRow> invariant_noise_rows(const std::vector<PositionAverage>& p
   std::vector<NoiseRow> rows;
   rows.reserve(positions.size());
   for (std::size_t k = 0; k < positions.size(); ++k)
-    rows.push_back({positions[k].mid_time_s(), positions[k].up(), sigma_g[k]});
+    rows.push_back(
+        {positions[k].mid_time_s(), positions[k].up(), sigma_g[k], positions[k].span_s()});
   return rows;
+}
+
+namespace {
+
+// Of a window x = length / tau long: (1 - e^-x) / x, how much of the process at its start
+// its mean sees (and, by symmetry, at its end).
+double window_through(double x) { return x < 1e-8 ? 1.0 : -std::expm1(-x) / x; }
+
+// 2 (x - 1 + e^-x) / x^2, the variance of the window's mean in units of q^2.
+double window_mean_variance(double x) {
+  if (x < 1e-4) return 1 - x / 3 + x * x / 12;
+  return 2 * (x + std::expm1(-x)) / (x * x);
+}
+
+// The variance of the window's mean not explained by the process at its start:
+// window_mean_variance - window_through^2 = (2 (x - 1 + e^-x) - (1 - e^-x)^2) / x^2.
+double window_mean_innovation(double x) {
+  if (x < 1e-3) return x * (2.0 / 3 - x * (0.5 - 7.0 / 30 * x));
+  const double e = -std::expm1(-x);
+  return (2 * (x - e) - e * e) / (x * x);
+}
+
+double window_start_s(const NoiseRow& r) { return r.t_s - 0.5 * r.window_s; }
+double window_end_s(const NoiseRow& r) { return r.t_s + 0.5 * r.window_s; }
+
+bool same_window(const NoiseRow& a, const NoiseRow& b) {
+  return a.t_s == b.t_s && a.window_s == b.window_s;
+}
+
+}  // namespace
+
+double gauss_markov_window_correlation(double a_start_s, double a_length_s, double b_start_s,
+                                       double b_length_s, double tau_s) {
+  const bool a_first = a_start_s <= b_start_s;
+  const double first_start = a_first ? a_start_s : b_start_s;
+  const double first_length = a_first ? a_length_s : b_length_s;
+  const double second_start = a_first ? b_start_s : a_start_s;
+  const double second_length = a_first ? b_length_s : a_length_s;
+  const double x_first = first_length / tau_s, x_second = second_length / tau_s;
+  if (first_start == second_start && first_length == second_length)
+    return window_mean_variance(x_first);
+  const double gap_s = std::max(0.0, second_start - (first_start + first_length));
+  return window_through(x_first) * window_through(x_second) * std::exp(-gap_s / tau_s);
 }
 
 MatrixXd row_covariance(const std::vector<NoiseRow>& rows, const GaussMarkovNoise& noise) {
@@ -59,12 +103,20 @@ MatrixXd row_covariance(const std::vector<NoiseRow>& rows, const GaussMarkovNois
     for (Eigen::Index s = 0; s < n; ++s) {
       const NoiseRow& b = rows[static_cast<std::size_t>(s)];
       c(r, s) += a.projection.cwiseProduct(b.projection).dot(q2) *
-                 std::exp(-std::abs(a.t_s - b.t_s) / noise.tau_s);
+                 gauss_markov_window_correlation(window_start_s(a), a.window_s, window_start_s(b),
+                                                 b.window_s, noise.tau_s);
     }
   }
   return c;
 }
 
+// The filter's state is the wander b at the end of the last window and the wander's mean M
+// over the current window, per axis: [b; M]. Between windows b decays as e^(-gap / tau);
+// across a window of x = length / tau, from b at its start,
+//   b_end = e^-x b + w,  M = (1 - e^-x) / x b + v,
+// with var w = q^2 (1 - e^-2x), cov(w, v) = q^2 (1 - e^-x)^2 / x, var v = q^2
+// window_mean_innovation(x) (the process's integral over the window); a window of length 0 is
+// the instant M = b.
 MatrixXd decorrelate(const std::vector<NoiseRow>& rows, const GaussMarkovNoise& noise,
                      const MatrixXd& whitened, double* log_det_out) {
   double log_det = 0;
@@ -72,33 +124,51 @@ MatrixXd decorrelate(const std::vector<NoiseRow>& rows, const GaussMarkovNoise& 
     if (log_det_out) *log_det_out = 0;
     return whitened;
   }
+  using Matrix6d = Eigen::Matrix<double, 6, 6>;
   const Eigen::Index k = whitened.cols();
   MatrixXd out(whitened.rows(), k);
   const Eigen::Array3d q2 = noise.q_g.array().square();
-  Eigen::Matrix3d P = q2.matrix().asDiagonal();  // the wander starts stationary
-  MatrixXd state = MatrixXd::Zero(3, k);         // its estimate, one per column
+  Matrix6d P = Matrix6d::Zero();
+  P.topLeftCorner<3, 3>() = q2.matrix().asDiagonal();  // the wander starts stationary
+  MatrixXd state = MatrixXd::Zero(6, k);               // its estimate, one per column
   // Allocated once, and the products below written without temporaries: the REML search
-  // calls this some 300 times a fit (fit_invariant_joint of a one-hour recording: 10.0 ->
-  // 8.4 ms, docs/performance.md; the same numbers to the bit).
+  // calls this some 300 times a fit (docs/performance.md).
   Eigen::RowVectorXd innovation(k);
-  double t_prev = 0;
-  bool first = true;
+  const NoiseRow* window = nullptr;  // the window the last row was a mean over
   for (std::size_t r : time_order(rows)) {
     const NoiseRow& row = rows[r];
-    if (!first) {  // propagate: b(t + dt) = a b(t) + w, var(w) = q^2 (1 - a^2)
-      const double a = std::exp(-(row.t_s - t_prev) / noise.tau_s);  // the same on every axis
-      state *= a;
-      P *= a;  // a P a, in the order of diag(a) P diag(a)
-      P *= a;
-      const double a2 = a * a;  // its own statement: not fused into 1 - a a (FMA targets)
-      P.diagonal().array() += q2 * (1 - a2);
+    if (!window || !same_window(*window, row)) {
+      if (window) {  // from the last window's end to this one's start: b(t + dt) = a b(t) + w
+        const double gap_s = std::max(0.0, window_start_s(row) - window_end_s(*window));
+        const double a = std::exp(-gap_s / noise.tau_s);  // the same on every axis
+        state.topRows<3>() *= a;
+        P.topLeftCorner<3, 3>() *= a;  // a P a, in the order of diag(a) P diag(a)
+        P.topLeftCorner<3, 3>() *= a;
+        const double a2 = a * a;  // its own statement: not fused into 1 - a a (FMA targets)
+        P.topLeftCorner<3, 3>().diagonal().array() += q2 * (1 - a2);
+      }
+      const double x = row.window_s / noise.tau_s;
+      const double decay = std::exp(-x), through = window_through(x);
+      const double one_minus_decay = -std::expm1(-x);
+      const Eigen::Matrix3d Pb = P.topLeftCorner<3, 3>();
+      state.bottomRows<3>() = through * state.topRows<3>();
+      state.topRows<3>() *= decay;
+      P.topLeftCorner<3, 3>() = decay * decay * Pb;
+      P.topRightCorner<3, 3>() = decay * through * Pb;
+      P.bottomLeftCorner<3, 3>() = decay * through * Pb;
+      P.bottomRightCorner<3, 3>() = through * through * Pb;
+      P.topLeftCorner<3, 3>().diagonal().array() += q2 * (1 - decay * decay);
+      const Eigen::Array3d cross = q2 * (x > 0 ? one_minus_decay * one_minus_decay / x : 0.0);
+      P.topRightCorner<3, 3>().diagonal().array() += cross;
+      P.bottomLeftCorner<3, 3>().diagonal().array() += cross;
+      P.bottomRightCorner<3, 3>().diagonal().array() += q2 * window_mean_innovation(x);
+      window = &row;
     }
-    first = false;
-    t_prev = row.t_s;
     const Eigen::RowVector3d H = row.projection.transpose() / row.sigma_g;  // whitened units
-    innovation.noalias() = whitened.row(static_cast<Eigen::Index>(r)) - H * state;
-    const double S = (H * P * H.transpose())(0, 0) + 1.0;
-    const Eigen::Vector3d K = P * H.transpose() / S;
+    innovation.noalias() = whitened.row(static_cast<Eigen::Index>(r)) - H * state.bottomRows<3>();
+    const Eigen::Matrix<double, 6, 1> PHt = P.rightCols<3>() * H.transpose();
+    const double S = H * PHt.tail<3>() + 1.0;
+    const Eigen::Matrix<double, 6, 1> K = PHt / S;
     state.noalias() += K * innovation;
     P -= K * S * K.transpose();
     out.row(static_cast<Eigen::Index>(r)) = innovation / std::sqrt(S);
@@ -426,6 +496,13 @@ NoiseFinding noise_finding(const NoiseEstimate& e, const std::vector<PositionAve
   set_tau_provenance(n, e.plausible, known_tau);
   n.bias_instability = e.significant;
   n.tau_s = e.noise.tau_s;
+  std::vector<double> spans_s;
+  for (const PositionAverage& p : avg) spans_s.push_back(p.span_s());
+  std::nth_element(spans_s.begin(),
+                   spans_s.begin() + static_cast<std::ptrdiff_t>(spans_s.size() / 2),
+                   spans_s.end());
+  // The wander's share of one dwell mean's error: its variance over the median dwell.
+  const double wander_share = window_mean_variance(spans_s[spans_s.size() / 2] / e.noise.tau_s);
   for (int a = 0; a < 3; ++a) {
     std::vector<double> se;
     for (const PositionAverage& p : avg) se.push_back(p.standard_error_g[a]);
@@ -433,7 +510,7 @@ NoiseFinding noise_finding(const NoiseEstimate& e, const std::vector<PositionAve
     const double sigma = se[se.size() / 2], q = e.noise.q_g[a];
     n.wander_ug[a] = q / kUg;
     n.allan_peak_ug[a] = gauss_markov_allan_peak(q, e.noise.tau_s).deviation / kUg;
-    n.understated_by[a] = sigma > 0 ? std::sqrt(1 + q * q / (sigma * sigma)) : 1.0;
+    n.understated_by[a] = sigma > 0 ? std::sqrt(1 + wander_share * q * q / (sigma * sigma)) : 1.0;
   }
   return n;
 }
@@ -503,6 +580,7 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
     for (double tau_s : options.known_tau->grid_s())
       choice.plausible.push_back({{e.noise.q_g, tau_s}, 1.0});
   if (e.significant) choice.parameters = e.parameters;
+  if (e.significant || weighted_below_bar) choice.weighted_parameters = e.parameters;
   if (weighted_below_bar) choice.finding.source = "estimated";
   if (choice.finding.model == "gauss_markov")
     set_tau_provenance(choice.finding, choice.plausible, options.known_tau);

@@ -4,16 +4,21 @@
 // the white noise that each dwell mean's standard error describes. Wander correlated over
 // minutes does not average down inside a 10 s dwell nor across positions, so the means of
 // dwells close in time share it; their covariance is
-//   C(r, s) = sigma_r^2 delta_rs + sum_a P_r[a] P_s[a] q_a^2 exp(-|t_r - t_s| / tau)
+//   C(r, s) = sigma_r^2 delta_rs + sum_a P_r[a] P_s[a] q_a^2 k(w_r, w_s)
 // where row r is one projection P_r of one dwell mean (e_a for a full-vector component,
-// u for the invariant projection).
+// u for the invariant projection) and k the correlation of the wander's means over the two
+// dwells' windows w (gauss_markov_window_correlation): exp(-|t_r - t_s| / tau) for values at
+// instants, less between the means of neighbouring dwells. Taking a mean as the wander's
+// value at the dwell's mid-time overstates how much consecutive means differ (by 13 % for
+// 10 s dwells 30 s apart at tau = 300 s), and the wander's size fitted to them came out too
+// small by about as much (docs/calibration.md, "Noise model").
 //
-// The wander is a 3-state linear system, so a Kalman filter over the rows in time order
-// turns any column into its innovations: exactly C^{-1/2} (the Cholesky factor's inverse),
-// in O(rows) rather than O(rows^3). The diagnosis and the estimators work on that
-// decorrelated problem (generalised least squares) and estimate q and tau from it by
-// restricted maximum likelihood (REML), which does not count the fitted parameters'
-// share of the residual as noise.
+// The wander and its mean over the current window are a 6-state linear system, so a Kalman
+// filter over the rows in time order turns any column into its innovations: exactly
+// C^{-1/2} (the Cholesky factor's inverse), in O(rows) rather than O(rows^3). The diagnosis
+// and the estimators work on that decorrelated problem (generalised least squares) and estimate q
+// and tau from it by restricted maximum likelihood (REML), which does not count the fitted
+// parameters' share of the residual as noise.
 #include <Eigen/Dense>
 #include <functional>
 #include <optional>
@@ -31,6 +36,7 @@ struct NoiseRow {
   double t_s = 0;                  // mid-time of the dwell
   Vec3 projection = Vec3::Zero();  // which combination of the three axes the row measures
   double sigma_g = 0;              // white standard error of the row (g): its whitening
+  double window_s = 0;  // the span the row's mean is taken over, centred on t_s (0: an instant)
 };
 
 struct GaussMarkovNoise {
@@ -39,10 +45,17 @@ struct GaussMarkovNoise {
   bool white() const { return q_g.isZero(); }
 };
 
+// The correlation of a Gauss-Markov process's means over two windows of time (start, length;
+// a length of 0 is an instant): the variance of one window's mean 2 (x - 1 + e^-x) / x^2
+// (x = length / tau), and between disjoint windows e^(-gap / tau) times (1 - e^-x) / x for
+// each. Windows that partly overlap are taken as adjoining.
+double gauss_markov_window_correlation(double a_start_s, double a_length_s, double b_start_s,
+                                       double b_length_s, double tau_s);
+
 // The rows of the two estimators' problems, in position order, whitened by the standard
 // error each position's mean carries: full-vector, three per position (x, y, z); invariant,
 // one per position, the projection on the commanded up-vector u. A row's time is its
-// dwell's mid-time.
+// dwell's mid-time, its window the dwell's span.
 std::vector<NoiseRow> full_vector_noise_rows(const std::vector<PositionAverage>& positions,
                                              double sigma_floor_g);
 std::vector<NoiseRow> invariant_noise_rows(const std::vector<PositionAverage>& positions,
@@ -247,6 +260,8 @@ struct FitNoiseChoice {
   // each axis's own, and tau unless given): the chi-square test loses as many degrees of
   // freedom.
   int parameters = 0;
+  // The same for `noise`, which may be a wander weighted for below the bar of a finding.
+  int weighted_parameters = 0;
 };
 
 // How much each parameter's sigma widens when the noise model is estimated from the run:

@@ -27,6 +27,8 @@ struct PositionAverage {
 
   // The dwell's mid-time: when its mean is taken to have been measured (bias wander).
   double mid_time_s() const { return 0.5 * (t_start_s + t_end_s); }
+  // The span its mean averages a slowly varying bias over.
+  double span_s() const { return t_end_s - t_start_s; }
   // The commanded up-vector u(alpha1, alpha2) in instrument axes for this mount.
   Vec3 up() const;
 };

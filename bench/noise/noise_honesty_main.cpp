@@ -70,6 +70,32 @@ std::string tau_words(const Scenario& s) {
   return b;
 }
 
+// The biases' z-variance over the runs each fit weighted as white noise and over those it
+// weighted for a wander: an estimated noise model's excess lies where it took none.
+void print_bias_z2_by_weighting(const ScenarioResult& r) {
+  std::printf(
+      "  biases' z-variance by the fit's weighting: runs, range; the wander's q^2 weighted "
+      "with over the simulated one's, mean over runs and axes\n");
+  std::printf("  %-6s %-10s %-22s %-22s %s\n", "fit", "weighting", "weighted as white",
+              "weighted for a wander", "q^2 / truth");
+  for (const ZStats& z : r.stats) {
+    if (z.weighting == "white" || z.weighting == "true" || z.runs == 0) continue;
+    std::printf("  %-6s %-10s", z.estimator.c_str(), z.weighting.c_str());
+    for (std::size_t w = 0; w < 2; ++w) {
+      const int n = z.runs_by_weighting[w];
+      const auto& sums = z.bias_z2_by_weighting[w];
+      char cell[64] = "-";
+      if (n > 0)
+        std::snprintf(cell, sizeof cell, "%5d %6.2f-%.2f", n,
+                      *std::min_element(sums.begin(), sums.end()) / n,
+                      *std::max_element(sums.begin(), sums.end()) / n);
+      std::printf(" %-22s", cell);
+    }
+    if (z.wander_q2_ratio_n > 0) std::printf(" %5.3f", z.wander_q2_ratio_sum / z.wander_q2_ratio_n);
+    std::printf("\n");
+  }
+}
+
 void print_result(const ScenarioResult& r) {
   std::printf(
       "\n%s (wander %.1f ug, %s; white error of one dwell mean %.2f ug; samples taken as "
@@ -106,6 +132,7 @@ void print_result(const ScenarioResult& r) {
     std::printf("\n");
   }
   print_sigma_over_white(r);
+  print_bias_z2_by_weighting(r);
 }
 
 }  // namespace

@@ -81,14 +81,20 @@ Scenario scenario_of_run(const Scenario& s, std::uint64_t seed) {
 }
 
 void accumulate(ZStats& z, const FitResult& fit,
-                const std::array<double, kUnitParameterCount>& truth) {
+                const std::array<double, kUnitParameterCount>& truth, double wander_ug) {
   ++z.runs;
+  if (wander_ug > 0)
+    for (int a = 0; a < 3; ++a, ++z.wander_q2_ratio_n)
+      z.wander_q2_ratio_sum += std::pow(fit.noise.wander_ug[a] / wander_ug, 2);
   if (fit.noise.bias_instability) ++z.wander_significant;
+  const std::size_t weighted_for_wander = fit.noise.model == "white" ? 0 : 1;
+  ++z.runs_by_weighting[weighted_for_wander];
   for (int j = 0; j < kUnitParameterCount; ++j) {
     const ParameterEstimate& p = fit.unit[static_cast<std::size_t>(j)];
     if (!p.value || !p.sigma || *p.sigma <= 0) continue;
     const double zj = (*p.value - truth[static_cast<std::size_t>(j)]) / *p.sigma;
     z.z2_mean[static_cast<std::size_t>(j)] += zj * zj;
+    if (j < 3) z.bias_z2_by_weighting[weighted_for_wander][static_cast<std::size_t>(j)] += zj * zj;
     z.z_mean[static_cast<std::size_t>(j)] += zj;
     if (std::abs(zj) <= 1.96) z.coverage95[static_cast<std::size_t>(j)] += 1;
     ++z.n[static_cast<std::size_t>(j)];
@@ -122,6 +128,13 @@ void merge(ZStats& into, const ZStats& part) {
   into.runs += part.runs;
   into.failed += part.failed;
   into.wander_significant += part.wander_significant;
+  into.wander_q2_ratio_sum += part.wander_q2_ratio_sum;
+  into.wander_q2_ratio_n += part.wander_q2_ratio_n;
+  for (std::size_t w = 0; w < 2; ++w) {
+    into.runs_by_weighting[w] += part.runs_by_weighting[w];
+    for (std::size_t j = 0; j < 3; ++j)
+      into.bias_z2_by_weighting[w][j] += part.bias_z2_by_weighting[w][j];
+  }
   for (std::size_t j = 0; j < into.n.size(); ++j) {
     into.z2_mean[j] += part.z2_mean[j];
     into.z_mean[j] += part.z_mean[j];
@@ -177,7 +190,7 @@ ScenarioResult run_scenario(const Setup& setup, const Scenario& scenario) {
       for (std::size_t k = 0; k < methods().size(); ++k) {
         try {
           fits[k] = fit_with(methods()[k], rec, avg, req.truth, setup);
-          accumulate(local[k], *fits[k], x_true);
+          accumulate(local[k], *fits[k], x_true, req.truth.noise.bias_instability_ug);
         } catch (const std::exception&) {
           ++local[k].failed;
         }

@@ -58,6 +58,14 @@ struct ZStats {
   // white noise. What weighting for a wander the run may not have costs (under white noise),
   // or how far it widens (under wander).
   std::array<std::vector<double>, 3> sigma_over_white;
+  // The biases' z^2 summed and counted apart for the runs this fit weighted as white noise
+  // ([0]) and for a wander ([1]): where the excess of an estimated noise model lies.
+  std::array<std::array<double, 3>, 2> bias_z2_by_weighting{};
+  std::array<int, 2> runs_by_weighting{};
+  // The wander's size the fit weighted with over the simulated one, (q / q_true)^2 summed
+  // over runs and axes (a wander simulated), and how many: how far its estimate is biased.
+  double wander_q2_ratio_sum = 0;
+  int wander_q2_ratio_n = 0;
   int wander_significant = 0;  // runs whose fit found the wander significant
   int runs = 0;
   int failed = 0;  // runs whose fit threw

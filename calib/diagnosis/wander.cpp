@@ -164,10 +164,10 @@ NoiseAndTerms select_terms_and_noise(Prepared& P, const DiagnoseOptions& options
   if (options.known_tau) out.noise.how += "; at " + options.known_tau->words();
   if (out.noise.significant &&
       out.noise.noise.q_g.maxCoeff() > options.max_bias_instability_ug * kUg) {
+    const double wander_ug = out.noise.noise.q_g.maxCoeff() / kUg;  // the size judged
     out.noise.significant = false;
     out.noise.noise = GaussMarkovNoise{};
-    const auto [wander, most] =
-        fixed_texts_apart(out.noise.best.q_g.maxCoeff() / kUg, options.max_bias_instability_ug, 1);
+    const auto [wander, most] = fixed_texts_apart(wander_ug, options.max_bias_instability_ug, 1);
     out.noise.how += "; not taken as noise: " + wander +
                      " ug is beyond the bias instability of this class of unit (" + most + " ug)";
   }
