@@ -82,12 +82,14 @@ double min_coverage(const noise_mc::ZStats& z) {
   return c;
 }
 
-// One seeded diagnostic32 run with wander `times` the white error of a dwell mean.
-Recording wander_run(double times, std::uint64_t seed) {
+// One seeded diagnostic32 run with wander `times` the white error of a dwell mean (of the
+// default unit's correlation time unless `tau_s` is given).
+Recording wander_run(double times, std::uint64_t seed, double tau_s = 0) {
   SimulationRequest req;
   req.program = diagnostic32();
   req.truth = default_truth();
   req.truth.noise.bias_instability_ug = times * req.truth.noise.density_ug_rthz / std::sqrt(10.0);
+  if (tau_s > 0) req.truth.noise.bias_instability_tau_s = tau_s;
   req.timing.dwell_s = 10;
   req.timing.sample_rate_hz = 25;
   req.seed = seed;
@@ -396,15 +398,7 @@ TEST(FitNoise, AWanderTheFullVectorWeighsForIsWhatItsModelIsCheckedAgainst) {
   given.known_tau = KnownTau{600, 600};
   int set_aside = 0, joint_white = 0, weighted = 0;
   for (std::uint64_t seed = 101; seed <= 200; ++seed) {
-    SimulationRequest req;
-    req.program = diagnostic32();
-    req.truth = default_truth();
-    req.truth.noise.bias_instability_ug = 3 * req.truth.noise.density_ug_rthz / std::sqrt(10.0);
-    req.truth.noise.bias_instability_tau_s = 600;
-    req.timing.dwell_s = 10;
-    req.timing.sample_rate_hz = 25;
-    req.seed = seed;
-    const std::vector<PositionAverage> avg = average_positions(simulate_run(req));
+    const std::vector<PositionAverage> avg = average_positions(wander_run(3, seed, 600));
     const FitResult full = fit_full_vector(avg, given);
     if (full.noise.model == "white") continue;
     ++weighted;
@@ -412,7 +406,8 @@ TEST(FitNoise, AWanderTheFullVectorWeighsForIsWhatItsModelIsCheckedAgainst) {
     const FitResult joint = fit_invariant_joint(avg, given);
     if (joint.noise.model == "white") {
       ++joint_white;
-      const double z = (*joint.unit[0].value - req.truth.unit.bias_g[0]) / *joint.unit[0].sigma;
+      const double z =
+          (*joint.unit[0].value - default_truth().unit.bias_g[0]) / *joint.unit[0].sigma;
       std::printf("seed %llu: joint weighted as white, bias_x z %.1f, full lr %.2f\n",
                   static_cast<unsigned long long>(seed), z, full.noise.lr);
     }
