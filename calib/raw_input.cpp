@@ -1404,6 +1404,11 @@ class Reader {
   void resolve_rate() {
     if (times_from_rate_) {
       out_.sample_rate_hz = *time_rate();
+      // The option is the operator's word over the header (a header that misstates its
+      // rate is mended so), but it is said: the rows' times, and every time constant the
+      // fits estimate, follow it.
+      if (options_.rate_hz && header_rate_ && *options_.rate_hz != *header_rate_)
+        out_.warnings.push_back(rate_option_replaces_header_warning(*options_.rate_hz));
     } else if (header_rate_) {
       out_.sample_rate_hz = *header_rate_;
       if (options_.rate_hz && *options_.rate_hz != *header_rate_)
@@ -1414,6 +1419,14 @@ class Reader {
     } else {
       out_.sample_rate_hz = rate_from_steps();
     }
+  }
+
+  std::string rate_option_replaces_header_warning(double given_hz) const {
+    return out_.source + ":" + std::to_string(header_rate_line_) + ": --rate-hz " +
+           round_trip_text(given_hz) + " replaces the header's sample_rate_hz " +
+           round_trip_text(*header_rate_) +
+           ": the rows have no time column, so their times are made from " +
+           round_trip_text(given_hz) + " Hz";
   }
 
   double rate_from_steps() {

@@ -134,6 +134,10 @@ const char* to_string(StandAxis axis);
 const char* to_string(AxisMode mode);
 // "unconfigured", "inactive", "active", "error".
 const char* to_string(Lifecycle lifecycle);
+// An angle read or aimed at, as the stand's messages print it: "57.3120°", four decimals
+// (0.36″, below any stand's in-position window). A configured value (a range end) is printed
+// as given instead (round_trip_text).
+std::string format_deg(double angle_deg);
 
 // Maps a commanded angle into the axis range (a ±180° axis takes 270° as −90°), given
 // where the axis is now; a limited axis with no equivalent angle inside gives `limit`.

@@ -3,7 +3,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <vector>
 
 namespace standcal::drivers::modbus {
@@ -13,12 +12,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 std::string axis_text(StandAxis axis) { return std::string(to_string(axis)) + " axis"; }
-
-std::string format_deg(double a_deg) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.4f°", a_deg);
-  return text;
-}
 
 bool is_link_loss(const Status& s) {
   return s.kind == ErrorKind::timeout || s.kind == ErrorKind::link;

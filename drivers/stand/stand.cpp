@@ -16,12 +16,6 @@ namespace {
 
 using SteadyClock = std::chrono::steady_clock;
 
-std::string format_deg(double a_deg) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.4f°", a_deg);
-  return text;
-}
-
 std::string axis_label(const Stand& stand, StandAxis axis) {
   return "stand " + stand.name() + " axis " + std::to_string(static_cast<int>(axis)) + " (" +
          to_string(axis) + ")";
@@ -117,6 +111,12 @@ const char* to_string(Lifecycle lifecycle) {
   return "unknown";
 }
 
+std::string format_deg(double angle_deg) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.4f°", angle_deg);
+  return text;
+}
+
 Result<double> normalise_target_deg(const AxisRange& range, double angle_deg, double current_deg) {
   if (!std::isfinite(angle_deg))
     return Status::error(ErrorKind::invalid_argument, "commanded angle is not a number");
@@ -124,11 +124,13 @@ Result<double> normalise_target_deg(const AxisRange& range, double angle_deg, do
       range.cable_wrap == CableWrap::nearest ? current_deg : range.middle_deg();
   if (const auto target_deg = equivalent_angle_deg(range, angle_deg, reference_deg))
     return *target_deg;
-  // The angle as commanded: one just past an end reads as past it (90.00001°, not
-  // 90.0000°, outside [-90.0000°, 90.0000°]).
-  return Status::error(ErrorKind::limit,
-                       "angle " + round_trip_text(angle_deg) + "° is outside the range [" +
-                           format_deg(range.min_deg) + ", " + format_deg(range.max_deg) + "]");
+  // The angle as commanded and the ends as configured: one just past an end reads as past
+  // it (90.00001°, not 90.0000°, outside [-90°, 90°]), and an end of 90.00004° is not
+  // printed as 90.0000°.
+  return Status::error(ErrorKind::limit, "angle " + round_trip_text(angle_deg) +
+                                             "° is outside the range [" +
+                                             round_trip_text(range.min_deg) + "°, " +
+                                             round_trip_text(range.max_deg) + "°]");
 }
 
 Result<double> path_target_deg(const AxisRange& range, double angle_deg, double current_deg) {

@@ -2,6 +2,7 @@
 // values, and errors that name file, line and column.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <functional>
@@ -215,6 +216,28 @@ TEST(RawInputErrors, ARateNoRecordingHoldsNamesWhereItWasGiven) {
   EXPECT_THROW(parse_input(untimed, "in.csv", options), std::invalid_argument);
   options.rate_hz = 1e-9;  // a slow rate whose times stay within the bound is a rate
   EXPECT_DOUBLE_EQ(parse_input(untimed, "in.csv", options).t_s[2], 2e9);
+}
+
+// Rows without a time column take their times from --rate-hz over the header's rate (a
+// header that misstates it is mended so), and the operator is told: the option replaced the
+// header's rate without a word, and every time constant the fits estimate follows it.
+TEST(RawInputRate, ARateGivenOverAnUntimedFilesHeaderIsUsedAndSaidSo) {
+  const std::string untimed =
+      "# sample_rate_hz: 25\nax,ay,az\n0.01,0.02,0.98\n0.01,0.02,0.99\n0.01,0.02,0.97\n";
+  InputOptions given;
+  given.rate_hz = 100;
+  const RawInput replaced = parse_input(untimed, "in.csv", given);
+  EXPECT_EQ(replaced.sample_rate_hz, 100);
+  EXPECT_DOUBLE_EQ(replaced.t_s.back(), 0.02);
+  const std::string said =
+      "in.csv:1: --rate-hz 100 replaces the header's sample_rate_hz 25: the rows have no time "
+      "column, so their times are made from 100 Hz";
+  EXPECT_EQ(std::count(replaced.warnings.begin(), replaced.warnings.end(), said), 1)
+      << testing::PrintToString(replaced.warnings);
+  given.rate_hz = 25;  // the header's own rate: nothing replaced, nothing said
+  const RawInput same = parse_input(untimed, "in.csv", given);
+  EXPECT_DOUBLE_EQ(same.t_s.back(), 0.08);
+  EXPECT_EQ(same.warnings, parse_input(untimed, "in.csv", InputOptions{}).warnings);
 }
 
 // Times 1e-300 s apart made a rate of 1e300 Hz from the steps, and the static detector a

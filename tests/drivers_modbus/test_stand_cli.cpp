@@ -9,6 +9,7 @@
 
 #include "emulator_process.hpp"
 #include "tests/support/command.hpp"
+#include "tests/support/temp_dir.hpp"
 
 namespace standcal::test {
 namespace {
@@ -21,7 +22,13 @@ CliRun standcal_stand(const std::string& arguments) {
 
 TEST(StandCli, EnableMoveAndStatusAgainstTheEmulator) {
   EmulatorProcess emulator("tcp://127.0.0.1:0", {"--time-scale", "10"});
-  const std::string url = "--url " + emulator.url();
+  // A watchdog of 10 s, not the default 1 s: this test is about the commands, and under the
+  // sanitizers beside other tests on 2 cores the CLI's I/O thread was once starved for a
+  // second while homing, so the emulator stopped the axes ("heartbeat lost"). The watchdog
+  // itself is tested in test_modbus_tcp.cpp (StandOverTcp) and by the fault tests.
+  const TempDir dir;
+  dir.write("stand.json", R"({"timing": {"heartbeat_timeout_s": 10}})");
+  const std::string url = "--url " + emulator.url() + " --config " + dir.file("stand.json");
   const CliRun enabled = standcal_stand(url + " enable");
   ASSERT_EQ(enabled.exit_code, 0) << enabled.output;
   const CliRun unreferenced = standcal_stand(url + " --timeout-s 20 move 270 -45.5");

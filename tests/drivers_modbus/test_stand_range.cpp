@@ -46,7 +46,7 @@ TEST(AxisRangeNormalisation, AngleWithNoEquivalentInsideIsALimitError) {
   auto r = normalise_target_deg(limited(-90.0, 90.0), 200.0, 0.0);
   ASSERT_FALSE(r);
   EXPECT_EQ(r.status().kind, ErrorKind::limit);
-  EXPECT_NE(r.status().message.find("angle 200° is outside the range [-90.0000°, 90.0000°]"),
+  EXPECT_NE(r.status().message.find("angle 200° is outside the range [-90°, 90°]"),
             std::string::npos)
       << r.status().message;
   // Just past an end, said as commanded: "angle 90.0000° is outside [..., 90.0000°]" before.
@@ -54,6 +54,14 @@ TEST(AxisRangeNormalisation, AngleWithNoEquivalentInsideIsALimitError) {
   ASSERT_FALSE(past);
   EXPECT_NE(past.status().message.find("angle 90.00001° is outside"), std::string::npos)
       << past.status().message;
+  // The ends as configured: an end of 90.00004° was printed 90.0000°, so the angle past it
+  // read as outside [..., 90.0000°].
+  const auto past_fine_end = normalise_target_deg(limited(-90.0, 90.00004), 90.00005, 0.0);
+  ASSERT_FALSE(past_fine_end);
+  EXPECT_NE(
+      past_fine_end.status().message.find("angle 90.00005° is outside the range [-90°, 90.00004°]"),
+      std::string::npos)
+      << past_fine_end.status().message;
   auto nan = normalise_target_deg(AxisRange::continuous_axis(),
                                   std::numeric_limits<double>::quiet_NaN(), 0.0);
   ASSERT_FALSE(nan);
