@@ -6,39 +6,13 @@
 #include <cmath>
 #include <cstdio>
 
+#include <utf8.h>
+
 namespace standcal {
 
 namespace {
 
 bool is_continuation_byte(unsigned char b) { return (b & 0xC0) == 0x80; }
-
-// The length of the well-formed UTF-8 character at text[i], or 0 where none starts there
-// (the Unicode standard's table 3-7: the second byte's range is narrower after E0, ED, F0
-// and F4, which excludes overlong forms, surrogates and code points past U+10FFFF).
-std::size_t well_formed_length(std::string_view text, std::size_t i) {
-  const auto byte = [&](std::size_t k) { return static_cast<unsigned char>(text[k]); };
-  const unsigned char lead = byte(i);
-  if (lead < 0x80) return 1;
-  std::size_t length = 0;
-  unsigned char second_min = 0x80, second_max = 0xBF;
-  if (lead >= 0xC2 && lead <= 0xDF) {
-    length = 2;
-  } else if (lead >= 0xE0 && lead <= 0xEF) {
-    length = 3;
-    if (lead == 0xE0) second_min = 0xA0;
-    if (lead == 0xED) second_max = 0x9F;
-  } else if (lead >= 0xF0 && lead <= 0xF4) {
-    length = 4;
-    if (lead == 0xF0) second_min = 0x90;
-    if (lead == 0xF4) second_max = 0x8F;
-  } else {
-    return 0;
-  }
-  if (i + length > text.size() || byte(i + 1) < second_min || byte(i + 1) > second_max) return 0;
-  for (std::size_t k = 2; k < length; ++k)
-    if (!is_continuation_byte(byte(i + k))) return 0;
-  return length;
-}
 
 }  // namespace
 
@@ -65,12 +39,10 @@ std::string describe(const ControlCharacter& c) {
 }
 
 std::optional<std::size_t> first_non_utf8_byte(std::string_view text) {
-  for (std::size_t i = 0; i < text.size();) {
-    const std::size_t length = well_formed_length(text, i);
-    if (length == 0) return i;
-    i += length;
-  }
-  return std::nullopt;
+  // utfcpp's check: overlong forms, surrogates and code points past U+10FFFF are not UTF-8.
+  const auto invalid = utf8::find_invalid(text.begin(), text.end());
+  if (invalid == text.end()) return std::nullopt;
+  return static_cast<std::size_t>(invalid - text.begin());
 }
 
 std::string round_trip_text(double v) {

@@ -16,6 +16,8 @@ packages=(
   zlib1g-dev
   # Boost.Math (header-only): the exact χ² tail of the consistency verdicts.
   libboost-dev
+  # utfcpp (header-only): is a text field, a header value or a request UTF-8, and where not.
+  libutfcpp-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   socat
   # Man pages (docs/CMakeLists.txt): standcal(1) and standcald(8) from --help-all,

@@ -18,8 +18,8 @@ namespace standcal::protocol {
 std::optional<std::string> text_field_problem(std::string_view text, std::size_t max_chars);
 
 // The 0-based offset of the first byte of `text` that is not part of a UTF-8 character, or
-// nothing when all of it is UTF-8. (calib/text.hpp has its own for the file formats: this
-// room depends on nlohmann-json alone.)
+// nothing when all of it is UTF-8: utfcpp's check, as calib/text.hpp's for the file formats
+// (this room depends on nlohmann-json and utfcpp alone).
 std::optional<std::size_t> first_non_utf8_byte(std::string_view text);
 
 // Throws RpcError(invalid_params) "WHAT must be …" when text_field_problem finds one;

@@ -1,7 +1,8 @@
 #pragma once
 // Byte strings and where each stops being well-formed UTF-8 (the Unicode standard's table
-// 3-7), for the two decoders: calib/text.hpp's (the file formats) and
-// protocol/jsonrpc/text.hpp's (the operator protocol), which must agree.
+// 3-7), for the two rooms' checks: calib/text.hpp's (the file formats) and
+// protocol/jsonrpc/text.hpp's (the operator protocol). Both are utfcpp's, and must agree with
+// the standard here: each was a hand-written decoder until 2026-12-05.
 #include <cstddef>
 #include <optional>
 #include <string>
