@@ -667,15 +667,10 @@ class Reader {
       out_.units_how =
           "the " + std::string(kRecordingFormat) + " format (fx_mps2, fy_mps2, fz_mps2 in m/s^2)";
     }
-    for (const std::string& w : rec.warnings)
-      if (!(options_.g_mps2 && is_assumed_gravity_warning(w))) out_.warnings.push_back(w);
-    if (options_.g_mps2) {
-      out_.g_mps2 = *options_.g_mps2;
-      out_.g_given = true;
-    } else {
-      out_.g_mps2 = rec.g_local_mps2;
-      out_.g_given = rec.g_from_header;
-    }
+    if (options_.g_mps2) rec.use_given_g(*options_.g_mps2);
+    out_.warnings.insert(out_.warnings.end(), rec.warnings.begin(), rec.warnings.end());
+    out_.g_mps2 = rec.g_local_mps2;
+    out_.g_given = rec.g_from_header;
     // The header's rate, else --rate-hz (both in rec now), else the steps'.
     out_.sample_rate_hz = rec.sample_rate_hz > 0 ? rec.sample_rate_hz : rate_from_steps();
     out_.recording = std::move(rec);
@@ -1371,6 +1366,9 @@ class Reader {
     if (options_.g_mps2) {
       out_.g_mps2 = *options_.g_mps2;
       out_.g_given = true;
+      if (from_file && *from_file != *options_.g_mps2)
+        out_.warnings.push_back(
+            g_option_replaces_header_warning(out_.source, *options_.g_mps2, *from_file));
     } else if (from_file) {
       out_.g_mps2 = *from_file;
       out_.g_given = true;

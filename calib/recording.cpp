@@ -773,10 +773,23 @@ std::string implausible_sample_text(const RecordingSample& s) {
 }
 
 bool is_assumed_gravity_warning(std::string_view warning) {
-  return warning.find("g_local_mps2") != std::string_view::npos;
+  return warning.find("assuming standard gravity") != std::string_view::npos;
+}
+
+std::string g_option_replaces_header_warning(const std::string& source, double given_mps2,
+                                             double header_mps2) {
+  char ppm[32];
+  std::snprintf(ppm, sizeof ppm, "%+.1f ppm", (given_mps2 / header_mps2 - 1) * 1e6);
+  return source + ": --g-mps2 " + round_trip_text(given_mps2) +
+         " replaces the header's g_local_mps2 " + round_trip_text(header_mps2) + " (" + ppm +
+         "): the scale factors take up the difference";
 }
 
 void Recording::use_given_g(double g_mps2) {
+  // The operator's word over the header's (a g measured since), but said: it moves every
+  // scale factor by the difference.
+  if (g_from_header && g_mps2 != g_local_mps2)
+    warnings.push_back(g_option_replaces_header_warning(source, g_mps2, g_local_mps2));
   g_local_mps2 = g_mps2;
   g_from_header = true;  // given, not assumed
   std::erase_if(warnings, [](const std::string& w) { return is_assumed_gravity_warning(w); });

@@ -65,8 +65,9 @@ struct Recording {
   std::string header_value(std::string_view key) const;
   // Sets (or replaces) a header key, keeping the order of first appearance.
   void set_header(const std::string& key, const std::string& value);
-  // Local gravity the operator gave (--g-mps2): it replaces the header's, and the reader's
-  // "g assumed" warning no longer holds.
+  // Local gravity the operator gave (--g-mps2): it replaces the header's, with a warning when
+  // the two differ (g_option_replaces_header_warning), and the reader's "g assumed" warning
+  // no longer holds.
   void use_given_g(double g_mps2);
   // The sample rate the operator gave (--rate-hz) for a recording with no sample_rate_hz
   // header: its Allan curves then need no period from the times' steps. A header's rate
@@ -79,6 +80,11 @@ struct Recording {
 // samples", for a reader that keeps a header's rate over the option.
 std::string rate_option_not_used_warning(const std::string& source, double given_hz,
                                          double header_hz);
+
+// "SOURCE: --g-mps2 9.80665 replaces the header's g_local_mps2 9.81625 (-978.0 ppm): the scale
+// factors take up the difference", for every reader where the option wins over the header.
+std::string g_option_replaces_header_warning(const std::string& source, double given_mps2,
+                                             double header_mps2);
 
 // The reader's warning that the recording has no g_local_mps2 header.
 bool is_assumed_gravity_warning(std::string_view warning);

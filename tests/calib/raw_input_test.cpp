@@ -218,6 +218,25 @@ TEST(RawInputErrors, ARateNoRecordingHoldsNamesWhereItWasGiven) {
   EXPECT_DOUBLE_EQ(parse_input(untimed, "in.csv", options).t_s[2], 2e9);
 }
 
+// The readers of other tools' files say it too when --g-mps2 replaces their header's g
+// (the stand recordings' readers: StreamingReader.AGravityGivenBesideTheHeadersReplacesIt...).
+TEST(RawInputGravity, AGravityGivenOverAHeadersIsUsedAndSaidSo) {
+  const std::string untimed =
+      "# g_local_mps2: 9.81\n# sample_rate_hz: 25\nax,ay,az\n0.01,0.02,0.98\n0.01,0.02,0.99\n";
+  InputOptions given;
+  given.g_mps2 = 9.8;
+  const RawInput replaced = parse_input(untimed, "in.csv", given);
+  EXPECT_EQ(replaced.g_mps2, 9.8);
+  const std::string said =
+      "in.csv: --g-mps2 9.8 replaces the header's g_local_mps2 9.81 (-1019.4 ppm): the scale "
+      "factors take up the difference";
+  EXPECT_EQ(std::count(replaced.warnings.begin(), replaced.warnings.end(), said), 1)
+      << testing::PrintToString(replaced.warnings);
+  given.g_mps2 = 9.81;  // the header's own g: nothing said
+  EXPECT_EQ(parse_input(untimed, "in.csv", given).warnings,
+            parse_input(untimed, "in.csv", InputOptions{}).warnings);
+}
+
 // Rows without a time column take their times from --rate-hz over the header's rate (a
 // header that misstates it is mended so), and the operator is told: the option replaced the
 // header's rate without a word, and every time constant the fits estimate follows it.

@@ -458,6 +458,38 @@ TEST_F(StreamingReader, AGivenGravityIsUsedAndItsWarningDropped) {
   expect_same_averages(digest.averages, average_positions(whole));
 }
 
+// A g given beside a header's replaces it (a g measured since the recording), and the
+// operator is told once, whichever reader reads it, with what it does to the scale factors:
+// the option replaced the header's g without a word.
+TEST_F(StreamingReader, AGravityGivenBesideTheHeadersReplacesItAndIsSaidSo) {
+  const std::string path = (dir_ / "run.csv").string();
+  write_recording(small_run(true), path);
+  const std::string header_g = round_trip_text(read_recording(path).g_local_mps2);
+  ASSERT_NE(header_g, "9.8");
+  const std::string said = ": --g-mps2 9.8 replaces the header's g_local_mps2 " + header_g;
+  for (const std::string& command :
+       {std::string(STANDCAL_CLI_PATH) + " fit " + path + " --g-mps2 9.8",
+        std::string(STANDCAL_CLI_PATH) + " diagnose " + path + " --g-mps2 9.8",
+        std::string(STANDCAL_CLI_PATH) + " noise " + path + " --g-mps2 9.8",
+        "cat " + path + " | " + STANDCAL_CLI_PATH + " fit /dev/stdin --g-mps2 9.8",
+        "cat " + path + " | " + STANDCAL_CLI_PATH + " diagnose /dev/stdin --g-mps2 9.8"}) {
+    const test::CommandOutcome r = test::run_command(command);
+    std::istringstream lines(r.output);
+    int warned = 0;
+    for (std::string line; std::getline(lines, line);)
+      warned += line.rfind("warning: ", 0) == 0 && line.find(said) != std::string::npos ? 1 : 0;
+    EXPECT_EQ(warned, 1) << command << ": " << r.output;
+  }
+  InputOptions given;
+  given.g_mps2 = 9.8;
+  const RawInput replaced = read_input(path, given);
+  EXPECT_EQ(replaced.g_mps2, 9.8);
+  ASSERT_TRUE(replaced.recording);
+  EXPECT_EQ(replaced.recording->g_local_mps2, 9.8);
+  given.g_mps2 = read_recording(path).g_local_mps2;  // the header's own g: nothing said
+  EXPECT_EQ(read_input(path, given).warnings, read_recording(path).warnings);
+}
+
 // Every way a row can be wrong, in a still column (parsed only when its text changes) or
 // a moving one: streamed and whole reading name the same line, column and reason.
 TEST_F(StreamingReader, BadRowsAreReportedAsTheWholeReaderReportsThem) {
