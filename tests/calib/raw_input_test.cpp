@@ -218,6 +218,12 @@ TEST(RawInputErrors, ARateNoRecordingHoldsNamesWhereItWasGiven) {
   EXPECT_DOUBLE_EQ(parse_input(untimed, "in.csv", options).t_s[2], 2e9);
 }
 
+// `said` is among the reader's warnings exactly once.
+void expect_warned_once(const RawInput& in, const std::string& said) {
+  EXPECT_EQ(std::count(in.warnings.begin(), in.warnings.end(), said), 1)
+      << testing::PrintToString(in.warnings);
+}
+
 // The readers of other tools' files say it too when --g-mps2 replaces their header's g
 // (the stand recordings' readers: StreamingReader.AGravityGivenBesideTheHeadersReplacesIt...).
 TEST(RawInputGravity, AGravityGivenOverAHeadersIsUsedAndSaidSo) {
@@ -230,8 +236,7 @@ TEST(RawInputGravity, AGravityGivenOverAHeadersIsUsedAndSaidSo) {
   const std::string said =
       "in.csv: --g-mps2 9.8 replaces the header's g_local_mps2 9.81 (-1019.4 ppm): the scale "
       "factors take up the difference";
-  EXPECT_EQ(std::count(replaced.warnings.begin(), replaced.warnings.end(), said), 1)
-      << testing::PrintToString(replaced.warnings);
+  expect_warned_once(replaced, said);
   given.g_mps2 = 9.81;  // the header's own g: nothing said
   EXPECT_EQ(parse_input(untimed, "in.csv", given).warnings,
             parse_input(untimed, "in.csv", InputOptions{}).warnings);
@@ -251,8 +256,7 @@ TEST(RawInputRate, ARateGivenOverAnUntimedFilesHeaderIsUsedAndSaidSo) {
   const std::string said =
       "in.csv:1: --rate-hz 100 replaces the header's sample_rate_hz 25: the rows have no time "
       "column, so their times are made from 100 Hz";
-  EXPECT_EQ(std::count(replaced.warnings.begin(), replaced.warnings.end(), said), 1)
-      << testing::PrintToString(replaced.warnings);
+  expect_warned_once(replaced, said);
   given.rate_hz = 25;  // the header's own rate: nothing replaced, nothing said
   const RawInput same = parse_input(untimed, "in.csv", given);
   EXPECT_DOUBLE_EQ(same.t_s.back(), 0.08);

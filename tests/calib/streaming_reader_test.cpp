@@ -347,6 +347,26 @@ TEST_F(StreamingReader, TimeStepsNoUnitMakesGiveNoSamplePeriod) {
   }
 }
 
+// `standcal fit`, `diagnose` and `noise` of the file given `option`, and of it through a pipe
+// (the source then named /dev/stdin): each says `said`, after the source, in exactly one
+// "warning:" line (the fit's report lists the recording's warnings too, not as such lines).
+void expect_said_once_by_every_reader(const std::string& path, const std::string& option,
+                                      const std::string& said) {
+  const std::string cli = STANDCAL_CLI_PATH;
+  for (const std::string& command :
+       {cli + " fit " + path + " " + option, cli + " diagnose " + path + " " + option,
+        cli + " noise " + path + " " + option,
+        "cat " + path + " | " + cli + " fit /dev/stdin " + option,
+        "cat " + path + " | " + cli + " diagnose /dev/stdin " + option}) {
+    const test::CommandOutcome r = test::run_command(command);
+    std::istringstream lines(r.output);
+    int warned = 0;
+    for (std::string line; std::getline(lines, line);)
+      warned += line.rfind("warning: ", 0) == 0 && line.find(said) != std::string::npos ? 1 : 0;
+    EXPECT_EQ(warned, 1) << command << ": " << r.output;
+  }
+}
+
 // A recording's own rate is kept over --rate-hz (it was written with the samples), and the
 // operator is told once, whichever reader reads it: the option was dropped without a word.
 TEST_F(StreamingReader, ARateGivenBesideTheHeadersIsNotUsedAndSaidSo) {
@@ -354,22 +374,9 @@ TEST_F(StreamingReader, ARateGivenBesideTheHeadersIsNotUsedAndSaidSo) {
   write_recording(small_run(true), path);
   const std::string header_rate = round_trip_text(read_recording(path).sample_rate_hz);
   // After the source, which a pipe names /dev/stdin.
-  const std::string said = ": --rate-hz 1000 is not used: the header's sample_rate_hz " +
-                           header_rate + " was written with the samples";
-  for (const std::string& command :
-       {std::string(STANDCAL_CLI_PATH) + " fit " + path + " --rate-hz 1000",
-        std::string(STANDCAL_CLI_PATH) + " diagnose " + path + " --rate-hz 1000",
-        std::string(STANDCAL_CLI_PATH) + " noise " + path + " --rate-hz 1000",
-        "cat " + path + " | " + STANDCAL_CLI_PATH + " fit /dev/stdin --rate-hz 1000",
-        "cat " + path + " | " + STANDCAL_CLI_PATH + " diagnose /dev/stdin --rate-hz 1000"}) {
-    const test::CommandOutcome r = test::run_command(command);
-    // One "warning:" line says it (the fit's report lists the recording's warnings too).
-    std::istringstream lines(r.output);
-    int warned = 0;
-    for (std::string line; std::getline(lines, line);)
-      warned += line.rfind("warning: ", 0) == 0 && line.find(said) != std::string::npos ? 1 : 0;
-    EXPECT_EQ(warned, 1) << command << ": " << r.output;
-  }
+  expect_said_once_by_every_reader(path, "--rate-hz 1000",
+                                   ": --rate-hz 1000 is not used: the header's sample_rate_hz " +
+                                       header_rate + " was written with the samples");
   EXPECT_EQ(read_input(path, InputOptions{}).warnings, read_recording(path).warnings)
       << "no option, no word";
 }
@@ -466,20 +473,8 @@ TEST_F(StreamingReader, AGravityGivenBesideTheHeadersReplacesItAndIsSaidSo) {
   write_recording(small_run(true), path);
   const std::string header_g = round_trip_text(read_recording(path).g_local_mps2);
   ASSERT_NE(header_g, "9.8");
-  const std::string said = ": --g-mps2 9.8 replaces the header's g_local_mps2 " + header_g;
-  for (const std::string& command :
-       {std::string(STANDCAL_CLI_PATH) + " fit " + path + " --g-mps2 9.8",
-        std::string(STANDCAL_CLI_PATH) + " diagnose " + path + " --g-mps2 9.8",
-        std::string(STANDCAL_CLI_PATH) + " noise " + path + " --g-mps2 9.8",
-        "cat " + path + " | " + STANDCAL_CLI_PATH + " fit /dev/stdin --g-mps2 9.8",
-        "cat " + path + " | " + STANDCAL_CLI_PATH + " diagnose /dev/stdin --g-mps2 9.8"}) {
-    const test::CommandOutcome r = test::run_command(command);
-    std::istringstream lines(r.output);
-    int warned = 0;
-    for (std::string line; std::getline(lines, line);)
-      warned += line.rfind("warning: ", 0) == 0 && line.find(said) != std::string::npos ? 1 : 0;
-    EXPECT_EQ(warned, 1) << command << ": " << r.output;
-  }
+  expect_said_once_by_every_reader(path, "--g-mps2 9.8",
+                                   ": --g-mps2 9.8 replaces the header's g_local_mps2 " + header_g);
   InputOptions given;
   given.g_mps2 = 9.8;
   const RawInput replaced = read_input(path, given);
