@@ -28,14 +28,17 @@ std::vector<std::size_t> time_order(const std::vector<NoiseRow>& rows) {
 
 }  // namespace
 
+NoiseRow noise_row(const PositionAverage& position, const Vec3& projection, double sigma_g) {
+  return {position.mid_time_s(), projection, sigma_g, position.span_s()};
+}
+
 std::vector<NoiseRow> full_vector_noise_rows(const std::vector<PositionAverage>& positions,
                                              double sigma_floor_g) {
   std::vector<NoiseRow> rows;
   rows.reserve(3 * positions.size());
   for (const PositionAverage& p : positions)
     for (int a = 0; a < 3; ++a)
-      rows.push_back({p.mid_time_s(), Vec3::Unit(a), std::max(p.standard_error_g[a], sigma_floor_g),
-                      p.span_s()});
+      rows.push_back(noise_row(p, Vec3::Unit(a), std::max(p.standard_error_g[a], sigma_floor_g)));
   return rows;
 }
 
@@ -44,8 +47,7 @@ std::vector<NoiseRow> invariant_noise_rows(const std::vector<PositionAverage>& p
   std::vector<NoiseRow> rows;
   rows.reserve(positions.size());
   for (std::size_t k = 0; k < positions.size(); ++k)
-    rows.push_back(
-        {positions[k].mid_time_s(), positions[k].up(), sigma_g[k], positions[k].span_s()});
+    rows.push_back(noise_row(positions[k], positions[k].up(), sigma_g[k]));
   return rows;
 }
 

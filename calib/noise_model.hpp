@@ -52,6 +52,10 @@ struct GaussMarkovNoise {
 double gauss_markov_window_correlation(double a_start_s, double a_length_s, double b_start_s,
                                        double b_length_s, double tau_s);
 
+// The row of one dwell mean's projection on `projection`, whitened by sigma_g: its time the
+// dwell's mid-time, its window the dwell's span.
+NoiseRow noise_row(const PositionAverage& position, const Vec3& projection, double sigma_g);
+
 // The rows of the two estimators' problems, in position order, whitened by the standard
 // error each position's mean carries: full-vector, three per position (x, y, z); invariant,
 // one per position, the projection on the commanded up-vector u. A row's time is its

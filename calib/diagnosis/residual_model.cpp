@@ -65,7 +65,7 @@ LinearProblem full_problem(const std::vector<PositionAverage>& avg, const FitRes
       lp.row_sigma_g.push_back(s);
       lp.row_position.push_back(static_cast<int>(k));
       lp.row_component.push_back(a);
-      lp.noise_rows.push_back({avg[k].mid_time_s(), Vec3::Unit(a), s, avg[k].span_s()});
+      lp.noise_rows.push_back(noise_row(avg[k], Vec3::Unit(a), s));
     }
   }
   lp.unit_column.assign(kUnitParameterCount, -1);
@@ -91,7 +91,7 @@ LinearProblem invariant_problem(const std::vector<PositionAverage>& avg, const F
     lp.row_sigma_g.push_back(s);
     lp.row_position.push_back(static_cast<int>(k));
     lp.row_component.push_back(0);
-    lp.noise_rows.push_back({avg[k].mid_time_s(), avg[k].up(), s, avg[k].span_s()});
+    lp.noise_rows.push_back(noise_row(avg[k], avg[k].up(), s));
   }
   // Keep only the regressors the programme excites (classic24 has no gamma regressors).
   lp.unit_column.assign(kUnitParameterCount, -1);
