@@ -132,6 +132,7 @@ json intervals_json(const NormCalibration& c) {
                     {"norm_residual_sigma_mps2", c.fit.norm_residual_sigma_mps2[i]}});
   }
   return {{"how", c.detection.how},
+          {"standard_errors_how", c.detection.standard_errors_how},
           {"count", c.detection.intervals.size()},
           {"window_samples", c.detection.window_samples},
           {"quiet_level", c.detection.quiet_level},
@@ -248,6 +249,8 @@ NormCalibration calibrate(const RawInput& in, const NormCalibrationOptions& o) {
     bool errors_given = false;
     c.detection.intervals = intervals_from_means(in, errors_given);
     c.detection.how = "the table's " + std::to_string(in.means.size()) + " static means";
+    c.detection.standard_errors_how =
+        errors_given ? "the table's" : "the fit's own scatter (the table gives none)";
     if (errors_given) {
       NormFitOptions fo = o.fit;
       fo.noise = white_noise_weighting();  // a table has no times to model wander over
@@ -343,7 +346,7 @@ std::string format_norm_report(const NormCalibration& c, const RawInput& in) {
   out += "Noise:      " + wander_words(f.result.noise) + "\n";
   out += "            within an interval, white noise would understate a mean's error by x" +
          fmt("%.2f", c.understated_by[0]) + ", x" + fmt("%.2f", c.understated_by[1]) + ", x" +
-         fmt("%.2f", c.understated_by[2]) + " (Allan deviation of the intervals pooled)\n";
+         fmt("%.2f", c.understated_by[2]) + " (" + c.detection.standard_errors_how + ")\n";
   for (const ThresholdStability& s : c.stability) {
     out += "Threshold x" + fmt("%.1f", s.factor) + ": ";
     if (!s.error.empty())

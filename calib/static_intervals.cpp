@@ -4,7 +4,9 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <optional>
 #include <stdexcept>
+#include <string>
 
 #include "calib/recording.hpp"
 #include "calib/text.hpp"
@@ -210,6 +212,33 @@ std::vector<std::pair<std::size_t, std::size_t>> block_runs(const RawInput& in) 
   return runs;
 }
 
+// Whether the pooled curves are white noise's: white noise alone describes them, with
+// neither a wander nor a short correlation beating it (fit_gauss_markov_allan's bars). A
+// mean's error read off a curve at the interval's length is then σ/√n plus the scatter of
+// the curve's last, few-cluster points, taken only upwards (never below white): on
+// diagnostic32's white dwells that widened the errors by 15 % in variance on average, and
+// the norm fit's sigmas with them (bench/noise, 2026-12-05).
+bool curves_are_white(const StaticDetection& d, double period_s, std::string& why) {
+  const std::optional<GaussMarkovAllanFit> fit =
+      fit_gauss_markov_allan({d.allan[0], d.allan[1], d.allan[2]}, period_s);
+  if (!fit) {
+    why = "the pooled curves are too short to test against white noise";
+    return false;
+  }
+  std::vector<std::string> reasons;
+  if (fit->short_correlation) reasons.emplace_back("the samples are correlated over a few periods");
+  if (fit->wander_seen) reasons.emplace_back("the pooled curves show a wander");
+  if (!fit->describes_curves)
+    reasons.emplace_back("the pooled curves depart from white noise and one correlation time");
+  if (reasons.empty()) {
+    why = "the pooled Allan curves are white noise's";
+    return true;
+  }
+  why = reasons.front();
+  for (std::size_t k = 1; k < reasons.size(); ++k) why += "; " + reasons[k];
+  return false;
+}
+
 // The coloured-noise standard errors: the intervals pooled as segments of one Allan curve.
 void attach_coloured_errors(const RawInput& in, StaticDetection& d) {
   std::array<std::vector<std::vector<double>>, 3> segments;
@@ -219,6 +248,12 @@ void attach_coloured_errors(const RawInput& in, StaticDetection& d) {
                                in.axis[a].begin() + static_cast<std::ptrdiff_t>(iv.end));
   const double period = 1.0 / in.sample_rate_hz;
   for (std::size_t a = 0; a < 3; ++a) d.allan[a] = overlapping_allan_deviation(segments[a], period);
+  std::string why;
+  if (curves_are_white(d, period, why)) {
+    d.standard_errors_how = "sigma / sqrt(n): " + why;
+    return;
+  }
+  d.standard_errors_how = "the Allan deviation at each interval's length: " + why;
   for (StaticInterval& iv : d.intervals) {
     const double duration = static_cast<double>(iv.samples) * period;
     for (int a = 0; a < 3; ++a)

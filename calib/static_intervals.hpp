@@ -37,8 +37,9 @@ struct StaticInterval {
   Vec3 mean = Vec3::Zero();   // input units
   Vec3 sigma = Vec3::Zero();  // sample standard deviation, input units
   // Standard error of the mean: sigma / sqrt(n) if the noise were white, and the one the
-  // recording's own noise implies (the Allan deviation of the intervals pooled, at this
-  // interval's length), which is never smaller.
+  // recording's own noise implies: the same where the intervals' pooled Allan curves are
+  // white noise's, else the curve at this interval's length, never smaller
+  // (StaticDetection::standard_errors_how).
   Vec3 white_standard_error = Vec3::Zero();
   Vec3 standard_error = Vec3::Zero();
   double mid_time_s() const { return 0.5 * (t_start_s + t_end_s); }
@@ -69,6 +70,9 @@ struct StaticDetection {
   // The Allan deviation of the intervals pooled, per axis, input units: what the
   // coloured-noise standard errors are read from.
   std::array<std::vector<AllanPoint>, 3> allan;
+  // How the intervals' standard errors were made, and why: sigma / sqrt(n) where the pooled
+  // curves are white noise's, else the curve at each interval's length.
+  std::string standard_errors_how;
 };
 
 // Throws std::runtime_error naming the source when the input has no samples, no rate, or
