@@ -25,13 +25,16 @@ namespace {
 }
 
 #ifdef STANDCAL_HAVE_MODBUS
-std::shared_ptr<drivers::Stand> make_modbus_stand(const DaemonConfig& c) {
+std::shared_ptr<drivers::Stand> make_modbus_stand(const DaemonConfig& c,
+                                                  std::vector<std::string>& warnings) {
   drivers::modbus::ModbusStandConfig mc;
   if (!c.modbus_map_file.empty()) {
     auto loaded = drivers::modbus::load_config(c.modbus_map_file);
     if (!loaded) throw ConfigError(c.source + ": stand.register_map: " + loaded.status().message);
     mc = loaded.value();
   }
+  for (const std::string& warning : mc.warnings)
+    warnings.push_back(c.source + ": stand.register_map: " + warning);
   mc.ranges[0] = c.outer;
   mc.ranges[1] = c.inner;
   auto stand = drivers::modbus::ModbusStand::create(c.modbus_url, mc);
@@ -105,7 +108,7 @@ Hardware make_hardware(const DaemonConfig& c) {
   }
   if (c.stand_backend == "modbus") {
 #ifdef STANDCAL_HAVE_MODBUS
-    hw.stand = make_modbus_stand(c);
+    hw.stand = make_modbus_stand(c, hw.warnings);
     hw.description += (hw.description.empty() ? "" : " + ") + std::string("modbus ") + c.modbus_url;
 #else
     unavailable(c, "stand.backend", "modbus");

@@ -5,6 +5,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "calib/model.hpp"
 #include "daemon/standcald/config.hpp"
@@ -25,6 +26,9 @@ struct Hardware {
   // real hardware a person has re-mounted it and there is nothing to do.
   std::function<void(Mount)> remount = [](Mount) {};
   std::string description;  // "sim (time x100)", "modbus tcp://... + socketcan can0"
+  // What the configuration allows but an operator should hear of (a stand timing whose
+  // retries outlast its watchdog), each naming the file and key; the daemon logs them.
+  std::vector<std::string> warnings;
 };
 
 // Builds the configured backends; throws ConfigError naming the key when a backend is

@@ -94,6 +94,7 @@ int run_daemon(const standcal::daemon::DaemonConfig& config) {
   Hardware hardware = make_hardware(config);
   spdlog::info("standcald {} starting: backend {}, state in {}", standcal::kVersion,
                hardware.description, config.state_dir);
+  for (const std::string& warning : hardware.warnings) spdlog::warn("{}", warning);
   // The records sink outlives the sequencer that feeds it; the recording and result.json
   // stay the source of truth, the database is filled from them (and retried).
   RecordsSink records(config.state_dir, config.db_url);

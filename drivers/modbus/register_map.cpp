@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <initializer_list>
 #include <limits>
@@ -254,6 +255,22 @@ double counts_to_angle_deg(const RegisterMap& map, std::int32_t counts) {
   return counts * map.angle_lsb_deg;
 }
 
+std::string heartbeat_margin_warning(const LinkTiming& t) {
+  if (t.heartbeat_timeout_s <= 0) return "";  // the watchdog is off
+  const double held_s = t.heartbeat_period_s + t.tries * t.timeout_s;
+  if (held_s <= t.heartbeat_timeout_s + 1e-9) return "";  // equal, but for rounding: no margin lost
+  char text[512];
+  std::snprintf(
+      text, sizeof text,
+      "timing: a request retried %d times at timeout_s %g s, after a heartbeat_period_s "
+      "of %g s, holds the heartbeat for up to %g s, longer than heartbeat_timeout_s %g s: "
+      "lost replies then stop the axes (the controller's watchdog) before the driver "
+      "calls the link lost; give heartbeat_timeout_s %g s or more, or fewer tries or a "
+      "shorter timeout_s",
+      t.tries, t.timeout_s, t.heartbeat_period_s, held_s, t.heartbeat_timeout_s, held_s);
+  return text;
+}
+
 Result<ModbusStandConfig> parse_config(const nlohmann::json& json) {
   ModbusStandConfig config;
   try {
@@ -261,6 +278,8 @@ Result<ModbusStandConfig> parse_config(const nlohmann::json& json) {
   } catch (const nlohmann::json::exception& e) {
     return config_error(e.what());
   }
+  if (auto warning = heartbeat_margin_warning(config.timing); !warning.empty())
+    config.warnings.push_back(std::move(warning));
   return config;
 }
 
@@ -276,6 +295,7 @@ Result<ModbusStandConfig> load_config(const std::string& path) {
   }
   auto config = parse_config(json);
   if (!config) return config_error(path + ": " + config.status().message.substr(14));
+  for (std::string& warning : config.value().warnings) warning = path + ": " + warning;
   return config;
 }
 

@@ -6,6 +6,7 @@
 #include <array>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -105,6 +106,14 @@ struct LinkTiming {
   double heartbeat_timeout_s = 1.0;  // written to the controller: stop motion after this silence
 };
 
+// The warning of a timing whose heartbeat can stall past the controller's watchdog while a
+// request is still being retried ("" when it cannot). The I/O thread writes the heartbeat
+// between requests, so a request whose replies are lost holds it for up to tries x timeout_s
+// after a period: past heartbeat_timeout_s the controller stops the axes while the driver
+// still counts the link up, and a glitch it would ride out ends the move (a stop, but one
+// that reads as "stopped by heartbeat" rather than as the lost replies it was).
+std::string heartbeat_margin_warning(const LinkTiming& timing);
+
 // Everything a Modbus stand needs besides its URL: the map, timing, axis ranges, speed.
 struct ModbusStandConfig {
   RegisterMap map;
@@ -112,6 +121,9 @@ struct ModbusStandConfig {
   std::array<AxisRange, 2> ranges{};  // limited ±180° unless configured (calib/axis_range.hpp)
   double speed_dps = 10.0;            // commanded speed of moves; 0 leaves the controller's default
   double enable_timeout_s = 2.0;      // how long enable() waits for the drive to report enabled
+  // What parse_config accepted but an operator should hear of (heartbeat_margin_warning);
+  // load_config prefixes the file's path. Each caller says them where it reports.
+  std::vector<std::string> warnings;
 };
 
 // Reads a config from JSON (docs/stand-modbus.md "Config keys"); absent keys keep defaults,

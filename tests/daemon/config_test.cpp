@@ -5,6 +5,7 @@
 
 #include "config_support.hpp"
 #include "daemon/standcald/config.hpp"
+#include "daemon/standcald/hardware.hpp"
 #include "daemon_process.hpp"
 #include "tests/support/command.hpp"
 
@@ -99,6 +100,25 @@ TEST(DaemonConfig, TheBudgetFileIsReadAtStart) {
   std::ofstream(path) << R"({"format": "standcal-budget/1", "stand": {"level": 3}})";
   EXPECT_EQ(config_error(json{{"run", {{"budget", path}}}}),
             "lab.json: run.budget: " + path + ": stand.level: unknown key");
+  std::remove(path.c_str());
+}
+
+// A register map whose timing lets lost replies outlast the controller's watchdog is used,
+// and said: the daemon logs the hardware's warnings at start, each naming the files.
+TEST(DaemonConfig, AStandTimingWhoseRetriesOutlastItsWatchdogIsSaid) {
+  const std::string path = ::testing::TempDir() + "/standcal-stand-map-test.json";
+  std::ofstream(path) << R"({"timing": {"heartbeat_timeout_s": 0.5}})";
+  const DaemonConfig c = parse_config(
+      json{{"stand", {{"backend", "modbus"}, {"url", "tcp://127.0.0.1:1"}, {"register_map", path}}},
+           {"unit", {{"backend", "sim"}}}},
+      "lab.json");
+  const Hardware hw = make_hardware(c);  // opens no link until the stand is configured
+  ASSERT_EQ(hw.warnings.size(), 1u);
+  EXPECT_EQ(hw.warnings[0].rfind("lab.json: stand.register_map: " + path +
+                                     ": timing: a request retried 3 times at timeout_s 0.3 s",
+                                 0),
+            0u)
+      << hw.warnings[0];
   std::remove(path.c_str());
 }
 

@@ -54,6 +54,22 @@ TEST(StandCli, EnableMoveAndStatusAgainstTheEmulator) {
   EXPECT_EQ(json["axes"]["inner"]["enabled"], true);
 }
 
+// A config whose retries outlast the controller's watchdog is used, and said first.
+TEST(StandCli, ATimingWhoseRetriesOutlastTheWatchdogIsSaid) {
+  EmulatorProcess emulator("tcp://127.0.0.1:0", {});
+  const TempDir dir;
+  dir.write("stand.json", R"({"timing": {"heartbeat_timeout_s": 0.5}})");
+  const CliRun status =
+      standcal_stand("--url " + emulator.url() + " --config " + dir.file("stand.json") + " status");
+  EXPECT_EQ(status.exit_code, 0) << status.output;
+  EXPECT_EQ(status.output.rfind("warning: " + dir.file("stand.json") +
+                                    ": timing: a request retried 3 times at timeout_s 0.3 s",
+                                0),
+            0u)
+      << status.output;
+  EXPECT_NE(status.output.find("outer: "), std::string::npos) << status.output;
+}
+
 TEST(StandCli, NoServerExitsNonZeroWithOneLine) {
   std::string url;
   {

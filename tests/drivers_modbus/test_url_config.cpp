@@ -1,6 +1,10 @@
 // The stand URL, the JSON config and the 32-bit register encoding.
 #include <gtest/gtest.h>
 
+#include <cstdio>
+#include <fstream>
+#include <string>
+
 #include "drivers/modbus/register_map.hpp"
 #include "drivers/modbus/url.hpp"
 
@@ -148,6 +152,40 @@ TEST(StandConfig, UnknownKeysAndBadValuesAreNamed) {
   ASSERT_FALSE(missing);
   EXPECT_NE(missing.status().message.find("cannot open /nonexistent/stand.json"),
             std::string::npos);
+}
+
+// A request whose replies are lost holds the heartbeat (one I/O thread) for up to tries x
+// timeout_s after a period; a watchdog shorter than that stops the axes while the driver
+// still counts the link up. Such a timing is accepted and said (it is a stop, not a danger):
+// until 2026-12-05 it was taken without a word, as the RTU tests' own is (0.05 + 3 x 0.3 s
+// against 0.6 s).
+TEST(StandConfig, ATimingWhoseRetriesOutlastTheWatchdogIsSaid) {
+  const auto defaults = parse_config(nlohmann::json::object());
+  ASSERT_TRUE(defaults);
+  EXPECT_TRUE(defaults.value().warnings.empty()) << "0.1 + 3 x 0.3 s is the default 1 s";
+  const auto short_watchdog = parse_config(nlohmann::json::parse(
+      R"({"timing": {"heartbeat_period_s": 0.05, "heartbeat_timeout_s": 0.6}})"));
+  ASSERT_TRUE(short_watchdog) << short_watchdog.status().message;
+  ASSERT_EQ(short_watchdog.value().warnings.size(), 1u);
+  const std::string& warning = short_watchdog.value().warnings[0];
+  for (const char* said :
+       {"timing: a request retried 3 times at timeout_s 0.3 s, after a heartbeat_period_s of "
+        "0.05 s, holds the heartbeat for up to 0.95 s, longer than heartbeat_timeout_s 0.6 s",
+        "give heartbeat_timeout_s 0.95 s or more"})
+    EXPECT_NE(warning.find(said), std::string::npos) << warning;
+  const auto watchdog_off =
+      parse_config(nlohmann::json::parse(R"({"timing": {"heartbeat_timeout_s": 0}})"));
+  ASSERT_TRUE(watchdog_off);
+  EXPECT_TRUE(watchdog_off.value().warnings.empty());
+  // From a file, the warning names it.
+  const std::string path = ::testing::TempDir() + "/short-watchdog.json";
+  { std::ofstream(path) << R"({"timing": {"tries": 5, "heartbeat_timeout_s": 1}})"; }
+  const auto loaded = load_config(path);
+  ASSERT_TRUE(loaded) << loaded.status().message;
+  ASSERT_EQ(loaded.value().warnings.size(), 1u);
+  EXPECT_EQ(loaded.value().warnings[0].rfind(path + ": timing: a request retried 5 times", 0), 0u)
+      << loaded.value().warnings[0];
+  std::remove(path.c_str());
 }
 
 }  // namespace

@@ -113,7 +113,7 @@ inline Trial run_trial(RigOptions options, const FaultCase& c, unsigned seed) {
     if (restarted) {
       // The daemon is gone: the controller's watchdog must stop the stand by itself.
       std::string why;
-      if (!rig.stand_stopped(why, 8000ms)) {  // the watchdog acts after heartbeat_timeout_s (3 s)
+      if (!rig.stand_stopped(why, 8000ms)) {  // the watchdog acts after heartbeat_timeout_s (3.5 s)
         out.failure = "with standcald killed: " + why;
         return out;
       }

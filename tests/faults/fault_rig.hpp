@@ -421,7 +421,9 @@ class Rig {
           {"backoff_first_s", 0.05},
           {"backoff_max_s", 0.4},
           {"heartbeat_period_s", 0.1},
-          {"heartbeat_timeout_s", 3.0}}}};
+          // Past 0.1 + 3 x 1.0 s: a request the driver is still retrying never lets the
+          // watchdog stop the stand (drivers/modbus heartbeat_margin_warning).
+          {"heartbeat_timeout_s", 3.5}}}};
     write_text(dir_ + "/stand-map.json", map.dump(2));
     config_ = json{{"socket", {{"path", socket_path()}}},
                    {"state_dir", state_dir()},

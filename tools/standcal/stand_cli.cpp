@@ -49,6 +49,8 @@ T check(drv::Result<T> result) {
 // Opens the stand and brings it to inactive (link up, readable); `active` also allows motion.
 std::unique_ptr<drv::modbus::ModbusStand> open_stand(const StandOptions& o, bool active) {
   auto config = check(drv::modbus::load_config(o.config_path));
+  for (const std::string& warning : config.warnings)
+    std::fprintf(stderr, "warning: %s\n", warning.c_str());
   auto stand = check(drv::modbus::ModbusStand::create(o.url, config));
   check(stand->configure());
   if (active) check(stand->activate());
