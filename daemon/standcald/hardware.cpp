@@ -33,7 +33,10 @@ std::shared_ptr<drivers::Stand> make_modbus_stand(const DaemonConfig& c,
     if (!loaded) throw ConfigError(c.source + ": stand.register_map: " + loaded.status().message);
     mc = loaded.value();
   }
-  for (const std::string& warning : mc.warnings)
+  std::vector<std::string> said = mc.warnings;
+  if (auto off = drivers::modbus::watchdog_off_warning(mc.timing); !off.empty())
+    said.push_back((c.modbus_map_file.empty() ? "" : c.modbus_map_file + ": ") + off);
+  for (const std::string& warning : said)
     warnings.push_back(c.source + ": stand.register_map: " + warning);
   mc.ranges[0] = c.outer;
   mc.ranges[1] = c.inner;

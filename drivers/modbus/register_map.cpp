@@ -271,6 +271,13 @@ std::string heartbeat_margin_warning(const LinkTiming& t) {
   return text;
 }
 
+std::string watchdog_off_warning(const LinkTiming& t) {
+  if (t.heartbeat_timeout_s > 0) return "";
+  return "timing: heartbeat_timeout_s 0 switches the controller's heartbeat watchdog off: a "
+         "service that dies or loses the link mid-move leaves the stand moving to its target "
+         "(give heartbeat_timeout_s, e.g. 1 s)";
+}
+
 Result<ModbusStandConfig> parse_config(const nlohmann::json& json) {
   ModbusStandConfig config;
   try {

@@ -113,6 +113,11 @@ struct LinkTiming {
 // still counts the link up, and a glitch it would ride out ends the move (a stop, but one
 // that reads as "stopped by heartbeat" rather than as the lost replies it was).
 std::string heartbeat_margin_warning(const LinkTiming& timing);
+// The warning of a watchdog switched off (heartbeat_timeout_s 0), "" when it is on: fine for
+// `standcal stand move --no-wait` at bring-up, but a service that drives the stand unattended
+// (standcald) then leaves it moving to its target when it dies. Not among parse_config's
+// warnings: whoever runs unattended says it (standcald at start, `standcal doctor`).
+std::string watchdog_off_warning(const LinkTiming& timing);
 
 // Everything a Modbus stand needs besides its URL: the map, timing, axis ranges, speed.
 struct ModbusStandConfig {

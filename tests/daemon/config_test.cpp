@@ -103,8 +103,9 @@ TEST(DaemonConfig, TheBudgetFileIsReadAtStart) {
   std::remove(path.c_str());
 }
 
-// A register map whose timing lets lost replies outlast the controller's watchdog is used,
-// and said: the daemon logs the hardware's warnings at start, each naming the files.
+// A register map whose timing lets lost replies outlast the controller's watchdog, or whose
+// watchdog is off, is used, and said: the daemon logs the hardware's warnings at start, each
+// naming the files.
 TEST(DaemonConfig, AStandTimingWhoseRetriesOutlastItsWatchdogIsSaid) {
   const std::string path = ::testing::TempDir() + "/standcal-stand-map-test.json";
   std::ofstream(path) << R"({"timing": {"heartbeat_timeout_s": 0.5}})";
@@ -119,6 +120,14 @@ TEST(DaemonConfig, AStandTimingWhoseRetriesOutlastItsWatchdogIsSaid) {
                                  0),
             0u)
       << hw.warnings[0];
+  // A watchdog switched off leaves a stand moving when the daemon dies: said too.
+  std::ofstream(path) << R"({"timing": {"heartbeat_timeout_s": 0}})";
+  const Hardware off = make_hardware(c);
+  ASSERT_EQ(off.warnings.size(), 1u);
+  EXPECT_NE(off.warnings[0].find(path + ": timing: heartbeat_timeout_s 0 switches the "
+                                        "controller's heartbeat watchdog off"),
+            std::string::npos)
+      << off.warnings[0];
   std::remove(path.c_str());
 }
 

@@ -226,6 +226,11 @@ TEST(Doctor, ChecksTheStandAndTheUnitOfTheEmulatorsAndNamesAStoppedOne) {
   EXPECT_EQ(checks["config"]["verdict"], "PASS") << checks["config"];
   EXPECT_EQ(checks["state directory"]["verdict"], "PASS") << checks["state directory"];
   EXPECT_EQ(checks["daemon"]["verdict"], "FAIL") << "no daemon was started";
+  EXPECT_EQ(checks["stand timing"]["verdict"], "PASS") << checks["stand timing"];
+  EXPECT_NE(checks["stand timing"]["detail"].get<std::string>().find(
+                "holds the heartbeat for at most 1 s, within the 1 s watchdog"),
+            std::string::npos)
+      << checks["stand timing"];
   EXPECT_EQ(checks["stand link"]["verdict"], "PASS") << checks["stand link"];
   EXPECT_EQ(checks["unit"]["verdict"], "PASS") << checks["unit"];
   EXPECT_EQ(checks["records database"]["verdict"], "PASS") << checks["records database"];
@@ -239,6 +244,50 @@ TEST(Doctor, ChecksTheStandAndTheUnitOfTheEmulatorsAndNamesAStoppedOne) {
   EXPECT_EQ(exit_code, 1);
   ::close(pair[0]);
   ::close(pair[1]);
+}
+
+// A register map whose timing lets lost replies outlast the controller's watchdog, or whose
+// watchdog is off, is a WARN of its own (the stand and the daemon are judged as before); one
+// that does not parse fails before the daemon's start would.
+TEST(Doctor, WarnsOfAStandTimingThatOutlastsOrSwitchesOffTheWatchdog) {
+  TempDir dir;
+  const std::string config = dir.path() + "/standcald.json";
+  const auto doctor_on_map = [&](const std::string& map_text, int* exit_code) {
+    dir.write("stand-map.json", map_text);
+    std::ofstream(config) << json{
+        {"socket", {{"path", dir.path() + "/standcald.sock"}}},
+        {"state_dir", dir.path()},
+        {"stand",
+         {{"backend", "modbus"},
+          {"url", "tcp://127.0.0.1:1"},
+          {"register_map", dir.file("stand-map.json")}}},
+        {"unit",
+         {{"backend", "sim"}}}}.dump();
+    return doctor_checks(config, exit_code)["stand timing"];
+  };
+  int exit_code = 0;
+  const json outlasting = doctor_on_map(R"({"timing": {"heartbeat_timeout_s": 0.5}})", &exit_code);
+  EXPECT_EQ(outlasting["verdict"], "WARN") << outlasting;
+  EXPECT_EQ(outlasting["detail"].get<std::string>().rfind(
+                config + ": stand.register_map: " + dir.file("stand-map.json") +
+                    ": timing: a request retried 3 times at timeout_s 0.3 s, after a "
+                    "heartbeat_period_s of 0.1 s, holds the heartbeat for up to 1 s, longer than "
+                    "heartbeat_timeout_s 0.5 s",
+                0),
+            0u)
+      << outlasting;
+  const json off = doctor_on_map(R"({"timing": {"heartbeat_timeout_s": 0}})", &exit_code);
+  EXPECT_EQ(off["verdict"], "WARN") << off;
+  EXPECT_NE(off["detail"].get<std::string>().find(
+                "heartbeat_timeout_s 0 switches the controller's heartbeat watchdog off"),
+            std::string::npos)
+      << off;
+  const json broken = doctor_on_map(R"({"timing": {"tries": 0}})", &exit_code);
+  EXPECT_EQ(broken["verdict"], "FAIL") << broken;
+  EXPECT_NE(broken["detail"].get<std::string>().find("tries must be a whole number 1..1000"),
+            std::string::npos)
+      << broken;
+  EXPECT_EQ(exit_code, 1);
 }
 
 // With the daemon running, doctor asks it instead of opening the hardware it owns.

@@ -26,6 +26,7 @@
 #include "calib/json_text.hpp"
 #include "daemon/standcald/config.hpp"
 #include "daemon/standcald/hardware.hpp"
+#include "drivers/modbus/register_map.hpp"
 #include "protocol/jsonrpc/client.hpp"
 #include "protocol/jsonrpc/messages.hpp"
 #include "protocol/jsonrpc/methods.hpp"
@@ -44,8 +45,9 @@ struct DoctorOptions {
   bool json = false;
 };
 
-// skip: not judged here, and not a failure (said why in the detail).
-enum class Verdict { pass, fail, skip };
+// skip: not judged here, and not a failure (said why in the detail). warn: works, but not as
+// a bench engineer would want it (said what to change in the detail); not a failure either.
+enum class Verdict { pass, warn, fail, skip };
 
 struct CheckLine {
   std::string check;
@@ -58,6 +60,8 @@ const char* verdict_word(Verdict v) {
   switch (v) {
     case Verdict::pass:
       return "PASS";
+    case Verdict::warn:
+      return "WARN";
     case Verdict::fail:
       return "FAIL";
     case Verdict::skip:
@@ -72,6 +76,7 @@ class Doctor {
 
   std::vector<CheckLine> run() {
     if (!check_config()) return lines_;
+    guarded("stand timing", [this] { check_stand_timing(); });
     guarded("state directory", [this] { check_state_dir(); });
     std::optional<protocol::StatusResult> status;
     guarded("daemon", [this, &status] { status = check_daemon(); });
@@ -95,6 +100,9 @@ class Doctor {
  private:
   void pass(const std::string& check, const std::string& detail) {
     lines_.push_back({check, Verdict::pass, detail, ""});
+  }
+  void warn(const std::string& check, const std::string& detail) {
+    lines_.push_back({check, Verdict::warn, detail, ""});
   }
   void skip(const std::string& check, const std::string& detail) {
     lines_.push_back({check, Verdict::skip, detail, ""});
@@ -140,6 +148,35 @@ class Doctor {
     pass("config",
          o_.config + ": stand " + config_.stand_backend + ", unit " + config_.unit_backend);
     return true;
+  }
+
+  // The Modbus stand's register map and link timing, read as the daemon reads them: a file
+  // that does not parse fails here, before the daemon's start would; a timing whose retries
+  // outlast the controller's heartbeat watchdog, or a watchdog switched off, is a WARN
+  // (drivers/modbus/register_map.hpp).
+  void check_stand_timing() {
+    if (config_.stand_backend != "modbus") return;
+    const std::string& path = config_.modbus_map_file;
+    const std::string where = config_.source + ": stand.register_map" +
+                              (path.empty() ? " (not given: the defaults)" : "");
+    const auto map = drivers::modbus::load_config(path);
+    if (!map) {
+      fail("stand timing", where + ": " + map.status().message,
+           "fix the file (docs/stand-modbus.md, \"Config keys\")");
+      return;
+    }
+    const drivers::modbus::LinkTiming& t = map.value().timing;
+    std::vector<std::string> warnings = map.value().warnings;
+    if (auto off = drivers::modbus::watchdog_off_warning(t); !off.empty()) warnings.push_back(off);
+    for (const std::string& w : warnings) warn("stand timing", where + ": " + w);
+    if (!warnings.empty()) return;
+    char text[256];
+    std::snprintf(text, sizeof text,
+                  ": a request retried %d times at %g s after a %g s heartbeat period holds the "
+                  "heartbeat for at most %g s, within the %g s watchdog",
+                  t.tries, t.timeout_s, t.heartbeat_period_s,
+                  t.heartbeat_period_s + t.tries * t.timeout_s, t.heartbeat_timeout_s);
+    pass("stand timing", where + text);
   }
 
   void check_state_dir() {
