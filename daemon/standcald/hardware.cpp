@@ -33,10 +33,7 @@ std::shared_ptr<drivers::Stand> make_modbus_stand(const DaemonConfig& c,
     if (!loaded) throw ConfigError(c.source + ": stand.register_map: " + loaded.status().message);
     mc = loaded.value();
   }
-  std::vector<std::string> said = mc.warnings;
-  if (auto off = drivers::modbus::watchdog_off_warning(mc.timing); !off.empty())
-    said.push_back((c.modbus_map_file.empty() ? "" : c.modbus_map_file + ": ") + off);
-  for (const std::string& warning : said)
+  for (const std::string& warning : drivers::modbus::unattended_warnings(mc, c.modbus_map_file))
     warnings.push_back(c.source + ": stand.register_map: " + warning);
   mc.ranges[0] = c.outer;
   mc.ranges[1] = c.inner;

@@ -255,9 +255,13 @@ double counts_to_angle_deg(const RegisterMap& map, std::int32_t counts) {
   return counts * map.angle_lsb_deg;
 }
 
+double heartbeat_held_s(const LinkTiming& t) {
+  return t.heartbeat_period_s + t.tries * t.timeout_s;
+}
+
 std::string heartbeat_margin_warning(const LinkTiming& t) {
   if (t.heartbeat_timeout_s <= 0) return "";  // the watchdog is off
-  const double held_s = t.heartbeat_period_s + t.tries * t.timeout_s;
+  const double held_s = heartbeat_held_s(t);
   if (held_s <= t.heartbeat_timeout_s + 1e-9) return "";  // equal, but for rounding: no margin lost
   char text[512];
   std::snprintf(
@@ -276,6 +280,14 @@ std::string watchdog_off_warning(const LinkTiming& t) {
   return "timing: heartbeat_timeout_s 0 switches the controller's heartbeat watchdog off: a "
          "service that dies or loses the link mid-move leaves the stand moving to its target "
          "(give heartbeat_timeout_s, e.g. 1 s)";
+}
+
+std::vector<std::string> unattended_warnings(const ModbusStandConfig& config,
+                                             const std::string& path) {
+  std::vector<std::string> out = config.warnings;  // load_config named the file in these
+  if (auto off = watchdog_off_warning(config.timing); !off.empty())
+    out.push_back((path.empty() ? "" : path + ": ") + off);
+  return out;
 }
 
 Result<ModbusStandConfig> parse_config(const nlohmann::json& json) {

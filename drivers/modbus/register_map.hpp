@@ -113,6 +113,9 @@ struct LinkTiming {
 // still counts the link up, and a glitch it would ride out ends the move (a stop, but one
 // that reads as "stopped by heartbeat" rather than as the lost replies it was).
 std::string heartbeat_margin_warning(const LinkTiming& timing);
+// How long a request whose replies are all lost holds the heartbeat: a period, then tries x
+// timeout_s.
+double heartbeat_held_s(const LinkTiming& timing);
 // The warning of a watchdog switched off (heartbeat_timeout_s 0), "" when it is on: fine for
 // `standcal stand move --no-wait` at bring-up, but a service that drives the stand unattended
 // (standcald) then leaves it moving to its target when it dies. Not among parse_config's
@@ -130,6 +133,12 @@ struct ModbusStandConfig {
   // load_config prefixes the file's path. Each caller says them where it reports.
   std::vector<std::string> warnings;
 };
+
+// What a service that drives the stand unattended (standcald; `standcal doctor` for it) says
+// of `config` as read from `path` ("" for the defaults): its own warnings, and a watchdog
+// switched off, each naming the file.
+std::vector<std::string> unattended_warnings(const ModbusStandConfig& config,
+                                             const std::string& path);
 
 // Reads a config from JSON (docs/stand-modbus.md "Config keys"); absent keys keep defaults,
 // unknown keys are an error naming them.

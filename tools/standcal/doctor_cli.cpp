@@ -165,17 +165,17 @@ class Doctor {
            "fix the file (docs/stand-modbus.md, \"Config keys\")");
       return;
     }
-    const drivers::modbus::LinkTiming& t = map.value().timing;
-    std::vector<std::string> warnings = map.value().warnings;
-    if (auto off = drivers::modbus::watchdog_off_warning(t); !off.empty()) warnings.push_back(off);
+    const std::vector<std::string> warnings =
+        drivers::modbus::unattended_warnings(map.value(), path);
     for (const std::string& w : warnings) warn("stand timing", where + ": " + w);
     if (!warnings.empty()) return;
+    const drivers::modbus::LinkTiming& t = map.value().timing;
     char text[256];
     std::snprintf(text, sizeof text,
                   ": a request retried %d times at %g s after a %g s heartbeat period holds the "
                   "heartbeat for at most %g s, within the %g s watchdog",
-                  t.tries, t.timeout_s, t.heartbeat_period_s,
-                  t.heartbeat_period_s + t.tries * t.timeout_s, t.heartbeat_timeout_s);
+                  t.tries, t.timeout_s, t.heartbeat_period_s, drivers::modbus::heartbeat_held_s(t),
+                  t.heartbeat_timeout_s);
     pass("stand timing", where + text);
   }
 
