@@ -194,15 +194,17 @@ void widen_sigmas(const InvariantData& d, const std::vector<PositionAverage>& po
 // biases' z-variance was 1.10-1.52 under a wander of 1x the dwell error (0.94-1.05 with).
 constexpr double kFullVectorWanderLr = 5.99;
 
-// Whether the invariant fit weights with the wander the full vector estimated: a finding,
-// or evident (kFullVectorWanderLr). With the correlation time given as one value, any wander
-// the full vector weights for: there only q is estimated, with no average over the times
-// the run allows to widen the biases' sigmas, and under a 1x wander the joint fit's biases
-// were at 1.31-1.51 in z-variance with the evident ones alone (1000 runs; 1.09-1.17 taking
-// every one, as the full vector's own 1.09-1.19; white noise's 0.90-0.93 -> 0.83-0.89).
+// Whether the invariant fit weights with the wander the full vector estimated: a finding
+// (weighted as the specified wander where it agrees with one), or evident (kFullVectorWanderLr).
+// With the correlation time given as one value, any wander the full vector weights for: there only
+// q is estimated, with no average over the times the run allows to widen the biases' sigmas, and
+// under a 1x wander the joint fit's biases were at 1.31-1.51 in z-variance with the evident ones
+// alone (1000 runs; 1.09-1.17 taking every one, as the full vector's own 1.09-1.19; white noise's
+// 0.90-0.93 -> 0.83-0.89).
 bool takes_full_vector_wander(const FitNoiseChoice& full, const FitNoiseOptions& options) {
-  if (full.finding.source != "estimated" || full.noise.white()) return false;
-  if (full.finding.bias_instability) return true;
+  if (full.noise.white()) return false;
+  if (full.finding.bias_instability) return true;  // estimated, or agreeing with the specified
+  if (full.finding.source != "estimated") return false;
   const bool one_tau_given = options.known_tau && !options.known_tau->range();
   return one_tau_given || full.finding.lr > kFullVectorWanderLr;
 }

@@ -1,5 +1,6 @@
 #include "calib/noise_model.hpp"
 
+#include "calib/distributions.hpp"
 #include "calib/golden_section.hpp"
 #include "calib/units.hpp"
 
@@ -517,12 +518,41 @@ NoiseFinding noise_finding(const NoiseEstimate& e, const std::vector<PositionAve
   return n;
 }
 
+namespace {
+
+// Whether the run's wander, a finding, agrees with the specified one, its correlation time
+// given: its REML optimum does not beat the specified wander (at the range's log-middle, for
+// a range of correlation times) at options.specified_departure_p, or specified_exceeded_p
+// where the run's is the larger. Says which, and by how much, in e.how. (A size given without its
+// time is no unit's wander: the default time is no one's.)
+bool run_agrees_with_specified(const std::vector<NoiseRow>& rows, const MatrixXd& X,
+                               const VectorXd& y, const FitNoiseOptions& options,
+                               NoiseEstimate& e) {
+  GaussMarkovNoise specified = options.specified;
+  if (options.known_tau && options.known_tau->range())
+    specified.tau_s = options.known_tau->centre_s();
+  const RestrictedLikelihood L(rows, X, y);
+  const double lr = std::max(0.0, 2 * (L(e.best) - L(specified)));
+  const double p = chi_square_upper_tail(lr, std::max(1, e.parameters));
+  const bool larger = (e.best.q_g.array() > specified.q_g.array()).any();
+  const bool agrees = p >= (larger ? options.specified_exceeded_p : options.specified_departure_p);
+  char words[160];
+  std::snprintf(words, sizeof words, " (2 delta log L = %.1f against it, P = %.2g)", lr, p);
+  e.how += agrees ? "; consistent with the specified bias instability" + std::string(words) +
+                        ", which is weighted with"
+                  : "; departs from the specified bias instability" + std::string(words) +
+                        ", so this run's own is weighted with";
+  return agrees;
+}
+
+}  // namespace
+
 FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixXd& X,
                                 const VectorXd& y, const FitNoiseOptions& options,
                                 const std::vector<PositionAverage>& positions) {
   using Mode = FitNoiseOptions::Mode;
   NoiseEstimate e;
-  bool weighted_below_bar = false, specified_over_range = false;
+  bool weighted_below_bar = false, specified_over_range = false, agrees_with_specified = false;
   // The specified wander; where its correlation time is known only as a range, weighted at the
   // range's log-middle and the biases' variance averaged over the range, each time alike (no
   // run's likelihood weighs them: the run did not show the wander, or was not asked).
@@ -559,6 +589,9 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
     if (!e.significant && !options.specified.white()) {
       take_specified();
       e.how += "; not significant on this run, so the specified bias instability is used";
+    } else if (e.significant && !options.specified.white() && options.known_tau) {
+      agrees_with_specified = run_agrees_with_specified(rows, X, y, options, e);
+      if (agrees_with_specified) take_specified();
     } else if (!e.significant && e.lr > options.weighting_lr) {
       e.noise = e.best;  // weighted for, though not a finding (NoiseFinding.bias_instability false)
       weighted_below_bar = true;
@@ -574,16 +607,18 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
                         {},
                         0};
   // Estimated and weighted for: its uncertainty widens the sigmas (a specified one is given).
-  if (e.significant || weighted_below_bar) {
+  const bool finding_weighted = e.significant && !agrees_with_specified;
+  if (finding_weighted || weighted_below_bar) {
     choice.scales = e.scales;
     choice.plausible = e.plausible;
+    choice.weighted_parameters = e.parameters;
   }
   if (specified_over_range)
     for (double tau_s : options.known_tau->grid_s())
       choice.plausible.push_back({{e.noise.q_g, tau_s}, 1.0});
-  if (e.significant) choice.parameters = e.parameters;
-  if (e.significant || weighted_below_bar) choice.weighted_parameters = e.parameters;
+  if (finding_weighted) choice.parameters = e.parameters;
   if (weighted_below_bar) choice.finding.source = "estimated";
+  if (agrees_with_specified) choice.finding.source = "specified";  // a finding, weighted as given
   if (choice.finding.model == "gauss_markov")
     set_tau_provenance(choice.finding, choice.plausible, options.known_tau);
   return choice;

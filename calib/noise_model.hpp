@@ -179,6 +179,20 @@ struct FitNoiseOptions {
   // little precision; ignoring one that is makes every sigma too small.
   double weighting_lr = 1.0;
   GaussMarkovNoise specified;  // the unit's known bias instability (data sheet, earlier runs)
+  // estimate, with a wander specified and its correlation time known (known_tau): a wander
+  // the run shows is weighted as the specified one unless the run departs from it (its REML
+  // optimum against the specified wander: 2 delta log L, chi-square with the optimum's
+  // parameters) at P below specified_departure_p, or below specified_exceeded_p where the
+  // run's wander is the larger on some axis. The specified wander comes from more data than
+  // one run, and the run's own estimate, taken where it is a finding, is one selected for
+  // being large and widens the sigmas for its own uncertainty: weighted with it, a 1x
+  // wander's biases came out conservative (0.81-0.83 in z-variance, full fit). The laxer bar
+  // upwards because a specified wander too small is the error that makes sigmas too small: a
+  // size given half the true one left a 3x wander's biases at 1.10-1.17 (full fit) at 0.01,
+  // 1.01-1.08 at 0.05, costing nothing where it is right (docs/calibration.md, "The unit
+  // given").
+  double specified_departure_p = 0.01;
+  double specified_exceeded_p = 0.05;
   // estimate: the unit's correlation time, known (a long static recording's Allan curves,
   // `standcal noise`; the data sheet): the run then estimates only the wander's size. One
   // run of a quarter of an hour cannot tell a wander of 60 s from one of 1200 s, and the

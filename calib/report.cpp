@@ -235,7 +235,9 @@ std::string noise_line(const NoiseFinding& n) {
            sample_correlation_words(n);
   }
   const std::string what =
-      n.source != "estimated" ? "the specified bias wander"
+      n.source != "estimated"
+          ? (n.bias_instability ? "the specified bias wander (this run shows one that agrees)"
+                                : "the specified bias wander")
       : n.bias_instability
           ? "bias wander estimated from this run"
           : "a possible bias wander (below the bar of a finding: 2 delta log L = " +

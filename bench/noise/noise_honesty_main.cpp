@@ -2,13 +2,17 @@
 // Gauss-Markov bias wander at 1x, 3x, 10x the white error of one dwell mean) and per
 // estimator, the z-variance (mean of ((estimate - truth) / sigma)^2) of each unit parameter:
 // 1 is an honest sigma. "estimated" weights as `standcal fit` does (the run's own noise
-// model); "white" as if every dwell mean were independent, for comparison. Under each table,
+// model); "tau given" as `standcal fit --bias-instability-tau-s T`; "unit given" as that
+// with `--bias-instability-ug Q` too (the unit's wander known before the run); "true" with
+// the simulated wander whatever the run shows; "white" as if every dwell mean were
+// independent, for comparison. Under each table,
 // each weighting's sigmas over the white-weighted sigmas of the same fit on the same run
 // (median, 99th percentile, share above 3x): what weighting for a wander the run may not
 // have costs a single run under white noise, and how far it widens under wander.
 //   standcal-bench-noise-honesty [--runs 1000] [--threads 2] [--program diagnostic32]
 //                                [--repeat 1] [--tau-s 300 [--tau-max-s 1200]]
 //                                [--tau-given-range 1 | --tau-given-factor 1]
+//                                [--size-given-factor 1] [--specified-exceeded-p 0.05]
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
@@ -172,6 +176,15 @@ int main(int argc, char** argv) {
                  "this to that tau x this")
       ->check(CLI::Range(1.0, 100.0))
       ->capture_default_str();
+  app.add_option("--size-given-factor", setup.size_given_factor,
+                 "the 'unit given' rows are told this multiple of the simulated wander's size")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--specified-exceeded-p", setup.specified_exceeded_p,
+                 "the 'unit given' rows weight with the run's own wander where it exceeds the "
+                 "given one at this P")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
   app.add_option("--weighting-lr", setup.weighting_lr,
                  "weight for an estimated wander once 2 delta log L exceeds this")
       ->capture_default_str();
@@ -179,6 +192,7 @@ int main(int argc, char** argv) {
                  "the unit's output filter: first-order low-pass of the white noise (s)")
       ->check(CLI::NonNegativeNumber);
   CLI11_PARSE(app, argc, argv);
+  setup.unit_given_rows = true;
   if (tau_max_s > 0 && tau_max_s <= tau_s) {
     std::fprintf(stderr, "--tau-max-s %g must exceed --tau-s %g (the range tau is drawn from)\n",
                  tau_max_s, tau_s);
@@ -203,6 +217,10 @@ int main(int argc, char** argv) {
   if (setup.tau_given_factor != 1 || setup.tau_given_range != 1)
     std::printf("'tau given': %.3g x the simulated correlation time, within a factor %.3g\n",
                 setup.tau_given_factor, setup.tau_given_range);
+  std::printf(
+      "'unit given': that correlation time and %.3g x the simulated wander's size given, "
+      "weighted with where the run does not show a wander\n",
+      setup.size_given_factor);
   const auto start = std::chrono::steady_clock::now();
   for (Scenario s : issue21_scenarios()) {
     s.tau_s = tau_s;

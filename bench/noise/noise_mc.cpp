@@ -23,11 +23,13 @@ struct Method {
   std::string estimator, weighting;
 };
 
-const std::vector<Method>& methods() {
-  static const std::vector<Method> m{
-      {"full", "estimated"},  {"full", "tau given"},  {"full", "true"},  {"full", "white"},
-      {"joint", "estimated"}, {"joint", "tau given"}, {"joint", "true"}, {"joint", "white"},
-      {"norm", "estimated"},  {"norm", "tau given"},  {"norm", "true"},  {"norm", "white"}};
+// Each estimator's weightings; "unit given" where the setup asks for it.
+std::vector<Method> methods(const Setup& setup) {
+  std::vector<Method> m;
+  for (const char* estimator : {"full", "joint", "norm"})
+    for (const char* weighting : {"estimated", "tau given", "unit given", "true", "white"})
+      if (setup.unit_given_rows || std::string(weighting) != "unit given")
+        m.push_back({estimator, weighting});
   return m;
 }
 
@@ -35,11 +37,16 @@ FitResult fit_with(const Method& m, const Recording& rec, const std::vector<Posi
                    const TruthModel& truth, const Setup& setup) {
   FitNoiseOptions noise;
   noise.weighting_lr = setup.weighting_lr;
+  noise.specified_exceeded_p = setup.specified_exceeded_p;
   if (m.weighting == "white") noise = white_noise_weighting();
-  if (m.weighting == "tau given") {
-    const double tau_s = truth.noise.bias_instability_tau_s * setup.tau_given_factor;
-    noise.known_tau = KnownTau{tau_s / setup.tau_given_range, tau_s * setup.tau_given_range};
-  }
+  const double tau_given_s = truth.noise.bias_instability_tau_s * setup.tau_given_factor;
+  if (m.weighting == "tau given" || m.weighting == "unit given")
+    noise.known_tau =
+        KnownTau{tau_given_s / setup.tau_given_range, tau_given_s * setup.tau_given_range};
+  if (m.weighting == "unit given")  // as `--bias-instability-ug Q --bias-instability-tau-s T`
+    noise.specified = {
+        Vec3::Constant(truth.noise.bias_instability_ug * setup.size_given_factor * kUg),
+        noise.known_tau->centre_s()};
   if (m.weighting == "true") {
     noise.mode = FitNoiseOptions::Mode::specified;
     noise.specified = {Vec3::Constant(truth.noise.bias_instability_ug * kUg),
@@ -108,12 +115,11 @@ ZStats empty_stats(const Method& m) {
   return z;
 }
 
-// Index in methods() of the white-weighted fit by the same estimator as method k.
-std::size_t white_of(std::size_t k) {
-  for (std::size_t w = 0; w < methods().size(); ++w)
-    if (methods()[w].estimator == methods()[k].estimator && methods()[w].weighting == "white")
-      return w;
-  throw std::logic_error("no white weighting for " + methods()[k].estimator);
+// Index in `all` of the white-weighted fit by the same estimator as method k.
+std::size_t white_of(const std::vector<Method>& all, std::size_t k) {
+  for (std::size_t w = 0; w < all.size(); ++w)
+    if (all[w].estimator == all[k].estimator && all[w].weighting == "white") return w;
+  throw std::logic_error("no white weighting for " + all[k].estimator);
 }
 
 void add_sigma_ratios(ZStats& z, const FitResult& fit, const FitResult& white) {
@@ -165,13 +171,14 @@ ScenarioResult run_scenario(const Setup& setup, const Scenario& scenario) {
     x_true[static_cast<std::size_t>(3 + a)] = truth.unit.scale[a];
     x_true[static_cast<std::size_t>(6 + a)] = truth.unit.gamma_pair_sums_rad()[a];
   }
-  for (const Method& m : methods()) out.stats.push_back(empty_stats(m));
+  const std::vector<Method> all = methods(setup);
+  for (const Method& m : all) out.stats.push_back(empty_stats(m));
 
   std::mutex mutex;
   auto worker = [&](int first, int stride) {
-    std::vector<ZStats> local;  // from methods(), not out.stats, which others merge into
+    std::vector<ZStats> local;  // from `all`, not out.stats, which others merge into
     int samples_correlated = 0;
-    for (const Method& m : methods()) local.push_back(empty_stats(m));
+    for (const Method& m : all) local.push_back(empty_stats(m));
     for (int run = first; run < setup.runs; run += stride) {
       SimulationRequest req;
       req.program = setup.program;
@@ -186,17 +193,18 @@ ScenarioResult run_scenario(const Setup& setup, const Scenario& scenario) {
       const AveragedRecording averaged = average_recording(rec);
       const std::vector<PositionAverage>& avg = averaged.averages;
       if (averaged.allan && averaged.allan->sample_correlation) ++samples_correlated;
-      std::vector<std::optional<FitResult>> fits(methods().size());
-      for (std::size_t k = 0; k < methods().size(); ++k) {
+      std::vector<std::optional<FitResult>> fits(all.size());
+      for (std::size_t k = 0; k < all.size(); ++k) {
         try {
-          fits[k] = fit_with(methods()[k], rec, avg, req.truth, setup);
+          fits[k] = fit_with(all[k], rec, avg, req.truth, setup);
           accumulate(local[k], *fits[k], x_true, req.truth.noise.bias_instability_ug);
         } catch (const std::exception&) {
           ++local[k].failed;
         }
       }
-      for (std::size_t k = 0; k < methods().size(); ++k)
-        if (fits[k] && fits[white_of(k)]) add_sigma_ratios(local[k], *fits[k], *fits[white_of(k)]);
+      for (std::size_t k = 0; k < all.size(); ++k)
+        if (fits[k] && fits[white_of(all, k)])
+          add_sigma_ratios(local[k], *fits[k], *fits[white_of(all, k)]);
     }
     const std::lock_guard<std::mutex> lock(mutex);
     out.samples_correlated += samples_correlated;

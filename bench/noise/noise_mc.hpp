@@ -39,6 +39,15 @@ struct Setup {
   // ... or the range of correlation times from that / this to that x this (1: one value), as
   // `standcal noise` gives it from a static recording.
   double tau_given_range = 1;
+  // Rows "unit given": the fit told the unit's wander, its size and correlation time, as
+  // `--bias-instability-ug Q --bias-instability-tau-s T` tell it (from a long static
+  // recording's Allan fit, `standcal noise`, or the data sheet). It still estimates the
+  // wander from the run and weights with that where the run shows one; the given size is
+  // what it weights with where the run does not. The size given is this multiple of the
+  // simulated one's; the correlation time as "tau given" (factor, range).
+  bool unit_given_rows = false;
+  double size_given_factor = 1;
+  double specified_exceeded_p = FitNoiseOptions{}.specified_exceeded_p;
   // The unit's output filter (NoiseModel::output_filter_tau_s): samples correlated within a
   // dwell, which sigma / sqrt(n) does not see. 0: independent samples.
   double output_filter_tau_s = 0;
@@ -47,8 +56,9 @@ struct Setup {
 // z statistics of one estimator with one weighting in one scenario.
 struct ZStats {
   std::string estimator;  // "full" | "joint" | "norm" (the recording without its angles)
-  std::string
-      weighting;  // "estimated" (the default) | "true" (the simulated wander, given) | "white"
+  // "estimated" (the default) | "tau given" | "unit given" (Setup) | "true" (the simulated
+  // wander, given and used whatever the run shows) | "white"
+  std::string weighting;
   std::array<double, kUnitParameterCount> z2_mean{};  // mean z^2: the z-variance about truth
   std::array<double, kUnitParameterCount> z_mean{};
   std::array<double, kUnitParameterCount> coverage95{};  // share of runs with |z| <= 1.96

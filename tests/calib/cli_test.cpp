@@ -224,10 +224,15 @@ TEST_F(Cli, NoiseOfAStaticRecordingNamesTheCorrelationTimeToGiveTheFits) {
   }
   const CliRun text = run_cli("noise " + eight_hours);
   ASSERT_EQ(text.exit_code, 0) << text.output;
-  char command[160];
+  // The unit's wander to give the fits: the largest axis's size, and the range of times.
+  double q_max_ug = 0;
+  for (const char* axis : {"x", "y", "z"})
+    q_max_ug = std::max(q_max_ug, gm["axes"][axis]["q_ug"].get<double>());
+  char command[200];
   std::snprintf(command, sizeof command,
-                "standcal fit --bias-instability-tau-s %.0f --bias-instability-tau-max-s %.0f",
-                gm["tau_min_s"].get<double>(), gm["tau_max_s"].get<double>());
+                "standcal fit --bias-instability-ug %.3g --bias-instability-tau-s %.0f "
+                "--bias-instability-tau-max-s %.0f",
+                q_max_ug, gm["tau_min_s"].get<double>(), gm["tau_max_s"].get<double>());
   EXPECT_NE(text.output.find(command), std::string::npos) << command << "\n" << text.output;
   EXPECT_EQ(gm["wander_seen"], true);
   EXPECT_GT(gm["wander_deviance"].get<double>(), kGaussMarkovWanderDeviance) << gm.dump(2);

@@ -532,3 +532,45 @@ TEST(FitNoise, TooFewMeasurementsTakeTheSpecifiedWanderOverTheGivenRange) {
     EXPECT_GT(*over_range.unit[bias].sigma, std::sqrt(variance_at(20, bias)))
         << kUnitParameterNames[bias];
 }
+
+// The unit's wander given (its size and correlation time, from a long static recording or
+// the data sheet) and a run that shows one like it: the fit weights with the given wander,
+// as a fit told it outright does, and says the run agrees; the run's own estimate, a finding
+// selected for being large and widened for its own uncertainty, had made a 1x wander's biases
+// conservative (bench/noise "unit given": 0.81-0.83 in z-variance, full fit). Failed before:
+// the source was "estimated" and the wander the run's own. A given size the run departs from
+// (a tenth of the simulated one) gives way to the run's.
+TEST(FitNoise, AGivenWanderTheRunAgreesWithIsWhatTheFitWeightsWith) {
+  const Recording rec = wander_ten_times_run();
+  const std::vector<PositionAverage> avg = average_positions(rec);
+  const double tau_s = default_truth().noise.bias_instability_tau_s;
+  const double wander_ug = 10 * default_truth().noise.density_ug_rthz / std::sqrt(10.0);
+  const auto fit_given = [&](double size_ug, FitNoiseOptions::Mode mode) {
+    FitNoiseOptions o;
+    o.mode = mode;
+    o.specified = {Vec3::Constant(size_ug * kUg), tau_s};
+    o.known_tau = KnownTau{tau_s, tau_s};
+    return fit_full_vector(avg, o);
+  };
+  const FitResult agrees = fit_given(wander_ug, FitNoiseOptions::Mode::estimate);
+  const FitResult told = fit_given(wander_ug, FitNoiseOptions::Mode::specified);
+  EXPECT_TRUE(agrees.noise.bias_instability) << agrees.noise.how;
+  EXPECT_EQ(agrees.noise.source, "specified") << agrees.noise.how;
+  EXPECT_NE(agrees.noise.how.find("consistent with the specified bias instability"),
+            std::string::npos)
+      << agrees.noise.how;
+  for (int a = 0; a < 3; ++a) EXPECT_DOUBLE_EQ(agrees.noise.wander_ug[a], wander_ug);
+  for (std::size_t j = 0; j < kUnitParameterCount; ++j) {
+    if (!told.unit[j].sigma) continue;
+    EXPECT_DOUBLE_EQ(*agrees.unit[j].sigma, *told.unit[j].sigma) << kUnitParameterNames[j];
+  }
+  EXPECT_NE(format_report(agrees, report_context(rec, avg)).find("this run shows one that agrees"),
+            std::string::npos);
+
+  const FitResult departs = fit_given(wander_ug / 10, FitNoiseOptions::Mode::estimate);
+  EXPECT_EQ(departs.noise.source, "estimated") << departs.noise.how;
+  EXPECT_NE(departs.noise.how.find("departs from the specified bias instability"),
+            std::string::npos)
+      << departs.noise.how;
+  EXPECT_GT(departs.noise.wander_ug.minCoeff(), 3 * wander_ug / 10) << departs.noise.how;
+}

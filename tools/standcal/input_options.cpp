@@ -83,7 +83,9 @@ void add_noise_options(CLI::App* cmd, NoiseCliOptions& o) {
       ->capture_default_str();
   add_fit_wander_options(cmd, o.wander,
                          "used when the run alone does not show it; a correlation time given is "
-                         "taken as known, and the run estimates the wander's size at it");
+                         "taken as known, and the run estimates the wander's size at it; with "
+                         "both given, a wander the run shows is weighted as this one unless the "
+                         "run departs from it (P < 0.01)");
 }
 
 void add_fit_wander_options(CLI::App* cmd, WanderCliOptions& o, const std::string& use) {

@@ -155,12 +155,18 @@ std::string gauss_markov_words(const std::optional<GaussMarkovAllanFit>& f, doub
     return found +
            ", but the model does not describe the curves (below): no range to give "
            "the fits from them";
-  return found + "\ngive the range to the fits: standcal fit --bias-instability-tau-s " + lo +
+  // The largest axis's size: the fits take one for the three, and one too small is what
+  // makes the biases' sigmas too small (docs/calibration.md, "The unit given").
+  const double q_ug = *std::max_element(f->q.begin(), f->q.end());
+  return found + "\ngive the unit's wander to the fits: standcal fit --bias-instability-ug " +
+         diagnosis::fmt("%.3g", q_ug) + " --bias-instability-tau-s " + lo +
          " --bias-instability-tau-max-s " + hi +
-         " (standcald: unit.bias_instability_tau_s and unit.bias_instability_tau_max_s); one "
-         "calibration run cannot pin it, and too short a tau makes the biases' sigmas too "
-         "small. The averaging time of the bias-instability floor above is not the "
-         "correlation time (a Gauss-Markov wander's Allan peak lies near 1.9 x it).";
+         " (standcald: unit.bias_instability_ug, unit.bias_instability_tau_s and "
+         "unit.bias_instability_tau_max_s; the size is the largest axis's); one calibration run "
+         "cannot pin the correlation time, nor the size of a wander it seldom shows, and too "
+         "short a tau or too small a size makes the biases' sigmas too small. The averaging "
+         "time of the bias-instability floor above is not the correlation time (a Gauss-Markov "
+         "wander's Allan peak lies near 1.9 x it).";
 }
 
 void run_noise(const NoiseOptions& o) {
