@@ -518,19 +518,19 @@ NoiseFinding noise_finding(const NoiseEstimate& e, const std::vector<PositionAve
   return n;
 }
 
-namespace {
+GaussMarkovNoise specified_at_known_tau(const FitNoiseOptions& options) {
+  GaussMarkovNoise specified = options.specified;
+  if (!specified.white() && options.known_tau && options.known_tau->range())
+    specified.tau_s = options.known_tau->centre_s();
+  return specified;
+}
 
-// Whether the run's wander, a finding, agrees with the specified one, its correlation time
-// given: its REML optimum does not beat the specified wander (at the range's log-middle, for
-// a range of correlation times) at options.specified_departure_p, or specified_exceeded_p
-// where the run's is the larger. Says which, and by how much, in e.how. (A size given without its
-// time is no unit's wander: the default time is no one's.)
+// (A size given without its time is no unit's wander: the default time is no one's, so the
+// callers ask only with known_tau.)
 bool run_agrees_with_specified(const std::vector<NoiseRow>& rows, const MatrixXd& X,
                                const VectorXd& y, const FitNoiseOptions& options,
                                NoiseEstimate& e) {
-  GaussMarkovNoise specified = options.specified;
-  if (options.known_tau && options.known_tau->range())
-    specified.tau_s = options.known_tau->centre_s();
+  const GaussMarkovNoise specified = specified_at_known_tau(options);
   const RestrictedLikelihood L(rows, X, y);
   const double lr = std::max(0.0, 2 * (L(e.best) - L(specified)));
   const double p = chi_square_upper_tail(lr, std::max(1, e.parameters));
@@ -545,8 +545,6 @@ bool run_agrees_with_specified(const std::vector<NoiseRow>& rows, const MatrixXd
   return agrees;
 }
 
-}  // namespace
-
 FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixXd& X,
                                 const VectorXd& y, const FitNoiseOptions& options,
                                 const std::vector<PositionAverage>& positions) {
@@ -557,10 +555,8 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
   // range's log-middle and the biases' variance averaged over the range, each time alike (no
   // run's likelihood weighs them: the run did not show the wander, or was not asked).
   const auto take_specified = [&] {
-    e.noise = options.specified;
-    if (e.noise.white() || !options.known_tau || !options.known_tau->range()) return;
-    e.noise.tau_s = options.known_tau->centre_s();
-    specified_over_range = true;
+    e.noise = specified_at_known_tau(options);
+    specified_over_range = !e.noise.white() && options.known_tau && options.known_tau->range();
   };
   const auto over_range_words = [&]() -> std::string {
     if (!specified_over_range) return "";

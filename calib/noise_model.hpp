@@ -293,6 +293,20 @@ struct SigmaWidening {
 SigmaWidening widen_for_estimated_noise(
     const std::function<Eigen::VectorXd(const GaussMarkovNoise&)>& variances,
     const FitNoiseChoice& choice);
+// Whether a run's significant wander `e`, estimated from (rows, X, y), agrees with the
+// specified one of `options` (its correlation time given: known_tau): its REML optimum does
+// not beat the specified wander (at the range's log-middle, for a range of correlation times)
+// by 2 delta log L at P below options.specified_departure_p, or specified_exceeded_p where the
+// run's is the larger on some axis. Says which, and by how much, in e.how. The fits and the
+// diagnosis weigh the same run's positions alike by it.
+bool run_agrees_with_specified(const std::vector<NoiseRow>& rows, const Eigen::MatrixXd& X,
+                               const Eigen::VectorXd& y, const FitNoiseOptions& options,
+                               NoiseEstimate& e);
+
+// The specified wander as the fits weigh with it: at the range's log-middle where its
+// correlation time is given as a range.
+GaussMarkovNoise specified_at_known_tau(const FitNoiseOptions& options);
+
 FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const Eigen::MatrixXd& X,
                                 const Eigen::VectorXd& y, const FitNoiseOptions& options,
                                 const std::vector<PositionAverage>& positions);

@@ -129,6 +129,7 @@ Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& option
   const NoiseAndTerms chosen = select_terms_and_noise(P, options);
   const Selection& selection = chosen.selection;
   d.noise = noise_finding(chosen.noise, P.avg, options.known_tau);
+  if (chosen.weighted_as_specified) d.noise.source = "specified";  // a finding, tested as given
   d.baseline_p = consistency_p(P.base.chi2, P.base.dof);
   d.candidates = selection.first_round;
   // Two rivals are only worth telling apart when the better one would leave noise.

@@ -30,13 +30,30 @@ Selection select_under(Prepared& P, const GaussMarkovNoise& noise, const Diagnos
   return forward_selection(*P.model, P.ctx, P.cands, P.untestable, P.implausible, P.base, options);
 }
 
+// The rows a wander is estimated from, with the whitened design and measurements it is
+// estimated under: what another wander (the unit's specified one) is weighed against.
+struct WanderProblem {
+  std::vector<NoiseRow> rows;
+  Eigen::MatrixXd X;
+  Eigen::VectorXd y;
+};
+
+// A wander estimated from a run, and the problem it was estimated from.
+struct RunWander {
+  NoiseEstimate estimate;
+  WanderProblem problem;
+};
+
+RunWander estimate_from(WanderProblem problem, const NoiseEstimateOptions& o) {
+  NoiseEstimate e = estimate_bias_wander(problem.rows, problem.X, problem.y, o);
+  return {std::move(e), std::move(problem)};
+}
+
 // The rows of the positions whose pose the programme visits more than once, with a free
 // mean per pose and row component, and the slow terms' columns on those rows.
 struct BetweenVisits {
   std::vector<Eigen::Index> rows;
-  std::vector<NoiseRow> noise_rows;
-  Eigen::MatrixXd X;
-  Eigen::VectorXd y;
+  WanderProblem problem;
 };
 
 // Positions whose up-vectors agree within `tolerance_rad` are one pose: exactly, for a stand's
@@ -70,40 +87,44 @@ BetweenVisits between_visits(const Prepared& P, const std::vector<Candidate>& sl
     if (it == column_of.end()) it = column_of.insert(column_of.end(), key);
     row_column.push_back(static_cast<int>(it - column_of.begin()));
     bv.rows.push_back(static_cast<Eigen::Index>(r));
-    bv.noise_rows.push_back(lp.noise_rows[r]);
+    bv.problem.rows.push_back(lp.noise_rows[r]);
   }
   if (bv.rows.empty()) return bv;
   const Eigen::MatrixXd slow_cols =
       with_columns(Eigen::MatrixXd(lp.y.size(), 0), term_columns_white(*P.model, P.ctx, slow));
   const auto m = static_cast<Eigen::Index>(bv.rows.size());
   const auto means = static_cast<Eigen::Index>(column_of.size());
-  bv.X = Eigen::MatrixXd::Zero(m, means + slow_cols.cols());
+  Eigen::MatrixXd& X = bv.problem.X;
+  X = Eigen::MatrixXd::Zero(m, means + slow_cols.cols());
   for (Eigen::Index i = 0; i < m; ++i) {
     const Eigen::Index r = bv.rows[static_cast<std::size_t>(i)];
-    bv.X(i, row_column[static_cast<std::size_t>(i)]) =
+    X(i, row_column[static_cast<std::size_t>(i)]) =
         1.0 / lp.row_sigma_g[static_cast<std::size_t>(r)];
     // Without a slow term there is nothing to copy, and a matrix without columns has no
     // storage: taking a row of it offsets a null pointer (undefined behaviour).
-    if (slow_cols.cols() > 0) bv.X.row(i).tail(slow_cols.cols()) = slow_cols.row(r);
+    if (slow_cols.cols() > 0) X.row(i).tail(slow_cols.cols()) = slow_cols.row(r);
   }
-  bv.y = lp.y_white(bv.rows);
+  bv.problem.y = lp.y_white(bv.rows);
   return bv;
 }
 
 // A unit placed by hand seldom repeats a pose, so there are no revisits to take the
 // wander from: it is estimated from every interval with the calibration and every testable
 // catalog term free, so that no term the catalog knows can pass for noise.
-NoiseEstimate wander_with_every_term(const Prepared& P, const NoiseEstimateOptions& o) {
+RunWander wander_with_every_term(const Prepared& P, const NoiseEstimateOptions& o) {
   std::vector<Candidate> testable;
   for (std::size_t i = 0; i < P.cands.size(); ++i)
     if (P.untestable[i].empty() && P.cands[i].entry->test == CatalogTest::columns)
       testable.push_back(P.cands[i]);
   const LinearProblem& lp = P.model->problem();
-  const Eigen::MatrixXd X = with_columns(lp.A_white, term_columns_white(*P.model, P.ctx, testable));
-  NoiseEstimate e = estimate_bias_wander(lp.noise_rows, X, lp.y_white, o);
-  e.how = "from all " + std::to_string(lp.positions) + " intervals with the calibration and " +
-          std::to_string(testable.size()) + " testable catalog terms free; " + e.how;
-  return e;
+  RunWander w = estimate_from(
+      {lp.noise_rows, with_columns(lp.A_white, term_columns_white(*P.model, P.ctx, testable)),
+       lp.y_white},
+      o);
+  w.estimate.how = "from all " + std::to_string(lp.positions) +
+                   " intervals with the calibration and " + std::to_string(testable.size()) +
+                   " testable catalog terms free; " + w.estimate.how;
+  return w;
 }
 
 // A unit placed by hand revisits only some orientations, and only roughly, so the revisits
@@ -113,18 +134,22 @@ NoiseEstimate wander_with_every_term(const Prepared& P, const NoiseEstimateOptio
 // estimate, but repeated orientations agree with each other whatever pose-dependent
 // physics there is, so they then prefer no wander. Without revisits every testable term is
 // held free instead.
-NoiseEstimate attitude_free_wander(const Prepared& P, const std::vector<Candidate>& slow,
-                                   const BetweenVisits& bv, const NoiseEstimateOptions& o) {
+RunWander attitude_free_wander(const Prepared& P, const std::vector<Candidate>& slow,
+                               const BetweenVisits& bv, const NoiseEstimateOptions& o) {
   if (bv.rows.empty()) return wander_with_every_term(P, o);
   const LinearProblem& lp = P.model->problem();
-  const Eigen::MatrixXd X = with_columns(lp.A_white, term_columns_white(*P.model, P.ctx, slow));
-  NoiseEstimate all = estimate_bias_wander(lp.noise_rows, X, lp.y_white, o);
+  RunWander w = estimate_from(
+      {lp.noise_rows, with_columns(lp.A_white, term_columns_white(*P.model, P.ctx, slow)),
+       lp.y_white},
+      o);
+  NoiseEstimate& all = w.estimate;
   all.how = "from all " + std::to_string(lp.positions) +
             " intervals with the calibration and the slow terms free; " + all.how;
-  if (!all.significant) return all;
+  if (!all.significant) return w;
+  const WanderProblem& revisits = bv.problem;
   const double support =
-      2 * (restricted_log_likelihood(bv.noise_rows, bv.X, bv.y, all.noise) -
-           restricted_log_likelihood(bv.noise_rows, bv.X, bv.y, GaussMarkovNoise{}));
+      2 * (restricted_log_likelihood(revisits.rows, revisits.X, revisits.y, all.noise) -
+           restricted_log_likelihood(revisits.rows, revisits.X, revisits.y, GaussMarkovNoise{}));
   all.how += "; the " + std::to_string(bv.rows.size()) + " revisits of repeated orientations " +
              (support > 0 ? "support" : "do not support") +
              " it against white noise (2 delta log L = " + fmt("%.1f", support) + ")";
@@ -132,7 +157,23 @@ NoiseEstimate attitude_free_wander(const Prepared& P, const std::vector<Candidat
     all.significant = false;
     all.noise = GaussMarkovNoise{};
   }
-  return all;
+  return w;
+}
+
+// The run's wander, where it is a finding and the unit's is given with its correlation time,
+// gives way to the unit's unless the run departs from it: the rule the fits weigh with
+// (noise_model.hpp, run_agrees_with_specified), so that a recording's diagnosis and its fit
+// test and weigh against the same wander. Returns whether it gave way.
+bool weigh_as_specified_where_agreeing(RunWander& w, const DiagnoseOptions& options) {
+  if (!w.estimate.significant || options.specified_wander.white() || !options.known_tau)
+    return false;
+  FitNoiseOptions given;
+  given.specified = options.specified_wander;
+  given.known_tau = options.known_tau;
+  if (!run_agrees_with_specified(w.problem.rows, w.problem.X, w.problem.y, given, w.estimate))
+    return false;
+  w.estimate.noise = specified_at_known_tau(given);
+  return true;
 }
 
 }  // namespace
@@ -151,26 +192,29 @@ NoiseAndTerms select_terms_and_noise(Prepared& P, const DiagnoseOptions& options
   NoiseEstimateOptions o;
   o.lr_threshold = options.wander_lr_threshold;
   if (options.known_tau) o.tau_grid_s = options.known_tau->grid_s();
-  NoiseAndTerms out;
   const double tolerance_rad = options.attitude_free ? kAttitudeFreeSamePose_deg * kDegToRad : 1e-9;
-  const BetweenVisits bv = between_visits(P, slow, tolerance_rad);
+  BetweenVisits bv = between_visits(P, slow, tolerance_rad);
+  RunWander run;
   if (options.attitude_free) {
-    out.noise = attitude_free_wander(P, slow, bv, o);
+    run = attitude_free_wander(P, slow, bv, o);
   } else if (bv.rows.size() > 0) {
-    out.noise = estimate_bias_wander(bv.noise_rows, bv.X, bv.y, o);
+    run = estimate_from(std::move(bv.problem), o);
   } else {
-    out.noise.how = "not estimated: no position is visited twice";
+    run.estimate.how = "not estimated: no position is visited twice";
   }
-  if (options.known_tau) out.noise.how += "; at " + options.known_tau->words();
-  if (out.noise.significant &&
-      out.noise.noise.q_g.maxCoeff() > options.max_bias_instability_ug * kUg) {
-    const double wander_ug = out.noise.noise.q_g.maxCoeff() / kUg;  // the size judged
-    out.noise.significant = false;
-    out.noise.noise = GaussMarkovNoise{};
+  if (options.known_tau) run.estimate.how += "; at " + options.known_tau->words();
+  NoiseEstimate& e = run.estimate;
+  if (e.significant && e.noise.q_g.maxCoeff() > options.max_bias_instability_ug * kUg) {
+    const double wander_ug = e.noise.q_g.maxCoeff() / kUg;  // the size judged
+    e.significant = false;
+    e.noise = GaussMarkovNoise{};
     const auto [wander, most] = fixed_texts_apart(wander_ug, options.max_bias_instability_ug, 1);
-    out.noise.how += "; not taken as noise: " + wander +
-                     " ug is beyond the bias instability of this class of unit (" + most + " ug)";
+    e.how += "; not taken as noise: " + wander +
+             " ug is beyond the bias instability of this class of unit (" + most + " ug)";
   }
+  NoiseAndTerms out;
+  out.weighted_as_specified = weigh_as_specified_where_agreeing(run, options);
+  out.noise = std::move(e);
   if (!out.noise.significant && !options.specified_wander.white()) {
     out.noise.noise = options.specified_wander;
     out.noise.how += "; the tests use the unit's specified wander instead";
@@ -189,6 +233,12 @@ std::string tau_given_words(const NoiseFinding& n) {
   return n.tau_given ? "given; " : "";
 }
 
+// " (the middle of the given 400-900 s)": the correlation time a range was weighed at.
+std::string middle_of_range_words(const NoiseFinding& n) {
+  return " (the middle of the given " + fmt("%.0f", n.tau_given_min_s) + "-" +
+         fmt("%.0f", n.tau_given_max_s) + " s)";
+}
+
 }  // namespace
 
 std::string noise_words(const NoiseFinding& n) {
@@ -198,13 +248,20 @@ std::string noise_words(const NoiseFinding& n) {
            " needed), so the terms are tested against the unit's specified "
            "bias instability, Gauss-Markov up to " +
            fmt("%.1f", n.wander_ug.maxCoeff()) + " ug with correlation time " +
-           fmt("%.0f", n.tau_s) + " s" +
-           (n.tau_given_max_s > 0 ? " (the middle of the given " + fmt("%.0f", n.tau_given_min_s) +
-                                        "-" + fmt("%.0f", n.tau_given_max_s) + " s)"
-                                  : "") +
+           fmt("%.0f", n.tau_s) + " s" + (n.tau_given_max_s > 0 ? middle_of_range_words(n) : "") +
            " (generalised least squares): a drift or temperature term must stand out from "
            "what that wander can do in this run.";
   if (!n.bias_instability) return "";
+  if (n.source == "specified")
+    return "Noise: the dwell means wander more than their white-noise errors allow (bias "
+           "instability, a noise finding, not missing physics), and by as much as the unit's "
+           "given wander: Gauss-Markov up to " +
+           fmt("%.1f", n.wander_ug.maxCoeff()) + " ug with correlation time " +
+           fmt("%.0f", n.tau_s) + " s" +
+           (n.tau_given_max_s > 0 ? middle_of_range_words(n) : " (given)") +
+           ", which every test above weighs the positions with (generalised least squares; 2 "
+           "delta log L = " +
+           fmt("%.0f", n.lr) + " against white noise).";
   std::string s =
       "Noise: the dwell means wander more than their white-noise errors allow (bias instability, a "
       "noise "

@@ -14,6 +14,9 @@ namespace standcal::diagnosis {
 struct NoiseAndTerms {
   NoiseEstimate noise;
   Selection selection;
+  // The run shows a wander that agrees with the unit's given one (size and correlation
+  // time), which the terms are then tested against, as the fits weigh with it.
+  bool weighted_as_specified = false;
 };
 
 // Sets P.model's noise and P.base to the final choice.

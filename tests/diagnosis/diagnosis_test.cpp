@@ -13,6 +13,7 @@
 
 #include "calib/averaging.hpp"
 #include "calib/diagnosis/diagnosis.hpp"
+#include "calib/full_estimator.hpp"
 #include "calib/invariant_estimator.hpp"
 #include "calib/programs.hpp"
 #include "calib/simulator.hpp"
@@ -264,6 +265,54 @@ TEST(DiagnosisBlind, AGivenCorrelationTimeIsTheOneTheWanderIsEstimatedAt) {
   EXPECT_NE(r.noise.how.find("at the given correlation times 400-900 s"), std::string::npos)
       << r.noise.how;
   EXPECT_TRUE(says(r, "(within the given 400-900 s; Allan floor"));
+}
+
+// The unit's wander given, size and correlation time (`diagnose --bias-instability-ug
+// --bias-instability-tau-s`, standcald's unit.bias_instability_*): where the run shows a
+// wander that agrees with it, the terms are tested against the given one, as the fits weigh
+// with it (noise_model.hpp, run_agrees_with_specified), so that a recording's diagnosis and
+// its fit report the same wander. Failed before: the diagnosis tested against the run's own
+// (3.5 ug on every axis here, source "estimated") while `fit` weighed with the given 4 ug. A given
+// size the run departs from (a tenth) gives way to the run's.
+TEST(DiagnosisBlind, AGivenWanderTheRunAgreesWithIsWhatTheTermsAreTestedAgainst) {
+  TruthModel t = default_truth();
+  t.noise.density_ug_rthz = 3;
+  t.noise.bias_instability_ug = 4;
+  t.noise.bias_instability_tau_s = 600;
+  const Recording rec = simulate(diagnostic32(), t, 3);
+  const auto diagnose_given = [&](double size_ug) {
+    DiagnoseOptions given;
+    given.specified_wander = {Vec3::Constant(size_ug * kUg), 600};
+    given.known_tau = KnownTau{600, 600};
+    return diagnose_recording(rec, given);
+  };
+  const Diagnosis d = diagnose_given(4);
+  print(d);
+  EXPECT_EQ(d.verdict, "consistent");
+  EXPECT_TRUE(d.findings.empty());
+  ASSERT_TRUE(d.noise.bias_instability) << d.noise.how;
+  EXPECT_EQ(d.noise.source, "specified") << d.noise.how;
+  for (int a = 0; a < 3; ++a) EXPECT_DOUBLE_EQ(d.noise.wander_ug[a], 4) << a;
+  EXPECT_DOUBLE_EQ(d.noise.tau_s, 600);
+  EXPECT_NE(d.noise.how.find("consistent with the specified bias instability"), std::string::npos)
+      << d.noise.how;
+  EXPECT_TRUE(says(d,
+                   "by as much as the unit's given wander: Gauss-Markov up to 4.0 ug with "
+                   "correlation time 600 s (given)"));
+
+  FitNoiseOptions as_fit;
+  as_fit.specified = {Vec3::Constant(4 * kUg), 600};
+  as_fit.known_tau = KnownTau{600, 600};
+  const FitResult fit = fit_full_vector(average_positions(rec), as_fit);
+  EXPECT_EQ(fit.noise.source, d.noise.source) << fit.noise.how;
+  for (int a = 0; a < 3; ++a) EXPECT_DOUBLE_EQ(fit.noise.wander_ug[a], d.noise.wander_ug[a]) << a;
+
+  const Diagnosis departs = diagnose_given(0.4);
+  EXPECT_EQ(departs.noise.source, "estimated") << departs.noise.how;
+  EXPECT_NE(departs.noise.how.find("departs from the specified bias instability"),
+            std::string::npos)
+      << departs.noise.how;
+  EXPECT_GT(departs.noise.wander_ug.minCoeff(), 1.2) << departs.noise.how;
 }
 
 TEST(DiagnosisBlind, Paper9HasInsufficientRedundancy) {
