@@ -203,8 +203,10 @@ struct AxisAtTau {
 // point's sigma its model variance times sqrt(2 / k), iterated (a Gamma GLM, identity
 // link), and its deviance, sum k ((y - m) / m - log(y / m)), is what the profile over tau_c
 // compares. (The Pearson chi-square in its place ran the fitted tau_c 6-17 % high.)
-// tau_c_s 0: white noise alone (q = 0).
-AxisAtTau fit_axis_at_tau(const AxisCurve& c, double tau_c_s) {
+// tau_c_s 0: white noise alone (q = 0). With `wander_var` given, q^2 is held at it and N^2
+// alone fitted (the profile over q: wander_size_ranges).
+AxisAtTau fit_axis_at_tau(const AxisCurve& c, double tau_c_s,
+                          std::optional<double> wander_var = std::nullopt) {
   const std::size_t n = c.points.size();
   std::vector<double> observed(n), h(n), scale(n);
   for (std::size_t i = 0; i < n; ++i) {
@@ -228,6 +230,7 @@ AxisAtTau fit_axis_at_tau(const AxisCurve& c, double tau_c_s) {
     double b = det > 0 ? (s11 * r2 - s12 * r1) / det : 0;
     if (a < 0) a = 0, b = std::max(r2 / s22, 0.0);  // one term alone where both cannot be
     if (b < 0) b = 0, a = std::max(r1 / s11, 0.0);
+    if (wander_var) b = *wander_var, a = std::max((r1 - s12 * b) / s11, 0.0);
     r = {a, b, 0};
     for (std::size_t i = 0; i < n; ++i) {
       const double model = a / c.points[i].tau_s + b * h[i];
@@ -263,6 +266,53 @@ GaussMarkovAllanFit::Departure worst_departure(const std::vector<AxisCurve>& cur
     }
   }
   return worst;
+}
+
+// The deviance of the curves with one axis's wander held at q^2 = wander_var: the other axes
+// and every white noise at their best, tau_c the best of the profile's (its grid and the
+// refined best).
+double deviance_at_size(const std::vector<AxisCurve>& curves,
+                        const std::vector<ProfilePoint>& profile, std::size_t axis,
+                        double wander_var) {
+  double least = std::numeric_limits<double>::infinity();
+  for (const ProfilePoint& p : profile) {
+    const double held = fit_axis_at_tau(curves[axis], std::exp(p.log_tau), wander_var).deviance;
+    least = std::min(least, p.deviance - p.axes[axis].deviance + held);
+  }
+  return least;
+}
+
+// Each axis's q the curves allow: its profile deviance (white noise, the other axes and tau_c
+// free) within `allowed`. The lower end 0 where no wander on that axis is allowed; the upper
+// infinite where a wander too slow for the curves to show could be as large as it likes.
+void wander_size_ranges(GaussMarkovAllanFit& fit, const std::vector<AxisCurve>& curves,
+                        const std::vector<ProfilePoint>& profile, double allowed) {
+  const double q_scale = *std::max_element(fit.q.begin(), fit.q.end());
+  constexpr double kOpenAbove = 1000;  // x the largest q: no bound from these curves
+  constexpr int kBisections = 40;
+  for (std::size_t a = 0; a < curves.size(); ++a) {
+    const auto outside = [&](double q) {
+      return deviance_at_size(curves, profile, a, q * q) > allowed;
+    };
+    double lo = 0, hi = fit.q[a];
+    const bool needs_wander = outside(0);
+    for (int i = 0; needs_wander && i < kBisections; ++i) {
+      const double mid = 0.5 * (lo + hi);
+      (outside(mid) ? lo : hi) = mid;
+    }
+    fit.q_min.push_back(needs_wander ? hi : 0.0);
+    lo = fit.q[a], hi = std::max(2 * fit.q[a], 0.1 * q_scale);
+    while (!outside(hi) && hi < kOpenAbove * q_scale) lo = hi, hi *= 2;
+    if (!outside(hi)) {
+      fit.q_max.push_back(std::numeric_limits<double>::infinity());
+      continue;
+    }
+    for (int i = 0; i < kBisections; ++i) {
+      const double mid = 0.5 * (lo + hi);
+      (outside(mid) ? hi : lo) = mid;
+    }
+    fit.q_max.push_back(hi);
+  }
 }
 
 ProfilePoint fit_at_tau(const std::vector<AxisCurve>& curves, double log_tau) {
@@ -370,6 +420,13 @@ std::optional<GaussMarkovAllanFit> fit_gauss_markov_allan(
         white.deviance / std::max(static_cast<double>(points - curves.size()), 1.0);
   }
   if (!fit.wander_seen) fit.q.assign(curves.size(), 0.0);  // white alone, or short correlation
+  if (fit.wander_seen) {
+    std::vector<ProfilePoint> candidates = profile;
+    candidates.push_back(best);
+    wander_size_ranges(
+        fit, curves, candidates,
+        best.deviance + kGaussMarkovSizeRangeDeviance * std::max(1.0, fit.deviance_per_dof));
+  }
   fit.describes_curves = fit.deviance_per_dof <= kGaussMarkovFitScatterLimit;
   fit.worst_departure = worst_departure(curves, white_reported ? white : best);
   return fit;

@@ -106,7 +106,12 @@ struct GaussMarkovAllanFit {
   // none is seen, and what a dwell mean sees where the correlation is short.
   std::vector<double> white_density;
   std::vector<double> q;  // the wander's stationary standard deviation per axis
-  double tau_s = 0;       // its correlation time tau_c
+  // Where a wander is seen, the q per axis the curves allow: its profile deviance (white
+  // noise, the other axes and tau_c free) within kGaussMarkovSizeRangeDeviance of the best
+  // (scaled like tau_c's range); q_max infinite where a wander too slow for the curves could
+  // be of any size. Empty otherwise.
+  std::vector<double> q_min, q_max;
+  double tau_s = 0;  // its correlation time tau_c
   // The correlation times the curves allow: the profile's deviance within
   // kGaussMarkovTauRangeDeviance of the best (scaled by the deviance per degree of freedom
   // when that exceeds 1), each end out to the next point of the grid (20 a decade).
@@ -167,6 +172,13 @@ inline constexpr double kShortCorrelationDeviance = 33.4;
 // s, 2 to 8 hours; 100 seeds each, bench/noise/allan_tau_main.cpp): the range held the true
 // tau_c in 93-97 % of them (docs/calibration.md).
 inline constexpr double kGaussMarkovTauRangeDeviance = 4;
+// The bound of q's range (GaussMarkovAllanFit::q_min, q_max). Not chi2_1's 3.84: the points
+// of one curve are not independent (one slow realisation of the wander sets every long
+// averaging time), so the profile's curvature overstates what the curves know of q. At 4 the
+// range held the true q on 79-92 % of axes, at 9 on 94-99 % (simulated static recordings,
+// white 10 ug/rtHz and Gauss-Markov of 1-10 ug, tau_c 60-1200 s, 2 to 8 hours; 40 and 100
+// seeds each, bench/noise/allan_tau_main.cpp; docs/calibration.md).
+inline constexpr double kGaussMarkovSizeRangeDeviance = 9;
 // The deviance by which a wander must beat white noise alone to be seen: chi2 with four
 // parameters (three axes' q and tau_c) at P = 1e-3, the bar the fits' noise model sets.
 inline constexpr double kGaussMarkovWanderDeviance = 18.5;

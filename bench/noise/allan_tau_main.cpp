@@ -6,7 +6,8 @@
 // tau against the truth (median and 10-90 % of the ratio), the range's median width, how
 // often the range is bounded, and how often it holds the truth (95 % would be exact); and the
 // fitted size q against the truth (every axis: median and 10-90 %), what `standcal fit
-// --bias-instability-ug` is then given.
+// --bias-instability-ug` is then given, and how often each axis's q range holds the truth
+// (of the axes of recordings that see a wander; 95 % would be exact) and its median width.
 //   standcal-bench-allan-tau [--seeds 100] [--rate-hz 10]
 #include <CLI/CLI.hpp>
 #include <algorithm>
@@ -52,13 +53,13 @@ int main(int argc, char** argv) {
                                 {10, 300, 2}, {3, 300, 8}, {3, 1200, 8}};
   std::printf("white 10 ug/rtHz at %.0f Hz, %d seeded three-axis recordings per case\n", rate_hz,
               seeds);
-  std::printf("%6s %8s %6s  %22s %12s %8s %8s %8s %12s  %s\n", "q ug", "tau_c s", "hours",
+  std::printf("%6s %8s %6s  %22s %12s %8s %8s %8s %12s  %s  %s  %s\n", "q ug", "tau_c s", "hours",
               "tau/truth med (10-90%)", "range width", "bounded", "holds", "short", "dev/dof max",
-              "q/truth med (10-90%)");
+              "q/truth med (10-90%)", "q range holds", "q width");
   const auto start = std::chrono::steady_clock::now();
   for (const Case& c : cases) {
-    std::vector<double> ratio, width, q_ratio;
-    int bounded = 0, holds = 0, short_correlation = 0;
+    std::vector<double> ratio, width, q_ratio, q_width;
+    int bounded = 0, holds = 0, short_correlation = 0, q_axes = 0, q_holds = 0;
     double worst_deviance_per_dof = 0;
     for (int s = 1; s <= seeds; ++s) {
       const auto fit = fit_gauss_markov_allan(
@@ -69,6 +70,11 @@ int main(int argc, char** argv) {
       if (!fit) continue;
       ratio.push_back(fit->tau_s / c.tau_c_s);
       for (double q_ug : fit->q) q_ratio.push_back(q_ug / c.q_ug);
+      for (std::size_t a = 0; a < fit->q_min.size(); ++a) {
+        ++q_axes;
+        q_holds += fit->q_min[a] <= c.q_ug && c.q_ug <= fit->q_max[a];
+        q_width.push_back(fit->q_max[a] / fit->q_min[a]);
+      }
       width.push_back(fit->tau_max_s / fit->tau_min_s);
       bounded += fit->tau_bounded;
       holds += fit->tau_min_s <= c.tau_c_s && c.tau_c_s <= fit->tau_max_s;
@@ -77,11 +83,12 @@ int main(int argc, char** argv) {
     }
     std::printf(
         "%6.1f %8.0f %6.1f  %6.2f (%5.2f-%6.2f) %11.1fx %4d/%-3d %4d/%-3d %4d/%-3d %12.2f  %5.2f "
-        "(%4.2f-%4.2f)\n",
+        "(%4.2f-%4.2f)  %5d/%-5d  %7.2fx\n",
         c.q_ug, c.tau_c_s, c.hours, quantile(ratio, 0.5), quantile(ratio, 0.1),
         quantile(ratio, 0.9), quantile(width, 0.5), bounded, seeds, holds, seeds, short_correlation,
         seeds, worst_deviance_per_dof, quantile(q_ratio, 0.5), quantile(q_ratio, 0.1),
-        quantile(q_ratio, 0.9));
+        quantile(q_ratio, 0.9), q_holds, q_axes,
+        q_width.empty() ? std::nan("") : quantile(q_width, 0.5));
   }
   std::printf("%.1f s\n",
               std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());

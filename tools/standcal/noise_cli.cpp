@@ -4,6 +4,7 @@
 // the raw reader takes has its static intervals found and pooled (calib/static_noise).
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -105,6 +106,10 @@ json gauss_markov_json(const GaussMarkovAllanFit& f) {
   for (std::size_t a = 0; a < f.q.size() && a < 3; ++a) {
     j["axes"][axis_names[a]] = {{"q_ug", f.q[a]}, {"noise_density_ug_rthz", f.white_density[a]}};
     if (f.short_correlation) j["axes"][axis_names[a]]["short_correlation_q_ug"] = f.short_q[a];
+    if (a < f.q_min.size()) {
+      j["axes"][axis_names[a]]["q_min_ug"] = f.q_min[a];
+      j["axes"][axis_names[a]]["q_max_ug"] = std::isfinite(f.q_max[a]) ? json(f.q_max[a]) : json();
+    }
   }
   return j;
 }
@@ -113,6 +118,22 @@ std::string per_axis(const std::vector<double>& v, const char* unit) {
   std::string s;
   for (std::size_t a = 0; a < v.size() && a < 3; ++a)
     s += std::string(a ? ", " : "") + "xyz"[a] + " " + diagnosis::fmt("%.3g", v[a]) + " " + unit;
+  return s;
+}
+
+// "2.71-3.36 ug" or "2.71 ug and beyond": the sizes the curves allow.
+std::string size_range_text(double lo, double hi) {
+  return diagnosis::fmt("%.3g", lo) +
+         (std::isfinite(hi) ? "-" + diagnosis::fmt("%.3g", hi) + " ug" : " ug and beyond");
+}
+
+// "x 3.02 ug (2.71-3.36), y ...": each axis's wander with the sizes the curves allow.
+std::string sizes_with_ranges(const GaussMarkovAllanFit& f) {
+  if (f.q_min.size() != f.q.size()) return per_axis(f.q, "ug");
+  std::string s;
+  for (std::size_t a = 0; a < f.q.size() && a < 3; ++a)
+    s += std::string(a ? ", " : "") + "xyz"[a] + " " + diagnosis::fmt("%.3g", f.q[a]) + " ug (" +
+         size_range_text(f.q_min[a], f.q_max[a]) + ")";
   return s;
 }
 
@@ -138,7 +159,7 @@ std::string gauss_markov_words(const std::optional<GaussMarkovAllanFit>& f, doub
   const std::string s =
       "Gauss-Markov wander (white noise and one wander fitted to the three curves, "
       "one correlation time): steady-state sigma " +
-      per_axis(f->q, "ug");
+      sizes_with_ranges(*f) + " (the sizes this recording allows)";
   const std::string how_long = " (its curves end at " + seconds_text(curve_end_s) +
                                " s; a static recording of about 100 x the correlation time "
                                "pins it)";
@@ -157,12 +178,18 @@ std::string gauss_markov_words(const std::optional<GaussMarkovAllanFit>& f, doub
            "the fits from them";
   // The largest axis's size: the fits take one for the three, and one too small is what
   // makes the biases' sigmas too small (docs/calibration.md, "The unit given").
-  const double q_ug = *std::max_element(f->q.begin(), f->q.end());
+  const auto largest = std::max_element(f->q.begin(), f->q.end());
+  const auto axis = static_cast<std::size_t>(largest - f->q.begin());
   return found + "\ngive the unit's wander to the fits: standcal fit --bias-instability-ug " +
-         diagnosis::fmt("%.3g", q_ug) + " --bias-instability-tau-s " + lo +
+         diagnosis::fmt("%.3g", *largest) + " --bias-instability-tau-s " + lo +
          " --bias-instability-tau-max-s " + hi +
          " (standcald: unit.bias_instability_ug, unit.bias_instability_tau_s and "
-         "unit.bias_instability_tau_max_s; the size is the largest axis's); one calibration run "
+         "unit.bias_instability_tau_max_s; the size is the largest axis's" +
+         (axis < f->q_min.size()
+              ? ", which this recording allows at " +
+                    size_range_text(f->q_min[axis], f->q_max[axis]) + ": a longer one narrows that"
+              : std::string()) +
+         "); one calibration run "
          "cannot pin the correlation time, nor the size of a wander it seldom shows, and too "
          "short a tau or too small a size makes the biases' sigmas too small. The averaging "
          "time of the bias-instability floor above is not the correlation time (a Gauss-Markov "
