@@ -12,7 +12,8 @@
 //   standcal-bench-noise-honesty [--runs 1000] [--threads 2] [--program diagnostic32]
 //                                [--repeat 1] [--tau-s 300 [--tau-max-s 1200]]
 //                                [--tau-given-range 1 | --tau-given-factor 1]
-//                                [--size-given-factor 1] [--specified-exceeded-p 0.05]
+//                                [--size-given-factor 1 | --static-hours H]
+//                                [--specified-exceeded-p 0.05]
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
@@ -133,6 +134,8 @@ void print_result(const ScenarioResult& r) {
       if (z.n[j] > 0) worst_coverage = std::min(worst_coverage, z.coverage95[j]);
     std::printf("   %.2f-%.2f  %4.1f%%", lo, hi, 100 * worst_coverage);
     if (z.failed) std::printf(" (%d fits failed)", z.failed);
+    if (z.weighting == "unit given" && z.unit_given < z.runs)
+      std::printf(" (given a wander in %d: the static recording's advice)", z.unit_given);
     std::printf("\n");
   }
   print_sigma_over_white(r);
@@ -180,6 +183,10 @@ int main(int argc, char** argv) {
                  "the 'unit given' rows are told this multiple of the simulated wander's size")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  app.add_option("--static-hours", setup.static_hours,
+                 "the 'unit given' rows are told what `standcal noise` advises from a static "
+                 "recording of the unit this many hours long (one per run)")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--specified-exceeded-p", setup.specified_exceeded_p,
                  "the 'unit given' rows weight with the run's own wander where it exceeds the "
                  "given one at this P")
@@ -217,10 +224,17 @@ int main(int argc, char** argv) {
   if (setup.tau_given_factor != 1 || setup.tau_given_range != 1)
     std::printf("'tau given': %.3g x the simulated correlation time, within a factor %.3g\n",
                 setup.tau_given_factor, setup.tau_given_range);
-  std::printf(
-      "'unit given': that correlation time and %.3g x the simulated wander's size given, "
-      "weighted with where the run does not show a wander\n",
-      setup.size_given_factor);
+  if (setup.static_hours > 0)
+    std::printf(
+        "'unit given': what `standcal noise` advises from a %.3g-hour static recording of the "
+        "unit at %.0f Hz (the largest axis's size, the correlation times it allows), where it "
+        "advises\n",
+        setup.static_hours, kStaticRecordingRateHz);
+  else
+    std::printf(
+        "'unit given': that correlation time and %.3g x the simulated wander's size given, "
+        "weighted with where the run does not show a wander\n",
+        setup.size_given_factor);
   const auto start = std::chrono::steady_clock::now();
   for (Scenario s : issue21_scenarios()) {
     s.tau_s = tau_s;

@@ -1,5 +1,6 @@
 #include "bench/noise/noise_mc.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <mutex>
 #include <optional>
@@ -7,6 +8,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "calib/allan.hpp"
 #include "calib/averaging.hpp"
 #include "calib/full_estimator.hpp"
 #include "calib/invariant_estimator.hpp"
@@ -33,20 +35,51 @@ std::vector<Method> methods(const Setup& setup) {
   return m;
 }
 
+// The unit's wander as the "unit given" rows are told it (`--bias-instability-ug Q
+// --bias-instability-tau-s A [--bias-instability-tau-max-s B]`); nothing given: as estimated.
+struct GivenWander {
+  GaussMarkovNoise size;
+  std::optional<KnownTau> tau;
+};
+
+// The truth's, scaled by the setup's factors; or what `standcal noise` advises from a static
+// recording of the unit (Setup::static_hours), seeded apart from the run's own noise.
+GivenWander given_wander(const TruthModel& truth, const Setup& setup, std::uint64_t seed) {
+  if (setup.static_hours <= 0) {
+    const double tau_s = truth.noise.bias_instability_tau_s * setup.tau_given_factor;
+    const KnownTau tau{tau_s / setup.tau_given_range, tau_s * setup.tau_given_range};
+    return {{Vec3::Constant(truth.noise.bias_instability_ug * setup.size_given_factor * kUg),
+             tau.centre_s()},
+            tau};
+  }
+  const double period_s = 1 / kStaticRecordingRateHz;
+  std::vector<std::vector<AllanPoint>> curves;
+  for (const std::vector<double>& axis : simulate_static_gauss_markov(
+           truth.noise.density_ug_rthz, truth.noise.bias_instability_ug,
+           truth.noise.bias_instability_tau_s, setup.static_hours * 3600, kStaticRecordingRateHz,
+           static_cast<unsigned>(seed ^ 0x5747'4154'4943ULL)))
+    curves.push_back(overlapping_allan_deviation({axis}, period_s));
+  const std::optional<GaussMarkovAllanFit> fit = fit_gauss_markov_allan(curves, period_s);
+  if (!fit || !fit->wander_seen || !fit->tau_bounded || !fit->describes_curves) return {};
+  const KnownTau tau{fit->tau_min_s, fit->tau_max_s};
+  return {{Vec3::Constant(*std::max_element(fit->q.begin(), fit->q.end()) * kUg), tau.centre_s()},
+          tau};
+}
+
 FitResult fit_with(const Method& m, const Recording& rec, const std::vector<PositionAverage>& avg,
-                   const TruthModel& truth, const Setup& setup) {
+                   const TruthModel& truth, const Setup& setup, const GivenWander& given) {
   FitNoiseOptions noise;
   noise.weighting_lr = setup.weighting_lr;
   noise.specified_exceeded_p = setup.specified_exceeded_p;
   if (m.weighting == "white") noise = white_noise_weighting();
   const double tau_given_s = truth.noise.bias_instability_tau_s * setup.tau_given_factor;
-  if (m.weighting == "tau given" || m.weighting == "unit given")
+  if (m.weighting == "tau given")
     noise.known_tau =
         KnownTau{tau_given_s / setup.tau_given_range, tau_given_s * setup.tau_given_range};
-  if (m.weighting == "unit given")  // as `--bias-instability-ug Q --bias-instability-tau-s T`
-    noise.specified = {
-        Vec3::Constant(truth.noise.bias_instability_ug * setup.size_given_factor * kUg),
-        noise.known_tau->centre_s()};
+  if (m.weighting == "unit given") {  // as `--bias-instability-ug Q --bias-instability-tau-s T`
+    noise.known_tau = given.tau;
+    noise.specified = given.size;
+  }
   if (m.weighting == "true") {
     noise.mode = FitNoiseOptions::Mode::specified;
     noise.specified = {Vec3::Constant(truth.noise.bias_instability_ug * kUg),
@@ -134,6 +167,7 @@ void merge(ZStats& into, const ZStats& part) {
   into.runs += part.runs;
   into.failed += part.failed;
   into.wander_significant += part.wander_significant;
+  into.unit_given += part.unit_given;
   into.wander_q2_ratio_sum += part.wander_q2_ratio_sum;
   into.wander_q2_ratio_n += part.wander_q2_ratio_n;
   for (std::size_t w = 0; w < 2; ++w) {
@@ -194,9 +228,12 @@ ScenarioResult run_scenario(const Setup& setup, const Scenario& scenario) {
       const std::vector<PositionAverage>& avg = averaged.averages;
       if (averaged.allan && averaged.allan->sample_correlation) ++samples_correlated;
       std::vector<std::optional<FitResult>> fits(all.size());
+      const GivenWander given =
+          setup.unit_given_rows ? given_wander(req.truth, setup, req.seed) : GivenWander{};
       for (std::size_t k = 0; k < all.size(); ++k) {
+        local[k].unit_given += all[k].weighting == "unit given" && given.tau.has_value();
         try {
-          fits[k] = fit_with(all[k], rec, avg, req.truth, setup);
+          fits[k] = fit_with(all[k], rec, avg, req.truth, setup, given);
           accumulate(local[k], *fits[k], x_true, req.truth.noise.bias_instability_ug);
         } catch (const std::exception&) {
           ++local[k].failed;

@@ -47,6 +47,12 @@ struct Setup {
   // simulated one's; the correlation time as "tau given" (factor, range).
   bool unit_given_rows = false;
   double size_given_factor = 1;
+  // Above 0: the "unit given" rows are told instead what `standcal noise` says of a static
+  // recording of the same unit this many hours long (its own seeded recording per run, at
+  // kStaticRecordingRateHz): the largest axis's q and the correlation times it allows, where
+  // it sees a wander, pins its time and describes the curves (the advice it then prints);
+  // nothing otherwise, and those runs' rows are fitted as "estimated".
+  double static_hours = 0;
   double specified_exceeded_p = FitNoiseOptions{}.specified_exceeded_p;
   // The unit's output filter (NoiseModel::output_filter_tau_s): samples correlated within a
   // dwell, which sigma / sqrt(n) does not see. 0: independent samples.
@@ -77,6 +83,7 @@ struct ZStats {
   double wander_q2_ratio_sum = 0;
   int wander_q2_ratio_n = 0;
   int wander_significant = 0;  // runs whose fit found the wander significant
+  int unit_given = 0;          // "unit given" runs that were given a wander (static_hours)
   int runs = 0;
   int failed = 0;  // runs whose fit threw
 };
@@ -89,6 +96,8 @@ struct ScenarioResult {
   int samples_correlated = 0;
   std::vector<ZStats> stats;
 };
+
+inline constexpr double kStaticRecordingRateHz = 10;
 
 ScenarioResult run_scenario(const Setup& setup, const Scenario& scenario);
 
