@@ -613,11 +613,23 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
     for (double tau_s : options.known_tau->grid_s())
       choice.plausible.push_back({{e.noise.q_g, tau_s}, 1.0});
   if (finding_weighted) choice.parameters = e.parameters;
+  choice.finding.unit_wander_given = !options.specified.white();
   if (weighted_below_bar) choice.finding.source = "estimated";
   if (agrees_with_specified) choice.finding.source = "specified";  // a finding, weighted as given
   if (choice.finding.model == "gauss_markov")
     set_tau_provenance(choice.finding, choice.plausible, options.known_tau);
   return choice;
+}
+
+std::string unit_wander_advice(const NoiseFinding& n) {
+  if (n.model != "gauss_markov" || n.source != "estimated" || n.unit_wander_given) return "";
+  // Measured: the biases' z-variance 0.6-4 with the wander estimated from one quarter-hour
+  // run, 0.89-1.04 given what `standcal noise` measures of an 8-hour static recording
+  // (docs/calibration.md, "The whole workflow").
+  return "the sigmas rest on a wander estimated from this run alone, which one run pins "
+         "poorly (its correlation time most): give the unit's, as `standcal noise` measures it "
+         "on a static recording of about 100 x its correlation time (8 h for 300 s), with "
+         "--bias-instability-ug, --bias-instability-tau-s and --bias-instability-tau-max-s";
 }
 
 double KnownTau::centre_s() const { return std::sqrt(min_s * max_s); }

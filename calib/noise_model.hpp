@@ -241,6 +241,9 @@ struct NoiseFinding {
   Vec3 understated_by = Vec3::Ones();
   double lr = 0, lr_threshold = 0;  // 2 delta log L against white noise, and the bar
   std::string how;
+  // The unit's wander was given to the fit (its size: `--bias-instability-ug`), whether or
+  // not the fit weighted with it.
+  bool unit_wander_given = false;
   // The Allan deviation of the raw samples, dwells pooled: white density, bias instability
   // and random walk within a dwell, where the wander above is between dwells.
   std::optional<AllanFinding> allan;
@@ -310,6 +313,11 @@ GaussMarkovNoise specified_at_known_tau(const FitNoiseOptions& options);
 FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const Eigen::MatrixXd& X,
                                 const Eigen::VectorXd& y, const FitNoiseOptions& options,
                                 const std::vector<PositionAverage>& positions);
+
+// Where the fit weighted with a wander estimated from the run alone (no size of the unit's
+// given), the advice a report prints beneath its noise line: how to give the unit's
+// measured wander instead. Empty otherwise.
+std::string unit_wander_advice(const NoiseFinding& n);
 
 // The peak of the Allan deviation of a Gauss-Markov process (q, tau): the "bias
 // instability floor" an Allan plot of this wander would show, and the averaging time at

@@ -344,6 +344,8 @@ std::string format_norm_report(const NormCalibration& c, const RawInput& in) {
          fmt("%.2f", f.result.chi2_dof) + " (redundancy " + std::to_string(f.result.redundancy) +
          ")\n";
   out += "Noise:      " + wander_words(f.result.noise) + "\n";
+  if (const std::string advice = unit_wander_advice(f.result.noise); !advice.empty())
+    out += "            " + advice + "\n";
   out += "            within an interval, white noise would understate a mean's error by x" +
          fmt("%.2f", c.understated_by[0]) + ", x" + fmt("%.2f", c.understated_by[1]) + ", x" +
          fmt("%.2f", c.understated_by[2]) + " (" + c.detection.standard_errors_how + ")\n";

@@ -263,6 +263,8 @@ std::string format_report(const FitResult& fit, const ReportContext& ctx) {
   out += "Estimator:  " + fit.estimator + ", " + std::to_string(fit.parameters_estimated) +
          " parameters, redundancy " + std::to_string(fit.redundancy) + "\n";
   out += "Noise:      " + noise_line(fit.noise) + "\n";
+  if (const std::string advice = unit_wander_advice(fit.noise); !advice.empty())
+    out += "            " + advice + "\n";
   for (const std::string& w : ctx.warnings) out += "WARNING:    " + w + "\n";
   out += "\nUnit parameters (value +- 1 sigma):\n";
   append_parameters(out, fit);

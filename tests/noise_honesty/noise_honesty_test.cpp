@@ -564,7 +564,15 @@ TEST(FitNoise, AGivenWanderTheRunAgreesWithIsWhatTheFitWeightsWith) {
     if (!told.unit[j].sigma) continue;
     EXPECT_DOUBLE_EQ(*agrees.unit[j].sigma, *told.unit[j].sigma) << kUnitParameterNames[j];
   }
-  EXPECT_NE(format_report(agrees, report_context(rec, avg)).find("this run shows one that agrees"),
+  const std::string agreeing_report = format_report(agrees, report_context(rec, avg));
+  EXPECT_NE(agreeing_report.find("this run shows one that agrees"), std::string::npos);
+  // The report advises giving the unit's measured wander only where the fit weighed with one
+  // estimated from the run alone.
+  EXPECT_EQ(agreeing_report.find("give the unit's"), std::string::npos) << agreeing_report;
+  const FitResult alone = fit_full_vector(avg, FitNoiseOptions{});
+  ASSERT_EQ(alone.noise.source, "estimated") << alone.noise.how;
+  EXPECT_NE(format_report(alone, report_context(rec, avg))
+                .find("the sigmas rest on a wander estimated from this run alone"),
             std::string::npos);
 
   const FitResult departs = fit_given(wander_ug / 10, FitNoiseOptions::Mode::estimate);
