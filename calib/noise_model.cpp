@@ -623,9 +623,9 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
 
 std::string unit_wander_advice(const NoiseFinding& n) {
   if (n.model != "gauss_markov" || n.source != "estimated" || n.unit_wander_given) return "";
-  // Measured: the biases' z-variance 0.6-4 with the wander estimated from one quarter-hour
-  // run, 0.89-1.04 given what `standcal noise` measures of an 8-hour static recording
-  // (docs/calibration.md, "The whole workflow").
+  // Measured: the biases' z-variance 0.23-5.0 with the wander estimated from one
+  // quarter-hour run (tau 60-1200 s), 0.89-1.04 given what `standcal noise` measures of an
+  // 8-hour static recording (docs/calibration.md, "Monte Carlo" and "The whole workflow").
   return "the sigmas rest on a wander estimated from this run alone, which one run pins "
          "poorly (its correlation time most): give the unit's, as `standcal noise` measures it "
          "on a static recording of about 100 x its correlation time (8 h for 300 s), with "
