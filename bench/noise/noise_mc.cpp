@@ -42,12 +42,18 @@ struct GivenWander {
   std::optional<KnownTau> tau;
 };
 
+// The correlation time the "tau given" rows are told: the truth's, scaled and widened by the
+// setup's factors.
+KnownTau tau_given(const TruthModel& truth, const Setup& setup) {
+  const double tau_s = truth.noise.bias_instability_tau_s * setup.tau_given_factor;
+  return {tau_s / setup.tau_given_range, tau_s * setup.tau_given_range};
+}
+
 // The truth's, scaled by the setup's factors; or what `standcal noise` advises from a static
 // recording of the unit (Setup::static_hours), seeded apart from the run's own noise.
 GivenWander given_wander(const TruthModel& truth, const Setup& setup, std::uint64_t seed) {
   if (setup.static_hours <= 0) {
-    const double tau_s = truth.noise.bias_instability_tau_s * setup.tau_given_factor;
-    const KnownTau tau{tau_s / setup.tau_given_range, tau_s * setup.tau_given_range};
+    const KnownTau tau = tau_given(truth, setup);
     return {{Vec3::Constant(truth.noise.bias_instability_ug * setup.size_given_factor * kUg),
              tau.centre_s()},
             tau};
@@ -72,10 +78,7 @@ FitResult fit_with(const Method& m, const Recording& rec, const std::vector<Posi
   noise.weighting_lr = setup.weighting_lr;
   noise.specified_exceeded_p = setup.specified_exceeded_p;
   if (m.weighting == "white") noise = white_noise_weighting();
-  const double tau_given_s = truth.noise.bias_instability_tau_s * setup.tau_given_factor;
-  if (m.weighting == "tau given")
-    noise.known_tau =
-        KnownTau{tau_given_s / setup.tau_given_range, tau_given_s * setup.tau_given_range};
+  if (m.weighting == "tau given") noise.known_tau = tau_given(truth, setup);
   if (m.weighting == "unit given") {  // as `--bias-instability-ug Q --bias-instability-tau-s T`
     noise.known_tau = given.tau;
     noise.specified = given.size;
