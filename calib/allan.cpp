@@ -496,21 +496,55 @@ DwellAllan finish_dwell_allan(double sample_period_s,
     out.curves[a] = pooled[a].curve();
     out.figures[a] = noise_figures(out.curves[a]);
   }
-  out.sample_correlation = sample_correlation(out.curves, sample_period_s);
+  const std::vector<std::vector<AllanPoint>> curves{out.curves[0], out.curves[1], out.curves[2]};
+  const std::optional<GaussMarkovAllanFit> fit = fit_gauss_markov_allan(curves, sample_period_s);
+  if (fit) {
+    out.sample_correlation = sample_correlation_of(*fit, sample_period_s);
+    out.wander = wander_to_give(*fit, curves_end_s(curves));
+  }
   return out;
+}
+
+double curves_end_s(const std::vector<std::vector<AllanPoint>>& curves) {
+  double end_s = 0;
+  for (const std::vector<AllanPoint>& c : curves)
+    for (const AllanPoint& p : c) end_s = std::max(end_s, p.tau_s);
+  return end_s;
+}
+
+std::optional<WanderToGive> wander_to_give(const GaussMarkovAllanFit& fit, double curves_end_s) {
+  if (!fit.wander_seen || !fit.tau_bounded || !fit.describes_curves) return std::nullopt;
+  const auto largest = std::max_element(fit.q.begin(), fit.q.end());
+  WanderToGive w;
+  w.q = *largest;
+  w.axis = static_cast<std::size_t>(largest - fit.q.begin());
+  if (w.axis < fit.q_min.size()) {
+    w.q_min = fit.q_min[w.axis];
+    w.q_max = fit.q_max[w.axis];
+  }
+  w.tau_min_s = fit.tau_min_s;
+  w.tau_max_s = fit.tau_max_s;
+  w.curves_end_s = curves_end_s;
+  return w;
 }
 
 std::optional<SampleCorrelation> sample_correlation(
     const std::array<std::vector<AllanPoint>, 3>& curves, double sample_period_s) {
   const std::optional<GaussMarkovAllanFit> fit =
       fit_gauss_markov_allan({curves[0], curves[1], curves[2]}, sample_period_s);
-  if (!fit || !fit->short_correlation) return std::nullopt;
+  if (!fit) return std::nullopt;
+  return sample_correlation_of(*fit, sample_period_s);
+}
+
+std::optional<SampleCorrelation> sample_correlation_of(const GaussMarkovAllanFit& fit,
+                                                       double sample_period_s) {
+  if (!fit.short_correlation) return std::nullopt;
   SampleCorrelation c;
-  c.tau_s = fit->tau_s;
-  c.tau_max_s = fit->tau_max_s;
+  c.tau_s = fit.tau_s;
+  c.tau_max_s = fit.tau_max_s;
   c.sample_period_s = sample_period_s;
   for (std::size_t a = 0; a < 3; ++a)
-    c.dwell_white[static_cast<Eigen::Index>(a)] = fit->white_density[a];
+    c.dwell_white[static_cast<Eigen::Index>(a)] = fit.white_density[a];
   return c;
 }
 
@@ -526,14 +560,17 @@ Vec3 widening_factor(const SampleCorrelation& correlation, const Vec3& sample_si
 
 std::optional<AllanFinding> allan_finding(const Recording& rec, std::string* why_none) {
   try {
-    const DwellAllan a = dwell_allan(rec);
-    return AllanFinding{a.sample_period_s, a.segments, a.figures, a.sample_correlation};
+    return allan_finding_of(dwell_allan(rec));
   } catch (const std::exception& e) {
     // Too few samples, no rate or repeated time stamps (a zero period): the fit's noise says
     // nothing of Allan rather than refusing the calibration.
     if (why_none) *why_none = e.what();
     return std::nullopt;
   }
+}
+
+AllanFinding allan_finding_of(const DwellAllan& a) {
+  return {a.sample_period_s, a.segments, a.figures, a.sample_correlation, a.wander};
 }
 
 std::string no_sample_period_warning(const Recording& rec) {

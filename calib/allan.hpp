@@ -187,6 +187,22 @@ inline constexpr std::size_t kGaussMarkovFitMinPoints = 5;
 std::optional<GaussMarkovAllanFit> fit_gauss_markov_allan(
     const std::vector<std::vector<AllanPoint>>& axis_curves, double sample_period_s);
 
+// The unit's wander as a static recording's curves give it to the fits: where the fit sees a
+// wander, pins its correlation time inside the curves and describes them (`standcal noise`'s
+// advice; a calibration recording's own long dwell, take_recording_wander). One size for the
+// three axes, the largest axis's: one too small is what makes the biases' sigmas too small,
+// one larger on the others only widens theirs (docs/calibration.md, "The unit given").
+struct WanderToGive {
+  double q = 0;                         // the largest axis's q, in the curves' unit
+  std::size_t axis = 0;                 // which axis that is
+  double q_min = 0, q_max = 0;          // the sizes the curves allow it (q_max infinite: no bound)
+  double tau_min_s = 0, tau_max_s = 0;  // the correlation times they allow
+  double curves_end_s = 0;              // the longest averaging time of the curves
+};
+std::optional<WanderToGive> wander_to_give(const GaussMarkovAllanFit& fit, double curves_end_s);
+// The longest averaging time of any of the curves (0 for none).
+double curves_end_s(const std::vector<std::vector<AllanPoint>>& curves);
+
 // The sampling period of a recording: its sample_rate_hz header, else the median step
 // between samples of one position. Throws naming the recording when neither exists.
 double sample_period_s(const Recording& rec);
@@ -222,6 +238,9 @@ Vec3 widening_factor(const SampleCorrelation& correlation, const Vec3& sample_si
 // about 50 samples are never widened).
 std::optional<SampleCorrelation> sample_correlation(
     const std::array<std::vector<AllanPoint>, 3>& curves, double sample_period_s);
+// The same of curves already fitted.
+std::optional<SampleCorrelation> sample_correlation_of(const GaussMarkovAllanFit& fit,
+                                                       double sample_period_s);
 
 // The Allan deviation of each axis over a recording's dwells pooled: each position block is
 // one static segment (the moves are not samples), in ug, with the figures read off it.
@@ -231,6 +250,7 @@ struct DwellAllan {
   std::array<std::vector<AllanPoint>, 3> curves;        // ug
   std::array<NoiseFigures, 3> figures;                  // ug/sqrt(Hz), ug, ug/sqrt(s)
   std::optional<SampleCorrelation> sample_correlation;  // set by finish_dwell_allan
+  std::optional<WanderToGive> wander;                   // set by finish_dwell_allan (ug)
 };
 // Throws std::runtime_error naming the recording when it has fewer than kMinAllanSamples.
 inline constexpr std::size_t kMinAllanSamples = 30;
@@ -246,7 +266,11 @@ struct AllanFinding {
   std::size_t segments = 0;
   std::array<NoiseFigures, 3> figures;
   std::optional<SampleCorrelation> sample_correlation;
+  // The wander the curves pin (a dwell long enough to show it turn over), in ug: what the
+  // fits take as the unit's where none is given (take_recording_wander, noise_model.hpp).
+  std::optional<WanderToGive> wander;
 };
+AllanFinding allan_finding_of(const DwellAllan& a);
 // `why_none`, where given, is set when a recording of kMinAllanSamples or more has no curve
 // (its sample period unknown): a fit then cannot allow for samples correlated within a
 // dwell, which the operator is told (allan_unavailable_warning).

@@ -596,6 +596,10 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
           "makes every sigma too small";
     }
   }
+  if (options.specified_from == kWanderFromRecording && !options.specified.white())
+    e.how +=
+        "; the unit's wander and correlation times are the ones this recording's own Allan "
+        "curves pin (a dwell long enough to show the wander turn over)";
   FitNoiseChoice choice{e.noise,
                         weighted_below_bar ? GaussMarkovNoise{} : e.noise,
                         noise_finding(e, positions),
@@ -614,11 +618,36 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
       choice.plausible.push_back({{e.noise.q_g, tau_s}, 1.0});
   if (finding_weighted) choice.parameters = e.parameters;
   choice.finding.unit_wander_given = !options.specified.white();
+  if (choice.finding.unit_wander_given) choice.finding.unit_wander_from = options.specified_from;
   if (weighted_below_bar) choice.finding.source = "estimated";
   if (agrees_with_specified) choice.finding.source = "specified";  // a finding, weighted as given
   if (choice.finding.model == "gauss_markov")
     set_tau_provenance(choice.finding, choice.plausible, options.known_tau);
   return choice;
+}
+
+bool may_take_recording_wander(const FitNoiseOptions& options) {
+  return options.mode == FitNoiseOptions::Mode::estimate && options.specified.white() &&
+         !options.known_tau;
+}
+
+bool take_recording_wander(FitNoiseOptions& options, const std::optional<AllanFinding>& allan) {
+  if (!may_take_recording_wander(options) || !allan || !allan->wander) return false;
+  const WanderToGive& w = *allan->wander;
+  // The curves must reach past the longest correlation time they allow, as one long dwell's
+  // do, and those times reach the ones the fits' wander model takes (its grid's shortest,
+  // 60 s). Pooled dwells of 10 s (curves to 3.3 s) had "pinned" a wander of 10x the dwell
+  // error in 13 of 1000 runs at tau 60 s (bench/noise) from the search beyond their end, and
+  // in 2 of 1000 at tau 300 s a correlation time of seconds, within their end, which left
+  // the run's own wander estimated at that time: the biases' z-variance 0.61-0.71 became
+  // 0.70-0.73 over the 1000 runs.
+  const std::vector<double>& grid_s = options.estimate.tau_grid_s;
+  const double shortest_s = grid_s.empty() ? 0.0 : *std::min_element(grid_s.begin(), grid_s.end());
+  if (w.curves_end_s < w.tau_max_s || w.tau_max_s < shortest_s) return false;
+  options.known_tau = KnownTau{w.tau_min_s, w.tau_max_s};
+  options.specified = {Vec3::Constant(w.q * kUg), options.known_tau->centre_s()};
+  options.specified_from = kWanderFromRecording;
+  return true;
 }
 
 std::string unit_wander_advice(const NoiseFinding& n) {

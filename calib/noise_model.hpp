@@ -198,6 +198,10 @@ struct FitNoiseOptions {
   // run of a quarter of an hour cannot tell a wander of 60 s from one of 1200 s, and the
   // biases' sigmas depend on it several-fold (docs/calibration.md, "Noise model").
   std::optional<KnownTau> known_tau;
+  // Where `specified` and known_tau came from when not from the operator: "" (given:
+  // `--bias-instability-ug`, standcald's unit.bias_instability_*), or kWanderFromRecording
+  // (take_recording_wander).
+  std::string specified_from;
   NoiseEstimateOptions estimate;
   // estimate, invariant fit: estimate the wander from the full vector of the dwell means
   // (three rows per position, where the full-vector model fits the programme) rather than
@@ -206,6 +210,25 @@ struct FitNoiseOptions {
   // empty across the measured direction and would hide the wander.
   bool estimate_from_full_vector = true;
 };
+
+// FitNoiseOptions::specified_from (and NoiseFinding::unit_wander_from) of a wander the
+// recording's own Allan curves gave.
+inline constexpr const char* kWanderFromRecording = "recording";
+
+// Where the fit estimates the noise and nothing of the unit's wander is given (no size, no
+// correlation time), takes the wander the recording's own dwells' Allan curves pin as the
+// unit's given one (specified, known_tau as the range the curves allow, specified_from
+// kWanderFromRecording): a dwell long enough to show the wander turn over (about 100 x its
+// correlation time: an hour's warm-up for a wander of a few tens of seconds, several for
+// 300 s) says what one quarter-hour of positions cannot. Only where the curves reach past the
+// longest correlation time they allow and that time is one the fits' wander model takes (at
+// least the shortest of estimate.tau_grid_s): short dwells pooled do not show a wander of
+// minutes. The run is still tested against it as against a given wander
+// (run_agrees_with_specified). Returns whether it took one.
+bool take_recording_wander(FitNoiseOptions& options, const std::optional<AllanFinding>& allan);
+// Whether `options` leave room for that (estimating, nothing of the unit's given): a caller
+// that fits the curves for it alone can skip the fit otherwise.
+bool may_take_recording_wander(const FitNoiseOptions& options);
 
 // Weighting as if every dwell mean were independent: for callers that model the noise
 // themselves (the diagnosis selects wander and terms together) and for comparisons.
@@ -244,6 +267,9 @@ struct NoiseFinding {
   // The unit's wander was given to the fit (its size: `--bias-instability-ug`), whether or
   // not the fit weighted with it.
   bool unit_wander_given = false;
+  // Where that wander came from: "" (the operator) or kWanderFromRecording (this recording's
+  // own long dwell: take_recording_wander).
+  std::string unit_wander_from;
   // The Allan deviation of the raw samples, dwells pooled: white density, bias instability
   // and random walk within a dwell, where the wander above is between dwells.
   std::optional<AllanFinding> allan;

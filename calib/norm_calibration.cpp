@@ -192,13 +192,19 @@ json stability_json(const NormCalibration& c) {
 }
 
 // The Allan figures of the intervals pooled, in ug of the calibrated axes (the fit's
-// `noise.allan`, as for stand recordings).
+// `noise.allan`, as for stand recordings); with `wander`, the wander a long interval pins
+// (take_recording_wander; a fit of the curves, left out where the fit could not take it).
 AllanFinding allan_finding_in_ug(const StaticDetection& d, const NormCompensation& k,
-                                 const RawInput& in) {
+                                 const RawInput& in, bool wander) {
   const DwellAllan a = allan_in_ug(d, ug_per_input_unit(k, in.g_mps2), 1.0 / in.sample_rate_hz);
   // No sample correlation: the intervals' standard errors already take the curve at their
   // length (coloured_standard_error).
-  return {a.sample_period_s, a.segments, a.figures, std::nullopt};
+  AllanFinding out{a.sample_period_s, a.segments, a.figures, std::nullopt, std::nullopt};
+  const std::vector<std::vector<AllanPoint>> curves{a.curves[0], a.curves[1], a.curves[2]};
+  const std::optional<GaussMarkovAllanFit> fit =
+      wander ? fit_gauss_markov_allan(curves, a.sample_period_s) : std::nullopt;
+  if (fit) out.wander = wander_to_give(*fit, curves_end_s(curves));
+  return out;
 }
 
 }  // namespace
@@ -270,12 +276,19 @@ NormCalibration calibrate(const RawInput& in, const NormCalibrationOptions& o) {
     throw std::runtime_error(in.source + ": " + e.what() + " (intervals: " + c.detection.how + ")");
   }
   c.understated_by = median_understatement(c.detection.intervals);
-  c.fit.result.noise.allan = allan_finding_in_ug(c.detection, c.fit.compensation, in);
+  std::optional<AllanFinding> allan = allan_finding_in_ug(c.detection, c.fit.compensation, in,
+                                                          may_take_recording_wander(o.fit.noise));
+  // Nothing of the unit's wander given: the one a long static interval's Allan curves pin, as
+  // the stand fits take it (take_recording_wander); the fit weighted with it again.
+  NormCalibrationOptions taken = o;
+  if (take_recording_wander(taken.fit.noise, allan))
+    c.fit = fit_norm(c.detection.intervals, in.g_mps2, in.units, taken.fit);
+  c.fit.result.noise.allan = std::move(allan);
   c.fit.result.noise.understated_by = white_noise_understatement(
       c.detection.intervals, c.fit.compensation, in.g_mps2, c.fit.result.noise);
   const bool detected = c.detection.window_samples > 0;
   if (o.stability && detected)
-    for (double factor : {0.5, 2.0}) c.stability.push_back(refit_at(in, o, factor, c.fit));
+    for (double factor : {0.5, 2.0}) c.stability.push_back(refit_at(in, taken, factor, c.fit));
   return c;
 }
 

@@ -130,8 +130,7 @@ void RecordingDigester::finish_allan(const Recording& read, RecordingDigest& out
 
 std::optional<AllanFinding> RecordingDigest::allan_finding() const {
   if (!allan) return std::nullopt;
-  return AllanFinding{allan->sample_period_s, allan->segments, allan->figures,
-                      allan->sample_correlation};
+  return allan_finding_of(*allan);
 }
 
 std::string RecordingDigest::allan_warning() const {

@@ -113,6 +113,8 @@ json noise_finding_json(const NoiseFinding& n) {
     j["tau_given"] = n.tau_given;
     if (n.tau_given_max_s > 0)
       j["tau_given_s"] = json::array({n.tau_given_min_s, n.tau_given_max_s});
+    if (n.unit_wander_given)
+      j["unit_wander_from"] = n.unit_wander_from.empty() ? "given" : n.unit_wander_from;
     if (n.tau_plausible_max_s > 0)
       j["tau_plausible_s"] = json::array({n.tau_plausible_min_s, n.tau_plausible_max_s});
     j["allan_floor_ug"] = vec(n.allan_peak_ug);
@@ -202,9 +204,11 @@ namespace {
 // How the correlation time was come by: given, or the range one run allows, on which the
 // biases' sigmas depend several-fold (docs/calibration.md, "Noise model").
 std::string tau_words(const NoiseFinding& n) {
+  const bool from_recording = n.unit_wander_from == kWanderFromRecording;
   if (n.tau_given && n.tau_given_max_s > 0)
-    return " (given as " + format("%.0f", n.tau_given_min_s) + "-" +
-           format("%.0f", n.tau_given_max_s) + " s; the biases' sigmas allow for it)";
+    return std::string(from_recording ? " (the long dwell allows " : " (given as ") +
+           format("%.0f", n.tau_given_min_s) + "-" + format("%.0f", n.tau_given_max_s) +
+           " s; the biases' sigmas allow for it)";
   if (n.tau_given) return " (given)";
   if (n.tau_plausible_max_s <= n.tau_plausible_min_s) return "";
   return " (this run allows " + format("%.0f", n.tau_plausible_min_s) + "-" +
@@ -234,10 +238,13 @@ std::string noise_line(const NoiseFinding& n) {
            " needed); each dwell mean weighted by its own standard error" +
            sample_correlation_words(n);
   }
+  const std::string unit = n.unit_wander_from == kWanderFromRecording
+                               ? "the unit's bias wander as this recording's long dwell shows "
+                                 "it (its Allan curves)"
+                               : "the specified bias wander";
   const std::string what =
       n.source != "estimated"
-          ? (n.bias_instability ? "the specified bias wander (this run shows one that agrees)"
-                                : "the specified bias wander")
+          ? (n.bias_instability ? unit + " (this run shows one that agrees)" : unit)
       : n.bias_instability
           ? "bias wander estimated from this run"
           : "a possible bias wander (below the bar of a finding: 2 delta log L = " +

@@ -134,6 +134,8 @@ void print_result(const ScenarioResult& r) {
       if (z.n[j] > 0) worst_coverage = std::min(worst_coverage, z.coverage95[j]);
     std::printf("   %.2f-%.2f  %4.1f%%", lo, hi, 100 * worst_coverage);
     if (z.failed) std::printf(" (%d fits failed)", z.failed);
+    if (z.recording_wander > 0)
+      std::printf(" (the long dwell's wander taken in %d)", z.recording_wander);
     if (z.weighting == "unit given" && z.unit_given < z.runs)
       std::printf(" (given a wander in %d: the static recording's advice)", z.unit_given);
     std::printf("\n");
@@ -187,6 +189,10 @@ int main(int argc, char** argv) {
                  "the 'unit given' rows are told what `standcal noise` advises from a static "
                  "recording of the unit this many hours long (one per run)")
       ->check(CLI::NonNegativeNumber);
+  app.add_option("--warmup-hours", setup.warmup_hours,
+                 "hold the programme's first position this many hours (a warm-up): the "
+                 "'estimated' rows take its Allan curves' wander, as standcal fit does")
+      ->check(CLI::Range(0.0, kMaxDwell_s / 3600));
   app.add_option("--specified-exceeded-p", setup.specified_exceeded_p,
                  "the 'unit given' rows weight with the run's own wander where it exceeds the "
                  "given one at this P")
@@ -207,6 +213,7 @@ int main(int argc, char** argv) {
   }
   setup.program =
       repeated_program(program == "diagnostic32" ? diagnostic32() : load_program(program), repeat);
+  if (setup.warmup_hours > 0) setup.program.positions.front().dwell_s = setup.warmup_hours * 3600;
 
   std::printf(
       "noise honesty: %d runs per scenario of %s (%zu positions, %.0f s dwells at %.0f Hz), "
@@ -224,6 +231,11 @@ int main(int argc, char** argv) {
   if (setup.tau_given_factor != 1 || setup.tau_given_range != 1)
     std::printf("'tau given': %.3g x the simulated correlation time, within a factor %.3g\n",
                 setup.tau_given_factor, setup.tau_given_range);
+  if (setup.warmup_hours > 0)
+    std::printf(
+        "the first position held %.3g hours (a warm-up): the 'estimated' fits take its Allan "
+        "curves' wander where they pin one\n",
+        setup.warmup_hours);
   if (setup.static_hours > 0)
     std::printf(
         "'unit given': what `standcal noise` advises from a %.3g-hour static recording of the "

@@ -66,17 +66,23 @@ GivenWander given_wander(const TruthModel& truth, const Setup& setup, std::uint6
            static_cast<unsigned>(seed ^ 0x5747'4154'4943ULL)))
     curves.push_back(overlapping_allan_deviation({axis}, period_s));
   const std::optional<GaussMarkovAllanFit> fit = fit_gauss_markov_allan(curves, period_s);
-  if (!fit || !fit->wander_seen || !fit->tau_bounded || !fit->describes_curves) return {};
-  const KnownTau tau{fit->tau_min_s, fit->tau_max_s};
-  return {{Vec3::Constant(*std::max_element(fit->q.begin(), fit->q.end()) * kUg), tau.centre_s()},
-          tau};
+  const std::optional<WanderToGive> give =
+      fit ? wander_to_give(*fit, curves_end_s(curves)) : std::nullopt;
+  if (!give) return {};
+  const KnownTau tau{give->tau_min_s, give->tau_max_s};
+  return {{Vec3::Constant(give->q * kUg), tau.centre_s()}, tau};
 }
 
-FitResult fit_with(const Method& m, const Recording& rec, const std::vector<PositionAverage>& avg,
+FitResult fit_with(const Method& m, const Recording& rec, const AveragedRecording& averaged,
                    const TruthModel& truth, const Setup& setup, const GivenWander& given) {
+  const std::vector<PositionAverage>& avg = averaged.averages;
   FitNoiseOptions noise;
   noise.weighting_lr = setup.weighting_lr;
   noise.specified_exceeded_p = setup.specified_exceeded_p;
+  // As standcal fit: nothing given, the recording's own long dwell's wander where it pins one
+  // (the norm fit takes it from its own static intervals' curves).
+  if (m.weighting == "estimated" && m.estimator != "norm")
+    take_recording_wander(noise, averaged.allan);
   if (m.weighting == "white") noise = white_noise_weighting();
   if (m.weighting == "tau given") noise.known_tau = tau_given(truth, setup);
   if (m.weighting == "unit given") {  // as `--bias-instability-ug Q --bias-instability-tau-s T`
@@ -126,6 +132,7 @@ Scenario scenario_of_run(const Scenario& s, std::uint64_t seed) {
 void accumulate(ZStats& z, const FitResult& fit,
                 const std::array<double, kUnitParameterCount>& truth, double wander_ug) {
   ++z.runs;
+  z.recording_wander += fit.noise.unit_wander_from == kWanderFromRecording;
   if (wander_ug > 0)
     for (int a = 0; a < 3; ++a, ++z.wander_q2_ratio_n)
       z.wander_q2_ratio_sum += std::pow(fit.noise.wander_ug[a] / wander_ug, 2);
@@ -171,6 +178,7 @@ void merge(ZStats& into, const ZStats& part) {
   into.failed += part.failed;
   into.wander_significant += part.wander_significant;
   into.unit_given += part.unit_given;
+  into.recording_wander += part.recording_wander;
   into.wander_q2_ratio_sum += part.wander_q2_ratio_sum;
   into.wander_q2_ratio_n += part.wander_q2_ratio_n;
   for (std::size_t w = 0; w < 2; ++w) {
@@ -228,7 +236,6 @@ ScenarioResult run_scenario(const Setup& setup, const Scenario& scenario) {
       req.timing.sample_rate_hz = setup.sample_rate_hz;
       const Recording rec = simulate_run(req);
       const AveragedRecording averaged = average_recording(rec);
-      const std::vector<PositionAverage>& avg = averaged.averages;
       if (averaged.allan && averaged.allan->sample_correlation) ++samples_correlated;
       std::vector<std::optional<FitResult>> fits(all.size());
       const GivenWander given =
@@ -236,7 +243,7 @@ ScenarioResult run_scenario(const Setup& setup, const Scenario& scenario) {
       for (std::size_t k = 0; k < all.size(); ++k) {
         local[k].unit_given += all[k].weighting == "unit given" && given.tau.has_value();
         try {
-          fits[k] = fit_with(all[k], rec, avg, req.truth, setup, given);
+          fits[k] = fit_with(all[k], rec, averaged, req.truth, setup, given);
           accumulate(local[k], *fits[k], x_true, req.truth.noise.bias_instability_ug);
         } catch (const std::exception&) {
           ++local[k].failed;

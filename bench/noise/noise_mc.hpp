@@ -53,6 +53,10 @@ struct Setup {
   // it sees a wander, pins its time and describes the curves (the advice it then prints);
   // nothing otherwise, and those runs' rows are fitted as "estimated".
   double static_hours = 0;
+  // Above 0: the programme's first position is held this many hours (a warm-up dwell), whose
+  // Allan curves the "estimated" rows take as the unit's wander where they pin one
+  // (take_recording_wander), as standcal fit and standcald do.
+  double warmup_hours = 0;
   double specified_exceeded_p = FitNoiseOptions{}.specified_exceeded_p;
   // The unit's output filter (NoiseModel::output_filter_tau_s): samples correlated within a
   // dwell, which sigma / sqrt(n) does not see. 0: independent samples.
@@ -84,6 +88,7 @@ struct ZStats {
   int wander_q2_ratio_n = 0;
   int wander_significant = 0;  // runs whose fit found the wander significant
   int unit_given = 0;          // "unit given" runs that were given a wander (static_hours)
+  int recording_wander = 0;    // runs whose fit took the recording's own (warmup_hours)
   int runs = 0;
   int failed = 0;  // runs whose fit threw
 };

@@ -109,12 +109,15 @@ std::string checked_verdict(Diagnosis& d, const Prepared& P, const Selection& s,
 
 }  // namespace diagnosis
 
-Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& options) {
+Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& given) {
   using namespace diagnosis;
   Diagnosis d;
   d.source = rec.source;
   // 1. Baseline: position averages, the residual model's fit, linearised.
-  Prepared P = prepare(rec, options);
+  Prepared P = prepare(rec, given);
+  // Nothing of the unit's wander given: the one the recording's own long dwell pins, which the
+  // fits of the same recording weigh with (take_recording_wander).
+  const DiagnoseOptions options = with_recording_wander(given, P.allan);
   const ResidualModel& model = *P.model;
   d.method = model.name();
   d.baseline = model.fit();
@@ -130,6 +133,8 @@ Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& option
   const Selection& selection = chosen.selection;
   d.noise = noise_finding(chosen.noise, P.avg, options.known_tau);
   if (chosen.weighted_as_specified) d.noise.source = "specified";  // a finding, tested as given
+  d.noise.unit_wander_given = !options.specified_wander.white();
+  if (d.noise.unit_wander_given) d.noise.unit_wander_from = options.specified_wander_from;
   d.baseline_p = consistency_p(P.base.chi2, P.base.dof);
   d.candidates = selection.first_round;
   // Two rivals are only worth telling apart when the better one would leave noise.

@@ -59,6 +59,10 @@ struct DiagnoseOptions {
   // static recording): the wander is then estimated at it, as the fits do (FitNoiseOptions::
   // known_tau), rather than over the default grid that one run cannot choose from.
   std::optional<KnownTau> known_tau;
+  // Where those came from when not from the operator (FitNoiseOptions::specified_from): the
+  // recording's own long dwell, which diagnose_recording takes where nothing is given, as the
+  // fits do (take_recording_wander).
+  std::string specified_wander_from;
   // Before `explained` or `consistent`: the residuals must pass the whiteness tests at this
   // family-wise false-alarm rate, each chosen term must agree between the two halves of the
   // run within this many sigma, and no found value may exceed this many times its

@@ -79,7 +79,9 @@ void mark_testable(Prepared& P, const DiagnoseOptions& options) {
 
 Prepared prepare(const Recording& rec, const DiagnoseOptions& options) {
   Prepared P;
-  P.avg = average_positions(rec);
+  AveragedRecording averaged = average_recording(rec);
+  P.avg = std::move(averaged.averages);
+  P.allan = std::move(averaged.allan);
   if (options.dwell_standard_error_g.size() == P.avg.size())
     for (std::size_t k = 0; k < P.avg.size(); ++k)
       P.avg[k].standard_error_g =

@@ -16,6 +16,7 @@ namespace standcal::diagnosis {
 
 struct Prepared {
   std::vector<PositionAverage> avg;
+  std::optional<AllanFinding> allan;  // the dwells' pooled Allan curves' figures (averaging)
   bool have_temp = true;
   double temp_ref_c = 0;
   std::vector<PositionContext> ctx;

@@ -178,6 +178,18 @@ bool weigh_as_specified_where_agreeing(RunWander& w, const DiagnoseOptions& opti
 
 }  // namespace
 
+DiagnoseOptions with_recording_wander(DiagnoseOptions options,
+                                      const std::optional<AllanFinding>& allan) {
+  FitNoiseOptions fit;
+  fit.specified = options.specified_wander;
+  fit.known_tau = options.known_tau;
+  if (!take_recording_wander(fit, allan)) return options;
+  options.specified_wander = fit.specified;
+  options.known_tau = fit.known_tau;
+  options.specified_wander_from = fit.specified_from;
+  return options;
+}
+
 NoiseAndTerms select_terms_and_noise(Prepared& P, const DiagnoseOptions& options) {
   // The wander is estimated from the positions the programme visits more than once, with
   // each pose's mean free (one column per pose and row component) and every testable slow
@@ -235,8 +247,17 @@ std::string tau_given_words(const NoiseFinding& n) {
 
 // " (the middle of the given 400-900 s)": the correlation time a range was weighed at.
 std::string middle_of_range_words(const NoiseFinding& n) {
-  return " (the middle of the given " + fmt("%.0f", n.tau_given_min_s) + "-" +
-         fmt("%.0f", n.tau_given_max_s) + " s)";
+  return std::string(n.unit_wander_from == kWanderFromRecording
+                         ? " (the middle of the long dwell's "
+                         : " (the middle of the given ") +
+         fmt("%.0f", n.tau_given_min_s) + "-" + fmt("%.0f", n.tau_given_max_s) + " s)";
+}
+
+// Whose wander the terms are tested against, where it is the unit's.
+std::string unit_wander_words(const NoiseFinding& n) {
+  return n.unit_wander_from == kWanderFromRecording
+             ? "the unit's wander as this recording's long dwell shows it (its Allan curves)"
+             : "the unit's given wander";
 }
 
 }  // namespace
@@ -245,19 +266,18 @@ std::string noise_words(const NoiseFinding& n) {
   if (n.model == "gauss_markov" && !n.bias_instability)
     return "Noise: this run does not show bias wander by itself (2 delta log L = " +
            fmt("%.1f", n.lr) + " of " + fmt("%.1f", n.lr_threshold) +
-           " needed), so the terms are tested against the unit's specified "
-           "bias instability, Gauss-Markov up to " +
-           fmt("%.1f", n.wander_ug.maxCoeff()) + " ug with correlation time " +
-           fmt("%.0f", n.tau_s) + " s" + (n.tau_given_max_s > 0 ? middle_of_range_words(n) : "") +
+           " needed), so the terms are tested against " + unit_wander_words(n) +
+           ", Gauss-Markov up to " + fmt("%.1f", n.wander_ug.maxCoeff()) +
+           " ug with correlation time " + fmt("%.0f", n.tau_s) + " s" +
+           (n.tau_given_max_s > 0 ? middle_of_range_words(n) : "") +
            " (generalised least squares): a drift or temperature term must stand out from "
            "what that wander can do in this run.";
   if (!n.bias_instability) return "";
   if (n.source == "specified")
     return "Noise: the dwell means wander more than their white-noise errors allow (bias "
-           "instability, a noise finding, not missing physics), and by as much as the unit's "
-           "given wander: Gauss-Markov up to " +
-           fmt("%.1f", n.wander_ug.maxCoeff()) + " ug with correlation time " +
-           fmt("%.0f", n.tau_s) + " s" +
+           "instability, a noise finding, not missing physics), and by as much as " +
+           unit_wander_words(n) + ": Gauss-Markov up to " + fmt("%.1f", n.wander_ug.maxCoeff()) +
+           " ug with correlation time " + fmt("%.0f", n.tau_s) + " s" +
            (n.tau_given_max_s > 0 ? middle_of_range_words(n) : " (given)") +
            ", which every test above weighs the positions with (generalised least squares; 2 "
            "delta log L = " +

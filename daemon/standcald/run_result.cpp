@@ -78,6 +78,8 @@ json fit_finished_run(RunRecord& record, const std::string& run_dir,
   // The unit's configured correlation time (its Allan test): the run then estimates only the
   // wander's size, which one run pins far better than tau.
   noise.known_tau = known_tau;
+  // None configured: the one the recording's own long dwell pins (a warm-up), if any.
+  take_recording_wander(noise, allan);
   JointFit joint = joint_fit(averages, noise, allan);
   json& result = joint.result;
   try {

@@ -582,3 +582,84 @@ TEST(FitNoise, AGivenWanderTheRunAgreesWithIsWhatTheFitWeightsWith) {
       << departs.noise.how;
   EXPECT_GT(departs.noise.wander_ug.minCoeff(), 3 * wander_ug / 10) << departs.noise.how;
 }
+
+// A calibration recording that holds its first position long enough to show the wander turn
+// over (a warm-up) gives its fits the unit's wander by itself: the dwells' pooled Allan curves
+// pin its size and correlation time, and with nothing of the unit's given the fits weigh with
+// that as with a given wander (take_recording_wander), and say so; the diagnosis of the same
+// recording tests against the same. Without the long dwell the run's own estimate stands.
+TEST(FitNoise, ALongDwellInTheRecordingGivesTheFitsTheUnitsWander) {
+  constexpr double kTauS = 60, kWarmupS = 1800;
+  SimulationRequest req;
+  req.program = diagnostic32();
+  req.truth = default_truth();
+  req.truth.noise.bias_instability_ug = 3 * req.truth.noise.density_ug_rthz / std::sqrt(10.0);
+  req.truth.noise.bias_instability_tau_s = kTauS;
+  req.timing.dwell_s = 10;
+  req.timing.sample_rate_hz = 25;
+  req.seed = 21;
+  const AveragedRecording plain = average_recording(simulate_run(req));
+  ASSERT_TRUE(plain.allan.has_value());
+  EXPECT_FALSE(plain.allan->wander.has_value()) << "10 s dwells cannot pin a 60 s wander";
+  FitNoiseOptions nothing_given;
+  EXPECT_FALSE(take_recording_wander(nothing_given, plain.allan));
+
+  req.program.positions.front().dwell_s = kWarmupS;
+  const Recording rec = simulate_run(req);
+  const AveragedRecording averaged = average_recording(rec);
+  ASSERT_TRUE(averaged.allan && averaged.allan->wander) << "a 30-minute dwell pins it";
+  const WanderToGive& w = *averaged.allan->wander;
+  EXPECT_LE(w.tau_min_s, kTauS);
+  EXPECT_GE(w.tau_max_s, kTauS);
+  EXPECT_LE(w.q_min, req.truth.noise.bias_instability_ug);
+  EXPECT_GE(w.q_max, req.truth.noise.bias_instability_ug);
+
+  FitNoiseOptions noise;
+  ASSERT_TRUE(take_recording_wander(noise, averaged.allan));
+  EXPECT_EQ(noise.specified_from, kWanderFromRecording);
+  const FitResult fit = fit_full_vector(averaged.averages, noise);
+  EXPECT_EQ(fit.noise.unit_wander_from, kWanderFromRecording) << fit.noise.how;
+  EXPECT_EQ(fit.noise.source, "specified") << fit.noise.how;
+  for (int a = 0; a < 3; ++a) EXPECT_DOUBLE_EQ(fit.noise.wander_ug[a], w.q);
+  EXPECT_EQ(fit_to_json(fit)["noise"]["unit_wander_from"], "recording");
+  const std::string report = format_report(fit, report_context(rec, averaged.averages));
+  EXPECT_NE(report.find("the unit's bias wander as this recording's long dwell shows it"),
+            std::string::npos)
+      << report;
+  EXPECT_EQ(report.find("give the unit's"), std::string::npos) << report;
+  // Curves that end before the longest correlation time they allow give nothing, nor do
+  // correlation times of seconds: pooled 10 s dwells had "pinned" such wanders in 13 and 2
+  // of 1000 runs of bench/noise at 10x (tau 60 and 300 s; failed before the checks).
+  std::optional<AllanFinding> short_curves = averaged.allan;
+  short_curves->wander->curves_end_s = 0.9 * short_curves->wander->tau_max_s;
+  FitNoiseOptions beyond_the_end;
+  EXPECT_FALSE(take_recording_wander(beyond_the_end, short_curves));
+  short_curves->wander->tau_min_s = 1;
+  short_curves->wander->tau_max_s = 3;
+  short_curves->wander->curves_end_s = 3.3;
+  FitNoiseOptions of_seconds;
+  EXPECT_FALSE(take_recording_wander(of_seconds, short_curves));
+  // A wander the operator gives is not overridden by the recording's.
+  FitNoiseOptions given;
+  given.specified = {Vec3::Constant(2 * w.q * kUg), kTauS};
+  given.known_tau = KnownTau{kTauS, kTauS};
+  EXPECT_FALSE(take_recording_wander(given, averaged.allan));
+  EXPECT_TRUE(given.specified_from.empty());
+
+  const Diagnosis d = diagnose_recording(rec);
+  EXPECT_EQ(d.noise.unit_wander_from, kWanderFromRecording) << d.noise.how;
+  EXPECT_EQ(d.noise.model, "gauss_markov") << d.noise.how;
+  EXPECT_DOUBLE_EQ(d.noise.wander_ug.maxCoeff(), w.q) << d.noise.how;
+
+  // The same recording without its angles: the norm fit finds the long dwell among its
+  // static intervals, and it and the attitude-free diagnosis take its wander too.
+  const RawInput raw = raw_input_of(rec);
+  NormCalibrationOptions norm_options;
+  norm_options.stability = false;
+  const NormCalibration norm = calibrate_without_angles(raw, norm_options);
+  EXPECT_EQ(norm.fit.result.noise.unit_wander_from, kWanderFromRecording)
+      << norm.fit.result.noise.how;
+  const Diagnosis without_angles = diagnose_without_angles(raw, norm, {});
+  EXPECT_EQ(without_angles.noise.unit_wander_from, kWanderFromRecording)
+      << without_angles.noise.how;
+}

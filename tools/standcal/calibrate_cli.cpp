@@ -69,13 +69,14 @@ void run_simulate(const SimulateOptions& o) {
 
 FitNoiseOptions noise_weighting(const FitOptions& o) { return fit_noise_options(o.noise); }
 
+// The stand methods, weighted with `noise`.
 FitResult fit_with(const FitOptions& o, const std::string& method,
-                   const std::vector<PositionAverage>& averages) {
-  if (method == "joint") return fit_invariant_joint(averages, noise_weighting(o));
+                   const std::vector<PositionAverage>& averages, const FitNoiseOptions& noise) {
+  if (method == "joint") return fit_invariant_joint(averages, noise);
   if (method == "paper-sequential") return fit_paper_sequential(averages);
   if (method == "full") {
     FullFitOptions full;
-    full.noise = noise_weighting(o);
+    full.noise = noise;
     full.mounting =
         o.mounting == "per-mount" ? MountingModel::per_mount : MountingModel::common_fixture;
     return fit_full_vector(averages, full);
@@ -105,7 +106,10 @@ void run_norm_fit(const FitOptions& o, const RawInput& in) {
 // recording read whole (any other format or reading option).
 void fit_stand_averages(const FitOptions& o, const std::string& method, const Recording& rec,
                         std::vector<PositionAverage> averages, std::optional<AllanFinding> allan) {
-  FitResult fit = fit_with(o, method, averages);
+  // Nothing of the unit's wander given: the one the recording's own long dwell pins, if any.
+  FitNoiseOptions noise = noise_weighting(o);
+  take_recording_wander(noise, allan);
+  FitResult fit = fit_with(o, method, averages, noise);
   fit.noise.allan = std::move(allan);
   std::optional<Compensation> compensation;  // made before the report takes the averages
   if (!o.compensation.empty()) {

@@ -176,24 +176,22 @@ std::string gauss_markov_words(const std::optional<GaussMarkovAllanFit>& f, doub
     return found +
            ", but the model does not describe the curves (below): no range to give "
            "the fits from them";
-  // The largest axis's size: the fits take one for the three, and one too small is what
-  // makes the biases' sigmas too small (docs/calibration.md, "The unit given").
-  const auto largest = std::max_element(f->q.begin(), f->q.end());
-  const auto axis = static_cast<std::size_t>(largest - f->q.begin());
+  const std::optional<WanderToGive> give = wander_to_give(*f, curve_end_s);
+  if (!give) return found;  // not reached: seen, bounded and describing the curves
   return found + "\ngive the unit's wander to the fits: standcal fit --bias-instability-ug " +
-         diagnosis::fmt("%.3g", *largest) + " --bias-instability-tau-s " + lo +
+         diagnosis::fmt("%.3g", give->q) + " --bias-instability-tau-s " + lo +
          " --bias-instability-tau-max-s " + hi +
          " (standcald: unit.bias_instability_ug, unit.bias_instability_tau_s and "
-         "unit.bias_instability_tau_max_s; the size is the largest axis's" +
-         (axis < f->q_min.size()
-              ? ", which this recording allows at " +
-                    size_range_text(f->q_min[axis], f->q_max[axis]) + ": a longer one narrows that"
-              : std::string()) +
-         "); one calibration run "
+         "unit.bias_instability_tau_max_s; the size is the largest axis's, which this "
+         "recording allows at " +
+         size_range_text(give->q_min, give->q_max) +
+         ": a longer one narrows that); one calibration run "
          "cannot pin the correlation time, nor the size of a wander it seldom shows, and too "
          "short a tau or too small a size makes the biases' sigmas too small. The averaging "
          "time of the bias-instability floor above is not the correlation time (a Gauss-Markov "
-         "wander's Allan peak lies near 1.9 x it).";
+         "wander's Allan peak lies near 1.9 x it). A stand calibration recording that holds "
+         "one position as long as this one (a warm-up dwell) gives its fits this wander by "
+         "itself.";
 }
 
 void run_noise(const NoiseOptions& o) {

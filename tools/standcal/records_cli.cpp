@@ -118,7 +118,9 @@ CalibrationRecord import_record(const ImportOptions& o, const std::string& path)
   std::vector<std::string> warnings = rec.warnings;
   AveragedRecording averaged = average_recording(rec);
   if (!averaged.allan_warning.empty()) warnings.push_back(averaged.allan_warning);
-  FitResult fit = fit_by_method(o.method, averaged.averages, fit_noise_options(o.noise));
+  FitNoiseOptions noise = fit_noise_options(o.noise);
+  take_recording_wander(noise, averaged.allan);  // nothing given: the recording's own, if any
+  FitResult fit = fit_by_method(o.method, averaged.averages, noise);
   fit.noise.allan = std::move(averaged.allan);
   CalibrationRecord r;
   const std::string header_run = rec.header_value("run_id");

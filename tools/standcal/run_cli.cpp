@@ -145,7 +145,9 @@ void print_result(const json& r) {
   try {
     const Recording rec = read_recording(path);
     AveragedRecording averaged = average_recording(rec);
-    FitResult fit = fit_invariant_joint(averaged.averages);
+    FitNoiseOptions noise;
+    take_recording_wander(noise, averaged.allan);  // as the daemon, where no unit's is set
+    FitResult fit = fit_invariant_joint(averaged.averages, noise);
     fit.noise.allan = std::move(averaged.allan);
     std::cout << format_report(fit, report_context(rec, std::move(averaged.averages)));
     printed = true;
