@@ -636,11 +636,10 @@ bool take_recording_wander(FitNoiseOptions& options, const std::optional<AllanFi
   const WanderToGive& w = *allan->wander;
   // The curves must reach past the longest correlation time they allow, as one long dwell's
   // do, and those times reach the ones the fits' wander model takes (its grid's shortest,
-  // 60 s). Pooled dwells of 10 s (curves to 3.3 s) had "pinned" a wander of 10x the dwell
-  // error in 13 of 1000 runs at tau 60 s (bench/noise) from the search beyond their end, and
-  // in 2 of 1000 at tau 300 s a correlation time of seconds, within their end, which left
-  // the run's own wander estimated at that time: the biases' z-variance 0.61-0.71 became
-  // 0.70-0.73 over the 1000 runs.
+  // 60 s): a 10 s dwell's curves (to 3.3 s) then give nothing whatever they show. Without
+  // either, pooled 10 s dwells had given a wander of 10x the dwell error in 13 of 1000 runs
+  // at tau 60 s and 2 of 1000 at tau 300 s (bench/noise), the latter's biases' z-variance
+  // 0.61-0.71 becoming 0.70-0.73 over the 1000 runs.
   const std::vector<double>& grid_s = options.estimate.tau_grid_s;
   const double shortest_s = grid_s.empty() ? 0.0 : *std::min_element(grid_s.begin(), grid_s.end());
   if (w.curves_end_s < w.tau_max_s || w.tau_max_s < shortest_s) return false;

@@ -628,8 +628,9 @@ TEST(FitNoise, ALongDwellInTheRecordingGivesTheFitsTheUnitsWander) {
       << report;
   EXPECT_EQ(report.find("give the unit's"), std::string::npos) << report;
   // Curves that end before the longest correlation time they allow give nothing, nor do
-  // correlation times of seconds: pooled 10 s dwells had "pinned" such wanders in 13 and 2
-  // of 1000 runs of bench/noise at 10x (tau 60 and 300 s; failed before the checks).
+  // correlation times of seconds: without these checks pooled 10 s dwells had given a wander
+  // in 13 and 2 of 1000 runs of bench/noise at 10x (tau 60 and 300 s); both expectations
+  // fail without them.
   std::optional<AllanFinding> short_curves = averaged.allan;
   short_curves->wander->curves_end_s = 0.9 * short_curves->wander->tau_max_s;
   FitNoiseOptions beyond_the_end;
