@@ -515,17 +515,24 @@ double curves_end_s(const std::vector<std::vector<AllanPoint>>& curves) {
 std::optional<WanderToGive> wander_to_give(const GaussMarkovAllanFit& fit, double curves_end_s) {
   if (!fit.wander_seen || !fit.tau_bounded || !fit.describes_curves) return std::nullopt;
   const auto largest = std::max_element(fit.q.begin(), fit.q.end());
+  const auto axis = static_cast<std::size_t>(largest - fit.q.begin());
   WanderToGive w;
   w.q = *largest;
-  w.axis = static_cast<std::size_t>(largest - fit.q.begin());
-  if (w.axis < fit.q_min.size()) {
-    w.q_min = fit.q_min[w.axis];
-    w.q_max = fit.q_max[w.axis];
+  if (axis < fit.q_min.size()) {
+    w.q_min = fit.q_min[axis];
+    w.q_max = fit.q_max[axis];
   }
   w.tau_min_s = fit.tau_min_s;
   w.tau_max_s = fit.tau_max_s;
   w.curves_end_s = curves_end_s;
   return w;
+}
+
+std::optional<WanderToGive> wander_to_give(const std::vector<std::vector<AllanPoint>>& curves,
+                                           double sample_period_s) {
+  const std::optional<GaussMarkovAllanFit> fit = fit_gauss_markov_allan(curves, sample_period_s);
+  if (!fit) return std::nullopt;
+  return wander_to_give(*fit, curves_end_s(curves));
 }
 
 std::optional<SampleCorrelation> sample_correlation(

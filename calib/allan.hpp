@@ -194,12 +194,14 @@ std::optional<GaussMarkovAllanFit> fit_gauss_markov_allan(
 // one larger on the others only widens theirs (docs/calibration.md, "The unit given").
 struct WanderToGive {
   double q = 0;                         // the largest axis's q, in the curves' unit
-  std::size_t axis = 0;                 // which axis that is
   double q_min = 0, q_max = 0;          // the sizes the curves allow it (q_max infinite: no bound)
   double tau_min_s = 0, tau_max_s = 0;  // the correlation times they allow
   double curves_end_s = 0;              // the longest averaging time of the curves
 };
 std::optional<WanderToGive> wander_to_give(const GaussMarkovAllanFit& fit, double curves_end_s);
+// The same of curves not yet fitted (fit_gauss_markov_allan).
+std::optional<WanderToGive> wander_to_give(const std::vector<std::vector<AllanPoint>>& curves,
+                                           double sample_period_s);
 // The longest averaging time of any of the curves (0 for none).
 double curves_end_s(const std::vector<std::vector<AllanPoint>>& curves);
 

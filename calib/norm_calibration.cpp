@@ -200,10 +200,8 @@ AllanFinding allan_finding_in_ug(const StaticDetection& d, const NormCompensatio
   // No sample correlation: the intervals' standard errors already take the curve at their
   // length (coloured_standard_error).
   AllanFinding out{a.sample_period_s, a.segments, a.figures, std::nullopt, std::nullopt};
-  const std::vector<std::vector<AllanPoint>> curves{a.curves[0], a.curves[1], a.curves[2]};
-  const std::optional<GaussMarkovAllanFit> fit =
-      wander ? fit_gauss_markov_allan(curves, a.sample_period_s) : std::nullopt;
-  if (fit) out.wander = wander_to_give(*fit, curves_end_s(curves));
+  if (wander)
+    out.wander = wander_to_give({a.curves[0], a.curves[1], a.curves[2]}, a.sample_period_s);
   return out;
 }
 

@@ -65,9 +65,7 @@ GivenWander given_wander(const TruthModel& truth, const Setup& setup, std::uint6
            truth.noise.bias_instability_tau_s, setup.static_hours * 3600, kStaticRecordingRateHz,
            static_cast<unsigned>(seed ^ 0x5747'4154'4943ULL)))
     curves.push_back(overlapping_allan_deviation({axis}, period_s));
-  const std::optional<GaussMarkovAllanFit> fit = fit_gauss_markov_allan(curves, period_s);
-  const std::optional<WanderToGive> give =
-      fit ? wander_to_give(*fit, curves_end_s(curves)) : std::nullopt;
+  const std::optional<WanderToGive> give = wander_to_give(curves, period_s);
   if (!give) return {};
   const KnownTau tau{give->tau_min_s, give->tau_max_s};
   return {{Vec3::Constant(give->q * kUg), tau.centre_s()}, tau};
