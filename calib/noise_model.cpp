@@ -2,6 +2,7 @@
 
 #include "calib/distributions.hpp"
 #include "calib/golden_section.hpp"
+#include "calib/text.hpp"
 #include "calib/units.hpp"
 
 #include <algorithm>
@@ -600,6 +601,11 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
     e.how +=
         "; the unit's wander and correlation times are the ones this recording's own Allan "
         "curves pin (a dwell long enough to show the wander turn over)";
+  if (options.specified_from == kWanderFromHeader &&
+      (!options.specified.white() || options.known_tau))
+    e.how +=
+        "; the unit's wander is the one this recording's header says its run was made with "
+        "(standcald's unit.bias_instability_*)";
   FitNoiseChoice choice{e.noise,
                         weighted_below_bar ? GaussMarkovNoise{} : e.noise,
                         noise_finding(e, positions),
@@ -647,6 +653,46 @@ bool take_recording_wander(FitNoiseOptions& options, const std::optional<AllanFi
   options.specified = {Vec3::Constant(w.q * kUg), options.known_tau->centre_s()};
   options.specified_from = kWanderFromRecording;
   return true;
+}
+
+GaussMarkovNoise GivenWander::specified() const {
+  return {Vec3::Constant(size_ug * kUg), known_tau ? known_tau->centre_s() : tau_s};
+}
+
+void GivenWander::give_to(FitNoiseOptions& options, const std::string& from) const {
+  options.specified = specified();
+  options.known_tau = known_tau;
+  options.specified_from = from;
+}
+
+void set_unit_wander_header(Recording& header, const GivenWander& w) {
+  header.unit_wander = {w.size_ug, w.known_tau ? w.known_tau->min_s : 0,
+                        w.known_tau && w.known_tau->range() ? w.known_tau->max_s : 0};
+  if (w.size_ug > 0) header.set_header(kHeaderUnitWanderUg, round_trip_text(w.size_ug));
+  if (!w.known_tau) return;
+  header.set_header(kHeaderUnitWanderTauS, round_trip_text(w.known_tau->min_s));
+  if (w.known_tau->range())
+    header.set_header(kHeaderUnitWanderTauMaxS, round_trip_text(w.known_tau->max_s));
+}
+
+GivenWander given_wander_of(const RecordedUnitWander& recorded) {
+  GivenWander w;
+  w.size_ug = recorded.size_ug;
+  if (recorded.tau_s > 0)
+    w.known_tau = KnownTau{recorded.tau_s, std::max(recorded.tau_s, recorded.tau_max_s)};
+  return w;
+}
+
+bool take_header_wander(FitNoiseOptions& options, const Recording& rec) {
+  const GivenWander w = given_wander_of(rec.unit_wander);
+  if (!may_take_recording_wander(options) || !w.given()) return false;
+  w.give_to(options, kWanderFromHeader);
+  return true;
+}
+
+bool take_unit_wander(FitNoiseOptions& options, const Recording& rec,
+                      const std::optional<AllanFinding>& allan) {
+  return take_header_wander(options, rec) || take_recording_wander(options, allan);
 }
 
 std::string unit_wander_advice(const NoiseFinding& n) {

@@ -215,6 +215,40 @@ struct FitNoiseOptions {
 // recording's own Allan curves gave.
 inline constexpr const char* kWanderFromRecording = "recording";
 
+// FitNoiseOptions::specified_from of the unit's wander a recording's header gives (the one its
+// run was fitted with: RecordedUnitWander).
+inline constexpr const char* kWanderFromHeader = "header";
+
+// The unit's bias wander as given (a data sheet, `standcal noise` of a static recording,
+// `--bias-instability-*`, standcald's unit.bias_instability_*): its size and, where known,
+// its correlation time, one value or a range. One spelling for every place that gives it.
+struct GivenWander {
+  double size_ug = 0;  // steady-state sigma per axis; 0: no size given
+  double tau_s = 300;  // the correlation time weighed at where none is known
+  std::optional<KnownTau> known_tau;
+  bool given() const { return size_ug > 0 || known_tau.has_value(); }
+  // The wander to weigh with: at a range's log-middle, where the fits then average the biases'
+  // variance over the range itself.
+  GaussMarkovNoise specified() const;
+  // Into the fits' options (specified, known_tau, specified_from = `from`).
+  void give_to(FitNoiseOptions& options, const std::string& from = "") const;
+};
+
+// The header keys of a run's recording that carry `w`, and its RecordedUnitWander; and back.
+void set_unit_wander_header(Recording& header, const GivenWander& w);
+GivenWander given_wander_of(const RecordedUnitWander& recorded);
+
+// Where the fit estimates the noise and nothing of the unit's wander is given, the wander the
+// recording's header says its run was made with (standcald's unit.bias_instability_*, which
+// the run's own fits weighed with): later fits of the run (`standcal fit`, `run result`,
+// `certificate`, `records import`) then weigh as the run did. Returns whether it took one.
+bool take_header_wander(FitNoiseOptions& options, const Recording& rec);
+
+// The unit's wander for the fits of `rec`, where none is given: its header's, else its own
+// long dwell's (take_recording_wander). Returns whether it took one.
+bool take_unit_wander(FitNoiseOptions& options, const Recording& rec,
+                      const std::optional<AllanFinding>& allan);
+
 // Where the fit estimates the noise and nothing of the unit's wander is given (no size, no
 // correlation time), takes the wander the recording's own dwells' Allan curves pin as the
 // unit's given one (specified, known_tau as the range the curves allow, specified_from

@@ -236,7 +236,11 @@ NormCalibration calibrate(const RawInput& in, const NormCalibrationOptions& o);
 
 NormCalibration calibrate_without_angles(const RawInput& in, const NormCalibrationOptions& o) {
   try {
-    return calibrate(in, o);
+    // Nothing of the unit's wander given: a stand recording's header may say what its run was
+    // made with (take_header_wander), as the stand fits of it take it.
+    NormCalibrationOptions given = o;
+    if (in.recording) take_header_wander(given.fit.noise, *in.recording);
+    return calibrate(in, given);
   } catch (const std::runtime_error& e) {
     // The fit's own messages know neither the file nor how its intervals were found.
     const std::string what = e.what();

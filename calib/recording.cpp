@@ -628,6 +628,29 @@ class Parser {
                            "unsupported format '" + format + "' (this reader reads " +
                                std::string(kRecordingFormat) + ")");
     for (const auto& [key, value] : rec_.header) apply_known_key(key, value);
+    check_unit_wander();
+  }
+
+  // The run's unit wander (RecordedUnitWander): a range needs its lower end, and runs upwards.
+  void check_unit_wander() const {
+    const RecordedUnitWander& w = rec_.unit_wander;
+    if (w.tau_max_s > 0 && w.tau_s == 0)
+      refuse_header(kHeaderUnitWanderTauMaxS,
+                    std::string("a range needs its lower end too: ") + kHeaderUnitWanderTauS);
+    if (w.tau_max_s > 0 && w.tau_max_s < w.tau_s)
+      refuse_header(kHeaderUnitWanderTauMaxS,
+                    round_trip_text(w.tau_max_s) + " s is below " + kHeaderUnitWanderTauS + " " +
+                        round_trip_text(w.tau_s) + " s: the range is MIN to MAX");
+  }
+
+  // A number of the unit's wander, within kMaxUnitWanderUg or kMin/kMaxUnitWanderTauS.
+  double unit_wander_number(const std::string& key, const std::string& value, double min,
+                            double max, const char* unit) const {
+    const double v = header_number(key, value);
+    if (!(v >= min && v <= max))
+      refuse_header(key, value + " " + unit + " is outside " + plain_round_trip_text(min) +
+                             " ... " + plain_round_trip_text(max) + " " + unit);
+    return v;
   }
 
   void apply_known_key(const std::string& key, const std::string& value) {
@@ -649,6 +672,14 @@ class Parser {
       if (!is_plausible_temperature(*rec_.temp_ref_c))
         refuse_header(key,
                       value + " degC is not a temperature a unit works at (-273.15 ... 1000 degC)");
+    } else if (key == kHeaderUnitWanderUg) {
+      rec_.unit_wander.size_ug = unit_wander_number(key, value, 0, kMaxUnitWanderUg, "ug");
+    } else if (key == kHeaderUnitWanderTauS) {
+      rec_.unit_wander.tau_s =
+          unit_wander_number(key, value, kMinUnitWanderTauS, kMaxUnitWanderTauS, "s");
+    } else if (key == kHeaderUnitWanderTauMaxS) {
+      rec_.unit_wander.tau_max_s =
+          unit_wander_number(key, value, kMinUnitWanderTauS, kMaxUnitWanderTauS, "s");
     } else if (key == "unit_serial") {
       rec_.unit_serial = value;
     } else if (key == "program") {

@@ -46,6 +46,22 @@ struct RecordingColumns {
   bool approach = false;
 };
 
+// The unit's bias wander a run was made with (standcald's unit.bias_instability_*), as its
+// recording's header carries it: unit_bias_instability_ug, _tau_s, _tau_max_s. 0 where absent.
+// The fits of the recording take it as the unit's given wander (calib/noise_model.hpp,
+// take_unit_wander), so that every later fit of a run weighs as the run's own did.
+struct RecordedUnitWander {
+  double size_ug = 0;    // steady-state sigma per axis
+  double tau_s = 0;      // its correlation time; 0: not given
+  double tau_max_s = 0;  // with tau_s: the range tau_s-tau_max_s; 0: one value
+};
+inline constexpr const char* kHeaderUnitWanderUg = "unit_bias_instability_ug";
+inline constexpr const char* kHeaderUnitWanderTauS = "unit_bias_instability_tau_s";
+inline constexpr const char* kHeaderUnitWanderTauMaxS = "unit_bias_instability_tau_max_s";
+// What a unit's wander can be, here and in standcald's unit.bias_instability_*.
+inline constexpr double kMaxUnitWanderUg = 100000;
+inline constexpr double kMinUnitWanderTauS = 1, kMaxUnitWanderTauS = 1e6;
+
 struct Recording {
   std::string source;                                       // file name, for messages
   std::vector<std::pair<std::string, std::string>> header;  // every `# key: value`, in order
@@ -57,6 +73,7 @@ struct Recording {
   std::optional<Mount> default_mount;
   std::string unit_serial;
   std::string program;
+  RecordedUnitWander unit_wander;
   RecordingColumns columns;
   std::vector<RecordingSample> samples;
   std::vector<std::string> warnings;  // e.g. truncated last line dropped, g assumed

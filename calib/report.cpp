@@ -238,10 +238,12 @@ std::string noise_line(const NoiseFinding& n) {
            " needed); each dwell mean weighted by its own standard error" +
            sample_correlation_words(n);
   }
-  const std::string unit = n.unit_wander_from == kWanderFromRecording
-                               ? "the unit's bias wander as this recording's long dwell shows "
-                                 "it (its Allan curves)"
-                               : "the specified bias wander";
+  const std::string unit =
+      n.unit_wander_from == kWanderFromRecording
+          ? "the unit's bias wander as this recording's long dwell shows it (its Allan curves)"
+      : n.unit_wander_from == kWanderFromHeader
+          ? "the specified bias wander its run was made with (the recording's header)"
+          : "the specified bias wander";
   const std::string what =
       n.source != "estimated"
           ? (n.bias_instability ? unit + " (this run shows one that agrees)" : unit)

@@ -27,5 +27,7 @@ nlohmann::json fit_to_json(const FitResult& fit);
 // `noise` of the fit and diagnosis JSON: the noise model a result was weighted with.
 nlohmann::json noise_finding_json(const NoiseFinding& n);
 std::string format_report(const FitResult& fit, const ReportContext& context);
+// The report's `Noise:` line: the noise a fit weighted with, in the engineer's words.
+std::string noise_line(const NoiseFinding& n);
 
 }  // namespace standcal

@@ -115,9 +115,10 @@ Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& given)
   d.source = rec.source;
   // 1. Baseline: position averages, the residual model's fit, linearised.
   Prepared P = prepare(rec, given);
-  // Nothing of the unit's wander given: the one the recording's own long dwell pins, which the
-  // fits of the same recording weigh with (take_recording_wander).
-  const DiagnoseOptions options = with_recording_wander(given, P.allan);
+  // Nothing of the unit's wander given: the one its header says the run was made with, else the
+  // one the recording's own long dwell pins, which the fits of the same recording weigh with
+  // (take_unit_wander).
+  const DiagnoseOptions options = with_unit_wander(given, rec, P.allan);
   const ResidualModel& model = *P.model;
   d.method = model.name();
   d.baseline = model.fit();

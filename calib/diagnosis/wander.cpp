@@ -178,12 +178,12 @@ bool weigh_as_specified_where_agreeing(RunWander& w, const DiagnoseOptions& opti
 
 }  // namespace
 
-DiagnoseOptions with_recording_wander(DiagnoseOptions options,
-                                      const std::optional<AllanFinding>& allan) {
+DiagnoseOptions with_unit_wander(DiagnoseOptions options, const Recording& rec,
+                                 const std::optional<AllanFinding>& allan) {
   FitNoiseOptions fit;
   fit.specified = options.specified_wander;
   fit.known_tau = options.known_tau;
-  if (!take_recording_wander(fit, allan)) return options;
+  if (!take_unit_wander(fit, rec, allan)) return options;
   options.specified_wander = fit.specified;
   options.known_tau = fit.known_tau;
   options.specified_wander_from = fit.specified_from;
@@ -257,6 +257,8 @@ std::string middle_of_range_words(const NoiseFinding& n) {
 std::string unit_wander_words(const NoiseFinding& n) {
   return n.unit_wander_from == kWanderFromRecording
              ? "the unit's wander as this recording's long dwell shows it (its Allan curves)"
+         : n.unit_wander_from == kWanderFromHeader
+             ? "the unit's given wander its run was made with (the recording's header)"
              : "the unit's given wander";
 }
 

@@ -19,12 +19,12 @@ struct NoiseAndTerms {
   bool weighted_as_specified = false;
 };
 
-// `options` with the wander the recording's own long dwell pins (its dwells' pooled Allan
-// curves, `allan`) as the unit's, where nothing of it is given: the rule of the fits
-// (take_recording_wander); for a recording without angles, of its static intervals, as its
-// norm fit takes it.
-DiagnoseOptions with_recording_wander(DiagnoseOptions options,
-                                      const std::optional<AllanFinding>& allan);
+// `options` with the unit's wander where nothing of it is given, by the rule of the fits
+// (take_unit_wander): the one `rec`'s header says its run was made with, else the one its own
+// long dwell pins (its dwells' pooled Allan curves, `allan`; for a recording without angles,
+// of its static intervals, as its norm fit takes it).
+DiagnoseOptions with_unit_wander(DiagnoseOptions options, const Recording& rec,
+                                 const std::optional<AllanFinding>& allan);
 
 // Sets P.model's noise and P.base to the final choice.
 NoiseAndTerms select_terms_and_noise(Prepared& P, const DiagnoseOptions& options);

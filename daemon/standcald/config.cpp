@@ -224,21 +224,20 @@ void read_unit(Section& top, DaemonConfig& c) {
   s->text("interface", c.can_interface);
   s->text("layout", c.can_layout_file);
   s->number("sample_rate_hz", c.sample_rate_hz, 1, 100000);
-  s->number("bias_instability_ug", c.unit_bias_instability_ug, 0, 100000);
-  s->number("bias_instability_tau_s", c.unit_bias_instability_tau_s, 1, 1e6);
+  GivenWander& w = c.unit_wander;
+  s->number("bias_instability_ug", w.size_ug, 0, kMaxUnitWanderUg);
+  s->number("bias_instability_tau_s", w.tau_s, kMinUnitWanderTauS, kMaxUnitWanderTauS);
   double tau_max_s = 0;
-  s->number("bias_instability_tau_max_s", tau_max_s, 1, 1e6);
+  s->number("bias_instability_tau_max_s", tau_max_s, kMinUnitWanderTauS, kMaxUnitWanderTauS);
   const bool tau_given = s->find("bias_instability_tau_s") != nullptr;
   if (tau_max_s > 0 && !tau_given)
     s->fail("bias_instability_tau_max_s",
             "a range needs its lower end too: bias_instability_tau_s");
-  if (tau_max_s > 0 && tau_max_s < c.unit_bias_instability_tau_s)
+  if (tau_max_s > 0 && tau_max_s < w.tau_s)
     s->fail("bias_instability_tau_max_s",
             Section::fmt(tau_max_s) + " s is below bias_instability_tau_s (" +
-                Section::fmt(c.unit_bias_instability_tau_s) + " s): the range is MIN to MAX");
-  if (tau_given)
-    c.unit_known_tau = KnownTau{c.unit_bias_instability_tau_s,
-                                tau_max_s > 0 ? tau_max_s : c.unit_bias_instability_tau_s};
+                Section::fmt(w.tau_s) + " s): the range is MIN to MAX");
+  if (tau_given) w.known_tau = KnownTau{w.tau_s, tau_max_s > 0 ? tau_max_s : w.tau_s};
   s->reject_unknown();
 }
 

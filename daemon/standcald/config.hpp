@@ -86,13 +86,11 @@ struct DaemonConfig {
   std::string can_layout_file;         // unit.layout: a frame-layout JSON file (optional)
   double sample_rate_hz = 100;         // unit.sample_rate_hz: the unit's output rate
   // unit.bias_instability_ug / _tau_s: the unit's known Gauss-Markov bias wander (data sheet,
-  // earlier runs), which fits and diagnoses assume when a run alone does not show one; 0: none.
-  double unit_bias_instability_ug = 0;
-  double unit_bias_instability_tau_s = 300;
-  // unit.bias_instability_tau_s present: the fits take it as known (FitNoiseOptions::known_tau),
-  // up to unit.bias_instability_tau_max_s when that is there too (the range `standcal noise`
-  // gives from a static recording).
-  std::optional<KnownTau> unit_known_tau;
+  // earlier runs), which fits and diagnoses assume when a run alone does not show one; size 0:
+  // none. unit.bias_instability_tau_s present: the fits take it as known (known_tau), up to
+  // unit.bias_instability_tau_max_s when that is there too (the range `standcal noise` gives
+  // from a static recording). A run's recording carries it in its header, which its fits read.
+  GivenWander unit_wander;
   SimSettings sim;
   AxisRange outer;  // limited ±180° unless configured
   AxisRange inner;

@@ -53,9 +53,7 @@ void save_beside_recording(json& out, const std::string& recording_path) {
 
 }  // namespace
 
-json diagnose_run(const json& run_status, const StandLimits& limits,
-                  const GaussMarkovNoise& specified_wander,
-                  const std::optional<KnownTau>& known_tau, bool with_report) {
+json diagnose_run(const json& run_status, const StandLimits& limits, bool with_report) {
   const std::string run_id = run_status.value("run_id", "");
   const std::string path = run_status.value("recording_path", "");
   Recording rec;
@@ -69,8 +67,6 @@ json diagnose_run(const json& run_status, const StandLimits& limits,
   try {
     DiagnoseOptions options;
     options.limits = limits;
-    options.specified_wander = specified_wander;
-    options.known_tau = known_tau;
     d = diagnose_recording(rec, options);
   } catch (const std::exception& e) {
     throw RpcError(ErrorCode::invalid_state,
@@ -155,9 +151,7 @@ void DiagnoseJobs::submit(const Sequencer& sequencer, const json& params, ReplyF
     throw RpcError(ErrorCode::busy,
                    std::to_string(queue_.size()) + " diagnoses are waiting; try again shortly");
   }
-  queue_.push_back({{json(status), sequencer.stand_limits(), sequencer.unit_bias_wander(),
-                     sequencer.unit_known_tau(), with_report},
-                    std::move(reply)});
+  queue_.push_back({{json(status), sequencer.stand_limits(), with_report}, std::move(reply)});
   wake_.notify_one();
 }
 

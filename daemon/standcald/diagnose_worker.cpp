@@ -68,11 +68,7 @@ json job_to_json(const DiagnoseJob& job) {
           {"limits",
            {{"alpha1", axis_range_to_json(job.limits.alpha1)},
             {"alpha2", axis_range_to_json(job.limits.alpha2)}}},
-          {"report", job.with_report},
-          {"specified_wander_ug", job.specified_wander.q_g.maxCoeff() / kUg},
-          {"specified_wander_tau_s", job.specified_wander.tau_s},
-          {"known_tau_s", job.known_tau ? json::array({job.known_tau->min_s, job.known_tau->max_s})
-                                        : json(nullptr)}};
+          {"report", job.with_report}};
 }
 
 DiagnoseJob job_from_json(const json& j) {
@@ -81,10 +77,6 @@ DiagnoseJob job_from_json(const json& j) {
   job.limits.alpha1 = axis_range_from_json(j.at("limits").at("alpha1"));
   job.limits.alpha2 = axis_range_from_json(j.at("limits").at("alpha2"));
   job.with_report = j.at("report").get<bool>();
-  job.specified_wander = {Vec3::Constant(j.at("specified_wander_ug").get<double>() * kUg),
-                          j.at("specified_wander_tau_s").get<double>()};
-  if (const json& tau = j.at("known_tau_s"); !tau.is_null())
-    job.known_tau = KnownTau{tau.at(0).get<double>(), tau.at(1).get<double>()};
   return job;
 }
 
@@ -247,8 +239,7 @@ int diagnose_worker_main() {
     const DiagnoseJob job = job_from_json(json::parse(input));
     const char* fault = std::getenv(kDiagnoseWorkerFaultEnv);
     if (fault != nullptr && std::string(fault) == "abort") std::abort();
-    answer = {{"result", diagnose_run(job.run_status, job.limits, job.specified_wander,
-                                      job.known_tau, job.with_report)}};
+    answer = {{"result", diagnose_run(job.run_status, job.limits, job.with_report)}};
   } catch (const RpcError& e) {
     answer = error_answer(e.code(), e.what());
   } catch (const std::exception& e) {

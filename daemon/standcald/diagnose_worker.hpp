@@ -29,8 +29,6 @@ inline constexpr const char* kDiagnoseWorkerFaultEnv = "STANDCALD_FAULT_DIAGNOSE
 struct DiagnoseJob {
   nlohmann::json run_status;  // the run's run.status: run_id, recording_path, unit_serial, ...
   StandLimits limits;         // the configured stand's ranges (proposed positions lie inside)
-  GaussMarkovNoise specified_wander;  // the unit's configured bias wander (white: none)
-  std::optional<KnownTau> known_tau;  // its configured correlation time
   bool with_report = false;
 };
 

@@ -66,20 +66,17 @@ Compensation run_compensation(const FitResult& fit, const RunRecord& record,
 }  // namespace
 
 json fit_finished_run(RunRecord& record, const std::string& run_dir,
-                      const GaussMarkovNoise& bias_wander, const std::optional<KnownTau>& known_tau,
                       const std::optional<BudgetConfig>& budget) {
   // Streamed: the daemon holds one dwell of the recording, not the whole run.
   const RecordingDigest digest = digest_recording(record.recording_path);
   const std::vector<PositionAverage>& averages = digest.averages;
   // The noise model of both fits: wander between dwells from the fit, Allan within them.
   const std::optional<AllanFinding> allan = digest.allan_finding();
+  // The unit's configured wander, as the header keeps it (a correlation time configured: the
+  // run then estimates only the wander's size, which one run pins far better than tau); none
+  // configured: the one the recording's own long dwell pins (a warm-up), if any.
   FitNoiseOptions noise;
-  noise.specified = bias_wander;
-  // The unit's configured correlation time (its Allan test): the run then estimates only the
-  // wander's size, which one run pins far better than tau.
-  noise.known_tau = known_tau;
-  // None configured: the one the recording's own long dwell pins (a warm-up), if any.
-  take_recording_wander(noise, allan);
+  take_unit_wander(noise, digest.recording, allan);
   JointFit joint = joint_fit(averages, noise, allan);
   json& result = joint.result;
   try {

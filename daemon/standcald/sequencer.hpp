@@ -70,10 +70,8 @@ class Sequencer {
   protocol::RunsPage runs_list(const RunPageQuery& query) const;
   // Where the configured stand can go (config stand.outer / stand.inner).
   StandLimits stand_limits() const;
-  // The unit's configured bias wander (unit.bias_instability_ug), white when none.
-  GaussMarkovNoise unit_bias_wander() const;
-  // Its correlation time when configured (unit.bias_instability_tau_s [.._max_s]).
-  std::optional<KnownTau> unit_known_tau() const;
+  // The unit's configured bias wander (unit.bias_instability_ug, _tau_s [, _tau_max_s]).
+  const GivenWander& unit_wander() const;
 
   // Whether this class has a handler for `method` (method_table.hpp routes here every
   // method whose executor is the sequencer; tests/daemon's MethodTable cases check both).

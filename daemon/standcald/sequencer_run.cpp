@@ -44,14 +44,7 @@ StandLimits limits_of(const DaemonConfig& c) { return StandLimits{c.outer, c.inn
 
 StandLimits Sequencer::stand_limits() const { return limits_of(config_); }
 
-std::optional<KnownTau> Sequencer::unit_known_tau() const { return config_.unit_known_tau; }
-
-GaussMarkovNoise Sequencer::unit_bias_wander() const {
-  // A range's log-middle: the fits then average the biases' variance over the range itself.
-  const double tau_s = config_.unit_known_tau ? config_.unit_known_tau->centre_s()
-                                              : config_.unit_bias_instability_tau_s;
-  return {Vec3::Constant(config_.unit_bias_instability_ug * kUg), tau_s};
-}
+const GivenWander& Sequencer::unit_wander() const { return config_.unit_wander; }
 
 namespace {
 
@@ -287,6 +280,8 @@ void Sequencer::run_loop(RunRecord record, const std::function<void()>& started)
             header.set_header("started_utc", record.started_utc);
             header.set_header("run_id", record.run_id);
             header.set_header("stand_id", record.stand_id);
+            // What the run's fits weigh with, and every later fit of its recording.
+            set_unit_wander_header(header, unit_wander());
             header.columns = recording_columns(program);
             file.emplace(
                 RecordingFile::create(record.recording_path, format_recording_header(header)));
@@ -585,8 +580,8 @@ Sequencer::SampledDwell Sequencer::sample_stable_dwell(const RunRecord& record, 
     DwellExpectation expected{hw_.unit->name(), dwell_s, config_.sample_rate_hz,
                               hw_.unit->health().incomplete_samples - incomplete_before,
                               record.g_local_mps2};
-    expected.bias_wander_ug = config_.unit_bias_instability_ug;
-    expected.bias_wander_tau_s = unit_bias_wander().tau_s;
+    expected.bias_wander_ug = unit_wander().size_ug;
+    expected.bias_wander_tau_s = unit_wander().specified().tau_s;
     if (dwell_correlation_ && implausible_reading(d.average).empty())
       expected.sample_correlation_widening = dwell_correlation_->add_dwell(d.samples, d.average);
     const std::string problem = dwell_problem(d.average, expected, config_.stability);
@@ -606,8 +601,7 @@ Sequencer::SampledDwell Sequencer::sample_stable_dwell(const RunRecord& record, 
 
 void Sequencer::finish_with_fit(RunRecord& record) {
   set_progress(record, record.positions, "fitting");
-  json result = fit_finished_run(record, store_.run_dir(record.run_id), unit_bias_wander(),
-                                 unit_known_tau(), config_.budget);
+  json result = fit_finished_run(record, store_.run_dir(record.run_id), config_.budget);
   const std::string path = store_.run_dir(record.run_id) + "/result.json";
   write_state_file(path, json_text(result) + "\n");
   record.result_path = path;

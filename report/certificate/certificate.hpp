@@ -66,6 +66,10 @@ struct CertificateRequest {
   std::string unit_type;  // which limits apply (default: run.json's unit_type or the only one)
   std::string method = "joint";  // certified estimator: joint | full
   bool diagnose = false;  // run the diagnosis now (else use RUN_DIR/diagnosis.json if present)
+  // The fits' noise weighting (`standcal fit`'s --noise and --bias-instability-*); where it gives
+  // nothing of the unit's wander, the one the recording's header says its run was made with,
+  // else its own long dwell's (take_unit_wander): the run's result weighed with the same.
+  FitNoiseOptions noise;
 };
 
 // Loads the run (or recording), refits it, applies the limits and the diagnosis. Throws

@@ -246,6 +246,9 @@ std::string results_section(const CertificateInput& in) {
                 ? std::string("NOT EVALUATED")
                 : outcome_label(in.conformity->model_check.outcome)) +
            ").";
+  // What every sigma and U on the page rests on: the unit's wander given, found or none.
+  out += "</p>\n<p id=\"noise-model\"><b>Noise model.</b> The uncertainties rest on: " +
+         html_escape(noise_line(in.fit.noise)) + ".";
   out += "</p>\n<h2>Decision rule</h2>\n<p id=\"rule\">" +
          html_escape(records::decision_rule_text(in.coverage_factor, in.budget.has_value())) +
          (in.budget ? std::string(" The budget is below; k differs from parameter to parameter.")
@@ -316,8 +319,7 @@ std::string budget_section(const CertificateInput& in) {
   const UncertaintyBudget& b = *in.budget;
   std::string out =
       "<h2>Uncertainty budget (GUM, JCGM 100:2008)</h2>\n<p>Type A is the fit's standard "
-      "uncertainty from the "
-      "noise model estimated from this recording. Each type B input is propagated through the "
+      "uncertainty with the noise model stated above. Each type B input is propagated through the "
       "certified estimator "
       "itself: the estimator is run on the measurements as the input at ±u would have changed them "
       "(the stand "

@@ -176,10 +176,14 @@ CertificateInput prepare_certificate(const CertificateRequest& req) {
           : default_certificate_number(in.lab ? in.lab->certificate_prefix : "SC", in.issued_utc,
                                        in.trace.unit_serial);
 
-  in.invariant = fit_invariant_joint(in.positions);
+  FitNoiseOptions noise = req.noise;
+  take_unit_wander(noise, run.recording, averaged.allan);
+  in.invariant = fit_invariant_joint(in.positions, noise);
   in.invariant->noise.allan = averaged.allan;
   try {
-    in.full = fit_full_vector(in.positions);
+    FullFitOptions full;
+    full.noise = noise;
+    in.full = fit_full_vector(in.positions, full);
     in.full->noise.allan = averaged.allan;
   } catch (const std::exception& e) {
     in.warnings.push_back(std::string("no per-axis residuals: the full-vector fit failed (") +
@@ -222,7 +226,10 @@ CertificateInput prepare_certificate(const CertificateRequest& req) {
   const fs::path stored_diagnosis =
       run.run_dir.empty() ? fs::path() : run.run_dir / "diagnosis.json";
   if (req.diagnose) {
-    const Diagnosis d = diagnose_recording(run.recording);
+    DiagnoseOptions options;  // the wander the fits were given (the header's, when none)
+    options.specified_wander = req.noise.specified;
+    options.known_tau = req.noise.known_tau;
+    const Diagnosis d = diagnose_recording(run.recording, options);
     in.diagnosis =
         CertificateDiagnosis{d.verdict, d.summary, d.located, "run for this certificate"};
   } else if (!stored_diagnosis.empty() && fs::exists(stored_diagnosis)) {

@@ -244,6 +244,37 @@ TEST(RecordingErrors, AHeaderNumberNoRunHoldsNamesItsLine) {
   EXPECT_EQ(error_of(with_header("# settle_s: 0")), "");
 }
 
+// The unit's wander a run was made with (standcald's unit.bias_instability_*): read as given,
+// and a value the daemon's configuration would refuse is refused naming its line.
+TEST(RecordingErrors, TheUnitsWanderItsRunWasMadeWithIsReadOrRefusedByItsLine) {
+  const Recording r = parse_recording(
+      "# format: standcal-recording/1\n# unit_bias_instability_ug: 2.5\n"
+      "# unit_bias_instability_tau_s: 200\n"
+      "# unit_bias_instability_tau_max_s: 900\n" +
+          kColumns + kRow0,
+      "rec.csv");
+  EXPECT_DOUBLE_EQ(r.unit_wander.size_ug, 2.5);
+  EXPECT_DOUBLE_EQ(r.unit_wander.tau_s, 200);
+  EXPECT_DOUBLE_EQ(r.unit_wander.tau_max_s, 900);
+  EXPECT_EQ(parse_recording(with_header("# unit_serial: A"), "rec.csv").unit_wander.size_ug, 0);
+  EXPECT_NE(error_of(with_header("# unit_bias_instability_ug: -1"))
+                .find("rec.csv:2: header 'unit_bias_instability_ug': -1 ug is outside 0 ... "),
+            std::string::npos);
+  EXPECT_NE(error_of(with_header("# unit_bias_instability_tau_s: many"))
+                .find("rec.csv:2: header 'unit_bias_instability_tau_s': 'many' is not a number"),
+            std::string::npos);
+  EXPECT_NE(error_of(with_header("# unit_bias_instability_tau_max_s: 900"))
+                .find("rec.csv:2: header 'unit_bias_instability_tau_max_s': a range needs its "
+                      "lower end too: unit_bias_instability_tau_s"),
+            std::string::npos);
+  EXPECT_NE(error_of("# format: standcal-recording/1\n# unit_bias_instability_tau_s: 900\n"
+                     "# unit_bias_instability_tau_max_s: 200\n" +
+                     kColumns + kRow0)
+                .find("rec.csv:3: header 'unit_bias_instability_tau_max_s': 200 s is below "
+                      "unit_bias_instability_tau_s 900 s: the range is MIN to MAX"),
+            std::string::npos);
+}
+
 // A header in Latin-1 (a serial typed on an old bench PC): `standcal import` stored the
 // serial's raw bytes, which every JSON output then printed as U+FFFD (so a serial copied
 // from `records --json` found nothing in `history`) and PostgreSQL refused.

@@ -11,6 +11,7 @@
 
 #include "calib/averaging.hpp"
 #include "calib/invariant_estimator.hpp"
+#include "calib/noise_model.hpp"
 #include "report/certificate/certificate.hpp"
 #include "tests/certificate/certificate_support.hpp"
 #include "tests/certificate/html_query.hpp"
@@ -207,6 +208,43 @@ TEST_F(CertificateOfSimulatedRun, SaysWhenTheDwellsHaveNoAllanCurve) {
             std::string::npos);
   EXPECT_NE(page.text("//ul[@id='remarks']").find("the dwells have no Allan curve"),
             std::string::npos);
+}
+
+// The certificate weighs its fits with the unit's wander the run was made with (standcald's
+// unit.bias_instability_*, which the recording's header keeps), as the run's own result did,
+// and says what its uncertainties rest on. It had refitted with nothing of the unit's given:
+// a nine-position run then came out white, its biases' sigmas several times smaller than the
+// run's result gave (this test failed so before the fix).
+TEST_F(CertificateOfSimulatedRun, WeighsWithTheUnitsWanderItsRunWasMadeWith) {
+  GivenWander wander;
+  wander.size_ug = 5;
+  wander.known_tau = KnownTau{600, 600};
+  Recording made_with = rec_;
+  set_unit_wander_header(made_with, wander);
+  CertificateRequest r;
+  r.recording_path = state_.file("made-with-wander.csv");
+  write_recording(made_with, r.recording_path);
+  const report::CertificateInput in = report::prepare_certificate(r);
+  EXPECT_EQ(in.fit.noise.model, "gauss_markov") << in.fit.noise.how;
+  EXPECT_EQ(in.fit.noise.unit_wander_from, kWanderFromHeader) << in.fit.noise.how;
+  FitNoiseOptions given;
+  wander.give_to(given);
+  const FitResult as_the_run = fit_invariant_joint(average_positions(rec_), given);
+  const FitResult white = fit_invariant_joint(average_positions(rec_), white_noise_weighting());
+  for (int p : {kBiasX, kBiasY, kBiasZ}) {
+    const double sigma = *in.fit.unit[static_cast<std::size_t>(p)].sigma;
+    EXPECT_NEAR(sigma, *as_the_run.unit[static_cast<std::size_t>(p)].sigma, 1e-9 * sigma) << p;
+    EXPECT_GT(sigma, 1.5 * *white.unit[static_cast<std::size_t>(p)].sigma) << p;
+  }
+  const HtmlDocument page(report::render_certificate_html(in));
+  EXPECT_NE(page.text("//p[@id='noise-model']").find("its run was made with"), std::string::npos)
+      << page.text("//p[@id='noise-model']");
+  // The operator's weighting wins over the header's (`--noise white`).
+  r.noise = white_noise_weighting();
+  const report::CertificateInput told_white = report::prepare_certificate(r);
+  EXPECT_EQ(told_white.fit.noise.model, "white");
+  const double sigma_x = *told_white.fit.unit[static_cast<std::size_t>(kBiasX)].sigma;
+  EXPECT_NEAR(sigma_x, *white.unit[static_cast<std::size_t>(kBiasX)].sigma, 1e-9 * sigma_x);
 }
 
 TEST_F(CertificateOfSimulatedRun, RefusesAnUnfinishedRunOrAMissingOne) {

@@ -56,8 +56,8 @@ TEST(DaemonConfig, ReadsEveryGroupOfKeys) {
   EXPECT_DOUBLE_EQ(c.in_position.window_deg, 0.002);
   EXPECT_EQ(c.can_interface, "can1");
   EXPECT_DOUBLE_EQ(c.sample_rate_hz, 200);
-  EXPECT_DOUBLE_EQ(c.unit_bias_instability_ug, 5);
-  EXPECT_DOUBLE_EQ(c.unit_bias_instability_tau_s, 600);
+  EXPECT_DOUBLE_EQ(c.unit_wander.size_ug, 5);
+  EXPECT_DOUBLE_EQ(c.unit_wander.tau_s, 600);
   EXPECT_DOUBLE_EQ(c.g_local_mps2, 9.8105);
   EXPECT_EQ(c.stability.remeasure_max, 1);
   EXPECT_DOUBLE_EQ(c.stability.trend_limit_sigmas, 6);
@@ -68,18 +68,18 @@ TEST(DaemonConfig, ReadsEveryGroupOfKeys) {
 // The unit's correlation time: one value, a range up to unit.bias_instability_tau_max_s, or
 // nothing (the fits estimate it); a range without its lower end or upside down is refused.
 TEST(DaemonConfig, TheUnitsCorrelationTimeIsAValueOrARange) {
-  EXPECT_FALSE(parse_config(json::object(), "lab.json").unit_known_tau.has_value());
+  EXPECT_FALSE(parse_config(json::object(), "lab.json").unit_wander.known_tau.has_value());
   const DaemonConfig one =
       parse_config(json{{"unit", {{"bias_instability_tau_s", 400}}}}, "lab.json");
-  ASSERT_TRUE(one.unit_known_tau.has_value());
-  EXPECT_DOUBLE_EQ(one.unit_known_tau->min_s, 400);
-  EXPECT_DOUBLE_EQ(one.unit_known_tau->max_s, 400);
+  ASSERT_TRUE(one.unit_wander.known_tau.has_value());
+  EXPECT_DOUBLE_EQ(one.unit_wander.known_tau->min_s, 400);
+  EXPECT_DOUBLE_EQ(one.unit_wander.known_tau->max_s, 400);
   const DaemonConfig range = parse_config(
       json{{"unit", {{"bias_instability_tau_s", 200}, {"bias_instability_tau_max_s", 700}}}},
       "lab.json");
-  ASSERT_TRUE(range.unit_known_tau.has_value());
-  EXPECT_DOUBLE_EQ(range.unit_known_tau->min_s, 200);
-  EXPECT_DOUBLE_EQ(range.unit_known_tau->max_s, 700);
+  ASSERT_TRUE(range.unit_wander.known_tau.has_value());
+  EXPECT_DOUBLE_EQ(range.unit_wander.known_tau->min_s, 200);
+  EXPECT_DOUBLE_EQ(range.unit_wander.known_tau->max_s, 700);
   EXPECT_EQ(config_error(json{{"unit", {{"bias_instability_tau_max_s", 700}}}}),
             "lab.json: unit.bias_instability_tau_max_s: a range needs its lower end too: "
             "bias_instability_tau_s");

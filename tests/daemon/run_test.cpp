@@ -3,6 +3,7 @@
 // e-stop, SIGTERM, re-mount steps.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <fstream>
 #include <map>
 #include <set>
@@ -138,10 +139,18 @@ TEST(DaemonRun, FullPaper9RunOverTheSocket) {
 // Issue 21: a unit's configured bias wander is what the run's fits weight with when the
 // run alone cannot show one (nine positions leave the joint fit no residual to estimate
 // it from), and the result says so. Its correlation time, one value or a range (what
-// `standcal noise` of a static recording gives), reaches the fits as given.
+// `standcal noise` of a static recording gives), reaches the fits as given. The recording's
+// header keeps it, so that every later fit of the run weighs as the run did.
 namespace {
 
-json run_with_configured_wander(const json& unit, std::string& log) {
+struct ConfiguredRun {
+  json result;
+  RecordedUnitWander recorded;  // what the recording's header says
+  std::string report;           // `standcal run result RUN_ID`
+  std::string log;
+};
+
+ConfiguredRun run_with_configured_wander(const json& unit) {
   TempDir dir;
   const json config = {
       {"socket", {{"path", socket_of(dir)}}}, {"state_dir", dir.path() + "/state"}, {"unit", unit}};
@@ -155,43 +164,67 @@ json run_with_configured_wander(const json& unit, std::string& log) {
                                             {"dwell_s", 10},
                                             {"settle_s", 1},
                                             {"operator", "test"}});
-  const json final_status = wait_run(c, started["run_id"], finished);
-  log = daemon.log();
-  EXPECT_EQ(final_status["state"], "done") << final_status.dump() << log;
-  return c.call("run.result", {{"run_id", started["run_id"]}});
+  const std::string run_id = started["run_id"];
+  const json final_status = wait_run(c, run_id, finished);
+  ConfiguredRun run;
+  run.log = daemon.log();
+  EXPECT_EQ(final_status["state"], "done") << final_status.dump() << run.log;
+  run.result = c.call("run.result", {{"run_id", run_id}});
+  run.recorded = read_recording(run.result["recording_path"]).unit_wander;
+  const test::CommandOutcome shown =
+      test::standcal_cli("run result " + run_id + " --socket " + socket_of(dir));
+  EXPECT_EQ(shown.exit_code, 0) << shown.output;
+  run.report = shown.output;
+  return run;
 }
 
 }  // namespace
 
 TEST(DaemonRun, TheFitsAssumeTheUnitsConfiguredBiasWander) {
-  std::string log;
-  const json result = run_with_configured_wander(
-      {{"bias_instability_ug", 5}, {"bias_instability_tau_s", 600}}, log);
-  const json& noise = result["noise"];
-  EXPECT_EQ(noise["model"], "gauss_markov") << noise.dump(2) << log;
+  const ConfiguredRun run =
+      run_with_configured_wander({{"bias_instability_ug", 5}, {"bias_instability_tau_s", 600}});
+  const json& noise = run.result["noise"];
+  EXPECT_EQ(noise["model"], "gauss_markov") << noise.dump(2) << run.log;
   EXPECT_EQ(noise["source"], "specified");
   EXPECT_DOUBLE_EQ(noise["wander_ug"][0].get<double>(), 5);
   EXPECT_DOUBLE_EQ(noise["tau_s"].get<double>(), 600);
   EXPECT_EQ(noise["tau_given"], true);
+  EXPECT_EQ(noise["unit_wander_from"], "header");
   // The full vector (27 rows) estimates the wander's size, at the configured time.
-  const std::string full_how = result["full_vector"]["noise"]["how"];
+  const std::string full_how = run.result["full_vector"]["noise"]["how"];
   EXPECT_NE(full_how.find("at the given correlation time 600 s"), std::string::npos) << full_how;
   EXPECT_TRUE(noise["allan"]["axes"]["x"]["white_density_ug_rthz"].is_number());
+  // The recording keeps what the run was made with, and `standcal run result`, which refits
+  // it, prints the report of the same weighting: it had printed a white fit's, whose biases'
+  // sigmas the run's result did not give (this test failed so before the fix).
+  EXPECT_DOUBLE_EQ(run.recorded.size_ug, 5);
+  EXPECT_DOUBLE_EQ(run.recorded.tau_s, 600);
+  EXPECT_EQ(run.recorded.tau_max_s, 0);
+  EXPECT_NE(run.report.find("the specified bias wander its run was made with"), std::string::npos)
+      << run.report;
+  char sigma[32];
+  std::snprintf(sigma, sizeof sigma, " %.2f\n",
+                run.result["parameters"]["bias_x"]["sigma"].get<double>());
+  const auto bias_x = run.report.find("  bias_x ");
+  ASSERT_NE(bias_x, std::string::npos) << run.report;
+  const std::string line = run.report.substr(bias_x, run.report.find('\n', bias_x) - bias_x + 1);
+  EXPECT_NE(line.find(sigma), std::string::npos)
+      << "the result's bias_x sigma" << sigma << "in " << line;
 }
 
 TEST(DaemonRun, TheFitsTakeTheUnitsCorrelationTimeAsARange) {
-  std::string log;
-  const json result = run_with_configured_wander({{"bias_instability_ug", 5},
-                                                  {"bias_instability_tau_s", 300},
-                                                  {"bias_instability_tau_max_s", 1200}},
-                                                 log);
-  const json& noise = result["noise"];
-  EXPECT_EQ(noise["source"], "specified") << noise.dump(2) << log;
+  const ConfiguredRun run = run_with_configured_wander({{"bias_instability_ug", 5},
+                                                        {"bias_instability_tau_s", 300},
+                                                        {"bias_instability_tau_max_s", 1200}});
+  const json& noise = run.result["noise"];
+  EXPECT_EQ(noise["source"], "specified") << noise.dump(2) << run.log;
   EXPECT_DOUBLE_EQ(noise["tau_s"].get<double>(), 600);  // the range's log-middle
   EXPECT_EQ(noise["tau_given_s"], json::array({300.0, 1200.0}));
-  const std::string full_how = result["full_vector"]["noise"]["how"];
+  const std::string full_how = run.result["full_vector"]["noise"]["how"];
   EXPECT_NE(full_how.find("at the given correlation times 300-1200 s"), std::string::npos)
       << full_how;
+  EXPECT_DOUBLE_EQ(run.recorded.tau_s, 300);
+  EXPECT_DOUBLE_EQ(run.recorded.tau_max_s, 1200);
 }
 
 TEST(DaemonRun, KillNineMidRunThenResumeRecordsEveryPositionOnce) {

@@ -663,4 +663,24 @@ TEST(FitNoise, ALongDwellInTheRecordingGivesTheFitsTheUnitsWander) {
   const Diagnosis without_angles = diagnose_without_angles(raw, norm, {});
   EXPECT_EQ(without_angles.noise.unit_wander_from, kWanderFromRecording)
       << without_angles.noise.how;
+
+  // A wander the header says the run was made with (standcald's unit.bias_instability_*) comes
+  // before the long dwell's, in the fits, the diagnosis and the norm fit alike; an operator's
+  // weighting before both.
+  GivenWander configured;
+  configured.size_ug = 2 * w.q;
+  configured.known_tau = KnownTau{kTauS, kTauS};
+  Recording made_with = rec;
+  set_unit_wander_header(made_with, configured);
+  FitNoiseOptions header_first;
+  ASSERT_TRUE(take_unit_wander(header_first, made_with, averaged.allan));
+  EXPECT_EQ(header_first.specified_from, kWanderFromHeader);
+  EXPECT_DOUBLE_EQ(header_first.specified.q_g[0], 2 * w.q * kUg);
+  FitNoiseOptions told_white = white_noise_weighting();
+  EXPECT_FALSE(take_unit_wander(told_white, made_with, averaged.allan));
+  EXPECT_EQ(diagnose_recording(made_with).noise.unit_wander_from, kWanderFromHeader);
+  RawInput raw_made_with = raw_input_of(made_with);
+  raw_made_with.recording = made_with;
+  EXPECT_EQ(calibrate_without_angles(raw_made_with, norm_options).fit.result.noise.unit_wander_from,
+            kWanderFromHeader);
 }

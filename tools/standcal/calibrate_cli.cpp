@@ -106,9 +106,10 @@ void run_norm_fit(const FitOptions& o, const RawInput& in) {
 // recording read whole (any other format or reading option).
 void fit_stand_averages(const FitOptions& o, const std::string& method, const Recording& rec,
                         std::vector<PositionAverage> averages, std::optional<AllanFinding> allan) {
-  // Nothing of the unit's wander given: the one the recording's own long dwell pins, if any.
+  // Nothing of the unit's wander given: the one its run was made with (the header), else the
+  // one the recording's own long dwell pins, if any.
   FitNoiseOptions noise = noise_weighting(o);
-  take_recording_wander(noise, allan);
+  take_unit_wander(noise, rec, allan);
   FitResult fit = fit_with(o, method, averages, noise);
   fit.noise.allan = std::move(allan);
   std::optional<Compensation> compensation;  // made before the report takes the averages

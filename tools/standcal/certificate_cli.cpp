@@ -20,6 +20,7 @@
 #include "protocol/jsonrpc/run_id.hpp"
 #include "report/certificate/certificate.hpp"
 #include "tools/standcal/commands.hpp"
+#include "tools/standcal/input_options.hpp"
 
 namespace standcal::cli {
 
@@ -27,6 +28,7 @@ namespace {
 
 struct CertificateCliOptions {
   report::CertificateRequest request;
+  NoiseCliOptions noise;  // as `standcal fit`'s
   std::string output;
 };
 
@@ -126,7 +128,9 @@ void run_certificate(const CertificateCliOptions& o) {
         "'" + o.request.run_id +
         "' is not a run id (like 20261121T223638Z-AU-0042; `standcal runs` lists "
         "them; certify a recording elsewhere with --recording FILE)");
-  const report::CertificateInput input = report::prepare_certificate(o.request);
+  report::CertificateRequest request = o.request;
+  request.noise = fit_noise_options(o.noise);
+  const report::CertificateInput input = report::prepare_certificate(request);
   const std::string html = report::render_certificate_html(input);
   write_certificate(o.output, ends_with(o.output, ".pdf") ? render_pdf(html) : html);
   const std::string verdict = input.conformity ? records::outcome_name(input.conformity->overall)
@@ -178,6 +182,7 @@ void add_certificate_commands(CLI::App& app) {
   cmd->add_option("--method", opts->request.method, "certified estimator: joint (invariant) | full")
       ->check(CLI::IsMember({"joint", "full"}))
       ->capture_default_str();
+  add_noise_options(cmd, opts->noise);
   cmd->add_flag(
       "--diagnose", opts->request.diagnose,
       "run the model-mismatch diagnosis now (else RUN_DIR/diagnosis.json is used if present)");

@@ -71,9 +71,8 @@ std::pair<Diagnosis, Recording> diagnose_input(const DiagnoseCliOptions& o) {
                              "settling and whiteness on the samples of each interval (fit it with "
                              "`standcal fit`)");
   NormCalibrationOptions calibrate;
-  calibrate.stability = false;  // the diagnosis does not report it
-  calibrate.fit.noise.specified = diagnose_options(o).specified_wander;
-  calibrate.fit.noise.known_tau = o.wander.known_tau();  // as `fit`
+  calibrate.stability = false;                    // the diagnosis does not report it
+  o.wander.given().give_to(calibrate.fit.noise);  // as `fit`
   const NormCalibration calibration = calibrate_without_angles(in, calibrate);
   Diagnosis d = diagnose_without_angles(in, calibration, diagnose_options(o));
   return {std::move(d), calibrated_recording(in, calibration)};

@@ -97,12 +97,11 @@ void add_fit_wander_options(CLI::App* cmd, WanderCliOptions& o, const std::strin
       ->check(cli_checks::kPositive);
 }
 
-GaussMarkovNoise WanderCliOptions::specified() const {
-  // A range's log-middle: the fits then average the biases' variance over the range itself.
-  const std::optional<KnownTau> tau = known_tau();
-  return {Vec3::Constant(bias_instability_ug * kUg),
-          tau ? tau->centre_s() : bias_instability_tau_s};
+GivenWander WanderCliOptions::given() const {
+  return {bias_instability_ug, bias_instability_tau_s, known_tau()};
 }
+
+GaussMarkovNoise WanderCliOptions::specified() const { return given().specified(); }
 
 std::optional<KnownTau> WanderCliOptions::known_tau() const {
   if (bias_instability_tau_max_s > 0 && !tau_given)
@@ -136,8 +135,7 @@ void add_wander_options(CLI::App* cmd, double& sigma_ug, double& tau_s, const st
 FitNoiseOptions fit_noise_options(const NoiseCliOptions& o) {
   FitNoiseOptions n;
   n.mode = o.noise == "white" ? FitNoiseOptions::Mode::white : FitNoiseOptions::Mode::estimate;
-  n.specified = o.wander.specified();
-  n.known_tau = o.wander.known_tau();
+  o.wander.given().give_to(n);
   return n;
 }
 

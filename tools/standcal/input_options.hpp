@@ -38,7 +38,8 @@ struct WanderCliOptions {
   double bias_instability_tau_s = 300;
   double bias_instability_tau_max_s = 0;  // 0: not given
   bool tau_given = false;                 // --bias-instability-tau-s on the command line
-  GaussMarkovNoise specified() const;     // white when no size is given
+  GivenWander given() const;
+  GaussMarkovNoise specified() const;  // white when no size is given
   // The correlation time when given: one value, or the range up to --bias-instability-tau-max-s.
   // Throws CLI::ValidationError when the range is given without its lower end or upside down.
   std::optional<KnownTau> known_tau() const;

@@ -119,7 +119,7 @@ CalibrationRecord import_record(const ImportOptions& o, const std::string& path)
   AveragedRecording averaged = average_recording(rec);
   if (!averaged.allan_warning.empty()) warnings.push_back(averaged.allan_warning);
   FitNoiseOptions noise = fit_noise_options(o.noise);
-  take_recording_wander(noise, averaged.allan);  // nothing given: the recording's own, if any
+  take_unit_wander(noise, rec, averaged.allan);  // nothing given: its header's, or its own
   FitResult fit = fit_by_method(o.method, averaged.averages, noise);
   fit.noise.allan = std::move(averaged.allan);
   CalibrationRecord r;

@@ -146,7 +146,7 @@ void print_result(const json& r) {
     const Recording rec = read_recording(path);
     AveragedRecording averaged = average_recording(rec);
     FitNoiseOptions noise;
-    take_recording_wander(noise, averaged.allan);  // as the daemon, where no unit's is set
+    take_unit_wander(noise, rec, averaged.allan);  // as the daemon: the run's, or its own
     FitResult fit = fit_invariant_joint(averaged.averages, noise);
     fit.noise.allan = std::move(averaged.allan);
     std::cout << format_report(fit, report_context(rec, std::move(averaged.averages)));
