@@ -278,14 +278,22 @@ void Sequencer::refresh_stand_snapshot() {
 // --------------------------------------------------------------------------- unit
 
 std::vector<drivers::AccelSample> Sequencer::collect(double seconds) {
+  // The chunks after the first continue the unit's series (collect_more), so each also holds
+  // what came while this thread served commands before it: the series ends once its samples
+  // span `seconds`, not after `seconds` of chunks. Without samples, `seconds` of chunks; and a
+  // series whose times do not advance still ends, after twice that.
+  const double period_s = 1.0 / config_.sample_rate_hz;
   std::vector<drivers::AccelSample> all;
-  double left = seconds;
-  while (left > 1e-9) {
+  double requested_s = 0;
+  for (double left = seconds; left > 1e-9;) {
     service();
     const double chunk = std::min(left, kCollectChunk_s);
-    auto got = check(hw_.unit->collect(chunk));
+    auto got = check(requested_s == 0 ? hw_.unit->collect(chunk) : hw_.unit->collect_more(chunk));
+    requested_s += chunk;
     all.insert(all.end(), got.begin(), got.end());
-    left -= chunk;
+    const double spanned_s =
+        all.empty() ? requested_s : all.back().t_s - all.front().t_s + period_s;
+    left = std::min(seconds - spanned_s, 2 * seconds - requested_s);
   }
   return all;
 }

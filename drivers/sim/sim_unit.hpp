@@ -21,6 +21,7 @@ class SimUnit : public AccelUnit {
   Status start() override;
   Status stop() override;
   Result<std::vector<AccelSample>> collect(double seconds) override;
+  Result<std::vector<AccelSample>> collect_more(double seconds) override;
   AccelUnitHealth health() const override;
 
   // The simulated operator's hands: the unit is now mounted this way on the table.
@@ -29,6 +30,8 @@ class SimUnit : public AccelUnit {
   void set_silent(bool silent);
 
  private:
+  Result<std::vector<AccelSample>> collect_from(double seconds, bool continuing);
+
   std::shared_ptr<const SimClock> clock_;
   std::shared_ptr<const SimStand> stand_;
   double sample_rate_hz_;
@@ -36,6 +39,7 @@ class SimUnit : public AccelUnit {
   UnitSimulator simulator_;
   Mount mount_ = Mount::x;
   bool started_ = false;
+  bool collected_since_start_ = false;  // collect_more continues the grid
   bool silent_ = false;
   double next_sample_t_s_ = 0;
   std::uint64_t counter_ = 0;

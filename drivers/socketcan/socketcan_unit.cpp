@@ -67,6 +67,7 @@ Status SocketCanUnit::start() {
     return Status::error(ErrorKind::link,
                          "cannot watch CAN link " + link_.name() + ": epoll_create1 failed");
   running_ = true;
+  collected_since_start_ = false;
   joiner_.reset();
   last_unit_frame_mono_s_ = monotonic_now_s();
   std::vector<AccelSample> stale;  // frames queued before start: counted in health, not delivered
@@ -85,6 +86,14 @@ Status SocketCanUnit::silence_error() const {
 }
 
 Result<std::vector<AccelSample>> SocketCanUnit::collect(double seconds) {
+  return collect_from(seconds, false);
+}
+
+Result<std::vector<AccelSample>> SocketCanUnit::collect_more(double seconds) {
+  return collect_from(seconds, true);
+}
+
+Result<std::vector<AccelSample>> SocketCanUnit::collect_from(double seconds, bool continuing) {
   if (!running_)
     return Status::error(ErrorKind::not_allowed,
                          "accelerometer unit on " + link_.name() + " is not started");
@@ -101,7 +110,10 @@ Result<std::vector<AccelSample>> SocketCanUnit::collect(double seconds) {
   // after a cable is plugged back, the next collect must not fail before a frame can come.
   if (health_.silent)
     last_unit_frame_mono_s_ = std::max(last_unit_frame_mono_s_, monotonic_now_s());
-  const double start_real_s = realtime_now_s();  // samples before it are not ours
+  // From the call on, or (collect_more) with what queued since the previous collect: a dwell
+  // collected in chunks then loses no sample to the caller's time between them.
+  const bool keep_queued = continuing && collected_since_start_;
+  const double start_real_s = realtime_now_s();
   const double deadline_s = monotonic_now_s() + seconds;
   bus_off_seen_ = false;  // from here a bus-off fails the call, restarted or not
   for (;;) {
@@ -123,7 +135,9 @@ Result<std::vector<AccelSample>> SocketCanUnit::collect(double seconds) {
       if (auto s = read_queued(samples); !s) return s;
     if (bus_off_seen_) return bus_off_error();
   }
-  std::erase_if(samples, [&](const AccelSample& a) { return a.t_s < start_real_s; });
+  if (!keep_queued)
+    std::erase_if(samples, [&](const AccelSample& a) { return a.t_s < start_real_s; });
+  collected_since_start_ = true;
   return samples;
 }
 

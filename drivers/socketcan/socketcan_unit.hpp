@@ -36,9 +36,11 @@ class SocketCanUnit final : public AccelUnit {
   Status start() override;
   Status stop() override;
   Result<std::vector<AccelSample>> collect(double seconds) override;
+  Result<std::vector<AccelSample>> collect_more(double seconds) override;
   AccelUnitHealth health() const override;
 
  private:
+  Result<std::vector<AccelSample>> collect_from(double seconds, bool continuing);
   Status read_queued(std::vector<AccelSample>& out);
   Status handle(const ReceivedFrame& f, std::vector<AccelSample>& out);
   Status silence_error() const;
@@ -50,7 +52,8 @@ class SocketCanUnit final : public AccelUnit {
   SampleJoiner joiner_;
   int epoll_fd_ = -1;
   bool running_ = false;
-  bool bus_off_seen_ = false;  // a bus-off arrived while collecting
+  bool collected_since_start_ = false;  // collect_more keeps every queued frame
+  bool bus_off_seen_ = false;           // a bus-off arrived while collecting
   double last_unit_frame_mono_s_ = 0;
   AccelUnitHealth health_;
 };

@@ -6,12 +6,15 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cmath>
+#include <fstream>
 #include <functional>
 #include <future>
 #include <memory>
 #include <mutex>
 #include <thread>
 
+#include "calib/programs.hpp"
 #include "calib/recording.hpp"
 #include "calib/simulator.hpp"
 #include "daemon/standcald/hardware.hpp"
@@ -75,6 +78,7 @@ class InProcessSequencer {
     return n;
   }
   Sequencer& sequencer() { return sequencer_; }
+  const std::string& state_dir() const { return config_.state_dir; }
 
  private:
   static DaemonConfig adjusted(DaemonConfig c, const std::function<void(DaemonConfig&)>& adjust) {
@@ -251,6 +255,52 @@ TEST(SequencerInProcess, TheDriftRuleAllowsForTheUnitsOutputFilter) {
   EXPECT_EQ(done["state"], "done") << done.dump();
   EXPECT_LE(s.count_events(protocol::event::fault), 1u)
       << "quiet dwells of a filtered unit re-measured as drifting";
+}
+
+// Issue 21: a run whose programme holds its first position long enough to show the unit's
+// wander turn over (a warm-up dwell) gives its own fits that wander where none is configured:
+// the daemon's fit of the finished run reads it off the recording's Allan curves as `standcal
+// fit` does (take_unit_wander), weighs with it, and its result says so. The same run without
+// the warm-up weighs with nothing of the kind.
+json warm_up_run(double warm_up_s) {
+  test::TempDir dir{"standcal-warm-up"};
+  constexpr double kTauS = 60;
+  TruthModel truth = default_truth();
+  truth.noise.bias_instability_ug = 3 * truth.noise.density_ug_rthz / std::sqrt(10.0);
+  truth.noise.bias_instability_tau_s = kTauS;
+  const std::string truth_path = dir.file("wandering-unit.json");
+  save_truth(truth, truth_path);
+  InProcessSequencer s(2000, [&](DaemonConfig& c) {
+    c.sim.truth_file = truth_path;
+    c.sample_rate_hz = 25;
+  });
+  json program = program_to_json(load_program("paper9"));
+  if (warm_up_s > 0) program["positions"][0]["dwell_s"] = warm_up_s;
+  const Outcome started =
+      s.call("run.start",
+             {{"program", program}, {"unit_serial", "SEQ-W"}, {"dwell_s", 10}, {"settle_s", 1}});
+  EXPECT_EQ(started.error_code, 0) << started.error_message;
+  if (started.error_code != 0) return json();
+  const std::string id = started.result["run_id"];
+  const json done = s.wait_run(id, [](const json& st) { return st["state"] != "running"; });
+  EXPECT_EQ(done["state"], "done") << done.dump();
+  std::ifstream result(s.state_dir() + "/runs/" + id + "/result.json");
+  return json::parse(result);
+}
+
+TEST(SequencerInProcess, AWarmUpDwellGivesTheRunsFitsTheUnitsWander) {
+  const json warmed = warm_up_run(7200);  // 120 tau
+  const json& noise = warmed["noise"];
+  ASSERT_EQ(noise.value("unit_wander_from", ""), "recording") << noise.dump(2);
+  EXPECT_EQ(noise["model"], "gauss_markov");
+  const json& tau_range = noise["tau_given_s"];
+  ASSERT_TRUE(tau_range.is_array()) << noise.dump(2);
+  EXPECT_LE(tau_range[0].get<double>(), 60) << noise.dump(2);
+  EXPECT_GE(tau_range[1].get<double>(), 60) << noise.dump(2);
+  EXPECT_EQ(warmed["full_vector"]["noise"].value("unit_wander_from", ""), "recording");
+
+  const json plain = warm_up_run(0);
+  EXPECT_FALSE(plain["noise"].contains("unit_wander_from")) << plain["noise"].dump(2);
 }
 
 // An emergency stop acts at once, and its answer waits until the run it interrupted is

@@ -300,6 +300,59 @@ TEST_F(CanTransport, FramesQueuedBeforeCollectAreNotPartOfIt) {
   EXPECT_EQ(unit_->health().frames, 60U);  // the stale ones were still read and counted
 }
 
+// A dwell is collected in chunks: what the unit sends while the caller is busy between two
+// is the start of the next (collect_more), not lost; a plain collect still begins at its call
+// (the stand may have moved since). Every collect had dropped what queued before it.
+TEST_F(CanTransport, CollectMoreLosesNothingSinceThePreviousCollect) {
+  open_unit();
+  Result<std::vector<AccelSample>> first = Status::ok();
+  {
+    DelayedWriter w(kWriterDelay_s, [&] {
+      for (std::uint64_t n = 0; n < 5; ++n) send_sample(n);
+    });
+    first = unit_->collect(0.4);
+  }
+  ASSERT_TRUE(first.ok()) << first.status().message;
+  ASSERT_EQ(first.value().size(), 5U);
+  for (std::uint64_t n = 5; n < 10; ++n) send_sample(n);  // the caller is busy
+  Result<std::vector<AccelSample>> next = Status::ok();
+  {
+    DelayedWriter w(kWriterDelay_s, [&] {
+      for (std::uint64_t n = 10; n < 15; ++n) send_sample(n);
+    });
+    next = unit_->collect_more(0.4);
+  }
+  ASSERT_TRUE(next.ok()) << next.status().message;
+  ASSERT_EQ(next.value().size(), 10U);
+  for (std::size_t i = 0; i < 10; ++i) EXPECT_EQ(next.value()[i].counter, 5 + i);
+  // A plain collect begins at its call.
+  for (std::uint64_t n = 15; n < 20; ++n) send_sample(n);
+  Result<std::vector<AccelSample>> plain = Status::ok();
+  {
+    DelayedWriter w(kWriterDelay_s, [&] {
+      for (std::uint64_t n = 20; n < 23; ++n) send_sample(n);
+    });
+    plain = unit_->collect(0.4);
+  }
+  ASSERT_TRUE(plain.ok()) << plain.status().message;
+  ASSERT_EQ(plain.value().size(), 3U);
+  EXPECT_EQ(plain.value().front().counter, 20U);
+  // So does the first collect_more after a new start().
+  ASSERT_TRUE(unit_->stop());
+  ASSERT_TRUE(unit_->start());
+  for (std::uint64_t n = 23; n < 28; ++n) send_sample(n);
+  Result<std::vector<AccelSample>> after_start = Status::ok();
+  {
+    DelayedWriter w(kWriterDelay_s, [&] {
+      for (std::uint64_t n = 28; n < 31; ++n) send_sample(n);
+    });
+    after_start = unit_->collect_more(0.4);
+  }
+  ASSERT_TRUE(after_start.ok()) << after_start.status().message;
+  ASSERT_EQ(after_start.value().size(), 3U);
+  EXPECT_EQ(after_start.value().front().counter, 28U);
+}
+
 TEST_F(CanTransport, UnknownIdsAndRemoteFramesAreCountedAndIgnored) {
   open_unit();
   Result<std::vector<AccelSample>> r = Status::ok();

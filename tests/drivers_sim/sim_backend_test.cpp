@@ -2,6 +2,9 @@
 // and readings that obey calib's model (a calibration run through it recovers the truth).
 #include <gtest/gtest.h>
 
+#include <chrono>
+#include <thread>
+
 #include "calib/averaging.hpp"
 #include "calib/invariant_estimator.hpp"
 #include "drivers/sim/sim_backend.hpp"
@@ -84,6 +87,26 @@ TEST(SimUnit, CollectsAtTheSampleRateInScaledTime) {
   ASSERT_TRUE(samples);
   EXPECT_NEAR(static_cast<double>(samples.value().size()), 3000.0, 1.0);
   EXPECT_NEAR(samples.value()[1].t_s - samples.value()[0].t_s, 0.01, 1e-9);
+}
+
+// collect_more continues the previous collect's series on the sample grid however long the
+// caller takes in between; a plain collect begins at its call. At 500x a pause of 20 ms is 10 s
+// of the unit's time, which restarting the grid at each call lost from a dwell's chunks.
+TEST(SimUnit, CollectMoreContinuesTheSampleGrid) {
+  SimBackend b = ready_backend();
+  const auto first = b.unit->collect(1.0);
+  ASSERT_TRUE(first);
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));  // the caller is busy
+  const auto next = b.unit->collect_more(1.0);
+  ASSERT_TRUE(next);
+  ASSERT_FALSE(next.value().empty());
+  EXPECT_NEAR(next.value().front().t_s - first.value().back().t_s, 0.01, 1e-9);
+  EXPECT_EQ(next.value().front().counter, first.value().back().counter + 1);
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  const auto plain = b.unit->collect(1.0);
+  ASSERT_TRUE(plain);
+  ASSERT_FALSE(plain.value().empty());
+  EXPECT_GT(plain.value().front().t_s - next.value().back().t_s, 5.0);
 }
 
 TEST(SimUnit, SilentUnitFailsTheCollectWithAClearError) {
