@@ -604,8 +604,8 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
   if (options.specified_from == kWanderFromHeader &&
       (!options.specified.white() || options.known_tau))
     e.how +=
-        "; the unit's wander is the one this recording's header says its run was made with "
-        "(standcald's unit.bias_instability_*)";
+        "; the unit's wander as this recording's header gives it (what its run was made with: "
+        "standcald's unit.bias_instability_*)";
   FitNoiseChoice choice{e.noise,
                         weighted_below_bar ? GaussMarkovNoise{} : e.noise,
                         noise_finding(e, positions),
@@ -649,9 +649,10 @@ bool take_recording_wander(FitNoiseOptions& options, const std::optional<AllanFi
   const std::vector<double>& grid_s = options.estimate.tau_grid_s;
   const double shortest_s = grid_s.empty() ? 0.0 : *std::min_element(grid_s.begin(), grid_s.end());
   if (w.curves_end_s < w.tau_max_s || w.tau_max_s < shortest_s) return false;
-  options.known_tau = KnownTau{w.tau_min_s, w.tau_max_s};
-  options.specified = {Vec3::Constant(w.q * kUg), options.known_tau->centre_s()};
-  options.specified_from = kWanderFromRecording;
+  GivenWander given;
+  given.size_ug = w.q;
+  given.known_tau = KnownTau{w.tau_min_s, w.tau_max_s};
+  given.give_to(options, kWanderFromRecording);
   return true;
 }
 
@@ -666,6 +667,10 @@ void GivenWander::give_to(FitNoiseOptions& options, const std::string& from) con
 }
 
 void set_unit_wander_header(Recording& header, const GivenWander& w) {
+  std::erase_if(header.header, [](const auto& kv) {
+    return kv.first == kHeaderUnitWanderUg || kv.first == kHeaderUnitWanderTauS ||
+           kv.first == kHeaderUnitWanderTauMaxS;
+  });
   header.unit_wander = {w.size_ug, w.known_tau ? w.known_tau->min_s : 0,
                         w.known_tau && w.known_tau->range() ? w.known_tau->max_s : 0};
   if (w.size_ug > 0) header.set_header(kHeaderUnitWanderUg, round_trip_text(w.size_ug));

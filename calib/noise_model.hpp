@@ -198,9 +198,10 @@ struct FitNoiseOptions {
   // run of a quarter of an hour cannot tell a wander of 60 s from one of 1200 s, and the
   // biases' sigmas depend on it several-fold (docs/calibration.md, "Noise model").
   std::optional<KnownTau> known_tau;
-  // Where `specified` and known_tau came from when not from the operator: "" (given:
-  // `--bias-instability-ug`, standcald's unit.bias_instability_*), or kWanderFromRecording
-  // (take_recording_wander).
+  // Where `specified` and known_tau came from: "" (the operator: `--bias-instability-ug`,
+  // standcald's configuration), kWanderFromHeader (the recording's header: what its run was
+  // made with, take_header_wander) or kWanderFromRecording (its long dwell,
+  // take_recording_wander).
   std::string specified_from;
   NoiseEstimateOptions estimate;
   // estimate, invariant fit: estimate the wander from the full vector of the dwell means
@@ -234,7 +235,9 @@ struct GivenWander {
   void give_to(FitNoiseOptions& options, const std::string& from = "") const;
 };
 
-// The header keys of a run's recording that carry `w`, and its RecordedUnitWander; and back.
+// The header keys of a run's recording that carry `w` (replacing any), and its
+// RecordedUnitWander; and back. A tau_s without known_tau is not kept: nothing gives one but
+// the default, which given_wander_of restores.
 void set_unit_wander_header(Recording& header, const GivenWander& w);
 GivenWander given_wander_of(const RecordedUnitWander& recorded);
 
@@ -301,8 +304,8 @@ struct NoiseFinding {
   // The unit's wander was given to the fit (its size: `--bias-instability-ug`), whether or
   // not the fit weighted with it.
   bool unit_wander_given = false;
-  // Where that wander came from: "" (the operator) or kWanderFromRecording (this recording's
-  // own long dwell: take_recording_wander).
+  // Where that wander came from: FitNoiseOptions::specified_from ("" the operator,
+  // kWanderFromHeader, kWanderFromRecording).
   std::string unit_wander_from;
   // The Allan deviation of the raw samples, dwells pooled: white density, bias instability
   // and random walk within a dwell, where the wander above is between dwells.

@@ -51,6 +51,8 @@ Recording calibrated_recording(const RawInput& in, const NormCalibration& cal) {
   rec.columns.alpha_measured = false;
   rec.columns.temp = false;
   rec.columns.t_arrive = true;
+  // What its run was made with, as the norm fit of it took it (take_header_wander).
+  if (in.recording) rec.unit_wander = in.recording->unit_wander;
   for (std::size_t p = 0; p < intervals.size(); ++p) {
     for (std::size_t i = intervals[p].begin; i < intervals[p].end; ++i) {
       RecordingSample s;

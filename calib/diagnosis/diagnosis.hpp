@@ -60,8 +60,8 @@ struct DiagnoseOptions {
   // known_tau), rather than over the default grid that one run cannot choose from.
   std::optional<KnownTau> known_tau;
   // Where those came from when not from the operator (FitNoiseOptions::specified_from): the
-  // recording's own long dwell, which diagnose_recording takes where nothing is given, as the
-  // fits do (take_recording_wander).
+  // recording's header or its own long dwell, which diagnose_recording takes where nothing is
+  // given, as the fits do (take_unit_wander).
   std::string specified_wander_from;
   // Before `explained` or `consistent`: the residuals must pass the whiteness tests at this
   // family-wise false-alarm rate, each chosen term must agree between the two halves of the

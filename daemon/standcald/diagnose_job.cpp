@@ -53,7 +53,8 @@ void save_beside_recording(json& out, const std::string& recording_path) {
 
 }  // namespace
 
-json diagnose_run(const json& run_status, const StandLimits& limits, bool with_report) {
+json diagnose_run(const json& run_status, const StandLimits& limits, const GivenWander& configured,
+                  bool with_report) {
   const std::string run_id = run_status.value("run_id", "");
   const std::string path = run_status.value("recording_path", "");
   Recording rec;
@@ -67,6 +68,10 @@ json diagnose_run(const json& run_status, const StandLimits& limits, bool with_r
   try {
     DiagnoseOptions options;
     options.limits = limits;
+    if (!given_wander_of(rec.unit_wander).given()) {  // a recording from before headers had it
+      options.specified_wander = configured.specified();
+      options.known_tau = configured.known_tau;
+    }
     d = diagnose_recording(rec, options);
   } catch (const std::exception& e) {
     throw RpcError(ErrorCode::invalid_state,
@@ -151,7 +156,8 @@ void DiagnoseJobs::submit(const Sequencer& sequencer, const json& params, ReplyF
     throw RpcError(ErrorCode::busy,
                    std::to_string(queue_.size()) + " diagnoses are waiting; try again shortly");
   }
-  queue_.push_back({{json(status), sequencer.stand_limits(), with_report}, std::move(reply)});
+  queue_.push_back({{json(status), sequencer.stand_limits(), sequencer.unit_wander(), with_report},
+                    std::move(reply)});
   wake_.notify_one();
 }
 

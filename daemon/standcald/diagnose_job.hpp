@@ -26,14 +26,14 @@ inline constexpr std::size_t kMaxReportBytes = 768 * 1024;
 
 // The answer for one run: `run_status` is the run's `run.status` (its recording_path,
 // unit_serial, run_id); proposed positions lie inside `limits` (the configured stand's). The
-// unit's wander is the one the recording's header says the run was made with (its fits'),
-// else its own long dwell's (diagnose_recording).
+// unit's wander is the one the recording's header says the run was made with (its fits'); for
+// a recording whose header has none, `configured`; neither, its own long dwell's.
 // Throws protocol::RpcError with the code the protocol gives (-32603 unreadable
 // recording, -32007 a recording that cannot be diagnosed). The answer without the report
 // is also kept as diagnosis.json beside the recording (`saved_path`; null with
 // `save_error` when the disk refused it: the answer is still given).
 nlohmann::json diagnose_run(const nlohmann::json& run_status, const StandLimits& limits,
-                            bool with_report);
+                            const GivenWander& configured, bool with_report);
 
 class DiagnoseJobs {
  public:

@@ -68,7 +68,13 @@ json job_to_json(const DiagnoseJob& job) {
           {"limits",
            {{"alpha1", axis_range_to_json(job.limits.alpha1)},
             {"alpha2", axis_range_to_json(job.limits.alpha2)}}},
-          {"report", job.with_report}};
+          {"report", job.with_report},
+          {"unit_wander_ug", job.unit_wander.size_ug},
+          {"unit_wander_tau_s", job.unit_wander.tau_s},
+          {"unit_known_tau_s",
+           job.unit_wander.known_tau
+               ? json::array({job.unit_wander.known_tau->min_s, job.unit_wander.known_tau->max_s})
+               : json(nullptr)}};
 }
 
 DiagnoseJob job_from_json(const json& j) {
@@ -77,6 +83,10 @@ DiagnoseJob job_from_json(const json& j) {
   job.limits.alpha1 = axis_range_from_json(j.at("limits").at("alpha1"));
   job.limits.alpha2 = axis_range_from_json(j.at("limits").at("alpha2"));
   job.with_report = j.at("report").get<bool>();
+  job.unit_wander.size_ug = j.at("unit_wander_ug").get<double>();
+  job.unit_wander.tau_s = j.at("unit_wander_tau_s").get<double>();
+  if (const json& tau = j.at("unit_known_tau_s"); !tau.is_null())
+    job.unit_wander.known_tau = KnownTau{tau.at(0).get<double>(), tau.at(1).get<double>()};
   return job;
 }
 
@@ -239,7 +249,8 @@ int diagnose_worker_main() {
     const DiagnoseJob job = job_from_json(json::parse(input));
     const char* fault = std::getenv(kDiagnoseWorkerFaultEnv);
     if (fault != nullptr && std::string(fault) == "abort") std::abort();
-    answer = {{"result", diagnose_run(job.run_status, job.limits, job.with_report)}};
+    answer = {
+        {"result", diagnose_run(job.run_status, job.limits, job.unit_wander, job.with_report)}};
   } catch (const RpcError& e) {
     answer = error_answer(e.code(), e.what());
   } catch (const std::exception& e) {

@@ -29,6 +29,7 @@ inline constexpr const char* kDiagnoseWorkerFaultEnv = "STANDCALD_FAULT_DIAGNOSE
 struct DiagnoseJob {
   nlohmann::json run_status;  // the run's run.status: run_id, recording_path, unit_serial, ...
   StandLimits limits;         // the configured stand's ranges (proposed positions lie inside)
+  GivenWander unit_wander;    // the configured one: for a recording whose header has none
   bool with_report = false;
 };
 

@@ -65,7 +65,7 @@ Compensation run_compensation(const FitResult& fit, const RunRecord& record,
 
 }  // namespace
 
-json fit_finished_run(RunRecord& record, const std::string& run_dir,
+json fit_finished_run(RunRecord& record, const std::string& run_dir, const GivenWander& configured,
                       const std::optional<BudgetConfig>& budget) {
   // Streamed: the daemon holds one dwell of the recording, not the whole run.
   const RecordingDigest digest = digest_recording(record.recording_path);
@@ -76,7 +76,8 @@ json fit_finished_run(RunRecord& record, const std::string& run_dir,
   // run then estimates only the wander's size, which one run pins far better than tau); none
   // configured: the one the recording's own long dwell pins (a warm-up), if any.
   FitNoiseOptions noise;
-  take_unit_wander(noise, digest.recording, allan);
+  if (!take_header_wander(noise, digest.recording)) configured.give_to(noise);
+  take_recording_wander(noise, allan);
   JointFit joint = joint_fit(averages, noise, allan);
   json& result = joint.result;
   try {

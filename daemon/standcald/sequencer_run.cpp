@@ -601,7 +601,8 @@ Sequencer::SampledDwell Sequencer::sample_stable_dwell(const RunRecord& record, 
 
 void Sequencer::finish_with_fit(RunRecord& record) {
   set_progress(record, record.positions, "fitting");
-  json result = fit_finished_run(record, store_.run_dir(record.run_id), config_.budget);
+  json result =
+      fit_finished_run(record, store_.run_dir(record.run_id), unit_wander(), config_.budget);
   const std::string path = store_.run_dir(record.run_id) + "/result.json";
   write_state_file(path, json_text(result) + "\n");
   record.result_path = path;

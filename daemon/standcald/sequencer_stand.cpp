@@ -279,21 +279,20 @@ void Sequencer::refresh_stand_snapshot() {
 
 std::vector<drivers::AccelSample> Sequencer::collect(double seconds) {
   // The chunks after the first continue the unit's series (collect_more), so each also holds
-  // what came while this thread served commands before it: the series ends once its samples
-  // span `seconds`, not after `seconds` of chunks. Without samples, `seconds` of chunks; and a
-  // series whose times do not advance still ends, after twice that.
-  const double period_s = 1.0 / config_.sample_rate_hz;
+  // what came while this thread served commands before it: the series spans the time since
+  // the first call, on the hardware's monotonic clock (not the samples' wall-clock times,
+  // which a clock step would move), and the last chunk ends it `seconds` after that call.
   std::vector<drivers::AccelSample> all;
-  double requested_s = 0;
-  for (double left = seconds; left > 1e-9;) {
+  std::optional<double> series_start_s;
+  for (;;) {
     service();
-    const double chunk = std::min(left, kCollectChunk_s);
-    auto got = check(requested_s == 0 ? hw_.unit->collect(chunk) : hw_.unit->collect_more(chunk));
-    requested_s += chunk;
+    const double now_s = hw_.clock->now_s();
+    const double left_s = seconds - (series_start_s ? now_s - *series_start_s : 0.0);
+    if (left_s <= 1e-9) break;
+    const double chunk = std::min(left_s, kCollectChunk_s);
+    auto got = check(series_start_s ? hw_.unit->collect_more(chunk) : hw_.unit->collect(chunk));
+    if (!series_start_s) series_start_s = now_s;
     all.insert(all.end(), got.begin(), got.end());
-    const double spanned_s =
-        all.empty() ? requested_s : all.back().t_s - all.front().t_s + period_s;
-    left = std::min(seconds - spanned_s, 2 * seconds - requested_s);
   }
   return all;
 }

@@ -226,7 +226,9 @@ CertificateInput prepare_certificate(const CertificateRequest& req) {
   const fs::path stored_diagnosis =
       run.run_dir.empty() ? fs::path() : run.run_dir / "diagnosis.json";
   if (req.diagnose) {
-    DiagnoseOptions options;  // the wander the fits were given (the header's, when none)
+    // The unit's wander as the operator gave it to the fits; none: the header's or the long
+    // dwell's, as the fits'. (The diagnosis models the noise itself, even under --noise white.)
+    DiagnoseOptions options;
     options.specified_wander = req.noise.specified;
     options.known_tau = req.noise.known_tau;
     const Diagnosis d = diagnose_recording(run.recording, options);

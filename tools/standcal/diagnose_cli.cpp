@@ -36,8 +36,9 @@ struct DiagnoseCliOptions {
 
 DiagnoseOptions diagnose_options(const DiagnoseCliOptions& o) {
   DiagnoseOptions d;
-  d.specified_wander = o.wander.specified();
-  d.known_tau = o.wander.known_tau();
+  const GivenWander w = o.wander.given();
+  d.specified_wander = w.specified();
+  d.known_tau = w.known_tau;
   return d;
 }
 

@@ -85,7 +85,9 @@ void add_noise_options(CLI::App* cmd, NoiseCliOptions& o) {
                          "used when the run alone does not show it; a correlation time given is "
                          "taken as known, and the run estimates the wander's size at it; with "
                          "both given, a wander the run shows is weighted as this one unless the "
-                         "run departs from it (P < 0.01)");
+                         "run departs from it (P < 0.01); neither given: the one a standcald "
+                         "recording's header says its run was made with, else its own long "
+                         "dwell's");
 }
 
 void add_fit_wander_options(CLI::App* cmd, WanderCliOptions& o, const std::string& use) {

@@ -151,7 +151,10 @@ void print_result(const json& r) {
     fit.noise.allan = std::move(averaged.allan);
     std::cout << format_report(fit, report_context(rec, std::move(averaged.averages)));
     printed = true;
-  } catch (const std::exception&) {
+  } catch (const std::exception& e) {
+    // Read elsewhere, or gone: the daemon's own figures below, and why not the full report.
+    std::fprintf(stderr, "warning: the report needs the recording, which cannot be read here: %s\n",
+                 e.what());
   }
   if (!printed && r.contains("fit_error")) {
     std::printf("no calibration from this run alone: %s\n", r.value("fit_error", "").c_str());

@@ -1,0 +1,67 @@
+// The fit of a finished run (daemon/standcald/run_result.cpp) on recordings written here: the
+// unit's wander it weighs with comes from the recording's header, and from the configuration
+// only for a recording whose header has none.
+#include "daemon/standcald/run_result.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "calib/programs.hpp"
+#include "calib/simulator.hpp"
+#include "tests/support/temp_dir.hpp"
+
+namespace standcal::daemon {
+namespace {
+
+using nlohmann::json;
+
+GivenWander wander_of(double size_ug, double tau_s) {
+  GivenWander w;
+  w.size_ug = size_ug;
+  w.known_tau = KnownTau{tau_s, tau_s};
+  return w;
+}
+
+// The result of a paper9 run whose recording's header carries `recorded` (none: no keys),
+// fitted by a daemon configured with `configured`.
+json fit_of_run(const std::optional<GivenWander>& recorded, const GivenWander& configured) {
+  test::TempDir dir{"standcal-run-result"};
+  SimulationRequest req;
+  req.program = paper9();
+  req.truth = default_truth();
+  req.timing.dwell_s = 10;
+  req.seed = 9;
+  req.unit_serial = "AU-R";
+  Recording rec = simulate_run(req);
+  if (recorded) set_unit_wander_header(rec, *recorded);
+  RunRecord record;
+  record.run_id = "20261206T000000Z-AU-R";
+  record.unit_serial = "AU-R";
+  record.g_local_mps2 = rec.g_local_mps2;
+  record.recording_path = dir.file("recording.csv");
+  write_recording(rec, record.recording_path);
+  return fit_finished_run(record, dir.path(), configured, std::nullopt);
+}
+
+// A run begun by a daemon whose recordings did not yet carry the unit's wander (resumed after
+// an upgrade, or diagnosed now) is fitted with the configured one, as it was then; a recording
+// that carries one is fitted with its own, whatever the configuration says now.
+TEST(RunResult, TheHeadersWanderComesFirstAndTheConfiguredOneStandsInForNone) {
+  const json old_recording = fit_of_run(std::nullopt, wander_of(5, 600));
+  const json& noise = old_recording["noise"];
+  EXPECT_EQ(noise["model"], "gauss_markov") << noise.dump(2);
+  EXPECT_DOUBLE_EQ(noise["wander_ug"][0].get<double>(), 5);
+  EXPECT_EQ(noise["unit_wander_from"], "given");
+
+  const json carried = fit_of_run(wander_of(3, 300), wander_of(5, 600));
+  EXPECT_DOUBLE_EQ(carried["noise"]["wander_ug"][0].get<double>(), 3) << carried["noise"].dump(2);
+  EXPECT_DOUBLE_EQ(carried["noise"]["tau_s"].get<double>(), 300);
+  EXPECT_EQ(carried["noise"]["unit_wander_from"], "header");
+
+  const json neither = fit_of_run(std::nullopt, GivenWander{});
+  EXPECT_EQ(neither["noise"]["model"], "white") << neither["noise"].dump(2);
+}
+
+}  // namespace
+}  // namespace standcal::daemon
