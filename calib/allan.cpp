@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <stdexcept>
 
@@ -473,9 +474,13 @@ DwellAllan dwell_allan(const Recording& rec) {
   std::array<AllanAccumulator, 3> pooled{AllanAccumulator(period_s), AllanAccumulator(period_s),
                                          AllanAccumulator(period_s)};
   const double to_ug = 1.0 / rec.g_local_mps2 / kUg;
+  DwellGaps gaps;
   std::size_t first = 0;
   for (std::size_t k = 1; k <= rec.samples.size(); ++k) {
-    if (k < rec.samples.size() && rec.samples[k].pos == rec.samples[first].pos) continue;
+    if (k < rec.samples.size() && rec.samples[k].pos == rec.samples[first].pos) {
+      gaps.add_step(rec.samples[k].t_s - rec.samples[k - 1].t_s, period_s);
+      continue;
+    }
     for (int a = 0; a < 3; ++a) {
       std::vector<double> segment;
       segment.reserve(k - first + 1);
@@ -484,14 +489,40 @@ DwellAllan dwell_allan(const Recording& rec) {
     }
     first = k;
   }
-  return finish_dwell_allan(period_s, pooled);
+  return finish_dwell_allan(period_s, pooled, gaps);
 }
 
-DwellAllan finish_dwell_allan(double sample_period_s,
-                              const std::array<AllanAccumulator, 3>& pooled) {
+void DwellGaps::add_step(double step_s, double period_s) {
+  sample_period_s = period_s;
+  spanned_s += step_s;
+  ++steps;
+  if (step_s > 1.5 * period_s) ++count;
+}
+
+void DwellGaps::add(const DwellGaps& other) {
+  count += other.count;
+  steps += other.steps;
+  spanned_s += other.spanned_s;
+  if (other.steps > 0) sample_period_s = other.sample_period_s;
+}
+
+std::string DwellGaps::warning() const {
+  if (!(missing_share() > kMaxDwellGapShare)) return "";
+  char text[320];
+  std::snprintf(text, sizeof text,
+                "the dwells' samples miss %.3g s of their %.3g s in %zu gaps (%.1f %%): their "
+                "Allan curves take them as evenly spaced, which shortens the correlation times "
+                "they show, so no bias wander is read off them",
+                missing_s(), spanned_s, count, 100 * missing_share());
+  return text;
+}
+
+DwellAllan finish_dwell_allan(double sample_period_s, const std::array<AllanAccumulator, 3>& pooled,
+                              const DwellGaps& gaps) {
   DwellAllan out;
   out.sample_period_s = sample_period_s;
   out.segments = pooled[0].segments();
+  out.gaps = gaps;
   for (std::size_t a = 0; a < 3; ++a) {
     out.curves[a] = pooled[a].curve();
     out.figures[a] = noise_figures(out.curves[a]);
@@ -500,7 +531,7 @@ DwellAllan finish_dwell_allan(double sample_period_s,
   const std::optional<GaussMarkovAllanFit> fit = fit_gauss_markov_allan(curves, sample_period_s);
   if (fit) {
     out.sample_correlation = sample_correlation_of(*fit, sample_period_s);
-    out.wander = wander_to_give(*fit, curves_end_s(curves));
+    if (gaps.warning().empty()) out.wander = wander_to_give(*fit, curves_end_s(curves));
   }
   return out;
 }
@@ -577,7 +608,8 @@ std::optional<AllanFinding> allan_finding(const Recording& rec, std::string* why
 }
 
 AllanFinding allan_finding_of(const DwellAllan& a) {
-  return {a.sample_period_s, a.segments, a.figures, a.sample_correlation, a.wander};
+  return {a.sample_period_s,    a.segments, a.figures,
+          a.sample_correlation, a.wander,   a.gaps.warning()};
 }
 
 std::string no_sample_period_warning(const Recording& rec) {

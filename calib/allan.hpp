@@ -244,11 +244,36 @@ std::optional<SampleCorrelation> sample_correlation(
 std::optional<SampleCorrelation> sample_correlation_of(const GaussMarkovAllanFit& fit,
                                                        double sample_period_s);
 
+// Time missing inside a recording's dwells. The Allan curves take a dwell's samples as evenly
+// spaced, so gaps shorten the correlation times they show. The time missing is the dwells'
+// span beyond their samples' count of periods, so that receive-time jitter (a late sample
+// and an early one) cancels; `count` is the steps longer than 1.5 periods, for the words.
+struct DwellGaps {
+  std::size_t count = 0;
+  std::size_t steps = 0;
+  double spanned_s = 0;  // every step between a dwell's samples, summed
+  double sample_period_s = 0;
+  void add_step(double step_s, double period_s);
+  void add(const DwellGaps& other);
+  double missing_s() const {
+    return std::max(0.0, spanned_s - static_cast<double>(steps) * sample_period_s);
+  }
+  double missing_share() const { return spanned_s > 0 ? missing_s() / spanned_s : 0; }
+  // "" where the gaps hold no more than kMaxDwellGapShare of the dwells' time; else what they
+  // do to the curves, for the recording's warnings.
+  std::string warning() const;
+};
+// Beyond this share of the dwells' time in gaps no wander is read off their curves: a
+// two-hour dwell with 28 % of its time in gaps (standcald's chunks before collect_more) showed
+// a wander of 60 s as one of 35-55 s; a unit's odd lost sample is far below it.
+inline constexpr double kMaxDwellGapShare = 0.01;
+
 // The Allan deviation of each axis over a recording's dwells pooled: each position block is
 // one static segment (the moves are not samples), in ug, with the figures read off it.
 struct DwellAllan {
   double sample_period_s = 0;
   std::size_t segments = 0;
+  DwellGaps gaps;
   std::array<std::vector<AllanPoint>, 3> curves;        // ug
   std::array<NoiseFigures, 3> figures;                  // ug/sqrt(Hz), ug, ug/sqrt(s)
   std::optional<SampleCorrelation> sample_correlation;  // set by finish_dwell_allan
@@ -257,9 +282,10 @@ struct DwellAllan {
 // Throws std::runtime_error naming the recording when it has fewer than kMinAllanSamples.
 inline constexpr std::size_t kMinAllanSamples = 30;
 DwellAllan dwell_allan(const Recording& rec);
-// The curves and figures of three axes' pooled accumulators (samples in ug).
-DwellAllan finish_dwell_allan(double sample_period_s,
-                              const std::array<AllanAccumulator, 3>& pooled);
+// The curves and figures of three axes' pooled accumulators (samples in ug); no wander where
+// `gaps` hold more than kMaxDwellGapShare of the dwells' time.
+DwellAllan finish_dwell_allan(double sample_period_s, const std::array<AllanAccumulator, 3>& pooled,
+                              const DwellGaps& gaps = {});
 
 // The figures alone, as the fit's noise model reports them (`noise.allan`); empty when the
 // recording has too few samples or no rate.
@@ -271,6 +297,7 @@ struct AllanFinding {
   // The wander the curves pin (a dwell long enough to show it turn over), in ug: what the
   // fits take as the unit's where none is given (take_recording_wander, noise_model.hpp).
   std::optional<WanderToGive> wander;
+  std::string gaps_warning;  // DwellGaps::warning of the dwells
 };
 AllanFinding allan_finding_of(const DwellAllan& a);
 // `why_none`, where given, is set when a recording of kMinAllanSamples or more has no curve

@@ -143,6 +143,8 @@ AveragedRecording average_recording(const Recording& rec) {
   std::string why_no_allan;
   AveragedRecording averaged{std::move(out), allan_finding(rec, &why_no_allan), ""};
   averaged.allan_warning = allan_unavailable_warning(rec.samples.size(), why_no_allan);
+  if (averaged.allan && !averaged.allan->gaps_warning.empty())
+    averaged.allan_warning = rec.source + ": " + averaged.allan->gaps_warning;
   if (averaged.allan && averaged.allan->sample_correlation)
     widen_for_sample_correlation(averaged.averages, *averaged.allan->sample_correlation);
   return averaged;

@@ -53,7 +53,8 @@ std::vector<PositionAverage> average_positions(const Recording& rec);
 struct AveragedRecording {
   std::vector<PositionAverage> averages;
   std::optional<AllanFinding> allan;
-  // allan_unavailable_warning's text when the recording has no curve, or "".
+  // allan_unavailable_warning's text when the recording has no curve, its gaps' (DwellGaps)
+  // when they hold too much of the dwells' time, or "".
   std::string allan_warning;
 };
 AveragedRecording average_recording(const Recording& rec);

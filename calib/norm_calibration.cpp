@@ -199,7 +199,7 @@ AllanFinding allan_finding_in_ug(const StaticDetection& d, const NormCompensatio
   const DwellAllan a = allan_in_ug(d, ug_per_input_unit(k, in.g_mps2), 1.0 / in.sample_rate_hz);
   // No sample correlation: the intervals' standard errors already take the curve at their
   // length (coloured_standard_error).
-  AllanFinding out{a.sample_period_s, a.segments, a.figures, std::nullopt, std::nullopt};
+  AllanFinding out{a.sample_period_s, a.segments, a.figures, std::nullopt, std::nullopt, ""};
   if (wander)
     out.wander = wander_to_give({a.curves[0], a.curves[1], a.curves[2]}, a.sample_period_s);
   return out;

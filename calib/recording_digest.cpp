@@ -33,6 +33,8 @@ void RecordingDigester::header(const Recording& rec) {
 
 void RecordingDigester::row(const RecordingSample& s) {
   if (dwell_.size() > 0 && s.pos != dwell_.head.pos) finish_dwell();
+  if (dwell_.size() > 0 && allan_[0])
+    gaps_.add_step(s.t_s - dwell_.t_end_s, allan_[0]->sample_period_s());
   if (!rate_known_ && dwell_.size() > 0) steps_s_.push_back(s.t_s - dwell_.t_end_s);
   dwell_.add(s);
   ++samples_;
@@ -74,6 +76,7 @@ void RecordingDigester::append(RecordingDigester&& later) {
                    std::make_move_iterator(later.averages_.end()));
   for (std::size_t a = 0; a < 3; ++a)
     if (allan_[a] && later.allan_[a]) allan_[a]->append(*later.allan_[a]);
+  gaps_.add(later.gaps_);  // the one step across the split is not counted
   samples_ += later.samples_;
 }
 
@@ -108,7 +111,7 @@ void RecordingDigester::finish_allan(const Recording& read, RecordingDigest& out
     return;
   }
   if (!rate_known_) {
-    const std::optional<double> step_s = median_step_s(std::move(steps_s_));
+    const std::optional<double> step_s = median_step_s(steps_s_);  // kept: the gaps below
     if (!step_s) {
       out.allan_unavailable =
           read.source + ": cannot tell the sample rate (no sample_rate_hz header)";
@@ -119,13 +122,14 @@ void RecordingDigester::finish_allan(const Recording& read, RecordingDigest& out
       return;
     }
     start_allan(*step_s);
+    for (double step : steps_s_) gaps_.add_step(step, *step_s);
     for (auto& held : held_) {
       dwell_.f_mps2 = std::move(held);
       feed_allan();
     }
   }
   out.allan =
-      finish_dwell_allan(allan_[0]->sample_period_s(), {*allan_[0], *allan_[1], *allan_[2]});
+      finish_dwell_allan(allan_[0]->sample_period_s(), {*allan_[0], *allan_[1], *allan_[2]}, gaps_);
 }
 
 std::optional<AllanFinding> RecordingDigest::allan_finding() const {
@@ -134,7 +138,9 @@ std::optional<AllanFinding> RecordingDigest::allan_finding() const {
 }
 
 std::string RecordingDigest::allan_warning() const {
-  return allan ? "" : allan_unavailable_warning(samples, allan_unavailable);
+  if (!allan) return allan_unavailable_warning(samples, allan_unavailable);
+  const std::string gaps = allan->gaps.warning();
+  return gaps.empty() ? "" : recording.source + ": " + gaps;
 }
 
 RecordingDigest digest_recording(const std::string& path, const DigestOptions& options) {

@@ -37,7 +37,8 @@ struct RecordingDigest {
 
   // The figures alone, as allan_finding(recording) gives them (the fit's `noise.allan`).
   std::optional<AllanFinding> allan_finding() const;
-  // allan_unavailable_warning of a recording with no curve, as AveragedRecording's, or "".
+  // allan_unavailable_warning of a recording with no curve, or its gaps' (DwellGaps), as
+  // AveragedRecording's, or "".
   std::string allan_warning() const;
 };
 
@@ -78,6 +79,7 @@ class RecordingDigester : public RecordingRowSink {
   std::array<std::optional<AllanAccumulator>, 3> allan_;
   std::vector<std::array<std::vector<double>, 3>> held_;  // dwells read before the rate is known
   std::vector<double> steps_s_;                           // sample steps, when no rate header
+  DwellGaps gaps_;                                        // steps within dwells beyond a period
 };
 
 // Reads and reduces the standcal-recording/1 file at `path`. Throws what read_recording

@@ -16,11 +16,13 @@
 #include "calib/invariant_estimator.hpp"
 #include "calib/norm_calibration.hpp"
 #include "calib/raw_input.hpp"
+#include "calib/recording_digest.hpp"
 #include "calib/report.hpp"
 #include "calib/simulator.hpp"
 #include "calib/units.hpp"
 #include "tests/calib/test_support.hpp"
 #include "tests/support/statistical.hpp"
+#include "tests/support/temp_dir.hpp"
 
 using namespace standcal;
 
@@ -581,6 +583,56 @@ TEST(FitNoise, AGivenWanderTheRunAgreesWithIsWhatTheFitWeightsWith) {
             std::string::npos)
       << departs.noise.how;
   EXPECT_GT(departs.noise.wander_ug.minCoeff(), 3 * wander_ug / 10) << departs.noise.how;
+}
+
+// A long dwell whose samples have gaps (a quarter of its time, in 0.25 s every second: what
+// standcald's dwells held before its chunks continued each other) shows a wander of 60 s as a
+// shorter one, since its curves take the samples as evenly spaced: no wander is read off it,
+// in memory or streamed, and the recording's warnings say why. Without the check its curves
+// gave a wander to the fits (this test failed so).
+TEST(FitNoise, ALongDwellWithGapsGivesNoWander) {
+  SimulationRequest req;
+  req.program = diagnostic32();
+  req.truth = default_truth();
+  req.truth.noise.bias_instability_ug = 3 * req.truth.noise.density_ug_rthz / std::sqrt(10.0);
+  req.truth.noise.bias_instability_tau_s = 60;
+  req.timing.dwell_s = 10;
+  req.timing.sample_rate_hz = 25;
+  req.seed = 21;
+  req.program.positions.front().dwell_s = 1800;
+  Recording rec = simulate_run(req);
+  // Receive-time jitter is no gap: every other sample of the long dwell 0.6 periods late
+  // leaves its wander as it was.
+  Recording jittered = rec;
+  for (std::size_t i = 1; i + 1 < jittered.samples.size(); i += 2)
+    if (jittered.samples[i].pos == 0 && jittered.samples[i + 1].pos == 0)
+      jittered.samples[i].t_s += 0.6 / req.timing.sample_rate_hz;
+  const AveragedRecording late = average_recording(jittered);
+  ASSERT_TRUE(late.allan.has_value());
+  EXPECT_TRUE(late.allan->wander.has_value()) << late.allan_warning;
+  EXPECT_EQ(late.allan_warning, "");
+  EXPECT_GT(dwell_allan(jittered).gaps.count, 1000u);  // steps of 1.6 periods, cancelled by 0.4
+
+  const double first_s = rec.samples.front().t_s;
+  std::erase_if(rec.samples, [&](const RecordingSample& x) {
+    return x.pos == 0 && std::fmod(x.t_s - first_s, 1.0) >= 0.75;
+  });
+  const AveragedRecording averaged = average_recording(rec);
+  ASSERT_TRUE(averaged.allan.has_value());
+  EXPECT_FALSE(averaged.allan->wander.has_value())
+      << "tau " << averaged.allan->wander->tau_min_s << "-" << averaged.allan->wander->tau_max_s;
+  EXPECT_NE(averaged.allan_warning.find("gaps"), std::string::npos) << averaged.allan_warning;
+  FitNoiseOptions noise;
+  EXPECT_FALSE(take_recording_wander(noise, averaged.allan));
+  test::TempDir dir{"standcal-gaps"};
+  write_recording(rec, dir.file("gaps.csv"));
+  const RecordingDigest digest = digest_recording(dir.file("gaps.csv"));
+  ASSERT_TRUE(digest.allan.has_value());
+  EXPECT_FALSE(digest.allan->wander.has_value());
+  const DwellAllan in_memory = dwell_allan(rec);
+  EXPECT_GT(in_memory.gaps.count, 1000u);
+  EXPECT_EQ(digest.allan->gaps.count, in_memory.gaps.count);
+  EXPECT_NE(digest.allan_warning().find("gaps"), std::string::npos) << digest.allan_warning();
 }
 
 // A calibration recording that holds its first position long enough to show the wander turn
