@@ -506,8 +506,10 @@ void DwellGaps::add(const DwellGaps& other) {
   if (other.steps > 0) sample_period_s = other.sample_period_s;
 }
 
+bool DwellGaps::too_much() const { return missing_share() > kMaxDwellGapShare; }
+
 std::string DwellGaps::warning() const {
-  if (!(missing_share() > kMaxDwellGapShare)) return "";
+  if (!too_much()) return "";
   char text[320];
   std::snprintf(text, sizeof text,
                 "the dwells' samples miss %.3g s of their %.3g s in %zu gaps (%.1f %%): their "
@@ -531,7 +533,7 @@ DwellAllan finish_dwell_allan(double sample_period_s, const std::array<AllanAccu
   const std::optional<GaussMarkovAllanFit> fit = fit_gauss_markov_allan(curves, sample_period_s);
   if (fit) {
     out.sample_correlation = sample_correlation_of(*fit, sample_period_s);
-    if (gaps.warning().empty()) out.wander = wander_to_give(*fit, curves_end_s(curves));
+    if (!gaps.too_much()) out.wander = wander_to_give(*fit, curves_end_s(curves));
   }
   return out;
 }

@@ -259,8 +259,9 @@ struct DwellGaps {
     return std::max(0.0, spanned_s - static_cast<double>(steps) * sample_period_s);
   }
   double missing_share() const { return spanned_s > 0 ? missing_s() / spanned_s : 0; }
-  // "" where the gaps hold no more than kMaxDwellGapShare of the dwells' time; else what they
-  // do to the curves, for the recording's warnings.
+  // More than kMaxDwellGapShare of the dwells' time missing.
+  bool too_much() const;
+  // "" unless too_much(); else what the gaps do to the curves, for the recording's warnings.
   std::string warning() const;
 };
 // Beyond this share of the dwells' time in gaps no wander is read off their curves: a

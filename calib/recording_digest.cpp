@@ -139,8 +139,7 @@ std::optional<AllanFinding> RecordingDigest::allan_finding() const {
 
 std::string RecordingDigest::allan_warning() const {
   if (!allan) return allan_unavailable_warning(samples, allan_unavailable);
-  const std::string gaps = allan->gaps.warning();
-  return gaps.empty() ? "" : recording.source + ": " + gaps;
+  return allan->gaps.too_much() ? recording.source + ": " + allan->gaps.warning() : "";
 }
 
 RecordingDigest digest_recording(const std::string& path, const DigestOptions& options) {

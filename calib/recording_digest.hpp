@@ -79,7 +79,7 @@ class RecordingDigester : public RecordingRowSink {
   std::array<std::optional<AllanAccumulator>, 3> allan_;
   std::vector<std::array<std::vector<double>, 3>> held_;  // dwells read before the rate is known
   std::vector<double> steps_s_;                           // sample steps, when no rate header
-  DwellGaps gaps_;                                        // steps within dwells beyond a period
+  DwellGaps gaps_;                                        // the steps within dwells
 };
 
 // Reads and reduces the standcal-recording/1 file at `path`. Throws what read_recording
