@@ -508,14 +508,23 @@ void DwellGaps::add(const DwellGaps& other) {
 
 bool DwellGaps::too_much() const { return missing_share() > kMaxDwellGapShare; }
 
-std::string DwellGaps::warning() const {
+std::string DwellGaps::warning(std::string_view stretches) const {
   if (!too_much()) return "";
-  char text[320];
-  std::snprintf(text, sizeof text,
-                "the dwells' samples miss %.3g s of their %.3g s in %zu gaps (%.1f %%): their "
-                "Allan curves take them as evenly spaced, which shortens the correlation times "
-                "they show, so no bias wander is read off them",
-                missing_s(), spanned_s, count, 100 * missing_share());
+  const std::string held(stretches);
+  char text[400];
+  if (count == 0)  // no step stands out: the time is spread over every step
+    std::snprintf(text, sizeof text,
+                  "the %s' samples span %.3g s more than their %zu steps at the sample rate "
+                  "(%.1f %% of their %.3g s): the rate does not match their time stamps, and "
+                  "their Allan curves, which take the rate's spacing, may show the wrong "
+                  "correlation times, so no bias wander is read off them",
+                  held.c_str(), missing_s(), steps, 100 * missing_share(), spanned_s);
+  else
+    std::snprintf(text, sizeof text,
+                  "the %s' samples miss %.3g s of their %.3g s in %zu gaps (%.1f %%): their "
+                  "Allan curves take them as evenly spaced, which shortens the correlation "
+                  "times they show, so no bias wander is read off them",
+                  held.c_str(), missing_s(), spanned_s, count, 100 * missing_share());
   return text;
 }
 

@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "calib/recording.hpp"
@@ -262,7 +263,8 @@ struct DwellGaps {
   // More than kMaxDwellGapShare of the dwells' time missing.
   bool too_much() const;
   // "" unless too_much(); else what the gaps do to the curves, for the recording's warnings.
-  std::string warning() const;
+  // `stretches` names what the samples were held in ("dwells", "static intervals").
+  std::string warning(std::string_view stretches = "dwells") const;
 };
 // Beyond this share of the dwells' time in gaps no wander is read off their curves: a
 // two-hour dwell with 28 % of its time in gaps (standcald's chunks before collect_more) showed

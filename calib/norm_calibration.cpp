@@ -193,19 +193,26 @@ json stability_json(const NormCalibration& c) {
 
 // The Allan figures of the intervals pooled, in ug of the calibrated axes (the fit's
 // `noise.allan`, as for stand recordings); with `wander`, the wander a long interval pins
-// (take_recording_wander; a fit of the curves, left out where the fit could not take it).
+// (take_recording_wander; a fit of the curves, left out where the fit could not take it, or
+// where gaps in the intervals' samples distort the curves).
 AllanFinding allan_finding_in_ug(const StaticDetection& d, const NormCompensation& k,
                                  const RawInput& in, bool wander) {
   const DwellAllan a = allan_in_ug(d, ug_per_input_unit(k, in.g_mps2), 1.0 / in.sample_rate_hz);
   // No sample correlation: the intervals' standard errors already take the curve at their
   // length (coloured_standard_error).
-  AllanFinding out{a.sample_period_s, a.segments, a.figures, std::nullopt, std::nullopt, ""};
-  if (wander)
+  AllanFinding out{a.sample_period_s, a.segments,   a.figures,
+                   std::nullopt,      std::nullopt, a.gaps.warning(kStaticIntervals)};
+  if (wander && !a.gaps.too_much())
     out.wander = wander_to_give({a.curves[0], a.curves[1], a.curves[2]}, a.sample_period_s);
   return out;
 }
 
 }  // namespace
+
+std::string gaps_warning(const NormCalibration& c, const RawInput& in) {
+  const std::optional<AllanFinding>& allan = c.fit.result.noise.allan;
+  return allan && !allan->gaps_warning.empty() ? in.source + ": " + allan->gaps_warning : "";
+}
 
 Vec3 ug_per_input_unit(const NormCompensation& k, double g_mps2) {
   return k.matrix.diagonal().cwiseAbs() / (g_mps2 * kUg);
@@ -285,6 +292,7 @@ NormCalibration calibrate(const RawInput& in, const NormCalibrationOptions& o) {
   NormCalibrationOptions taken = o;
   if (take_recording_wander(taken.fit.noise, allan))
     c.fit = fit_norm(c.detection.intervals, in.g_mps2, in.units, taken.fit);
+  if (!allan->gaps_warning.empty()) c.notes.push_back(allan->gaps_warning);
   c.fit.result.noise.allan = std::move(allan);
   c.fit.result.noise.understated_by = white_noise_understatement(
       c.detection.intervals, c.fit.compensation, in.g_mps2, c.fit.result.noise);

@@ -51,6 +51,10 @@ Vec3 ug_per_input_unit(const NormCompensation& k, double g_mps2);
 Vec3 white_noise_understatement(const std::vector<StaticInterval>& intervals,
                                 const NormCompensation& k, double g, const NoiseFinding& n);
 
+// "" or, where gaps in the static intervals' samples kept the fit from reading a wander off
+// their curves (DwellGaps), the warning that says so, naming the recording.
+std::string gaps_warning(const NormCalibration& c, const RawInput& input);
+
 // Throws std::runtime_error with a plain message (no static interval, too few, no
 // convergence).
 NormCalibration calibrate_without_angles(const RawInput& input,

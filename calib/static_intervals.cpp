@@ -239,6 +239,16 @@ bool curves_are_white(const StaticDetection& d, double period_s, std::string& wh
   return false;
 }
 
+// The time missing inside the intervals: each step between their samples against the rate.
+DwellGaps interval_gaps(const RawInput& in, const std::vector<StaticInterval>& intervals) {
+  DwellGaps gaps;
+  const double period_s = 1.0 / in.sample_rate_hz;
+  for (const StaticInterval& iv : intervals)
+    for (std::size_t i = iv.begin + 1; i < iv.end; ++i)
+      gaps.add_step(in.t_s[i] - in.t_s[i - 1], period_s);
+  return gaps;
+}
+
 // The coloured-noise standard errors: the intervals pooled as segments of one Allan curve.
 void attach_coloured_errors(const RawInput& in, StaticDetection& d) {
   std::array<std::vector<std::vector<double>>, 3> segments;
@@ -347,6 +357,7 @@ StaticDetection detect_static_intervals(const RawInput& in, const StaticDetector
     if (iv.samples >= 2) d.intervals.push_back(iv);
   }
   attach_coloured_errors(in, d);
+  d.gaps = interval_gaps(in, d.intervals);
   return d;
 }
 

@@ -22,6 +22,7 @@
 // units, three or more identical samples at an axis's extreme beyond 1.2 g (clipping).
 #include <cstddef>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "calib/allan.hpp"
@@ -58,6 +59,10 @@ struct StaticDetectorOptions {
   bool require_orientations = true;
 };
 
+// What the gap warnings (DwellGaps::warning) call the stretches a raw recording's samples
+// are pooled from.
+inline constexpr std::string_view kStaticIntervals = "static intervals";
+
 struct StaticDetection {
   std::vector<StaticInterval> intervals;
   std::string how;  // in words: blocks or detector, window, threshold
@@ -70,6 +75,9 @@ struct StaticDetection {
   // The Allan deviation of the intervals pooled, per axis, input units: what the
   // coloured-noise standard errors are read from.
   std::array<std::vector<AllanPoint>, 3> allan;
+  // Time missing inside the intervals, from their samples' time stamps: those curves take the
+  // samples as evenly spaced, so beyond kMaxDwellGapShare no wander is read off them.
+  DwellGaps gaps;
   // How the intervals' standard errors were made, and why: sigma / sqrt(n) where the pooled
   // curves are white noise's, else the curve at each interval's length.
   std::string standard_errors_how;

@@ -58,6 +58,7 @@ DwellAllan allan_in_ug(const StaticDetection& d, const Vec3& ug_per_unit, double
   DwellAllan out;
   out.sample_period_s = sample_period_s;
   out.segments = d.intervals.size();
+  out.gaps = d.gaps;
   for (std::size_t a = 0; a < 3; ++a) {
     out.curves[a] = d.allan[a];
     for (AllanPoint& p : out.curves[a]) p.deviation *= ug_per_unit[static_cast<Eigen::Index>(a)];

@@ -38,7 +38,8 @@ struct StaticNoise {
 // with values not read as counts.
 StaticNoise static_noise(const RawInput& in, const StaticNoiseOptions& options = {});
 
-// The pooled curves of a detection scaled per axis to ug, with the figures read off them.
+// The pooled curves of a detection scaled per axis to ug, with the figures read off them and
+// the time missing inside the intervals (`gaps`).
 DwellAllan allan_in_ug(const StaticDetection& d, const Vec3& ug_per_unit, double sample_period_s);
 
 }  // namespace standcal

@@ -184,6 +184,7 @@ class Sequencer {
   SampledDwell sample_stable_dwell(const RunRecord& record, int index, double dwell_s);
   void start_dwell_pool(const RunRecord& record);
   void pool_recorded_dwells(const RunRecord& record);
+  GivenWander recorded_run_wander(const RunRecord& record) const;
   void wait_for_operator(RunRecord& record, const Program& program, int index);
   void wait_thermal_stability(RunRecord& record);
   bool wait_while_paused(RunRecord& record);
@@ -223,6 +224,9 @@ class Sequencer {
   int positions_timed_ = 0;
   // The active run's dwells pooled, for the drift rule (stability.trend_limit_sigmas).
   std::optional<DwellSampleCorrelation> dwell_correlation_;
+  // The unit's bias wander the active run's drift rule allows for: the one it was begun with
+  // (the configured one then, its recording's header on resume), as its fits weigh with.
+  GivenWander run_wander_;
 
   // Snapshot for the thread-safe views.
   mutable std::mutex snapshot_mutex_;

@@ -250,6 +250,7 @@ void Sequencer::run_loop(RunRecord record, const std::function<void()>& started)
   positions_timed_ = 0;
   mean_position_real_s_ = 0;
   start_dwell_pool(record);
+  run_wander_ = fresh ? unit_wander() : recorded_run_wander(record);
   mounted_ = (!fresh && uses_several_mounts(program))
                  ? std::nullopt
                  : std::optional<Mount>(program.positions.front().mount);
@@ -541,6 +542,41 @@ void Sequencer::start_dwell_pool(const RunRecord& record) {
   dwell_correlation_.emplace(1 / config_.sample_rate_hz, record.g_local_mps2);
 }
 
+namespace {
+// Reads nothing but a recording's header.
+struct HeaderOnly : RecordingRowSink {
+  void header(const Recording&) override {}
+  void row(const RecordingSample&) override {}
+};
+}  // namespace
+
+// The unit's wander a resumed run was begun with, as its recording's header keeps it (what
+// its fits weigh with: fit_finished_run); the configured one where the header has none (a run
+// begun before headers carried it) or cannot be read (the reopened recording is checked as
+// it is read on).
+GivenWander Sequencer::recorded_run_wander(const RunRecord& record) const {
+  try {
+    HeaderOnly sink;
+    RecordingReader reader(record.recording_path);
+    const GivenWander begun_with = given_wander_of(reader.read_header(sink).unit_wander);
+    if (!begun_with.given()) return unit_wander();
+    if (begun_with.size_ug != unit_wander().size_ug ||
+        begun_with.specified().tau_s != unit_wander().specified().tau_s)
+      spdlog::info(
+          "run {}: the drift rule allows for the unit's bias wander the run was begun with, "
+          "{} µg at tau {} s (its recording's header), not the configured {} µg at tau {} s",
+          record.run_id, number_text(begun_with.size_ug), number_text(begun_with.specified().tau_s),
+          number_text(unit_wander().size_ug), number_text(unit_wander().specified().tau_s));
+    return begun_with;
+  } catch (const std::exception& e) {
+    spdlog::warn(
+        "run {}: its recording's header cannot be read ({}); the drift rule allows "
+        "for the configured bias wander",
+        record.run_id, e.what());
+    return unit_wander();
+  }
+}
+
 // A resumed run's dwells so far, read once its recording is reopened (and cut back to the
 // positions done): streamed, after the run.resume answer.
 void Sequencer::pool_recorded_dwells(const RunRecord& record) {
@@ -580,8 +616,8 @@ Sequencer::SampledDwell Sequencer::sample_stable_dwell(const RunRecord& record, 
     DwellExpectation expected{hw_.unit->name(), dwell_s, config_.sample_rate_hz,
                               hw_.unit->health().incomplete_samples - incomplete_before,
                               record.g_local_mps2};
-    expected.bias_wander_ug = unit_wander().size_ug;
-    expected.bias_wander_tau_s = unit_wander().specified().tau_s;
+    expected.bias_wander_ug = run_wander_.size_ug;
+    expected.bias_wander_tau_s = run_wander_.specified().tau_s;
     if (dwell_correlation_ && implausible_reading(d.average).empty())
       expected.sample_correlation_widening = dwell_correlation_->add_dwell(d.samples, d.average);
     const std::string problem = dwell_problem(d.average, expected, config_.stability);

@@ -43,8 +43,37 @@ class Cli : public ::testing::Test {
     std::ifstream(path("default_model.json")) >> model;
     return model;
   }
+  // One position held `dwell_s` at 10 Hz, the default unit with a 3 ug wander of `tau_s`:
+  // a static recording, `<name>.csv`.
+  std::string static_recording(const std::string& name, double dwell_s, double tau_s,
+                               int seed) const {
+    nlohmann::json truth = default_model();
+    truth["noise"]["bias_instability_ug"] = 3;
+    truth["noise"]["bias_instability_tau_s"] = tau_s;
+    std::ofstream(path(name + "_model.json")) << truth.dump(2);
+    std::ofstream(path(name + ".json"))
+        << nlohmann::json{{"name", name},
+                          {"positions",
+                           {{{"alpha1_deg", 0}, {"alpha2_deg", 0}, {"dwell_s", dwell_s}}}}}
+               .dump();
+    const CliRun r = run_cli("simulate --program " + path(name + ".json") +
+                             " --rate-hz 10 --seed " + std::to_string(seed) + " -o " +
+                             path(name + ".csv") + " --model " + path(name + "_model.json"));
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    return path(name + ".csv");
+  }
   fs::path dir_;
 };
+
+// The cells of one line of a recording (comma-separated).
+std::vector<std::string> csv_cells(const std::string& line) {
+  std::vector<std::string> cells;
+  std::size_t at = 0;
+  for (std::size_t comma; (comma = line.find(',', at)) != std::string::npos; at = comma + 1)
+    cells.push_back(line.substr(at, comma - at));
+  cells.push_back(line.substr(at));
+  return cells;
+}
 
 TEST_F(Cli, SimulateThenFitJsonHasTheStableShape) {
   ASSERT_EQ(run_cli("simulate --program paper9 --seed 5 --dwell-s 10 -o " + path("r.csv") +
@@ -192,24 +221,6 @@ TEST_F(Cli, SimulateRefusesDwellAndSettleTimesPastTheRunLimits) {
 // curves' Gauss-Markov fit) and how to give it to the fits; the floor's averaging time
 // (about 1.9 tau) is not it.
 TEST_F(Cli, NoiseOfAStaticRecordingNamesTheCorrelationTimeToGiveTheFits) {
-  // One position held for `dwell_s`, the default unit with a 3 ug wander of `tau_s`, at 10 Hz.
-  nlohmann::json truth = default_model();
-  truth["noise"]["bias_instability_ug"] = 3;
-  const auto static_recording = [&](const std::string& name, double dwell_s, double tau_s,
-                                    int seed) {
-    std::ofstream(path(name + ".json"))
-        << nlohmann::json{{"name", name},
-                          {"positions",
-                           {{{"alpha1_deg", 0}, {"alpha2_deg", 0}, {"dwell_s", dwell_s}}}}}
-               .dump();
-    truth["noise"]["bias_instability_tau_s"] = tau_s;
-    std::ofstream(path(name + "_model.json")) << truth.dump(2);
-    const CliRun r = run_cli("simulate --program " + path(name + ".json") +
-                             " --rate-hz 10 --seed " + std::to_string(seed) + " -o " +
-                             path(name + ".csv") + " --model " + path(name + "_model.json"));
-    EXPECT_EQ(r.exit_code, 0) << r.output;
-    return path(name + ".csv");
-  };
   const std::string eight_hours = static_recording("static", 28800, 300, 2);
   const CliRun json_run = run_cli("noise " + eight_hours + " --json");
   ASSERT_EQ(json_run.exit_code, 0) << json_run.output;
@@ -269,33 +280,16 @@ TEST_F(Cli, NoiseOfAStaticRecordingNamesTheCorrelationTimeToGiveTheFits) {
 // correlation time (the static interval found by the detector, one orientation held). It
 // refused every file but standcal's own before ("one column only").
 TEST_F(Cli, NoiseReadsImuTkTextInGAndInCounts) {
-  nlohmann::json truth = default_model();
-  truth["noise"]["bias_instability_ug"] = 3;
-  truth["noise"]["bias_instability_tau_s"] = 60;
-  std::ofstream(path("model.json")) << truth.dump(2);
-  std::ofstream(path("one.json")) << nlohmann::json{
-      {"name", "one"}, {"positions", {{{"alpha1_deg", 0}, {"alpha2_deg", 0}, {"dwell_s", 7200}}}}};
-  ASSERT_EQ(run_cli("simulate --program " + path("one.json") + " --rate-hz 10 --seed 4 -o " +
-                    path("static.csv") + " --model " + path("model.json"))
-                .exit_code,
-            0);
+  ASSERT_EQ(static_recording("static", 7200, 60, 4), path("static.csv"));
   // The recording's samples as imu_tk's `t x y z`, in g and in counts of 1e6 per g.
   std::ifstream in(path("static.csv"));
   std::ofstream in_g(path("static_g.txt")), in_counts(path("static_counts.txt"));
   double g_mps2 = 9.80665;
   std::size_t fx = 0;  // the column of fx_mps2 (fy and fz follow it: docs/recording-format.md)
-  const auto split = [](const std::string& line) {
-    std::vector<std::string> cells;
-    std::size_t at = 0;
-    for (std::size_t comma; (comma = line.find(',', at)) != std::string::npos; at = comma + 1)
-      cells.push_back(line.substr(at, comma - at));
-    cells.push_back(line.substr(at));
-    return cells;
-  };
   for (std::string line; std::getline(in, line);) {
     if (line.rfind("# g_local_mps2:", 0) == 0) g_mps2 = std::stod(line.substr(15));
     if (line.empty() || line[0] == '#') continue;
-    const std::vector<std::string> cells = split(line);
+    const std::vector<std::string> cells = csv_cells(line);
     if (cells[0] == "t_s") {
       fx = static_cast<std::size_t>(std::find(cells.begin(), cells.end(), "fx_mps2") -
                                     cells.begin());
@@ -351,6 +345,58 @@ TEST_F(Cli, NoiseReadsImuTkTextInGAndInCounts) {
   EXPECT_EQ(refused.exit_code, 2) << refused.output;  // a usage error, as on a stand recording
   EXPECT_EQ(run_cli("noise " + path("static.csv") + " --counts-per-g 4000").exit_code, 2);
   EXPECT_NE(refused.output.find("read as g"), std::string::npos) << refused.output;
+}
+
+// A static recording with gaps in its samples (those of each second's last quarter dropped: what
+// standcald's dwells held before its chunks continued each other, or a logger that drops):
+// its Allan curves take the samples as evenly spaced and show a shorter correlation time
+// (28-55 s here, for a wander of 60 s), so `standcal noise` says what is missing and gives the
+// fits no wander, whether the recording is standcal's (its dwell) or another tool's text (its
+// static interval found by the detector). Before, both gave the fits that range, unwarned.
+TEST_F(Cli, NoiseOfARecordingWithGapsGivesTheFitsNoWander) {
+  std::ifstream whole(static_recording("whole", 7200, 60, 4));
+  std::ofstream gapped(path("gapped.csv")), text_g(path("gapped_g.txt"));
+  double g_mps2 = 9.80665, first_s = -1;
+  std::size_t fx = 0;  // the column of fx_mps2 (fy and fz follow it: docs/recording-format.md)
+  for (std::string line; std::getline(whole, line);) {
+    if (line.rfind("# g_local_mps2:", 0) == 0) g_mps2 = std::stod(line.substr(15));
+    const std::vector<std::string> cells = csv_cells(line);
+    if (line.empty() || line[0] == '#' || cells[0] == "t_s") {
+      if (!cells.empty() && cells[0] == "t_s")
+        fx = static_cast<std::size_t>(std::find(cells.begin(), cells.end(), "fx_mps2") -
+                                      cells.begin());
+      gapped << line << "\n";
+      continue;
+    }
+    ASSERT_GT(fx, 0u);
+    ASSERT_LT(fx + 2, cells.size()) << line;
+    const double t_s = std::stod(cells[0]);
+    if (first_s < 0) first_s = t_s;
+    if (std::fmod(t_s - first_s, 1.0) >= 0.75) continue;
+    gapped << line << "\n";
+    char row[160];
+    std::snprintf(row, sizeof row, "%.3f %.9f %.9f %.9f\n", t_s, std::stod(cells[fx]) / g_mps2,
+                  std::stod(cells[fx + 1]) / g_mps2, std::stod(cells[fx + 2]) / g_mps2);
+    text_g << row;
+  }
+  gapped.close();
+  text_g.close();
+  const std::string advice = "--bias-instability-tau-max-s";
+  ASSERT_NE(run_cli("noise " + path("whole.csv")).output.find(advice), std::string::npos);
+  for (const std::string& file : {path("gapped.csv"), path("gapped_g.txt")}) {
+    const CliRun text = run_cli("noise " + file);
+    ASSERT_EQ(text.exit_code, 0) << text.output;
+    EXPECT_NE(text.output.find("samples miss"), std::string::npos) << file << text.output;
+    EXPECT_NE(text.output.find("of the static samples' time is missing"), std::string::npos)
+        << file << text.output;
+    EXPECT_EQ(text.output.find(advice), std::string::npos) << file << text.output;
+    const CliRun json_run = run_cli("noise " + file + " --json");
+    ASSERT_EQ(json_run.exit_code, 0) << json_run.output;
+    const auto gaps =
+        nlohmann::json::parse(json_run.output.substr(json_run.output.find('{')))["gaps"];
+    EXPECT_EQ(gaps["too_much"], true) << file << gaps.dump(2);
+    EXPECT_GT(gaps["missing_share"].get<double>(), 0.1) << file << gaps.dump(2);
+  }
 }
 
 // A unit whose output filter correlates its samples (a model file's noise.output_filter_tau_s):

@@ -269,16 +269,19 @@ TEST(DaemonRun, KillNineMidRunThenResumeRecordsEveryPositionOnce) {
 
 // Issue 21: the drift rule of a resumed run pools the dwells its recording holds (cut back to
 // the positions done), for a unit whose output filter correlates its samples (five periods at
-// 100 Hz), and the run finishes with the rule at 3 times what the noise explains.
+// 100 Hz), and the run finishes with the rule at 3 times what the noise explains. It allows
+// for the unit's bias wander the run was begun with (its recording's header, as its fits),
+// not one configured since: it had read the live configuration.
 TEST(DaemonRun, AResumedRunsDriftRulePoolsTheDwellsOfItsRecording) {
   TempDir dir;
   TruthModel truth = default_truth();
   truth.noise.output_filter_tau_s = 0.05;
   save_truth(truth, dir.path() + "/filtered-unit.json");
-  const json config = {{"socket", {{"path", socket_of(dir)}}},
-                       {"state_dir", dir.path() + "/state"},
-                       {"sim", {{"truth", dir.path() + "/filtered-unit.json"}}},
-                       {"run", {{"stability", {{"trend_limit_sigmas", 3}}}}}};
+  json config = {{"socket", {{"path", socket_of(dir)}}},
+                 {"state_dir", dir.path() + "/state"},
+                 {"sim", {{"truth", dir.path() + "/filtered-unit.json"}}},
+                 {"unit", {{"bias_instability_ug", 5}, {"bias_instability_tau_s", 600}}},
+                 {"run", {{"stability", {{"trend_limit_sigmas", 3}}}}}};
   const std::string file = dir.path() + "/standcald.json";
   std::ofstream(file) << config.dump(2);
   const std::vector<std::string> args{"--config", file, "--sim", "--time-scale", "100"};
@@ -295,6 +298,8 @@ TEST(DaemonRun, AResumedRunsDriftRulePoolsTheDwellsOfItsRecording) {
              [](const json& s) { return s["positions_done"].get<int>() >= 3 || finished(s); });
     daemon.kill_now(SIGKILL);
   }
+  config.erase("unit");  // the wander no longer configured
+  std::ofstream(file) << config.dump(2);
   DaemonProcess daemon(dir.path(), args);
   daemon.wait_ready(socket_of(dir));
   Client c(socket_of(dir));
@@ -306,6 +311,11 @@ TEST(DaemonRun, AResumedRunsDriftRulePoolsTheDwellsOfItsRecording) {
   EXPECT_NE(daemon.log().find("the drift rule pools the " + std::to_string(done_before) +
                               " dwells of its recording (samples' correlation widens the white "
                               "noise x 3."),
+            std::string::npos)
+      << daemon.log();
+  EXPECT_NE(daemon.log().find("the drift rule allows for the unit's bias wander the run was "
+                              "begun with, 5 µg at tau 600 s (its recording's header), not the "
+                              "configured 0 µg"),
             std::string::npos)
       << daemon.log();
 }

@@ -3,6 +3,7 @@
 // z-variance of the fitted parameters about the truth with white noise and with wander.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <nlohmann/json.hpp>
@@ -19,6 +20,7 @@
 #include "calib/recording_digest.hpp"
 #include "calib/report.hpp"
 #include "calib/simulator.hpp"
+#include "calib/static_noise.hpp"
 #include "calib/units.hpp"
 #include "tests/calib/test_support.hpp"
 #include "tests/support/statistical.hpp"
@@ -633,6 +635,34 @@ TEST(FitNoise, ALongDwellWithGapsGivesNoWander) {
   EXPECT_GT(in_memory.gaps.count, 1000u);
   EXPECT_EQ(digest.allan->gaps.count, in_memory.gaps.count);
   EXPECT_NE(digest.allan_warning().find("gaps"), std::string::npos) << digest.allan_warning();
+
+  // The same recording without its angles: the norm fit's static intervals and `standcal
+  // noise`'s (found by the detector, as in another tool's file) count the same gaps from the
+  // samples' time stamps, and read no wander off their curves either.
+  const RawInput raw = raw_input_of(rec);
+  NormCalibrationOptions norm_options;
+  norm_options.stability = false;
+  const NormCalibration norm = calibrate_without_angles(raw, norm_options);
+  EXPECT_EQ(norm.detection.gaps.count, in_memory.gaps.count);
+  ASSERT_TRUE(norm.fit.result.noise.allan.has_value());
+  EXPECT_FALSE(norm.fit.result.noise.allan->wander.has_value());
+  EXPECT_NE(norm.fit.result.noise.unit_wander_from, kWanderFromRecording);
+  EXPECT_NE(gaps_warning(norm, raw).find("the static intervals' samples miss"), std::string::npos)
+      << gaps_warning(norm, raw);
+  EXPECT_NE(
+      std::find(norm.notes.begin(), norm.notes.end(), norm.fit.result.noise.allan->gaps_warning),
+      norm.notes.end());
+  RawInput other_tools = raw;
+  other_tools.block.clear();
+  const StaticNoise detected = static_noise(other_tools);
+  EXPECT_GT(detected.allan.gaps.count, 1000u);
+  EXPECT_TRUE(detected.allan.gaps.too_much()) << detected.allan.gaps.missing_share();
+  // Without the gaps, the same two read the long dwell's wander.
+  const NormCalibration whole =
+      calibrate_without_angles(raw_input_of(simulate_run(req)), norm_options);
+  EXPECT_EQ(whole.detection.gaps.count, 0u);
+  EXPECT_EQ(whole.fit.result.noise.unit_wander_from, kWanderFromRecording);
+  EXPECT_EQ(gaps_warning(whole, raw), "");
 }
 
 // A calibration recording that holds its first position long enough to show the wander turn

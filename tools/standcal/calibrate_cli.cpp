@@ -94,6 +94,7 @@ void run_norm_fit(const FitOptions& o, const RawInput& in) {
   NormCalibrationOptions options;
   options.fit.noise = noise_weighting(o);
   const NormCalibration c = calibrate_without_angles(in, options);
+  print_warnings({gaps_warning(c, in)});
   if (o.json) {
     std::cout << json_text(norm_calibration_to_json(c, in)) << "\n";
   } else {

@@ -75,6 +75,7 @@ std::pair<Diagnosis, Recording> diagnose_input(const DiagnoseCliOptions& o) {
   calibrate.stability = false;                    // the diagnosis does not report it
   o.wander.given().give_to(calibrate.fit.noise);  // as `fit`
   const NormCalibration calibration = calibrate_without_angles(in, calibrate);
+  print_warnings({gaps_warning(calibration, in)});
   Diagnosis d = diagnose_without_angles(in, calibration, diagnose_options(o));
   return {std::move(d), calibrated_recording(in, calibration)};
 }

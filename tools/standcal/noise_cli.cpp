@@ -60,6 +60,7 @@ NoiseSource read_noise_source(const NoiseOptions& o) {
     RecordingDigest digest = digest_on_two_threads(o.recording, reading);
     print_warnings(digest.recording.warnings);
     if (!digest.allan) throw std::runtime_error(digest.allan_unavailable);
+    print_warnings({digest.allan_warning()});  // gaps in the dwells
     return {digest.recording.source, digest.samples, std::move(*digest.allan), std::nullopt};
   }
   const RawInput in = read_input(o.recording, input_options(o.input));
@@ -73,6 +74,8 @@ NoiseSource read_noise_source(const NoiseOptions& o) {
     options.counts_per_g = o.counts_per_g;
   }
   StaticNoise noise = static_noise(in, options);
+  if (noise.allan.gaps.too_much())
+    print_warnings({in.source + ": " + noise.allan.gaps.warning(kStaticIntervals)});
   NoiseSource source{in.source, noise.samples, std::move(noise.allan), std::nullopt};
   source.raw = std::move(noise);  // its curves moved out above: how they were read, alone
   return source;
@@ -85,6 +88,16 @@ json static_json(const StaticNoise& n) {
           {"longest_s", n.longest_s},
           {"units_how", n.units_how},
           {"ug_per_input_unit", json::array({k[0], k[1], k[2]})}};
+}
+
+// The time missing inside the static samples' stretches (DwellGaps); `too_much`: no wander
+// is to be given to the fits from these curves.
+json gaps_json(const DwellGaps& g) {
+  return {{"missing_s", g.missing_s()},
+          {"spanned_s", g.spanned_s},
+          {"count", g.count},
+          {"missing_share", g.missing_share()},
+          {"too_much", g.too_much()}};
 }
 
 json gauss_markov_json(const GaussMarkovAllanFit& f) {
@@ -150,7 +163,8 @@ std::string short_correlation_words(const GaussMarkovAllanFit& f) {
 
 // What the Allan curves say of the unit's correlation time, and how to give it to the fits
 // (one calibration run cannot pin it: docs/calibration.md, "The correlation time, given").
-std::string gauss_markov_words(const std::optional<GaussMarkovAllanFit>& f, double curve_end_s) {
+std::string gauss_markov_words(const std::optional<GaussMarkovAllanFit>& f, double curve_end_s,
+                               const DwellGaps& gaps) {
   if (!f) return "Gauss-Markov wander: the curves are too short to fit one (fewer than 5 octaves)";
   if (f->short_correlation) return short_correlation_words(*f);
   if (!f->wander_seen)
@@ -176,6 +190,10 @@ std::string gauss_markov_words(const std::optional<GaussMarkovAllanFit>& f, doub
     return found +
            ", but the model does not describe the curves (below): no range to give "
            "the fits from them";
+  if (gaps.too_much())
+    return found + ", but " + diagnosis::fmt("%.3g", 100 * gaps.missing_share()) +
+           " % of the static samples' time is missing (the warning above), which shortens "
+           "the correlation times the curves show: no range to give the fits from them";
   const std::optional<WanderToGive> give = wander_to_give(*f, curve_end_s);
   if (!give) return found;  // not reached: seen, bounded and describing the curves
   return found + "\ngive the unit's wander to the fits: standcal fit --bias-instability-ug " +
@@ -232,6 +250,7 @@ void run_noise(const NoiseOptions& o) {
     }
     j["static"] = source.raw ? static_json(*source.raw) : json(nullptr);
     j["gauss_markov"] = wander ? gauss_markov_json(*wander) : json(nullptr);
+    j["gaps"] = gaps_json(allan.gaps);
     std::cout << json_text(j) << "\n";
     return;
   }
@@ -268,7 +287,7 @@ void run_noise(const NoiseOptions& o) {
   double curve_end_s = 0;  // the longest averaging time of any axis
   for (const auto& c : curves)
     if (!c.empty()) curve_end_s = std::max(curve_end_s, c.back().tau_s);
-  std::printf("%s\n", gauss_markov_words(wander, curve_end_s).c_str());
+  std::printf("%s\n", gauss_markov_words(wander, curve_end_s, allan.gaps).c_str());
   if (wander && !wander->describes_curves) {
     const GaussMarkovAllanFit::Departure& d = wander->worst_departure;
     const bool white_alone = !wander->wander_seen && !wander->short_correlation;
