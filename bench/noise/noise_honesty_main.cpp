@@ -193,6 +193,14 @@ int main(int argc, char** argv) {
                  "hold the programme's first position this many hours (a warm-up): the "
                  "'estimated' rows take its Allan curves' wander, as standcal fit does")
       ->check(CLI::Range(0.0, kMaxDwell_s / 3600));
+  app.add_option("--warmup-transient-ug", setup.warmup_transient_ug,
+                 "add a bias settling after power-on, this size x exp(-t / tau) on every axis "
+                 "from the run's start (a warm-up that still drifts thermally)")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--warmup-transient-tau-s", setup.warmup_transient_tau_s,
+                 "the time constant of that settling")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   app.add_option("--specified-exceeded-p", setup.specified_exceeded_p,
                  "the 'unit given' rows weight with the run's own wander where it exceeds the "
                  "given one at this P")
@@ -236,6 +244,11 @@ int main(int argc, char** argv) {
         "the first position held %.3g hours (a warm-up): the 'estimated' fits take its Allan "
         "curves' wander where they pin one\n",
         setup.warmup_hours);
+  if (setup.warmup_transient_ug > 0)
+    std::printf(
+        "a bias settling after power-on: %.3g ug x exp(-t / %.4g s) on every axis, which the "
+        "fits' models leave out\n",
+        setup.warmup_transient_ug, setup.warmup_transient_tau_s);
   if (setup.static_hours > 0)
     std::printf(
         "'unit given': what `standcal noise` advises from a %.3g-hour static recording of the "

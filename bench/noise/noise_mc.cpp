@@ -196,6 +196,18 @@ void merge(ZStats& into, const ZStats& part) {
                                     part.sigma_over_white[g].end());
 }
 
+// The settling of Setup::warmup_transient_ug, added to the unit's outputs (a bias: the same
+// on each axis whatever the orientation).
+void add_warmup_transient(Recording& rec, const Setup& setup) {
+  if (!(setup.warmup_transient_ug > 0) || rec.samples.empty()) return;
+  const double t0_s = rec.samples.front().t_s;
+  const double size_mps2 = setup.warmup_transient_ug * kUg * rec.g_local_mps2;
+  for (RecordingSample& s : rec.samples) {
+    const double bias_mps2 = size_mps2 * std::exp(-(s.t_s - t0_s) / setup.warmup_transient_tau_s);
+    for (int a = 0; a < 3; ++a) s.f_mps2[a] += bias_mps2;
+  }
+}
+
 }  // namespace
 
 std::vector<Scenario> issue21_scenarios() {
@@ -232,7 +244,8 @@ ScenarioResult run_scenario(const Setup& setup, const Scenario& scenario) {
                       : truth;
       req.timing.dwell_s = setup.dwell_s;
       req.timing.sample_rate_hz = setup.sample_rate_hz;
-      const Recording rec = simulate_run(req);
+      Recording rec = simulate_run(req);
+      add_warmup_transient(rec, setup);
       const AveragedRecording averaged = average_recording(rec);
       if (averaged.allan && averaged.allan->sample_correlation) ++samples_correlated;
       std::vector<std::optional<FitResult>> fits(all.size());

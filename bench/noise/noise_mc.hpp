@@ -57,6 +57,11 @@ struct Setup {
   // Allan curves the "estimated" rows take as the unit's wander where they pin one
   // (take_recording_wander), as standcal fit and standcald do.
   double warmup_hours = 0;
+  // Above 0: a bias settling after power-on, warmup_transient_ug * exp(-t / tau) on every axis
+  // from the run's first sample (a warm-up that still drifts thermally, which neither the
+  // calibration model nor a Gauss-Markov wander describes).
+  double warmup_transient_ug = 0;
+  double warmup_transient_tau_s = 1200;
   double specified_exceeded_p = FitNoiseOptions{}.specified_exceeded_p;
   // The unit's output filter (NoiseModel::output_filter_tau_s): samples correlated within a
   // dwell, which sigma / sqrt(n) does not see. 0: independent samples.
