@@ -436,8 +436,11 @@ std::optional<GaussMarkovAllanFit> fit_gauss_markov_allan(
 double sample_period_s(const Recording& rec) {
   if (rec.sample_rate_hz > 0) return 1.0 / rec.sample_rate_hz;
   std::vector<double> dt;
+  const double warm_up_end_s = warmup_end_s(rec);  // its step to the dwell is no period
   for (std::size_t k = 1; k < rec.samples.size(); ++k)
-    if (rec.samples[k].pos == rec.samples[k - 1].pos)
+    if (rec.samples[k].pos == rec.samples[k - 1].pos &&
+        is_warmup_row(rec.samples[k - 1], warm_up_end_s) ==
+            is_warmup_row(rec.samples[k], warm_up_end_s))
       dt.push_back(rec.samples[k].t_s - rec.samples[k - 1].t_s);
   const std::optional<double> step = median_step_s(std::move(dt));
   if (!step)
@@ -474,10 +477,15 @@ DwellAllan dwell_allan(const Recording& rec) {
   std::array<AllanAccumulator, 3> pooled{AllanAccumulator(period_s), AllanAccumulator(period_s),
                                          AllanAccumulator(period_s)};
   const double to_ug = 1.0 / rec.g_local_mps2 / kUg;
+  const double warm_up_end_s = warmup_end_s(rec);
   DwellGaps gaps;
   std::size_t first = 0;
   for (std::size_t k = 1; k <= rec.samples.size(); ++k) {
-    if (k < rec.samples.size() && rec.samples[k].pos == rec.samples[first].pos) {
+    // A warm-up is a segment of its own: the daemon's time between it and the dwell is no
+    // sample period.
+    if (k < rec.samples.size() && rec.samples[k].pos == rec.samples[first].pos &&
+        is_warmup_row(rec.samples[k - 1], warm_up_end_s) ==
+            is_warmup_row(rec.samples[k], warm_up_end_s)) {
       gaps.add_step(rec.samples[k].t_s - rec.samples[k - 1].t_s, period_s);
       continue;
     }
@@ -514,11 +522,13 @@ std::string DwellGaps::warning(std::string_view stretches) const {
   char text[400];
   if (count == 0)  // no step stands out: the time is spread over every step
     std::snprintf(text, sizeof text,
-                  "the %s' samples span %.3g s more than their %zu steps at the sample rate "
-                  "(%.1f %% of their %.3g s): the rate does not match their time stamps, and "
-                  "their Allan curves, which take the rate's spacing, may show the wrong "
-                  "correlation times, so no bias wander is read off them",
-                  held.c_str(), missing_s(), steps, 100 * missing_share(), spanned_s);
+                  "the %s' samples span %.3g s more than their %zu steps of the sample period "
+                  "%.4g s (%.1f %% of their %.3g s): their time stamps and the sample rate "
+                  "disagree, and their Allan curves, which take the samples as evenly spaced at "
+                  "that period, may show the wrong correlation times, so no bias wander is read "
+                  "off them",
+                  held.c_str(), missing_s(), steps, sample_period_s, 100 * missing_share(),
+                  spanned_s);
   else
     std::snprintf(text, sizeof text,
                   "the %s' samples miss %.3g s of their %.3g s in %zu gaps (%.1f %%): their "

@@ -245,7 +245,8 @@ std::optional<SampleCorrelation> sample_correlation(
 std::optional<SampleCorrelation> sample_correlation_of(const GaussMarkovAllanFit& fit,
                                                        double sample_period_s);
 
-// Time missing inside a recording's dwells. The Allan curves take a dwell's samples as evenly
+// Time missing inside a recording's dwells (or a raw recording's static intervals: the
+// stretches its samples are pooled from). The Allan curves take a dwell's samples as evenly
 // spaced, so gaps shorten the correlation times they show. The time missing is the dwells'
 // span beyond their samples' count of periods, so that receive-time jitter (a late sample
 // and an early one) cancels; `count` is the steps longer than 1.5 periods, for the words.
@@ -300,7 +301,7 @@ struct AllanFinding {
   // The wander the curves pin (a dwell long enough to show it turn over), in ug: what the
   // fits take as the unit's where none is given (take_recording_wander, noise_model.hpp).
   std::optional<WanderToGive> wander;
-  std::string gaps_warning;  // DwellGaps::warning of the dwells
+  std::string gaps_warning;  // DwellGaps::warning of the dwells (static intervals)
 };
 AllanFinding allan_finding_of(const DwellAllan& a);
 // `why_none`, where given, is set when a recording of kMinAllanSamples or more has no curve

@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "calib/order_statistics.hpp"
+#include "calib/text.hpp"
 #include "calib/units.hpp"
 
 namespace standcal {
@@ -20,6 +21,16 @@ std::pair<double, double> robust_centre_scale(const std::vector<double>& values,
   for (double& v : work) v = std::abs(v - median);
   const double mad = median_in_place(work);
   return {median, std::max(1.4826 * mad, kRobustScaleFloor_g)};
+}
+
+std::runtime_error too_few_samples(const Recording& header, const DwellSamples& dwell,
+                                   std::size_t usable) {
+  return std::runtime_error(
+      header.source + ": position " + std::to_string(dwell.head.pos) + " has " +
+      std::to_string(usable) + " usable sample(s)" +
+      (dwell.warmup_samples > 0 ? " after its warm-up of " + round_trip_text(header.warmup_s) + " s"
+                                : "") +
+      "; at least 2 are needed");
 }
 
 }  // namespace
@@ -44,10 +55,16 @@ std::vector<int> approach_directions(const std::vector<std::pair<double, double>
 void DwellSamples::clear() {
   for (auto& axis : f_mps2) axis.clear();
   temp_c.clear();
+  warmup_samples = 0;
 }
 
 void DwellSamples::add(const RecordingSample& s) {
   if (size() == 0) head = s;
+  // The warm-up is the front of position 0's block: once a row is measured, none after it is.
+  if (warmup_s > 0 && s.pos == 0 && size() == warmup_samples && s.t_s < head.t_s + warmup_s)
+    ++warmup_samples;
+  else if (size() == warmup_samples)
+    measured_from_s = s.t_s;
   t_end_s = s.t_s;
   for (std::size_t a = 0; a < 3; ++a) f_mps2[a].push_back(s.f_mps2[static_cast<int>(a)]);
   if (with_temperature) temp_c.push_back(s.temp_c);
@@ -60,15 +77,17 @@ void DwellSamples::reserve(std::size_t rows) {
 
 PositionAverage average_dwell(const DwellSamples& dwell, const Recording& header) {
   const std::size_t count = dwell.size();
+  const std::size_t first = dwell.warmup_samples;  // the rows before it are the warm-up
+  if (count - first < 2) throw too_few_samples(header, dwell, count - first);
   const double inv_g = 1.0 / header.g_local_mps2;
-  std::vector<double> axis(count);
+  std::vector<double> axis(count - first);
   std::vector<double> work;
   std::vector<char> keep(count, 1);
   for (std::size_t a = 0; a < 3; ++a) {
-    for (std::size_t i = 0; i < count; ++i) axis[i] = dwell.f_mps2[a][i] * inv_g;
+    for (std::size_t i = first; i < count; ++i) axis[i - first] = dwell.f_mps2[a][i] * inv_g;
     const auto [centre, scale] = robust_centre_scale(axis, work);
-    for (std::size_t i = 0; i < count; ++i)
-      if (std::abs(axis[i] - centre) > kOutlierThreshold * scale) keep[i] = 0;
+    for (std::size_t i = first; i < count; ++i)
+      if (std::abs(axis[i - first] - centre) > kOutlierThreshold * scale) keep[i] = 0;
   }
   const RecordingSample& head = dwell.head;
   PositionAverage avg;
@@ -76,7 +95,7 @@ PositionAverage average_dwell(const DwellSamples& dwell, const Recording& header
   avg.alpha1_cmd_deg = head.alpha1_cmd_deg;
   avg.alpha2_cmd_deg = head.alpha2_cmd_deg;
   avg.mount = head.mount ? *head.mount : header.default_mount.value_or(Mount::x);
-  avg.t_start_s = head.t_s;
+  avg.t_start_s = first > 0 ? dwell.measured_from_s : head.t_s;
   avg.t_end_s = dwell.t_end_s;
   const double settle_s = std::isnan(header.settle_s) ? 0.0 : header.settle_s;
   avg.t_arrive_s = std::isnan(head.t_arrive_s) ? head.t_s - settle_s : head.t_arrive_s;
@@ -86,7 +105,7 @@ PositionAverage average_dwell(const DwellSamples& dwell, const Recording& header
   double temp_sum = 0;
   std::size_t temp_count = 0, n = 0;
   const bool temperatures = dwell.temp_c.size() == count;  // not kept: no mean
-  for (std::size_t i = 0; i < count; ++i) {
+  for (std::size_t i = first; i < count; ++i) {
     if (!keep[i]) continue;
     for (std::size_t a = 0; a < 3; ++a) sum[static_cast<int>(a)] += dwell.f_mps2[a][i] * inv_g;
     ++n;
@@ -96,12 +115,10 @@ PositionAverage average_dwell(const DwellSamples& dwell, const Recording& header
     }
   }
   avg.samples = n;
-  avg.outliers_rejected = count - n;
-  if (n < 2)
-    throw std::runtime_error(header.source + ": position " + std::to_string(head.pos) + " has " +
-                             std::to_string(n) + " usable sample(s); at least 2 are needed");
+  avg.outliers_rejected = count - first - n;
+  if (n < 2) throw too_few_samples(header, dwell, n);
   avg.mean_g = sum / static_cast<double>(n);
-  for (std::size_t i = 0; i < count; ++i) {
+  for (std::size_t i = first; i < count; ++i) {
     if (!keep[i]) continue;
     for (std::size_t a = 0; a < 3; ++a) {
       const double d = dwell.f_mps2[a][i] * inv_g - avg.mean_g[static_cast<int>(a)];
@@ -131,6 +148,7 @@ AveragedRecording average_recording(const Recording& rec) {
   if (rec.samples.empty()) throw std::runtime_error(rec.source + ": the recording has no samples");
   std::vector<PositionAverage> out;
   DwellSamples dwell;
+  dwell.warmup_s = rec.warmup_s;
   for (std::size_t i = 0; i < rec.samples.size(); ++i) {
     if (dwell.size() > 0 && rec.samples[i].pos != dwell.head.pos) {
       out.push_back(average_dwell(dwell, rec));

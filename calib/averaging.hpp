@@ -27,6 +27,11 @@ struct DwellSamples {
   std::array<std::vector<double>, 3> f_mps2;
   std::vector<double> temp_c;  // NaN where not measured; empty unless with_temperature
   bool with_temperature = true;
+  // The recording's warm-up (Recording::warmup_s): position 0's rows within it of its first
+  // are counted here, at the front of the columns, and left out of its average.
+  double warmup_s = 0;
+  std::size_t warmup_samples = 0;
+  double measured_from_s = 0;  // the first row after the warm-up
 
   std::size_t size() const { return f_mps2[0].size(); }
   void clear();
@@ -34,7 +39,8 @@ struct DwellSamples {
   void reserve(std::size_t rows);
 };
 
-// The average of one dwell, with the recording's g, settle time and default mount. Its
+// The average of one dwell, with the recording's g, settle time and default mount; a
+// warm-up's rows left out (its mean, errors and times are the measured rows'). Its
 // approach is the row's `approach` column, 0 when absent (see derive_missing_approaches).
 // Throws std::runtime_error naming the recording when fewer than 2 samples are usable.
 PositionAverage average_dwell(const DwellSamples& dwell, const Recording& header);

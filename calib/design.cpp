@@ -250,6 +250,7 @@ Schedule schedule_of(const Program& program, const DesignSettings& settings,
     a1 = p.alpha1_deg;
     a2 = p.alpha2_deg;
     t.settle_s += p.settle_s.value_or(settings.settle_s);
+    if (k == 0) t.warmup_s = program.warmup_s;  // held before the first dwell
     const double dwell = k < dwell_s.size() ? dwell_s[k] : p.dwell_s.value_or(settings.dwell_s);
     s.dwells.push_back({t.total_s(), dwell});
     t.dwell_s += dwell;

@@ -79,8 +79,9 @@ std::vector<StandPose> poses_of(const Program& program);
 
 struct BenchTime {
   double move_s = 0, settle_s = 0, dwell_s = 0, remount_s = 0;
+  double warmup_s = 0;  // the programme's warm-up (Program::warmup_s)
   int remounts = 0;
-  double total_s() const { return move_s + settle_s + dwell_s + remount_s; }
+  double total_s() const { return move_s + settle_s + warmup_s + dwell_s + remount_s; }
 };
 // Moves run both axes at once from the previous position (the first from (0, 0)); settle
 // and dwell per position (programme overrides first, then `dwell_s` if given, then settings).

@@ -75,8 +75,18 @@ ProgramPosition position_from_json(const nlohmann::json& p, const std::string& w
 // The programme object's own keys: a misspelt one ("dwel_s") must not be ignored.
 void require_known_programme_keys(const nlohmann::json& doc, const std::string& source) {
   for (const auto& item : doc.items())
-    if (item.key() != "name" && item.key() != "positions")
-      throw ProgramError(source + ": unknown key '" + item.key() + "' (known: name, positions)");
+    if (item.key() != "name" && item.key() != "positions" && item.key() != "warmup_s")
+      throw ProgramError(source + ": unknown key '" + item.key() +
+                         "' (known: name, positions, warmup_s)");
+}
+
+// The first position's warm-up before its dwell (Program::warmup_s).
+double programme_warmup_s(const nlohmann::json& doc, const std::string& source) {
+  if (!doc.contains("warmup_s")) return 0;
+  const double warmup_s = require_number(doc, "warmup_s", source);
+  if (warmup_s < 0) throw ProgramError(source + ": 'warmup_s' must be >= 0");
+  require_at_most(warmup_s, kMaxDwell_s, "warmup_s", source);
+  return warmup_s;
 }
 
 // The name goes into the recording header, run.json and reports: one printable line.
@@ -100,7 +110,8 @@ std::vector<std::size_t> Program::remount_before() const {
 }
 
 Program paper9(double alpha1_start_deg, int position9_n) {
-  Program p{"paper9", {}};
+  Program p;
+  p.name = "paper9";
   for (int k = 0; k < 5; ++k) p.positions.push_back(at(alpha1_start_deg + 72.0 * k, 0.0));
   for (double a2 : kPaperAlpha2Deg) p.positions.push_back(at(0.0, a2));
   p.positions.push_back(at(45.0 + 90.0 * position9_n, 90.0));
@@ -108,7 +119,8 @@ Program paper9(double alpha1_start_deg, int position9_n) {
 }
 
 Program classic24() {
-  Program p{"classic24", {}};
+  Program p;
+  p.name = "classic24";
   for (Mount m : {Mount::x, Mount::y, Mount::z})
     for (double a1 : {90.0, 270.0})
       for (double a2 : {0.0, 90.0, 180.0, 270.0}) p.positions.push_back(at(a1, a2, m));
@@ -121,6 +133,7 @@ Program program_from_json(const nlohmann::json& doc, const std::string& source) 
   require_known_programme_keys(doc, source);
   Program p;
   p.name = programme_name(doc, source);
+  p.warmup_s = programme_warmup_s(doc, source);
   const auto& list = doc["positions"];
   if (list.empty()) throw ProgramError(source + ": 'positions' is empty");
   for (std::size_t i = 0; i < list.size(); ++i)
@@ -156,7 +169,9 @@ nlohmann::json program_to_json(const Program& program) {
     if (p.settle_s) j["settle_s"] = *p.settle_s;
     positions.push_back(j);
   }
-  return {{"name", program.name}, {"positions", positions}};
+  nlohmann::json out{{"name", program.name}, {"positions", positions}};
+  if (program.warmup_s > 0) out["warmup_s"] = program.warmup_s;
+  return out;
 }
 
 std::vector<double> axis_grid_deg(const AxisRange& range, double step_deg) {

@@ -28,6 +28,10 @@ struct ProgramPosition {
 struct Program {
   std::string name;
   std::vector<ProgramPosition> positions;
+  // The first position held this long before its dwell, the unit recorded (a warm-up: it
+  // settles, and its samples show the noise model its wander, while its mean is the dwell's
+  // alone: Recording::warmup_s). 0: none.
+  double warmup_s = 0;
 
   // Indices of positions that need an operator re-mount first (mount differs from the
   // previous position's). The first position's mount is the one the run starts with.

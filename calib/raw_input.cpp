@@ -49,6 +49,7 @@ RawInput samples_of(const Recording& rec) {
     out.block.push_back(s.pos);
   }
   out.warnings = rec.warnings;
+  out.warmup_s = rec.warmup_s;
   return out;
 }
 
@@ -660,6 +661,7 @@ class Reader {
     out_.t_s = std::move(samples.t_s);
     out_.axis = std::move(samples.axis);
     out_.block = std::move(samples.block);
+    out_.warmup_s = samples.warmup_s;
     if (options_.units != InputUnits::automatic) {
       set_units_from_option();
     } else {

@@ -663,6 +663,10 @@ class Parser {
       rec_.settle_s = header_number(key, value);
       if (!(rec_.settle_s >= 0 && rec_.settle_s <= kMaxAbsTime_s))
         refuse_header(key, value + " s is not a settling time (0 ... 1e12 s)");
+    } else if (key == kHeaderWarmupS) {
+      rec_.warmup_s = header_number(key, value);
+      if (!(rec_.warmup_s >= 0 && rec_.warmup_s <= kMaxAbsTime_s))
+        refuse_header(key, value + " s is not a warm-up time (0 ... 1e12 s)");
     } else if (key == "sample_rate_hz") {
       rec_.sample_rate_hz = header_number(key, value);
       if (!is_plausible_sample_rate(rec_.sample_rate_hz))
@@ -731,6 +735,13 @@ RecordingError::RecordingError(const std::string& source, int line, int column,
       source_(source),
       line_(line),
       column_(column) {}
+
+double warmup_end_s(const Recording& rec) {
+  if (rec.warmup_s > 0)
+    for (const RecordingSample& s : rec.samples)
+      if (s.pos == 0) return s.t_s + rec.warmup_s;
+  return -std::numeric_limits<double>::infinity();
+}
 
 std::string Recording::header_value(std::string_view key) const {
   for (const auto& [k, v] : header)

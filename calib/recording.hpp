@@ -61,6 +61,7 @@ inline constexpr const char* kHeaderUnitWanderTauMaxS = "unit_bias_instability_t
 // What a unit's wander can be, here and in standcald's unit.bias_instability_*.
 inline constexpr double kMaxUnitWanderUg = 100000;
 inline constexpr double kMinUnitWanderTauS = 1, kMaxUnitWanderTauS = 1e6;
+inline constexpr const char* kHeaderWarmupS = "warmup_s";
 
 struct Recording {
   std::string source;                                       // file name, for messages
@@ -74,6 +75,10 @@ struct Recording {
   std::string unit_serial;
   std::string program;
   RecordedUnitWander unit_wander;
+  // The first warmup_s seconds of position 0's block are a warm-up (header `warmup_s`): the
+  // unit held still to settle and to show its noise; they feed the Allan curves (the noise
+  // model) and are left out of that position's mean. 0: none.
+  double warmup_s = 0;
   RecordingColumns columns;
   std::vector<RecordingSample> samples;
   std::vector<std::string> warnings;  // e.g. truncated last line dropped, g assumed
@@ -95,6 +100,13 @@ struct Recording {
 
 // "SOURCE: --rate-hz 100 is not used: the header's sample_rate_hz 25 was written with the
 // samples", for a reader that keeps a header's rate over the option.
+// Where position 0's warm-up ends (Recording::warmup_s after that position's first row), or
+// -infinity without one: a row before it is the unit settling, not a measurement.
+double warmup_end_s(const Recording& rec);
+inline bool is_warmup_row(const RecordingSample& s, double warmup_end_s) {
+  return s.pos == 0 && s.t_s < warmup_end_s;
+}
+
 std::string rate_option_not_used_warning(const std::string& source, double given_hz,
                                          double header_hz);
 

@@ -25,6 +25,7 @@ void RecordingDigester::expect_rows(std::size_t rows) { dwell_.reserve(rows + 1)
 
 void RecordingDigester::header(const Recording& rec) {
   header_ = rec;
+  dwell_.warmup_s = rec.warmup_s;
   if (options_.g_mps2) header_.use_given_g(*options_.g_mps2);
   if (options_.sample_rate_hz) header_.use_given_sample_rate(*options_.sample_rate_hz);
   rate_known_ = std::isfinite(header_.sample_rate_hz) && header_.sample_rate_hz > 0;
@@ -33,9 +34,13 @@ void RecordingDigester::header(const Recording& rec) {
 
 void RecordingDigester::row(const RecordingSample& s) {
   if (dwell_.size() > 0 && s.pos != dwell_.head.pos) finish_dwell();
-  if (dwell_.size() > 0 && allan_[0])
+  // The step from a warm-up to its dwell is no sample period (the two are segments apart).
+  const bool after_warm_up = dwell_.warmup_samples > 0 && dwell_.size() == dwell_.warmup_samples &&
+                             !(s.t_s < dwell_.head.t_s + dwell_.warmup_s);
+  if (dwell_.size() > 0 && allan_[0] && !after_warm_up)
     gaps_.add_step(s.t_s - dwell_.t_end_s, allan_[0]->sample_period_s());
-  if (!rate_known_ && dwell_.size() > 0) steps_s_.push_back(s.t_s - dwell_.t_end_s);
+  if (!rate_known_ && dwell_.size() > 0 && !after_warm_up)
+    steps_s_.push_back(s.t_s - dwell_.t_end_s);
   dwell_.add(s);
   ++samples_;
 }
@@ -91,6 +96,7 @@ void RecordingDigester::finish_dwell() {
     feed_allan();
   } else if (options_.allan) {
     held_.push_back(std::move(dwell_.f_mps2));  // no rate yet: kept until the end
+    held_warmup_samples_.push_back(dwell_.warmup_samples);
     dwell_.f_mps2 = {};
   }
   dwell_.clear();
@@ -98,10 +104,16 @@ void RecordingDigester::finish_dwell() {
 
 void RecordingDigester::feed_allan() {
   const double to_ug = 1.0 / header_.g_local_mps2 / kUg;
+  const auto warm_up = static_cast<std::ptrdiff_t>(dwell_.warmup_samples);
   for (std::size_t a = 0; a < 3; ++a) {
     std::vector<double>& segment = dwell_.f_mps2[a];
     for (double& v : segment) v *= to_ug;
-    allan_[a]->add_segment(segment);  // keeps its capacity for the next dwell
+    if (warm_up > 0) {  // a segment of its own, as dwell_allan takes it
+      std::vector<double> warm(segment.begin(), segment.begin() + warm_up);
+      allan_[a]->add_segment(warm);
+      segment.erase(segment.begin(), segment.begin() + warm_up);
+    }
+    if (!segment.empty()) allan_[a]->add_segment(segment);  // keeps its capacity for the next
   }
 }
 
@@ -123,8 +135,9 @@ void RecordingDigester::finish_allan(const Recording& read, RecordingDigest& out
     }
     start_allan(*step_s);
     for (double step : steps_s_) gaps_.add_step(step, *step_s);
-    for (auto& held : held_) {
-      dwell_.f_mps2 = std::move(held);
+    for (std::size_t k = 0; k < held_.size(); ++k) {
+      dwell_.f_mps2 = std::move(held_[k]);
+      dwell_.warmup_samples = held_warmup_samples_[k];
       feed_allan();
     }
   }

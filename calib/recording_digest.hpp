@@ -78,6 +78,7 @@ class RecordingDigester : public RecordingRowSink {
   std::vector<PositionAverage> averages_;
   std::array<std::optional<AllanAccumulator>, 3> allan_;
   std::vector<std::array<std::vector<double>, 3>> held_;  // dwells read before the rate is known
+  std::vector<std::size_t> held_warmup_samples_;          // and their warm-ups' rows
   std::vector<double> steps_s_;                           // sample steps, when no rate header
   DwellGaps gaps_;                                        // the steps within dwells
 };

@@ -508,6 +508,10 @@ Recording simulate_run(const SimulationRequest& req) {
   rec.sample_rate_hz = req.timing.sample_rate_hz;
   rec.unit_serial = req.unit_serial;
   rec.program = program.name;
+  if (program.warmup_s > 0) {
+    rec.set_header(kHeaderWarmupS, round_trip_text(program.warmup_s));
+    rec.warmup_s = program.warmup_s;
+  }
   rec.columns = {true, true, !program.remount_before().empty(), true, true};
 
   std::vector<std::pair<double, double>> commanded;
@@ -525,8 +529,9 @@ Recording simulate_run(const SimulationRequest& req) {
     const double t_arrive_s = t_s;
     const double t_first_s = t_arrive_s + p.settle_s.value_or(req.timing.settle_s);
     unit.set_position_context(approach[i], t_arrive_s);
-    const auto n = static_cast<long>(
-        std::llround(p.dwell_s.value_or(req.timing.dwell_s) * req.timing.sample_rate_hz));
+    // The first position's warm-up is recorded ahead of its dwell, in the same block.
+    const double held_s = p.dwell_s.value_or(req.timing.dwell_s) + (i == 0 ? program.warmup_s : 0);
+    const auto n = static_cast<long>(std::llround(held_s * req.timing.sample_rate_hz));
     for (long k = 0; k < n; ++k) {
       RecordingSample s;
       s.t_s = t_first_s + static_cast<double>(k) / req.timing.sample_rate_hz;

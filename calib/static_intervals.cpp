@@ -201,15 +201,30 @@ std::vector<std::pair<std::size_t, std::size_t>> static_runs(const std::vector<d
   return runs;
 }
 
-std::vector<std::pair<std::size_t, std::size_t>> block_runs(const RawInput& in) {
+// The recording's dwell blocks; block 0's warm-up rows (RawInput::warmup_s) go to `warm_up`
+// instead, as the stand averaging leaves them out of that position's mean.
+std::vector<std::pair<std::size_t, std::size_t>> block_runs(
+    const RawInput& in, std::pair<std::size_t, std::size_t>& warm_up) {
   std::vector<std::pair<std::size_t, std::size_t>> runs;
   std::size_t begin = 0;
   for (std::size_t i = 1; i <= in.size(); ++i)
     if (i == in.size() || in.block[i] != in.block[begin]) {
-      runs.emplace_back(begin, i);
+      std::size_t measured = begin;
+      if (in.block[begin] == 0 && in.warmup_s > 0)
+        while (measured < i && in.t_s[measured] < in.t_s[begin] + in.warmup_s) ++measured;
+      if (measured > begin) warm_up = {begin, measured};
+      if (measured < i) runs.emplace_back(measured, i);
       begin = i;
     }
   return runs;
+}
+
+// The stretches pooled into the curves: the warm-up (if any), then every interval.
+std::vector<std::pair<std::size_t, std::size_t>> pooled_stretches(const StaticDetection& d) {
+  std::vector<std::pair<std::size_t, std::size_t>> out;
+  if (d.warm_up.second > d.warm_up.first) out.push_back(d.warm_up);
+  for (const StaticInterval& iv : d.intervals) out.emplace_back(iv.begin, iv.end);
+  return out;
 }
 
 // Whether the pooled curves are white noise's: white noise alone describes them, with
@@ -239,12 +254,13 @@ bool curves_are_white(const StaticDetection& d, double period_s, std::string& wh
   return false;
 }
 
-// The time missing inside the intervals: each step between their samples against the rate.
-DwellGaps interval_gaps(const RawInput& in, const std::vector<StaticInterval>& intervals) {
+// The time missing inside the pooled stretches: each step between their samples against the
+// rate.
+DwellGaps interval_gaps(const RawInput& in, const StaticDetection& d) {
   DwellGaps gaps;
   const double period_s = 1.0 / in.sample_rate_hz;
-  for (const StaticInterval& iv : intervals)
-    for (std::size_t i = iv.begin + 1; i < iv.end; ++i)
+  for (const auto& [begin, end] : pooled_stretches(d))
+    for (std::size_t i = begin + 1; i < end; ++i)
       gaps.add_step(in.t_s[i] - in.t_s[i - 1], period_s);
   return gaps;
 }
@@ -252,10 +268,10 @@ DwellGaps interval_gaps(const RawInput& in, const std::vector<StaticInterval>& i
 // The coloured-noise standard errors: the intervals pooled as segments of one Allan curve.
 void attach_coloured_errors(const RawInput& in, StaticDetection& d) {
   std::array<std::vector<std::vector<double>>, 3> segments;
-  for (const StaticInterval& iv : d.intervals)
+  for (const auto& [begin, end] : pooled_stretches(d))
     for (std::size_t a = 0; a < 3; ++a)
-      segments[a].emplace_back(in.axis[a].begin() + static_cast<std::ptrdiff_t>(iv.begin),
-                               in.axis[a].begin() + static_cast<std::ptrdiff_t>(iv.end));
+      segments[a].emplace_back(in.axis[a].begin() + static_cast<std::ptrdiff_t>(begin),
+                               in.axis[a].begin() + static_cast<std::ptrdiff_t>(end));
   const double period = 1.0 / in.sample_rate_hz;
   for (std::size_t a = 0; a < 3; ++a) d.allan[a] = overlapping_allan_deviation(segments[a], period);
   std::string why;
@@ -325,8 +341,9 @@ StaticDetection detect_static_intervals(const RawInput& in, const StaticDetector
   std::vector<std::pair<std::size_t, std::size_t>> runs;
   char how[256];
   if (o.use_blocks && !in.block.empty()) {
-    runs = block_runs(in);
-    std::snprintf(how, sizeof how, "the recording's %zu dwell blocks (no detection)", runs.size());
+    runs = block_runs(in, d.warm_up);
+    std::snprintf(how, sizeof how, "the recording's %zu dwell blocks (no detection)%s", runs.size(),
+                  d.warm_up.second > d.warm_up.first ? ", its warm-up in the curves alone" : "");
   } else {
     // Odd, and at least three samples: a variance needs two, centring one more.
     d.window_samples = std::max<std::size_t>(
@@ -357,7 +374,7 @@ StaticDetection detect_static_intervals(const RawInput& in, const StaticDetector
     if (iv.samples >= 2) d.intervals.push_back(iv);
   }
   attach_coloured_errors(in, d);
-  d.gaps = interval_gaps(in, d.intervals);
+  d.gaps = interval_gaps(in, d);
   return d;
 }
 

@@ -23,6 +23,7 @@
 #include <cstddef>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "calib/allan.hpp"
@@ -75,6 +76,9 @@ struct StaticDetection {
   // The Allan deviation of the intervals pooled, per axis, input units: what the
   // coloured-noise standard errors are read from.
   std::array<std::vector<AllanPoint>, 3> allan;
+  // A standcal recording's warm-up (RawInput::warmup_s): its rows [begin, end), pooled into
+  // the curves (and counted in `gaps`) but no interval; empty without one.
+  std::pair<std::size_t, std::size_t> warm_up{0, 0};
   // Time missing inside the intervals, from their samples' time stamps: those curves take the
   // samples as evenly spaced, so beyond kMaxDwellGapShare no wander is read off them.
   DwellGaps gaps;

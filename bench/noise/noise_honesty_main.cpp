@@ -190,16 +190,19 @@ int main(int argc, char** argv) {
                  "recording of the unit this many hours long (one per run)")
       ->check(CLI::NonNegativeNumber);
   app.add_option("--warmup-hours", setup.warmup_hours,
-                 "hold the programme's first position this many hours (a warm-up): the "
-                 "'estimated' rows take its Allan curves' wander, as standcal fit does")
+                 "the programme's warm-up (its warmup_s: the first position held this many "
+                 "hours before its dwell, recorded, out of its mean): the 'estimated' rows take "
+                 "its Allan curves' wander, as standcal fit does")
       ->check(CLI::Range(0.0, kMaxDwell_s / 3600));
-  app.add_option("--warmup-transient-ug", setup.warmup_transient_ug,
-                 "add a bias settling after power-on, this size x exp(-t / tau) on every axis "
-                 "from the run's start (a warm-up that still drifts thermally)")
-      ->check(CLI::NonNegativeNumber);
+  CLI::Option* transient =
+      app.add_option("--warmup-transient-ug", setup.warmup_transient_ug,
+                     "add a bias settling after power-on, this size x exp(-t / tau) on every axis "
+                     "from the run's start (a warm-up that still drifts thermally)")
+          ->check(CLI::Range(0.0, 1e6));
   app.add_option("--warmup-transient-tau-s", setup.warmup_transient_tau_s,
                  "the time constant of that settling")
-      ->check(CLI::PositiveNumber)
+      ->check(CLI::Range(1e-3, 1e7))
+      ->needs(transient)
       ->capture_default_str();
   app.add_option("--specified-exceeded-p", setup.specified_exceeded_p,
                  "the 'unit given' rows weight with the run's own wander where it exceeds the "
@@ -221,7 +224,7 @@ int main(int argc, char** argv) {
   }
   setup.program =
       repeated_program(program == "diagnostic32" ? diagnostic32() : load_program(program), repeat);
-  if (setup.warmup_hours > 0) setup.program.positions.front().dwell_s = setup.warmup_hours * 3600;
+  if (setup.warmup_hours > 0) setup.program.warmup_s = setup.warmup_hours * 3600;
 
   std::printf(
       "noise honesty: %d runs per scenario of %s (%zu positions, %.0f s dwells at %.0f Hz), "
@@ -241,8 +244,8 @@ int main(int argc, char** argv) {
                 setup.tau_given_factor, setup.tau_given_range);
   if (setup.warmup_hours > 0)
     std::printf(
-        "the first position held %.3g hours (a warm-up): the 'estimated' fits take its Allan "
-        "curves' wander where they pin one\n",
+        "a warm-up of %.3g hours before the first position's dwell (out of its mean): the "
+        "'estimated' fits take its Allan curves' wander where they pin one\n",
         setup.warmup_hours);
   if (setup.warmup_transient_ug > 0)
     std::printf(

@@ -53,9 +53,10 @@ struct Setup {
   // it sees a wander, pins its time and describes the curves (the advice it then prints);
   // nothing otherwise, and those runs' rows are fitted as "estimated".
   double static_hours = 0;
-  // Above 0: the programme's first position is held this many hours (a warm-up dwell), whose
-  // Allan curves the "estimated" rows take as the unit's wander where they pin one
-  // (take_recording_wander), as standcal fit and standcald do.
+  // Above 0: the programme's warm-up (Program::warmup_s): the first position held this many
+  // hours before its dwell, recorded but out of its mean, whose Allan curves the "estimated"
+  // rows take as the unit's wander where they pin one (take_recording_wander), as standcal
+  // fit and standcald do.
   double warmup_hours = 0;
   // Above 0: a bias settling after power-on, warmup_transient_ug * exp(-t / tau) on every axis
   // from the run's first sample (a warm-up that still drifts thermally, which neither the

@@ -24,7 +24,9 @@ SettlingResult settling_search(const Recording& rec, const std::vector<PositionA
   const std::size_t npos = avg.size();
   std::vector<double> sum_e(npos, 0), sum_de(npos, 0), sum_t(npos, 0), count(npos, 0);
   const double g = rec.g_local_mps2;
+  const double warmup_end = warmup_end_s(rec);  // a warm-up's rows are not in the means
   for (const RecordingSample& s : rec.samples) {
+    if (is_warmup_row(s, warmup_end)) continue;
     const std::size_t k = index.at(s.pos);
     const double since = s.t_s - avg[k].t_arrive_s;
     const double e = std::exp(-since / tau_s);
@@ -46,6 +48,7 @@ SettlingResult settling_search(const Recording& rec, const std::vector<PositionA
   for (std::size_t k = 0; k < npos; ++k)
     sigma[k] = std::max(avg[k].sigma_g[axis] * correlation_widening(avg[k], axis), 1e-9);
   for (const RecordingSample& s : rec.samples) {
+    if (is_warmup_row(s, warmup_end)) continue;
     const std::size_t k = index.at(s.pos);
     const double sig = sigma[k];
     const double since = s.t_s - avg[k].t_arrive_s;

@@ -161,6 +161,8 @@ class Sequencer {
   drivers::AxisState read_axis(drivers::StandAxis axis);
   protocol::UnitReadResult unit_read(double seconds);
   std::vector<drivers::AccelSample> collect(double seconds);
+  // The unit started, `seconds` collected, the unit stopped (also when collecting throws).
+  std::vector<drivers::AccelSample> sample_unit(double seconds);
   void refresh_stand_snapshot();
 
   // Runs (sequencer_run.cpp).
@@ -182,6 +184,7 @@ class Sequencer {
     double t_first_s = 0;  // run clock at the first sample
   };
   SampledDwell sample_stable_dwell(const RunRecord& record, int index, double dwell_s);
+  SampledDwell warm_up(const RunRecord& record, double warmup_s);
   void start_dwell_pool(const RunRecord& record);
   void pool_recorded_dwells(const RunRecord& record);
   GivenWander recorded_run_wander(const RunRecord& record) const;

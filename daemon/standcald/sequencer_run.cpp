@@ -282,7 +282,9 @@ void Sequencer::run_loop(RunRecord record, const std::function<void()>& started)
             header.set_header("run_id", record.run_id);
             header.set_header("stand_id", record.stand_id);
             // What the run's fits weigh with, and every later fit of its recording.
-            set_unit_wander_header(header, unit_wander());
+            set_unit_wander_header(header, run_wander_);
+            if (program.warmup_s > 0)
+              header.set_header(kHeaderWarmupS, round_trip_text(program.warmup_s));
             header.columns = recording_columns(program);
             file.emplace(
                 RecordingFile::create(record.recording_path, format_recording_header(header)));
@@ -477,13 +479,25 @@ void Sequencer::measure_position(RunRecord& record, const Program& program, int 
 
   set_progress(record, index, "settling");
   wait_real(hw_.clock->real_seconds(pp.settle_s.value_or(record.settle_s)));
+  const RecordingColumns columns = recording_columns(program);
+  std::vector<RecordingSample> rows;
+  double warm_up_real_s = 0;  // not a position's time: kept out of the ETA's mean
+  if (index == 0 && program.warmup_s > 0) {
+    const double warm_up_started = now_real_s();
+    const SampledDwell warm = warm_up(record, program.warmup_s);
+    warm_up_real_s = now_real_s() - warm_up_started;
+    rows = dwell_rows(warm.samples, warm.t_first_s, index, pp, arrival.reached_deg,
+                      arrival.t_arrive_s, arrival.approach, columns);
+    // The readers take the block's rows within warmup_s of its first as the warm-up: the
+    // dwell's rows begin after that.
+    last_t_s_ = std::max(rows.back().t_s, warm.t_first_s + program.warmup_s);
+  }
   const SampledDwell dwell =
       sample_stable_dwell(record, index, pp.dwell_s.value_or(record.dwell_s));
-
-  const RecordingColumns columns = recording_columns(program);
-  const std::vector<RecordingSample> rows =
+  const std::vector<RecordingSample> dwell_part =
       dwell_rows(dwell.samples, dwell.t_first_s, index, pp, arrival.reached_deg, arrival.t_arrive_s,
                  arrival.approach, columns);
+  rows.insert(rows.end(), dwell_part.begin(), dwell_part.end());
   std::string text;
   text.reserve(rows.size() * 120);
   append_recording_rows(text, columns, rows);
@@ -506,7 +520,7 @@ void Sequencer::measure_position(RunRecord& record, const Program& program, int 
                                       std::nullopt};
   if (std::isfinite(avg.temp_mean_c)) averaged.temp_c = avg.temp_mean_c;
   events_(ev::position_averaged, averaged);
-  const double took = now_real_s() - started_real;
+  const double took = now_real_s() - started_real - warm_up_real_s;
   mean_position_real_s_ =
       (mean_position_real_s_ * positions_timed_ + took) / (positions_timed_ + 1);
   ++positions_timed_;
@@ -555,6 +569,7 @@ struct HeaderOnly : RecordingRowSink {
 // begun before headers carried it) or cannot be read (the reopened recording is checked as
 // it is read on).
 GivenWander Sequencer::recorded_run_wander(const RunRecord& record) const {
+  if (!(config_.stability.trend_limit_sigmas > 0)) return unit_wander();  // the rule is off
   try {
     HeaderOnly sink;
     RecordingReader reader(record.recording_path);
@@ -595,6 +610,29 @@ void Sequencer::pool_recorded_dwells(const RunRecord& record) {
   }
 }
 
+// The first position's warm-up (Program::warmup_s): the unit sampled ahead of the dwell, its
+// rows recorded in the same block (Recording::warmup_s: they feed the noise model's Allan
+// curves and stay out of the position's mean). The drift rule does not judge it: a warm-up
+// is where the unit settles.
+Sequencer::SampledDwell Sequencer::warm_up(const RunRecord& record, double warmup_s) {
+  set_progress(record, 0, "warming_up");
+  SampledDwell w;
+  w.t_first_s = std::max(run_clock_s(), last_t_s_ + 1e-3);
+  w.samples = sample_unit(warmup_s);
+  if (w.samples.empty())
+    throw RpcError(ErrorCode::hardware_fault,
+                   "the unit " + hw_.unit->name() + " sent no sample in the " +
+                       number_text(warmup_s) + " s warm-up of position 1");
+  // Exactly the rows the readers take for the warm-up (within warmup_s of its first): a chunk
+  // may end a little past it, and a sample at warmup_s itself could read either way once its
+  // time is written, so the warm-up ends half a period before.
+  const double first_unit_s = w.samples.front().t_s;
+  const double end_s = warmup_s - 0.5 / config_.sample_rate_hz;
+  std::erase_if(w.samples,
+                [&](const drivers::AccelSample& x) { return !(x.t_s - first_unit_s < end_s); });
+  return w;
+}
+
 // Samples `dwell_s` of unit time; a dwell the stability rule rejects is re-measured up to
 // stability.remeasure_max times, then the run faults saying why.
 Sequencer::SampledDwell Sequencer::sample_stable_dwell(const RunRecord& record, int index,
@@ -604,14 +642,7 @@ Sequencer::SampledDwell Sequencer::sample_stable_dwell(const RunRecord& record, 
     const std::uint64_t incomplete_before = hw_.unit->health().incomplete_samples;
     SampledDwell d;
     d.t_first_s = std::max(run_clock_s(), last_t_s_ + 1e-3);
-    check(hw_.unit->start());
-    try {
-      d.samples = collect(dwell_s);
-    } catch (...) {
-      (void)hw_.unit->stop();
-      throw;
-    }
-    (void)hw_.unit->stop();
+    d.samples = sample_unit(dwell_s);
     d.average = average_dwell(d.samples);
     DwellExpectation expected{hw_.unit->name(), dwell_s, config_.sample_rate_hz,
                               hw_.unit->health().incomplete_samples - incomplete_before,

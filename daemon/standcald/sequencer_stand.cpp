@@ -297,7 +297,7 @@ std::vector<drivers::AccelSample> Sequencer::collect(double seconds) {
   return all;
 }
 
-protocol::UnitReadResult Sequencer::unit_read(double seconds) {
+std::vector<drivers::AccelSample> Sequencer::sample_unit(double seconds) {
   check(hw_.unit->start());
   std::vector<drivers::AccelSample> samples;
   try {
@@ -307,6 +307,11 @@ protocol::UnitReadResult Sequencer::unit_read(double seconds) {
     throw;
   }
   (void)hw_.unit->stop();
+  return samples;
+}
+
+protocol::UnitReadResult Sequencer::unit_read(double seconds) {
+  const std::vector<drivers::AccelSample> samples = sample_unit(seconds);
   if (samples.empty()) {
     throw RpcError(
         ErrorCode::hardware_fault,

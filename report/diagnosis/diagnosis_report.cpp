@@ -131,9 +131,10 @@ std::vector<Vec3> findings_effect_per_position_g(const Diagnosis& d, const Recor
   for (std::size_t k = 0; k < avg.size(); ++k) index[avg[k].pos] = k;
   std::vector<double> count(avg.size(), 0);
   const double temp_ref_c = temperature_reference_c(rec);
+  const double warmup_end = warmup_end_s(rec);  // a warm-up's rows are not in the means
   for (const RecordingSample& s : rec.samples) {
     const auto it = index.find(s.pos);
-    if (it == index.end()) continue;
+    if (it == index.end() || is_warmup_row(s, warmup_end)) continue;
     const PositionAverage& p = avg[it->second];
     const Vec3 J = s.f_mps2 / rec.g_local_mps2;
     const double temp_delta_c = std::isfinite(s.temp_c) ? s.temp_c - temp_ref_c : 0.0;
@@ -358,7 +359,9 @@ std::vector<plot::Figure> settling_figures(const Diagnosis& d, const Recording& 
     // The finding's shape de-meaned per dwell, as the position mean absorbs its average.
     std::vector<double> shape_sum(avg.size(), 0), shape_n(avg.size(), 0);
     double longest_s = 0;
+    const double warmup_end = warmup_end_s(rec);  // a warm-up's rows are not in the means
     for (const RecordingSample& s : rec.samples) {
+      if (is_warmup_row(s, warmup_end)) continue;
       const std::size_t k = index.at(s.pos);
       const double since = s.t_s - avg[k].t_arrive_s;
       shape_sum[k] += std::exp(-since / f.tau_s);
@@ -369,6 +372,7 @@ std::vector<plot::Figure> settling_figures(const Diagnosis& d, const Recording& 
     const auto n_bins = static_cast<std::size_t>(longest_s / bin_s) + 1;
     std::vector<double> r_sum(n_bins, 0), r_sq(n_bins, 0), p_sum(n_bins, 0), n(n_bins, 0);
     for (const RecordingSample& s : rec.samples) {
+      if (is_warmup_row(s, warmup_end)) continue;
       const std::size_t k = index.at(s.pos);
       const double since = s.t_s - avg[k].t_arrive_s;
       if (since < 0) continue;

@@ -178,6 +178,20 @@ TEST(UserProgramme, DwellAndSettleBeyondTheRunLimitsAreRefusedNamingPositionAndL
       message(
           R"({"positions": [{"alpha1_deg": 0, "alpha2_deg": 0, "dwell_s": 36000, "settle_s": 3600}]})"),
       "");
+  // The first position's warm-up (Program::warmup_s), within the same limit as a dwell.
+  EXPECT_EQ(message(R"({"warmup_s": 36001, "positions": [{"alpha1_deg": 0, "alpha2_deg": 0}]})"),
+            "p.json: 'warmup_s' must be at most 36000 s (the run limit), not 36001");
+  EXPECT_EQ(message(R"({"warmup_s": -1, "positions": [{"alpha1_deg": 0, "alpha2_deg": 0}]})"),
+            "p.json: 'warmup_s' must be >= 0");
+  EXPECT_EQ(message(R"({"warmup_s": "2h", "positions": [{"alpha1_deg": 0, "alpha2_deg": 0}]})"),
+            "p.json: 'warmup_s' must be a number");
+  const Program warmed = program_from_json(
+      nlohmann::json::parse(
+          R"({"warmup_s": 7200, "positions": [{"alpha1_deg": 0, "alpha2_deg": 0}]})"),
+      "p.json");
+  EXPECT_DOUBLE_EQ(warmed.warmup_s, 7200);
+  EXPECT_DOUBLE_EQ(program_from_json(program_to_json(warmed), "again").warmup_s, 7200);
+  EXPECT_FALSE(program_to_json(paper9()).contains("warmup_s"));
 }
 
 TEST(UserProgramme, UnknownKeysAndAWrongNameAreRefusedNamingThem) {
@@ -191,7 +205,7 @@ TEST(UserProgramme, UnknownKeysAndAWrongNameAreRefusedNamingThem) {
   };
   EXPECT_EQ(
       message(R"({"name": "a", "positions": [{"alpha1_deg": 0, "alpha2_deg": 0}], "dwel_s": 5})"),
-      "p.json: unknown key 'dwel_s' (known: name, positions)");
+      "p.json: unknown key 'dwel_s' (known: name, positions, warmup_s)");
   EXPECT_EQ(message(R"({"name": 5, "positions": [{"alpha1_deg": 0, "alpha2_deg": 0}]})"),
             "p.json: 'name' must be a string");
   EXPECT_EQ(message("{\"name\": \"a\\n# mount: y\", \"positions\": [{\"alpha1_deg\": 0, "

@@ -242,6 +242,10 @@ TEST(RecordingErrors, AHeaderNumberNoRunHoldsNamesItsLine) {
             std::string::npos);
   EXPECT_EQ(error_of(with_header("# sample_rate_hz: 1000000")), "");
   EXPECT_EQ(error_of(with_header("# settle_s: 0")), "");
+  EXPECT_NE(error_of(with_header("# warmup_s: -1"))
+                .find("rec.csv:2: header 'warmup_s': -1 s is not a warm-up time (0 ... 1e12 s)"),
+            std::string::npos);
+  EXPECT_DOUBLE_EQ(parse_recording(with_header("# warmup_s: 7200"), "rec.csv").warmup_s, 7200);
 }
 
 // The unit's wander a run was made with (standcald's unit.bias_instability_*): read as given,

@@ -21,7 +21,8 @@ Recording simulate(const Program& program, const TruthModel& truth, RunTiming ti
 }
 
 Program one_position(double a1, double a2) {
-  Program p{"one", {}};
+  Program p;
+  p.name = "one";
   ProgramPosition pos;
   pos.alpha1_deg = a1;
   pos.alpha2_deg = a2;

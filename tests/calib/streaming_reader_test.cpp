@@ -26,10 +26,13 @@
 #include "calib/averaging.hpp"
 #include "calib/decimal.hpp"
 #include "calib/line_source.hpp"
+#include "calib/programs.hpp"
 #include "calib/raw_input.hpp"
 #include "calib/recording_digest.hpp"
 #include "calib/simulator.hpp"
+#include "calib/static_intervals.hpp"
 #include "calib/text.hpp"
+#include "calib/units.hpp"
 #include "tests/support/command.hpp"
 
 namespace fs = std::filesystem;
@@ -655,6 +658,83 @@ TEST_F(StreamingReader, AFileReadInTwoPartsDigestsAsOneReadInOrder) {
                 in_order.allan->curves[a][i].deviation);  // the same sums, in the same order
       EXPECT_EQ(two->digest->allan->curves[a][i].terms, in_order.allan->curves[a][i].terms);
     }
+  }
+}
+
+// A warm-up (the programme's warmup_s, the recording's header `warmup_s`): the first position's
+// rows within it of the block's first are the unit settling and showing its noise, not a
+// measurement. They feed the Allan curves and stay out of that position's mean, in memory,
+// streamed and in two parts alike: the mean is that of the measured rows to the last bit, its
+// time the measured rows', and a settling put into the warm-up moves nothing. Without the
+// header the same rows are a 610 s dwell, the settling in its mean.
+TEST_F(StreamingReader, AWarmUpFeedsTheCurvesAndStaysOutOfItsPositionsMean) {
+  SimulationRequest req;
+  req.program = paper9();
+  req.program.warmup_s = 600;
+  req.timing.dwell_s = 10;
+  req.timing.sample_rate_hz = 25;
+  req.seed = 4;
+  Recording rec = simulate_run(req);
+  ASSERT_EQ(rec.header_value(kHeaderWarmupS), "600");
+  const double first_s = rec.samples.front().t_s;
+  std::size_t warm_rows = 0;
+  for (RecordingSample& x : rec.samples)
+    if (x.pos == 0 && x.t_s < first_s + 600) {
+      x.f_mps2 += Vec3::Constant(100 * kUg * rec.g_local_mps2);  // a settling of 100 ug
+      ++warm_rows;
+    }
+  ASSERT_EQ(warm_rows, 15000u);
+  const std::string path = (dir_ / "warm.csv").string();
+  write_recording(rec, path);
+  const Recording whole = read_recording(path);
+  EXPECT_DOUBLE_EQ(whole.warmup_s, 600);
+  Recording measured = whole;  // the same rows without the warm-up's, and no warm-up
+  std::erase_if(measured.samples,
+                [&](const RecordingSample& x) { return x.pos == 0 && x.t_s < first_s + 600; });
+  measured.warmup_s = 0;
+  const std::vector<PositionAverage> expected = average_positions(measured);
+
+  const AveragedRecording in_memory = average_recording(whole);
+  ASSERT_EQ(in_memory.averages.size(), 9u);
+  EXPECT_EQ(in_memory.averages[0].samples, 250u);
+  EXPECT_EQ(in_memory.averages[0].mean_g, expected[0].mean_g);
+  EXPECT_EQ(in_memory.averages[0].standard_error_g, expected[0].standard_error_g);
+  EXPECT_DOUBLE_EQ(in_memory.averages[0].t_start_s, measured.samples.front().t_s);
+  EXPECT_DOUBLE_EQ(in_memory.averages[0].t_arrive_s, rec.samples.front().t_arrive_s);
+  const RecordingDigest digest = digest_recording(path);
+  expect_same_averages(digest.averages, in_memory.averages);
+  const std::unique_ptr<TwoParts> two = digest_in_two_parts(path);
+  ASSERT_TRUE(two->digest);
+  expect_same_averages(two->digest->averages, in_memory.averages);
+  // The curves hold the warm-up: they reach a third of its 610 s block, where the 10 s
+  // dwells alone end at 3.3 s.
+  ASSERT_TRUE(digest.allan && in_memory.allan);
+  EXPECT_GT(digest.allan->curves[0].back().tau_s, 150);
+  EXPECT_EQ(dwell_allan(whole).curves[0].back().tau_s, digest.allan->curves[0].back().tau_s);
+
+  // The norm fit of the same recording without its angles takes its intervals from the
+  // blocks alike: the warm-up in the curves, not in position 0's interval.
+  const StaticDetection blocks = detect_static_intervals(raw_input_of(whole));
+  ASSERT_EQ(blocks.intervals.size(), 9u);
+  EXPECT_EQ(blocks.intervals[0].samples, 250u);
+  EXPECT_EQ(blocks.warm_up.second - blocks.warm_up.first, 15000u);
+  EXPECT_GT(blocks.allan[0].back().tau_s, 150);
+
+  Recording without = whole;
+  without.warmup_s = 0;
+  const std::vector<PositionAverage> dwell_of_610_s = average_positions(without);
+  EXPECT_EQ(dwell_of_610_s[0].samples, 15250u);
+  EXPECT_NEAR((dwell_of_610_s[0].mean_g - expected[0].mean_g).mean() / kUg, 100 * 600 / 610.0,
+              12);  // 4 sigma of the 10 s mean's 3.2 ug
+  // A warm-up that leaves the position fewer than two measured rows is refused, saying so.
+  Recording all_warm_up = whole;
+  all_warm_up.warmup_s = 1e6;
+  try {
+    (void)average_positions(all_warm_up);
+    ADD_FAILURE() << "a position of warm-up alone was averaged";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("after its warm-up of 1e+06 s"), std::string::npos)
+        << e.what();
   }
 }
 

@@ -103,7 +103,8 @@ bool closed_by_daemon(int fd, std::chrono::seconds within, std::size_t& bytes) {
 }
 
 json repeated_paper9(int repeats) {
-  Program p{"paper9x" + std::to_string(repeats), {}};
+  Program p;
+  p.name = "paper9x" + std::to_string(repeats);
   for (int r = 0; r < repeats; ++r) {
     for (const auto& pos : paper9().positions) p.positions.push_back(pos);
   }

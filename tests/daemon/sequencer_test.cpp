@@ -14,6 +14,7 @@
 #include <mutex>
 #include <thread>
 
+#include "calib/averaging.hpp"
 #include "calib/programs.hpp"
 #include "calib/recording.hpp"
 #include "calib/simulator.hpp"
@@ -257,12 +258,17 @@ TEST(SequencerInProcess, TheDriftRuleAllowsForTheUnitsOutputFilter) {
       << "quiet dwells of a filtered unit re-measured as drifting";
 }
 
-// Issue 21: a run whose programme holds its first position long enough to show the unit's
-// wander turn over (a warm-up dwell) gives its own fits that wander where none is configured:
-// the daemon's fit of the finished run reads it off the recording's Allan curves as `standcal
-// fit` does (take_unit_wander), weighs with it, and its result says so. The same run without
-// the warm-up weighs with nothing of the kind.
-json warm_up_run(double warm_up_s) {
+// Issue 21: a run whose programme has a warm-up (its warmup_s: the first position held that
+// long before its dwell, long enough to show the unit's wander turn over) gives its own fits
+// that wander where none is configured: the daemon's fit of the finished run reads it off the
+// recording's Allan curves as `standcal fit` does (take_unit_wander), weighs with it, and its
+// result says so; the warm-up is recorded (header warmup_s, in position 1's block) and left
+// out of position 1's mean. The same run without the warm-up weighs with nothing of the kind.
+struct WarmUpRun {
+  json result;
+  Recording recording;
+};
+WarmUpRun warm_up_run(double warm_up_s) {
   test::TempDir dir{"standcal-warm-up"};
   constexpr double kTauS = 60;
   TruthModel truth = default_truth();
@@ -275,21 +281,33 @@ json warm_up_run(double warm_up_s) {
     c.sample_rate_hz = 25;
   });
   json program = program_to_json(load_program("paper9"));
-  if (warm_up_s > 0) program["positions"][0]["dwell_s"] = warm_up_s;
+  if (warm_up_s > 0) program["warmup_s"] = warm_up_s;
   const Outcome started =
       s.call("run.start",
              {{"program", program}, {"unit_serial", "SEQ-W"}, {"dwell_s", 10}, {"settle_s", 1}});
   EXPECT_EQ(started.error_code, 0) << started.error_message;
-  if (started.error_code != 0) return json();
+  if (started.error_code != 0) return {};
   const std::string id = started.result["run_id"];
   const json done = s.wait_run(id, [](const json& st) { return st["state"] != "running"; });
   EXPECT_EQ(done["state"], "done") << done.dump();
   std::ifstream result(s.state_dir() + "/runs/" + id + "/result.json");
-  return json::parse(result);
+  WarmUpRun run{json::parse(result), {}};
+  run.recording = read_recording(run.result["recording_path"]);
+  return run;
 }
 
 TEST(SequencerInProcess, AWarmUpDwellGivesTheRunsFitsTheUnitsWander) {
-  const json warmed = warm_up_run(7200);  // 120 tau
+  const WarmUpRun run = warm_up_run(7200);  // 120 tau
+  const json& warmed = run.result;
+  EXPECT_DOUBLE_EQ(run.recording.warmup_s, 7200);
+  const std::vector<PositionAverage> averages = average_positions(run.recording);
+  ASSERT_EQ(averages.size(), 9u);
+  std::size_t first_block = 0;
+  for (const RecordingSample& x : run.recording.samples) first_block += x.pos == 0;
+  EXPECT_GE(averages[0].t_start_s, run.recording.samples.front().t_s + 7200);
+  EXPECT_GT(first_block, 7000u * 25);  // the warm-up is recorded ...
+  // ... and not in the mean (10 s at 25 Hz, as the simulated backend at 2000x times it)
+  EXPECT_NEAR(static_cast<double>(averages[0].samples), 250, 50);
   const json& noise = warmed["noise"];
   ASSERT_EQ(noise.value("unit_wander_from", ""), "recording") << noise.dump(2);
   EXPECT_EQ(noise["model"], "gauss_markov");
@@ -299,8 +317,9 @@ TEST(SequencerInProcess, AWarmUpDwellGivesTheRunsFitsTheUnitsWander) {
   EXPECT_GE(tau_range[1].get<double>(), 60) << noise.dump(2);
   EXPECT_EQ(warmed["full_vector"]["noise"].value("unit_wander_from", ""), "recording");
 
-  const json plain = warm_up_run(0);
-  EXPECT_FALSE(plain["noise"].contains("unit_wander_from")) << plain["noise"].dump(2);
+  const WarmUpRun plain = warm_up_run(0);
+  EXPECT_FALSE(plain.result["noise"].contains("unit_wander_from")) << plain.result["noise"].dump(2);
+  EXPECT_EQ(plain.recording.header_value(kHeaderWarmupS), "");
 }
 
 // An emergency stop acts at once, and its answer waits until the run it interrupted is

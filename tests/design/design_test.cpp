@@ -91,6 +91,14 @@ TEST(DesignEvaluate, BenchTimeCountsSimultaneousMovesSettleDwellAndRemounts) {
   EXPECT_EQ(t.remounts, 1);
   EXPECT_DOUBLE_EQ(t.remount_s, 600);
   EXPECT_DOUBLE_EQ(t.total_s(), 15 + 7 + 30 + 600);
+  // A warm-up holds the first position before its dwell: it adds to the time and moves every
+  // dwell after it (the wander's covariance between dwells is taken on that timeline).
+  Program warmed = p;
+  warmed.warmup_s = 3600;
+  const BenchTime w = bench_time(warmed, s);
+  EXPECT_DOUBLE_EQ(w.warmup_s, 3600);
+  EXPECT_DOUBLE_EQ(w.total_s(), t.total_s() + 3600);
+  EXPECT_DOUBLE_EQ(dwell_windows(warmed, s)[0].start_s - dwell_windows(p, s)[0].start_s, 3600);
 }
 
 TEST(DesignDwell, PaperProgramDwellForTheIssueTarget) {

@@ -179,15 +179,19 @@ DesignModel choose_model(const Program& program, const std::string& requested, s
 }
 
 json time_json(const BenchTime& t) {
-  return {{"move_s", t.move_s},     {"settle_s", t.settle_s},   {"dwell_s", t.dwell_s},
-          {"remounts", t.remounts}, {"remount_s", t.remount_s}, {"total_s", t.total_s()}};
+  json j = {{"move_s", t.move_s},     {"settle_s", t.settle_s},   {"dwell_s", t.dwell_s},
+            {"remounts", t.remounts}, {"remount_s", t.remount_s}, {"total_s", t.total_s()}};
+  if (t.warmup_s > 0) j["warmup_s"] = t.warmup_s;
+  return j;
 }
 
 std::string format_time(const BenchTime& t) {
   char buf[256];
+  char warm_up[48] = "";
+  if (t.warmup_s > 0) std::snprintf(warm_up, sizeof warm_up, " + warm-up %.0f s", t.warmup_s);
   std::snprintf(buf, sizeof buf,
-                "%.0f s (moves %.0f s + settle %.0f s + dwell %.0f s + %d re-mount(s) %.0f s)",
-                t.total_s(), t.move_s, t.settle_s, t.dwell_s, t.remounts, t.remount_s);
+                "%.0f s (moves %.0f s + settle %.0f s%s + dwell %.0f s + %d re-mount(s) %.0f s)",
+                t.total_s(), t.move_s, t.settle_s, warm_up, t.dwell_s, t.remounts, t.remount_s);
   return buf;
 }
 

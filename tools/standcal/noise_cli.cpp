@@ -192,8 +192,9 @@ std::string gauss_markov_words(const std::optional<GaussMarkovAllanFit>& f, doub
            "the fits from them";
   if (gaps.too_much())
     return found + ", but " + diagnosis::fmt("%.3g", 100 * gaps.missing_share()) +
-           " % of the static samples' time is missing (the warning above), which shortens "
-           "the correlation times the curves show: no range to give the fits from them";
+           " % of the static samples' time is not in their sample periods (the warning "
+           "above), so the curves may show the wrong correlation times: no range to give the "
+           "fits from them";
   const std::optional<WanderToGive> give = wander_to_give(*f, curve_end_s);
   if (!give) return found;  // not reached: seen, bounded and describing the curves
   return found + "\ngive the unit's wander to the fits: standcal fit --bias-instability-ug " +
