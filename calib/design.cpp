@@ -344,6 +344,7 @@ Program repeated_program(const Program& program, int times) {
   if (times < 1) throw std::invalid_argument("a programme is visited at least once");
   Program out;
   out.name = times == 1 ? program.name : program.name + " x" + std::to_string(times);
+  out.warmup_s = program.warmup_s;  // once, before the first pass
   for (int r = 0; r < times; ++r)
     out.positions.insert(out.positions.end(), program.positions.begin(), program.positions.end());
   return out;

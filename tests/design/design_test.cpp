@@ -99,6 +99,7 @@ TEST(DesignEvaluate, BenchTimeCountsSimultaneousMovesSettleDwellAndRemounts) {
   EXPECT_DOUBLE_EQ(w.warmup_s, 3600);
   EXPECT_DOUBLE_EQ(w.total_s(), t.total_s() + 3600);
   EXPECT_DOUBLE_EQ(dwell_windows(warmed, s)[0].start_s - dwell_windows(p, s)[0].start_s, 3600);
+  EXPECT_DOUBLE_EQ(bench_time(repeated_program(warmed, 3), s).warmup_s, 3600);  // once
 }
 
 TEST(DesignDwell, PaperProgramDwellForTheIssueTarget) {
