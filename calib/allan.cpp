@@ -438,9 +438,7 @@ double sample_period_s(const Recording& rec) {
   std::vector<double> dt;
   const double warm_up_end_s = warmup_end_s(rec);  // its step to the dwell is no period
   for (std::size_t k = 1; k < rec.samples.size(); ++k)
-    if (rec.samples[k].pos == rec.samples[k - 1].pos &&
-        is_warmup_row(rec.samples[k - 1], warm_up_end_s) ==
-            is_warmup_row(rec.samples[k], warm_up_end_s))
+    if (one_segment(rec.samples[k - 1], rec.samples[k], warm_up_end_s))
       dt.push_back(rec.samples[k].t_s - rec.samples[k - 1].t_s);
   const std::optional<double> step = median_step_s(std::move(dt));
   if (!step)
@@ -483,9 +481,7 @@ DwellAllan dwell_allan(const Recording& rec) {
   for (std::size_t k = 1; k <= rec.samples.size(); ++k) {
     // A warm-up is a segment of its own: the daemon's time between it and the dwell is no
     // sample period.
-    if (k < rec.samples.size() && rec.samples[k].pos == rec.samples[first].pos &&
-        is_warmup_row(rec.samples[k - 1], warm_up_end_s) ==
-            is_warmup_row(rec.samples[k], warm_up_end_s)) {
+    if (k < rec.samples.size() && one_segment(rec.samples[k - 1], rec.samples[k], warm_up_end_s)) {
       gaps.add_step(rec.samples[k].t_s - rec.samples[k - 1].t_s, period_s);
       continue;
     }

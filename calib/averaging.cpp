@@ -59,12 +59,11 @@ void DwellSamples::clear() {
 }
 
 void DwellSamples::add(const RecordingSample& s) {
-  if (size() == 0) head = s;
-  // The warm-up is the front of position 0's block: once a row is measured, none after it is.
-  if (warmup_s > 0 && s.pos == 0 && size() == warmup_samples && s.t_s < head.t_s + warmup_s)
+  if (warm_up_row(s))
     ++warmup_samples;
   else if (size() == warmup_samples)
     measured_from_s = s.t_s;
+  if (size() == 0) head = s;
   t_end_s = s.t_s;
   for (std::size_t a = 0; a < 3; ++a) f_mps2[a].push_back(s.f_mps2[static_cast<int>(a)]);
   if (with_temperature) temp_c.push_back(s.temp_c);

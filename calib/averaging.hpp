@@ -34,6 +34,16 @@ struct DwellSamples {
   double measured_from_s = 0;  // the first row after the warm-up
 
   std::size_t size() const { return f_mps2[0].size(); }
+  // Whether `s`, the block's next row, is its warm-up's: the front of position 0's block,
+  // within warmup_s of its first row (once a row is measured, none after it is).
+  bool warm_up_row(const RecordingSample& s) const {
+    return warmup_s > 0 && s.pos == 0 && size() == warmup_samples &&
+           (size() == 0 || s.t_s < head.t_s + warmup_s);
+  }
+  // Whether `s` is the first measured row after a warm-up (the step to it is no period).
+  bool ends_warm_up(const RecordingSample& s) const {
+    return warmup_samples > 0 && size() == warmup_samples && !warm_up_row(s);
+  }
   void clear();
   void add(const RecordingSample& s);
   void reserve(std::size_t rows);

@@ -106,6 +106,11 @@ double warmup_end_s(const Recording& rec);
 inline bool is_warmup_row(const RecordingSample& s, double warmup_end_s) {
   return s.pos == 0 && s.t_s < warmup_end_s;
 }
+// Whether consecutive rows `a`, `b` lie in one stretch of evenly spaced samples: one
+// position's block, and the same side of its warm-up's end.
+inline bool one_segment(const RecordingSample& a, const RecordingSample& b, double warmup_end_s) {
+  return a.pos == b.pos && is_warmup_row(a, warmup_end_s) == is_warmup_row(b, warmup_end_s);
+}
 
 std::string rate_option_not_used_warning(const std::string& source, double given_hz,
                                          double header_hz);

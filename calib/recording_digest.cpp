@@ -35,8 +35,7 @@ void RecordingDigester::header(const Recording& rec) {
 void RecordingDigester::row(const RecordingSample& s) {
   if (dwell_.size() > 0 && s.pos != dwell_.head.pos) finish_dwell();
   // The step from a warm-up to its dwell is no sample period (the two are segments apart).
-  const bool after_warm_up = dwell_.warmup_samples > 0 && dwell_.size() == dwell_.warmup_samples &&
-                             !(s.t_s < dwell_.head.t_s + dwell_.warmup_s);
+  const bool after_warm_up = dwell_.ends_warm_up(s);
   if (dwell_.size() > 0 && allan_[0] && !after_warm_up)
     gaps_.add_step(s.t_s - dwell_.t_end_s, allan_[0]->sample_period_s());
   if (!rate_known_ && dwell_.size() > 0 && !after_warm_up)
