@@ -52,10 +52,11 @@ class AccelUnit {
   // Collects the samples of the next `seconds` from the call on (what queued before it is not
   // returned: the stand may have been moving); fails if the unit falls silent.
   virtual Result<std::vector<AccelSample>> collect(double seconds) = 0;
-  // The same, continuing the previous collect's series since start(): what the unit sent
-  // while the caller was busy in between comes first, so a dwell collected in chunks is one
-  // unbroken series, which its Allan curves and noise model take it to be. With no collect
-  // since start(), as collect.
+  // The next `seconds` of the previous collect's series since start(), from where its window
+  // ended: what the unit sent while the caller was busy in between comes first (at once if
+  // that already fills the window), so a dwell collected in chunks is one unbroken series,
+  // which its Allan curves and noise model take it to be, spanning the sum of its chunks'
+  // lengths. With no collect since start(), as collect.
   virtual Result<std::vector<AccelSample>> collect_more(double seconds) = 0;
   // Link health counters since construction.
   virtual AccelUnitHealth health() const = 0;

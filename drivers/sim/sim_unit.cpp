@@ -15,7 +15,7 @@ Status SimUnit::start() {
   std::lock_guard lock(mutex_);
   started_ = true;
   collected_since_start_ = false;
-  next_sample_t_s_ = clock_->now_s();
+  restart_grid(clock_->now_s());
   return Status::ok();
 }
 
@@ -40,8 +40,13 @@ Result<std::vector<AccelSample>> SimUnit::collect_from(double seconds, bool cont
     std::lock_guard lock(mutex_);
     if (!started_) return Status::error(ErrorKind::not_allowed, "sim unit is not started");
   }
-  const double t_begin_s = clock_->now_s();
-  clock_->sleep_s(seconds);
+  // A continued series' window begins where the previous one ended, however late this call
+  // comes, so its chunks' lengths add up to the series' span (a dwell then spans what the
+  // caller asked for, not that plus the time the caller's thread lost before each call).
+  const bool keep_grid = continuing && collected_since_start_;
+  const double t_begin_s = keep_grid ? series_end_s_ : clock_->now_s();
+  const double t_end_s = t_begin_s + seconds;
+  clock_->sleep_s(t_end_s - clock_->now_s());  // none where the window has passed already
   std::lock_guard lock(mutex_);
   if (silent_) {
     health_.silent = true;
@@ -54,25 +59,37 @@ Result<std::vector<AccelSample>> SimUnit::collect_from(double seconds, bool cont
   // 2000 the caller's millisecond between two chunks of a dwell is two seconds of the unit's,
   // which restarting the grid at each call had dropped (a quarter of a two-hour dwell at
   // 25 Hz: its Allan curves then showed a wander of 60 s as one of 45 s).
-  const bool keep_grid = continuing && collected_since_start_;
-  if (!keep_grid && next_sample_t_s_ < t_begin_s) next_sample_t_s_ = t_begin_s;
+  if (!keep_grid && grid_time_s(next_sample_) < t_begin_s) restart_grid(t_begin_s);
   collected_since_start_ = true;
-  const double t_end_s = t_begin_s + seconds;
+  series_end_s_ = t_end_s;
   std::vector<AccelSample> out;
   out.reserve(static_cast<std::size_t>(seconds * sample_rate_hz_) + 1);
-  for (; next_sample_t_s_ < t_end_s; next_sample_t_s_ += 1.0 / sample_rate_hz_) {
-    const auto angles = stand_->angles_at_deg(next_sample_t_s_);
-    const Vec3 f = simulator_.specific_force_mps2(next_sample_t_s_, angles[0], angles[1], mount_);
+  // The grid's samples before the window's end; the end's own instant is the next window's
+  // (counted, not summed period by period, so that rounding cannot move a sample across).
+  const double end_sample = (t_end_s - grid_origin_s_) * sample_rate_hz_ - 1e-6;
+  for (; static_cast<double>(next_sample_) < end_sample; ++next_sample_) {
+    const double t_s = grid_time_s(next_sample_);
+    const auto angles = stand_->angles_at_deg(t_s);
+    const Vec3 f = simulator_.specific_force_mps2(t_s, angles[0], angles[1], mount_);
     AccelSample s;
-    s.t_s = next_sample_t_s_;
+    s.t_s = t_s;
     s.force_mps2 = {f.x(), f.y(), f.z()};
-    s.temperature_c = simulator_.temperature_c(next_sample_t_s_);
+    s.temperature_c = simulator_.temperature_c(t_s);
     s.counter = counter_++;
     out.push_back(s);
   }
   health_.frames += 4 * out.size();
   health_.samples += out.size();
   return out;
+}
+
+void SimUnit::restart_grid(double origin_s) {
+  grid_origin_s_ = origin_s;
+  next_sample_ = 0;
+}
+
+double SimUnit::grid_time_s(std::uint64_t sample) const {
+  return grid_origin_s_ + static_cast<double>(sample) / sample_rate_hz_;
 }
 
 AccelUnitHealth SimUnit::health() const {

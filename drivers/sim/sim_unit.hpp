@@ -31,6 +31,8 @@ class SimUnit : public AccelUnit {
 
  private:
   Result<std::vector<AccelSample>> collect_from(double seconds, bool continuing);
+  void restart_grid(double origin_s);
+  double grid_time_s(std::uint64_t sample) const;
 
   std::shared_ptr<const SimClock> clock_;
   std::shared_ptr<const SimStand> stand_;
@@ -41,7 +43,9 @@ class SimUnit : public AccelUnit {
   bool started_ = false;
   bool collected_since_start_ = false;  // collect_more continues the grid
   bool silent_ = false;
-  double next_sample_t_s_ = 0;
+  double grid_origin_s_ = 0;       // the sample grid: sample k at origin + k / rate
+  std::uint64_t next_sample_ = 0;  // the grid's next sample not yet returned
+  double series_end_s_ = 0;  // where the last collect's window ended: collect_more's begins there
   std::uint64_t counter_ = 0;
   AccelUnitHealth health_;
 };

@@ -68,6 +68,7 @@ Status SocketCanUnit::start() {
                          "cannot watch CAN link " + link_.name() + ": epoll_create1 failed");
   running_ = true;
   collected_since_start_ = false;
+  held_.clear();
   joiner_.reset();
   last_unit_frame_mono_s_ = monotonic_now_s();
   std::vector<AccelSample> stale;  // frames queued before start: counted in health, not delivered
@@ -99,7 +100,12 @@ Result<std::vector<AccelSample>> SocketCanUnit::collect_from(double seconds, boo
                          "accelerometer unit on " + link_.name() + " is not started");
   if (!(seconds > 0))
     return Status::error(ErrorKind::invalid_argument, "sampling time must be positive");
+  // A continued series begins with what the previous call held back (below), then the frames
+  // queued since; a new one drops what was held.
+  const bool keep_queued = continuing && collected_since_start_;
   std::vector<AccelSample> samples;
+  if (keep_queued) samples.swap(held_);
+  held_.clear();
   if (auto s = read_queued(samples); !s) return s;  // frames queued before this call
   // A bus-off since the last call with no restart after it: nothing can arrive.
   if (health_.bus_state == BusState::bus_off)
@@ -110,11 +116,17 @@ Result<std::vector<AccelSample>> SocketCanUnit::collect_from(double seconds, boo
   // after a cable is plugged back, the next collect must not fail before a frame can come.
   if (health_.silent)
     last_unit_frame_mono_s_ = std::max(last_unit_frame_mono_s_, monotonic_now_s());
-  // From the call on, or (collect_more) with what queued since the previous collect: a dwell
-  // collected in chunks then loses no sample to the caller's time between them.
-  const bool keep_queued = continuing && collected_since_start_;
+  // From the call on, or (collect_more) from where the previous collect's window ended, with
+  // what queued since: a dwell collected in chunks then loses no sample to the caller's time
+  // between them, and its chunks' lengths add up to its span however late each call comes.
+  const double start_mono_s = monotonic_now_s();
   const double start_real_s = realtime_now_s();
-  const double deadline_s = monotonic_now_s() + seconds;
+  const double deadline_s = (keep_queued ? series_deadline_mono_s_ : start_mono_s) + seconds;
+  // The same instant on the samples' (wall-clock) stamps: what the kernel received after it
+  // is the next window's (a frame stamped when it was read, on a descriptor without
+  // SO_TIMESTAMPNS, cannot tell). A clock step within this call can only move samples between
+  // two chunks.
+  const double deadline_real_s = start_real_s + (deadline_s - start_mono_s);
   bus_off_seen_ = false;  // from here a bus-off fails the call, restarted or not
   for (;;) {
     const double now = monotonic_now_s();
@@ -137,8 +149,18 @@ Result<std::vector<AccelSample>> SocketCanUnit::collect_from(double seconds, boo
   }
   if (!keep_queued)
     std::erase_if(samples, [&](const AccelSample& a) { return a.t_s < start_real_s; });
+  if (!stamped_at_read_) hold_after(deadline_real_s, samples);
   collected_since_start_ = true;
+  series_deadline_mono_s_ = deadline_s;
   return samples;
+}
+
+// A caller late for its window finds frames of the next one queued: they wait for it.
+void SocketCanUnit::hold_after(double end_real_s, std::vector<AccelSample>& samples) {
+  const auto late = std::stable_partition(samples.begin(), samples.end(),
+                                          [&](const AccelSample& a) { return a.t_s < end_real_s; });
+  held_.assign(std::make_move_iterator(late), std::make_move_iterator(samples.end()));
+  samples.erase(late, samples.end());
 }
 
 Status SocketCanUnit::bus_off_error() const {
@@ -177,6 +199,7 @@ Status SocketCanUnit::handle(const ReceivedFrame& f, std::vector<AccelSample>& o
   // restart notice (not all do): a bus-off state left behind must not block sampling.
   if (health_.bus_state == BusState::bus_off) health_.bus_state = BusState::error_active;
   last_unit_frame_mono_s_ = monotonic_now_s();
+  if (!f.kernel_time) stamped_at_read_ = true;
   if (running_) joiner_.add(v, f.t_s, out);
   return Status::ok();
 }

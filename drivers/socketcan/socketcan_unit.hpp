@@ -45,6 +45,7 @@ class SocketCanUnit final : public AccelUnit {
   Status handle(const ReceivedFrame& f, std::vector<AccelSample>& out);
   Status silence_error() const;
   Status bus_off_error() const;
+  void hold_after(double end_real_s, std::vector<AccelSample>& samples);
 
   CanLink link_;
   FrameLayout layout_;
@@ -54,7 +55,10 @@ class SocketCanUnit final : public AccelUnit {
   bool running_ = false;
   bool collected_since_start_ = false;  // collect_more keeps every queued frame
   bool bus_off_seen_ = false;           // a bus-off arrived while collecting
+  bool stamped_at_read_ = false;        // a frame had no kernel receive stamp
   double last_unit_frame_mono_s_ = 0;
+  double series_deadline_mono_s_ = 0;  // where the last collect's window ended
+  std::vector<AccelSample> held_;      // received after it: the next collect_more's first
   AccelUnitHealth health_;
 };
 

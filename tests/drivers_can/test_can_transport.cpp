@@ -6,6 +6,7 @@
 #include <cmath>
 #include <ctime>
 #include <nlohmann/json.hpp>
+#include <thread>
 
 #include "can_pair.hpp"
 #include "drivers/socketcan/socketcan_unit.hpp"
@@ -45,6 +46,14 @@ class CanTransport : public ::testing::Test {
   }
   void send_sample(std::uint64_t n) const {
     for (const auto& f : frames_of(n)) pair_.send(f);
+  }
+  // A 0.4 s collect (or collect_more) while the unit sends samples [from, to) once it waits.
+  Result<std::vector<AccelSample>> collect_while_sent(std::uint64_t from, std::uint64_t to,
+                                                      bool more = false) {
+    DelayedWriter w(kWriterDelay_s, [&] {
+      for (std::uint64_t n = from; n < to; ++n) send_sample(n);
+    });
+    return more ? unit_->collect_more(0.4) : unit_->collect(0.4);
   }
 
   FrameLayout layout_ = FrameLayout::default_layout();
@@ -305,35 +314,17 @@ TEST_F(CanTransport, FramesQueuedBeforeCollectAreNotPartOfIt) {
 // (the stand may have moved since). Every collect had dropped what queued before it.
 TEST_F(CanTransport, CollectMoreLosesNothingSinceThePreviousCollect) {
   open_unit();
-  Result<std::vector<AccelSample>> first = Status::ok();
-  {
-    DelayedWriter w(kWriterDelay_s, [&] {
-      for (std::uint64_t n = 0; n < 5; ++n) send_sample(n);
-    });
-    first = unit_->collect(0.4);
-  }
+  const Result<std::vector<AccelSample>> first = collect_while_sent(0, 5);
   ASSERT_TRUE(first.ok()) << first.status().message;
   ASSERT_EQ(first.value().size(), 5U);
   for (std::uint64_t n = 5; n < 10; ++n) send_sample(n);  // the caller is busy
-  Result<std::vector<AccelSample>> next = Status::ok();
-  {
-    DelayedWriter w(kWriterDelay_s, [&] {
-      for (std::uint64_t n = 10; n < 15; ++n) send_sample(n);
-    });
-    next = unit_->collect_more(0.4);
-  }
+  const Result<std::vector<AccelSample>> next = collect_while_sent(10, 15, true);
   ASSERT_TRUE(next.ok()) << next.status().message;
   ASSERT_EQ(next.value().size(), 10U);
   for (std::size_t i = 0; i < 10; ++i) EXPECT_EQ(next.value()[i].counter, 5 + i);
   // A plain collect begins at its call.
   for (std::uint64_t n = 15; n < 20; ++n) send_sample(n);
-  Result<std::vector<AccelSample>> plain = Status::ok();
-  {
-    DelayedWriter w(kWriterDelay_s, [&] {
-      for (std::uint64_t n = 20; n < 23; ++n) send_sample(n);
-    });
-    plain = unit_->collect(0.4);
-  }
+  const Result<std::vector<AccelSample>> plain = collect_while_sent(20, 23);
   ASSERT_TRUE(plain.ok()) << plain.status().message;
   ASSERT_EQ(plain.value().size(), 3U);
   EXPECT_EQ(plain.value().front().counter, 20U);
@@ -341,16 +332,35 @@ TEST_F(CanTransport, CollectMoreLosesNothingSinceThePreviousCollect) {
   ASSERT_TRUE(unit_->stop());
   ASSERT_TRUE(unit_->start());
   for (std::uint64_t n = 23; n < 28; ++n) send_sample(n);
-  Result<std::vector<AccelSample>> after_start = Status::ok();
-  {
-    DelayedWriter w(kWriterDelay_s, [&] {
-      for (std::uint64_t n = 28; n < 31; ++n) send_sample(n);
-    });
-    after_start = unit_->collect_more(0.4);
-  }
+  const Result<std::vector<AccelSample>> after_start = collect_while_sent(28, 31, true);
   ASSERT_TRUE(after_start.ok()) << after_start.status().message;
   ASSERT_EQ(after_start.value().size(), 3U);
   EXPECT_EQ(after_start.value().front().counter, 28U);
+}
+
+// A caller late for its next chunk gets that chunk's window, from where the last one ended,
+// at once; what the kernel received after the window is the next chunk's. So a dwell's chunks
+// add up to its span however late each call comes (a window begun at the call had made a
+// dwell timed by its caller short or long by the caller's lag).
+TEST_F(CanTransport, ALateCollectMoreGetsItsWindowAndLeavesTheRestForTheNext) {
+  open_unit();
+  const Result<std::vector<AccelSample>> first = collect_while_sent(0, 5);
+  ASSERT_TRUE(first.ok()) << first.status().message;
+  ASSERT_EQ(first.value().size(), 5U);
+  // The next window is the 0.4 s after the first: the caller comes 0.6 s late, and the unit
+  // sent samples 5-9 inside that window and 10-14 after it.
+  for (std::uint64_t n = 5; n < 10; ++n) send_sample(n);
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  for (std::uint64_t n = 10; n < 15; ++n) send_sample(n);
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  const Result<std::vector<AccelSample>> late = unit_->collect_more(0.4);
+  ASSERT_TRUE(late.ok()) << late.status().message;
+  ASSERT_EQ(late.value().size(), 5U);
+  EXPECT_EQ(late.value().front().counter, 5U);
+  const Result<std::vector<AccelSample>> next = unit_->collect_more(0.4);
+  ASSERT_TRUE(next.ok()) << next.status().message;
+  ASSERT_EQ(next.value().size(), 5U);
+  EXPECT_EQ(next.value().front().counter, 10U);
 }
 
 TEST_F(CanTransport, UnknownIdsAndRemoteFramesAreCountedAndIgnored) {

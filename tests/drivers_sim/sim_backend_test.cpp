@@ -90,8 +90,10 @@ TEST(SimUnit, CollectsAtTheSampleRateInScaledTime) {
 }
 
 // collect_more continues the previous collect's series on the sample grid however long the
-// caller takes in between; a plain collect begins at its call. At 500x a pause of 20 ms is 10 s
-// of the unit's time, which restarting the grid at each call lost from a dwell's chunks.
+// caller takes in between, each window from where the last ended; a plain collect begins at
+// its call. At 500x a pause of 20 ms is 10 s of the unit's time, which restarting the grid at
+// each call lost from a dwell's chunks, and which a window begun at the call added to the
+// series' span (a dwell timed by its caller then came out short or long by the caller's lag).
 TEST(SimUnit, CollectMoreContinuesTheSampleGrid) {
   SimBackend b = ready_backend();
   const auto first = b.unit->collect(1.0);
@@ -102,6 +104,11 @@ TEST(SimUnit, CollectMoreContinuesTheSampleGrid) {
   ASSERT_FALSE(next.value().empty());
   EXPECT_NEAR(next.value().front().t_s - first.value().back().t_s, 0.01, 1e-9);
   EXPECT_EQ(next.value().front().counter, first.value().back().counter + 1);
+  EXPECT_EQ(next.value().size(), 100u);  // the series' second second, not the 10 s since
+  const auto then = b.unit->collect_more(1.0);
+  ASSERT_TRUE(then);
+  ASSERT_EQ(then.value().size(), 100u);
+  EXPECT_EQ(then.value().front().counter, next.value().back().counter + 1);
   std::this_thread::sleep_for(std::chrono::milliseconds(20));
   const auto plain = b.unit->collect(1.0);
   ASSERT_TRUE(plain);
