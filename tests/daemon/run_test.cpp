@@ -96,7 +96,7 @@ TEST(DaemonRun, FullPaper9RunOverTheSocket) {
   const auto blocks = position_blocks(rec);
   ASSERT_EQ(blocks.size(), 9u);
   for (const auto& [pos, n] : blocks) {
-    EXPECT_NEAR(static_cast<double>(n), 30 * 100, 30) << "position " << pos;
+    EXPECT_NEAR(static_cast<double>(n), 30 * 100, 1) << "position " << pos;
   }
   for (const RecordingSample& s : rec.samples) {
     ASSERT_TRUE(s.approach == 1 || s.approach == -1);
@@ -261,7 +261,7 @@ TEST(DaemonRun, KillNineMidRunThenResumeRecordsEveryPositionOnce) {
   ASSERT_EQ(blocks.size(), 9u);
   for (int pos = 0; pos < 9; ++pos) {
     ASSERT_EQ(blocks.count(pos), 1u);
-    EXPECT_NEAR(static_cast<double>(blocks.at(pos)), 40 * 100, 40) << "position " << pos;
+    EXPECT_NEAR(static_cast<double>(blocks.at(pos)), 40 * 100, 1) << "position " << pos;
   }
   const json result = c.call("run.result", {{"run_id", run_id}});
   EXPECT_EQ(result["positions"], 9);
@@ -556,7 +556,7 @@ TEST(DaemonRun, UnknownRunsAndBadProgrammesAreClearErrors) {
             -32602);
   EXPECT_EQ(error_code_of([&] { c.call("unit.read", {{"seconds", -1}}); }), -32602);
   const json read = c.call("unit.read", {{"seconds", 2}});
-  EXPECT_NEAR(read["samples"].get<double>(), 200, 5);
+  EXPECT_NEAR(read["samples"].get<double>(), 200, 1);
   EXPECT_NEAR(read["axes"]["y"]["mean_mps2"].get<double>(), 9.81, 0.05);  // y up at (0, 0)
   // Inline positions run like a named programme.
   const json inline_run =
