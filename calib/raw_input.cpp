@@ -579,6 +579,32 @@ class Reader {
     }
   }
 
+  // A standcal recording's `# warmup_s` (Recording::warmup_s, as the full reader takes it):
+  // the front of position 0's block is the unit settling, in the Allan curves alone. Without
+  // a pos column no block is position 0's, and the warm-up cannot be told from the rest.
+  void apply_warmup_key(bool has_pos) {
+    bool seen = false;
+    for (const CommentKey& k : comments_) {
+      if (k.key != kHeaderWarmupS) continue;
+      if (seen) fail_at(k.line, 0, "header key 'warmup_s' appears twice");
+      seen = true;
+      double v = 0;
+      if (!parse_number(k.value, v))
+        fail_at(k.line, 0, "header 'warmup_s': '" + k.value + "' is not a number");
+      if (!(v >= 0 && v <= kMaxAbsTime_s))
+        fail_at(k.line, 0,
+                "header 'warmup_s': " + k.value + " s is not a warm-up time (0 ... 1e12 s)");
+      if (has_pos) {
+        out_.warmup_s = v;
+      } else if (v > 0) {
+        out_.warnings.push_back(out_.source + ":" + std::to_string(k.line) + ": header warmup_s " +
+                                k.value +
+                                " s is not used: without a 'pos' column no rows are position "
+                                "1's, so its warm-up is read as samples like the rest");
+      }
+    }
+  }
+
   // ------------------------------------------------------------ standcal-recording/1
 
   void read_standcal(const Line& column_line) {
@@ -620,6 +646,7 @@ class Reader {
     };
     layout.time = find("t_s");
     layout.pos = find("pos");
+    apply_warmup_key(layout.pos >= 0);
     if (options_.columns.empty()) {
       static constexpr std::array<std::string_view, 3> kForce{"fx_mps2", "fy_mps2", "fz_mps2"};
       for (int k = 0; k < 3; ++k) {

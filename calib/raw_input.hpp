@@ -80,7 +80,7 @@ struct RawInput {
   double sample_rate_hz = kNaN;  // from the header, --rate-hz, or the median time step
   // standcal recordings: the `pos` of each sample (its dwell); empty otherwise.
   std::vector<int> block;
-  // standcal recordings with angle columns: the header's warm-up (Recording::warmup_s), the
+  // standcal recordings with a pos column: the header's warm-up (Recording::warmup_s), the
   // front of block 0 that is no static interval of its own but feeds the curves.
   double warmup_s = 0;
 

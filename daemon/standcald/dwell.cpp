@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include "calib/text.hpp"
 #include "daemon/standcald/sequencer_detail.hpp"
@@ -134,8 +135,9 @@ namespace {
 class DwellPoolSink final : public RecordingRowSink {
  public:
   explicit DwellPoolSink(DwellSampleCorrelation& pool) : pool_(pool) {}
-  void header(const Recording&) override {}
+  void header(const Recording& h) override { warmup_s_ = h.warmup_s; }
   void row(const RecordingSample& s) override {
+    if (warm_up_row(s)) return;
     if (!dwell_.empty() && s.pos != pos_) flush();
     pos_ = s.pos;
     drivers::AccelSample x;
@@ -152,7 +154,17 @@ class DwellPoolSink final : public RecordingRowSink {
   std::size_t dwells() const { return dwells_; }
 
  private:
+  // The run had left its warm-up out of the pool (a warm-up is where the unit settles):
+  // position 0's rows within the header's warmup_s of its first (calib's warmup_end_s).
+  bool warm_up_row(const RecordingSample& s) {
+    if (!(warmup_s_ > 0) || s.pos != 0) return false;
+    if (!warmup_end_s_) warmup_end_s_ = s.t_s + warmup_s_;
+    return is_warmup_row(s, *warmup_end_s_);
+  }
+
   DwellSampleCorrelation& pool_;
+  double warmup_s_ = 0;
+  std::optional<double> warmup_end_s_;
   std::vector<drivers::AccelSample> dwell_;
   int pos_ = 0;
   std::size_t dwells_ = 0;

@@ -123,6 +123,12 @@ json Sequencer::start_run(const json& params) {
     throw RpcError(ErrorCode::invalid_params, "run.start: \"dwell_s\" must be in (0, 36000]");
   if (!(settle >= 0 && settle <= kMaxSettle_s))
     throw RpcError(ErrorCode::invalid_params, "run.start: \"settle_s\" must be in [0, 3600]");
+  if (request.warmup_s) {
+    // A named programme's warm-up without writing a programme file (the run's own wins).
+    if (!(*request.warmup_s >= 0 && *request.warmup_s <= kMaxDwell_s))
+      throw RpcError(ErrorCode::invalid_params, "run.start: \"warmup_s\" must be in [0, 36000]");
+    program.warmup_s = *request.warmup_s;
+  }
   if (estop_latched_)
     throw RpcError(ErrorCode::estop_active, "emergency stop is latched: send estop.reset first");
 

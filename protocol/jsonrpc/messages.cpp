@@ -43,7 +43,7 @@ UnitReadParams UnitReadParams::parse(const json& params) {
 
 RunStartParams RunStartParams::parse(const json& params) {
   const Params p(params, method::run_start);
-  p.only({"program", "dwell_s", "settle_s", "unit_serial", "unit_type", "operator"});
+  p.only({"program", "dwell_s", "settle_s", "warmup_s", "unit_serial", "unit_type", "operator"});
   // Text fields go into the recording header, run.json and the records database: each
   // one line of printable text, counted in characters (protocol/jsonrpc/text.hpp).
   RunStartParams out;
@@ -58,6 +58,7 @@ RunStartParams RunStartParams::parse(const json& params) {
   out.program = *program;
   out.dwell_s = p.optional_number("dwell_s");
   out.settle_s = p.optional_number("settle_s");
+  out.warmup_s = p.optional_number("warmup_s");
   return out;
 }
 
@@ -124,6 +125,7 @@ void to_json(json& j, const RunStartParams& p) {
   put_if(j, "unit_type", p.unit_type);
   put_if(j, "dwell_s", p.dwell_s);
   put_if(j, "settle_s", p.settle_s);
+  put_if(j, "warmup_s", p.warmup_s);
   put_if(j, "operator", p.operator_name);
 }
 

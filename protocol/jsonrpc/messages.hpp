@@ -71,6 +71,7 @@ struct RunStartParams {
   std::optional<std::string> unit_type;
   std::optional<double> dwell_s;
   std::optional<double> settle_s;
+  std::optional<double> warmup_s;            // the programme's warm-up, in place of its own
   std::optional<std::string> operator_name;  // "operator" on the wire
   static RunStartParams parse(const json& params);
 };

@@ -505,6 +505,33 @@ TEST(RawInputStandcal, RecordingWithoutAngleColumns) {
   EXPECT_TRUE(contains(input_error_of(missing), "in.csv:2: required column 'fy_mps2' is missing"));
 }
 
+// A standcal file without angle columns keeps its header's warm-up where a pos column says
+// which rows are position 1's (the front of block 0: the curves' alone); without one it is
+// said not to be used. It had been read past: the unit's settling went into block 0.
+TEST(RawInputStandcal, AWarmUpWithoutAngleColumnsIsTheFrontOfBlockZero) {
+  const std::string head = "# format: standcal-recording/1\n# g_local_mps2: 9.81\n";
+  const std::string rows =
+      "0.000,0,0.01,9.81,0.02\n"
+      "0.005,0,0.01,9.80,0.02\n"
+      "3.000,1,9.81,0.01,0.02\n";
+  const RawInput in =
+      parse_input(head + "# warmup_s: 0.004\nt_s,pos,fx_mps2,fy_mps2,fz_mps2\n" + rows, "w.csv");
+  EXPECT_DOUBLE_EQ(in.warmup_s, 0.004);
+  EXPECT_TRUE(in.warnings.empty());
+
+  std::string no_pos = head + "# warmup_s: 0.004\nt_s,fx_mps2,fy_mps2,fz_mps2\n";
+  for (const char* r : {"0.000,0.01,9.81,0.02\n", "0.005,0.01,9.80,0.02\n"}) no_pos += r;
+  const RawInput without = parse_input(no_pos, "w.csv");
+  EXPECT_DOUBLE_EQ(without.warmup_s, 0);
+  ASSERT_EQ(without.warnings.size(), 1u);
+  EXPECT_TRUE(contains(without.warnings[0], "w.csv:3: header warmup_s 0.004 s is not used"))
+      << without.warnings[0];
+
+  const std::string bad = head + "# warmup_s: -1\nt_s,pos,fx_mps2,fy_mps2,fz_mps2\n" + rows;
+  EXPECT_TRUE(contains(input_error_of(bad), "in.csv:3: header 'warmup_s': -1 s is not a warm-up"))
+      << input_error_of(bad);
+}
+
 TEST(RawInputMeans, TableWithCountsAndStandardErrors) {
   const std::string text =
       "mean_x,mean_y,mean_z,n,se_x,se_y,se_z,std_x\n"

@@ -181,6 +181,7 @@ std::vector<MethodShapes> method_shapes() {
   start.unit_type = "QA-3000";
   start.dwell_s = 60;
   start.settle_s = 5;
+  start.warmup_s = 3600;
   start.operator_name = "J. Doe";
   RunsListParams list{"AU-0042", 10, "20261121T223638Z-AU-0042"};
   UnitReadResult read;
@@ -358,6 +359,7 @@ TEST(ProtocolMessages, RequestsParseAsTheDaemonReadsThemAndNameWhatIsWrong) {
   start.program = "paper9";
   start.unit_serial = "AU-1";
   start.dwell_s = 60;
+  start.warmup_s = 1800;
   const auto parsed = RunStartParams::parse(json(start));
   EXPECT_EQ(json(parsed), json(start));
   EXPECT_FALSE(json(start).contains("operator"));  // unset optionals are not sent

@@ -572,10 +572,14 @@ TEST(DaemonRun, UnknownRunsAndBadProgrammesAreClearErrors) {
 TEST(DaemonCli, RunStartWaitPrintsTheResultOfARunThroughTheDaemon) {
   TempDir dir;
   auto daemon = DaemonProcess::sim(dir.path(), 300);
+  const test::CommandOutcome refused =
+      test::standcal_cli("run start paper9 --unit AU-CLI --warmup-s -1 --socket " + socket_of(dir));
+  EXPECT_NE(refused.exit_code, 0);
+  EXPECT_NE(refused.output.find("--warmup-s"), std::string::npos) << refused.output;
   // The spellings before --unit-serial, --dwell-s and --settle-s still work (scripts).
   const test::CommandOutcome run = test::standcal_cli(
       "run start paper9 --unit AU-CLI --unit-type QA-7 --dwell 20 "
-      "--settle 1 --wait --json --socket " +
+      "--settle 1 --warmup-s 30 --wait --json --socket " +
       socket_of(dir));
   ASSERT_EQ(run.exit_code, 0) << run.output;
   // --json --wait prints the events as they come, then the result (pretty-printed, last).
@@ -597,7 +601,9 @@ TEST(DaemonCli, RunStartWaitPrintsTheResultOfARunThroughTheDaemon) {
   Client c(socket_of(dir));
   const json status = c.call("run.status");
   EXPECT_EQ(status["unit_type"], "QA-7");
-  EXPECT_EQ(read_recording(status["recording_path"]).header_value("unit_type"), "QA-7");
+  const Recording recording = read_recording(status["recording_path"]);
+  EXPECT_EQ(recording.header_value("unit_type"), "QA-7");
+  EXPECT_DOUBLE_EQ(recording.warmup_s, 30);  // --warmup-s
   const std::string limits = dir.path() + "/limits.json";
   std::ofstream(limits) << R"({"format": "standcal-limits/1", "unit_types": {
       "QA-7": {"parameters": {"bias": {"max_abs": 1000}}},

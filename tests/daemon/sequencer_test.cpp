@@ -343,6 +343,38 @@ WarmUpRun warm_up_run(double warm_up_s) {
   return run;
 }
 
+// run.start's warmup_s gives a named programme a warm-up, or replaces a programme's own, and
+// is refused outside [0, 36000] naming it.
+TEST(SequencerInProcess, ARunsWarmUpTakesThePlaceOfItsProgrammes) {
+  InProcessSequencer s(400);
+  json program = program_to_json(load_program("paper9"));
+  program["warmup_s"] = 100;
+  const auto start = [&](const json& warmup_s) {
+    json params = {{"program", program},
+                   {"unit_serial", "SEQ-WP"},
+                   {"dwell_s", 2},
+                   {"settle_s", 0},
+                   {"warmup_s", warmup_s}};
+    return s.call("run.start", params);
+  };
+  for (const json& bad : {json(-1), json(36001), json("an hour")}) {
+    const Outcome refused = start(bad);
+    EXPECT_EQ(refused.error_code, static_cast<int>(ErrorCode::invalid_params)) << bad;
+    EXPECT_NE(refused.error_message.find("warmup_s"), std::string::npos) << refused.error_message;
+  }
+  const Outcome started = start(30);
+  ASSERT_EQ(started.error_code, 0) << started.error_message;
+  const json done =
+      s.wait_run(started.result["run_id"], [](const json& st) { return st["state"] != "running"; });
+  ASSERT_EQ(done["state"], "done") << done.dump();
+  const Recording rec = read_recording(done["recording_path"]);
+  EXPECT_DOUBLE_EQ(rec.warmup_s, 30);
+  const std::vector<PositionAverage> averages = average_positions(rec);
+  ASSERT_EQ(averages.size(), 9u);
+  EXPECT_GE(averages[0].t_start_s, rec.samples.front().t_s + 30);
+  EXPECT_NEAR(static_cast<double>(averages[0].samples + averages[0].outliers_rejected), 200, 1);
+}
+
 TEST(SequencerInProcess, AWarmUpDwellGivesTheRunsFitsTheUnitsWander) {
   const WarmUpRun run = warm_up_run(7200);  // 120 tau
   const json& warmed = run.result;

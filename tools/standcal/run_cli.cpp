@@ -17,6 +17,7 @@
 #include "calib/compensation.hpp"
 #include "calib/invariant_estimator.hpp"
 #include "calib/json_text.hpp"
+#include "calib/programs.hpp"
 #include "calib/recording.hpp"
 #include "calib/report.hpp"
 #include "calib/traceability.hpp"
@@ -445,7 +446,7 @@ void add_run(CLI::App& app) {
   auto so = std::make_shared<DaemonOptions>();
   struct StartArgs {
     std::string program, unit, unit_type, op;
-    double dwell_s = -1, settle_s = -1;
+    double dwell_s = -1, settle_s = -1, warmup_s = -1;
     bool wait = false;
   };
   auto sa = std::make_shared<StartArgs>();
@@ -458,6 +459,12 @@ void add_run(CLI::App& app) {
   start->add_option("--unit-type", sa->unit_type,
                     "the unit's type: which acceptance limits its certificate uses");
   add_run_timing_options(start, sa->dwell_s, sa->settle_s, "");
+  start
+      ->add_option("--warmup-s", sa->warmup_s,
+                   "hold the first position this long before its dwell, the unit's warm-up: "
+                   "recorded, left out of its mean, fed to the noise model (default: the "
+                   "programme's, else none)")
+      ->check(cli_checks::number_within(0, true, kMaxDwell_s));
   start->add_option("--operator", sa->op, "who runs it, for traceability");
   start->add_flag("--wait", sa->wait,
                   "follow the run with a live progress line; print the report at the end");
@@ -470,6 +477,7 @@ void add_run(CLI::App& app) {
     if (!sa->unit_type.empty()) params.unit_type = sa->unit_type;
     if (sa->dwell_s > 0) params.dwell_s = sa->dwell_s;
     if (sa->settle_s >= 0) params.settle_s = sa->settle_s;
+    if (sa->warmup_s >= 0) params.warmup_s = sa->warmup_s;
     if (!sa->op.empty()) params.operator_name = sa->op;
     const json r = call(c, protocol::method::run_start, params);
     const auto started = r.get<protocol::RunStarted>();
