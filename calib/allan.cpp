@@ -510,13 +510,24 @@ void DwellGaps::add(const DwellGaps& other) {
   if (other.steps > 0) sample_period_s = other.sample_period_s;
 }
 
-bool DwellGaps::too_much() const { return missing_share() > kMaxDwellGapShare; }
+bool DwellGaps::too_much() const { return mismatch_share() > kMaxDwellGapShare; }
 
 std::string DwellGaps::warning(std::string_view stretches) const {
   if (!too_much()) return "";
   const std::string held(stretches);
-  char text[400];
-  if (count == 0)  // no step stands out: the time is spread over every step
+  char text[640];
+  if (beyond_stamps_s() > 0)
+    std::snprintf(text, sizeof text,
+                  "the %s' %zu steps of the sample period %.4g s make %.3g s, %.3g s more than "
+                  "their time stamps span (%.1f %% of it): the stamps and the sample rate "
+                  "disagree (the stamps say a faster rate, or they bunch), gaps in the samples "
+                  "would not show, and their Allan curves, which take the samples as evenly "
+                  "spaced at that period, may show the wrong correlation times, so no bias "
+                  "wander is read off them",
+                  held.c_str(), steps, sample_period_s,
+                  static_cast<double>(steps) * sample_period_s, beyond_stamps_s(),
+                  100 * mismatch_share());
+  else if (count == 0)  // no step stands out: the time is spread over every step
     std::snprintf(text, sizeof text,
                   "the %s' samples span %.3g s more than their %zu steps of the sample period "
                   "%.4g s (%.1f %% of their %.3g s): their time stamps and the sample rate "

@@ -260,8 +260,19 @@ struct DwellGaps {
   double missing_s() const {
     return std::max(0.0, spanned_s - static_cast<double>(steps) * sample_period_s);
   }
+  // The other way: the steps at the sample period claim more time than the samples' stamps
+  // span (a rate given lower than the stamps', or stamps that bunch): the curves' time axis
+  // is stretched, and gaps in the samples hide in the surplus.
+  double beyond_stamps_s() const {
+    return std::max(0.0, static_cast<double>(steps) * sample_period_s - spanned_s);
+  }
   double missing_share() const { return spanned_s > 0 ? missing_s() / spanned_s : 0; }
-  // More than kMaxDwellGapShare of the dwells' time missing.
+  // The time the stamps and the steps at the sample period disagree by, either way, as a
+  // share of the stamps' span.
+  double mismatch_share() const {
+    return spanned_s > 0 ? (missing_s() + beyond_stamps_s()) / spanned_s : 0;
+  }
+  // More than kMaxDwellGapShare of the dwells' time missing, or claimed beyond the stamps.
   bool too_much() const;
   // "" unless too_much(); else what the gaps do to the curves, for the recording's warnings.
   // `stretches` names what the samples were held in ("dwells", "static intervals").

@@ -400,6 +400,20 @@ TEST_F(Cli, NoiseOfARecordingWithGapsGivesTheFitsNoWander) {
     EXPECT_EQ(gaps["too_much"], true) << file << gaps.dump(2);
     EXPECT_GT(gaps["missing_share"].get<double>(), 0.1) << file << gaps.dump(2);
   }
+  // A rate given lower than the stamps' (5 Hz for 10) had hidden the gaps: the steps at its
+  // period claim more time than the stamps span, and the time missing read as none.
+  const std::string slow = "noise " + path("gapped_g.txt") + " --rate-hz 5";
+  const CliRun text = run_cli(slow);
+  ASSERT_EQ(text.exit_code, 0) << text.output;
+  EXPECT_NE(text.output.find("more than their time stamps span"), std::string::npos) << text.output;
+  EXPECT_EQ(text.output.find(advice), std::string::npos) << text.output;
+  const CliRun json_run = run_cli(slow + " --json");
+  ASSERT_EQ(json_run.exit_code, 0) << json_run.output;
+  const auto gaps =
+      nlohmann::json::parse(json_run.output.substr(json_run.output.find('{')))["gaps"];
+  EXPECT_EQ(gaps["too_much"], true) << gaps.dump(2);
+  EXPECT_GT(gaps["beyond_stamps_s"].get<double>(), 0.1 * gaps["spanned_s"].get<double>())
+      << gaps.dump(2);
 }
 
 // A unit whose output filter correlates its samples (a model file's noise.output_filter_tau_s):

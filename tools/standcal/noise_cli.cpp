@@ -93,11 +93,9 @@ json static_json(const StaticNoise& n) {
 // The time missing inside the static samples' stretches (DwellGaps); `too_much`: no wander
 // is to be given to the fits from these curves.
 json gaps_json(const DwellGaps& g) {
-  return {{"missing_s", g.missing_s()},
-          {"spanned_s", g.spanned_s},
-          {"count", g.count},
-          {"missing_share", g.missing_share()},
-          {"too_much", g.too_much()}};
+  return {{"missing_s", g.missing_s()},         {"beyond_stamps_s", g.beyond_stamps_s()},
+          {"spanned_s", g.spanned_s},           {"count", g.count},
+          {"missing_share", g.missing_share()}, {"too_much", g.too_much()}};
 }
 
 json gauss_markov_json(const GaussMarkovAllanFit& f) {
@@ -191,7 +189,7 @@ std::string gauss_markov_words(const std::optional<GaussMarkovAllanFit>& f, doub
            ", but the model does not describe the curves (below): no range to give "
            "the fits from them";
   if (gaps.too_much())
-    return found + ", but " + diagnosis::fmt("%.3g", 100 * gaps.missing_share()) +
+    return found + ", but " + diagnosis::fmt("%.3g", 100 * gaps.mismatch_share()) +
            " % of the static samples' time is not in their sample periods (the warning "
            "above), so the curves may show the wrong correlation times: no range to give the "
            "fits from them";
