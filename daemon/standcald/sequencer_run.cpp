@@ -129,6 +129,14 @@ json Sequencer::start_run(const json& params) {
       throw RpcError(ErrorCode::invalid_params, "run.start: \"warmup_s\" must be in [0, 36000]");
     program.warmup_s = *request.warmup_s;
   }
+  // The readers refuse a warm-up of fewer than two rows: refused here, before the stand moves.
+  if (const double shortest_s = 2 / config_.sample_rate_hz;
+      program.warmup_s > 0 && program.warmup_s < shortest_s)
+    throw RpcError(ErrorCode::invalid_params,
+                   "run.start: a warm-up of " + number_text(program.warmup_s) +
+                       " s holds fewer than two of the unit's samples at " +
+                       number_text(config_.sample_rate_hz) + " Hz: give 0 (none) or at least " +
+                       number_text(shortest_s) + " s");
   if (estop_latched_)
     throw RpcError(ErrorCode::estop_active, "emergency stop is latched: send estop.reset first");
 
@@ -629,13 +637,18 @@ Sequencer::SampledDwell Sequencer::warm_up(const RunRecord& record, double warmu
     throw RpcError(ErrorCode::hardware_fault,
                    "the unit " + hw_.unit->name() + " sent no sample in the " +
                        number_text(warmup_s) + " s warm-up of position 1");
-  // Exactly the rows the readers take for the warm-up (within warmup_s of its first): a chunk
-  // may end a little past it, and a sample at warmup_s itself could read either way once its
-  // time is written, so the warm-up ends half a period before.
+  // Exactly the rows the readers take for the warm-up (within warmup_s of its first): a sample
+  // at warmup_s itself could read either way once its time is written, and a unit's own
+  // stamps need not step at exactly its period, so the warm-up ends half a period before.
   const double first_unit_s = w.samples.front().t_s;
   const double end_s = warmup_s - 0.5 / config_.sample_rate_hz;
   std::erase_if(w.samples,
                 [&](const drivers::AccelSample& x) { return !(x.t_s - first_unit_s < end_s); });
+  if (w.samples.size() < 2)  // run.start refuses so short a warm-up; a run begun before did not
+    throw RpcError(ErrorCode::hardware_fault, "the " + number_text(warmup_s) +
+                                                  " s warm-up of position 1 holds fewer than "
+                                                  "two samples of the unit " +
+                                                  hw_.unit->name());
   return w;
 }
 

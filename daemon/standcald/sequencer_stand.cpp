@@ -292,6 +292,7 @@ std::vector<drivers::AccelSample> Sequencer::collect(double seconds) {
     auto got = check(first ? hw_.unit->collect(chunk_s) : hw_.unit->collect_more(chunk_s));
     all.insert(all.end(), got.begin(), got.end());
   }
+  service();  // what came during the last chunk, before the dwell is taken (an abort drops it)
   return all;
 }
 

@@ -36,16 +36,26 @@ Result<std::vector<AccelSample>> SimUnit::collect_more(double seconds) {
 Result<std::vector<AccelSample>> SimUnit::collect_from(double seconds, bool continuing) {
   if (!(seconds > 0))
     return Status::error(ErrorKind::invalid_argument, "collect needs seconds > 0");  // NaN too
+  double t_end_s = 0;
   {
     std::lock_guard lock(mutex_);
     if (!started_) return Status::error(ErrorKind::not_allowed, "sim unit is not started");
+    // Samples on a fixed grid from the call on, or continued (collect_more): at a time scale
+    // of 2000 the caller's millisecond between two chunks of a dwell is two seconds of the
+    // unit's, which restarting the grid at each call had dropped (a quarter of a two-hour
+    // dwell at 25 Hz: its Allan curves then showed a wander of 60 s as one of 45 s). A
+    // continued series' window begins where the previous one ended, however late this call
+    // comes, so its chunks' lengths add up to the series' span (a dwell then spans what the
+    // caller asked for, not that plus the time the caller's thread lost before each call).
+    if (!(continuing && collected_since_start_)) {
+      const double now_s = clock_->now_s();
+      if (grid_time_s(next_sample_) < now_s) restart_grid(now_s);
+      series_end_s_ = now_s - grid_origin_s_;
+    }
+    collected_since_start_ = true;
+    series_end_s_ += seconds;
+    t_end_s = grid_origin_s_ + series_end_s_;
   }
-  // A continued series' window begins where the previous one ended, however late this call
-  // comes, so its chunks' lengths add up to the series' span (a dwell then spans what the
-  // caller asked for, not that plus the time the caller's thread lost before each call).
-  const bool keep_grid = continuing && collected_since_start_;
-  const double t_begin_s = keep_grid ? series_end_s_ : clock_->now_s();
-  const double t_end_s = t_begin_s + seconds;
   clock_->sleep_s(t_end_s - clock_->now_s());  // none where the window has passed already
   std::lock_guard lock(mutex_);
   if (silent_) {
@@ -55,18 +65,12 @@ Result<std::vector<AccelSample>> SimUnit::collect_from(double seconds, bool cont
                                                  " s: the unit is silent");
   }
   health_.silent = false;
-  // Samples on a fixed grid from the call on, or continued (collect_more): at a time scale of
-  // 2000 the caller's millisecond between two chunks of a dwell is two seconds of the unit's,
-  // which restarting the grid at each call had dropped (a quarter of a two-hour dwell at
-  // 25 Hz: its Allan curves then showed a wander of 60 s as one of 45 s).
-  if (!keep_grid && grid_time_s(next_sample_) < t_begin_s) restart_grid(t_begin_s);
-  collected_since_start_ = true;
-  series_end_s_ = t_end_s;
   std::vector<AccelSample> out;
   out.reserve(static_cast<std::size_t>(seconds * sample_rate_hz_) + 1);
   // The grid's samples before the window's end; the end's own instant is the next window's
-  // (counted, not summed period by period, so that rounding cannot move a sample across).
-  const double end_sample = (t_end_s - grid_origin_s_) * sample_rate_hz_ - 1e-6;
+  // (sample numbers counted from the grid's origin, and the end kept as an offset from it, so
+  // that rounding does not move a sample across at any clock reading).
+  const double end_sample = series_end_s_ * sample_rate_hz_ - 1e-6;
   for (; static_cast<double>(next_sample_) < end_sample; ++next_sample_) {
     const double t_s = grid_time_s(next_sample_);
     const auto angles = stand_->angles_at_deg(t_s);

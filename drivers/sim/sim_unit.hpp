@@ -45,7 +45,7 @@ class SimUnit : public AccelUnit {
   bool silent_ = false;
   double grid_origin_s_ = 0;       // the sample grid: sample k at origin + k / rate
   std::uint64_t next_sample_ = 0;  // the grid's next sample not yet returned
-  double series_end_s_ = 0;  // where the last collect's window ended: collect_more's begins there
+  double series_end_s_ = 0;        // where the last collect's window ended, after grid_origin_s_
   std::uint64_t counter_ = 0;
   AccelUnitHealth health_;
 };

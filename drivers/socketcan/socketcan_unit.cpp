@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstring>
 #include <ctime>
+#include <functional>
 #include <vector>
 
 namespace standcal::drivers::can {
@@ -68,11 +69,11 @@ Status SocketCanUnit::start() {
                          "cannot watch CAN link " + link_.name() + ": epoll_create1 failed");
   running_ = true;
   collected_since_start_ = false;
-  held_.clear();
+  held_ = {};
+  stamped_at_read_ = false;
   joiner_.reset();
   last_unit_frame_mono_s_ = monotonic_now_s();
-  std::vector<AccelSample> stale;  // frames queued before start: counted in health, not delivered
-  return read_queued(stale);
+  return read_queued(nullptr);  // frames queued before start: counted in health, not delivered
 }
 
 Status SocketCanUnit::stop() {
@@ -103,10 +104,10 @@ Result<std::vector<AccelSample>> SocketCanUnit::collect_from(double seconds, boo
   // A continued series begins with what the previous call held back (below), then the frames
   // queued since; a new one drops what was held.
   const bool keep_queued = continuing && collected_since_start_;
-  std::vector<AccelSample> samples;
-  if (keep_queued) samples.swap(held_);
-  held_.clear();
-  if (auto s = read_queued(samples); !s) return s;  // frames queued before this call
+  ReceivedSamples got;
+  if (keep_queued) got = std::move(held_);
+  held_ = {};
+  if (auto s = read_queued(&got); !s) return s;  // frames queued before this call
   // A bus-off since the last call with no restart after it: nothing can arrive.
   if (health_.bus_state == BusState::bus_off)
     return Status::error(ErrorKind::link, "CAN controller of " + link_.name() +
@@ -120,13 +121,7 @@ Result<std::vector<AccelSample>> SocketCanUnit::collect_from(double seconds, boo
   // what queued since: a dwell collected in chunks then loses no sample to the caller's time
   // between them, and its chunks' lengths add up to its span however late each call comes.
   const double start_mono_s = monotonic_now_s();
-  const double start_real_s = realtime_now_s();
   const double deadline_s = (keep_queued ? series_deadline_mono_s_ : start_mono_s) + seconds;
-  // The same instant on the samples' (wall-clock) stamps: what the kernel received after it
-  // is the next window's (a frame stamped when it was read, on a descriptor without
-  // SO_TIMESTAMPNS, cannot tell). A clock step within this call can only move samples between
-  // two chunks.
-  const double deadline_real_s = start_real_s + (deadline_s - start_mono_s);
   bus_off_seen_ = false;  // from here a bus-off fails the call, restarted or not
   for (;;) {
     const double now = monotonic_now_s();
@@ -144,23 +139,43 @@ Result<std::vector<AccelSample>> SocketCanUnit::collect_from(double seconds, boo
       return Status::error(ErrorKind::link, "waiting for CAN frames on " + link_.name() +
                                                 " failed: " + std::strerror(errno));
     if (n > 0)
-      if (auto s = read_queued(samples); !s) return s;
+      if (auto s = read_queued(&got); !s) return s;
     if (bus_off_seen_) return bus_off_error();
   }
-  if (!keep_queued)
-    std::erase_if(samples, [&](const AccelSample& a) { return a.t_s < start_real_s; });
-  if (!stamped_at_read_) hold_after(deadline_real_s, samples);
+  if (!keep_queued) got.drop_before(start_mono_s);
+  // What the kernel received after the window is the next window's (a frame stamped when it
+  // was read, on a descriptor without SO_TIMESTAMPNS, cannot tell: all of it is returned).
+  if (!stamped_at_read_) held_ = got.take_from(deadline_s);
   collected_since_start_ = true;
   series_deadline_mono_s_ = deadline_s;
-  return samples;
+  return std::move(got.samples);
 }
 
-// A caller late for its window finds frames of the next one queued: they wait for it.
-void SocketCanUnit::hold_after(double end_real_s, std::vector<AccelSample>& samples) {
-  const auto late = std::stable_partition(samples.begin(), samples.end(),
-                                          [&](const AccelSample& a) { return a.t_s < end_real_s; });
-  held_.assign(std::make_move_iterator(late), std::make_move_iterator(samples.end()));
-  samples.erase(late, samples.end());
+void SocketCanUnit::ReceivedSamples::drop_before(double mono_s) {
+  keep_if([&](double t) { return !(t < mono_s); });
+}
+
+// The samples received at or after `mono_s`, taken out in their order.
+SocketCanUnit::ReceivedSamples SocketCanUnit::ReceivedSamples::take_from(double mono_s) {
+  ReceivedSamples later;
+  for (std::size_t i = 0; i < samples.size(); ++i)
+    if (!(received_mono_s[i] < mono_s)) {
+      later.samples.push_back(samples[i]);
+      later.received_mono_s.push_back(received_mono_s[i]);
+    }
+  keep_if([&](double t) { return t < mono_s; });
+  return later;
+}
+
+void SocketCanUnit::ReceivedSamples::keep_if(const std::function<bool(double)>& keep) {
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < samples.size(); ++i)
+    if (keep(received_mono_s[i])) {
+      samples[kept] = samples[i];
+      received_mono_s[kept++] = received_mono_s[i];
+    }
+  samples.resize(kept);
+  received_mono_s.resize(kept);
 }
 
 Status SocketCanUnit::bus_off_error() const {
@@ -168,17 +183,30 @@ Status SocketCanUnit::bus_off_error() const {
                                             " went bus-off while sampling the accelerometer unit");
 }
 
-Status SocketCanUnit::read_queued(std::vector<AccelSample>& out) {
+// Reads every queued frame; the samples they complete go to `out` (none: counted only). Their
+// kernel receive stamps (wall-clock) are put on the monotonic clock at the two clocks' offset
+// as this read finds it, so a clock step between two reads moves no sample's place in time.
+Status SocketCanUnit::read_queued(ReceivedSamples* out) {
+  const double mono_minus_real_s = monotonic_now_s() - realtime_now_s();
   ReceivedFrame f;
+  std::vector<AccelSample> joined;
   for (;;) {
     auto r = link_.receive(f);
     if (!r) return r.status();
     if (!r.value()) return Status::ok();
-    if (auto s = handle(f, out); !s) return s;
+    const double received_mono_s = f.kernel_time ? f.t_s + mono_minus_real_s : monotonic_now_s();
+    joined.clear();
+    if (auto s = handle(f, received_mono_s, joined); !s) return s;
+    if (out == nullptr) continue;
+    for (const AccelSample& a : joined) {
+      out->samples.push_back(a);
+      out->received_mono_s.push_back(received_mono_s);
+    }
   }
 }
 
-Status SocketCanUnit::handle(const ReceivedFrame& f, std::vector<AccelSample>& out) {
+Status SocketCanUnit::handle(const ReceivedFrame& f, double received_mono_s,
+                             std::vector<AccelSample>& out) {
   if ((f.can_id & CAN_ERR_FLAG) != 0) {
     ++health_.error_frames;
     const BusEvent e = classify_error_frame(f.can_id, f.data, f.len);
@@ -198,7 +226,9 @@ Status SocketCanUnit::handle(const ReceivedFrame& f, std::vector<AccelSample>& o
   // A frame received is a controller back on the bus, whether or not its driver sent a
   // restart notice (not all do): a bus-off state left behind must not block sampling.
   if (health_.bus_state == BusState::bus_off) health_.bus_state = BusState::error_active;
-  last_unit_frame_mono_s_ = monotonic_now_s();
+  // When the unit last sent, not when this thread got to it: a caller late by more than the
+  // silence timeout still finds a unit that fell silent meanwhile.
+  last_unit_frame_mono_s_ = std::max(last_unit_frame_mono_s_, received_mono_s);
   if (!f.kernel_time) stamped_at_read_ = true;
   if (running_) joiner_.add(v, f.t_s, out);
   return Status::ok();

@@ -2,6 +2,7 @@
 // The accelerometer unit on a CAN bus: CanLink (transport) + FrameLayout (decoder) +
 // SampleJoiner (per-axis frames -> samples), driven by epoll, with silence detection
 // and error-frame reporting (docs/unit-can.md).
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -40,12 +41,20 @@ class SocketCanUnit final : public AccelUnit {
   AccelUnitHealth health() const override;
 
  private:
+  // Samples with the time their last frame was received, on the monotonic clock.
+  struct ReceivedSamples {
+    std::vector<AccelSample> samples;
+    std::vector<double> received_mono_s;
+    void drop_before(double mono_s);
+    ReceivedSamples take_from(double mono_s);
+    void keep_if(const std::function<bool(double)>& keep);
+  };
+
   Result<std::vector<AccelSample>> collect_from(double seconds, bool continuing);
-  Status read_queued(std::vector<AccelSample>& out);
-  Status handle(const ReceivedFrame& f, std::vector<AccelSample>& out);
+  Status read_queued(ReceivedSamples* out);
+  Status handle(const ReceivedFrame& f, double received_mono_s, std::vector<AccelSample>& out);
   Status silence_error() const;
   Status bus_off_error() const;
-  void hold_after(double end_real_s, std::vector<AccelSample>& samples);
 
   CanLink link_;
   FrameLayout layout_;
@@ -55,10 +64,10 @@ class SocketCanUnit final : public AccelUnit {
   bool running_ = false;
   bool collected_since_start_ = false;  // collect_more keeps every queued frame
   bool bus_off_seen_ = false;           // a bus-off arrived while collecting
-  bool stamped_at_read_ = false;        // a frame had no kernel receive stamp
+  bool stamped_at_read_ = false;        // a frame since start() had no kernel receive stamp
   double last_unit_frame_mono_s_ = 0;
   double series_deadline_mono_s_ = 0;  // where the last collect's window ended
-  std::vector<AccelSample> held_;      // received after it: the next collect_more's first
+  ReceivedSamples held_;               // received after it: the next collect_more's first
   AccelUnitHealth health_;
 };
 

@@ -389,7 +389,7 @@ TEST_F(Cli, NoiseOfARecordingWithGapsGivesTheFitsNoWander) {
     const CliRun text = run_cli("noise " + file);
     ASSERT_EQ(text.exit_code, 0) << text.output;
     EXPECT_NE(text.output.find("samples miss"), std::string::npos) << file << text.output;
-    EXPECT_NE(text.output.find("of the static samples' time is not in their sample periods"),
+    EXPECT_NE(text.output.find("the static samples' time stamps and their sample periods disagree"),
               std::string::npos)
         << file << text.output;
     EXPECT_EQ(text.output.find(advice), std::string::npos) << file << text.output;

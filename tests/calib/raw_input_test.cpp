@@ -518,6 +518,21 @@ TEST(RawInputStandcal, AWarmUpWithoutAngleColumnsIsTheFrontOfBlockZero) {
       parse_input(head + "# warmup_s: 0.004\nt_s,pos,fx_mps2,fy_mps2,fz_mps2\n" + rows, "w.csv");
   EXPECT_DOUBLE_EQ(in.warmup_s, 0.004);
   EXPECT_TRUE(in.warnings.empty());
+  // Its rows are no static interval: the first 0.5 s of 4 s in block 0, then block 1.
+  std::string held =
+      head + "# sample_rate_hz: 100\n# warmup_s: 0.5\nt_s,pos,fx_mps2,fy_mps2,fz_mps2\n";
+  for (int i = 0; i < 800; ++i) {
+    char row[96];
+    const bool turned = i >= 400;
+    std::snprintf(row, sizeof row, "%.2f,%d,%.6f,%.6f,0.02\n", i / 100.0 + (turned ? 3 : 0),
+                  turned ? 1 : 0, (turned ? 9.81 : 0.01) + 1e-4 * (i % 3),
+                  (turned ? 0.01 : 9.81) - 1e-4 * (i % 2));
+    held += row;
+  }
+  const StaticDetection d = detect_static_intervals(parse_input(held, "held.csv"));
+  EXPECT_EQ(d.warm_up, (std::pair<std::size_t, std::size_t>{0, 50}));
+  ASSERT_EQ(d.intervals.size(), 2u);
+  EXPECT_EQ(d.intervals[0].begin, 50u);
 
   std::string no_pos = head + "# warmup_s: 0.004\nt_s,fx_mps2,fy_mps2,fz_mps2\n";
   for (const char* r : {"0.000,0.01,9.81,0.02\n", "0.005,0.01,9.80,0.02\n"}) no_pos += r;

@@ -362,6 +362,14 @@ TEST(SequencerInProcess, ARunsWarmUpTakesThePlaceOfItsProgrammes) {
     EXPECT_EQ(refused.error_code, static_cast<int>(ErrorCode::invalid_params)) << bad;
     EXPECT_NE(refused.error_message.find("warmup_s"), std::string::npos) << refused.error_message;
   }
+  // Shorter than two samples (at 100 Hz): the warm-up had been cut to nothing and the run
+  // read the first of no samples.
+  const Outcome too_short = start(0.015);
+  EXPECT_EQ(too_short.error_code, static_cast<int>(ErrorCode::invalid_params));
+  EXPECT_NE(too_short.error_message.find("a warm-up of 0.015 s holds fewer than two of the unit's "
+                                         "samples at 100 Hz: give 0 (none) or at least 0.02 s"),
+            std::string::npos)
+      << too_short.error_message;
   const Outcome started = start(30);
   ASSERT_EQ(started.error_code, 0) << started.error_message;
   const json done =

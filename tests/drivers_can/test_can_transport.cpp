@@ -361,6 +361,40 @@ TEST_F(CanTransport, ALateCollectMoreGetsItsWindowAndLeavesTheRestForTheNext) {
   ASSERT_TRUE(next.ok()) << next.status().message;
   ASSERT_EQ(next.value().size(), 5U);
   EXPECT_EQ(next.value().front().counter, 10U);
+  // What a late call holds back does not outlive the series: a start() drops it.
+  for (std::uint64_t n = 15; n < 20; ++n) send_sample(n);
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  const Result<std::vector<AccelSample>> third = unit_->collect_more(0.4);  // 1.2-1.6 s
+  ASSERT_TRUE(third.ok()) << third.status().message;
+  ASSERT_EQ(third.value().size(), 5U);  // 15-19
+  for (std::uint64_t n = 20; n < 25; ++n) send_sample(n);
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  const Result<std::vector<AccelSample>> fourth = unit_->collect_more(0.1);  // 1.6-1.7 s
+  ASSERT_TRUE(fourth.ok()) << fourth.status().message;
+  ASSERT_EQ(fourth.value().size(), 0U);  // 20-24, sent at 1.9 s, are held
+  ASSERT_TRUE(unit_->stop());
+  ASSERT_TRUE(unit_->start());
+  const Result<std::vector<AccelSample>> fresh = collect_while_sent(25, 28, true);
+  ASSERT_TRUE(fresh.ok()) << fresh.status().message;
+  ASSERT_EQ(fresh.value().size(), 3U);
+  EXPECT_EQ(fresh.value().front().counter, 25U);
+}
+
+// The silence timeout runs from when the unit last sent, not from when a late caller read
+// its frames: a unit that fell silent while the caller was busy is reported, although the
+// frames it sent before are still queued (reading them had counted as hearing from it).
+TEST_F(CanTransport, ALateCallerStillFindsAUnitThatFellSilent) {
+  open_unit({0.3, 4});
+  const Result<std::vector<AccelSample>> first = collect_while_sent(0, 5);
+  ASSERT_TRUE(first.ok()) << first.status().message;
+  for (std::uint64_t n = 5; n < 10; ++n) send_sample(n);
+  std::this_thread::sleep_for(std::chrono::milliseconds(800));  // and then nothing
+  const Result<std::vector<AccelSample>> late = unit_->collect_more(0.4);
+  ASSERT_FALSE(late.ok());
+  EXPECT_NE(late.status().message.find("no CAN frame from the accelerometer unit"),
+            std::string::npos)
+      << late.status().message;
+  EXPECT_TRUE(unit_->health().silent);
 }
 
 TEST_F(CanTransport, UnknownIdsAndRemoteFramesAreCountedAndIgnored) {

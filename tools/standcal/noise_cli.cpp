@@ -90,12 +90,16 @@ json static_json(const StaticNoise& n) {
           {"ug_per_input_unit", json::array({k[0], k[1], k[2]})}};
 }
 
-// The time missing inside the static samples' stretches (DwellGaps); `too_much`: no wander
-// is to be given to the fits from these curves.
+// The time missing inside the static samples' stretches, or claimed beyond their stamps
+// (DwellGaps); `too_much`: no wander is to be given to the fits from these curves.
 json gaps_json(const DwellGaps& g) {
-  return {{"missing_s", g.missing_s()},         {"beyond_stamps_s", g.beyond_stamps_s()},
-          {"spanned_s", g.spanned_s},           {"count", g.count},
-          {"missing_share", g.missing_share()}, {"too_much", g.too_much()}};
+  return {{"missing_s", g.missing_s()},
+          {"beyond_stamps_s", g.beyond_stamps_s()},
+          {"spanned_s", g.spanned_s},
+          {"count", g.count},
+          {"missing_share", g.missing_share()},
+          {"mismatch_share", g.mismatch_share()},
+          {"too_much", g.too_much()}};
 }
 
 json gauss_markov_json(const GaussMarkovAllanFit& f) {
@@ -189,10 +193,10 @@ std::string gauss_markov_words(const std::optional<GaussMarkovAllanFit>& f, doub
            ", but the model does not describe the curves (below): no range to give "
            "the fits from them";
   if (gaps.too_much())
-    return found + ", but " + diagnosis::fmt("%.3g", 100 * gaps.mismatch_share()) +
-           " % of the static samples' time is not in their sample periods (the warning "
-           "above), so the curves may show the wrong correlation times: no range to give the "
-           "fits from them";
+    return found + ", but the static samples' time stamps and their sample periods disagree by " +
+           diagnosis::fmt("%.3g", 100 * gaps.mismatch_share()) +
+           " % of their span (the warning above), so the curves may show the wrong correlation "
+           "times: no range to give the fits from them";
   const std::optional<WanderToGive> give = wander_to_give(*f, curve_end_s);
   if (!give) return found;  // not reached: seen, bounded and describing the curves
   return found + "\ngive the unit's wander to the fits: standcal fit --bias-instability-ug " +
