@@ -412,9 +412,7 @@ void Sequencer::wait_thermal_stability(RunRecord& record) {
   set_progress(record, 0, "thermal_wait");
   const double start = run_clock_s();
   for (;;) {
-    check(hw_.unit->start());
-    const std::vector<drivers::AccelSample> s = collect(tw.window_s);
-    (void)hw_.unit->stop();
+    const std::vector<drivers::AccelSample> s = sample_unit(tw.window_s);
     double n = 0, t_mean = 0, c_mean = 0;
     for (const auto& x : s) {
       if (!std::isfinite(x.temperature_c)) continue;
