@@ -550,32 +550,37 @@ class Reader {
     }
   }
 
-  // g_local_mps2 and sample_rate_hz from the comment lines.
-  void apply_comment_keys() {
-    bool g_seen = false;
-    bool rate_seen = false;
+  // The number a `# key: value` comment line gives `key`, with that line; none without one.
+  // A second line with the key, or a value that is no number, is refused at its line.
+  std::optional<std::pair<CommentKey, double>> comment_number(std::string_view key) const {
+    std::optional<std::pair<CommentKey, double>> found;
     for (const CommentKey& k : comments_) {
-      const bool is_g = k.key == "g_local_mps2";
-      if (!is_g && k.key != "sample_rate_hz") continue;
-      if ((is_g && g_seen) || (!is_g && rate_seen))
-        fail_at(k.line, 0, "header key '" + k.key + "' appears twice");
+      if (k.key != key) continue;
+      if (found) fail_at(k.line, 0, "header key '" + k.key + "' appears twice");
       double v = 0;
       if (!parse_number(k.value, v))
         fail_at(k.line, 0, "header '" + k.key + "': '" + k.value + "' is not a number");
-      if (is_g) {
-        if (v < 9.7 || v > 9.9)
-          fail_at(k.line, 0,
-                  "header 'g_local_mps2': " + k.value +
-                      " m/s^2 is not a plausible local gravity (9.7 ... 9.9)");
-        header_g_ = v;
-        g_seen = true;
-      } else {
-        if (!is_plausible_sample_rate(v))
-          fail_at(k.line, 0, "header 'sample_rate_hz': " + implausible_sample_rate_text(k.value));
-        header_rate_ = v;
-        header_rate_line_ = k.line;
-        rate_seen = true;
-      }
+      found.emplace(k, v);
+    }
+    return found;
+  }
+
+  // g_local_mps2 and sample_rate_hz from the comment lines.
+  void apply_comment_keys() {
+    if (const auto g = comment_number("g_local_mps2")) {
+      const auto& [k, v] = *g;
+      if (v < 9.7 || v > 9.9)
+        fail_at(k.line, 0,
+                "header 'g_local_mps2': " + k.value +
+                    " m/s^2 is not a plausible local gravity (9.7 ... 9.9)");
+      header_g_ = v;
+    }
+    if (const auto rate = comment_number("sample_rate_hz")) {
+      const auto& [k, v] = *rate;
+      if (!is_plausible_sample_rate(v))
+        fail_at(k.line, 0, "header 'sample_rate_hz': " + implausible_sample_rate_text(k.value));
+      header_rate_ = v;
+      header_rate_line_ = k.line;
     }
   }
 
@@ -583,25 +588,19 @@ class Reader {
   // the front of position 0's block is the unit settling, in the Allan curves alone. Without
   // a pos column no block is position 0's, and the warm-up cannot be told from the rest.
   void apply_warmup_key(bool has_pos) {
-    bool seen = false;
-    for (const CommentKey& k : comments_) {
-      if (k.key != kHeaderWarmupS) continue;
-      if (seen) fail_at(k.line, 0, "header key 'warmup_s' appears twice");
-      seen = true;
-      double v = 0;
-      if (!parse_number(k.value, v))
-        fail_at(k.line, 0, "header 'warmup_s': '" + k.value + "' is not a number");
-      if (!(v >= 0 && v <= kMaxAbsTime_s))
-        fail_at(k.line, 0,
-                "header 'warmup_s': " + k.value + " s is not a warm-up time (0 ... 1e12 s)");
-      if (has_pos) {
-        out_.warmup_s = v;
-      } else if (v > 0) {
-        out_.warnings.push_back(out_.source + ":" + std::to_string(k.line) + ": header warmup_s " +
-                                k.value +
-                                " s is not used: without a 'pos' column no rows are position "
-                                "1's, so its warm-up is read as samples like the rest");
-      }
+    const auto warm_up = comment_number(kHeaderWarmupS);
+    if (!warm_up) return;
+    const auto& [k, v] = *warm_up;
+    if (!(v >= 0 && v <= kMaxAbsTime_s))
+      fail_at(k.line, 0,
+              "header 'warmup_s': " + k.value + " s is not a warm-up time (0 ... 1e12 s)");
+    if (has_pos) {
+      out_.warmup_s = v;
+    } else if (v > 0) {
+      out_.warnings.push_back(out_.source + ":" + std::to_string(k.line) + ": header warmup_s " +
+                              k.value +
+                              " s is not used: without a 'pos' column no rows are position "
+                              "1's, so its warm-up is read as samples like the rest");
     }
   }
 
