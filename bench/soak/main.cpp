@@ -1,4 +1,4 @@
-// standcal-bench-soak [--minutes M] [--time-scale K] [--dwell-s D] [--sample-s S]
+// standcal-bench-soak [--minutes M] [--time-scale K] [--dwell-s D] [--warmup-s W] [--sample-s S]
 //                     [--max-rss-kb-per-run R] [--max-fds-per-run F] [--daemon PATH]
 //                     [--daemon-wrapper CMD] [--trim-at-end] [--no-runs-list]
 // Starts a real standcald on the simulated backend in a temporary directory and runs
@@ -120,7 +120,8 @@ pid_t start_daemon(const std::string& dir, double time_scale, const std::string&
 }
 
 // One run with a subscriber following it and requesters asking meanwhile; closes them all.
-std::string one_run(const std::string& socket, int index, double dwell_s, bool list_runs) {
+std::string one_run(const std::string& socket, int index, double dwell_s, double warmup_s,
+                    bool list_runs) {
   Client control(socket);
   Client subscriber(socket);
   subscriber.call("subscribe", {{"events", "all"}});
@@ -128,6 +129,7 @@ std::string one_run(const std::string& socket, int index, double dwell_s, bool l
       control.call("run.start", {{"program", "paper9"},
                                  {"unit_serial", "SOAK-" + std::to_string(index % 5)},
                                  {"dwell_s", dwell_s},
+                                 {"warmup_s", warmup_s},
                                  {"settle_s", 1}})["run_id"];
   std::string state = "running";
   const auto deadline = Clock::now() + 10min;
@@ -190,7 +192,7 @@ void trim_and_report(pid_t pid, const std::string& daemon_log) {
 int main(int argc, char** argv) {
   CLI::App app{
       "standcal-bench-soak: back-to-back simulated runs, printing the daemon's RSS and open fds"};
-  double minutes = 30, time_scale = 200, dwell_s = 10, sample_s = 10;
+  double minutes = 30, time_scale = 200, dwell_s = 10, warmup_s = 0, sample_s = 10;
   app.add_option("--minutes", minutes, "how long to run (default 30)")
       ->check(CLI::Range(0.1, 24 * 60.0));
   app.add_option("--time-scale", time_scale,
@@ -198,6 +200,11 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1.0, 10000.0));
   app.add_option("--dwell-s", dwell_s, "dwell per position, simulated seconds (default 10)")
       ->check(CLI::Range(0.5, 600.0));
+  // A warm-up of hours is written to the recording as it is taken: the peak RSS shows whether
+  // the daemon holds it (7200 s at 100 Hz had peaked at 142 MB when it did).
+  app.add_option("--warmup-s", warmup_s,
+                 "each run's warm-up at position 1, simulated seconds (default 0: none)")
+      ->check(CLI::Range(0.0, 36000.0));
   app.add_option("--sample-s", sample_s, "seconds between samples (default 10)")
       ->check(CLI::Range(0.5, 600.0));
   // 1 kB/run is 1 MB per thousand runs, about a year of a busy bench; the per-run state
@@ -236,9 +243,9 @@ int main(int argc, char** argv) {
       }
     }
     std::printf(
-        "soak: standcald pid %d, paper9 dwell %.1f s at time x%.0f, %.1f min, sample every %.1f s; "
-        "load average %s\n",
-        pid, dwell_s, time_scale, minutes, sample_s, load_average().c_str());
+        "soak: standcald pid %d, paper9 dwell %.1f s (warm-up %.0f s) at time x%.0f, %.1f min, "
+        "sample every %.1f s; load average %s\n",
+        pid, dwell_s, warmup_s, time_scale, minutes, sample_s, load_average().c_str());
     std::printf("%8s %6s %10s %10s %10s %6s\n", "t_min", "runs", "rss_kb", "anon_kb", "file_kb",
                 "fds");
     const auto t0 = Clock::now();
@@ -278,7 +285,7 @@ int main(int argc, char** argv) {
     });
     try {
       while (Clock::now() < end) {
-        const std::string state = one_run(socket, runs, dwell_s, !no_runs_list);
+        const std::string state = one_run(socket, runs, dwell_s, warmup_s, !no_runs_list);
         std::lock_guard lock(sample_mutex);
         ++runs;
         if (state != "done") {
@@ -310,6 +317,9 @@ int main(int argc, char** argv) {
                 samples.back().t_min, not_done, load_average().c_str());
     std::printf("soak: RSS first %ld kB, last %ld kB, min %ld kB, peak %ld kB\n",
                 samples.front().rss_kb, samples.back().rss_kb, rss_min->rss_kb, rss_max->rss_kb);
+    // The kernel's high-water mark: a peak between two samples (a fit, a long dwell) too.
+    std::printf("soak: VmHWM (the daemon's peak RSS since it started) %ld kB\n",
+                status_kb(pid, "VmHWM"));
     std::printf("soak: open fds first %ld, last %ld, peak %ld\n", samples.front().fds,
                 samples.back().fds, fds_max->fds);
     std::printf(

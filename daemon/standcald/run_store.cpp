@@ -394,20 +394,32 @@ RecordingFile RecordingFile::reopen(const std::string& path, std::uint64_t lengt
     throw std::runtime_error("the recording " + path + " is shorter than its run record says (" +
                              std::to_string(length) + " bytes): it was changed or lost");
   }
-  // Cut off whatever a crash left after the last durable position.
-  if (::ftruncate(fd, static_cast<off_t>(length)) != 0 || ::fsync(fd) != 0) {
-    ::close(fd);
-    throw std::runtime_error("cannot cut back the recording " + path + ": " + errno_text());
-  }
-  return RecordingFile(path, fd, length);
+  RecordingFile f(path, fd, length);
+  f.cut_back(length);  // whatever a crash left after the last durable position
+  return f;
 }
 
 std::uint64_t RecordingFile::append_durably(const std::string& text) {
+  append(text);
+  return sync();
+}
+
+std::uint64_t RecordingFile::append(const std::string& text) {
   write_all(fd_, text, path_);
-  if (::fsync(fd_) != 0)
-    throw std::runtime_error("cannot fsync the recording " + path_ + ": " + errno_text());
   length_ += text.size();
   return length_;
+}
+
+std::uint64_t RecordingFile::sync() {
+  if (::fsync(fd_) != 0)
+    throw std::runtime_error("cannot fsync the recording " + path_ + ": " + errno_text());
+  return length_;
+}
+
+void RecordingFile::cut_back(std::uint64_t length) {
+  if (::ftruncate(fd_, static_cast<off_t>(length)) != 0 || ::fsync(fd_) != 0)
+    throw std::runtime_error("cannot cut back the recording " + path_ + ": " + errno_text());
+  length_ = length;
 }
 
 }  // namespace standcal::daemon

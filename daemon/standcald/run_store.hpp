@@ -140,6 +140,13 @@ class RecordingFile {
   ~RecordingFile();
   // Appends and fsyncs; returns the file length afterwards. Throws with the path and errno.
   std::uint64_t append_durably(const std::string& text);
+  // Appends without fsync (a position written as its samples come: a warm-up of hours is not
+  // held whole); sync() then makes it durable. Both return the file length afterwards.
+  std::uint64_t append(const std::string& text);
+  std::uint64_t sync();
+  // Cuts the file back to `length` bytes and syncs: what a position left unfinished (a fault or
+  // a pause in it) had written. Throws with the path and errno.
+  void cut_back(std::uint64_t length);
   std::uint64_t length() const { return length_; }
 
  private:

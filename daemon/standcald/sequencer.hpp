@@ -31,6 +31,8 @@
 
 namespace standcal::daemon {
 
+class PositionWriter;  // one position's rows to the recording as they come (sequencer_run.cpp)
+
 // The answer to one command: a result, or an error (code != 0).
 struct Outcome {
   nlohmann::json result;
@@ -160,8 +162,12 @@ class Sequencer {
   void emergency_stop(const std::string& requested_by);
   drivers::AxisState read_axis(drivers::StandAxis axis);
   protocol::UnitReadResult unit_read(double seconds);
-  std::vector<drivers::AccelSample> collect(double seconds);
+  // `seconds` of the unit's samples, each chunk to `take` as it comes (commands are served
+  // between chunks), so that a long stretch need not be held whole.
+  using SampleChunkFn = std::function<void(std::vector<drivers::AccelSample>&&)>;
+  void collect(double seconds, const SampleChunkFn& take);
   // The unit started, `seconds` collected, the unit stopped (also when collecting throws).
+  void sample_unit(double seconds, const SampleChunkFn& take);
   std::vector<drivers::AccelSample> sample_unit(double seconds);
   void refresh_stand_snapshot();
 
@@ -184,7 +190,7 @@ class Sequencer {
     double t_first_s = 0;  // run clock at the first sample
   };
   SampledDwell sample_stable_dwell(const RunRecord& record, int index, double dwell_s);
-  SampledDwell warm_up(const RunRecord& record, double warmup_s);
+  void warm_up(const RunRecord& record, double warmup_s, PositionWriter& rows);
   void start_dwell_pool(const RunRecord& record);
   void pool_recorded_dwells(const RunRecord& record);
   GivenWander recorded_run_wander(const RunRecord& record) const;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <span>
 
 #include "calib/averaging.hpp"
 #include "calib/json_text.hpp"
@@ -28,6 +29,23 @@ using namespace detail;
 // --------------------------------------------------------------------------- runs
 
 namespace {
+
+// A dwell is held whole while the stability rule judges it (kMaxHeldSamples); a long stretch
+// at position 1 is a warm-up, written as it comes. Refused before the stand moves.
+void refuse_dwells_held_too_large(const Program& program, double dwell_s, double rate_hz) {
+  for (std::size_t i = 0; i < program.positions.size(); ++i) {
+    const double s = program.positions[i].dwell_s.value_or(dwell_s);
+    if (!(s * rate_hz > kMaxHeldSamples)) continue;
+    throw RpcError(ErrorCode::invalid_params,
+                   fmt::format("run.start: position {}'s dwell of {} s at {} Hz would be {:.0f} "
+                               "samples, more than the {:.0f} a dwell holds at once to be judged: "
+                               "give at most {} s, and hold a long first position as its warm-up "
+                               "(warmup_s), which is written to the recording as it is taken",
+                               i + 1, number_text(s), number_text(rate_hz), s * rate_hz,
+                               kMaxHeldSamples, number_text(kMaxHeldSamples / rate_hz)));
+  }
+}
+
 // A run's fault event: the run, the position when one is named, what happened.
 protocol::FaultEvent run_fault(const std::string& run_id, std::string message,
                                std::optional<int> position = std::nullopt) {
@@ -129,6 +147,7 @@ json Sequencer::start_run(const json& params) {
       throw RpcError(ErrorCode::invalid_params, "run.start: \"warmup_s\" must be in [0, 36000]");
     program.warmup_s = *request.warmup_s;
   }
+  refuse_dwells_held_too_large(program, dwell, config_.sample_rate_hz);
   // The readers refuse a warm-up of fewer than two rows: refused here, before the stand moves.
   if (const double shortest_s = 2 / config_.sample_rate_hz;
       program.warmup_s > 0 && program.warmup_s < shortest_s)
@@ -442,35 +461,51 @@ void Sequencer::wait_thermal_stability(RunRecord& record) {
   }
 }
 
-namespace {
+// One position's rows, written to the recording as its samples come, a slice at a time: a
+// warm-up of hours is never held whole (held until the position ended, four runs' warm-ups of
+// 7200 s at 100 Hz had peaked the daemon at 184 MB against 47 MB now: docs/reliability.md, "A
+// long warm-up"). Not durable until the file is synced.
+class PositionWriter {
+ public:
+  // `fixed`: the fields every row of the position shares (position, angles, arrival, mount).
+  PositionWriter(RecordingFile& file, const RecordingColumns& columns, const RecordingSample& fixed)
+      : file_(file), columns_(columns), fixed_(fixed) {}
 
-// The recording rows of one dwell, on the run clock: the unit's own sample spacing,
-// starting when sampling began (`t_first_s`).
-std::vector<RecordingSample> dwell_rows(const std::vector<drivers::AccelSample>& samples,
-                                        double t_first_s, int index, const ProgramPosition& pp,
-                                        const std::pair<double, double>& reached_deg,
-                                        double t_arrive_s, int approach,
-                                        const RecordingColumns& columns) {
-  std::vector<RecordingSample> rows;
-  rows.reserve(samples.size());
-  const double t0_unit = samples.front().t_s;
-  for (const drivers::AccelSample& x : samples) {
-    RecordingSample r;
-    r.t_s = t_first_s + (x.t_s - t0_unit);
-    r.pos = index;
-    r.alpha1_cmd_deg = pp.alpha1_deg;
-    r.alpha2_cmd_deg = pp.alpha2_deg;
-    r.alpha1_deg = reached_deg.first;
-    r.alpha2_deg = reached_deg.second;
+  // The rows of `samples` on the run clock: the unit's time t0_unit_s is the run's t_first_s
+  // (the unit's own sample spacing from when sampling began).
+  void append(std::span<const drivers::AccelSample> samples, double t_first_s, double t0_unit_s) {
+    constexpr std::size_t kRowsPerWrite = 1 << 14;
+    for (std::size_t begin = 0; begin < samples.size(); begin += kRowsPerWrite) {
+      rows_.clear();
+      for (const drivers::AccelSample& x :
+           samples.subspan(begin, std::min(kRowsPerWrite, samples.size() - begin)))
+        rows_.push_back(row(x, t_first_s + (x.t_s - t0_unit_s)));
+      text_.clear();
+      append_recording_rows(text_, columns_, rows_);
+      file_.append(text_);
+      last_t_s_ = rows_.back().t_s;
+    }
+  }
+  double last_t_s() const { return last_t_s_; }  // NaN before the first row
+
+ private:
+  RecordingSample row(const drivers::AccelSample& x, double t_s) const {
+    RecordingSample r = fixed_;
+    r.t_s = t_s;
     r.f_mps2 = Vec3(x.force_mps2[0], x.force_mps2[1], x.force_mps2[2]);
     r.temp_c = std::isfinite(x.temperature_c) ? x.temperature_c : kNoValue;
-    if (columns.mount) r.mount = pp.mount;
-    r.t_arrive_s = t_arrive_s;
-    r.approach = static_cast<std::int8_t>(approach);
-    rows.push_back(r);
+    return r;
   }
-  return rows;
-}
+
+  RecordingFile& file_;
+  const RecordingColumns& columns_;
+  RecordingSample fixed_;
+  std::vector<RecordingSample> rows_;
+  std::string text_;
+  double last_t_s_ = kNoValue;
+};
+
+namespace {
 
 std::array<double, 3> per_axis_ug(const std::array<double, 3>& mps2, double g_local_mps2) {
   std::array<double, 3> ug{};
@@ -492,32 +527,37 @@ void Sequencer::measure_position(RunRecord& record, const Program& program, int 
   set_progress(record, index, "settling");
   wait_real(hw_.clock->real_seconds(pp.settle_s.value_or(record.settle_s)));
   const RecordingColumns columns = recording_columns(program);
-  std::vector<RecordingSample> rows;
+  RecordingSample fixed;
+  fixed.pos = index;
+  fixed.alpha1_cmd_deg = pp.alpha1_deg;
+  fixed.alpha2_cmd_deg = pp.alpha2_deg;
+  fixed.alpha1_deg = arrival.reached_deg.first;
+  fixed.alpha2_deg = arrival.reached_deg.second;
+  if (columns.mount) fixed.mount = pp.mount;
+  fixed.t_arrive_s = arrival.t_arrive_s;
+  fixed.approach = static_cast<std::int8_t>(arrival.approach);
+  PositionWriter rows(file, columns, fixed);
   double warm_up_real_s = 0;  // not a position's time: kept out of the ETA's mean
-  if (index == 0 && program.warmup_s > 0) {
-    const double warm_up_started = now_real_s();
-    const SampledDwell warm = warm_up(record, program.warmup_s);
-    warm_up_real_s = now_real_s() - warm_up_started;
-    rows = dwell_rows(warm.samples, warm.t_first_s, index, pp, arrival.reached_deg,
-                      arrival.t_arrive_s, arrival.approach, columns);
-    // The readers take the block's rows within warmup_s of its first as the warm-up: the
-    // dwell's rows begin after that.
-    last_t_s_ = std::max(rows.back().t_s, warm.t_first_s + program.warmup_s);
+  SampledDwell dwell;
+  try {
+    if (index == 0 && program.warmup_s > 0) {
+      const double warm_up_started = now_real_s();
+      warm_up(record, program.warmup_s, rows);
+      warm_up_real_s = now_real_s() - warm_up_started;
+    }
+    dwell = sample_stable_dwell(record, index, pp.dwell_s.value_or(record.dwell_s));
+    rows.append(dwell.samples, dwell.t_first_s, dwell.samples.front().t_s);
+    record.recording_bytes = file.sync();
+  } catch (...) {
+    // A fault, a pause or an abort inside the position: the file keeps whole positions only
+    // (run.resume continues this one on the same file; a faulted run's recording is read).
+    file.cut_back(record.recording_bytes);
+    throw;
   }
-  const SampledDwell dwell =
-      sample_stable_dwell(record, index, pp.dwell_s.value_or(record.dwell_s));
-  const std::vector<RecordingSample> dwell_part =
-      dwell_rows(dwell.samples, dwell.t_first_s, index, pp, arrival.reached_deg, arrival.t_arrive_s,
-                 arrival.approach, columns);
-  rows.insert(rows.end(), dwell_part.begin(), dwell_part.end());
-  std::string text;
-  text.reserve(rows.size() * 120);
-  append_recording_rows(text, columns, rows);
-  record.recording_bytes = file.append_durably(text);
   record.position_end_bytes.resize(static_cast<std::size_t>(index));
   record.position_end_bytes.push_back(record.recording_bytes);
   record.positions_done = index + 1;
-  record.last_t_s = rows.back().t_s;
+  record.last_t_s = rows.last_t_s();
   last_t_s_ = record.last_t_s;
   store_.save(record);  // only now is the position done: a crash before this re-measures it
 
@@ -623,31 +663,38 @@ void Sequencer::pool_recorded_dwells(const RunRecord& record) {
 }
 
 // The first position's warm-up (Program::warmup_s): the unit sampled ahead of the dwell, its
-// rows recorded in the same block (Recording::warmup_s: they feed the noise model's Allan
-// curves and stay out of the position's mean). The drift rule does not judge it: a warm-up
-// is where the unit settles.
-Sequencer::SampledDwell Sequencer::warm_up(const RunRecord& record, double warmup_s) {
+// rows written to the recording as they come, in the same block (Recording::warmup_s: they
+// feed the noise model's Allan curves and stay out of the position's mean). The drift rule
+// does not judge it: a warm-up is where the unit settles.
+void Sequencer::warm_up(const RunRecord& record, double warmup_s, PositionWriter& rows) {
   set_progress(record, 0, "warming_up");
-  SampledDwell w;
-  w.t_first_s = std::max(run_clock_s(), last_t_s_ + 1e-3);
-  w.samples = sample_unit(warmup_s);
-  if (w.samples.empty())
-    throw RpcError(ErrorCode::hardware_fault,
-                   "the unit " + hw_.unit->name() + " sent no sample in the " +
-                       number_text(warmup_s) + " s warm-up of position 1");
+  const double t_first_s = std::max(run_clock_s(), last_t_s_ + 1e-3);
   // Exactly the rows the readers take for the warm-up (within warmup_s of its first): a sample
   // at warmup_s itself could read either way once its time is written, and a unit's own
   // stamps need not step at exactly its period, so the warm-up ends half a period before.
-  const double first_unit_s = w.samples.front().t_s;
   const double end_s = warmup_s - 0.5 / config_.sample_rate_hz;
-  std::erase_if(w.samples,
-                [&](const drivers::AccelSample& x) { return !(x.t_s - first_unit_s < end_s); });
-  if (w.samples.size() < 2)  // run.start refuses so short a warm-up; a run begun before did not
+  double t0_unit_s = kNoValue;
+  std::size_t kept = 0;
+  sample_unit(warmup_s, [&](std::vector<drivers::AccelSample>&& chunk) {
+    if (chunk.empty()) return;
+    if (!std::isfinite(t0_unit_s)) t0_unit_s = chunk.front().t_s;
+    std::erase_if(chunk,
+                  [&](const drivers::AccelSample& x) { return !(x.t_s - t0_unit_s < end_s); });
+    rows.append(chunk, t_first_s, t0_unit_s);
+    kept += chunk.size();
+  });
+  if (!std::isfinite(t0_unit_s))
+    throw RpcError(ErrorCode::hardware_fault,
+                   "the unit " + hw_.unit->name() + " sent no sample in the " +
+                       number_text(warmup_s) + " s warm-up of position 1");
+  if (kept < 2)  // run.start refuses so short a warm-up; a run begun before did not
     throw RpcError(ErrorCode::hardware_fault, "the " + number_text(warmup_s) +
                                                   " s warm-up of position 1 holds fewer than "
                                                   "two samples of the unit " +
                                                   hw_.unit->name());
-  return w;
+  // The readers take the block's rows within warmup_s of its first as the warm-up: the
+  // dwell's rows begin after that.
+  last_t_s_ = std::max(rows.last_t_s(), t_first_s + warmup_s);
 }
 
 // Samples `dwell_s` of unit time; a dwell the stability rule rejects is re-measured up to

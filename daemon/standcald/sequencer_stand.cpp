@@ -102,14 +102,21 @@ json Sequencer::read_unit(const Command& cmd) {
   const double seconds = protocol::UnitReadParams::parse(cmd.params).seconds;
   // Shorter than one sample period reads nothing, and a mean of nothing is not 0.
   const double min_s = 1.0 / config_.sample_rate_hz;
-  if (!(seconds >= min_s && seconds <= 3600)) {
+  // The samples are averaged whole: at a high rate fewer seconds than an hour.
+  const double max_s = std::min(3600.0, kMaxHeldSamples / config_.sample_rate_hz);
+  if (!(seconds >= min_s && seconds <= max_s)) {
     // Said apart from the bound it is past (0.0099999 below 0.01, not 0.01 below 0.01).
-    const auto [got, bound] = number_texts_apart(seconds, seconds < min_s ? min_s : 3600);
-    throw RpcError(
-        ErrorCode::invalid_params,
-        fmt::format("unit.read: \"seconds\" must be between {} (one sample at "
-                    "unit.sample_rate_hz {:g} Hz) and 3600 (got {})",
-                    seconds < min_s ? bound : number_text(min_s), config_.sample_rate_hz, got));
+    const auto [got, bound] = number_texts_apart(seconds, seconds < min_s ? min_s : max_s);
+    throw RpcError(ErrorCode::invalid_params,
+                   fmt::format("unit.read: \"seconds\" must be between {} (one sample at "
+                               "unit.sample_rate_hz {:g} Hz) and {}{} (got {})",
+                               seconds < min_s ? bound : number_text(min_s), config_.sample_rate_hz,
+                               seconds < min_s ? number_text(max_s) : bound,
+                               max_s < 3600 ? fmt::format(" ({:.0f} samples, what a read holds "
+                                                          "at once)",
+                                                          kMaxHeldSamples)
+                                            : "",
+                               got));
   }
   return unit_read(seconds);
 }
@@ -277,36 +284,44 @@ void Sequencer::refresh_stand_snapshot() {
 
 // --------------------------------------------------------------------------- unit
 
-std::vector<drivers::AccelSample> Sequencer::collect(double seconds) {
+void Sequencer::collect(double seconds, const SampleChunkFn& take) {
   // The chunks after the first continue the unit's series from where the previous one's
   // window ended (collect_more), so each also holds what came while this thread served
   // commands before it, and the unit's clock makes the chunks' lengths add up to `seconds`.
   // (Timed here, the series had begun at a clock read before the first call: a millisecond
   // lost between the two under load was 0.3 s of the unit's time at 300x, 33 samples short.)
-  std::vector<drivers::AccelSample> all;
   double chunk_s = 0;
   for (double left_s = seconds; left_s > 1e-9; left_s -= chunk_s) {
     service();
     const bool first = left_s == seconds;
     chunk_s = std::min(left_s, kCollectChunk_s);
     auto got = check(first ? hw_.unit->collect(chunk_s) : hw_.unit->collect_more(chunk_s));
-    all.insert(all.end(), got.begin(), got.end());
+    take(std::move(got));
   }
   service();  // what came during the last chunk, before the dwell is taken (an abort drops it)
-  return all;
 }
 
-std::vector<drivers::AccelSample> Sequencer::sample_unit(double seconds) {
+void Sequencer::sample_unit(double seconds, const SampleChunkFn& take) {
   check(hw_.unit->start());
-  std::vector<drivers::AccelSample> samples;
   try {
-    samples = collect(seconds);
+    collect(seconds, take);
   } catch (...) {
     (void)hw_.unit->stop();
     throw;
   }
   (void)hw_.unit->stop();
-  return samples;
+}
+
+std::vector<drivers::AccelSample> Sequencer::sample_unit(double seconds) {
+  std::vector<drivers::AccelSample> all;
+  // Reserved for the configured rate (and a little over): grown by doubling, a long dwell's
+  // vector had held up to twice its samples' memory.
+  all.reserve(static_cast<std::size_t>(
+      std::min(seconds * config_.sample_rate_hz * 1.01 + 16, kMaxHeldSamples * 1.01)));
+  sample_unit(seconds, [&](std::vector<drivers::AccelSample>&& chunk) {
+    all.insert(all.end(), chunk.begin(), chunk.end());
+  });
+  return all;
 }
 
 protocol::UnitReadResult Sequencer::unit_read(double seconds) {

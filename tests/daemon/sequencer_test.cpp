@@ -7,6 +7,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <future>
@@ -381,6 +382,76 @@ TEST(SequencerInProcess, ARunsWarmUpTakesThePlaceOfItsProgrammes) {
   ASSERT_EQ(averages.size(), 9u);
   EXPECT_GE(averages[0].t_start_s, rec.samples.front().t_s + 30);
   EXPECT_NEAR(static_cast<double>(averages[0].samples + averages[0].outliers_rejected), 200, 1);
+}
+
+// A warm-up's rows go to the recording as they are taken: held until position 1 ended, a
+// warm-up of 7200 s at 100 Hz had taken the daemon to 142 MB (10 h at 1 kHz would be gigabytes).
+// A pause inside it cuts the partial warm-up back off the file, and run.resume takes it again
+// from its start: the recording holds it once.
+TEST(SequencerInProcess, AWarmUpIsWrittenAsItIsTakenAndAPauseInItLeavesItOnce) {
+  InProcessSequencer s(100);  // 600 s of warm-up: 6 s of real time
+  const Outcome started = s.call("run.start", {{"program", "paper9"},
+                                               {"unit_serial", "SEQ-WS"},
+                                               {"dwell_s", 2},
+                                               {"settle_s", 0},
+                                               {"warmup_s", 600}});
+  ASSERT_EQ(started.error_code, 0) << started.error_message;
+  const std::string id = started.result["run_id"];
+  const json warming = s.wait_run(
+      id, [](const json& st) { return st["phase"] == "warming_up" || st["state"] != "running"; });
+  ASSERT_EQ(warming["phase"], "warming_up") << warming.dump();
+  const std::string path = warming["recording_path"];
+  constexpr std::uintmax_t kRowsOfAMinute = 6000 * 60;  // bytes, at about 60 a row
+  const json grown = s.wait_run(id, [&](const json& st) {
+    return st["phase"] != "warming_up" || std::filesystem::file_size(path) > kRowsOfAMinute;
+  });
+  ASSERT_EQ(grown["phase"], "warming_up")
+      << "the warm-up's rows were not in the recording while it was taken: "
+      << std::filesystem::file_size(path) << " bytes";
+
+  const Outcome paused = s.call("run.pause");
+  ASSERT_EQ(paused.error_code, 0) << paused.error_message;
+  EXPECT_EQ(paused.result["state"], "paused");
+  EXPECT_TRUE(read_recording(path).samples.empty()) << "a partial warm-up left in the recording";
+  const Outcome resumed = s.call("run.resume", {{"run_id", id}});
+  ASSERT_EQ(resumed.error_code, 0) << resumed.error_message;
+  const json done = s.wait_run(id, [](const json& st) { return st["state"] != "running"; });
+  ASSERT_EQ(done["state"], "done") << done.dump();
+  const Recording rec = read_recording(path);
+  std::size_t first_block = 0;
+  for (const RecordingSample& x : rec.samples) first_block += x.pos == 0;
+  EXPECT_NEAR(static_cast<double>(first_block), 600 * 100 + 2 * 100, 2);
+  const std::vector<PositionAverage> averages = average_positions(rec);
+  ASSERT_EQ(averages.size(), 9u);
+  EXPECT_NEAR(static_cast<double>(averages[0].samples + averages[0].outliers_rejected), 200, 1);
+  EXPECT_GE(averages[0].t_start_s, rec.samples.front().t_s + 600);
+}
+
+// A dwell is judged whole, so it is held whole: run.start refuses one of more samples than a
+// dwell may hold (and unit.read a read of them), naming the position and what to do instead.
+TEST(SequencerInProcess, ADwellOfMoreSamplesThanItMayHoldIsRefusedBeforeTheStandMoves) {
+  InProcessSequencer s(100, [](DaemonConfig& c) { c.sample_rate_hz = 2000; });
+  const Outcome refused =
+      s.call("run.start", {{"program", "paper9"}, {"unit_serial", "SEQ-D"}, {"dwell_s", 36000}});
+  EXPECT_EQ(refused.error_code, static_cast<int>(ErrorCode::invalid_params));
+  EXPECT_NE(refused.error_message.find(
+                "position 1's dwell of 36000 s at 2000 Hz would be 72000000 samples, more than "
+                "the 4000000 a dwell holds at once to be judged: give at most 2000 s, and hold a "
+                "long first position as its warm-up (warmup_s)"),
+            std::string::npos)
+      << refused.error_message;
+  json program = program_to_json(load_program("paper9"));
+  program["positions"][2]["dwell_s"] = 2001;
+  const Outcome third = s.call("run.start", {{"program", program}, {"unit_serial", "SEQ-D"}});
+  EXPECT_NE(third.error_message.find("position 3's dwell of 2001 s"), std::string::npos)
+      << third.error_message;
+  const Outcome read = s.call("unit.read", {{"seconds", 2001}});
+  EXPECT_EQ(read.error_code, static_cast<int>(ErrorCode::invalid_params));
+  EXPECT_NE(read.error_message.find("and 2000 (4000000 samples, what a read holds at once) (got "
+                                    "2001)"),
+            std::string::npos)
+      << read.error_message;
+  EXPECT_EQ(s.call("stand.home").error_code, 0) << "the refusals left the stand busy";
 }
 
 TEST(SequencerInProcess, AWarmUpDwellGivesTheRunsFitsTheUnitsWander) {
