@@ -4,6 +4,7 @@
 #include <sys/stat.h>
 
 #include <cerrno>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -296,6 +297,15 @@ DaemonConfig parse_config(const json& doc, const std::string& source) {
     p->reject_unknown();
   }
   top.reject_unknown();
+  if (c.dwell_s * c.sample_rate_hz > kMaxDwellSamples) {
+    const auto whole = [](double v) { return std::to_string(std::llround(v)); };
+    throw ConfigError(c.source + ": run.dwell_s: " + number_text(c.dwell_s) +
+                      " s at unit.sample_rate_hz " + number_text(c.sample_rate_hz) +
+                      " Hz would be " + whole(c.dwell_s * c.sample_rate_hz) +
+                      " samples a dwell, more than the " + whole(kMaxDwellSamples) +
+                      " a dwell holds at once to be judged: at most " +
+                      number_text(kMaxDwellSamples / c.sample_rate_hz) + " s");
+  }
   if (!c.budget_file.empty()) {
     try {
       c.budget = load_budget_config(c.budget_file);

@@ -40,6 +40,11 @@ struct StabilityRule {
   int remeasure_max = 2;             // re-measurements before the run faults
 };
 
+// The most samples a dwell or unit.read holds at once (48 bytes each: 190 MB): a dwell is
+// judged whole by the stability rule, and averaged whole. 10 h at 100 Hz; 66 min at 1 kHz. A
+// warm-up and the thermal wait's windows are taken as they come and have no such bound.
+inline constexpr double kMaxDwellSamples = 4e6;
+
 // Optional wait for thermal stability before the first position.
 struct ThermalWait {
   bool enabled = false;

@@ -26,11 +26,6 @@ inline constexpr drivers::StandAxis kAxes[] = {drivers::StandAxis::outer,
                                                drivers::StandAxis::inner};
 
 // Real (wall) time, for what an operator waits on (the ETA): the steady clock's.
-// The most samples a dwell or unit.read holds at once (48 bytes each: 190 MB): a dwell is
-// judged whole by the stability rule, and averaged whole. 10 h at 100 Hz; 66 min at 1 kHz. A
-// warm-up is written to the recording as it comes and has no such bound.
-inline constexpr double kMaxHeldSamples = 4e6;
-
 inline double now_real_s() { return drivers::steady_clock()->now_s(); }
 
 inline protocol::ErrorCode code_for(drivers::ErrorKind kind) {

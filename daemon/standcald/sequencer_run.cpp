@@ -30,19 +30,19 @@ using namespace detail;
 
 namespace {
 
-// A dwell is held whole while the stability rule judges it (kMaxHeldSamples); a long stretch
+// A dwell is held whole while the stability rule judges it (kMaxDwellSamples); a long stretch
 // at position 1 is a warm-up, written as it comes. Refused before the stand moves.
 void refuse_dwells_held_too_large(const Program& program, double dwell_s, double rate_hz) {
   for (std::size_t i = 0; i < program.positions.size(); ++i) {
     const double s = program.positions[i].dwell_s.value_or(dwell_s);
-    if (!(s * rate_hz > kMaxHeldSamples)) continue;
+    if (!(s * rate_hz > kMaxDwellSamples)) continue;
     throw RpcError(ErrorCode::invalid_params,
                    fmt::format("run.start: position {}'s dwell of {} s at {} Hz would be {:.0f} "
                                "samples, more than the {:.0f} a dwell holds at once to be judged: "
                                "give at most {} s, and hold a long first position as its warm-up "
                                "(warmup_s), which is written to the recording as it is taken",
                                i + 1, number_text(s), number_text(rate_hz), s * rate_hz,
-                               kMaxHeldSamples, number_text(kMaxHeldSamples / rate_hz)));
+                               kMaxDwellSamples, number_text(kMaxDwellSamples / rate_hz)));
   }
 }
 
@@ -426,31 +426,43 @@ void Sequencer::wait_for_operator(RunRecord& record, const Program& program, int
   set_state(record, st::running);
 }
 
+namespace {
+
+// The least-squares slope of temperature against time over a window's samples, taken as they
+// come (Welford's co-moments): a window of hours at a high rate is never held.
+class TemperatureSlope {
+ public:
+  void add(const drivers::AccelSample& x) {
+    if (!std::isfinite(x.temperature_c)) return;
+    n_ += 1;
+    const double dt = x.t_s - t_mean_;
+    t_mean_ += dt / n_;
+    c_mean_ += (x.temperature_c - c_mean_) / n_;
+    stt_ += dt * (x.t_s - t_mean_);
+    stc_ += dt * (x.temperature_c - c_mean_);
+  }
+  double samples() const { return n_; }
+  double c_per_min() const { return stt_ > 0 ? stc_ / stt_ * 60.0 : 0.0; }
+
+ private:
+  double n_ = 0, t_mean_ = 0, c_mean_ = 0, stt_ = 0, stc_ = 0;
+};
+
+}  // namespace
+
 void Sequencer::wait_thermal_stability(RunRecord& record) {
   const ThermalWait& tw = config_.thermal;
   set_progress(record, 0, "thermal_wait");
   const double start = run_clock_s();
   for (;;) {
-    const std::vector<drivers::AccelSample> s = sample_unit(tw.window_s);
-    double n = 0, t_mean = 0, c_mean = 0;
-    for (const auto& x : s) {
-      if (!std::isfinite(x.temperature_c)) continue;
-      n += 1;
-      t_mean += x.t_s;
-      c_mean += x.temperature_c;
-    }
-    if (n < 2)
+    TemperatureSlope slope;
+    sample_unit(tw.window_s, [&](std::vector<drivers::AccelSample>&& chunk) {
+      for (const drivers::AccelSample& x : chunk) slope.add(x);
+    });
+    if (slope.samples() < 2)
       throw RpcError(ErrorCode::hardware_fault,
                      "thermal wait is configured but the unit reports no temperature");
-    t_mean /= n;
-    c_mean /= n;
-    double stt = 0, stc = 0;
-    for (const auto& x : s) {
-      if (!std::isfinite(x.temperature_c)) continue;
-      stt += (x.t_s - t_mean) * (x.t_s - t_mean);
-      stc += (x.t_s - t_mean) * (x.temperature_c - c_mean);
-    }
-    const double rate_c_per_min = stt > 0 ? stc / stt * 60.0 : 0.0;
+    const double rate_c_per_min = slope.c_per_min();
     if (std::abs(rate_c_per_min) < tw.rate_limit_c_per_min) return;
     if (run_clock_s() - start > tw.timeout_s) {
       const auto [rate, limit] = number_texts_apart(rate_c_per_min, tw.rate_limit_c_per_min);

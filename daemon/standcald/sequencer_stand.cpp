@@ -103,7 +103,7 @@ json Sequencer::read_unit(const Command& cmd) {
   // Shorter than one sample period reads nothing, and a mean of nothing is not 0.
   const double min_s = 1.0 / config_.sample_rate_hz;
   // The samples are averaged whole: at a high rate fewer seconds than an hour.
-  const double max_s = std::min(3600.0, kMaxHeldSamples / config_.sample_rate_hz);
+  const double max_s = std::min(3600.0, kMaxDwellSamples / config_.sample_rate_hz);
   if (!(seconds >= min_s && seconds <= max_s)) {
     // Said apart from the bound it is past (0.0099999 below 0.01, not 0.01 below 0.01).
     const auto [got, bound] = number_texts_apart(seconds, seconds < min_s ? min_s : max_s);
@@ -114,7 +114,7 @@ json Sequencer::read_unit(const Command& cmd) {
                                seconds < min_s ? number_text(max_s) : bound,
                                max_s < 3600 ? fmt::format(" ({:.0f} samples, what a read holds "
                                                           "at once)",
-                                                          kMaxHeldSamples)
+                                                          kMaxDwellSamples)
                                             : "",
                                got));
   }
@@ -317,7 +317,7 @@ std::vector<drivers::AccelSample> Sequencer::sample_unit(double seconds) {
   // Reserved for the configured rate (and a little over): grown by doubling, a long dwell's
   // vector had held up to twice its samples' memory.
   all.reserve(static_cast<std::size_t>(
-      std::min(seconds * config_.sample_rate_hz * 1.01 + 16, kMaxHeldSamples * 1.01)));
+      std::min(seconds * config_.sample_rate_hz * 1.01 + 16, kMaxDwellSamples * 1.01)));
   sample_unit(seconds, [&](std::vector<drivers::AccelSample>&& chunk) {
     all.insert(all.end(), chunk.begin(), chunk.end());
   });

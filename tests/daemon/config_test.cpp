@@ -146,6 +146,12 @@ TEST(DaemonConfig, ErrorsNameTheKeyAndTheReason) {
             std::string::npos);
   EXPECT_NE(config_error(json{{"run", {{"g_local_mps2", 98.1}}}}).find("run.g_local_mps2"),
             std::string::npos);
+  // A dwell is judged whole, so held whole: a default dwell of more samples than that is
+  // refused when the daemon starts, not at each run.start.
+  EXPECT_EQ(config_error(json{{"run", {{"dwell_s", 36000}}}, {"unit", {{"sample_rate_hz", 2000}}}}),
+            "lab.json: run.dwell_s: 36000 s at unit.sample_rate_hz 2000 Hz would be 72000000 "
+            "samples a dwell, more than the 4000000 a dwell holds at once to be judged: at most "
+            "2000 s");
   // stand.id goes into every recording header: one printable line.
   EXPECT_EQ(config_error(json{{"stand", {{"id", "bench-1\n# mount: y"}}}}),
             "lab.json: stand.id: must be printable text on one line: it contains the control "
