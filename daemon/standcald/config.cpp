@@ -282,6 +282,15 @@ void read_run(Section& top, DaemonConfig& c) {
 
 }  // namespace
 
+double most_seconds_of(double samples, double rate_hz) {
+  const double s = samples / rate_hz;
+  const double step = std::pow(10.0, std::floor(std::log10(s)) - 5);  // the sixth digit's
+  // (A quotient a rounding below a whole number of steps keeps it: 2000 s stays 2000.)
+  double most = std::floor(s / step + 1e-9) * step;
+  if (most * rate_hz > samples) most -= step;
+  return most;
+}
+
 DaemonConfig parse_config(const json& doc, const std::string& source) {
   DaemonConfig c;
   c.source = source;
@@ -304,7 +313,7 @@ DaemonConfig parse_config(const json& doc, const std::string& source) {
                       " Hz would be " + whole(c.dwell_s * c.sample_rate_hz) +
                       " samples a dwell, more than the " + whole(kMaxDwellSamples) +
                       " a dwell holds at once to be judged: at most " +
-                      number_text(kMaxDwellSamples / c.sample_rate_hz) + " s");
+                      number_text(most_seconds_of(kMaxDwellSamples, c.sample_rate_hz)) + " s");
   }
   if (!c.budget_file.empty()) {
     try {

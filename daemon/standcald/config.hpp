@@ -41,9 +41,16 @@ struct StabilityRule {
 };
 
 // The most samples a dwell or unit.read holds at once (48 bytes each: 190 MB): a dwell is
-// judged whole by the stability rule, and averaged whole. 10 h at 100 Hz; 66 min at 1 kHz. A
-// warm-up and the thermal wait's windows are taken as they come and have no such bound.
+// judged whole by the stability rule, and averaged whole. 10 h at 100 Hz; 66 min at 1 kHz.
 inline constexpr double kMaxDwellSamples = 4e6;
+// The most samples a warm-up may have. The sequencer writes it as it comes, but the run's fit
+// reads position 1's block whole for its Allan curves (about 50 bytes a row: VmHWM 179 MB for
+// 3.6 M rows, docs/reliability.md): 500 MB. Any warm-up at 100 Hz (27 h); 2.7 h at 1 kHz. The
+// thermal wait's windows are taken as they come and have no bound.
+inline constexpr double kMaxWarmupSamples = 1e7;
+// The most seconds `samples` last at rate_hz, rounded down to the six significant digits the
+// messages print, so that the figure a refusal suggests is itself accepted.
+double most_seconds_of(double samples, double rate_hz);
 
 // Optional wait for thermal stability before the first position.
 struct ThermalWait {

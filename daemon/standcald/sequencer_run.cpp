@@ -30,20 +30,28 @@ using namespace detail;
 
 namespace {
 
-// A dwell is held whole while the stability rule judges it (kMaxDwellSamples); a long stretch
-// at position 1 is a warm-up, written as it comes. Refused before the stand moves.
-void refuse_dwells_held_too_large(const Program& program, double dwell_s, double rate_hz) {
-  for (std::size_t i = 0; i < program.positions.size(); ++i) {
+// What of `program`, from position `first` on, the daemon cannot hold, or "": a dwell is
+// judged whole by the stability rule (kMaxDwellSamples); a warm-up is written as it comes but
+// read whole by the run's fit (kMaxWarmupSamples). Refused before the stand moves.
+std::string held_too_large(const Program& program, double dwell_s, double rate_hz, int first) {
+  const auto whole = [](double v) { return fmt::format("{:.0f}", v); };
+  for (auto i = static_cast<std::size_t>(first); i < program.positions.size(); ++i) {
     const double s = program.positions[i].dwell_s.value_or(dwell_s);
     if (!(s * rate_hz > kMaxDwellSamples)) continue;
-    throw RpcError(ErrorCode::invalid_params,
-                   fmt::format("run.start: position {}'s dwell of {} s at {} Hz would be {:.0f} "
-                               "samples, more than the {:.0f} a dwell holds at once to be judged: "
-                               "give at most {} s, and hold a long first position as its warm-up "
-                               "(warmup_s), which is written to the recording as it is taken",
-                               i + 1, number_text(s), number_text(rate_hz), s * rate_hz,
-                               kMaxDwellSamples, number_text(kMaxDwellSamples / rate_hz)));
+    return fmt::format(
+        "position {}'s dwell of {} s at {} Hz would be {} samples, more than the {} a dwell "
+        "holds at once to be judged: give at most {} s (a long hold before position 1's dwell is "
+        "its warm-up, warmup_s, written to the recording as it is taken)",
+        i + 1, number_text(s), number_text(rate_hz), whole(s * rate_hz), whole(kMaxDwellSamples),
+        number_text(most_seconds_of(kMaxDwellSamples, rate_hz)));
   }
+  if (first == 0 && program.warmup_s * rate_hz > kMaxWarmupSamples)
+    return fmt::format(
+        "a warm-up of {} s at {} Hz would be {} samples, more than the {} the run's fit reads at "
+        "once for its Allan curves: give at most {} s",
+        number_text(program.warmup_s), number_text(rate_hz), whole(program.warmup_s * rate_hz),
+        whole(kMaxWarmupSamples), number_text(most_seconds_of(kMaxWarmupSamples, rate_hz)));
+  return "";
 }
 
 // A run's fault event: the run, the position when one is named, what happened.
@@ -147,7 +155,9 @@ json Sequencer::start_run(const json& params) {
       throw RpcError(ErrorCode::invalid_params, "run.start: \"warmup_s\" must be in [0, 36000]");
     program.warmup_s = *request.warmup_s;
   }
-  refuse_dwells_held_too_large(program, dwell, config_.sample_rate_hz);
+  if (const std::string why = held_too_large(program, dwell, config_.sample_rate_hz, 0);
+      !why.empty())
+    throw RpcError(ErrorCode::invalid_params, "run.start: " + why);
   // The readers refuse a warm-up of fewer than two rows: refused here, before the stand moves.
   if (const double shortest_s = 2 / config_.sample_rate_hz;
       program.warmup_s > 0 && program.warmup_s < shortest_s)
@@ -202,7 +212,12 @@ json Sequencer::resume_run(const json& params) {
   try {
     // A run stored before the programme rules tightened (e.g. a dwell past the run limit)
     // is refused here, not by run_loop, which has already taken the stand.
-    (void)program_from_json(rec->program, rec->run_id);
+    const Program program = program_from_json(rec->program, rec->run_id);
+    // ... or begun before the daemon's limits on what it holds, or under a lower sample rate.
+    if (const std::string why =
+            held_too_large(program, rec->dwell_s, config_.sample_rate_hz, rec->positions_done);
+        !why.empty())
+      throw ProgramError(why);
   } catch (const ProgramError& e) {
     throw RpcError(ErrorCode::invalid_state,
                    "run " + rec->run_id + " cannot be resumed: " + e.what());
@@ -434,18 +449,20 @@ class TemperatureSlope {
  public:
   void add(const drivers::AccelSample& x) {
     if (!std::isfinite(x.temperature_c)) return;
+    if (n_ == 0) t0_s_ = x.t_s;  // times from the first: a clock's 1.8e9 s cost digits
+    const double t = x.t_s - t0_s_;
     n_ += 1;
-    const double dt = x.t_s - t_mean_;
+    const double dt = t - t_mean_;
     t_mean_ += dt / n_;
     c_mean_ += (x.temperature_c - c_mean_) / n_;
-    stt_ += dt * (x.t_s - t_mean_);
+    stt_ += dt * (t - t_mean_);
     stc_ += dt * (x.temperature_c - c_mean_);
   }
   double samples() const { return n_; }
   double c_per_min() const { return stt_ > 0 ? stc_ / stt_ * 60.0 : 0.0; }
 
  private:
-  double n_ = 0, t_mean_ = 0, c_mean_ = 0, stt_ = 0, stc_ = 0;
+  double t0_s_ = 0, n_ = 0, t_mean_ = 0, c_mean_ = 0, stt_ = 0, stc_ = 0;
 };
 
 }  // namespace
@@ -475,8 +492,8 @@ void Sequencer::wait_thermal_stability(RunRecord& record) {
 
 // One position's rows, written to the recording as its samples come, a slice at a time: a
 // warm-up of hours is never held whole (held until the position ended, four runs' warm-ups of
-// 7200 s at 100 Hz had peaked the daemon at 184 MB against 47 MB now: docs/reliability.md, "A
-// long warm-up"). Not durable until the file is synced.
+// 7200 s at 100 Hz had peaked the daemon at 184 MB against 47 MB now, the run's fit: see
+// kMaxWarmupSamples and docs/reliability.md, "A long warm-up"). Not durable until synced.
 class PositionWriter {
  public:
   // `fixed`: the fields every row of the position shares (position, angles, arrival, mount).
@@ -563,7 +580,14 @@ void Sequencer::measure_position(RunRecord& record, const Program& program, int 
   } catch (...) {
     // A fault, a pause or an abort inside the position: the file keeps whole positions only
     // (run.resume continues this one on the same file; a faulted run's recording is read).
-    file.cut_back(record.recording_bytes);
+    // The exception that got here is what the run answers to; a cut that fails is logged (a
+    // resume cuts the file back to run.json's length as it reopens it).
+    try {
+      file.cut_back(record.recording_bytes);
+    } catch (const std::exception& e) {
+      spdlog::error("run {}: position {} left part-written in the recording: {}", record.run_id,
+                    index + 1, e.what());
+    }
     throw;
   }
   record.position_end_bytes.resize(static_cast<std::size_t>(index));

@@ -103,7 +103,7 @@ json Sequencer::read_unit(const Command& cmd) {
   // Shorter than one sample period reads nothing, and a mean of nothing is not 0.
   const double min_s = 1.0 / config_.sample_rate_hz;
   // The samples are averaged whole: at a high rate fewer seconds than an hour.
-  const double max_s = std::min(3600.0, kMaxDwellSamples / config_.sample_rate_hz);
+  const double max_s = std::min(3600.0, most_seconds_of(kMaxDwellSamples, config_.sample_rate_hz));
   if (!(seconds >= min_s && seconds <= max_s)) {
     // Said apart from the bound it is past (0.0099999 below 0.01, not 0.01 below 0.01).
     const auto [got, bound] = number_texts_apart(seconds, seconds < min_s ? min_s : max_s);

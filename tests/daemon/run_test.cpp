@@ -320,6 +320,45 @@ TEST(DaemonRun, AResumedRunsDriftRulePoolsTheDwellsOfItsRecording) {
       << daemon.log();
 }
 
+// A run begun under a rate at which its dwells fit what a dwell holds (kMaxDwellSamples), and
+// resumed by a daemon configured for a higher one, is refused before the stand moves: the
+// limit run.start applies holds for run.resume too.
+TEST(DaemonRun, AResumeWhoseDwellsNoLongerFitIsRefusedNamingThem) {
+  TempDir dir;
+  json config = {{"socket", {{"path", socket_of(dir)}}},
+                 {"state_dir", dir.path() + "/state"},
+                 {"unit", {{"sample_rate_hz", 100}}}};
+  const std::string file = dir.path() + "/standcald.json";
+  std::ofstream(file) << config.dump(2);
+  const std::vector<std::string> args{"--config", file, "--sim", "--time-scale", "100"};
+  std::string run_id;
+  {
+    DaemonProcess daemon(dir.path(), args);
+    daemon.wait_ready(socket_of(dir));
+    Client c(socket_of(dir));
+    run_id = c.call("run.start",
+                    {{"program", "paper9"}, {"unit_serial", "AU-R"}, {"dwell_s", 30000}})["run_id"];
+    daemon.kill_now(SIGKILL);
+  }
+  config["unit"]["sample_rate_hz"] = 200;
+  std::ofstream(file) << config.dump(2);
+  DaemonProcess daemon(dir.path(), args);
+  daemon.wait_ready(socket_of(dir));
+  Client c(socket_of(dir));
+  try {
+    c.call("run.resume", {{"run_id", run_id}});
+    ADD_FAILURE() << "resumed a run whose dwells hold 6000000 samples";
+  } catch (const RpcError& e) {
+    EXPECT_EQ(e.code(), -32007) << e.what();
+    EXPECT_NE(std::string(e.what()).find("run " + run_id +
+                                         " cannot be resumed: position 1's dwell of 30000 s at "
+                                         "200 Hz would be 6000000 samples"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_NE(c.call("run.status", {{"run_id", run_id}})["state"], "running");
+}
+
 TEST(DaemonRun, OneRunAtATimeAndTheStandIsBusyDuringIt) {
   TempDir dir;
   auto daemon = DaemonProcess::sim(dir.path(), 50);

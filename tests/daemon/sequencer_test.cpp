@@ -19,6 +19,7 @@
 #include "calib/programs.hpp"
 #include "calib/recording.hpp"
 #include "calib/simulator.hpp"
+#include "calib/text.hpp"
 #include "daemon/standcald/hardware.hpp"
 #include "protocol/jsonrpc/jsonrpc.hpp"
 #include "protocol/jsonrpc/methods.hpp"
@@ -384,8 +385,8 @@ TEST(SequencerInProcess, ARunsWarmUpTakesThePlaceOfItsProgrammes) {
   EXPECT_NEAR(static_cast<double>(averages[0].samples + averages[0].outliers_rejected), 200, 1);
 }
 
-// A warm-up's rows go to the recording as they are taken: held until position 1 ended, a
-// warm-up of 7200 s at 100 Hz had taken the daemon to 142 MB (10 h at 1 kHz would be gigabytes).
+// A warm-up's rows go to the recording as they are taken: held until position 1 ended, four
+// runs' warm-ups of 7200 s at 100 Hz had peaked the daemon at 184 MB (docs/reliability.md).
 // A pause inside it cuts the partial warm-up back off the file, and run.resume takes it again
 // from its start: the recording holds it once.
 TEST(SequencerInProcess, AWarmUpIsWrittenAsItIsTakenAndAPauseInItLeavesItOnce) {
@@ -428,7 +429,8 @@ TEST(SequencerInProcess, AWarmUpIsWrittenAsItIsTakenAndAPauseInItLeavesItOnce) {
 }
 
 // A dwell is judged whole, so it is held whole: run.start refuses one of more samples than a
-// dwell may hold (and unit.read a read of them), naming the position and what to do instead.
+// dwell may hold (and unit.read a read of them), naming the position and the most seconds it
+// may have; a warm-up, which the run's fit reads whole, likewise.
 TEST(SequencerInProcess, ADwellOfMoreSamplesThanItMayHoldIsRefusedBeforeTheStandMoves) {
   InProcessSequencer s(100, [](DaemonConfig& c) { c.sample_rate_hz = 2000; });
   const Outcome refused =
@@ -436,8 +438,8 @@ TEST(SequencerInProcess, ADwellOfMoreSamplesThanItMayHoldIsRefusedBeforeTheStand
   EXPECT_EQ(refused.error_code, static_cast<int>(ErrorCode::invalid_params));
   EXPECT_NE(refused.error_message.find(
                 "position 1's dwell of 36000 s at 2000 Hz would be 72000000 samples, more than "
-                "the 4000000 a dwell holds at once to be judged: give at most 2000 s, and hold a "
-                "long first position as its warm-up (warmup_s)"),
+                "the 4000000 a dwell holds at once to be judged: give at most 2000 s (a long hold "
+                "before position 1's dwell is its warm-up, warmup_s,"),
             std::string::npos)
       << refused.error_message;
   json program = program_to_json(load_program("paper9"));
@@ -445,6 +447,15 @@ TEST(SequencerInProcess, ADwellOfMoreSamplesThanItMayHoldIsRefusedBeforeTheStand
   const Outcome third = s.call("run.start", {{"program", program}, {"unit_serial", "SEQ-D"}});
   EXPECT_NE(third.error_message.find("position 3's dwell of 2001 s"), std::string::npos)
       << third.error_message;
+  const Outcome warm = s.call(
+      "run.start",
+      {{"program", "paper9"}, {"unit_serial", "SEQ-D"}, {"dwell_s", 10}, {"warmup_s", 36000}});
+  EXPECT_EQ(warm.error_code, static_cast<int>(ErrorCode::invalid_params));
+  EXPECT_NE(warm.error_message.find(
+                "a warm-up of 36000 s at 2000 Hz would be 72000000 samples, more than the "
+                "10000000 the run's fit reads at once for its Allan curves: give at most 5000 s"),
+            std::string::npos)
+      << warm.error_message;
   const Outcome read = s.call("unit.read", {{"seconds", 2001}});
   EXPECT_EQ(read.error_code, static_cast<int>(ErrorCode::invalid_params));
   EXPECT_NE(read.error_message.find("and 2000 (4000000 samples, what a read holds at once) (got "
@@ -452,6 +463,17 @@ TEST(SequencerInProcess, ADwellOfMoreSamplesThanItMayHoldIsRefusedBeforeTheStand
             std::string::npos)
       << read.error_message;
   EXPECT_EQ(s.call("stand.home").error_code, 0) << "the refusals left the stand busy";
+}
+
+// The most seconds a refusal suggests are themselves accepted: rounded down to the digits
+// printed (4000000 / 2999 Hz = 1333.7779 s; 1333.78 s, rounded to nearest, is 4000006 samples).
+TEST(DaemonLimits, TheMostSecondsSuggestedAreAccepted) {
+  for (const double rate_hz : {2999.0, 7.0, 100000.0, 1111.0, 3.0}) {
+    const double most_s = most_seconds_of(kMaxDwellSamples, rate_hz);
+    EXPECT_LE(std::stod(number_text(most_s)) * rate_hz, kMaxDwellSamples) << rate_hz;
+    EXPECT_GT(most_s * rate_hz, kMaxDwellSamples * (1 - 1e-5)) << rate_hz;
+  }
+  EXPECT_EQ(number_text(most_seconds_of(kMaxDwellSamples, 2999)), "1333.77");
 }
 
 TEST(SequencerInProcess, AWarmUpDwellGivesTheRunsFitsTheUnitsWander) {
