@@ -43,6 +43,19 @@ std::map<int, std::size_t> position_blocks(const Recording& rec) {
   return counts;
 }
 
+// A config with the daemon's socket and state directory in `dir`, for a test to add to.
+json config_in(const TempDir& dir) {
+  return {{"socket", {{"path", socket_of(dir)}}}, {"state_dir", dir.path() + "/state"}};
+}
+
+// Writes `config` as dir/standcald.json (again, for a restart with other settings) and gives
+// the arguments of a simulated daemon reading it at 100x.
+std::vector<std::string> sim_daemon_args(const TempDir& dir, const json& config) {
+  const std::string file = dir.path() + "/standcald.json";
+  std::ofstream(file) << config.dump(2);
+  return {"--config", file, "--sim", "--time-scale", "100"};
+}
+
 int error_code_of(const std::function<void()>& call) {
   try {
     call();
@@ -277,17 +290,13 @@ TEST(DaemonRun, AResumedRunsDriftRulePoolsTheDwellsOfItsRecording) {
   TruthModel truth = default_truth();
   truth.noise.output_filter_tau_s = 0.05;
   save_truth(truth, dir.path() + "/filtered-unit.json");
-  json config = {{"socket", {{"path", socket_of(dir)}}},
-                 {"state_dir", dir.path() + "/state"},
-                 {"sim", {{"truth", dir.path() + "/filtered-unit.json"}}},
-                 {"unit", {{"bias_instability_ug", 5}, {"bias_instability_tau_s", 600}}},
-                 {"run", {{"stability", {{"trend_limit_sigmas", 3}}}}}};
-  const std::string file = dir.path() + "/standcald.json";
-  std::ofstream(file) << config.dump(2);
-  const std::vector<std::string> args{"--config", file, "--sim", "--time-scale", "100"};
+  json config = config_in(dir);
+  config["sim"] = {{"truth", dir.path() + "/filtered-unit.json"}};
+  config["unit"] = {{"bias_instability_ug", 5}, {"bias_instability_tau_s", 600}};
+  config["run"] = {{"stability", {{"trend_limit_sigmas", 3}}}};
   std::string run_id;
   {
-    DaemonProcess daemon(dir.path(), args);
+    DaemonProcess daemon(dir.path(), sim_daemon_args(dir, config));
     daemon.wait_ready(socket_of(dir));
     Client c(socket_of(dir));
     run_id = c.call("run.start", {{"program", "paper9"},
@@ -299,8 +308,7 @@ TEST(DaemonRun, AResumedRunsDriftRulePoolsTheDwellsOfItsRecording) {
     daemon.kill_now(SIGKILL);
   }
   config.erase("unit");  // the wander no longer configured
-  std::ofstream(file) << config.dump(2);
-  DaemonProcess daemon(dir.path(), args);
+  DaemonProcess daemon(dir.path(), sim_daemon_args(dir, config));
   daemon.wait_ready(socket_of(dir));
   Client c(socket_of(dir));
   const int done_before = c.call("run.status", {{"run_id", run_id}})["positions_done"];
@@ -325,15 +333,11 @@ TEST(DaemonRun, AResumedRunsDriftRulePoolsTheDwellsOfItsRecording) {
 // limit run.start applies holds for run.resume too.
 TEST(DaemonRun, AResumeWhoseDwellsNoLongerFitIsRefusedNamingThem) {
   TempDir dir;
-  json config = {{"socket", {{"path", socket_of(dir)}}},
-                 {"state_dir", dir.path() + "/state"},
-                 {"unit", {{"sample_rate_hz", 100}}}};
-  const std::string file = dir.path() + "/standcald.json";
-  std::ofstream(file) << config.dump(2);
-  const std::vector<std::string> args{"--config", file, "--sim", "--time-scale", "100"};
+  json config = config_in(dir);
+  config["unit"] = {{"sample_rate_hz", 100}};
   std::string run_id;
   {
-    DaemonProcess daemon(dir.path(), args);
+    DaemonProcess daemon(dir.path(), sim_daemon_args(dir, config));
     daemon.wait_ready(socket_of(dir));
     Client c(socket_of(dir));
     run_id = c.call("run.start",
@@ -341,8 +345,7 @@ TEST(DaemonRun, AResumeWhoseDwellsNoLongerFitIsRefusedNamingThem) {
     daemon.kill_now(SIGKILL);
   }
   config["unit"]["sample_rate_hz"] = 200;
-  std::ofstream(file) << config.dump(2);
-  DaemonProcess daemon(dir.path(), args);
+  DaemonProcess daemon(dir.path(), sim_daemon_args(dir, config));
   daemon.wait_ready(socket_of(dir));
   Client c(socket_of(dir));
   try {
