@@ -6,6 +6,7 @@
 #include <sys/resource.h>
 
 #include <cmath>
+#include <filesystem>
 #include <random>
 #include <set>
 
@@ -144,6 +145,17 @@ inline Trial run_trial(RigOptions options, const FaultCase& c, unsigned seed) {
       out.failure =
           "run.json says " + disk["state"].get<std::string>() + ", run.status " + c.expect;
       return out;
+    }
+    // A daemon that lived through the fault leaves whole positions only: the one it was in is
+    // cut back off the file (a disk_full append had left half of it there).
+    if (!restarted) {
+      const auto on_disk = std::filesystem::file_size(rig.recording_path(run_id));
+      const auto durable = disk["recording_bytes"].get<std::uint64_t>();
+      if (on_disk != durable) {
+        out.failure = "the recording is " + std::to_string(on_disk) + " bytes after the fault, " +
+                      std::to_string(durable) + " in run.json: a position left part-written";
+        return out;
+      }
     }
     if (c.clear) c.clear(rig);
     if (std::string why; !rig.stand_stopped(why)) {
