@@ -45,7 +45,7 @@ struct StabilityRule {
 inline constexpr double kMaxDwellSamples = 4e6;
 // The most samples a warm-up may have. The sequencer writes it as it comes, but the run's fit
 // reads position 1's block whole for its Allan curves (about 50 bytes a row: VmHWM 179 MB for
-// 3.6 M rows, docs/reliability.md): 500 MB. Any warm-up at 100 Hz (27 h); 2.7 h at 1 kHz. The
+// 3.6 M rows, docs/reliability.md): 500 MB. Any warm-up at 100 Hz (27.8 h); 2.8 h at 1 kHz. The
 // thermal wait's windows are taken as they come and have no bound.
 inline constexpr double kMaxWarmupSamples = 1e7;
 // The most seconds `samples` last at rate_hz, rounded down to the six significant digits the
