@@ -363,8 +363,10 @@ SigmaWidening widen_for_estimated_noise(
 // specified one of `options` (its correlation time given: known_tau): its REML optimum does
 // not beat the specified wander (at the range's log-middle, for a range of correlation times)
 // by 2 delta log L at P below options.specified_departure_p, or specified_exceeded_p where the
-// run's is the larger on some axis. Says which, and by how much, in e.how. The fits and the
-// diagnosis weigh the same run's positions alike by it.
+// run's is the larger on some axis. Says which, and by how much, in e.how. Where it departs
+// so, e keeps the specified q on the axes where the run's own is smaller (in e.noise and each
+// of e.plausible): the laxer bar says nothing of those. The fits and the diagnosis weigh the
+// same run's positions alike by it.
 bool run_agrees_with_specified(const std::vector<NoiseRow>& rows, const Eigen::MatrixXd& X,
                                const Eigen::VectorXd& y, const FitNoiseOptions& options,
                                NoiseEstimate& e);

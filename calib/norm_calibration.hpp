@@ -35,8 +35,8 @@ struct NormCalibration {
   StaticDetection detection;
   NormFit fit;
   std::vector<ThresholdStability> stability;
-  // Median over the intervals of standard error / (sigma / sqrt(n)) per axis: by how much
-  // white noise would have understated a static mean's error.
+  // Median over the intervals of curve_standard_error / (sigma / sqrt(n)) per axis: by how
+  // much white noise would have understated a static mean's error within its interval.
   Vec3 understated_by = Vec3::Ones();
   std::vector<std::string> notes;
 };
@@ -44,6 +44,24 @@ struct NormCalibration {
 // ug of the calibrated axes per input unit: the diagonal of the compensation (its cross
 // terms, the misalignment, are a per cent at most), over g.
 Vec3 ug_per_input_unit(const NormCompensation& k, double g_mps2);
+
+// Each interval's standard error beside a Gauss-Markov wander `n` that a fit weights for
+// between the intervals: its curve error (the pooled Allan deviation at its length, which
+// holds the wander's share q^2 gauss_markov_allan_variance(tau, T)) less that share, never
+// below sigma / sqrt(n). The GLS carries the wander through the covariance of the means;
+// left in the errors as well, it counted twice (docs/calibration.md, "Recordings without
+// angles"). Without a wander in `n`, or without sigma / sqrt(n) to floor it at, an error is
+// the curve's; an interval without a curve error has its standard_error taken as it.
+// `ug_per_unit`: the calibrated axes' ug per input unit (ug_per_input_unit), which `n` is in.
+void errors_beside_wander(std::vector<StaticInterval>& intervals, const NoiseFinding& n,
+                          const Vec3& ug_per_unit);
+
+// fit_norm of static intervals each weighted by its error beside the wander the fit weights
+// for between them (errors_beside_wander, from their curve errors), redone until the errors
+// and the wander agree: what `standcal fit --method norm` fits. Sets each interval's
+// standard_error to the one the fit used.
+NormFit fit_beside_wander(std::vector<StaticInterval>& intervals, double g_mps2, InputUnits units,
+                          const NormFitOptions& options = {});
 
 // By how much sigma/sqrt(n) understated each interval mean's error under the noise model:
 // the colour within the interval (its Allan-deviation standard error) and the wander `n`

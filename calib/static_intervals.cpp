@@ -173,7 +173,7 @@ StaticInterval summarise(const RawInput& in, std::size_t begin, std::size_t end,
                  .cwiseSqrt()
                  .cwiseMax(sigma_floor);
   iv.white_standard_error = iv.sigma / std::sqrt(n);
-  iv.standard_error = iv.white_standard_error;
+  iv.curve_standard_error = iv.standard_error = iv.white_standard_error;
   return iv;
 }
 
@@ -283,8 +283,9 @@ void attach_coloured_errors(const RawInput& in, StaticDetection& d) {
   for (StaticInterval& iv : d.intervals) {
     const double duration = static_cast<double>(iv.samples) * period;
     for (int a = 0; a < 3; ++a)
-      iv.standard_error[a] = coloured_standard_error(d.allan[static_cast<std::size_t>(a)], duration,
-                                                     iv.white_standard_error[a]);
+      iv.curve_standard_error[a] = coloured_standard_error(d.allan[static_cast<std::size_t>(a)],
+                                                           duration, iv.white_standard_error[a]);
+    iv.standard_error = iv.curve_standard_error;
   }
 }
 

@@ -41,8 +41,11 @@ struct StaticInterval {
   // Standard error of the mean: sigma / sqrt(n) if the noise were white, and the one the
   // recording's own noise implies: the same where the intervals' pooled Allan curves are
   // white noise's, else the curve at this interval's length, never smaller
-  // (StaticDetection::standard_errors_how).
+  // (StaticDetection::standard_errors_how). `standard_error` is what a fit weights the mean
+  // with: the curve's, less the share of a bias wander the fit weights for between the
+  // intervals (the norm fit's errors_beside_wander), which would otherwise count twice.
   Vec3 white_standard_error = Vec3::Zero();
+  Vec3 curve_standard_error = Vec3::Zero();
   Vec3 standard_error = Vec3::Zero();
   double mid_time_s() const { return 0.5 * (t_start_s + t_end_s); }
 };
@@ -83,7 +86,8 @@ struct StaticDetection {
   // samples as evenly spaced, so beyond kMaxDwellGapShare no wander is read off them.
   DwellGaps gaps;
   // How the intervals' standard errors were made, and why: sigma / sqrt(n) where the pooled
-  // curves are white noise's, else the curve at each interval's length.
+  // curves are white noise's, else the curve at each interval's length ("; less the share of
+  // the bias wander ..." where the norm fit took its wander out: say_errors_beside_wander).
   std::string standard_errors_how;
 };
 

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <random>
 
+#include "calib/allan.hpp"
 #include "calib/diagnosis/diagnosis.hpp"
 #include "calib/norm_calibration.hpp"
 #include "calib/norm_estimator.hpp"
@@ -206,8 +207,10 @@ Vec9 imu_tk_result() {  // SOURCE.md: bias, scale, T's m01 m02 m12
 
 // imu_tk weights every interval alike; with its weighting on the same intervals all nine
 // parameters agree within 3 sigma. Weighted by each mean's own error (our default), scale_y
-// moves to 3.3 sigma from imu_tk's: the difference of two estimators on the same data, which
-// has more variance than the better one's own (docs/calibration.md).
+// moves to 3.6 sigma from imu_tk's: the difference of two estimators on the same data, which
+// has more variance than the better one's own (docs/calibration.md). It was 3.4 sigma until
+// the wander counted once in the intervals' errors (2026-12-06): the value moved by 0.06
+// sigma, the sigma became 3 % smaller.
 TEST_F(XsensRecording, AgreesWithImuTkWhereTheWeightingAllows) {
   const NormFit& fit = calibration_->fit;
   std::vector<StaticInterval> equal = calibration_->detection.intervals;
@@ -218,7 +221,7 @@ TEST_F(XsensRecording, AgreesWithImuTkWhereTheWeightingAllows) {
       (as_vector(unweighted.compensation) - imu_tk_result()).cwiseQuotient(fit.sigma);
   EXPECT_LT(z_same_weights.cwiseAbs().maxCoeff(), 3.0) << z_same_weights.transpose();
   const Vec9 z = (as_vector(fit.compensation) - imu_tk_result()).cwiseQuotient(fit.sigma);
-  EXPECT_LT(z.cwiseAbs().maxCoeff(), 3.5) << z.transpose();
+  EXPECT_LT(z.cwiseAbs().maxCoeff(), 3.7) << z.transpose();
 }
 
 TEST_F(XsensRecording, TheNormResidualIsAtTheNoiseLevel) {
@@ -252,8 +255,8 @@ double halves_z2(const std::vector<StaticInterval>& all, const NormFitOptions& o
     };
     std::sort(a.begin(), a.end(), by_time);
     std::sort(b.begin(), b.end(), by_time);
-    const NormFit fa = fit_norm(a, kXsensG_mps2, InputUnits::counts, o);
-    const NormFit fb = fit_norm(b, kXsensG_mps2, InputUnits::counts, o);
+    const NormFit fa = fit_beside_wander(a, kXsensG_mps2, InputUnits::counts, o);
+    const NormFit fb = fit_beside_wander(b, kXsensG_mps2, InputUnits::counts, o);
     const Vec9 z = (as_vector(fa.compensation) - as_vector(fb.compensation))
                        .cwiseQuotient((fa.sigma.cwiseAbs2() + fb.sigma.cwiseAbs2()).cwiseSqrt());
     sum += z.squaredNorm() / 9;
@@ -334,6 +337,44 @@ TEST(StaticIntervals, TheMeansOfWhiteNoiseHaveWhiteNoisesStandardErrors) {
     for (const StaticInterval& iv : d.intervals)
       EXPECT_EQ(iv.standard_error, iv.white_standard_error) << "seed " << seed;
   }
+}
+
+// An interval's error beside the wander a fit weights for between the intervals: its curve
+// error less the wander's Allan share at its length, in the input's units, never below sigma /
+// sqrt(n); without a wander, the curve's.
+TEST(StaticIntervals, AnErrorBesideTheWanderIsTheCurvesLessTheWandersShare) {
+  StaticInterval iv;
+  iv.t_start_s = 100;
+  iv.t_end_s = 110;
+  iv.white_standard_error = Vec3(1, 1, 1);
+  iv.curve_standard_error = Vec3(3, 3, 1.2);
+  iv.standard_error = iv.curve_standard_error;
+  std::vector<StaticInterval> intervals{iv};
+  NoiseFinding n;
+  errors_beside_wander(intervals, n, Vec3::Ones());
+  EXPECT_EQ(intervals[0].standard_error, iv.curve_standard_error) << "white noise: the curve's";
+
+  n.model = "gauss_markov";
+  n.tau_s = 60;
+  n.wander_ug = Vec3(10, 40, 10);
+  const Vec3 ug_per_unit(2, 2, 2);  // the wander is 5, 20 and 5 input units
+  const double share = gauss_markov_allan_variance(60, 10);
+  errors_beside_wander(intervals, n, ug_per_unit);
+  EXPECT_NEAR(intervals[0].standard_error[0], std::sqrt(9 - 25 * share), 1e-12);
+  EXPECT_EQ(intervals[0].standard_error[1], 1) << "never below sigma / sqrt(n)";
+  EXPECT_EQ(intervals[0].standard_error[2], 1) << "never below sigma / sqrt(n)";
+  n.model = "white";
+  errors_beside_wander(intervals, n, ug_per_unit);
+  EXPECT_EQ(intervals[0].standard_error, iv.curve_standard_error) << "taken from the curve's again";
+
+  // An interval a caller made with a standard error alone: that is its curve's.
+  StaticInterval own = iv;
+  own.curve_standard_error = Vec3::Zero();
+  std::vector<StaticInterval> made{own};
+  n.model = "gauss_markov";
+  errors_beside_wander(made, n, ug_per_unit);
+  EXPECT_EQ(made[0].curve_standard_error, iv.curve_standard_error);
+  EXPECT_NEAR(made[0].standard_error[0], std::sqrt(9 - 25 * share), 1e-12);
 }
 
 // A unit whose output filter correlates its samples over two sample periods: its means'
