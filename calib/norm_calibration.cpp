@@ -105,15 +105,6 @@ std::vector<Vec3> errors_of(const std::vector<StaticInterval>& intervals) {
   return out;
 }
 
-// Each interval weighted with its curve error; an interval made without one (a caller's own)
-// has its standard error taken as the curve's.
-void take_curve_errors(std::vector<StaticInterval>& intervals) {
-  for (StaticInterval& iv : intervals) {
-    if (iv.curve_standard_error.isZero()) iv.curve_standard_error = iv.standard_error;
-    iv.standard_error = iv.curve_standard_error;
-  }
-}
-
 // `fit`, made with the intervals' curve errors, redone with each interval weighted by its
 // error beside the wander the fit weights for between the intervals (errors_beside_wander)
 // until the wander settles. A refit that loses the wander, or fails, keeps the fit before it
@@ -315,6 +306,13 @@ std::string gaps_warning(const NormCalibration& c, const RawInput& in) {
 
 Vec3 ug_per_input_unit(const NormCompensation& k, double g_mps2) {
   return k.matrix.diagonal().cwiseAbs() / (g_mps2 * kUg);
+}
+
+void take_curve_errors(std::vector<StaticInterval>& intervals) {
+  for (StaticInterval& iv : intervals) {
+    if (iv.curve_standard_error.isZero()) iv.curve_standard_error = iv.standard_error;
+    iv.standard_error = iv.curve_standard_error;
+  }
 }
 
 NormFit fit_beside_wander(std::vector<StaticInterval>& intervals, double g, InputUnits units,

@@ -45,6 +45,11 @@ struct NormCalibration {
 // terms, the misalignment, are a per cent at most), over g.
 Vec3 ug_per_input_unit(const NormCompensation& k, double g_mps2);
 
+// Each interval weighted with its curve error (what detection gave it, before any wander was
+// taken out); an interval made without one (a caller's own) has its standard error taken as
+// the curve's.
+void take_curve_errors(std::vector<StaticInterval>& intervals);
+
 // Each interval's standard error beside a Gauss-Markov wander `n` that a fit weights for
 // between the intervals: its curve error (the pooled Allan deviation at its length, which
 // holds the wander's share q^2 gauss_markov_allan_variance(tau, T)) less that share, never
@@ -57,9 +62,9 @@ void errors_beside_wander(std::vector<StaticInterval>& intervals, const NoiseFin
                           const Vec3& ug_per_unit);
 
 // fit_norm of static intervals each weighted by its error beside the wander the fit weights
-// for between them (errors_beside_wander, from their curve errors), redone until the errors
-// and the wander agree: what `standcal fit --method norm` fits. Sets each interval's
-// standard_error to the one the fit used.
+// for between them (errors_beside_wander, from their curve errors), redone until the wander
+// settles: what `standcal fit --method norm` fits. Sets each interval's standard_error to the
+// one the fit used.
 NormFit fit_beside_wander(std::vector<StaticInterval>& intervals, double g_mps2, InputUnits units,
                           const NormFitOptions& options = {});
 

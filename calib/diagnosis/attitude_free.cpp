@@ -21,20 +21,12 @@ double allan_floor_ug(const NoiseFinding& n) {
   return floor;
 }
 
-// The intervals with their curve errors: the norm fit weighs them beside the wander it found
-// (errors_beside_wander), but the diagnosis tests against a wander of its own, which may be
-// none, so it takes the curve's whole (conservative where it does find one).
-std::vector<StaticInterval> with_curve_errors(std::vector<StaticInterval> intervals) {
-  for (StaticInterval& iv : intervals) iv.standard_error = iv.curve_standard_error;
-  return intervals;
-}
-
 // The noise finding with the recording's Allan figures, and the understatement of
 // sigma/sqrt(n) counting the colour inside each interval as well as the wander between.
-void report_norm_noise(Diagnosis& d, const NormCalibration& cal, double g) {
+void report_norm_noise(Diagnosis& d, const NormCalibration& cal,
+                       const std::vector<StaticInterval>& intervals, double g) {
   d.noise.allan = cal.fit.result.noise.allan;
-  d.noise.understated_by = white_noise_understatement(with_curve_errors(cal.detection.intervals),
-                                                      cal.fit.compensation, g, d.noise);
+  d.noise.understated_by = white_noise_understatement(intervals, cal.fit.compensation, g, d.noise);
   for (std::string& s : d.summary)
     if (s.rfind("Noise:", 0) == 0) s = diagnosis::noise_words(d.noise);
 }
@@ -81,8 +73,12 @@ Diagnosis diagnose_without_angles(const RawInput& in, const NormCalibration& cal
   const Recording rec = calibrated_recording(in, cal);
   options.attitude_free = true;
   options.dwell_standard_error_g.clear();
-  for (const PositionAverage& p : calibrated_averages(with_curve_errors(cal.detection.intervals),
-                                                      cal.fit.compensation, in.g_mps2))
+  // The norm fit weighs the intervals beside the wander it found (errors_beside_wander), but
+  // the diagnosis tests against a wander of its own, which may be none, so it takes their
+  // curve errors whole (conservative where it does find one).
+  std::vector<StaticInterval> intervals = cal.detection.intervals;
+  take_curve_errors(intervals);
+  for (const PositionAverage& p : calibrated_averages(intervals, cal.fit.compensation, in.g_mps2))
     options.dwell_standard_error_g.push_back(p.standard_error_g);
   // The unit's grade from its own Allan floor: the plausible sizes of the catalog's terms.
   const double floor_ug = allan_floor_ug(cal.fit.result.noise);
@@ -93,7 +89,7 @@ Diagnosis diagnose_without_angles(const RawInput& in, const NormCalibration& cal
   // outlier checks.
   options.max_bias_instability_ug = std::numeric_limits<double>::infinity();
   Diagnosis d = diagnose_recording(rec, options);
-  report_norm_noise(d, cal, in.g_mps2);
+  report_norm_noise(d, cal, intervals, in.g_mps2);
   return d;
 }
 
