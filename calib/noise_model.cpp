@@ -229,6 +229,10 @@ double median_row_sigma(const std::vector<NoiseRow>& rows) {
   return s[s.size() / 2];
 }
 
+// The estimator's range of wander sizes, in log10 of q over the median row's sigma: q from 3 %
+// to 30x a row's sigma.
+constexpr double kLogQLo = -1.5, kLogQHi = 1.5;
+
 struct WanderFit {
   GaussMarkovNoise noise;
   double log_l = -1e300;
@@ -244,7 +248,6 @@ struct WanderFit {
 // of 1x the dwell error, 1.0 with the test; docs/calibration.md).
 WanderFit best_for_tau(const RestrictedLikelihood& L, double tau_s, double sigma_ref,
                        const NoiseEstimateOptions& options) {
-  constexpr double kLogLo = -1.5, kLogHi = 1.5;  // q from 3 % to 30x a row's sigma
   constexpr int kEvaluations = 14;
   auto with_q = [&](const Vec3& q) { return L(GaussMarkovNoise{q, tau_s}); };
   // The best q shared by the axes in `shared`, the others held as in `q`.
@@ -255,7 +258,7 @@ WanderFit best_for_tau(const RestrictedLikelihood& L, double tau_s, double sigma
         if (shared[static_cast<std::size_t>(a)]) out[a] = sigma_ref * std::pow(10, u);
       return out;
     };
-    return set(golden_section_max([&](double u) { return with_q(set(u)); }, kLogLo, kLogHi,
+    return set(golden_section_max([&](double u) { return with_q(set(u)); }, kLogQLo, kLogQHi,
                                   kEvaluations, std::greater<double>())
                    .first);
   };
@@ -371,6 +374,27 @@ double restricted_log_likelihood(const std::vector<NoiseRow>& rows, const Matrix
   return RestrictedLikelihood(rows, X, y)(noise);
 }
 
+std::vector<PlausibleNoise> plausible_wander_sizes(const std::vector<NoiseRow>& rows,
+                                                   const MatrixXd& X, const VectorXd& y,
+                                                   const NoiseEstimateOptions& options) {
+  constexpr double kStep = 0.25;  // in log10 q: 13 sizes over the range
+  if (rows.size() < 3 || static_cast<Eigen::Index>(rows.size()) <= X.cols()) return {};
+  const RestrictedLikelihood L(rows, X, y);
+  const double sigma_ref = median_row_sigma(rows);
+  std::vector<std::pair<GaussMarkovNoise, double>> all{{GaussMarkovNoise{}, L(GaussMarkovNoise{})}};
+  for (const double tau : options.tau_grid_s)
+    for (double u = kLogQLo; u <= kLogQHi + 1e-9; u += kStep) {
+      const GaussMarkovNoise n{Vec3::Constant(sigma_ref * std::pow(10, u)), tau};
+      all.emplace_back(n, L(n));
+    }
+  double best = -std::numeric_limits<double>::infinity();
+  for (const auto& [n, log_l] : all) best = std::max(best, log_l);
+  std::vector<PlausibleNoise> out;
+  for (const auto& [n, log_l] : all)
+    if (2 * (best - log_l) <= options.plausible_lr) out.push_back({n, std::exp(log_l - best)});
+  return out;
+}
+
 NoiseEstimate estimate_bias_wander(const std::vector<NoiseRow>& rows, const MatrixXd& X,
                                    const VectorXd& y, const NoiseEstimateOptions& options) {
   NoiseEstimate out;
@@ -436,6 +460,21 @@ VectorXd parameter_variance_dof(const std::function<VectorXd(const GaussMarkovNo
   return nu;
 }
 
+// The parameters' variances averaged over `plausible` (not empty), each weighted by its
+// likelihood.
+VectorXd likelihood_weighted_variance(
+    const std::function<VectorXd(const GaussMarkovNoise&)>& variances,
+    const std::vector<PlausibleNoise>& plausible) {
+  VectorXd sum = VectorXd::Zero(0);
+  double weights = 0;
+  for (const PlausibleNoise& p : plausible) {
+    const VectorXd v = p.weight * variances(p.noise);
+    sum = sum.size() ? VectorXd(sum + v) : v;
+    weights += p.weight;
+  }
+  return sum / weights;
+}
+
 }  // namespace
 
 // sqrt(nu / (nu - 2)), the standard deviation of Student's t, so that a sigma with nu
@@ -454,17 +493,19 @@ SigmaWidening widen_for_estimated_noise(
   SigmaWidening w{VectorXd::Ones(at_best.size()),
                   parameter_variance_dof(variances, at_best, choice.noise, choice.scales)};
   // Averaged over the correlation times the run allows, each weighted by its likelihood.
-  VectorXd averaged = VectorXd::Zero(at_best.size());
-  double weights = 0;
-  for (const PlausibleNoise& p : choice.plausible) {
-    averaged += p.weight * variances(p.noise);
-    weights += p.weight;
-  }
-  averaged = weights > 0 ? VectorXd(averaged / weights) : at_best;
+  const VectorXd averaged = choice.plausible.empty()
+                                ? at_best
+                                : likelihood_weighted_variance(variances, choice.plausible);
   for (Eigen::Index j = 0; j < at_best.size(); ++j)
     if (at_best[j] > 0)
       w.factor[j] =
           std::sqrt(std::max(averaged[j], at_best[j]) / at_best[j]) * student_t_inflation(w.dof[j]);
+  if (!choice.plausible_sizes.empty()) {
+    const VectorXd over_sizes = likelihood_weighted_variance(variances, choice.plausible_sizes);
+    for (Eigen::Index j = 0; j < at_best.size(); ++j)
+      if (at_best[j] > 0)
+        w.factor[j] = std::max(w.factor[j], std::sqrt(over_sizes[j] / at_best[j]));
+  }
   return w;
 }
 
@@ -528,6 +569,23 @@ GaussMarkovNoise specified_at_known_tau(const FitNoiseOptions& options) {
 
 namespace {
 
+// The largest wander of `sizes` (plausible_wander_sizes), in ug.
+double largest_wander_ug(const std::vector<PlausibleNoise>& sizes) {
+  double largest_g = 0;
+  for (const PlausibleNoise& p : sizes) largest_g = std::max(largest_g, p.noise.q_g.maxCoeff());
+  return largest_g / kUg;
+}
+
+// What the sigmas of a fit averaged over the wander's sizes allow for, in noise.how.
+std::string allowed_sizes_words(double largest_ug, double plausible_lr) {
+  char b[200];
+  std::snprintf(b, sizeof b,
+                "; the sigmas averaged over the wanders this run cannot exclude, up to %.3g ug "
+                "(2 delta log L <= %g), each by its likelihood",
+                largest_ug, plausible_lr);
+  return b;
+}
+
 // A run that departs from the specified wander because its own is larger on some axis was
 // judged at the laxer bar (specified_exceeded_p), which says nothing of an axis where its own
 // is smaller: that axis keeps the specified q, in the wander weighted with and at every
@@ -571,6 +629,7 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
   using Mode = FitNoiseOptions::Mode;
   NoiseEstimate e;
   bool weighted_below_bar = false, specified_over_range = false, agrees_with_specified = false;
+  std::vector<PlausibleNoise> plausible_sizes;
   // The specified wander; where its correlation time is known only as a range, weighted at the
   // range's log-middle and the biases' variance averaged over the range, each time alike (no
   // run's likelihood weighs them: the run did not show the wander, or was not asked).
@@ -602,6 +661,10 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
     if (options.known_tau) estimate.tau_grid_s = options.known_tau->grid_s();
     e = estimate_bias_wander(rows, X, y, estimate);
     if (options.known_tau) e.how += "; at " + options.known_tau->words();
+    if (options.average_over_wander_sizes && !e.significant && options.specified.white()) {
+      plausible_sizes = plausible_wander_sizes(rows, X, y, estimate);
+      e.how += allowed_sizes_words(largest_wander_ug(plausible_sizes), estimate.plausible_lr);
+    }
     if (!e.significant && !options.specified.white()) {
       take_specified();
       e.how += "; not significant on this run, so the specified bias instability is used";
@@ -630,7 +693,9 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
                         noise_finding(e, positions),
                         {},
                         {},
-                        0};
+                        0,
+                        0,
+                        std::move(plausible_sizes)};
   // Estimated and weighted for: its uncertainty widens the sigmas (a specified one is given).
   const bool finding_weighted = e.significant && !agrees_with_specified;
   if (finding_weighted || weighted_below_bar) {
@@ -642,6 +707,7 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
     for (double tau_s : options.known_tau->grid_s())
       choice.plausible.push_back({{e.noise.q_g, tau_s}, 1.0});
   if (finding_weighted) choice.parameters = e.parameters;
+  choice.finding.sigmas_allow_wander_up_to_ug = largest_wander_ug(choice.plausible_sizes);
   choice.finding.unit_wander_given = !options.specified.white();
   if (choice.finding.unit_wander_given) choice.finding.unit_wander_from = options.specified_from;
   if (weighted_below_bar) choice.finding.source = "estimated";

@@ -143,6 +143,16 @@ NoiseEstimate estimate_bias_wander(const std::vector<NoiseRow>& rows, const Eige
 double restricted_log_likelihood(const std::vector<NoiseRow>& rows, const Eigen::MatrixXd& X,
                                  const Eigen::VectorXd& y, const GaussMarkovNoise& noise);
 
+// The wanders common to the three axes, on the estimator's grid of sizes (3 % to 30x the
+// median row's sigma, log-spaced, and none) at each correlation time of tau_grid_s, whose
+// restricted likelihood is within options.plausible_lr (2 delta log L) of the best of them:
+// each with its likelihood relative to that best. Where the run does not pin the wander's
+// size, its estimate's curvature (WanderScales) says nothing of how large a wander it allows.
+std::vector<PlausibleNoise> plausible_wander_sizes(const std::vector<NoiseRow>& rows,
+                                                   const Eigen::MatrixXd& X,
+                                                   const Eigen::VectorXd& y,
+                                                   const NoiseEstimateOptions& options);
+
 // How an estimator weights its dwell means (docs/calibration.md, "Noise model").
 // sqrt(nu / (nu - 2)), the standard deviation of Student's t with nu degrees of freedom
 // (nu floored at 2.5, where it runs away; 1 for infinite nu): what an estimated noise
@@ -210,6 +220,11 @@ struct FitNoiseOptions {
   // read off the means themselves (the norm fit): the full vector's residuals are then
   // empty across the measured direction and would hide the wander.
   bool estimate_from_full_vector = true;
+  // estimate, nothing of the unit's given, the run's wander no finding: widen the sigmas to
+  // their average over the wander's sizes and correlation times the run allows
+  // (FitNoiseChoice::plausible_sizes). For fits whose rows cannot tell white noise from a
+  // wander as large as a dwell's error (the norm fit: one row per interval).
+  bool average_over_wander_sizes = false;
 };
 
 // FitNoiseOptions::specified_from (and NoiseFinding::unit_wander_from) of a wander the
@@ -301,6 +316,10 @@ struct NoiseFinding {
   Vec3 understated_by = Vec3::Ones();
   double lr = 0, lr_threshold = 0;  // 2 delta log L against white noise, and the bar
   std::string how;
+  // FitNoiseOptions::average_over_wander_sizes applied (the wander no finding): the largest
+  // wander common to the axes that the run cannot exclude (2 delta log L within
+  // plausible_lr), over which the sigmas are averaged; 0 where they are not.
+  double sigmas_allow_wander_up_to_ug = 0;
   // The unit's wander was given to the fit (its size: `--bias-instability-ug`), whether or
   // not the fit weighted with it.
   bool unit_wander_given = false;
@@ -346,6 +365,11 @@ struct FitNoiseChoice {
   int parameters = 0;
   // The same for `noise`, which may be a wander weighted for below the bar of a finding.
   int weighted_parameters = 0;
+  // FitNoiseOptions::average_over_wander_sizes, the wander no finding and nothing of the unit's
+  // given: the wander's sizes (common to the axes) and correlation times the run allows, with
+  // their likelihood relative to the best's (plausible_wander_sizes). The sigmas are widened to
+  // their average over them where that is wider than the widening above.
+  std::vector<PlausibleNoise> plausible_sizes;
 };
 
 // How much each parameter's sigma widens when the noise model is estimated from the run:

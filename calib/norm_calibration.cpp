@@ -199,10 +199,12 @@ std::string fmt(const char* f, double v) {
 }
 
 std::string wander_words(const NoiseFinding& n) {
-  if (n.model != "gauss_markov") return "no bias wander between intervals beyond their own errors";
+  if (n.model != "gauss_markov")
+    return "no bias wander between intervals beyond their own errors" + allowed_wander_words(n);
   return "bias wander between intervals " + fmt("%.0f", n.wander_ug[0]) + ", " +
          fmt("%.0f", n.wander_ug[1]) + ", " + fmt("%.0f", n.wander_ug[2]) +
-         " ug (Gauss-Markov, tau " + fmt("%.0f", n.tau_s) + " s, " + n.source + "), weighted for";
+         " ug (Gauss-Markov, tau " + fmt("%.0f", n.tau_s) + " s, " + n.source + "), weighted for" +
+         allowed_wander_words(n);
 }
 
 json vec_json(const Vec3& v) { return json::array({v[0], v[1], v[2]}); }

@@ -339,6 +339,7 @@ NormFit fit_norm(const std::vector<StaticInterval>& intervals, double g, InputUn
   // its corrections (GLS when the run shows wander) are applied.
   FitNoiseOptions noise = o.noise;
   noise.estimate_from_full_vector = false;  // the attitudes are the means' own directions
+  noise.average_over_wander_sizes = true;   // its rows cannot tell white noise from a 1x wander
   FitResult inv = fit_invariant_joint(calibrated_averages(intervals, solved, g), noise);
   require_observable(inv);
   const Mat9 cov_correction = unit_parameter_covariance(inv);  // all observable (above)

@@ -119,6 +119,8 @@ json noise_finding_json(const NoiseFinding& n) {
       j["tau_plausible_s"] = json::array({n.tau_plausible_min_s, n.tau_plausible_max_s});
     j["allan_floor_ug"] = vec(n.allan_peak_ug);
   }
+  if (n.sigmas_allow_wander_up_to_ug > 0)
+    j["sigmas_allow_wander_up_to_ug"] = n.sigmas_allow_wander_up_to_ug;
   if (n.model == "gauss_markov" || (n.allan && n.allan->sample_correlation))
     j["sigma_sqrt_n_understated_by"] = vec(n.understated_in_total());
   if (n.allan) {
@@ -229,6 +231,14 @@ std::string sample_correlation_words(const NoiseFinding& n) {
 
 }  // namespace
 
+std::string allowed_wander_words(const NoiseFinding& n) {
+  if (n.sigmas_allow_wander_up_to_ug <= 0) return "";
+  return "; the sigmas allow for a bias wander of up to " +
+         format("%.3g", n.sigmas_allow_wander_up_to_ug) +
+         " ug that this run cannot exclude (give the unit's measured wander, "
+         "--bias-instability-ug and --bias-instability-tau-s, to narrow them)";
+}
+
 // One line on the noise the fit weighted with, in the engineer's words.
 std::string noise_line(const NoiseFinding& n) {
   if (n.model != "gauss_markov") {
@@ -236,7 +246,7 @@ std::string noise_line(const NoiseFinding& n) {
     return "white: no bias wander between dwells (2 delta log L = " + format("%.1f", n.lr) + ", " +
            format("%.1f", n.lr_threshold) +
            " needed); each dwell mean weighted by its own standard error" +
-           sample_correlation_words(n);
+           allowed_wander_words(n) + sample_correlation_words(n);
   }
   const std::string unit =
       n.unit_wander_from == kWanderFromRecording
@@ -257,7 +267,8 @@ std::string noise_line(const NoiseFinding& n) {
          "; dwell means close in time share it, so they are weighted by the covariance it "
          "implies "
          "(generalised least squares); sigma/sqrt(n) understates a dwell mean's error up to " +
-         format("%.1f", n.understated_in_total().maxCoeff()) + "x" + sample_correlation_words(n);
+         format("%.1f", n.understated_in_total().maxCoeff()) + "x" + allowed_wander_words(n) +
+         sample_correlation_words(n);
 }
 
 std::string format_report(const FitResult& fit, const ReportContext& ctx) {
