@@ -229,6 +229,14 @@ double median_row_sigma(const std::vector<NoiseRow>& rows) {
   return s[s.size() / 2];
 }
 
+// A noise model whose restricted log-likelihood log_l is within plausible_lr (2 delta log L)
+// of the best's, kept with its likelihood relative to the best's.
+void keep_if_plausible(std::vector<PlausibleNoise>& out, const GaussMarkovNoise& noise,
+                       double log_l, double best_log_l, double plausible_lr) {
+  if (2 * (best_log_l - log_l) <= plausible_lr)
+    out.push_back({noise, std::exp(log_l - best_log_l)});
+}
+
 // The estimator's range of wander sizes, in log10 of q over the median row's sigma: q from 3 %
 // to 30x a row's sigma.
 constexpr double kLogQLo = -1.5, kLogQHi = 1.5;
@@ -390,8 +398,7 @@ std::vector<PlausibleNoise> plausible_wander_sizes(const std::vector<NoiseRow>& 
   double best = -std::numeric_limits<double>::infinity();
   for (const auto& [n, log_l] : all) best = std::max(best, log_l);
   std::vector<PlausibleNoise> out;
-  for (const auto& [n, log_l] : all)
-    if (2 * (best - log_l) <= options.plausible_lr) out.push_back({n, std::exp(log_l - best)});
+  for (const auto& [n, log_l] : all) keep_if_plausible(out, n, log_l, best, options.plausible_lr);
   return out;
 }
 
@@ -413,8 +420,8 @@ NoiseEstimate estimate_bias_wander(const std::vector<NoiseRow>& rows, const Matr
     if (per_tau.back().log_l > best.log_l) best = per_tau.back();
   }
   for (const WanderFit& c : per_tau)
-    if (!c.noise.white() && 2 * (best.log_l - c.log_l) <= options.plausible_lr)
-      out.plausible.push_back({c.noise, std::exp(c.log_l - best.log_l)});
+    if (!c.noise.white())
+      keep_if_plausible(out.plausible, c.noise, c.log_l, best.log_l, options.plausible_lr);
   out.best = best.noise;
   if (!best.noise.white())
     out.parameters = best.q_parameters + (options.tau_grid_s.size() > 1 ? 1 : 0);
@@ -580,8 +587,8 @@ double largest_wander_ug(const std::vector<PlausibleNoise>& sizes) {
 std::string allowed_sizes_words(double largest_ug, double plausible_lr) {
   char b[200];
   std::snprintf(b, sizeof b,
-                "; the sigmas averaged over the wanders this run cannot exclude, up to %.3g ug "
-                "(2 delta log L <= %g), each by its likelihood",
+                "; the sigmas at least their average over the wanders this run cannot "
+                "exclude, up to %.3g ug (2 delta log L <= %g), each by its likelihood",
                 largest_ug, plausible_lr);
   return b;
 }

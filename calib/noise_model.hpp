@@ -220,8 +220,9 @@ struct FitNoiseOptions {
   // read off the means themselves (the norm fit): the full vector's residuals are then
   // empty across the measured direction and would hide the wander.
   bool estimate_from_full_vector = true;
-  // estimate, nothing of the unit's given, the run's wander no finding: widen the sigmas to
-  // their average over the wander's sizes and correlation times the run allows
+  // estimate, no size of the unit's wander given (its correlation time may be), the run's
+  // wander no finding: widen the sigmas to at least their average over the wander's sizes and
+  // correlation times the run allows
   // (FitNoiseChoice::plausible_sizes). For fits whose rows cannot tell white noise from a
   // wander as large as a dwell's error (the norm fit: one row per interval).
   bool average_over_wander_sizes = false;
@@ -318,7 +319,8 @@ struct NoiseFinding {
   std::string how;
   // FitNoiseOptions::average_over_wander_sizes applied (the wander no finding): the largest
   // wander common to the axes that the run cannot exclude (2 delta log L within
-  // plausible_lr), over which the sigmas are averaged; 0 where they are not.
+  // plausible_lr); the sigmas are at least their average over those wanders. 0 where not
+  // applied.
   double sigmas_allow_wander_up_to_ug = 0;
   // The unit's wander was given to the fit (its size: `--bias-instability-ug`), whether or
   // not the fit weighted with it.
@@ -365,7 +367,7 @@ struct FitNoiseChoice {
   int parameters = 0;
   // The same for `noise`, which may be a wander weighted for below the bar of a finding.
   int weighted_parameters = 0;
-  // FitNoiseOptions::average_over_wander_sizes, the wander no finding and nothing of the unit's
+  // FitNoiseOptions::average_over_wander_sizes, the wander no finding and no size of the unit's
   // given: the wander's sizes (common to the axes) and correlation times the run allows, with
   // their likelihood relative to the best's (plausible_wander_sizes). The sigmas are widened to
   // their average over them where that is wider than the widening above.

@@ -198,6 +198,23 @@ std::string fmt(const char* f, double v) {
   return buf;
 }
 
+// Where the sigmas allow for the wanders the run cannot exclude (the norm fit's
+// average_over_wander_sizes), what the Noise line ends with, and what narrows them: the
+// unit's wander size, and its correlation time where that was not given either. No advice
+// where unit_wander_advice gives its own beneath.
+std::string allowed_wander_words(const NoiseFinding& n) {
+  if (n.sigmas_allow_wander_up_to_ug <= 0) return "";
+  std::string out = "; the sigmas allow for a bias wander of up to " +
+                    fmt("%.3g", n.sigmas_allow_wander_up_to_ug) +
+                    " ug that these intervals cannot exclude";
+  if (!unit_wander_advice(n).empty()) return out;
+  return out + (n.tau_given ? " (give the unit's measured wander size, --bias-instability-ug, "
+                              "to narrow them)"
+                            : " (give the unit's measured wander, --bias-instability-ug with "
+                              "--bias-instability-tau-s and --bias-instability-tau-max-s, to "
+                              "narrow them)");
+}
+
 std::string wander_words(const NoiseFinding& n) {
   if (n.model != "gauss_markov")
     return "no bias wander between intervals beyond their own errors" + allowed_wander_words(n);

@@ -231,14 +231,6 @@ std::string sample_correlation_words(const NoiseFinding& n) {
 
 }  // namespace
 
-std::string allowed_wander_words(const NoiseFinding& n) {
-  if (n.sigmas_allow_wander_up_to_ug <= 0) return "";
-  return "; the sigmas allow for a bias wander of up to " +
-         format("%.3g", n.sigmas_allow_wander_up_to_ug) +
-         " ug that this run cannot exclude (give the unit's measured wander, "
-         "--bias-instability-ug and --bias-instability-tau-s, to narrow them)";
-}
-
 // One line on the noise the fit weighted with, in the engineer's words.
 std::string noise_line(const NoiseFinding& n) {
   if (n.model != "gauss_markov") {
@@ -246,7 +238,7 @@ std::string noise_line(const NoiseFinding& n) {
     return "white: no bias wander between dwells (2 delta log L = " + format("%.1f", n.lr) + ", " +
            format("%.1f", n.lr_threshold) +
            " needed); each dwell mean weighted by its own standard error" +
-           allowed_wander_words(n) + sample_correlation_words(n);
+           sample_correlation_words(n);
   }
   const std::string unit =
       n.unit_wander_from == kWanderFromRecording
@@ -267,8 +259,7 @@ std::string noise_line(const NoiseFinding& n) {
          "; dwell means close in time share it, so they are weighted by the covariance it "
          "implies "
          "(generalised least squares); sigma/sqrt(n) understates a dwell mean's error up to " +
-         format("%.1f", n.understated_in_total().maxCoeff()) + "x" + allowed_wander_words(n) +
-         sample_correlation_words(n);
+         format("%.1f", n.understated_in_total().maxCoeff()) + "x" + sample_correlation_words(n);
 }
 
 std::string format_report(const FitResult& fit, const ReportContext& ctx) {

@@ -30,8 +30,4 @@ std::string format_report(const FitResult& fit, const ReportContext& context);
 // The report's `Noise:` line: the noise a fit weighted with, in the engineer's words.
 std::string noise_line(const NoiseFinding& n);
 
-// Where the sigmas were averaged over the wanders the run cannot exclude
-// (NoiseFinding::sigmas_allow_wander_up_to_ug), the words the Noise line ends with; else "".
-std::string allowed_wander_words(const NoiseFinding& n);
-
 }  // namespace standcal

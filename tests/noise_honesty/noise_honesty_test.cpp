@@ -460,12 +460,17 @@ TEST(FitNoise, TheNormReportSaysWhatWanderItsSigmasAllowFor) {
   EXPECT_DOUBLE_EQ(j["noise"]["sigmas_allow_wander_up_to_ug"].get<double>(),
                    n.sigmas_allow_wander_up_to_ug)
       << j["noise"].dump(2);
-  EXPECT_NE(format_norm_report(norm, raw).find("that this run cannot exclude (give the unit's"),
+  EXPECT_NE(format_norm_report(norm, raw).find(
+                "that these intervals cannot exclude (give the unit's measured wander, "
+                "--bias-instability-ug with --bias-instability-tau-s"),
             std::string::npos)
       << format_norm_report(norm, raw);
   EXPECT_EQ(fit_full_vector(average_positions(rec)).noise.sigmas_allow_wander_up_to_ug, 0);
 }
 
+// The norm fit's biases are conservative here by design (0.45-0.56 over 1000 runs: its sigmas
+// allow for the wanders its rows cannot exclude), so for it the lower bound of 0.3 is about
+// 2 sd below, not 3.5; these 40 seeds are fixed.
 TEST(FitNoise, WhiteNoiseStaysWhiteAndHonest) {
   const auto r = monte_carlo({"white", 0, 300}, kRunsWhite);
   EXPECT_EQ(r.samples_correlated, 0);  // independent samples are not taken as correlated
