@@ -637,6 +637,7 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
   NoiseEstimate e;
   bool weighted_below_bar = false, specified_over_range = false, agrees_with_specified = false;
   std::vector<PlausibleNoise> plausible_sizes;
+  double allowed_ug = 0;  // the largest of plausible_sizes
   // The specified wander; where its correlation time is known only as a range, weighted at the
   // range's log-middle and the biases' variance averaged over the range, each time alike (no
   // run's likelihood weighs them: the run did not show the wander, or was not asked).
@@ -670,7 +671,8 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
     if (options.known_tau) e.how += "; at " + options.known_tau->words();
     if (options.average_over_wander_sizes && !e.significant && options.specified.white()) {
       plausible_sizes = plausible_wander_sizes(rows, X, y, estimate);
-      e.how += allowed_sizes_words(largest_wander_ug(plausible_sizes), estimate.plausible_lr);
+      allowed_ug = largest_wander_ug(plausible_sizes);
+      e.how += allowed_sizes_words(allowed_ug, estimate.plausible_lr);
     }
     if (!e.significant && !options.specified.white()) {
       take_specified();
@@ -714,7 +716,7 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
     for (double tau_s : options.known_tau->grid_s())
       choice.plausible.push_back({{e.noise.q_g, tau_s}, 1.0});
   if (finding_weighted) choice.parameters = e.parameters;
-  choice.finding.sigmas_allow_wander_up_to_ug = largest_wander_ug(choice.plausible_sizes);
+  choice.finding.sigmas_allow_wander_up_to_ug = allowed_ug;
   choice.finding.unit_wander_given = !options.specified.white();
   if (choice.finding.unit_wander_given) choice.finding.unit_wander_from = options.specified_from;
   if (weighted_below_bar) choice.finding.source = "estimated";

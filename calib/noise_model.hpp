@@ -222,9 +222,9 @@ struct FitNoiseOptions {
   bool estimate_from_full_vector = true;
   // estimate, no size of the unit's wander given (its correlation time may be), the run's
   // wander no finding: widen the sigmas to at least their average over the wander's sizes and
-  // correlation times the run allows
-  // (FitNoiseChoice::plausible_sizes). For fits whose rows cannot tell white noise from a
-  // wander as large as a dwell's error (the norm fit: one row per interval).
+  // correlation times the run allows (FitNoiseChoice::plausible_sizes). For fits whose rows
+  // cannot tell white noise from a wander as large as a dwell's error (the norm fit: one row
+  // per interval).
   bool average_over_wander_sizes = false;
 };
 
