@@ -169,13 +169,8 @@ namespace {
 // share most of their clusters, and the chi-square should count nearly independent ones.
 constexpr double kFitPointSpacing = 2;
 
-struct AxisCurve {
-  std::vector<AllanPoint> points;
-  std::vector<double> clusters;  // independent clusters behind each point: its confidence
-};
-
-AxisCurve thinned(const std::vector<AllanPoint>& curve, double sample_period_s) {
-  AxisCurve c;
+ThinnedAllanCurve thinned(const std::vector<AllanPoint>& curve, double sample_period_s) {
+  ThinnedAllanCurve c;
   for (const AllanPoint& p : curve) {
     // A zero deviation (a stuck or saturated axis) has no relative error to weigh it by.
     if (!(p.deviation > 0) || !std::isfinite(p.deviation)) continue;
@@ -206,7 +201,7 @@ struct AxisAtTau {
 // compares. (The Pearson chi-square in its place ran the fitted tau_c 6-17 % high.)
 // tau_c_s 0: white noise alone (q = 0). With `wander_var` given, q^2 is held at it and N^2
 // alone fitted (the profile over q: wander_size_ranges).
-AxisAtTau fit_axis_at_tau(const AxisCurve& c, double tau_c_s,
+AxisAtTau fit_axis_at_tau(const ThinnedAllanCurve& c, double tau_c_s,
                           std::optional<double> wander_var = std::nullopt) {
   const std::size_t n = c.points.size();
   std::vector<double> observed(n), h(n), scale(n);
@@ -250,12 +245,12 @@ struct ProfilePoint {
 
 // The point of the curves farthest from a fit (white noise alone where its log tau_c is
 // -infinity), by its share of the deviance.
-GaussMarkovAllanFit::Departure worst_departure(const std::vector<AxisCurve>& curves,
+GaussMarkovAllanFit::Departure worst_departure(const std::vector<ThinnedAllanCurve>& curves,
                                                const ProfilePoint& fit) {
   GaussMarkovAllanFit::Departure worst;
   const double tau_c_s = std::exp(fit.log_tau);
   for (std::size_t a = 0; a < curves.size(); ++a) {
-    const AxisCurve& c = curves[a];
+    const ThinnedAllanCurve& c = curves[a];
     for (std::size_t i = 0; i < c.points.size(); ++i) {
       const double T = c.points[i].tau_s;
       const double h = tau_c_s > 0 ? gauss_markov_allan_variance(tau_c_s, T) : 0.0;
@@ -272,7 +267,7 @@ GaussMarkovAllanFit::Departure worst_departure(const std::vector<AxisCurve>& cur
 // The deviance of the curves with one axis's wander held at q^2 = wander_var: the other axes
 // and every white noise at their best, tau_c the best of the profile's (its grid and the
 // refined best).
-double deviance_at_size(const std::vector<AxisCurve>& curves,
+double deviance_at_size(const std::vector<ThinnedAllanCurve>& curves,
                         const std::vector<ProfilePoint>& profile, std::size_t axis,
                         double wander_var) {
   double least = std::numeric_limits<double>::infinity();
@@ -286,7 +281,7 @@ double deviance_at_size(const std::vector<AxisCurve>& curves,
 // Each axis's q the curves allow: its profile deviance (white noise, the other axes and tau_c
 // free) within `allowed`. The lower end 0 where no wander on that axis is allowed; the upper
 // infinite where a wander too slow for the curves to show could be as large as it likes.
-void wander_size_ranges(GaussMarkovAllanFit& fit, const std::vector<AxisCurve>& curves,
+void wander_size_ranges(GaussMarkovAllanFit& fit, const std::vector<ThinnedAllanCurve>& curves,
                         const std::vector<ProfilePoint>& profile, double allowed) {
   const double q_scale = *std::max_element(fit.q.begin(), fit.q.end());
   constexpr double kOpenAbove = 1000;  // x the largest q: no bound from these curves
@@ -316,9 +311,9 @@ void wander_size_ranges(GaussMarkovAllanFit& fit, const std::vector<AxisCurve>& 
   }
 }
 
-ProfilePoint fit_at_tau(const std::vector<AxisCurve>& curves, double log_tau) {
+ProfilePoint fit_at_tau(const std::vector<ThinnedAllanCurve>& curves, double log_tau) {
   ProfilePoint p{log_tau, {}, 0};
-  for (const AxisCurve& c : curves) {
+  for (const ThinnedAllanCurve& c : curves) {
     p.axes.push_back(fit_axis_at_tau(c, std::exp(log_tau)));
     p.deviance += p.axes.back().deviance;
   }
@@ -329,7 +324,7 @@ ProfilePoint fit_at_tau(const std::vector<AxisCurve>& curves, double log_tau) {
 
 std::optional<GaussMarkovAllanFit> fit_gauss_markov_allan(
     const std::vector<std::vector<AllanPoint>>& axis_curves, double sample_period_s) {
-  std::vector<AxisCurve> curves;
+  std::vector<ThinnedAllanCurve> curves;
   std::size_t points = 0;
   double T_first = std::numeric_limits<double>::infinity(), T_last = 0;
   for (const auto& curve : axis_curves) {
@@ -379,7 +374,7 @@ std::optional<GaussMarkovAllanFit> fit_gauss_markov_allan(
   // wander slow beyond the curve's end fits that scatter as a random walk. White noise is
   // then the model reported.
   ProfilePoint white{-std::numeric_limits<double>::infinity(), {}, 0};
-  for (const AxisCurve& c : curves) {
+  for (const ThinnedAllanCurve& c : curves) {
     white.axes.push_back(fit_axis_at_tau(c, 0));
     white.deviance += white.axes.back().deviance;
   }
@@ -594,6 +589,26 @@ std::optional<WanderToGive> wander_to_give(const std::vector<std::vector<AllanPo
   return wander_to_give(*fit, curves_end_s(curves));
 }
 
+double WanderCurves::deviance(double q, double tau_c_s) const {
+  double sum = 0;
+  for (const ThinnedAllanCurve& c : axes)
+    sum += fit_axis_at_tau(c, q > 0 ? tau_c_s : 0.0, q > 0 ? std::optional(q * q) : std::nullopt)
+               .deviance;
+  return deviance_scale * sum;
+}
+
+std::optional<WanderCurves> wander_curves(const GaussMarkovAllanFit& fit,
+                                          const std::vector<std::vector<AllanPoint>>& curves,
+                                          double sample_period_s) {
+  if (!fit.describes_curves || fit.short_correlation || fit.wander_seen) return std::nullopt;
+  WanderCurves out;
+  for (const std::vector<AllanPoint>& curve : curves)
+    out.axes.push_back(thinned(curve, sample_period_s));
+  out.deviance_scale = kWanderCurvesDevianceScale / std::max(1.0, fit.deviance_per_dof);
+  out.curves_end_s = curves_end_s(curves);
+  return out;
+}
+
 std::optional<SampleCorrelation> sample_correlation(
     const std::array<std::vector<AllanPoint>, 3>& curves, double sample_period_s) {
   const std::optional<GaussMarkovAllanFit> fit =
@@ -636,8 +651,8 @@ std::optional<AllanFinding> allan_finding(const Recording& rec, std::string* why
 }
 
 AllanFinding allan_finding_of(const DwellAllan& a) {
-  return {a.sample_period_s,    a.segments, a.figures,
-          a.sample_correlation, a.wander,   a.gaps.warning()};
+  return {a.sample_period_s, a.segments,       a.figures,   a.sample_correlation,
+          a.wander,          a.gaps.warning(), std::nullopt};
 }
 
 std::string no_sample_period_warning(const Recording& rec) {

@@ -206,6 +206,46 @@ std::optional<WanderToGive> wander_to_give(const std::vector<std::vector<AllanPo
 // The longest averaging time of any of the curves (0 for none).
 double curves_end_s(const std::vector<std::vector<AllanPoint>>& curves);
 
+// One axis's curve as the fits weigh it: one point per octave (kFitPointSpacing), each with
+// the independent clusters behind it (its confidence).
+struct ThinnedAllanCurve {
+  std::vector<AllanPoint> points;
+  std::vector<double> clusters;
+};
+
+// What a recording's own Allan curves say of a wander common to the axes, as a likelihood:
+// their Gamma deviance (fit_gauss_markov_allan's) with the wander held at q on every axis and
+// correlation time tau_c, each axis's white noise at its best. A long static stretch that
+// shows no wander excludes one its curves would show, which a run's dwell means, one per
+// interval, cannot (the norm fit's average over the wander's sizes weighs by both:
+// FitNoiseOptions::wander_curves_ug).
+struct WanderCurves {
+  std::vector<ThinnedAllanCurve> axes;
+  // Multiplies the deviance: kWanderCurvesDevianceScale, over the deviance per degree of
+  // freedom where the curves scatter beyond the model.
+  double deviance_scale = 1;
+  double curves_end_s = 0;  // the longest averaging time: shorter wanders are all they can show
+  // 2 x the negative log-likelihood, up to a constant, of q (the curves' unit) and tau_c;
+  // q = 0 is white noise alone.
+  double deviance(double q, double tau_c_s) const;
+};
+// chi2_1's 3.84 (a 95 % interval for one parameter) over kGaussMarkovSizeRangeDeviance: the
+// points of one curve are not independent, and their profile's curvature overstates what they
+// know of q (the range at 4 held the true q on 79-92 % of axes, at 9 on 94-99 %), so a
+// deviance of 9 from the curves counts as 3.84 would from independent data.
+inline constexpr double kWanderCurvesDevianceScale = 3.84 / kGaussMarkovSizeRangeDeviance;
+// Of curves that show no wander (`fit`, their fit_gauss_markov_allan: wander_seen false, where
+// white noise describes them and they have no short correlation, an output filter's excess
+// at the first octaves that would pull on every wander alike); nullopt otherwise. Curves that
+// see a wander they do not pin (the wander is taken where they do: take_recording_wander)
+// are not weighed: a warm-up still settling after power-on shows as a large slow wander that
+// the intervals after it do not have, and weighed so it took the norm fit's biases under
+// white noise to 0.11-0.15 in z-variance (bench/noise --runs 300 --warmup-hours 2
+// --warmup-transient-ug 30; docs/calibration.md).
+std::optional<WanderCurves> wander_curves(const GaussMarkovAllanFit& fit,
+                                          const std::vector<std::vector<AllanPoint>>& curves,
+                                          double sample_period_s);
+
 // The sampling period of a recording: its sample_rate_hz header, else the median step
 // between samples of one position. Throws naming the recording when neither exists.
 double sample_period_s(const Recording& rec);
@@ -313,6 +353,9 @@ struct AllanFinding {
   // fits take as the unit's where none is given (take_recording_wander, noise_model.hpp).
   std::optional<WanderToGive> wander;
   std::string gaps_warning;  // DwellGaps::warning of the dwells (static intervals)
+  // The curves as a likelihood of the wander (ug), where they show none (wander_curves) and no
+  // gaps distort them: what bounds the wander a norm fit's sigmas allow for.
+  std::optional<WanderCurves> wander_curves;
 };
 AllanFinding allan_finding_of(const DwellAllan& a);
 // `why_none`, where given, is set when a recording of kMinAllanSamples or more has no curve

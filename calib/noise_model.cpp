@@ -384,16 +384,22 @@ double restricted_log_likelihood(const std::vector<NoiseRow>& rows, const Matrix
 
 std::vector<PlausibleNoise> plausible_wander_sizes(const std::vector<NoiseRow>& rows,
                                                    const MatrixXd& X, const VectorXd& y,
-                                                   const NoiseEstimateOptions& options) {
+                                                   const NoiseEstimateOptions& options,
+                                                   const std::optional<WanderCurves>& curves_ug) {
   constexpr double kStep = 0.25;  // in log10 q: 13 sizes over the range
   if (rows.size() < 3 || static_cast<Eigen::Index>(rows.size()) <= X.cols()) return {};
   const RestrictedLikelihood L(rows, X, y);
   const double sigma_ref = median_row_sigma(rows);
-  std::vector<std::pair<GaussMarkovNoise, double>> all{{GaussMarkovNoise{}, L(GaussMarkovNoise{})}};
+  // The rows' log-likelihood, and the curves' where given (a deviance: -2 log L).
+  const auto log_l_of = [&](const GaussMarkovNoise& n) {
+    if (!curves_ug) return L(n);
+    return L(n) - 0.5 * curves_ug->deviance(n.q_g.maxCoeff() / kUg, n.tau_s);
+  };
+  std::vector<std::pair<GaussMarkovNoise, double>> all{{GaussMarkovNoise{}, log_l_of({})}};
   for (const double tau : options.tau_grid_s)
     for (double u = kLogQLo; u <= kLogQHi + 1e-9; u += kStep) {
       const GaussMarkovNoise n{Vec3::Constant(sigma_ref * std::pow(10, u)), tau};
-      all.emplace_back(n, L(n));
+      all.emplace_back(n, log_l_of(n));
     }
   double best = -std::numeric_limits<double>::infinity();
   for (const auto& [n, log_l] : all) best = std::max(best, log_l);
@@ -507,11 +513,24 @@ SigmaWidening widen_for_estimated_noise(
     if (at_best[j] > 0)
       w.factor[j] =
           std::sqrt(std::max(averaged[j], at_best[j]) / at_best[j]) * student_t_inflation(w.dof[j]);
+  // Averaged over the wander's sizes the run allows: at least that, and that alone where the
+  // recording's Allan curves weighed them too (FitNoiseChoice::sizes_weigh_curves). The
+  // Student-t widening rests on the rows' likelihood alone, whose curvature at a wander
+  // weighted for below the bar of a finding is slight (nu near its floor, the sigma doubled);
+  // the curves pin the size where the rows cannot, and the average over both is the whole of
+  // what is known of it. The averaged variances are each wander's GLS one, not that of the
+  // estimate as weighted (a sandwich), which they understate: floored at the variance at the
+  // wander weighted with, the runs weighted for one below the bar under white noise went from
+  // 0.72-0.98 in z-variance to 0.22-0.31 (bench/noise --runs 300 --warmup-hours 1,
+  // docs/calibration.md), so no floor.
   if (!choice.plausible_sizes.empty()) {
     const VectorXd over_sizes = likelihood_weighted_variance(variances, choice.plausible_sizes);
-    for (Eigen::Index j = 0; j < at_best.size(); ++j)
-      if (at_best[j] > 0)
-        w.factor[j] = std::max(w.factor[j], std::sqrt(over_sizes[j] / at_best[j]));
+    for (Eigen::Index j = 0; j < at_best.size(); ++j) {
+      if (!(at_best[j] > 0)) continue;
+      const double over_sizes_factor = std::sqrt(over_sizes[j] / at_best[j]);
+      w.factor[j] =
+          choice.sizes_weigh_curves ? over_sizes_factor : std::max(w.factor[j], over_sizes_factor);
+    }
   }
   return w;
 }
@@ -583,13 +602,15 @@ double largest_wander_ug(const std::vector<PlausibleNoise>& sizes) {
   return largest_g / kUg;
 }
 
-// What the sigmas of a fit averaged over the wander's sizes allow for, in noise.how.
-std::string allowed_sizes_words(double largest_ug, double plausible_lr) {
-  char b[200];
+// What the sigmas of a fit averaged over the wander's sizes allow for, in noise.how: at least
+// that average, or with the recording's Allan curves that average alone.
+std::string allowed_sizes_words(double largest_ug, double plausible_lr, bool curves) {
+  char b[300];
   std::snprintf(b, sizeof b,
-                "; the sigmas at least their average over the wanders this run cannot "
-                "exclude, up to %.3g ug (2 delta log L <= %g), each by its likelihood",
-                largest_ug, plausible_lr);
+                "; the sigmas %s their average over the wanders this run%s cannot exclude, up to "
+                "%.3g ug (2 delta log L <= %g), each by its likelihood",
+                curves ? "are" : "at least", curves ? " and its Allan curves" : "", largest_ug,
+                plausible_lr);
   return b;
 }
 
@@ -670,9 +691,10 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
     e = estimate_bias_wander(rows, X, y, estimate);
     if (options.known_tau) e.how += "; at " + options.known_tau->words();
     if (options.average_over_wander_sizes && !e.significant && options.specified.white()) {
-      plausible_sizes = plausible_wander_sizes(rows, X, y, estimate);
+      plausible_sizes = plausible_wander_sizes(rows, X, y, estimate, options.wander_curves_ug);
       allowed_ug = largest_wander_ug(plausible_sizes);
-      e.how += allowed_sizes_words(allowed_ug, estimate.plausible_lr);
+      e.how += allowed_sizes_words(allowed_ug, estimate.plausible_lr,
+                                   options.wander_curves_ug.has_value());
     }
     if (!e.significant && !options.specified.white()) {
       take_specified();
@@ -704,7 +726,8 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
                         {},
                         0,
                         0,
-                        std::move(plausible_sizes)};
+                        std::move(plausible_sizes),
+                        options.wander_curves_ug.has_value()};
   // Estimated and weighted for: its uncertainty widens the sigmas (a specified one is given).
   const bool finding_weighted = e.significant && !agrees_with_specified;
   if (finding_weighted || weighted_below_bar) {
@@ -717,6 +740,8 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
       choice.plausible.push_back({{e.noise.q_g, tau_s}, 1.0});
   if (finding_weighted) choice.parameters = e.parameters;
   choice.finding.sigmas_allow_wander_up_to_ug = allowed_ug;
+  choice.finding.sigmas_allowance_weighs_allan_curves =
+      !choice.plausible_sizes.empty() && choice.sizes_weigh_curves;
   choice.finding.unit_wander_given = !options.specified.white();
   if (choice.finding.unit_wander_given) choice.finding.unit_wander_from = options.specified_from;
   if (weighted_below_bar) choice.finding.source = "estimated";
@@ -731,6 +756,26 @@ bool may_take_recording_wander(const FitNoiseOptions& options) {
          !options.known_tau;
 }
 
+namespace {
+// The shortest correlation time of the fits' wander model (0 for an empty grid): curves that
+// end before it show nothing of a wander of minutes.
+double shortest_model_tau_s(const FitNoiseOptions& options) {
+  const std::vector<double>& grid_s = options.estimate.tau_grid_s;
+  return grid_s.empty() ? 0.0 : *std::min_element(grid_s.begin(), grid_s.end());
+}
+}  // namespace
+
+bool may_weigh_wander_curves(const FitNoiseOptions& options) {
+  return options.mode == FitNoiseOptions::Mode::estimate && options.specified.white();
+}
+
+bool take_wander_curves(FitNoiseOptions& options, const std::optional<AllanFinding>& allan) {
+  if (!may_weigh_wander_curves(options) || !allan || !allan->wander_curves) return false;
+  if (allan->wander_curves->curves_end_s < shortest_model_tau_s(options)) return false;
+  options.wander_curves_ug = allan->wander_curves;
+  return true;
+}
+
 bool take_recording_wander(FitNoiseOptions& options, const std::optional<AllanFinding>& allan) {
   if (!may_take_recording_wander(options) || !allan || !allan->wander) return false;
   const WanderToGive& w = *allan->wander;
@@ -740,9 +785,7 @@ bool take_recording_wander(FitNoiseOptions& options, const std::optional<AllanFi
   // either, pooled 10 s dwells had given a wander of 10x the dwell error in 13 of 1000 runs
   // at tau 60 s and 2 of 1000 at tau 300 s (bench/noise), the latter's biases' z-variance
   // 0.61-0.71 becoming 0.70-0.73 over the 1000 runs.
-  const std::vector<double>& grid_s = options.estimate.tau_grid_s;
-  const double shortest_s = grid_s.empty() ? 0.0 : *std::min_element(grid_s.begin(), grid_s.end());
-  if (w.curves_end_s < w.tau_max_s || w.tau_max_s < shortest_s) return false;
+  if (w.curves_end_s < w.tau_max_s || w.tau_max_s < shortest_model_tau_s(options)) return false;
   GivenWander given;
   given.size_ug = w.q;
   given.known_tau = KnownTau{w.tau_min_s, w.tau_max_s};

@@ -148,10 +148,12 @@ double restricted_log_likelihood(const std::vector<NoiseRow>& rows, const Eigen:
 // restricted likelihood is within options.plausible_lr (2 delta log L) of the best of them:
 // each with its likelihood relative to that best. Where the run does not pin the wander's
 // size, its estimate's curvature (WanderScales) says nothing of how large a wander it allows.
-std::vector<PlausibleNoise> plausible_wander_sizes(const std::vector<NoiseRow>& rows,
-                                                   const Eigen::MatrixXd& X,
-                                                   const Eigen::VectorXd& y,
-                                                   const NoiseEstimateOptions& options);
+// `curves_ug`, where given: the recording's own Allan curves (in ug), whose likelihood of each
+// wander multiplies the rows' (independent data: the samples within the stretches, where the
+// rows are their means).
+std::vector<PlausibleNoise> plausible_wander_sizes(
+    const std::vector<NoiseRow>& rows, const Eigen::MatrixXd& X, const Eigen::VectorXd& y,
+    const NoiseEstimateOptions& options, const std::optional<WanderCurves>& curves_ug = {});
 
 // How an estimator weights its dwell means (docs/calibration.md, "Noise model").
 // sqrt(nu / (nu - 2)), the standard deviation of Student's t with nu degrees of freedom
@@ -226,6 +228,11 @@ struct FitNoiseOptions {
   // cannot tell white noise from a wander as large as a dwell's error (the norm fit: one row
   // per interval).
   bool average_over_wander_sizes = false;
+  // average_over_wander_sizes: the recording's own Allan curves (ug), where they show no
+  // wander (take_wander_curves), which weigh each size beside the rows: a long static stretch
+  // that shows no wander excludes one its curves would show (an hour's warm-up, a long first
+  // interval), and narrows the sigmas.
+  std::optional<WanderCurves> wander_curves_ug;
 };
 
 // FitNoiseOptions::specified_from (and NoiseFinding::unit_wander_from) of a wander the
@@ -279,6 +286,21 @@ bool take_unit_wander(FitNoiseOptions& options, const Recording& rec,
 // minutes. The run is still tested against it as against a given wander
 // (run_agrees_with_specified). Returns whether it took one.
 bool take_recording_wander(FitNoiseOptions& options, const std::optional<AllanFinding>& allan);
+// Where the fit estimates the noise and no size of the unit's wander is given (a correlation
+// time may be), takes the recording's own Allan curves where they show no wander
+// (AllanFinding::wander_curves) to weigh the wander's sizes beside the rows
+// (FitNoiseOptions::wander_curves_ug): only curves that reach the shortest correlation time
+// of the fits' wander model (estimate.tau_grid_s, 60 s, whatever time was given: a long dwell
+// or interval), since shorter ones say nothing of a wander of minutes. There the sigmas are
+// the average over the sizes alone. Pooled 10 s
+// intervals (curves to 3.3 s) had, so weighed with the average replacing the Student-t
+// widening, taken a 1x wander's norm-fit biases from 0.79-0.92 to 1.10-1.27 in z-variance
+// (bench/noise --runs 1000): the runs weighted for a wander below the bar lost their
+// over-widening while those weighted as white stayed at 2.3-3.1. Returns whether it took them.
+bool take_wander_curves(FitNoiseOptions& options, const std::optional<AllanFinding>& allan);
+// Whether `options` leave room for that: a caller that fits the curves for it alone can skip
+// the fit otherwise.
+bool may_weigh_wander_curves(const FitNoiseOptions& options);
 // Whether `options` leave room for that (estimating, nothing of the unit's given): a caller
 // that fits the curves for it alone can skip the fit otherwise.
 bool may_take_recording_wander(const FitNoiseOptions& options);
@@ -322,6 +344,10 @@ struct NoiseFinding {
   // plausible_lr); the sigmas are at least their average over those wanders. 0 where not
   // applied.
   double sigmas_allow_wander_up_to_ug = 0;
+  // ... and those wanders were weighed by the recording's Allan curves too
+  // (FitNoiseOptions::wander_curves_ug), not by the run's rows alone: the sigmas are then
+  // that average alone.
+  bool sigmas_allowance_weighs_allan_curves = false;
   // The unit's wander was given to the fit (its size: `--bias-instability-ug`), whether or
   // not the fit weighted with it.
   bool unit_wander_given = false;
@@ -370,14 +396,19 @@ struct FitNoiseChoice {
   // FitNoiseOptions::average_over_wander_sizes, the wander no finding and no size of the unit's
   // given: the wander's sizes (common to the axes) and correlation times the run allows, with
   // their likelihood relative to the best's (plausible_wander_sizes). The sigmas are widened to
-  // their average over them where that is wider than the widening above.
+  // their average over them where that is wider than the widening above ...
   std::vector<PlausibleNoise> plausible_sizes;
+  // ... or, where the recording's Allan curves weighed them too (FitNoiseOptions::
+  // wander_curves_ug), to that average alone.
+  bool sizes_weigh_curves = false;
 };
 
 // How much each parameter's sigma widens when the noise model is estimated from the run:
 // to its variance averaged over the plausible correlation times, weighted by likelihood
 // (one run pins tau poorly), then by Student's t for the wander's estimated scales, with
-// the effective degrees of freedom of Welch-Satterthwaite over all of them.
+// the effective degrees of freedom of Welch-Satterthwaite over all of them; where the
+// wander's sizes were averaged over (FitNoiseChoice::plausible_sizes), at least to that
+// average, or to it alone where the recording's Allan curves weighed them.
 struct SigmaWidening {
   Eigen::VectorXd factor;  // multiplies sigma
   Eigen::VectorXd dof;     // effective degrees of freedom of the variance at the best model

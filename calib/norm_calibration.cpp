@@ -205,8 +205,9 @@ std::string fmt(const char* f, double v) {
 std::string allowed_wander_words(const NoiseFinding& n) {
   if (n.sigmas_allow_wander_up_to_ug <= 0) return "";
   std::string out = "; the sigmas allow for a bias wander of up to " +
-                    fmt("%.3g", n.sigmas_allow_wander_up_to_ug) +
-                    " ug that these intervals cannot exclude";
+                    fmt("%.3g", n.sigmas_allow_wander_up_to_ug) + " ug that these intervals" +
+                    (n.sigmas_allowance_weighs_allan_curves ? " and their Allan curves" : "") +
+                    " cannot exclude";
   if (!unit_wander_advice(n).empty()) return out;
   return out + (n.tau_given ? " (give the unit's measured wander size, --bias-instability-ug, "
                               "to narrow them)"
@@ -302,17 +303,23 @@ json stability_json(const NormCalibration& c) {
 
 // The Allan figures of the intervals pooled, in ug of the calibrated axes (the fit's
 // `noise.allan`, as for stand recordings); with `wander`, the wander a long interval pins
-// (take_recording_wander; a fit of the curves, left out where the fit could not take it, or
-// where gaps in the intervals' samples distort the curves).
+// (take_recording_wander), and with `curves` the curves as the wander's likelihood
+// (wander_curves: what bounds the wander the sigmas allow for); each left out where the fit
+// could not take it, and both where gaps in the intervals' samples distort the curves.
 AllanFinding allan_finding_in_ug(const StaticDetection& d, const NormCompensation& k,
-                                 const RawInput& in, bool wander) {
+                                 const RawInput& in, bool wander, bool curves) {
   const DwellAllan a = allan_in_ug(d, ug_per_input_unit(k, in.g_mps2), 1.0 / in.sample_rate_hz);
   // No sample correlation: the intervals' standard errors already take the curve at their
   // length (coloured_standard_error).
   AllanFinding out{a.sample_period_s, a.segments,   a.figures,
-                   std::nullopt,      std::nullopt, a.gaps.warning(kStaticIntervals)};
-  if (wander && !a.gaps.too_much())
-    out.wander = wander_to_give({a.curves[0], a.curves[1], a.curves[2]}, a.sample_period_s);
+                   std::nullopt,      std::nullopt, a.gaps.warning(kStaticIntervals),
+                   std::nullopt};
+  if (a.gaps.too_much() || !(wander || curves)) return out;
+  const std::vector<std::vector<AllanPoint>> axes{a.curves[0], a.curves[1], a.curves[2]};
+  const std::optional<GaussMarkovAllanFit> fit = fit_gauss_markov_allan(axes, a.sample_period_s);
+  if (!fit) return out;
+  if (wander) out.wander = wander_to_give(*fit, curves_end_s(axes));
+  if (curves) out.wander_curves = wander_curves(*fit, axes, a.sample_period_s);
   return out;
 }
 
@@ -423,15 +430,23 @@ NormCalibration calibrate(const RawInput& in, const NormCalibrationOptions& o) {
   }
   c.understated_by = median_understatement(c.detection.intervals);
   std::optional<AllanFinding> allan = allan_finding_in_ug(c.detection, c.fit.compensation, in,
-                                                          may_take_recording_wander(o.fit.noise));
+                                                          may_take_recording_wander(o.fit.noise),
+                                                          may_weigh_wander_curves(o.fit.noise));
   // Nothing of the unit's wander given: the one a long static interval's Allan curves pin, as
   // the stand fits take it (take_recording_wander); the fit weighted with it again.
   // Either way, a wander weighted for between the intervals is taken out of their errors.
+  // Otherwise, where the sigmas allow for a wander the intervals cannot exclude, the curves
+  // weigh it too where they reach the wander's times (take_wander_curves): the fit is made
+  // again with them.
   NormCalibrationOptions taken = o;
-  if (take_recording_wander(taken.fit.noise, allan))
+  if (take_recording_wander(taken.fit.noise, allan)) {
     c.fit = fit_beside_wander(c.detection.intervals, in.g_mps2, in.units, taken.fit);
-  else
-    c.fit = refit_beside_wander(c.detection.intervals, in.g_mps2, in.units, o.fit, c.fit);
+  } else {
+    if (c.fit.result.noise.sigmas_allow_wander_up_to_ug > 0 &&
+        take_wander_curves(taken.fit.noise, allan))
+      c.fit = fit_norm(c.detection.intervals, in.g_mps2, in.units, taken.fit);
+    c.fit = refit_beside_wander(c.detection.intervals, in.g_mps2, in.units, taken.fit, c.fit);
+  }
   say_errors_beside_wander(c.detection, c.fit.result.noise);
   if (!allan->gaps_warning.empty()) c.notes.push_back(allan->gaps_warning);
   c.fit.result.noise.allan = std::move(allan);

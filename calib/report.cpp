@@ -119,8 +119,10 @@ json noise_finding_json(const NoiseFinding& n) {
       j["tau_plausible_s"] = json::array({n.tau_plausible_min_s, n.tau_plausible_max_s});
     j["allan_floor_ug"] = vec(n.allan_peak_ug);
   }
-  if (n.sigmas_allow_wander_up_to_ug > 0)
+  if (n.sigmas_allow_wander_up_to_ug > 0) {
     j["sigmas_allow_wander_up_to_ug"] = n.sigmas_allow_wander_up_to_ug;
+    j["sigmas_allowance_weighs_allan_curves"] = n.sigmas_allowance_weighs_allan_curves;
+  }
   if (n.model == "gauss_markov" || (n.allan && n.allan->sample_correlation))
     j["sigma_sqrt_n_understated_by"] = vec(n.understated_in_total());
   if (n.allan) {

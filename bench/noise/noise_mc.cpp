@@ -196,8 +196,8 @@ void merge(ZStats& into, const ZStats& part) {
                                     part.sigma_over_white[g].end());
 }
 
-// The settling of Setup::warmup_transient_ug, added to the unit's outputs (a bias: the same
-// on each axis whatever the orientation).
+}  // namespace
+
 void add_warmup_transient(Recording& rec, const Setup& setup) {
   if (!(setup.warmup_transient_ug > 0) || rec.samples.empty()) return;
   const double t0_s = rec.samples.front().t_s;
@@ -207,8 +207,6 @@ void add_warmup_transient(Recording& rec, const Setup& setup) {
     for (int a = 0; a < 3; ++a) s.f_mps2[a] += bias_mps2;
   }
 }
-
-}  // namespace
 
 std::vector<Scenario> issue21_scenarios() {
   return {{"white", 0, 300}, {"wander 1x", 1, 300}, {"wander 3x", 3, 300}, {"wander 10x", 10, 300}};

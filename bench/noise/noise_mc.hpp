@@ -12,6 +12,7 @@
 #include "calib/noise_model.hpp"
 #include "calib/parameters.hpp"
 #include "calib/programs.hpp"
+#include "calib/recording.hpp"
 
 namespace standcal::noise_mc {
 
@@ -114,5 +115,10 @@ ScenarioResult run_scenario(const Setup& setup, const Scenario& scenario);
 
 // The four scenarios of issue 21: white, and wander at 1x, 3x and 10x the dwell error.
 std::vector<Scenario> issue21_scenarios();
+
+// The settling of Setup::warmup_transient_ug (its size and warmup_transient_tau_s), added to
+// the unit's outputs from the recording's first sample (a bias: the same on each axis whatever
+// the orientation).
+void add_warmup_transient(Recording& rec, const Setup& setup);
 
 }  // namespace standcal::noise_mc
