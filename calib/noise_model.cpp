@@ -604,13 +604,19 @@ double largest_wander_ug(const std::vector<PlausibleNoise>& sizes) {
 
 // What the sigmas of a fit averaged over the wander's sizes allow for, in noise.how: at least
 // that average, or with the recording's Allan curves that average alone.
-std::string allowed_sizes_words(double largest_ug, double plausible_lr, bool curves) {
+// `curves_from`: whose Allan curves weighed them (FitNoiseOptions::wander_curves_from), or
+// empty.
+std::string allowed_sizes_words(double largest_ug, double plausible_lr,
+                                const std::string& curves_from) {
+  const char* curves = curves_from.empty() ? ""
+                       : curves_from == kWanderFromStaticRecording
+                           ? " and the unit's static recording"
+                           : " and its Allan curves";
   char b[300];
   std::snprintf(b, sizeof b,
                 "; the sigmas %s their average over the wanders this run%s cannot exclude, up to "
                 "%.3g ug (2 delta log L <= %g), each by its likelihood",
-                curves ? "are" : "at least", curves ? " and its Allan curves" : "", largest_ug,
-                plausible_lr);
+                curves_from.empty() ? "at least" : "are", curves, largest_ug, plausible_lr);
   return b;
 }
 
@@ -693,8 +699,9 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
     if (options.average_over_wander_sizes && !e.significant && options.specified.white()) {
       plausible_sizes = plausible_wander_sizes(rows, X, y, estimate, options.wander_curves_ug);
       allowed_ug = largest_wander_ug(plausible_sizes);
-      e.how += allowed_sizes_words(allowed_ug, estimate.plausible_lr,
-                                   options.wander_curves_ug.has_value());
+      e.how += allowed_sizes_words(
+          allowed_ug, estimate.plausible_lr,
+          options.wander_curves_ug ? options.wander_curves_from : std::string());
     }
     if (!e.significant && !options.specified.white()) {
       take_specified();
@@ -714,6 +721,10 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
     e.how +=
         "; the unit's wander and correlation times are the ones this recording's own Allan "
         "curves pin (a dwell long enough to show the wander turn over)";
+  if (options.specified_from == kWanderFromStaticRecording && !options.specified.white())
+    e.how +=
+        "; the unit's wander and correlation times are the ones its static recording's Allan "
+        "curves pin";
   if (options.specified_from == kWanderFromHeader &&
       (!options.specified.white() || options.known_tau))
     e.how +=
@@ -742,6 +753,8 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
   choice.finding.sigmas_allow_wander_up_to_ug = allowed_ug;
   choice.finding.sigmas_allowance_weighs_allan_curves =
       !choice.plausible_sizes.empty() && choice.sizes_weigh_curves;
+  if (choice.finding.sigmas_allowance_weighs_allan_curves)
+    choice.finding.sigmas_allowance_allan_curves_from = options.wander_curves_from;
   choice.finding.unit_wander_given = !options.specified.white();
   if (choice.finding.unit_wander_given) choice.finding.unit_wander_from = options.specified_from;
   if (weighted_below_bar) choice.finding.source = "estimated";
@@ -769,14 +782,17 @@ bool may_weigh_wander_curves(const FitNoiseOptions& options) {
   return options.mode == FitNoiseOptions::Mode::estimate && options.specified.white();
 }
 
-bool take_wander_curves(FitNoiseOptions& options, const std::optional<AllanFinding>& allan) {
+bool take_wander_curves(FitNoiseOptions& options, const std::optional<AllanFinding>& allan,
+                        const std::string& from) {
   if (!may_weigh_wander_curves(options) || !allan || !allan->wander_curves) return false;
   if (allan->wander_curves->curves_end_s < shortest_model_tau_s(options)) return false;
   options.wander_curves_ug = allan->wander_curves;
+  options.wander_curves_from = from;
   return true;
 }
 
-bool take_recording_wander(FitNoiseOptions& options, const std::optional<AllanFinding>& allan) {
+bool take_recording_wander(FitNoiseOptions& options, const std::optional<AllanFinding>& allan,
+                           const std::string& from) {
   if (!may_take_recording_wander(options) || !allan || !allan->wander) return false;
   const WanderToGive& w = *allan->wander;
   // The curves must reach past the longest correlation time they allow, as one long dwell's
@@ -789,7 +805,7 @@ bool take_recording_wander(FitNoiseOptions& options, const std::optional<AllanFi
   GivenWander given;
   given.size_ug = w.q;
   given.known_tau = KnownTau{w.tau_min_s, w.tau_max_s};
-  given.give_to(options, kWanderFromRecording);
+  given.give_to(options, from);
   return true;
 }
 

@@ -178,6 +178,19 @@ struct KnownTau {
 };
 inline constexpr int kKnownTauRangePoints = 5;
 
+// FitNoiseOptions::specified_from (and NoiseFinding::unit_wander_from) of a wander the
+// recording's own Allan curves gave; also FitNoiseOptions::wander_curves_from of its curves.
+inline constexpr const char* kWanderFromRecording = "recording";
+
+// FitNoiseOptions::specified_from of the unit's wander a recording's header gives (the one its
+// run was fitted with: RecordedUnitWander).
+inline constexpr const char* kWanderFromHeader = "header";
+
+// FitNoiseOptions::specified_from and wander_curves_from of what a long static recording of
+// the unit, apart from the calibration's, gave: the wander its Allan curves pin, or the curves
+// themselves where they show none (NormCalibrationOptions::unit_static_recording).
+inline constexpr const char* kWanderFromStaticRecording = "static_recording";
+
 struct FitNoiseOptions {
   enum class Mode {
     white,      // each mean independent, with the standard error sigma/sqrt(n) of its dwell
@@ -212,8 +225,8 @@ struct FitNoiseOptions {
   std::optional<KnownTau> known_tau;
   // Where `specified` and known_tau came from: "" (the operator: `--bias-instability-ug`,
   // standcald's configuration), kWanderFromHeader (the recording's header: what its run was
-  // made with, take_header_wander) or kWanderFromRecording (its long dwell,
-  // take_recording_wander).
+  // made with, take_header_wander), kWanderFromRecording (its long dwell,
+  // take_recording_wander) or kWanderFromStaticRecording (the unit's static recording).
   std::string specified_from;
   NoiseEstimateOptions estimate;
   // estimate, invariant fit: estimate the wander from the full vector of the dwell means
@@ -233,15 +246,10 @@ struct FitNoiseOptions {
   // that shows no wander excludes one its curves would show (an hour's warm-up, a long first
   // interval), and narrows the sigmas.
   std::optional<WanderCurves> wander_curves_ug;
+  // Whose curves those are: kWanderFromRecording (this recording's own) or
+  // kWanderFromStaticRecording (the unit's static recording).
+  std::string wander_curves_from = kWanderFromRecording;
 };
-
-// FitNoiseOptions::specified_from (and NoiseFinding::unit_wander_from) of a wander the
-// recording's own Allan curves gave.
-inline constexpr const char* kWanderFromRecording = "recording";
-
-// FitNoiseOptions::specified_from of the unit's wander a recording's header gives (the one its
-// run was fitted with: RecordedUnitWander).
-inline constexpr const char* kWanderFromHeader = "header";
 
 // The unit's bias wander as given (a data sheet, `standcal noise` of a static recording,
 // `--bias-instability-*`, standcald's unit.bias_instability_*): its size and, where known,
@@ -285,7 +293,10 @@ bool take_unit_wander(FitNoiseOptions& options, const Recording& rec,
 // least the shortest of estimate.tau_grid_s): short dwells pooled do not show a wander of
 // minutes. The run is still tested against it as against a given wander
 // (run_agrees_with_specified). Returns whether it took one.
-bool take_recording_wander(FitNoiseOptions& options, const std::optional<AllanFinding>& allan);
+// `from` names whose curves they are (FitNoiseOptions::specified_from): the recording's own, or
+// the unit's static recording, which is taken on the same conditions.
+bool take_recording_wander(FitNoiseOptions& options, const std::optional<AllanFinding>& allan,
+                           const std::string& from = kWanderFromRecording);
 // Where the fit estimates the noise and no size of the unit's wander is given (a correlation
 // time may be), takes the recording's own Allan curves where they show no wander
 // (AllanFinding::wander_curves) to weigh the wander's sizes beside the rows
@@ -297,7 +308,9 @@ bool take_recording_wander(FitNoiseOptions& options, const std::optional<AllanFi
 // widening, taken a 1x wander's norm-fit biases from 0.79-0.92 to 1.10-1.27 in z-variance
 // (bench/noise --runs 1000): the runs weighted for a wander below the bar lost their
 // over-widening while those weighted as white stayed at 2.3-3.1. Returns whether it took them.
-bool take_wander_curves(FitNoiseOptions& options, const std::optional<AllanFinding>& allan);
+// `from`: as take_recording_wander's (FitNoiseOptions::wander_curves_from).
+bool take_wander_curves(FitNoiseOptions& options, const std::optional<AllanFinding>& allan,
+                        const std::string& from = kWanderFromRecording);
 // Whether `options` leave room for that: a caller that fits the curves for it alone can skip
 // the fit otherwise.
 bool may_weigh_wander_curves(const FitNoiseOptions& options);
@@ -348,11 +361,13 @@ struct NoiseFinding {
   // (FitNoiseOptions::wander_curves_ug), not by the run's rows alone: the sigmas are then
   // that average alone.
   bool sigmas_allowance_weighs_allan_curves = false;
+  // Whose curves (FitNoiseOptions::wander_curves_from); empty where none were weighed.
+  std::string sigmas_allowance_allan_curves_from;
   // The unit's wander was given to the fit (its size: `--bias-instability-ug`), whether or
   // not the fit weighted with it.
   bool unit_wander_given = false;
   // Where that wander came from: FitNoiseOptions::specified_from ("" the operator,
-  // kWanderFromHeader, kWanderFromRecording).
+  // kWanderFromHeader, kWanderFromRecording, kWanderFromStaticRecording).
   std::string unit_wander_from;
   // The Allan deviation of the raw samples, dwells pooled: white density, bias instability
   // and random walk within a dwell, where the wander above is between dwells.

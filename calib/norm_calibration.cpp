@@ -204,16 +204,23 @@ std::string fmt(const char* f, double v) {
 // where unit_wander_advice gives its own beneath.
 std::string allowed_wander_words(const NoiseFinding& n) {
   if (n.sigmas_allow_wander_up_to_ug <= 0) return "";
+  const std::string curves = !n.sigmas_allowance_weighs_allan_curves ? ""
+                             : n.sigmas_allowance_allan_curves_from == kWanderFromStaticRecording
+                                 ? " and the unit's static recording"
+                                 : " and their Allan curves";
   std::string out = "; the sigmas allow for a bias wander of up to " +
                     fmt("%.3g", n.sigmas_allow_wander_up_to_ug) + " ug that these intervals" +
-                    (n.sigmas_allowance_weighs_allan_curves ? " and their Allan curves" : "") +
-                    " cannot exclude";
-  if (!unit_wander_advice(n).empty()) return out;
+                    curves + " cannot exclude";
+  // Nothing to advise where the unit's static recording already bounds the wander.
+  if (!unit_wander_advice(n).empty() ||
+      n.sigmas_allowance_allan_curves_from == kWanderFromStaticRecording)
+    return out;
   return out + (n.tau_given ? " (give the unit's measured wander size, --bias-instability-ug, "
                               "to narrow them)"
                             : " (give the unit's measured wander, --bias-instability-ug with "
-                              "--bias-instability-tau-s and --bias-instability-tau-max-s, to "
-                              "narrow them)");
+                              "--bias-instability-tau-s and --bias-instability-tau-max-s, or a "
+                              "long static recording of it, --unit-static-recording, to narrow "
+                              "them)");
 }
 
 std::string wander_words(const NoiseFinding& n) {
@@ -323,6 +330,117 @@ AllanFinding allan_finding_in_ug(const StaticDetection& d, const NormCompensatio
   return out;
 }
 
+// The unit's static recording (NormCalibrationOptions::unit_static_recording), its curves in
+// ug of this fit's calibrated axes (compensation `k` at the calibration's g) and fitted once:
+// the wander they pin and the curves as a bound where they show none (as this recording's own,
+// allan_finding_in_ug), and in words what they show, for UnitStaticRecordingUse::why.
+struct UnitStaticAllan {
+  AllanFinding allan;
+  UnitStaticRecordingUse use;
+};
+
+std::string static_recording_units_error(const RawInput& s, const RawInput& in) {
+  return s.source + ": the unit's static recording is in " + std::string(to_string(s.units)) +
+         " and " + in.source + " in " + std::string(to_string(in.units)) +
+         ": its curves are put in ug by this fit's scale, so both must be in the same units (one "
+         "--units reads both: convert one file)";
+}
+
+// What fitted curves show of a wander, in words, where they pin none (wander_to_give empty) or
+// show none.
+std::string curves_show_words(const GaussMarkovAllanFit& fit, double end_s) {
+  if (!fit.describes_curves)
+    return "its Allan curves are not white noise and one wander (motion left in its static "
+           "stretches, or a second noise process)";
+  if (fit.short_correlation) return "its Allan curves show only the samples' own short correlation";
+  if (fit.wander_seen)
+    return "its Allan curves see a wander they do not pin (to " + fmt("%.0f", end_s) +
+           " s they do not show it turn over: record about 100 x its correlation time)";
+  return "its Allan curves (to " + fmt("%.0f", end_s) + " s) show no wander";
+}
+
+UnitStaticAllan unit_static_allan(const RawInput& s, const NormCompensation& k, const RawInput& in,
+                                  const StaticDetectorOptions& detector) {
+  if (s.format == InputFormat::means)
+    throw std::runtime_error(s.source +
+                             ": the unit's static recording is a table of means: its Allan "
+                             "curves need the raw samples");
+  if (s.units != in.units) throw std::runtime_error(static_recording_units_error(s, in));
+  StaticDetectorOptions one_orientation = detector;
+  one_orientation.require_orientations = false;  // one orientation held: the classic Allan record
+  const StaticDetection d = detect_static_intervals(s, one_orientation);
+  if (d.intervals.empty())
+    throw std::runtime_error(s.source + ": no static interval in the unit's static recording (" +
+                             d.how + ")");
+  const double period_s = 1.0 / s.sample_rate_hz;
+  const DwellAllan a = allan_in_ug(d, ug_per_input_unit(k, in.g_mps2), period_s);
+  const std::vector<std::vector<AllanPoint>> axes{a.curves[0], a.curves[1], a.curves[2]};
+  UnitStaticAllan out{{a.sample_period_s, a.segments, a.figures, std::nullopt, std::nullopt,
+                       a.gaps.warning(kStaticIntervals), std::nullopt},
+                      {}};
+  out.use.source = s.source;
+  for (const StaticInterval& iv : d.intervals) out.use.static_s += iv.t_end_s - iv.t_start_s;
+  out.use.curves_end_s = curves_end_s(axes);
+  if (a.gaps.too_much()) {
+    out.use.why = out.allan.gaps_warning;
+    return out;
+  }
+  const std::optional<GaussMarkovAllanFit> fit = fit_gauss_markov_allan(axes, period_s);
+  if (!fit) {
+    out.use.why = "its Allan curves are too short to fit";
+    return out;
+  }
+  out.allan.wander = wander_to_give(*fit, out.use.curves_end_s);
+  out.allan.wander_curves = wander_curves(*fit, axes, period_s);
+  out.use.why = curves_show_words(*fit, out.use.curves_end_s);
+  return out;
+}
+
+// What the unit's static recording gave the fit (`result`: its final noise) and why, where
+// `given` are the caller's options, `taken` those the fit was made with and `first` the fit
+// without either recording's curves.
+void say_unit_static_use(UnitStaticRecordingUse& use, const AllanFinding& allan,
+                         const FitNoiseOptions& given, const FitNoiseOptions& taken,
+                         const NoiseFinding& first, const NoiseFinding& result) {
+  if (result.unit_wander_given && result.unit_wander_from == kWanderFromStaticRecording) {
+    const WanderToGive& w = *allan.wander;
+    use.gave = "wander";
+    use.why = "its Allan curves pin a wander of " + fmt("%.3g", w.q) + " ug, correlation time " +
+              fmt("%.0f", w.tau_min_s) + "-" + fmt("%.0f", w.tau_max_s) +
+              " s: weighted with as the unit's";
+    return;
+  }
+  if (result.sigmas_allowance_allan_curves_from == kWanderFromStaticRecording) {
+    use.gave = "bound";
+    use.why += ": they weigh the wander the sigmas allow for";
+    return;
+  }
+  if (!may_take_recording_wander(given) && !may_weigh_wander_curves(given)) {
+    use.why = "the unit's wander was given, or the noise is not estimated";
+  } else if (allan.wander && !may_take_recording_wander(given)) {
+    use.why =
+        "its Allan curves pin a wander, but a correlation time was given, which it does "
+        "not override";
+  } else if (allan.wander) {
+    use.why = "its Allan curves pin a wander of correlation time " +
+              fmt("%.0f", allan.wander->tau_min_s) + "-" + fmt("%.0f", allan.wander->tau_max_s) +
+              " s, which they do not reach past or the fits do not model";
+  } else if (taken.specified_from == kWanderFromRecording) {
+    use.why += "; this recording's own long interval pins a wander, weighted with instead";
+  } else if (result.sigmas_allowance_allan_curves_from == kWanderFromRecording) {
+    use.why += "; this recording's own long interval bounds the wander instead";
+  } else if (allan.wander_curves && first.bias_instability) {
+    use.why += ", but this run's intervals show a wander of their own, weighted for";
+  } else if (allan.wander_curves && first.sigmas_allow_wander_up_to_ug <= 0) {
+    use.why += ", and this run's sigmas allow for none they could bound";
+  } else if (allan.wander_curves) {
+    const std::vector<double>& grid_s = taken.estimate.tau_grid_s;
+    use.why += ", but end before the shortest correlation time the fits model (" +
+               fmt("%.0f", grid_s.empty() ? 0.0 : *std::min_element(grid_s.begin(), grid_s.end())) +
+               " s): record longer";
+  }
+}
+
 }  // namespace
 
 std::string gaps_warning(const NormCalibration& c, const RawInput& in) {
@@ -396,6 +514,7 @@ NormCalibration calibrate_without_angles(const RawInput& in, const NormCalibrati
     // The fit's own messages know neither the file nor how its intervals were found.
     const std::string what = e.what();
     if (what.rfind(in.source, 0) == 0) throw;
+    if (o.unit_static_recording && what.rfind(o.unit_static_recording->source, 0) == 0) throw;
     throw std::runtime_error(in.source + ": " + what);
   }
 }
@@ -417,6 +536,10 @@ NormCalibration calibrate(const RawInput& in, const NormCalibrationOptions& o) {
     } else {
       c.fit = fit_means_without_errors(c.detection.intervals, in.g_mps2, in.units, o.fit, c.notes);
     }
+    if (o.unit_static_recording)
+      c.unit_static_recording = UnitStaticRecordingUse{
+          o.unit_static_recording->source, 0, 0, "nothing",
+          "this recording is a table of means, with no times to weigh a wander between them"};
     return c;
   }
   c.detection = detect_static_intervals(in, o.detector);
@@ -438,14 +561,28 @@ NormCalibration calibrate(const RawInput& in, const NormCalibrationOptions& o) {
   // Otherwise, where the sigmas allow for a wander the intervals cannot exclude, the curves
   // weigh it too where they reach the wander's times (take_wander_curves): the fit is made
   // again with them.
+  // The unit's static recording, where given, is taken before this recording's own.
+  std::optional<UnitStaticAllan> unit_static;
+  if (o.unit_static_recording)
+    unit_static = unit_static_allan(*o.unit_static_recording, c.fit.compensation, in, o.detector);
+  const std::optional<AllanFinding> static_allan =
+      unit_static ? std::optional<AllanFinding>(unit_static->allan) : std::nullopt;
+  const NoiseFinding first = c.fit.result.noise;
   NormCalibrationOptions taken = o;
-  if (take_recording_wander(taken.fit.noise, allan)) {
+  if (take_recording_wander(taken.fit.noise, static_allan, kWanderFromStaticRecording) ||
+      take_recording_wander(taken.fit.noise, allan)) {
     c.fit = fit_beside_wander(c.detection.intervals, in.g_mps2, in.units, taken.fit);
   } else {
-    if (c.fit.result.noise.sigmas_allow_wander_up_to_ug > 0 &&
-        take_wander_curves(taken.fit.noise, allan))
+    if (first.sigmas_allow_wander_up_to_ug > 0 &&
+        (take_wander_curves(taken.fit.noise, static_allan, kWanderFromStaticRecording) ||
+         take_wander_curves(taken.fit.noise, allan)))
       c.fit = fit_norm(c.detection.intervals, in.g_mps2, in.units, taken.fit);
     c.fit = refit_beside_wander(c.detection.intervals, in.g_mps2, in.units, taken.fit, c.fit);
+  }
+  if (unit_static) {
+    say_unit_static_use(unit_static->use, unit_static->allan, o.fit.noise, taken.fit.noise, first,
+                        c.fit.result.noise);
+    c.unit_static_recording = unit_static->use;
   }
   say_errors_beside_wander(c.detection, c.fit.result.noise);
   if (!allan->gaps_warning.empty()) c.notes.push_back(allan->gaps_warning);
@@ -477,6 +614,12 @@ json norm_calibration_to_json(const NormCalibration& c, const RawInput& in) {
   out["white_noise_understated_by"] = vec_json(c.understated_by);
   out["threshold_stability"] = stability_json(c);
   for (const std::string& n : c.notes) out["notes"].push_back(n);
+  if (const std::optional<UnitStaticRecordingUse>& u = c.unit_static_recording)
+    out["unit_static_recording"] = {{"source", u->source},
+                                    {"static_s", u->static_s},
+                                    {"curves_end_s", u->curves_end_s},
+                                    {"gave", u->gave},
+                                    {"why", u->why}};
   return out;
 }
 
@@ -525,6 +668,13 @@ std::string format_norm_report(const NormCalibration& c, const RawInput& in) {
   out += "Noise:      " + wander_words(f.result.noise) + "\n";
   if (const std::string advice = unit_wander_advice(f.result.noise); !advice.empty())
     out += "            " + advice + "\n";
+  if (const std::optional<UnitStaticRecordingUse>& u = c.unit_static_recording)
+    out += "            the unit's static recording " + u->source + " (" +
+           fmt("%.3g", u->static_s / 3600) + " h static) gave " +
+           (u->gave == "wander"  ? "its wander"
+            : u->gave == "bound" ? "a bound on the wander"
+                                 : "nothing") +
+           ": " + u->why + "\n";
   out += "            within an interval, white noise would understate a mean's error by x" +
          fmt("%.2f", c.understated_by[0]) + ", x" + fmt("%.2f", c.understated_by[1]) + ", x" +
          fmt("%.2f", c.understated_by[2]) + " (" + c.detection.standard_errors_how + ")\n";

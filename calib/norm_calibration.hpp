@@ -3,7 +3,9 @@
 // static intervals (detected, the recording's dwell blocks, or a table of means), the
 // attitude-free fit, and how far its result moves when the detector's threshold is halved
 // or doubled. Serialised to the JSON of `fit --json` and to the text report.
+#include <memory>
 #include <nlohmann/json_fwd.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -20,6 +22,25 @@ struct NormCalibrationOptions {
   StaticDetectorOptions detector;
   NormFitOptions fit;
   bool stability = true;  // refit at half and twice the detector's threshold
+  // A long static recording of the same unit apart from this one, in the same input units
+  // (`standcal fit --unit-static-recording FILE`), its static stretches found by `detector`.
+  // Where nothing of the unit's wander is given, the wander its Allan curves pin is taken as
+  // the unit's (take_recording_wander), and where they show none, they bound the wander the
+  // sigmas allow for (take_wander_curves); either before this recording's own long intervals.
+  // Its curves are put in ug by this fit's compensation, so counts need no scale of their own.
+  std::shared_ptr<const RawInput> unit_static_recording;
+};
+
+// What the unit's static recording (NormCalibrationOptions::unit_static_recording) gave the
+// fit, for its JSON and report.
+struct UnitStaticRecordingUse {
+  std::string source;
+  double static_s = 0;      // the static time its curves pool
+  double curves_end_s = 0;  // their longest averaging time
+  // "wander" (the one its curves pin, weighted with), "bound" (curves that show none weighed
+  // the wander the sigmas allow for) or "nothing".
+  std::string gave = "nothing";
+  std::string why;  // in words: what its curves show, and why that gave what it gave
 };
 
 // The result at another threshold, against the main one.
@@ -39,6 +60,7 @@ struct NormCalibration {
   // much white noise would have understated a static mean's error within its interval.
   Vec3 understated_by = Vec3::Ones();
   std::vector<std::string> notes;
+  std::optional<UnitStaticRecordingUse> unit_static_recording;
 };
 
 // ug of the calibrated axes per input unit: the diagonal of the compensation (its cross

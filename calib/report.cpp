@@ -122,6 +122,8 @@ json noise_finding_json(const NoiseFinding& n) {
   if (n.sigmas_allow_wander_up_to_ug > 0) {
     j["sigmas_allow_wander_up_to_ug"] = n.sigmas_allow_wander_up_to_ug;
     j["sigmas_allowance_weighs_allan_curves"] = n.sigmas_allowance_weighs_allan_curves;
+    if (n.sigmas_allowance_weighs_allan_curves)
+      j["sigmas_allowance_allan_curves_from"] = n.sigmas_allowance_allan_curves_from;
   }
   if (n.model == "gauss_markov" || (n.allan && n.allan->sample_correlation))
     j["sigma_sqrt_n_understated_by"] = vec(n.understated_in_total());
@@ -208,11 +210,13 @@ namespace {
 // How the correlation time was come by: given, or the range one run allows, on which the
 // biases' sigmas depend several-fold (docs/calibration.md, "Noise model").
 std::string tau_words(const NoiseFinding& n) {
-  const bool from_recording = n.unit_wander_from == kWanderFromRecording;
+  const char* given_as = n.unit_wander_from == kWanderFromRecording ? " (the long dwell allows "
+                         : n.unit_wander_from == kWanderFromStaticRecording
+                             ? " (the unit's static recording allows "
+                             : " (given as ";
   if (n.tau_given && n.tau_given_max_s > 0)
-    return std::string(from_recording ? " (the long dwell allows " : " (given as ") +
-           format("%.0f", n.tau_given_min_s) + "-" + format("%.0f", n.tau_given_max_s) +
-           " s; the biases' sigmas allow for it)";
+    return std::string(given_as) + format("%.0f", n.tau_given_min_s) + "-" +
+           format("%.0f", n.tau_given_max_s) + " s; the biases' sigmas allow for it)";
   if (n.tau_given) return " (given)";
   if (n.tau_plausible_max_s <= n.tau_plausible_min_s) return "";
   return " (this run allows " + format("%.0f", n.tau_plausible_min_s) + "-" +
@@ -245,6 +249,8 @@ std::string noise_line(const NoiseFinding& n) {
   const std::string unit =
       n.unit_wander_from == kWanderFromRecording
           ? "the unit's bias wander as this recording's long dwell shows it (its Allan curves)"
+      : n.unit_wander_from == kWanderFromStaticRecording
+          ? "the unit's bias wander as its static recording shows it (its Allan curves)"
       : n.unit_wander_from == kWanderFromHeader
           ? "the specified bias wander its run was made with (the recording's header)"
           : "the specified bias wander";

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <random>
@@ -40,6 +41,9 @@ std::vector<Method> methods(const Setup& setup) {
 struct GivenWander {
   GaussMarkovNoise size;
   std::optional<KnownTau> tau;
+  // Where the static recording (Setup::static_hours) advises no wander: the recording itself,
+  // which `standcal noise` then advises giving the norm fit (--unit-static-recording).
+  std::shared_ptr<const RawInput> static_recording;
 };
 
 // The correlation time the "tau given" rows are told: the truth's, scaled and widened by the
@@ -56,19 +60,25 @@ GivenWander given_wander(const TruthModel& truth, const Setup& setup, std::uint6
     const KnownTau tau = tau_given(truth, setup);
     return {{Vec3::Constant(truth.noise.bias_instability_ug * setup.size_given_factor * kUg),
              tau.centre_s()},
-            tau};
+            tau,
+            nullptr};
   }
   const double period_s = 1 / kStaticRecordingRateHz;
+  const std::vector<std::vector<double>> axes_ug = simulate_static_gauss_markov(
+      truth.noise.density_ug_rthz, truth.noise.bias_instability_ug,
+      truth.noise.bias_instability_tau_s, setup.static_hours * 3600, kStaticRecordingRateHz,
+      static_cast<unsigned>(seed ^ 0x5747'4154'4943ULL));
   std::vector<std::vector<AllanPoint>> curves;
-  for (const std::vector<double>& axis : simulate_static_gauss_markov(
-           truth.noise.density_ug_rthz, truth.noise.bias_instability_ug,
-           truth.noise.bias_instability_tau_s, setup.static_hours * 3600, kStaticRecordingRateHz,
-           static_cast<unsigned>(seed ^ 0x5747'4154'4943ULL)))
+  for (const std::vector<double>& axis : axes_ug)
     curves.push_back(overlapping_allan_deviation({axis}, period_s));
   const std::optional<WanderToGive> give = wander_to_give(curves, period_s);
-  if (!give) return {};
+  if (!give) {
+    GivenWander none;
+    none.static_recording = static_raw_input(axes_ug, kStaticRecordingRateHz, truth.g_local_mps2);
+    return none;
+  }
   const KnownTau tau{give->tau_min_s, give->tau_max_s};
-  return {{Vec3::Constant(give->q * kUg), tau.centre_s()}, tau};
+  return {{Vec3::Constant(give->q * kUg), tau.centre_s()}, tau, nullptr};
 }
 
 FitResult fit_with(const Method& m, const Recording& rec, const AveragedRecording& averaged,
@@ -96,6 +106,7 @@ FitResult fit_with(const Method& m, const Recording& rec, const AveragedRecordin
     NormCalibrationOptions o;
     o.fit.noise = noise;
     o.stability = false;
+    if (m.weighting == "unit given") o.unit_static_recording = given.static_recording;
     return calibrate_without_angles(raw_input_of(rec), o).fit.result;
   }
   return m.estimator == "joint" ? fit_invariant_joint(avg, noise) : fit_full_vector(avg, noise);
@@ -197,6 +208,23 @@ void merge(ZStats& into, const ZStats& part) {
 }
 
 }  // namespace
+
+std::shared_ptr<const RawInput> static_raw_input(const std::vector<std::vector<double>>& axes_ug,
+                                                 double rate_hz, double g_mps2) {
+  auto in = std::make_shared<RawInput>();
+  in->source = "static recording";
+  in->format = InputFormat::delimited;
+  in->units = InputUnits::mps2;
+  in->g_mps2 = g_mps2;
+  in->sample_rate_hz = rate_hz;
+  const Vec3 level(0, 0, g_mps2);
+  for (std::size_t i = 0; i < axes_ug[0].size(); ++i) {
+    in->t_s.push_back(static_cast<double>(i) / rate_hz);
+    for (std::size_t a = 0; a < 3; ++a)
+      in->axis[a].push_back(level[static_cast<Eigen::Index>(a)] + axes_ug[a][i] * kUg * g_mps2);
+  }
+  return in;
+}
 
 void add_warmup_transient(Recording& rec, const Setup& setup) {
   if (!(setup.warmup_transient_ug > 0) || rec.samples.empty()) return;

@@ -6,12 +6,14 @@
 // (estimate - truth) / sigma collected per unit parameter. Honest sigmas give z-variance 1.
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "calib/noise_model.hpp"
 #include "calib/parameters.hpp"
 #include "calib/programs.hpp"
+#include "calib/raw_input.hpp"
 #include "calib/recording.hpp"
 
 namespace standcal::noise_mc {
@@ -52,7 +54,9 @@ struct Setup {
   // recording of the same unit this many hours long (its own seeded recording per run, at
   // kStaticRecordingRateHz): the largest axis's q and the correlation times it allows, where
   // it sees a wander, pins its time and describes the curves (the advice it then prints);
-  // nothing otherwise, and those runs' rows are fitted as "estimated".
+  // otherwise no wander, and those runs' rows are fitted as "estimated", but for the norm
+  // fit's, given the static recording itself (`--unit-static-recording`, as standcal noise
+  // then advises): its curves bound the wander the norm fit's sigmas allow for.
   double static_hours = 0;
   // Above 0: the programme's warm-up (Program::warmup_s): the first position held this many
   // hours before its dwell, recorded but out of its mean, whose Allan curves the "estimated"
@@ -120,5 +124,11 @@ std::vector<Scenario> issue21_scenarios();
 // the unit's outputs from the recording's first sample (a bias: the same on each axis whatever
 // the orientation).
 void add_warmup_transient(Recording& rec, const Setup& setup);
+
+// A static recording's three axes (ug, simulate_static_gauss_markov's) as the raw input
+// `standcal fit --unit-static-recording` reads: the unit level (z up) in m/s^2, as raw_input_of
+// gives a calibration recording, sampled at rate_hz.
+std::shared_ptr<const RawInput> static_raw_input(const std::vector<std::vector<double>>& axes_ug,
+                                                 double rate_hz, double g_mps2);
 
 }  // namespace standcal::noise_mc

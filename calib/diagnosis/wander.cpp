@@ -249,6 +249,8 @@ std::string tau_given_words(const NoiseFinding& n) {
 std::string middle_of_range_words(const NoiseFinding& n) {
   return std::string(n.unit_wander_from == kWanderFromRecording
                          ? " (the middle of the long dwell's "
+                     : n.unit_wander_from == kWanderFromStaticRecording
+                         ? " (the middle of the unit's static recording's "
                          : " (the middle of the given ") +
          fmt("%.0f", n.tau_given_min_s) + "-" + fmt("%.0f", n.tau_given_max_s) + " s)";
 }
@@ -257,6 +259,8 @@ std::string middle_of_range_words(const NoiseFinding& n) {
 std::string unit_wander_words(const NoiseFinding& n) {
   return n.unit_wander_from == kWanderFromRecording
              ? "the unit's wander as this recording's long dwell shows it (its Allan curves)"
+         : n.unit_wander_from == kWanderFromStaticRecording
+             ? "the unit's wander as its static recording shows it (its Allan curves)"
          : n.unit_wander_from == kWanderFromHeader
              ? "the unit's given wander its run was made with (the recording's header)"
              : "the unit's given wander";

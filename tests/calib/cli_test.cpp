@@ -45,10 +45,10 @@ class Cli : public ::testing::Test {
   }
   // One position held `dwell_s` at 10 Hz, the default unit with a 3 ug wander of `tau_s`:
   // a static recording, `<name>.csv`.
-  std::string static_recording(const std::string& name, double dwell_s, double tau_s,
-                               int seed) const {
+  std::string static_recording(const std::string& name, double dwell_s, double tau_s, int seed,
+                               double wander_ug = 3) const {
     nlohmann::json truth = default_model();
-    truth["noise"]["bias_instability_ug"] = 3;
+    truth["noise"]["bias_instability_ug"] = wander_ug;
     truth["noise"]["bias_instability_tau_s"] = tau_s;
     std::ofstream(path(name + "_model.json")) << truth.dump(2);
     std::ofstream(path(name + ".json"))
@@ -618,6 +618,56 @@ TEST_F(Cli, FitOfARecordingWithoutAnglesChoosesTheNormFit) {
   EXPECT_EQ(c["matrix"]["rows"].size(), 3u);
   EXPECT_EQ(c["covariance"]["values"].size(), 12u);
   EXPECT_TRUE(fs::exists(path("comp.csv")));
+}
+
+// A long static recording that shows no wander: `standcal noise` says the norm fit takes it,
+// and `standcal fit --method norm --unit-static-recording` weighs its curves; the stand fits and
+// a wander given beside it are refused, naming the option.
+TEST_F(Cli, TheNormFitTakesTheUnitsStaticRecording) {
+  const std::string still = static_recording("still", 7200, 300, 4, 0);
+  const CliRun noise = run_cli("noise " + still);
+  ASSERT_EQ(noise.exit_code, 0) << noise.output;
+  EXPECT_NE(
+      noise.output.find("standcal fit RECORDING --method norm --unit-static-recording " + still),
+      std::string::npos)
+      << noise.output;
+  nlohmann::json white = default_model();
+  white["noise"]["bias_instability_ug"] = 0;
+  std::ofstream(path("white_model.json")) << white.dump(2);
+  nlohmann::json positions = nlohmann::json::array();  // 18 orientations for the norm fit
+  for (int outer = 0; outer < 360; outer += 60)
+    for (int inner : {0, 45, 90})
+      positions.push_back({{"alpha1_deg", outer}, {"alpha2_deg", inner}, {"dwell_s", 10}});
+  std::ofstream(path("tumble.json"))
+      << nlohmann::json{{"name", "tumble"}, {"positions", positions}};
+  ASSERT_EQ(run_cli("simulate --program " + path("tumble.json") + " --rate-hz 25 --seed 6 -o " +
+                    path("cal.csv") + " --model " + path("white_model.json"))
+                .exit_code,
+            0);
+  const CliRun fit = run_cli("fit " + path("cal.csv") + " --method norm --unit-static-recording " +
+                             still + " --json");
+  ASSERT_EQ(fit.exit_code, 0) << fit.output;
+  const auto j = nlohmann::json::parse(fit.output);
+  EXPECT_EQ(j["unit_static_recording"]["gave"], "bound") << j["unit_static_recording"];
+  EXPECT_EQ(j["unit_static_recording"]["source"], still);
+  EXPECT_EQ(j["noise"]["sigmas_allowance_allan_curves_from"], "static_recording") << j["noise"];
+
+  const CliRun stand = run_cli("fit " + path("cal.csv") + " --unit-static-recording " + still);
+  EXPECT_NE(stand.exit_code, 0);
+  EXPECT_NE(stand.output.find("--unit-static-recording: only the norm fit (--method norm)"),
+            std::string::npos)
+      << stand.output;
+  const CliRun both = run_cli("fit " + path("cal.csv") + " --method norm --unit-static-recording " +
+                              still + " --bias-instability-ug 3");
+  EXPECT_NE(both.exit_code, 0);
+  EXPECT_NE(both.output.find("either as a static recording or as --bias-instability-*"),
+            std::string::npos)
+      << both.output;
+  const CliRun white_noise = run_cli(
+      "fit " + path("cal.csv") + " --method norm --noise white --unit-static-recording " + still);
+  EXPECT_NE(white_noise.exit_code, 0);
+  EXPECT_NE(white_noise.output.find("--noise white weighs no wander"), std::string::npos)
+      << white_noise.output;
 }
 
 TEST_F(Cli, AStandMethodOnARecordingWithoutAnglesIsAClearError) {

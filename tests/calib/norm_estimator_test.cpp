@@ -301,8 +301,8 @@ TEST(NormFit, AgreesWithTheInvariantFitOnAStandRecording) {
   req.timing.dwell_s = 10;
   const Recording rec = simulate_run(req);
   const FitResult invariant = fit_invariant_joint(average_positions(rec), white_noise_weighting());
-  const NormCalibration norm =
-      calibrate_without_angles(raw_input_of(rec), NormCalibrationOptions{{}, white(), false});
+  const NormCalibration norm = calibrate_without_angles(
+      raw_input_of(rec), NormCalibrationOptions{{}, white(), false, nullptr});
   ASSERT_EQ(norm.detection.intervals.size(), req.program.positions.size());
   for (int k = 0; k < kUnitParameterCount; ++k) {
     const ParameterEstimate& a = invariant.unit[static_cast<std::size_t>(k)];

@@ -2,6 +2,7 @@
 #include <cstdio>
 #include <fstream>
 #include <iostream>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
@@ -50,6 +51,7 @@ struct FitOptions {
   std::string budget;  // standcal-budget/1: the GUM budget's type B inputs
   std::string mounting = "common";
   NoiseCliOptions noise;
+  std::string unit_static_recording;  // the norm fit's: a long static recording of the unit
 };
 
 void run_simulate(const SimulateOptions& o) {
@@ -93,6 +95,12 @@ void save_compensation(const Compensation& c, const std::string& path) {
 void run_norm_fit(const FitOptions& o, const RawInput& in) {
   NormCalibrationOptions options;
   options.fit.noise = noise_weighting(o);
+  if (!o.unit_static_recording.empty()) {
+    auto unit_static =
+        std::make_shared<RawInput>(read_input(o.unit_static_recording, input_options(o.input)));
+    print_warnings(unit_static->warnings);
+    options.unit_static_recording = std::move(unit_static);
+  }
   const NormCalibration c = calibrate_without_angles(in, options);
   print_warnings({gaps_warning(c, in)});
   if (o.json) {
@@ -137,6 +145,26 @@ void fit_stand_averages(const FitOptions& o, const std::string& method, const Re
   if (compensation) save_compensation(*compensation, o.compensation);
 }
 
+// --unit-static-recording: the norm fit's alone, and not beside the wander given outright.
+void check_unit_static_recording(const FitOptions& o, const std::string& method) {
+  if (o.unit_static_recording.empty()) return;
+  if (method != "norm")
+    throw CLI::ValidationError("--unit-static-recording",
+                               "only the norm fit (--method norm) weighs a static recording; the " +
+                                   method + " fit takes the wander `standcal noise " +
+                                   o.unit_static_recording +
+                                   "` advises (--bias-instability-ug, --bias-instability-tau-s, "
+                                   "--bias-instability-tau-max-s)");
+  if (o.noise.noise == "white")
+    throw CLI::ValidationError("--unit-static-recording",
+                               "--noise white weighs no wander, so the static recording would "
+                               "give the fit nothing");
+  if (o.noise.wander.bias_instability_ug > 0 || o.noise.wander.tau_given)
+    throw CLI::ValidationError("--unit-static-recording",
+                               "give the unit's wander either as a static recording or as "
+                               "--bias-instability-*, not both");
+}
+
 void run_fit(const FitOptions& o) {
   if (!o.budget.empty() && o.method == "norm") {
     throw std::runtime_error(
@@ -144,16 +172,18 @@ void run_fit(const FitOptions& o) {
         "method (joint, full), not norm");
   }
   if (o.method != "norm" && streams_as_stand_recording(o.input, o.recording)) {
+    const std::string method = o.method == "auto" ? "joint" : o.method;
+    check_unit_static_recording(o, method);  // before the recording is read
     RecordingDigest digest = digest_on_two_threads(o.recording, digest_options(o.input));
     print_warnings(digest.recording.warnings);
     print_warnings({digest.allan_warning()});
-    const std::string method = o.method == "auto" ? "joint" : o.method;
     return fit_stand_averages(o, method, digest.recording, std::move(digest.averages),
                               digest.allan_finding());
   }
   const RawInput in = read_input(o.recording, input_options(o.input));
   print_warnings(in.warnings);
   const std::string method = o.method != "auto" ? o.method : in.recording ? "joint" : "norm";
+  check_unit_static_recording(o, method);
   if (method == "norm") {
     if (!o.budget.empty()) {
       throw std::runtime_error(o.recording +
@@ -225,6 +255,11 @@ void add_calibrate_commands(CLI::App& app) {
       ->check(CLI::IsMember({"common", "per-mount"}))
       ->capture_default_str();
   add_noise_options(fit, fit_opts->noise);
+  fit->add_option("--unit-static-recording", fit_opts->unit_static_recording,
+                  "norm fit: a long static recording of the same unit (hours; read as the "
+                  "recording is, in its units): the wander its Allan curves pin is taken as the "
+                  "unit's, or where they show none, they bound the wander the sigmas allow for")
+      ->check(CLI::ExistingFile);
   fit->add_flag("--json", fit_opts->json, "machine-readable output");
   fit->add_option("--compensation", fit_opts->compensation,
                   "write the compensation (bias, correction matrix) as FILE.json and FILE.csv");

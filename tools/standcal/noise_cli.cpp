@@ -163,15 +163,29 @@ std::string short_correlation_words(const GaussMarkovAllanFit& f) {
          " (the noise density to give `standcal design`)";
 }
 
+// Curves that show no wander and reach the fits' shortest correlation time bound the wander a
+// norm fit's sigmas allow for (take_wander_curves): how to give them.
+std::string bound_words(const GaussMarkovAllanFit& f, double curve_end_s, const DwellGaps& gaps,
+                        const std::string& recording) {
+  const std::vector<double>& grid_s = NoiseEstimateOptions{}.tau_grid_s;
+  if (!f.describes_curves || gaps.too_much() ||
+      curve_end_s < *std::min_element(grid_s.begin(), grid_s.end()))
+    return "";
+  return "\nthe norm fit (recordings without angles) takes this recording as the unit's: "
+         "standcal fit RECORDING --method norm --unit-static-recording " +
+         recording + ", where it bounds the wander the fit's sigmas allow for";
+}
+
 // What the Allan curves say of the unit's correlation time, and how to give it to the fits
 // (one calibration run cannot pin it: docs/calibration.md, "The correlation time, given").
 std::string gauss_markov_words(const std::optional<GaussMarkovAllanFit>& f, double curve_end_s,
-                               const DwellGaps& gaps) {
+                               const DwellGaps& gaps, const std::string& recording) {
   if (!f) return "Gauss-Markov wander: the curves are too short to fit one (fewer than 5 octaves)";
   if (f->short_correlation) return short_correlation_words(*f);
   if (!f->wander_seen)
     return "Gauss-Markov wander: none seen up to " + seconds_text(curve_end_s) + " s" +
-           (f->describes_curves ? " (white noise explains the curves)" : "");
+           (f->describes_curves ? " (white noise explains the curves)" : "") +
+           bound_words(*f, curve_end_s, gaps, recording);
   const std::string s =
       "Gauss-Markov wander (white noise and one wander fitted to the three curves, "
       "one correlation time): steady-state sigma " +
@@ -290,7 +304,7 @@ void run_noise(const NoiseOptions& o) {
   double curve_end_s = 0;  // the longest averaging time of any axis
   for (const auto& c : curves)
     if (!c.empty()) curve_end_s = std::max(curve_end_s, c.back().tau_s);
-  std::printf("%s\n", gauss_markov_words(wander, curve_end_s, allan.gaps).c_str());
+  std::printf("%s\n", gauss_markov_words(wander, curve_end_s, allan.gaps, o.recording).c_str());
   if (wander && !wander->describes_curves) {
     const GaussMarkovAllanFit::Departure& d = wander->worst_departure;
     const bool white_alone = !wander->wander_seen && !wander->short_correlation;
