@@ -330,20 +330,28 @@ AllanFinding allan_finding_in_ug(const StaticDetection& d, const NormCompensatio
   return out;
 }
 
-// The unit's static recording (NormCalibrationOptions::unit_static_recording), its curves in
-// ug of this fit's calibrated axes (compensation `k` at the calibration's g) and fitted once:
-// the wander they pin and the curves as a bound where they show none (as this recording's own,
-// allan_finding_in_ug), and in words what they show, for UnitStaticRecordingUse::why.
-struct UnitStaticAllan {
-  AllanFinding allan;
-  UnitStaticRecordingUse use;
-};
-
 std::string static_recording_units_error(const RawInput& s, const RawInput& in) {
   return s.source + ": the unit's static recording is in " + std::string(to_string(s.units)) +
          " and " + in.source + " in " + std::string(to_string(in.units)) +
          ": its curves are put in ug by this fit's scale, so both must be in the same units (one "
          "--units reads both: convert one file)";
+}
+
+// The unit's static recording in ug of the norm fit's calibrated axes (its compensation `k` at
+// the calibration's g): so in the calibration recording's units.
+UnitStaticAllan norm_unit_static_allan(const RawInput& s, const NormCompensation& k,
+                                       const RawInput& in, const StaticDetectorOptions& detector);
+
+// Why a static recording gave nothing where the unit's wander was given.
+constexpr const char* kGivenWords =
+    "the unit's wander or its correlation time was given (--bias-instability-*, or the "
+    "recording's header: what its run was made with), or the noise is not estimated";
+
+// What the static recording's curves pin, taken as the unit's wander.
+std::string pinned_wander_words(const WanderToGive& w) {
+  return "its Allan curves pin a wander of " + fmt("%.3g", w.q) + " ug, correlation time " +
+         fmt("%.0f", w.tau_min_s) + "-" + fmt("%.0f", w.tau_max_s) +
+         " s: weighted with as the unit's";
 }
 
 // What fitted curves show of a wander, in words, where they pin none (wander_to_give empty) or
@@ -359,43 +367,6 @@ std::string curves_show_words(const GaussMarkovAllanFit& fit, double end_s) {
   return "its Allan curves (to " + fmt("%.0f", end_s) + " s) show no wander";
 }
 
-UnitStaticAllan unit_static_allan(const RawInput& s, const NormCompensation& k, const RawInput& in,
-                                  const StaticDetectorOptions& detector) {
-  if (s.format == InputFormat::means)
-    throw std::runtime_error(s.source +
-                             ": the unit's static recording is a table of means: its Allan "
-                             "curves need the raw samples");
-  if (s.units != in.units) throw std::runtime_error(static_recording_units_error(s, in));
-  StaticDetectorOptions one_orientation = detector;
-  one_orientation.require_orientations = false;  // one orientation held: the classic Allan record
-  const StaticDetection d = detect_static_intervals(s, one_orientation);
-  if (d.intervals.empty())
-    throw std::runtime_error(s.source + ": no static interval in the unit's static recording (" +
-                             d.how + ")");
-  const double period_s = 1.0 / s.sample_rate_hz;
-  const DwellAllan a = allan_in_ug(d, ug_per_input_unit(k, in.g_mps2), period_s);
-  const std::vector<std::vector<AllanPoint>> axes{a.curves[0], a.curves[1], a.curves[2]};
-  UnitStaticAllan out{{a.sample_period_s, a.segments, a.figures, std::nullopt, std::nullopt,
-                       a.gaps.warning(kStaticIntervals), std::nullopt},
-                      {}};
-  out.use.source = s.source;
-  for (const StaticInterval& iv : d.intervals) out.use.static_s += iv.t_end_s - iv.t_start_s;
-  out.use.curves_end_s = curves_end_s(axes);
-  if (a.gaps.too_much()) {
-    out.use.why = out.allan.gaps_warning;
-    return out;
-  }
-  const std::optional<GaussMarkovAllanFit> fit = fit_gauss_markov_allan(axes, period_s);
-  if (!fit) {
-    out.use.why = "its Allan curves are too short to fit";
-    return out;
-  }
-  out.allan.wander = wander_to_give(*fit, out.use.curves_end_s);
-  out.allan.wander_curves = wander_curves(*fit, axes, period_s);
-  out.use.why = curves_show_words(*fit, out.use.curves_end_s);
-  return out;
-}
-
 // What the unit's static recording gave the fit (`result`: its final noise) and why, where
 // `given` are the caller's options, `taken` those the fit was made with and `first` the fit
 // without either recording's curves.
@@ -403,11 +374,8 @@ void say_unit_static_use(UnitStaticRecordingUse& use, const AllanFinding& allan,
                          const FitNoiseOptions& given, const FitNoiseOptions& taken,
                          const NoiseFinding& first, const NoiseFinding& result) {
   if (result.unit_wander_given && result.unit_wander_from == kWanderFromStaticRecording) {
-    const WanderToGive& w = *allan.wander;
     use.gave = "wander";
-    use.why = "its Allan curves pin a wander of " + fmt("%.3g", w.q) + " ug, correlation time " +
-              fmt("%.0f", w.tau_min_s) + "-" + fmt("%.0f", w.tau_max_s) +
-              " s: weighted with as the unit's";
+    use.why = pinned_wander_words(*allan.wander);
     return;
   }
   if (result.sigmas_allowance_allan_curves_from == kWanderFromStaticRecording) {
@@ -416,7 +384,7 @@ void say_unit_static_use(UnitStaticRecordingUse& use, const AllanFinding& allan,
     return;
   }
   if (!may_take_recording_wander(given) && !may_weigh_wander_curves(given)) {
-    use.why = "the unit's wander was given, or the noise is not estimated";
+    use.why = kGivenWords;
   } else if (allan.wander && !may_take_recording_wander(given)) {
     use.why =
         "its Allan curves pin a wander, but a correlation time was given, which it does "
@@ -441,6 +409,88 @@ void say_unit_static_use(UnitStaticRecordingUse& use, const AllanFinding& allan,
   }
 }
 
+}  // namespace
+
+UnitStaticAllan unit_static_allan(const RawInput& s, const Vec3& ug_per_unit,
+                                  const StaticDetectorOptions& detector) {
+  if (s.format == InputFormat::means)
+    throw std::runtime_error(s.source +
+                             ": the unit's static recording is a table of means: its Allan "
+                             "curves need the raw samples");
+  StaticDetectorOptions one_orientation = detector;
+  one_orientation.require_orientations = false;  // one orientation held: the classic Allan record
+  const StaticDetection d = detect_static_intervals(s, one_orientation);
+  if (d.intervals.empty())
+    throw std::runtime_error(s.source + ": no static interval in the unit's static recording (" +
+                             d.how + ")");
+  const double period_s = 1.0 / s.sample_rate_hz;
+  const DwellAllan a = allan_in_ug(d, ug_per_unit, period_s);
+  const std::vector<std::vector<AllanPoint>> axes{a.curves[0], a.curves[1], a.curves[2]};
+  UnitStaticAllan out{{a.sample_period_s, a.segments, a.figures, std::nullopt, std::nullopt,
+                       a.gaps.warning(kStaticIntervals), std::nullopt},
+                      {}};
+  out.use.source = s.source;
+  for (const StaticInterval& iv : d.intervals) out.use.static_s += iv.t_end_s - iv.t_start_s;
+  out.use.curves_end_s = curves_end_s(axes);
+  if (a.gaps.too_much()) {
+    out.use.why = out.allan.gaps_warning;
+    return out;
+  }
+  const std::optional<GaussMarkovAllanFit> fit = fit_gauss_markov_allan(axes, period_s);
+  if (!fit) {
+    out.use.why = "its Allan curves are too short to fit";
+    return out;
+  }
+  out.allan.wander = wander_to_give(*fit, out.use.curves_end_s);
+  out.allan.wander_curves = wander_curves(*fit, axes, period_s);
+  out.use.why = out.allan.wander ? "its Allan curves pin a wander"
+                                 : curves_show_words(*fit, out.use.curves_end_s);
+  return out;
+}
+
+UnitStaticRecordingUse take_static_recording_wander(FitNoiseOptions& options,
+                                                    const UnitStaticAllan& unit_static) {
+  UnitStaticRecordingUse use = unit_static.use;
+  if (take_recording_wander(options, unit_static.allan, kWanderFromStaticRecording)) {
+    use.gave = "wander";
+    use.why = pinned_wander_words(*unit_static.allan.wander);
+  } else if (!may_take_recording_wander(options)) {
+    use.why = kGivenWords;
+  } else if (const std::optional<WanderToGive>& w = unit_static.allan.wander) {
+    use.why = "its Allan curves pin a wander of correlation time " + fmt("%.0f", w->tau_min_s) +
+              "-" + fmt("%.0f", w->tau_max_s) +
+              " s, which they do not reach past or the fits do not model";
+  } else if (unit_static.allan.wander_curves) {
+    use.why +=
+        ": a stand fit's sigmas average over no wander sizes it cannot exclude, so there is "
+        "nothing for them to bound";
+  }
+  return use;
+}
+
+nlohmann::json unit_static_recording_json(const UnitStaticRecordingUse& u) {
+  return {{"source", u.source},
+          {"static_s", u.static_s},
+          {"curves_end_s", u.curves_end_s},
+          {"gave", u.gave},
+          {"why", u.why}};
+}
+
+std::string unit_static_recording_words(const UnitStaticRecordingUse& u) {
+  return "the unit's static recording " + u.source + " (" + fmt("%.3g", u.static_s / 3600) +
+         " h static) gave " +
+         (u.gave == "wander"  ? "its wander"
+          : u.gave == "bound" ? "a bound on the wander"
+                              : "nothing") +
+         ": " + u.why;
+}
+
+namespace {
+UnitStaticAllan norm_unit_static_allan(const RawInput& s, const NormCompensation& k,
+                                       const RawInput& in, const StaticDetectorOptions& detector) {
+  if (s.units != in.units) throw std::runtime_error(static_recording_units_error(s, in));
+  return unit_static_allan(s, ug_per_input_unit(k, in.g_mps2), detector);
+}
 }  // namespace
 
 std::string gaps_warning(const NormCalibration& c, const RawInput& in) {
@@ -564,7 +614,8 @@ NormCalibration calibrate(const RawInput& in, const NormCalibrationOptions& o) {
   // The unit's static recording, where given, is taken before this recording's own.
   std::optional<UnitStaticAllan> unit_static;
   if (o.unit_static_recording)
-    unit_static = unit_static_allan(*o.unit_static_recording, c.fit.compensation, in, o.detector);
+    unit_static =
+        norm_unit_static_allan(*o.unit_static_recording, c.fit.compensation, in, o.detector);
   const std::optional<AllanFinding> static_allan =
       unit_static ? std::optional<AllanFinding>(unit_static->allan) : std::nullopt;
   const NoiseFinding first = c.fit.result.noise;
@@ -615,11 +666,7 @@ json norm_calibration_to_json(const NormCalibration& c, const RawInput& in) {
   out["threshold_stability"] = stability_json(c);
   for (const std::string& n : c.notes) out["notes"].push_back(n);
   if (const std::optional<UnitStaticRecordingUse>& u = c.unit_static_recording)
-    out["unit_static_recording"] = {{"source", u->source},
-                                    {"static_s", u->static_s},
-                                    {"curves_end_s", u->curves_end_s},
-                                    {"gave", u->gave},
-                                    {"why", u->why}};
+    out["unit_static_recording"] = unit_static_recording_json(*u);
   return out;
 }
 
@@ -669,12 +716,7 @@ std::string format_norm_report(const NormCalibration& c, const RawInput& in) {
   if (const std::string advice = unit_wander_advice(f.result.noise); !advice.empty())
     out += "            " + advice + "\n";
   if (const std::optional<UnitStaticRecordingUse>& u = c.unit_static_recording)
-    out += "            the unit's static recording " + u->source + " (" +
-           fmt("%.3g", u->static_s / 3600) + " h static) gave " +
-           (u->gave == "wander"  ? "its wander"
-            : u->gave == "bound" ? "a bound on the wander"
-                                 : "nothing") +
-           ": " + u->why + "\n";
+    out += "            " + unit_static_recording_words(*u) + "\n";
   out += "            within an interval, white noise would understate a mean's error by x" +
          fmt("%.2f", c.understated_by[0]) + ", x" + fmt("%.2f", c.understated_by[1]) + ", x" +
          fmt("%.2f", c.understated_by[2]) + " (" + c.detection.standard_errors_how + ")\n";

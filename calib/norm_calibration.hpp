@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "calib/allan.hpp"
 #include "calib/norm_estimator.hpp"
 #include "calib/raw_input.hpp"
 #include "calib/static_intervals.hpp"
@@ -42,6 +43,27 @@ struct UnitStaticRecordingUse {
   std::string gave = "nothing";
   std::string why;  // in words: what its curves show, and why that gave what it gave
 };
+
+// A static recording of the unit, its curves in ug (`ug_per_unit`: per input unit) fitted once:
+// the wander they pin and, where they show none, the curves as a bound on one
+// (AllanFinding::wander, wander_curves), with what they show in use.why. Its static stretches
+// are found by `detector` with one orientation allowed. Throws std::runtime_error naming the
+// file: a table of means, no static interval.
+struct UnitStaticAllan {
+  AllanFinding allan;
+  UnitStaticRecordingUse use;
+};
+UnitStaticAllan unit_static_allan(const RawInput& recording, const Vec3& ug_per_unit,
+                                  const StaticDetectorOptions& detector = {});
+// The stand fits' use of it (`standcal fit --unit-static-recording` with a stand method): the
+// wander its curves pin, as the unit's where nothing of it is given (take_recording_wander,
+// kWanderFromStaticRecording). Curves that show none give them nothing: their sigmas average
+// over no wander sizes (the norm fit's do). Returns what it gave and why.
+UnitStaticRecordingUse take_static_recording_wander(FitNoiseOptions& options,
+                                                    const UnitStaticAllan& unit_static);
+// `unit_static_recording` in the fit JSON, and the report's line on it.
+nlohmann::json unit_static_recording_json(const UnitStaticRecordingUse& use);
+std::string unit_static_recording_words(const UnitStaticRecordingUse& use);
 
 // The result at another threshold, against the main one.
 struct ThresholdStability {

@@ -652,11 +652,23 @@ TEST_F(Cli, TheNormFitTakesTheUnitsStaticRecording) {
   EXPECT_EQ(j["unit_static_recording"]["source"], still);
   EXPECT_EQ(j["noise"]["sigmas_allowance_allan_curves_from"], "static_recording") << j["noise"];
 
-  const CliRun stand = run_cli("fit " + path("cal.csv") + " --unit-static-recording " + still);
-  EXPECT_NE(stand.exit_code, 0);
-  EXPECT_NE(stand.output.find("--unit-static-recording: only the norm fit (--method norm)"),
+  // A stand fit averages over no wander sizes: curves that show none give it nothing, and say so.
+  const CliRun stand =
+      run_cli("fit " + path("cal.csv") + " --unit-static-recording " + still + " --json");
+  ASSERT_EQ(stand.exit_code, 0) << stand.output;
+  const auto s = nlohmann::json::parse(stand.output);
+  EXPECT_EQ(s["unit_static_recording"]["gave"], "nothing") << s["unit_static_recording"];
+  EXPECT_NE(s["unit_static_recording"]["why"].get<std::string>().find(
+                "a stand fit's sigmas average over no wander sizes"),
             std::string::npos)
-      << stand.output;
+      << s["unit_static_recording"];
+  const CliRun sequential = run_cli("fit " + path("cal.csv") +
+                                    " --method paper-sequential --unit-static-recording " + still);
+  EXPECT_NE(sequential.exit_code, 0);
+  EXPECT_NE(sequential.output.find("--unit-static-recording: the paper-sequential method models "
+                                   "no bias wander"),
+            std::string::npos)
+      << sequential.output;
   const CliRun both = run_cli("fit " + path("cal.csv") + " --method norm --unit-static-recording " +
                               still + " --bias-instability-ug 3");
   EXPECT_NE(both.exit_code, 0);
@@ -668,6 +680,31 @@ TEST_F(Cli, TheNormFitTakesTheUnitsStaticRecording) {
   EXPECT_NE(white_noise.exit_code, 0);
   EXPECT_NE(white_noise.output.find("--noise white weighs no wander"), std::string::npos)
       << white_noise.output;
+}
+
+// A static recording that pins the unit's wander gives it to a stand fit as the unit's
+// (noise.unit_wander_from "static_recording"), as `standcal noise` would advise it: two hours
+// of a 3 ug wander of 60 s.
+TEST_F(Cli, AStandFitTakesTheWanderTheUnitsStaticRecordingPins) {
+  const std::string pinned = static_recording("pinned", 7200, 60, 7);
+  ASSERT_EQ(
+      run_cli("simulate --program paper9 --dwell-s 10 --seed 8 -o " + path("run.csv")).exit_code,
+      0);
+  const CliRun fit =
+      run_cli("fit " + path("run.csv") + " --unit-static-recording " + pinned + " --json");
+  ASSERT_EQ(fit.exit_code, 0) << fit.output;
+  const auto j = nlohmann::json::parse(fit.output);
+  EXPECT_EQ(j["unit_static_recording"]["gave"], "wander") << j["unit_static_recording"];
+  EXPECT_EQ(j["noise"]["unit_wander_from"], "static_recording") << j["noise"];
+  EXPECT_EQ(j["noise"]["tau_given"], true) << j["noise"];
+  const CliRun text = run_cli("fit " + path("run.csv") + " --unit-static-recording " + pinned);
+  ASSERT_EQ(text.exit_code, 0) << text.output;
+  EXPECT_NE(text.output.find("the unit's bias wander as its static recording shows it"),
+            std::string::npos)
+      << text.output;
+  EXPECT_NE(text.output.find("(2 h static) gave its wander: its Allan curves pin a wander of "),
+            std::string::npos)
+      << text.output;
 }
 
 TEST_F(Cli, AStandMethodOnARecordingWithoutAnglesIsAClearError) {

@@ -21,6 +21,7 @@
 #include "calib/report.hpp"
 #include "calib/simulator.hpp"
 #include "calib/uncertainty_budget.hpp"
+#include "calib/units.hpp"
 #include "tools/cli_checks.hpp"
 #include "tools/standcal/commands.hpp"
 #include "tools/standcal/input_options.hpp"
@@ -111,14 +112,33 @@ void run_norm_fit(const FitOptions& o, const RawInput& in) {
   if (!o.compensation.empty()) save_compensation(make_compensation(c.fit, in), o.compensation);
 }
 
+// The unit's static recording for a stand fit of `rec`: its curves in ug (g, or m/s^2 over the
+// recording's g); counts have no scale without the norm fit's compensation.
+UnitStaticAllan stand_unit_static_allan(const FitOptions& o, const Recording& rec) {
+  const RawInput s = read_input(o.unit_static_recording, input_options(o.input));
+  print_warnings(s.warnings);
+  if (s.units == InputUnits::counts)
+    throw std::runtime_error(
+        s.source +
+        ": the unit's static recording is in counts, which a stand fit "
+        "cannot put in ug: record it in g or m/s^2, or fit with --method norm, "
+        "which scales it by its own compensation");
+  const double ug_per_unit = s.units == InputUnits::g ? 1 / kUg : 1 / (rec.g_local_mps2 * kUg);
+  return unit_static_allan(s, Vec3::Constant(ug_per_unit));
+}
+
 // The stand methods on averages and the header alone: from a streamed file, or from a
 // recording read whole (any other format or reading option).
 void fit_stand_averages(const FitOptions& o, const std::string& method, const Recording& rec,
                         std::vector<PositionAverage> averages, std::optional<AllanFinding> allan) {
   // Nothing of the unit's wander given: the one its run was made with (the header), else the
-  // one the recording's own long dwell pins, if any.
+  // one the unit's static recording pins, else the one the recording's own long dwell pins.
   FitNoiseOptions noise = noise_weighting(o);
-  take_unit_wander(noise, rec, allan);
+  take_header_wander(noise, rec);
+  std::optional<UnitStaticRecordingUse> unit_static;
+  if (!o.unit_static_recording.empty())
+    unit_static = take_static_recording_wander(noise, stand_unit_static_allan(o, rec));
+  take_recording_wander(noise, allan);
   FitResult fit = fit_with(o, method, averages, noise);
   fit.noise.allan = std::move(allan);
   std::optional<Compensation> compensation;  // made before the report takes the averages
@@ -137,24 +157,24 @@ void fit_stand_averages(const FitOptions& o, const std::string& method, const Re
   if (o.json) {
     nlohmann::json j = fit_to_json(fit);
     if (budget) j["uncertainty_budget"] = budget_to_json(*budget);
+    if (unit_static) j["unit_static_recording"] = unit_static_recording_json(*unit_static);
     std::cout << json_text(j) << "\n";
   } else {
     std::cout << format_report(fit, report_context(rec, std::move(averages)));
+    if (unit_static) std::cout << "Noise, " << unit_static_recording_words(*unit_static) << "\n";
     if (budget) std::cout << format_budget_summary(*budget);
   }
   if (compensation) save_compensation(*compensation, o.compensation);
 }
 
-// --unit-static-recording: the norm fit's alone, and not beside the wander given outright.
+// --unit-static-recording: for the fits that model the wander, and not beside one given
+// outright.
 void check_unit_static_recording(const FitOptions& o, const std::string& method) {
   if (o.unit_static_recording.empty()) return;
-  if (method != "norm")
+  if (method == "paper-sequential")
     throw CLI::ValidationError("--unit-static-recording",
-                               "only the norm fit (--method norm) weighs a static recording; the " +
-                                   method + " fit takes the wander `standcal noise " +
-                                   o.unit_static_recording +
-                                   "` advises (--bias-instability-ug, --bias-instability-tau-s, "
-                                   "--bias-instability-tau-max-s)");
+                               "the paper-sequential method models no bias wander; use joint, "
+                               "full or norm");
   if (o.noise.noise == "white")
     throw CLI::ValidationError("--unit-static-recording",
                                "--noise white weighs no wander, so the static recording would "
@@ -256,9 +276,9 @@ void add_calibrate_commands(CLI::App& app) {
       ->capture_default_str();
   add_noise_options(fit, fit_opts->noise);
   fit->add_option("--unit-static-recording", fit_opts->unit_static_recording,
-                  "norm fit: a long static recording of the same unit (hours; read as the "
-                  "recording is, in its units): the wander its Allan curves pin is taken as the "
-                  "unit's, or where they show none, they bound the wander the sigmas allow for")
+                  "a long static recording of the same unit (hours; read as the recording is): "
+                  "the wander its Allan curves pin is taken as the unit's, or where they show "
+                  "none, they bound the wander the norm fit's sigmas allow for")
       ->check(CLI::ExistingFile);
   fit->add_flag("--json", fit_opts->json, "machine-readable output");
   fit->add_option("--compensation", fit_opts->compensation,
