@@ -201,8 +201,9 @@ std::string fmt(const char* f, double v) {
 // Where the sigmas allow for the wanders the run cannot exclude (the norm fit's
 // average_over_wander_sizes), what the Noise line ends with, and what narrows them: the
 // unit's wander size, and its correlation time where that was not given either. No advice
-// where unit_wander_advice gives its own beneath.
-std::string allowed_wander_words(const NoiseFinding& n) {
+// where unit_wander_advice gives its own beneath, nor where the unit's static recording was
+// given (`static_given`: the line beneath says what it gave, and why).
+std::string allowed_wander_words(const NoiseFinding& n, bool static_given) {
   if (n.sigmas_allow_wander_up_to_ug <= 0) return "";
   const std::string curves = !n.sigmas_allowance_weighs_allan_curves ? ""
                              : n.sigmas_allowance_allan_curves_from == kWanderFromStaticRecording
@@ -211,10 +212,7 @@ std::string allowed_wander_words(const NoiseFinding& n) {
   std::string out = "; the sigmas allow for a bias wander of up to " +
                     fmt("%.3g", n.sigmas_allow_wander_up_to_ug) + " ug that these intervals" +
                     curves + " cannot exclude";
-  // Nothing to advise where the unit's static recording already bounds the wander.
-  if (!unit_wander_advice(n).empty() ||
-      n.sigmas_allowance_allan_curves_from == kWanderFromStaticRecording)
-    return out;
+  if (!unit_wander_advice(n).empty() || static_given) return out;
   return out + (n.tau_given ? " (give the unit's measured wander size, --bias-instability-ug, "
                               "to narrow them)"
                             : " (give the unit's measured wander, --bias-instability-ug with "
@@ -223,13 +221,14 @@ std::string allowed_wander_words(const NoiseFinding& n) {
                               "them)");
 }
 
-std::string wander_words(const NoiseFinding& n) {
+std::string wander_words(const NoiseFinding& n, bool static_given) {
   if (n.model != "gauss_markov")
-    return "no bias wander between intervals beyond their own errors" + allowed_wander_words(n);
+    return "no bias wander between intervals beyond their own errors" +
+           allowed_wander_words(n, static_given);
   return "bias wander between intervals " + fmt("%.0f", n.wander_ug[0]) + ", " +
          fmt("%.0f", n.wander_ug[1]) + ", " + fmt("%.0f", n.wander_ug[2]) +
          " ug (Gauss-Markov, tau " + fmt("%.0f", n.tau_s) + " s, " + n.source + "), weighted for" +
-         allowed_wander_words(n);
+         allowed_wander_words(n, static_given);
 }
 
 json vec_json(const Vec3& v) { return json::array({v[0], v[1], v[2]}); }
@@ -348,6 +347,13 @@ constexpr const char* kGivenWords =
     "recording's header: what its run was made with), or the noise is not estimated";
 
 // What the static recording's curves pin, taken as the unit's wander.
+GivenWander given_wander(const WanderToGive& w) {
+  GivenWander g;
+  g.size_ug = w.q;
+  g.known_tau = KnownTau{w.tau_min_s, w.tau_max_s};
+  return g;
+}
+
 std::string pinned_wander_words(const WanderToGive& w) {
   return "its Allan curves pin a wander of " + fmt("%.3g", w.q) + " ug, correlation time " +
          fmt("%.0f", w.tau_min_s) + "-" + fmt("%.0f", w.tau_max_s) +
@@ -376,6 +382,7 @@ void say_unit_static_use(UnitStaticRecordingUse& use, const AllanFinding& allan,
   if (result.unit_wander_given && result.unit_wander_from == kWanderFromStaticRecording) {
     use.gave = "wander";
     use.why = pinned_wander_words(*allan.wander);
+    use.wander = given_wander(*allan.wander);
     return;
   }
   if (result.sigmas_allowance_allan_curves_from == kWanderFromStaticRecording) {
@@ -454,6 +461,7 @@ UnitStaticRecordingUse take_static_recording_wander(FitNoiseOptions& options,
   if (take_recording_wander(options, unit_static.allan, kWanderFromStaticRecording)) {
     use.gave = "wander";
     use.why = pinned_wander_words(*unit_static.allan.wander);
+    use.wander = given_wander(*unit_static.allan.wander);
   } else if (!may_take_recording_wander(options)) {
     use.why = kGivenWords;
   } else if (const std::optional<WanderToGive>& w = unit_static.allan.wander) {
@@ -588,8 +596,12 @@ NormCalibration calibrate(const RawInput& in, const NormCalibrationOptions& o) {
     }
     if (o.unit_static_recording)
       c.unit_static_recording = UnitStaticRecordingUse{
-          o.unit_static_recording->source, 0, 0, "nothing",
-          "this recording is a table of means, with no times to weigh a wander between them"};
+          o.unit_static_recording->source,
+          0,
+          0,
+          "nothing",
+          "this recording is a table of means, with no times to weigh a wander between them",
+          {}};
     return c;
   }
   c.detection = detect_static_intervals(in, o.detector);
@@ -712,7 +724,7 @@ std::string format_norm_report(const NormCalibration& c, const RawInput& in) {
          " ug over " + std::to_string(c.detection.intervals.size()) + " intervals; chi2/dof " +
          fmt("%.2f", f.result.chi2_dof) + " (redundancy " + std::to_string(f.result.redundancy) +
          ")\n";
-  out += "Noise:      " + wander_words(f.result.noise) + "\n";
+  out += "Noise:      " + wander_words(f.result.noise, c.unit_static_recording.has_value()) + "\n";
   if (const std::string advice = unit_wander_advice(f.result.noise); !advice.empty())
     out += "            " + advice + "\n";
   if (const std::optional<UnitStaticRecordingUse>& u = c.unit_static_recording)

@@ -41,7 +41,8 @@ struct UnitStaticRecordingUse {
   // "wander" (the one its curves pin, weighted with), "bound" (curves that show none weighed
   // the wander the sigmas allow for) or "nothing".
   std::string gave = "nothing";
-  std::string why;  // in words: what its curves show, and why that gave what it gave
+  std::string why;     // in words: what its curves show, and why that gave what it gave
+  GivenWander wander;  // "wander": the one it gave (its size and correlation times)
 };
 
 // A static recording of the unit, its curves in ug (`ug_per_unit`: per input unit) fitted once:

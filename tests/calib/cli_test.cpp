@@ -62,8 +62,28 @@ class Cli : public ::testing::Test {
     EXPECT_EQ(r.exit_code, 0) << r.output;
     return path(name + ".csv");
   }
+  // 18 orientations (outer every 60 deg, inner 0, 45 and 90), 10 s each at 25 Hz, seed 6:
+  // enough for the norm fit of the samples without their angles; `<name>.csv`.
+  std::string tumble_recording(const std::string& name, const std::string& model_args) const {
+    nlohmann::json positions = nlohmann::json::array();
+    for (int outer = 0; outer < 360; outer += 60)
+      for (int inner : {0, 45, 90})
+        positions.push_back({{"alpha1_deg", outer}, {"alpha2_deg", inner}, {"dwell_s", 10}});
+    std::ofstream(path("tumble.json"))
+        << nlohmann::json{{"name", "tumble"}, {"positions", positions}};
+    const CliRun r = run_cli("simulate --program " + path("tumble.json") +
+                             " --rate-hz 25 --seed 6 -o " + path(name + ".csv") + model_args);
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    return path(name + ".csv");
+  }
   fs::path dir_;
 };
+
+// A command refused, with `words` in what it says.
+void expect_refused(const CliRun& run, const std::string& words) {
+  EXPECT_NE(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find(words), std::string::npos) << words << "\n" << run.output;
+}
 
 // The cells of one line of a recording (comma-separated).
 std::vector<std::string> csv_cells(const std::string& line) {
@@ -634,18 +654,9 @@ TEST_F(Cli, TheNormFitTakesTheUnitsStaticRecording) {
   nlohmann::json white = default_model();
   white["noise"]["bias_instability_ug"] = 0;
   std::ofstream(path("white_model.json")) << white.dump(2);
-  nlohmann::json positions = nlohmann::json::array();  // 18 orientations for the norm fit
-  for (int outer = 0; outer < 360; outer += 60)
-    for (int inner : {0, 45, 90})
-      positions.push_back({{"alpha1_deg", outer}, {"alpha2_deg", inner}, {"dwell_s", 10}});
-  std::ofstream(path("tumble.json"))
-      << nlohmann::json{{"name", "tumble"}, {"positions", positions}};
-  ASSERT_EQ(run_cli("simulate --program " + path("tumble.json") + " --rate-hz 25 --seed 6 -o " +
-                    path("cal.csv") + " --model " + path("white_model.json"))
-                .exit_code,
-            0);
-  const CliRun fit = run_cli("fit " + path("cal.csv") + " --method norm --unit-static-recording " +
-                             still + " --json");
+  const std::string cal = tumble_recording("cal", " --model " + path("white_model.json"));
+  const CliRun fit =
+      run_cli("fit " + cal + " --method norm --unit-static-recording " + still + " --json");
   ASSERT_EQ(fit.exit_code, 0) << fit.output;
   const auto j = nlohmann::json::parse(fit.output);
   EXPECT_EQ(j["unit_static_recording"]["gave"], "bound") << j["unit_static_recording"];
@@ -653,8 +664,7 @@ TEST_F(Cli, TheNormFitTakesTheUnitsStaticRecording) {
   EXPECT_EQ(j["noise"]["sigmas_allowance_allan_curves_from"], "static_recording") << j["noise"];
 
   // A stand fit averages over no wander sizes: curves that show none give it nothing, and say so.
-  const CliRun stand =
-      run_cli("fit " + path("cal.csv") + " --unit-static-recording " + still + " --json");
+  const CliRun stand = run_cli("fit " + cal + " --unit-static-recording " + still + " --json");
   ASSERT_EQ(stand.exit_code, 0) << stand.output;
   const auto s = nlohmann::json::parse(stand.output);
   EXPECT_EQ(s["unit_static_recording"]["gave"], "nothing") << s["unit_static_recording"];
@@ -662,24 +672,15 @@ TEST_F(Cli, TheNormFitTakesTheUnitsStaticRecording) {
                 "a stand fit's sigmas average over no wander sizes"),
             std::string::npos)
       << s["unit_static_recording"];
-  const CliRun sequential = run_cli("fit " + path("cal.csv") +
-                                    " --method paper-sequential --unit-static-recording " + still);
-  EXPECT_NE(sequential.exit_code, 0);
-  EXPECT_NE(sequential.output.find("--unit-static-recording: the paper-sequential method models "
-                                   "no bias wander"),
-            std::string::npos)
-      << sequential.output;
-  const CliRun both = run_cli("fit " + path("cal.csv") + " --method norm --unit-static-recording " +
-                              still + " --bias-instability-ug 3");
-  EXPECT_NE(both.exit_code, 0);
-  EXPECT_NE(both.output.find("either as a static recording or as --bias-instability-*"),
-            std::string::npos)
-      << both.output;
-  const CliRun white_noise = run_cli(
-      "fit " + path("cal.csv") + " --method norm --noise white --unit-static-recording " + still);
-  EXPECT_NE(white_noise.exit_code, 0);
-  EXPECT_NE(white_noise.output.find("--noise white weighs no wander"), std::string::npos)
-      << white_noise.output;
+  expect_refused(
+      run_cli("fit " + cal + " --method paper-sequential --unit-static-recording " + still),
+      "--unit-static-recording: the paper-sequential method models no bias wander");
+  expect_refused(run_cli("fit " + cal + " --method norm --unit-static-recording " + still +
+                         " --bias-instability-ug 3"),
+                 "either as a static recording or as --bias-instability-*");
+  expect_refused(
+      run_cli("fit " + cal + " --method norm --noise white --unit-static-recording " + still),
+      "--noise white weighs no wander");
 }
 
 // A static recording that pins the unit's wander gives it to a stand fit as the unit's
@@ -705,6 +706,45 @@ TEST_F(Cli, AStandFitTakesTheWanderTheUnitsStaticRecordingPins) {
   EXPECT_NE(text.output.find("(2 h static) gave its wander: its Allan curves pin a wander of "),
             std::string::npos)
       << text.output;
+}
+
+// `diagnose --unit-static-recording` tests the terms against the wander the static recording
+// pins, a stand recording and the same samples without their angles alike; it is refused
+// beside --bias-instability-*.
+TEST_F(Cli, DiagnoseTestsAgainstTheWanderTheUnitsStaticRecordingPins) {
+  const std::string pinned = static_recording("pinned", 7200, 60, 7);
+  const std::string cal = tumble_recording("cal", "");
+  // The same samples without the stand's angles: time and the three axes.
+  std::ifstream in(cal);
+  std::ofstream raw(path("raw.csv"));
+  raw << "t_s,fx_mps2,fy_mps2,fz_mps2\n";
+  bool header_seen = false;
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty() || line[0] == '#') continue;
+    if (!header_seen) {
+      header_seen = true;
+      continue;
+    }
+    const std::vector<std::string> c = csv_cells(line);
+    raw << c[0] << "," << c[6] << "," << c[7] << "," << c[8] << "\n";
+  }
+  raw.close();
+  for (const std::string& file : {cal, path("raw.csv")}) {
+    const CliRun d = run_cli("diagnose " + file + " --g-mps2 9.81625 --unit-static-recording " +
+                             pinned + " --json");
+    ASSERT_EQ(d.exit_code == 0 || d.exit_code == 1, true) << d.output;
+    const auto j = nlohmann::json::parse(d.output.substr(d.output.find('{')));
+    EXPECT_EQ(j["unit_static_recording"]["gave"], "wander") << file << j["unit_static_recording"];
+    EXPECT_EQ(j["noise"]["unit_wander_from"], "static_recording") << file << j["noise"];
+    const CliRun text =
+        run_cli("diagnose " + file + " --g-mps2 9.81625 --unit-static-recording " + pinned);
+    EXPECT_NE(text.output.find("the unit's wander as its static recording shows it"),
+              std::string::npos)
+        << file << text.output;
+  }
+  expect_refused(run_cli("diagnose " + cal + " --unit-static-recording " + pinned +
+                         " --bias-instability-ug 3"),
+                 "either as a static recording or as --bias-instability-*");
 }
 
 TEST_F(Cli, AStandMethodOnARecordingWithoutAnglesIsAClearError) {

@@ -112,21 +112,6 @@ void run_norm_fit(const FitOptions& o, const RawInput& in) {
   if (!o.compensation.empty()) save_compensation(make_compensation(c.fit, in), o.compensation);
 }
 
-// The unit's static recording for a stand fit of `rec`: its curves in ug (g, or m/s^2 over the
-// recording's g); counts have no scale without the norm fit's compensation.
-UnitStaticAllan stand_unit_static_allan(const FitOptions& o, const Recording& rec) {
-  const RawInput s = read_input(o.unit_static_recording, input_options(o.input));
-  print_warnings(s.warnings);
-  if (s.units == InputUnits::counts)
-    throw std::runtime_error(
-        s.source +
-        ": the unit's static recording is in counts, which a stand fit "
-        "cannot put in ug: record it in g or m/s^2, or fit with --method norm, "
-        "which scales it by its own compensation");
-  const double ug_per_unit = s.units == InputUnits::g ? 1 / kUg : 1 / (rec.g_local_mps2 * kUg);
-  return unit_static_allan(s, Vec3::Constant(ug_per_unit));
-}
-
 // The stand methods on averages and the header alone: from a streamed file, or from a
 // recording read whole (any other format or reading option).
 void fit_stand_averages(const FitOptions& o, const std::string& method, const Recording& rec,
@@ -137,7 +122,8 @@ void fit_stand_averages(const FitOptions& o, const std::string& method, const Re
   take_header_wander(noise, rec);
   std::optional<UnitStaticRecordingUse> unit_static;
   if (!o.unit_static_recording.empty())
-    unit_static = take_static_recording_wander(noise, stand_unit_static_allan(o, rec));
+    unit_static = take_static_recording_wander(
+        noise, stand_unit_static_allan(o.unit_static_recording, o.input, rec.g_local_mps2));
   take_recording_wander(noise, allan);
   FitResult fit = fit_with(o, method, averages, noise);
   fit.noise.allan = std::move(allan);

@@ -32,6 +32,7 @@ struct DiagnoseCliOptions {
   // The unit's bias instability as its data sheet or a static recording gives it.
   WanderCliOptions wander;
   InputCliOptions input;
+  std::string unit_static_recording;  // the unit's static recording itself
 };
 
 DiagnoseOptions diagnose_options(const DiagnoseCliOptions& o) {
@@ -42,28 +43,56 @@ DiagnoseOptions diagnose_options(const DiagnoseCliOptions& o) {
   return d;
 }
 
+// The wander the unit's static recording pinned, as the diagnosis is given the unit's.
+void give_static_wander(const GivenWander& w, DiagnoseOptions& options) {
+  options.specified_wander = w.specified();
+  options.known_tau = w.known_tau;
+  options.specified_wander_from = kWanderFromStaticRecording;
+}
+
+// The wander the unit's static recording pins, as the one the terms are tested against: after
+// the one the recording's header gives (what its run was made with), as the fits take it.
+std::optional<UnitStaticRecordingUse> take_static_wander(const DiagnoseCliOptions& o,
+                                                         const Recording& rec,
+                                                         DiagnoseOptions& options) {
+  if (o.unit_static_recording.empty()) return std::nullopt;
+  FitNoiseOptions fit;
+  fit.specified = options.specified_wander;
+  fit.known_tau = options.known_tau;
+  take_header_wander(fit, rec);
+  const UnitStaticRecordingUse use = take_static_recording_wander(
+      fit, stand_unit_static_allan(o.unit_static_recording, o.input, rec.g_local_mps2));
+  if (use.gave == "wander") give_static_wander(use.wander, options);
+  return use;
+}
+
 // A stand recording is diagnosed as it is; one without angles through the norm fit.
-std::pair<Diagnosis, Recording> diagnose_stand_recording(const DiagnoseCliOptions& o,
-                                                         Recording rec) {
+std::pair<Diagnosis, Recording> diagnose_stand_recording(
+    const DiagnoseCliOptions& o, Recording rec,
+    std::optional<UnitStaticRecordingUse>& unit_static) {
   if (o.input.g_mps2 > 0) rec.use_given_g(o.input.g_mps2);
   print_warnings(rec.warnings);
   print_warnings({no_sample_period_warning(rec)});
-  Diagnosis d = diagnose_recording(rec, diagnose_options(o));
+  DiagnoseOptions options = diagnose_options(o);
+  unit_static = take_static_wander(o, rec, options);
+  Diagnosis d = diagnose_recording(rec, options);
   return {std::move(d), std::move(rec)};
 }
 
-std::pair<Diagnosis, Recording> diagnose_input(const DiagnoseCliOptions& o) {
+// `unit_static`: what the unit's static recording gave, where one was given.
+std::pair<Diagnosis, Recording> diagnose_input(const DiagnoseCliOptions& o,
+                                               std::optional<UnitStaticRecordingUse>& unit_static) {
   // A stand recording is read straight into its samples: no copy of the text, no raw columns.
   if (streams_as_stand_recording(o.input, o.recording)) {
     Recording rec = read_recording(o.recording);
     // The other reader applies it itself (read_input).
     if (o.input.rate_hz > 0) rec.use_given_sample_rate(o.input.rate_hz);
-    return diagnose_stand_recording(o, std::move(rec));
+    return diagnose_stand_recording(o, std::move(rec), unit_static);
   }
   RawInput in = read_input(o.recording, input_options(o.input));
   if (in.recording) {
     in.recording->warnings = in.warnings;  // the reader's, with what the options changed
-    return diagnose_stand_recording(o, std::move(*in.recording));
+    return diagnose_stand_recording(o, std::move(*in.recording), unit_static);
   }
   print_warnings(in.warnings);
   if (in.format == InputFormat::means)
@@ -74,14 +103,26 @@ std::pair<Diagnosis, Recording> diagnose_input(const DiagnoseCliOptions& o) {
   NormCalibrationOptions calibrate;
   calibrate.stability = false;                    // the diagnosis does not report it
   o.wander.given().give_to(calibrate.fit.noise);  // as `fit`
+  if (!o.unit_static_recording.empty())
+    calibrate.unit_static_recording =
+        std::make_shared<RawInput>(read_input(o.unit_static_recording, input_options(o.input)));
   const NormCalibration calibration = calibrate_without_angles(in, calibrate);
   print_warnings({gaps_warning(calibration, in)});
-  Diagnosis d = diagnose_without_angles(in, calibration, diagnose_options(o));
+  DiagnoseOptions options = diagnose_options(o);
+  unit_static = calibration.unit_static_recording;
+  if (unit_static && unit_static->gave == "wander")
+    give_static_wander(unit_static->wander, options);
+  Diagnosis d = diagnose_without_angles(in, calibration, options);
   return {std::move(d), calibrated_recording(in, calibration)};
 }
 
 void run_diagnose(const DiagnoseCliOptions& o) {
-  const auto [d, rec] = diagnose_input(o);
+  if (!o.unit_static_recording.empty() && o.wander.given().given())
+    throw CLI::ValidationError("--unit-static-recording",
+                               "give the unit's wander either as a static recording or as "
+                               "--bias-instability-*, not both");
+  std::optional<UnitStaticRecordingUse> unit_static;
+  const auto [d, rec] = diagnose_input(o, unit_static);
   set_exit_code(diagnosis_exit_code(d.verdict));
   if (!o.report.empty()) {
     write_file_atomically(o.report, report::diagnosis_html(d, rec), "the report");
@@ -93,11 +134,14 @@ void run_diagnose(const DiagnoseCliOptions& o) {
                  o.model_out.c_str(), o.model_out.c_str());
   }
   if (o.json) {
-    std::cout << json_text(diagnose_to_json(d)) << "\n";
+    nlohmann::json j = diagnose_to_json(d);
+    if (unit_static) j["unit_static_recording"] = unit_static_recording_json(*unit_static);
+    std::cout << json_text(j) << "\n";
     return;
   }
   std::cout << "verdict: " << d.verdict << "\n";
   for (const std::string& s : d.summary) std::cout << "  " << s << "\n";
+  if (unit_static) std::cout << "  Noise, " << unit_static_recording_words(*unit_static) << "\n";
   std::cout << "where:\n";
   for (const std::string& s : d.located) std::cout << "  " << s << "\n";
   for (const ProposedPosition& p : d.proposed_positions)
@@ -123,6 +167,10 @@ void add_diagnose_commands(CLI::App& app) {
   add_fit_wander_options(cmd, opts->wander,
                          "against which the terms are tested when the run does not show the "
                          "wander itself");
+  cmd->add_option("--unit-static-recording", opts->unit_static_recording,
+                  "a long static recording of the same unit (hours; read as the recording is): "
+                  "the wander its Allan curves pin is the one the terms are tested against")
+      ->check(CLI::ExistingFile);
   cmd->callback([opts] { run_diagnose(*opts); });
 }
 

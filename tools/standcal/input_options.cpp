@@ -1,6 +1,7 @@
 #include "tools/standcal/input_options.hpp"
 
 #include <cstdio>
+#include <stdexcept>
 
 #include "calib/recording_digest.hpp"
 #include "calib/text.hpp"
@@ -139,6 +140,20 @@ FitNoiseOptions fit_noise_options(const NoiseCliOptions& o) {
   n.mode = o.noise == "white" ? FitNoiseOptions::Mode::white : FitNoiseOptions::Mode::estimate;
   o.wander.given().give_to(n);
   return n;
+}
+
+UnitStaticAllan stand_unit_static_allan(const std::string& path, const InputCliOptions& input,
+                                        double g_mps2) {
+  const RawInput s = read_input(path, input_options(input));
+  print_warnings(s.warnings);
+  if (s.units == InputUnits::counts)
+    throw std::runtime_error(
+        s.source +
+        ": the unit's static recording is in counts, which the stand methods cannot put in ug: "
+        "record it in g or m/s^2, or use it with a recording without angles (the norm fit "
+        "scales it by its own compensation)");
+  const double ug_per_unit = s.units == InputUnits::g ? 1 / kUg : 1 / (g_mps2 * kUg);
+  return unit_static_allan(s, Vec3::Constant(ug_per_unit));
 }
 
 }  // namespace standcal::cli

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "calib/noise_model.hpp"
+#include "calib/norm_calibration.hpp"
 #include "calib/raw_input.hpp"
 #include "calib/recording_digest.hpp"
 
@@ -61,5 +62,11 @@ void add_noise_options(CLI::App* cmd, NoiseCliOptions& o);
 void add_wander_options(CLI::App* cmd, double& sigma_ug, double& tau_s, const std::string& use,
                         bool* tau_given = nullptr);
 FitNoiseOptions fit_noise_options(const NoiseCliOptions& o);
+
+// `--unit-static-recording FILE` for a stand recording's fit or diagnosis: read as the
+// recording is, its curves in ug (g, or m/s^2 over the recording's g); counts are refused,
+// having no scale without the norm fit's compensation.
+UnitStaticAllan stand_unit_static_allan(const std::string& path, const InputCliOptions& input,
+                                        double g_mps2);
 
 }  // namespace standcal::cli
