@@ -769,14 +769,10 @@ bool may_take_recording_wander(const FitNoiseOptions& options) {
          !options.known_tau;
 }
 
-namespace {
-// The shortest correlation time of the fits' wander model (0 for an empty grid): curves that
-// end before it show nothing of a wander of minutes.
 double shortest_model_tau_s(const FitNoiseOptions& options) {
   const std::vector<double>& grid_s = options.estimate.tau_grid_s;
   return grid_s.empty() ? 0.0 : *std::min_element(grid_s.begin(), grid_s.end());
 }
-}  // namespace
 
 bool may_weigh_wander_curves(const FitNoiseOptions& options) {
   return options.mode == FitNoiseOptions::Mode::estimate && options.specified.white();

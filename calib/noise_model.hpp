@@ -314,6 +314,9 @@ bool take_wander_curves(FitNoiseOptions& options, const std::optional<AllanFindi
 // Whether `options` leave room for that: a caller that fits the curves for it alone can skip
 // the fit otherwise.
 bool may_weigh_wander_curves(const FitNoiseOptions& options);
+// The shortest correlation time of the fits' wander model (estimate.tau_grid_s; 0 for an empty
+// grid): curves that end before it show nothing of a wander of minutes.
+double shortest_model_tau_s(const FitNoiseOptions& options);
 // Whether `options` leave room for that (estimating, nothing of the unit's given): a caller
 // that fits the curves for it alone can skip the fit otherwise.
 bool may_take_recording_wander(const FitNoiseOptions& options);

@@ -307,14 +307,13 @@ json stability_json(const NormCalibration& c) {
   return out;
 }
 
-// The Allan figures of the intervals pooled, in ug of the calibrated axes (the fit's
-// `noise.allan`, as for stand recordings); with `wander`, the wander a long interval pins
-// (take_recording_wander), and with `curves` the curves as the wander's likelihood
-// (wander_curves: what bounds the wander the sigmas allow for); each left out where the fit
-// could not take it, and both where gaps in the intervals' samples distort the curves.
-AllanFinding allan_finding_in_ug(const StaticDetection& d, const NormCompensation& k,
-                                 const RawInput& in, bool wander, bool curves) {
-  const DwellAllan a = allan_in_ug(d, ug_per_input_unit(k, in.g_mps2), 1.0 / in.sample_rate_hz);
+// The Allan figures of static intervals' pooled curves `a` (ug); with `wander`, the wander a
+// long interval pins (take_recording_wander), and with `curves` the curves as the wander's
+// likelihood (wander_curves: what bounds the wander the sigmas allow for); each left out where
+// the fit could not take it, and both where gaps in the intervals' samples distort the curves.
+// `fit`, where given, receives the curves' fit (none where it was not made or failed).
+AllanFinding fitted_allan_finding(const DwellAllan& a, bool wander, bool curves,
+                                  std::optional<GaussMarkovAllanFit>* fit = nullptr) {
   // No sample correlation: the intervals' standard errors already take the curve at their
   // length (coloured_standard_error).
   AllanFinding out{a.sample_period_s, a.segments,   a.figures,
@@ -322,11 +321,20 @@ AllanFinding allan_finding_in_ug(const StaticDetection& d, const NormCompensatio
                    std::nullopt};
   if (a.gaps.too_much() || !(wander || curves)) return out;
   const std::vector<std::vector<AllanPoint>> axes{a.curves[0], a.curves[1], a.curves[2]};
-  const std::optional<GaussMarkovAllanFit> fit = fit_gauss_markov_allan(axes, a.sample_period_s);
-  if (!fit) return out;
-  if (wander) out.wander = wander_to_give(*fit, curves_end_s(axes));
-  if (curves) out.wander_curves = wander_curves(*fit, axes, a.sample_period_s);
+  const std::optional<GaussMarkovAllanFit> fitted = fit_gauss_markov_allan(axes, a.sample_period_s);
+  if (fit) *fit = fitted;
+  if (!fitted) return out;
+  if (wander) out.wander = wander_to_give(*fitted, curves_end_s(axes));
+  if (curves) out.wander_curves = wander_curves(*fitted, axes, a.sample_period_s);
   return out;
+}
+
+// The same of this recording's intervals, in ug of the calibrated axes (the fit's
+// `noise.allan`, as for stand recordings).
+AllanFinding allan_finding_in_ug(const StaticDetection& d, const NormCompensation& k,
+                                 const RawInput& in, bool wander, bool curves) {
+  return fitted_allan_finding(
+      allan_in_ug(d, ug_per_input_unit(k, in.g_mps2), 1.0 / in.sample_rate_hz), wander, curves);
 }
 
 std::string static_recording_units_error(const RawInput& s, const RawInput& in) {
@@ -358,6 +366,13 @@ std::string pinned_wander_words(const WanderToGive& w) {
   return "its Allan curves pin a wander of " + fmt("%.3g", w.q) + " ug, correlation time " +
          fmt("%.0f", w.tau_min_s) + "-" + fmt("%.0f", w.tau_max_s) +
          " s: weighted with as the unit's";
+}
+
+// A wander the curves pin that take_recording_wander did not take: its times are beyond them or
+// the fits' model.
+std::string untaken_wander_words(const WanderToGive& w) {
+  return "its Allan curves pin a wander of correlation time " + fmt("%.0f", w.tau_min_s) + "-" +
+         fmt("%.0f", w.tau_max_s) + " s, which they do not reach past or the fits do not model";
 }
 
 // What fitted curves show of a wander, in words, where they pin none (wander_to_give empty) or
@@ -397,9 +412,7 @@ void say_unit_static_use(UnitStaticRecordingUse& use, const AllanFinding& allan,
         "its Allan curves pin a wander, but a correlation time was given, which it does "
         "not override";
   } else if (allan.wander) {
-    use.why = "its Allan curves pin a wander of correlation time " +
-              fmt("%.0f", allan.wander->tau_min_s) + "-" + fmt("%.0f", allan.wander->tau_max_s) +
-              " s, which they do not reach past or the fits do not model";
+    use.why = untaken_wander_words(*allan.wander);
   } else if (taken.specified_from == kWanderFromRecording) {
     use.why += "; this recording's own long interval pins a wander, weighted with instead";
   } else if (result.sigmas_allowance_allan_curves_from == kWanderFromRecording) {
@@ -409,10 +422,8 @@ void say_unit_static_use(UnitStaticRecordingUse& use, const AllanFinding& allan,
   } else if (allan.wander_curves && first.sigmas_allow_wander_up_to_ug <= 0) {
     use.why += ", and this run's sigmas allow for none they could bound";
   } else if (allan.wander_curves) {
-    const std::vector<double>& grid_s = taken.estimate.tau_grid_s;
     use.why += ", but end before the shortest correlation time the fits model (" +
-               fmt("%.0f", grid_s.empty() ? 0.0 : *std::min_element(grid_s.begin(), grid_s.end())) +
-               " s): record longer";
+               fmt("%.0f", shortest_model_tau_s(taken)) + " s): record longer";
   }
 }
 
@@ -430,28 +441,19 @@ UnitStaticAllan unit_static_allan(const RawInput& s, const Vec3& ug_per_unit,
   if (d.intervals.empty())
     throw std::runtime_error(s.source + ": no static interval in the unit's static recording (" +
                              d.how + ")");
-  const double period_s = 1.0 / s.sample_rate_hz;
-  const DwellAllan a = allan_in_ug(d, ug_per_unit, period_s);
-  const std::vector<std::vector<AllanPoint>> axes{a.curves[0], a.curves[1], a.curves[2]};
-  UnitStaticAllan out{{a.sample_period_s, a.segments, a.figures, std::nullopt, std::nullopt,
-                       a.gaps.warning(kStaticIntervals), std::nullopt},
-                      {}};
+  const DwellAllan a = allan_in_ug(d, ug_per_unit, 1.0 / s.sample_rate_hz);
+  std::optional<GaussMarkovAllanFit> fit;
+  UnitStaticAllan out{fitted_allan_finding(a, true, true, &fit), {}};
   out.use.source = s.source;
   for (const StaticInterval& iv : d.intervals) out.use.static_s += iv.t_end_s - iv.t_start_s;
-  out.use.curves_end_s = curves_end_s(axes);
-  if (a.gaps.too_much()) {
+  out.use.curves_end_s = curves_end_s({a.curves[0], a.curves[1], a.curves[2]});
+  if (a.gaps.too_much())
     out.use.why = out.allan.gaps_warning;
-    return out;
-  }
-  const std::optional<GaussMarkovAllanFit> fit = fit_gauss_markov_allan(axes, period_s);
-  if (!fit) {
+  else if (!fit)
     out.use.why = "its Allan curves are too short to fit";
-    return out;
-  }
-  out.allan.wander = wander_to_give(*fit, out.use.curves_end_s);
-  out.allan.wander_curves = wander_curves(*fit, axes, period_s);
-  out.use.why = out.allan.wander ? "its Allan curves pin a wander"
-                                 : curves_show_words(*fit, out.use.curves_end_s);
+  else
+    out.use.why = out.allan.wander ? "its Allan curves pin a wander"
+                                   : curves_show_words(*fit, out.use.curves_end_s);
   return out;
 }
 
@@ -464,10 +466,8 @@ UnitStaticRecordingUse take_static_recording_wander(FitNoiseOptions& options,
     use.wander = given_wander(*unit_static.allan.wander);
   } else if (!may_take_recording_wander(options)) {
     use.why = kGivenWords;
-  } else if (const std::optional<WanderToGive>& w = unit_static.allan.wander) {
-    use.why = "its Allan curves pin a wander of correlation time " + fmt("%.0f", w->tau_min_s) +
-              "-" + fmt("%.0f", w->tau_max_s) +
-              " s, which they do not reach past or the fits do not model";
+  } else if (unit_static.allan.wander) {
+    use.why = untaken_wander_words(*unit_static.allan.wander);
   } else if (unit_static.allan.wander_curves) {
     use.why +=
         ": a stand fit's sigmas average over no wander sizes it cannot exclude, so there is "

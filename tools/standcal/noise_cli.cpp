@@ -167,10 +167,7 @@ std::string short_correlation_words(const GaussMarkovAllanFit& f) {
 // norm fit's sigmas allow for (take_wander_curves): how to give them.
 std::string bound_words(const GaussMarkovAllanFit& f, double curve_end_s, const DwellGaps& gaps,
                         const std::string& recording) {
-  const std::vector<double>& grid_s = NoiseEstimateOptions{}.tau_grid_s;
-  if (!f.describes_curves || gaps.too_much() ||
-      curve_end_s < *std::min_element(grid_s.begin(), grid_s.end()))
-    return "";
+  if (!f.describes_curves || gaps.too_much() || curve_end_s < shortest_model_tau_s({})) return "";
   return "\nthe norm fit (recordings without angles) takes this recording as the unit's: "
          "standcal fit RECORDING --method norm --unit-static-recording " +
          recording + ", where it bounds the wander the fit's sigmas allow for";
