@@ -849,15 +849,26 @@ bool take_unit_wander(FitNoiseOptions& options, const Recording& rec,
   return take_header_wander(options, rec) || take_recording_wander(options, allan);
 }
 
-std::string unit_wander_advice(const NoiseFinding& n) {
+std::string unit_wander_advice(const NoiseFinding& n, bool static_recording_given) {
   if (n.model != "gauss_markov" || n.source != "estimated" || n.unit_wander_given) return "";
   // Measured: the biases' z-variance 0.23-5.0 with the wander estimated from one
   // quarter-hour run (tau 60-1200 s), 0.89-1.04 given what `standcal noise` measures of an
   // 8-hour static recording (docs/calibration.md, "Monte Carlo" and "The whole workflow").
-  return "the sigmas rest on a wander estimated from this run alone, which one run pins "
-         "poorly (its correlation time most): give the unit's, as `standcal noise` measures it "
-         "on a static recording of about 100 x its correlation time (8 h for 300 s), with "
-         "--bias-instability-ug, --bias-instability-tau-s and --bias-instability-tau-max-s";
+  const std::string why =
+      "the sigmas rest on a wander estimated from this run alone, which one "
+      "run pins poorly (its correlation time most): ";
+  const std::string options =
+      "--bias-instability-ug, --bias-instability-tau-s and --bias-instability-tau-max-s";
+  if (static_recording_given)
+    return why +
+           "the unit's static recording given did not pin one (below); give one of about 100 x "
+           "the correlation time (8 h for 300 s), whose Allan curves pin it, or in its place "
+           "the unit's measured wander with " +
+           options;
+  return why +
+         "give the unit's, as `standcal noise` measures it on a static recording of about "
+         "100 x its correlation time (8 h for 300 s), with " +
+         options;
 }
 
 double KnownTau::centre_s() const { return std::sqrt(min_s * max_s); }

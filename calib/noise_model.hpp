@@ -456,8 +456,10 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const Eigen::
 
 // Where the fit weighted with a wander estimated from the run alone (no size of the unit's
 // given), the advice a report prints beneath its noise line: how to give the unit's
-// measured wander instead. Empty otherwise.
-std::string unit_wander_advice(const NoiseFinding& n);
+// measured wander instead. Empty otherwise. `static_recording_given`: the unit's static
+// recording was given and did not pin the wander, and the command refuses
+// --bias-instability-* beside it, so the advice says what would.
+std::string unit_wander_advice(const NoiseFinding& n, bool static_recording_given);
 
 // The peak of the Allan deviation of a Gauss-Markov process (q, tau): the "bias
 // instability floor" an Allan plot of this wander would show, and the averaging time at

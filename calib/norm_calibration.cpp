@@ -212,7 +212,7 @@ std::string allowed_wander_words(const NoiseFinding& n, bool static_given) {
   std::string out = "; the sigmas allow for a bias wander of up to " +
                     fmt("%.3g", n.sigmas_allow_wander_up_to_ug) + " ug that these intervals" +
                     curves + " cannot exclude";
-  if (!unit_wander_advice(n).empty() || static_given) return out;
+  if (!unit_wander_advice(n, static_given).empty() || static_given) return out;
   return out + (n.tau_given ? " (give the unit's measured wander size, --bias-instability-ug, "
                               "to narrow them)"
                             : " (give the unit's measured wander, --bias-instability-ug with "
@@ -445,6 +445,7 @@ UnitStaticAllan unit_static_allan(const RawInput& s, const Vec3& ug_per_unit,
   std::optional<GaussMarkovAllanFit> fit;
   UnitStaticAllan out{fitted_allan_finding(a, true, true, &fit), {}};
   out.use.source = s.source;
+  out.use.warnings = s.warnings;
   for (const StaticInterval& iv : d.intervals) out.use.static_s += iv.t_end_s - iv.t_start_s;
   out.use.curves_end_s = curves_end_s({a.curves[0], a.curves[1], a.curves[2]});
   if (a.gaps.too_much())
@@ -455,6 +456,17 @@ UnitStaticAllan unit_static_allan(const RawInput& s, const Vec3& ug_per_unit,
     out.use.why = out.allan.wander ? "its Allan curves pin a wander"
                                    : curves_show_words(*fit, out.use.curves_end_s);
   return out;
+}
+
+UnitStaticAllan stand_unit_static_allan(const RawInput& s, double g_mps2) {
+  if (s.units == InputUnits::counts)
+    throw std::runtime_error(
+        s.source +
+        ": the unit's static recording is in counts, which the stand methods cannot put in ug: "
+        "record it in g or m/s^2, or use it with a recording without angles (the norm fit "
+        "scales it by its own compensation)");
+  const double ug_per_unit = s.units == InputUnits::g ? 1 / kUg : 1 / (g_mps2 * kUg);
+  return unit_static_allan(s, Vec3::Constant(ug_per_unit));
 }
 
 UnitStaticRecordingUse take_static_recording_wander(FitNoiseOptions& options,
@@ -477,11 +489,8 @@ UnitStaticRecordingUse take_static_recording_wander(FitNoiseOptions& options,
 }
 
 nlohmann::json unit_static_recording_json(const UnitStaticRecordingUse& u) {
-  return {{"source", u.source},
-          {"static_s", u.static_s},
-          {"curves_end_s", u.curves_end_s},
-          {"gave", u.gave},
-          {"why", u.why}};
+  return {{"source", u.source}, {"static_s", u.static_s}, {"curves_end_s", u.curves_end_s},
+          {"gave", u.gave},     {"why", u.why},           {"warnings", u.warnings}};
 }
 
 std::string unit_static_recording_words(const UnitStaticRecordingUse& u) {
@@ -601,7 +610,8 @@ NormCalibration calibrate(const RawInput& in, const NormCalibrationOptions& o) {
           0,
           "nothing",
           "this recording is a table of means, with no times to weigh a wander between them",
-          {}};
+          {},
+          o.unit_static_recording->warnings};
     return c;
   }
   c.detection = detect_static_intervals(in, o.detector);
@@ -698,6 +708,8 @@ std::string format_norm_report(const NormCalibration& c, const RawInput& in) {
     out += "            " + std::to_string(c.detection.saturated_samples) +
            " samples at the converter's limits excluded\n";
   for (const std::string& w : in.warnings) out += "WARNING:    " + w + "\n";
+  if (c.unit_static_recording)
+    for (const std::string& w : c.unit_static_recording->warnings) out += "WARNING:    " + w + "\n";
   out += "\nCompensation f = M (raw - b), M = T K (value +- 1 sigma):\n";
   const char* axes = "xyz";
   for (int a = 0; a < 3; ++a)
@@ -725,10 +737,11 @@ std::string format_norm_report(const NormCalibration& c, const RawInput& in) {
          fmt("%.2f", f.result.chi2_dof) + " (redundancy " + std::to_string(f.result.redundancy) +
          ")\n";
   out += "Noise:      " + wander_words(f.result.noise, c.unit_static_recording.has_value()) + "\n";
-  if (const std::string advice = unit_wander_advice(f.result.noise); !advice.empty())
+  const std::optional<UnitStaticRecordingUse>& unit_static = c.unit_static_recording;
+  if (const std::string advice = unit_wander_advice(f.result.noise, unit_static.has_value());
+      !advice.empty())
     out += "            " + advice + "\n";
-  if (const std::optional<UnitStaticRecordingUse>& u = c.unit_static_recording)
-    out += "            " + unit_static_recording_words(*u) + "\n";
+  if (unit_static) out += "            " + unit_static_recording_words(*unit_static) + "\n";
   out += "            within an interval, white noise would understate a mean's error by x" +
          fmt("%.2f", c.understated_by[0]) + ", x" + fmt("%.2f", c.understated_by[1]) + ", x" +
          fmt("%.2f", c.understated_by[2]) + " (" + c.detection.standard_errors_how + ")\n";

@@ -43,6 +43,7 @@ struct UnitStaticRecordingUse {
   std::string gave = "nothing";
   std::string why;     // in words: what its curves show, and why that gave what it gave
   GivenWander wander;  // "wander": the one it gave (its size and correlation times)
+  std::vector<std::string> warnings;  // its reader's, each naming the file
 };
 
 // A static recording of the unit, its curves in ug (`ug_per_unit`: per input unit) fitted once:
@@ -56,6 +57,10 @@ struct UnitStaticAllan {
 };
 UnitStaticAllan unit_static_allan(const RawInput& recording, const Vec3& ug_per_unit,
                                   const StaticDetectorOptions& detector = {});
+// The same for a stand fit or diagnosis: its curves in ug (g, or m/s^2 over the stand
+// recording's g). A recording in counts is refused: it has no scale without the norm fit's
+// compensation.
+UnitStaticAllan stand_unit_static_allan(const RawInput& recording, double g_mps2);
 // The stand fits' use of it (`standcal fit --unit-static-recording` with a stand method): the
 // wander its curves pin, as the unit's where nothing of it is given (take_recording_wander,
 // kWanderFromStaticRecording). Curves that show none give them nothing: their sigmas average

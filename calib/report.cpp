@@ -95,8 +95,8 @@ void append_strong_correlations(std::string& out, const FitResult& fit) {
 }  // namespace
 
 ReportContext report_context(const Recording& rec, std::vector<PositionAverage> averages) {
-  return {rec.source,        rec.unit_serial, rec.program,        rec.g_local_mps2,
-          rec.g_from_header, rec.warnings,    std::move(averages)};
+  return {rec.source,        rec.unit_serial, rec.program,         rec.g_local_mps2,
+          rec.g_from_header, rec.warnings,    std::move(averages), {}};
 }
 
 json noise_finding_json(const NoiseFinding& n) {
@@ -209,7 +209,7 @@ namespace {
 
 // How the correlation time was come by: given, or the range one run allows, on which the
 // biases' sigmas depend several-fold (docs/calibration.md, "Noise model").
-std::string tau_words(const NoiseFinding& n) {
+std::string tau_words(const NoiseFinding& n, bool static_recording_given) {
   const char* given_as = n.unit_wander_from == kWanderFromRecording ? " (the long dwell allows "
                          : n.unit_wander_from == kWanderFromStaticRecording
                              ? " (the unit's static recording allows "
@@ -219,10 +219,14 @@ std::string tau_words(const NoiseFinding& n) {
            format("%.0f", n.tau_given_max_s) + " s; the biases' sigmas allow for it)";
   if (n.tau_given) return " (given)";
   if (n.tau_plausible_max_s <= n.tau_plausible_min_s) return "";
+  // Beside a static recording the command refuses --bias-instability-*.
   return " (this run allows " + format("%.0f", n.tau_plausible_min_s) + "-" +
          format("%.0f", n.tau_plausible_max_s) +
-         " s, and the biases' sigmas lean on it: give the unit's correlation time, "
-         "--bias-instability-tau-s or standcald's unit.bias_instability_tau_s)";
+         " s, and the biases' sigmas lean on it: give the unit's correlation time, " +
+         (static_recording_given
+              ? "as a static recording of the unit whose Allan curves pin it, or in its place "
+                "--bias-instability-tau-s)"
+              : "--bias-instability-tau-s or standcald's unit.bias_instability_tau_s)");
 }
 
 // The samples' own correlation within a dwell, where the Allan curves show one.
@@ -238,7 +242,7 @@ std::string sample_correlation_words(const NoiseFinding& n) {
 }  // namespace
 
 // One line on the noise the fit weighted with, in the engineer's words.
-std::string noise_line(const NoiseFinding& n) {
+std::string noise_line(const NoiseFinding& n, bool static_recording_given) {
   if (n.model != "gauss_markov") {
     if (n.lr_threshold <= 0) return "white (" + n.how + ")" + sample_correlation_words(n);
     return "white: no bias wander between dwells (2 delta log L = " + format("%.1f", n.lr) + ", " +
@@ -263,7 +267,8 @@ std::string noise_line(const NoiseFinding& n) {
                 format("%.1f", n.lr) + " of " + format("%.1f", n.lr_threshold) + "), weighted for";
   return what + ", Gauss-Markov " + format("%.2f", n.wander_ug[0]) + " / " +
          format("%.2f", n.wander_ug[1]) + " / " + format("%.2f", n.wander_ug[2]) +
-         " ug (x/y/z), tau " + format("%.0f", n.tau_s) + " s" + tau_words(n) +
+         " ug (x/y/z), tau " + format("%.0f", n.tau_s) + " s" +
+         tau_words(n, static_recording_given) +
          "; dwell means close in time share it, so they are weighted by the covariance it "
          "implies "
          "(generalised least squares); sigma/sqrt(n) understates a dwell mean's error up to " +
@@ -281,9 +286,12 @@ std::string format_report(const FitResult& fit, const ReportContext& ctx) {
          (ctx.g_from_header ? " (from the recording)" : " (ASSUMED standard gravity)") + "\n";
   out += "Estimator:  " + fit.estimator + ", " + std::to_string(fit.parameters_estimated) +
          " parameters, redundancy " + std::to_string(fit.redundancy) + "\n";
-  out += "Noise:      " + noise_line(fit.noise) + "\n";
-  if (const std::string advice = unit_wander_advice(fit.noise); !advice.empty())
+  const std::string& unit_static = ctx.unit_static_recording;
+  out += "Noise:      " + noise_line(fit.noise, !unit_static.empty()) + "\n";
+  if (const std::string advice = unit_wander_advice(fit.noise, !unit_static.empty());
+      !advice.empty())
     out += "            " + advice + "\n";
+  if (!unit_static.empty()) out += "            " + unit_static + "\n";
   for (const std::string& w : ctx.warnings) out += "WARNING:    " + w + "\n";
   out += "\nUnit parameters (value +- 1 sigma):\n";
   append_parameters(out, fit);

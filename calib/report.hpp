@@ -19,6 +19,9 @@ struct ReportContext {
   bool g_from_header = false;
   std::vector<std::string> warnings;
   std::vector<PositionAverage> averages;
+  // What the unit's static recording gave the fit, in words (unit_static_recording_words;
+  // empty where none was given): printed beneath the Noise line.
+  std::string unit_static_recording;
 };
 
 ReportContext report_context(const Recording& rec, std::vector<PositionAverage> averages);
@@ -28,6 +31,8 @@ nlohmann::json fit_to_json(const FitResult& fit);
 nlohmann::json noise_finding_json(const NoiseFinding& n);
 std::string format_report(const FitResult& fit, const ReportContext& context);
 // The report's `Noise:` line: the noise a fit weighted with, in the engineer's words.
-std::string noise_line(const NoiseFinding& n);
+// `static_recording_given`: the command was given the unit's static recording, and refuses
+// --bias-instability-* beside it, so its advice on the correlation time says what would.
+std::string noise_line(const NoiseFinding& n, bool static_recording_given);
 
 }  // namespace standcal

@@ -83,6 +83,10 @@ struct DiagnoseOptions {
   // place of sigma / sqrt(n) where it is larger. A caller that knows the noise within a
   // dwell is not white (the Allan deviation of an attitude-free recording) passes it here.
   std::vector<Vec3> dwell_standard_error_g;
+
+  // The wander the unit's static recording pinned (take_static_recording_wander: its use.wander
+  // where use.gave is "wander"), as the unit's: the terms are tested against it.
+  void give_static_recording_wander(const GivenWander& w);
 };
 
 // A trend of the baseline's normalised residuals against one variable, per axis.

@@ -307,3 +307,13 @@ std::string noise_words(const NoiseFinding& n) {
 }
 
 }  // namespace standcal::diagnosis
+
+namespace standcal {
+
+void DiagnoseOptions::give_static_recording_wander(const GivenWander& w) {
+  specified_wander = w.specified();
+  known_tau = w.known_tau;
+  specified_wander_from = kWanderFromStaticRecording;
+}
+
+}  // namespace standcal

@@ -4,12 +4,14 @@
 // where, with what traceability; each parameter as value ± U (k = 2) with its pass/fail
 // and margin under the stated decision rule; the compensation to load; residual plots per
 // position and axis; and the diagnosis verdict when one was run. Contents: docs/certificate.md.
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "calib/compensation.hpp"
 #include "calib/fit_result.hpp"
+#include "calib/norm_calibration.hpp"
 #include "calib/position_average.hpp"
 #include "calib/report.hpp"
 #include "calib/traceability.hpp"
@@ -47,6 +49,8 @@ struct CertificateInput {
   std::optional<records::ConformityReport> conformity;
   std::optional<CertificateDiagnosis> diagnosis;
   std::vector<std::string> warnings;  // recording warnings, missing traceability, ...
+  // What the unit's static recording gave the fits, where one was given.
+  std::optional<UnitStaticRecordingUse> unit_static_recording;
   double coverage_factor = records::kDefaultCoverageFactor;
   std::string issued_utc;  // when the certificate was made
   std::string issuing_software_version;
@@ -70,6 +74,10 @@ struct CertificateRequest {
   // nothing of the unit's wander, the one the recording's header says its run was made with,
   // else its own long dwell's (take_unit_wander): the run's result weighed with the same.
   FitNoiseOptions noise;
+  // `--unit-static-recording`: a long static recording of the unit (g or m/s^2), whose pinned
+  // wander the fits take after the header's and before the recording's own long dwell's, and
+  // the diagnosis tests against (take_static_recording_wander). Null: none.
+  std::shared_ptr<const RawInput> unit_static_recording;
 };
 
 // Loads the run (or recording), refits it, applies the limits and the diagnosis. Throws

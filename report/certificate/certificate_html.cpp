@@ -248,7 +248,12 @@ std::string results_section(const CertificateInput& in) {
            ").";
   // What every sigma and U on the page rests on: the unit's wander given, found or none.
   out += "</p>\n<p id=\"noise-model\"><b>Noise model.</b> The uncertainties rest on: " +
-         html_escape(noise_line(in.fit.noise)) + ".";
+         html_escape(noise_line(in.fit.noise, in.unit_static_recording.has_value())) + ".";
+  if (in.unit_static_recording) {
+    std::string words = unit_static_recording_words(*in.unit_static_recording);
+    words[0] = 'T';  // "the unit's static recording …" opens a sentence here
+    out += " " + html_escape(words) + ".";
+  }
   out += "</p>\n<h2>Decision rule</h2>\n<p id=\"rule\">" +
          html_escape(records::decision_rule_text(in.coverage_factor, in.budget.has_value())) +
          (in.budget ? std::string(" The budget is below; k differs from parameter to parameter.")

@@ -176,8 +176,17 @@ CertificateInput prepare_certificate(const CertificateRequest& req) {
           : default_certificate_number(in.lab ? in.lab->certificate_prefix : "SC", in.issued_utc,
                                        in.trace.unit_serial);
 
+  // Nothing of the unit's wander given: the header's, else the one the unit's static recording
+  // pins, else the one the recording's own long dwell pins (as `standcal fit`).
   FitNoiseOptions noise = req.noise;
-  take_unit_wander(noise, run.recording, averaged.allan);
+  take_header_wander(noise, run.recording);
+  if (req.unit_static_recording) {
+    in.unit_static_recording = take_static_recording_wander(
+        noise, stand_unit_static_allan(*req.unit_static_recording, run.recording.g_local_mps2));
+    const std::vector<std::string>& w = in.unit_static_recording->warnings;
+    in.warnings.insert(in.warnings.end(), w.begin(), w.end());
+  }
+  take_recording_wander(noise, averaged.allan);
   in.invariant = fit_invariant_joint(in.positions, noise);
   in.invariant->noise.allan = averaged.allan;
   try {
@@ -231,6 +240,8 @@ CertificateInput prepare_certificate(const CertificateRequest& req) {
     DiagnoseOptions options;
     options.specified_wander = req.noise.specified;
     options.known_tau = req.noise.known_tau;
+    if (in.unit_static_recording && in.unit_static_recording->gave == "wander")
+      options.give_static_recording_wander(in.unit_static_recording->wander);
     const Diagnosis d = diagnose_recording(run.recording, options);
     in.diagnosis =
         CertificateDiagnosis{d.verdict, d.summary, d.located, "run for this certificate"};

@@ -683,6 +683,43 @@ TEST_F(Cli, TheNormFitTakesTheUnitsStaticRecording) {
       "--noise white weighs no wander");
 }
 
+// A static recording that pins no wander, beside a run that shows one: the advice is in the
+// command's terms (it refuses --bias-instability-* beside the static recording), and the static
+// file's reader warnings are in the report and the JSON, stand fit and norm fit alike.
+TEST_F(Cli, AStaticRecordingThatPinsNoWanderIsAdvisedOnInTheCommandsTerms) {
+  const std::string still = static_recording("still", 7200, 300, 4, 0);
+  std::ofstream(still, std::ios::app) << "7200.05,0";  // a last line cut off mid-write
+  nlohmann::json wander = default_model();
+  wander["noise"]["bias_instability_ug"] = 60;
+  wander["noise"]["bias_instability_tau_s"] = 60;
+  std::ofstream(path("wander_model.json")) << wander.dump(2);
+  const std::string cal = tumble_recording("cal", " --model " + path("wander_model.json"));
+  const std::string cut_off = still + ":";
+  const CliRun text = run_cli("fit " + cal + " --unit-static-recording " + still);
+  ASSERT_EQ(text.exit_code, 0) << text.output;
+  EXPECT_NE(text.output.find("the unit's static recording given did not pin one (below)"),
+            std::string::npos)
+      << text.output;
+  EXPECT_EQ(text.output.find("give the unit's, as `standcal noise` measures it"), std::string::npos)
+      << text.output;
+  EXPECT_NE(text.output.find("give the unit's correlation time, as a static recording of the "
+                             "unit whose Allan curves pin it"),
+            std::string::npos)
+      << text.output;
+  EXPECT_NE(text.output.find("WARNING:    " + cut_off), std::string::npos) << text.output;
+  for (const std::string method : {"joint", "norm"}) {
+    const CliRun json = run_cli("fit " + cal + " --method " + method + " --unit-static-recording " +
+                                still + " --json");
+    ASSERT_EQ(json.exit_code, 0) << json.output;
+    const auto u =
+        nlohmann::json::parse(json.output.substr(json.output.find('{')))["unit_static_recording"];
+    ASSERT_EQ(u["warnings"].size(), 1u) << method << u;
+    const std::string warning = u["warnings"][0].get<std::string>();
+    EXPECT_EQ(warning.rfind(cut_off, 0), 0u) << method << u;
+    EXPECT_NE(warning.find("last line has no newline"), std::string::npos) << method << u;
+  }
+}
+
 // A static recording that pins the unit's wander gives it to a stand fit as the unit's
 // (noise.unit_wander_from "static_recording"), as `standcal noise` would advise it: two hours
 // of a 3 ug wander of 60 s.

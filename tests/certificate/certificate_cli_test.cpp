@@ -14,6 +14,7 @@
 #include "tests/certificate/certificate_support.hpp"
 #include "tests/certificate/html_query.hpp"
 #include "tests/support/command.hpp"
+#include "tests/support/unit_static_recording.hpp"
 
 namespace standcal::test {
 namespace {
@@ -189,6 +190,34 @@ TEST_F(CertificateCli, CertifiesAnImportedRecording) {
   const HtmlDocument page(read_text(out));
   EXPECT_EQ(page.text("//dl[@id='traceability']/dd[@data-field='unit_serial']"), "AU-0042");
   EXPECT_EQ(page.count("//figure//svg"), 2u);
+}
+
+// The certificate's fits take the wander the unit's static recording pins, as `standcal fit`
+// does, and its noise paragraph says so; a wander given beside it is refused.
+TEST_F(CertificateCli, TakesTheWanderTheUnitsStaticRecordingPins) {
+  const std::string still = state_.file("still.csv");
+  write_recording(unit_static_recording(7200, 3, 60, 7), still);
+  const std::string recording = (run_dir_ / "recording.csv").string();
+  const std::filesystem::path out = state_.file("static.html");
+  const CommandResult r =
+      run_cli("certificate --recording " + recording + " --unit-static-recording " + still +
+              " --diagnose -o " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string noise = HtmlDocument(read_text(out)).text("//p[@id='noise-model']");
+  EXPECT_NE(noise.find("the unit's bias wander as its static recording shows it"),
+            std::string::npos)
+      << noise;
+  EXPECT_NE(noise.find("The unit's static recording " + still +
+                       " (2 h static) gave its wander: its Allan curves pin a wander of "),
+            std::string::npos)
+      << noise;
+  const CommandResult refused =
+      run_cli("certificate --recording " + recording + " --unit-static-recording " + still +
+              " --bias-instability-ug 3 -o " + out.string());
+  EXPECT_EQ(refused.exit_code, 2) << refused.output;
+  EXPECT_NE(refused.output.find("either as a static recording or as --bias-instability-*"),
+            std::string::npos)
+      << refused.output;
 }
 
 TEST_F(CertificateCli, ExplainsAWrongRequestInOneLine) {

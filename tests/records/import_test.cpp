@@ -9,6 +9,7 @@
 #include "calib/recording.hpp"
 #include "tests/records/records_test_support.hpp"
 #include "tests/support/command.hpp"
+#include "tests/support/unit_static_recording.hpp"
 
 namespace standcal::records {
 namespace {
@@ -81,6 +82,34 @@ TEST_F(ImportTest, ImportWeightsWithTheUnitsKnownBiasWanderAsFitDoes) {
       fit_to_json(fit_invariant_joint(average_positions(read_recording(a))));
   EXPECT_GT(rec.result["parameters"]["bias_x"]["sigma"].get<double>(),
             1.5 * white["parameters"]["bias_x"]["sigma"].get<double>());
+}
+
+// The wander the unit's static recording pins reaches the stored fit as it reaches
+// `standcal fit --unit-static-recording`, with what the recording gave; the methods that model
+// no wander refuse it.
+TEST_F(ImportTest, ImportTakesTheWanderTheUnitsStaticRecordingPinsAsFitDoes) {
+  const std::string a = recording("a.csv", "AU-0210", 3);
+  const std::string still = dir_.path() + "/still.csv";
+  write_recording(test::unit_static_recording(7200, 3, 60, 7), still);
+  const std::string option = " --unit-static-recording " + still;
+  const test::CommandOutcome r = standcal_cli("import " + a + " --db " + db_ + option);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const CalibrationRecord rec = open_and_migrate(db_)->history("AU-0210").at(0);
+  EXPECT_EQ(rec.result["unit_static_recording"]["gave"], "wander") << rec.result.dump(2);
+  EXPECT_EQ(rec.result["unit_static_recording"]["source"], still);
+  EXPECT_EQ(rec.result["noise"]["unit_wander_from"], "static_recording") << rec.result["noise"];
+  const test::CommandOutcome fit = standcal_cli("fit " + a + " --json" + option);
+  ASSERT_EQ(fit.exit_code, 0) << fit.output;
+  const nlohmann::json fitted = nlohmann::json::parse(fit.output);
+  EXPECT_EQ(rec.result["parameters"], fitted["parameters"]);
+  EXPECT_EQ(rec.result["noise"], fitted["noise"]);
+  const test::CommandOutcome refused =
+      standcal_cli("import " + a + " --db " + db_ + " --method paper-sequential" + option);
+  EXPECT_NE(refused.exit_code, 0) << refused.output;
+  EXPECT_NE(refused.output.find(
+                "--unit-static-recording: the paper-sequential method models no bias wander"),
+            std::string::npos)
+      << refused.output;
 }
 
 TEST_F(ImportTest, ADaemonRecordingKeepsItsRunIdStartAndStand) {

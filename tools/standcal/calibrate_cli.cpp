@@ -121,9 +121,12 @@ void fit_stand_averages(const FitOptions& o, const std::string& method, const Re
   FitNoiseOptions noise = noise_weighting(o);
   take_header_wander(noise, rec);
   std::optional<UnitStaticRecordingUse> unit_static;
-  if (!o.unit_static_recording.empty())
+  if (!o.unit_static_recording.empty()) {
     unit_static = take_static_recording_wander(
-        noise, stand_unit_static_allan(o.unit_static_recording, o.input, rec.g_local_mps2));
+        noise, stand_unit_static_allan(read_input(o.unit_static_recording, input_options(o.input)),
+                                       rec.g_local_mps2));
+    print_warnings(unit_static->warnings);
+  }
   take_recording_wander(noise, allan);
   FitResult fit = fit_with(o, method, averages, noise);
   fit.noise.allan = std::move(allan);
@@ -146,29 +149,16 @@ void fit_stand_averages(const FitOptions& o, const std::string& method, const Re
     if (unit_static) j["unit_static_recording"] = unit_static_recording_json(*unit_static);
     std::cout << json_text(j) << "\n";
   } else {
-    std::cout << format_report(fit, report_context(rec, std::move(averages)));
-    if (unit_static) std::cout << "Noise, " << unit_static_recording_words(*unit_static) << "\n";
+    ReportContext context = report_context(rec, std::move(averages));
+    if (unit_static) {
+      context.unit_static_recording = unit_static_recording_words(*unit_static);
+      context.warnings.insert(context.warnings.end(), unit_static->warnings.begin(),
+                              unit_static->warnings.end());
+    }
+    std::cout << format_report(fit, context);
     if (budget) std::cout << format_budget_summary(*budget);
   }
   if (compensation) save_compensation(*compensation, o.compensation);
-}
-
-// --unit-static-recording: for the fits that model the wander, and not beside one given
-// outright.
-void check_unit_static_recording(const FitOptions& o, const std::string& method) {
-  if (o.unit_static_recording.empty()) return;
-  if (method == "paper-sequential")
-    throw CLI::ValidationError("--unit-static-recording",
-                               "the paper-sequential method models no bias wander; use joint, "
-                               "full or norm");
-  if (o.noise.noise == "white")
-    throw CLI::ValidationError("--unit-static-recording",
-                               "--noise white weighs no wander, so the static recording would "
-                               "give the fit nothing");
-  if (o.noise.wander.bias_instability_ug > 0 || o.noise.wander.tau_given)
-    throw CLI::ValidationError("--unit-static-recording",
-                               "give the unit's wander either as a static recording or as "
-                               "--bias-instability-*, not both");
 }
 
 void run_fit(const FitOptions& o) {
@@ -179,7 +169,8 @@ void run_fit(const FitOptions& o) {
   }
   if (o.method != "norm" && streams_as_stand_recording(o.input, o.recording)) {
     const std::string method = o.method == "auto" ? "joint" : o.method;
-    check_unit_static_recording(o, method);  // before the recording is read
+    check_unit_static_recording(o.unit_static_recording, method,
+                                o.noise);  // before the recording is read
     RecordingDigest digest = digest_on_two_threads(o.recording, digest_options(o.input));
     print_warnings(digest.recording.warnings);
     print_warnings({digest.allan_warning()});
@@ -189,7 +180,7 @@ void run_fit(const FitOptions& o) {
   const RawInput in = read_input(o.recording, input_options(o.input));
   print_warnings(in.warnings);
   const std::string method = o.method != "auto" ? o.method : in.recording ? "joint" : "norm";
-  check_unit_static_recording(o, method);
+  check_unit_static_recording(o.unit_static_recording, method, o.noise);
   if (method == "norm") {
     if (!o.budget.empty()) {
       throw std::runtime_error(o.recording +
@@ -261,11 +252,10 @@ void add_calibrate_commands(CLI::App& app) {
       ->check(CLI::IsMember({"common", "per-mount"}))
       ->capture_default_str();
   add_noise_options(fit, fit_opts->noise);
-  fit->add_option("--unit-static-recording", fit_opts->unit_static_recording,
-                  "a long static recording of the same unit (hours; read as the recording is): "
-                  "the wander its Allan curves pin is taken as the unit's, or where they show "
-                  "none, they bound the wander the norm fit's sigmas allow for")
-      ->check(CLI::ExistingFile);
+  add_unit_static_recording_option(fit, fit_opts->unit_static_recording,
+                                   "the wander its Allan curves pin is taken as the unit's, or "
+                                   "where they show none, they bound the wander the norm fit's "
+                                   "sigmas allow for");
   fit->add_flag("--json", fit_opts->json, "machine-readable output");
   fit->add_option("--compensation", fit_opts->compensation,
                   "write the compensation (bias, correction matrix) as FILE.json and FILE.csv");

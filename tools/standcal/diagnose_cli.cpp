@@ -43,13 +43,6 @@ DiagnoseOptions diagnose_options(const DiagnoseCliOptions& o) {
   return d;
 }
 
-// The wander the unit's static recording pinned, as the diagnosis is given the unit's.
-void give_static_wander(const GivenWander& w, DiagnoseOptions& options) {
-  options.specified_wander = w.specified();
-  options.known_tau = w.known_tau;
-  options.specified_wander_from = kWanderFromStaticRecording;
-}
-
 // The wander the unit's static recording pins, as the one the terms are tested against: after
 // the one the recording's header gives (what its run was made with), as the fits take it.
 std::optional<UnitStaticRecordingUse> take_static_wander(const DiagnoseCliOptions& o,
@@ -61,8 +54,9 @@ std::optional<UnitStaticRecordingUse> take_static_wander(const DiagnoseCliOption
   fit.known_tau = options.known_tau;
   take_header_wander(fit, rec);
   const UnitStaticRecordingUse use = take_static_recording_wander(
-      fit, stand_unit_static_allan(o.unit_static_recording, o.input, rec.g_local_mps2));
-  if (use.gave == "wander") give_static_wander(use.wander, options);
+      fit, stand_unit_static_allan(read_input(o.unit_static_recording, input_options(o.input)),
+                                   rec.g_local_mps2));
+  if (use.gave == "wander") options.give_static_recording_wander(use.wander);
   return use;
 }
 
@@ -111,7 +105,7 @@ std::pair<Diagnosis, Recording> diagnose_input(const DiagnoseCliOptions& o,
   DiagnoseOptions options = diagnose_options(o);
   unit_static = calibration.unit_static_recording;
   if (unit_static && unit_static->gave == "wander")
-    give_static_wander(unit_static->wander, options);
+    options.give_static_recording_wander(unit_static->wander);
   Diagnosis d = diagnose_without_angles(in, calibration, options);
   return {std::move(d), calibrated_recording(in, calibration)};
 }
@@ -123,6 +117,7 @@ void run_diagnose(const DiagnoseCliOptions& o) {
                                "--bias-instability-*, not both");
   std::optional<UnitStaticRecordingUse> unit_static;
   const auto [d, rec] = diagnose_input(o, unit_static);
+  if (unit_static) print_warnings(unit_static->warnings);
   set_exit_code(diagnosis_exit_code(d.verdict));
   if (!o.report.empty()) {
     write_file_atomically(o.report, report::diagnosis_html(d, rec), "the report");
@@ -167,10 +162,9 @@ void add_diagnose_commands(CLI::App& app) {
   add_fit_wander_options(cmd, opts->wander,
                          "against which the terms are tested when the run does not show the "
                          "wander itself");
-  cmd->add_option("--unit-static-recording", opts->unit_static_recording,
-                  "a long static recording of the same unit (hours; read as the recording is): "
-                  "the wander its Allan curves pin is the one the terms are tested against")
-      ->check(CLI::ExistingFile);
+  add_unit_static_recording_option(
+      cmd, opts->unit_static_recording,
+      "the wander its Allan curves pin is the one the terms are tested against");
   cmd->callback([opts] { run_diagnose(*opts); });
 }
 

@@ -5,7 +5,6 @@
 
 #include "calib/recording_digest.hpp"
 #include "calib/text.hpp"
-#include "calib/units.hpp"
 #include "tools/cli_checks.hpp"
 
 namespace standcal::cli {
@@ -142,18 +141,30 @@ FitNoiseOptions fit_noise_options(const NoiseCliOptions& o) {
   return n;
 }
 
-UnitStaticAllan stand_unit_static_allan(const std::string& path, const InputCliOptions& input,
-                                        double g_mps2) {
-  const RawInput s = read_input(path, input_options(input));
-  print_warnings(s.warnings);
-  if (s.units == InputUnits::counts)
-    throw std::runtime_error(
-        s.source +
-        ": the unit's static recording is in counts, which the stand methods cannot put in ug: "
-        "record it in g or m/s^2, or use it with a recording without angles (the norm fit "
-        "scales it by its own compensation)");
-  const double ug_per_unit = s.units == InputUnits::g ? 1 / kUg : 1 / (g_mps2 * kUg);
-  return unit_static_allan(s, Vec3::Constant(ug_per_unit));
+void add_unit_static_recording_option(CLI::App* cmd, std::string& path, const std::string& gives) {
+  cmd->add_option(
+         "--unit-static-recording", path,
+         "a long static recording of the same unit (hours; read as the recording is): " + gives)
+      ->check(cli_checks::kUtf8Text & CLI::ExistingFile);
+}
+
+// --unit-static-recording: for the fits that model the wander, and not beside one given
+// outright.
+void check_unit_static_recording(const std::string& static_path, const std::string& method,
+                                 const NoiseCliOptions& noise) {
+  if (static_path.empty()) return;
+  if (method == "paper-sequential")
+    throw CLI::ValidationError("--unit-static-recording",
+                               "the paper-sequential method models no bias wander; use joint, "
+                               "full or norm");
+  if (noise.noise == "white")
+    throw CLI::ValidationError("--unit-static-recording",
+                               "--noise white weighs no wander, so the static recording would "
+                               "give the fit nothing");
+  if (noise.wander.bias_instability_ug > 0 || noise.wander.tau_given)
+    throw CLI::ValidationError("--unit-static-recording",
+                               "give the unit's wander either as a static recording or as "
+                               "--bias-instability-*, not both");
 }
 
 }  // namespace standcal::cli

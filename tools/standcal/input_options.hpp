@@ -63,10 +63,13 @@ void add_wander_options(CLI::App* cmd, double& sigma_ug, double& tau_s, const st
                         bool* tau_given = nullptr);
 FitNoiseOptions fit_noise_options(const NoiseCliOptions& o);
 
-// `--unit-static-recording FILE` for a stand recording's fit or diagnosis: read as the
-// recording is, its curves in ug (g, or m/s^2 over the recording's g); counts are refused,
-// having no scale without the norm fit's compensation.
-UnitStaticAllan stand_unit_static_allan(const std::string& path, const InputCliOptions& input,
-                                        double g_mps2);
+// `--unit-static-recording FILE` (the file named in the JSON and the records: UTF-8); its help
+// says what it gives the command (`gives`).
+void add_unit_static_recording_option(CLI::App* cmd, std::string& path, const std::string& gives);
+// `--unit-static-recording PATH` of `fit`, `import` and `certificate` with `method`: refused,
+// naming the option, for the paper-sequential method, with --noise white and beside
+// --bias-instability-*. Nothing where PATH is empty.
+void check_unit_static_recording(const std::string& static_path, const std::string& method,
+                                 const NoiseCliOptions& noise);
 
 }  // namespace standcal::cli

@@ -18,6 +18,8 @@
 #include "calib/full_estimator.hpp"
 #include "calib/invariant_estimator.hpp"
 #include "calib/json_text.hpp"
+#include "calib/norm_calibration.hpp"
+#include "calib/raw_input.hpp"
 #include "calib/recording.hpp"
 #include "calib/report.hpp"
 #include "calib/utc_time.hpp"
@@ -61,6 +63,7 @@ struct ImportOptions {
   std::string started_utc;
   std::string method = "joint";
   NoiseCliOptions noise;  // as `standcal fit` weights: the unit's known wander, or white
+  std::string unit_static_recording;  // as `standcal fit`'s: a long static recording of the unit
 };
 
 std::string file_text(const std::string& path) {
@@ -110,7 +113,9 @@ std::string start_of(const ImportOptions& o, const Recording& rec, const std::st
   return file_time_utc(path);
 }
 
-CalibrationRecord import_record(const ImportOptions& o, const std::string& path) {
+// `unit_static`: the unit's static recording, read once for every recording imported.
+CalibrationRecord import_record(const ImportOptions& o, const std::string& path,
+                                const RawInput* unit_static) {
   const std::string text = file_text(path);
   const Recording rec = parse_recording(text, path);
   if (rec.unit_serial.empty())
@@ -118,8 +123,15 @@ CalibrationRecord import_record(const ImportOptions& o, const std::string& path)
   std::vector<std::string> warnings = rec.warnings;
   AveragedRecording averaged = average_recording(rec);
   if (!averaged.allan_warning.empty()) warnings.push_back(averaged.allan_warning);
+  // Nothing of the unit's wander given: its header's, else the one the unit's static recording
+  // pins, else the one its own long dwell pins (as `standcal fit`).
   FitNoiseOptions noise = fit_noise_options(o.noise);
-  take_unit_wander(noise, rec, averaged.allan);  // nothing given: its header's, or its own
+  take_header_wander(noise, rec);
+  std::optional<UnitStaticRecordingUse> static_use;
+  if (unit_static)
+    static_use = take_static_recording_wander(
+        noise, stand_unit_static_allan(*unit_static, rec.g_local_mps2));
+  take_recording_wander(noise, averaged.allan);
   FitResult fit = fit_by_method(o.method, averaged.averages, noise);
   fit.noise.allan = std::move(averaged.allan);
   CalibrationRecord r;
@@ -144,15 +156,22 @@ CalibrationRecord import_record(const ImportOptions& o, const std::string& path)
   r.result["recording_path"] = r.recording_path;
   r.result["recording_warnings"] = warnings;
   r.result["import"] = json{{"source", path}, {"fingerprint", fingerprint(text)}};
+  if (static_use) r.result["unit_static_recording"] = unit_static_recording_json(*static_use);
   r.origin = "import";
   return r;
 }
 
 void run_import(const ImportOptions& o) {
+  check_unit_static_recording(o.unit_static_recording, o.method, o.noise);
+  std::optional<RawInput> unit_static;
+  if (!o.unit_static_recording.empty()) {
+    unit_static = read_input(o.unit_static_recording, input_options(InputCliOptions{}));
+    print_warnings(unit_static->warnings);
+  }
   auto db = records::open_and_migrate(o.db.empty() ? default_db() : o.db);
   int stored = 0;
   for (const std::string& path : o.recordings) {
-    const CalibrationRecord r = import_record(o, path);
+    const CalibrationRecord r = import_record(o, path, unit_static ? &*unit_static : nullptr);
     // Each begins with the file's name, as the reader's do.
     for (const json& w : r.result["recording_warnings"])
       std::fprintf(stderr, "warning: %s\n", w.get<std::string>().c_str());
@@ -279,6 +298,9 @@ void add_import_command(CLI::App& app) {
                   "when they ran, UTC (default: the recording's started_utc, else the file time)");
   cmd->add_option("--method", o->method, "joint | paper-sequential | full")->capture_default_str();
   add_noise_options(cmd, o->noise);
+  add_unit_static_recording_option(cmd, o->unit_static_recording,
+                                   "the wander its Allan curves pin is taken as the unit's where "
+                                   "a recording's header gives none");
   cmd->callback([o] { run_import(*o); });
 }
 
