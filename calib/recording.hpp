@@ -58,6 +58,9 @@ struct RecordedUnitWander {
 inline constexpr const char* kHeaderUnitWanderUg = "unit_bias_instability_ug";
 inline constexpr const char* kHeaderUnitWanderTauS = "unit_bias_instability_tau_s";
 inline constexpr const char* kHeaderUnitWanderTauMaxS = "unit_bias_instability_tau_max_s";
+// Where the wander those keys give came from, in words, when not from the configuration's
+// figures (standcald's unit.static_recording): for the reader, not read back.
+inline constexpr const char* kHeaderUnitWanderSource = "unit_bias_instability_source";
 // What a unit's wander can be, here and in standcald's unit.bias_instability_*.
 inline constexpr double kMaxUnitWanderUg = 100000;
 inline constexpr double kMinUnitWanderTauS = 1, kMaxUnitWanderTauS = 1e6;

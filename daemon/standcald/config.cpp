@@ -239,7 +239,28 @@ void read_unit(Section& top, DaemonConfig& c) {
             Section::fmt(tau_max_s) + " s is below bias_instability_tau_s (" +
                 Section::fmt(w.tau_s) + " s): the range is MIN to MAX");
   if (tau_given) w.known_tau = KnownTau{w.tau_s, tau_max_s > 0 ? tau_max_s : w.tau_s};
+  s->text("static_recording", c.unit_static_recording_file);
   s->reject_unknown();
+}
+
+// unit.static_recording, read and fitted once at start (run.g_local_mps2 puts a file in m/s^2
+// in ug): the wander its curves pin is the unit's, as `standcal fit --unit-static-recording`
+// takes it. A file that cannot be read, or has no static stretch, stops the start.
+void take_unit_static_recording(DaemonConfig& c) {
+  const std::string where = c.source + ": unit.static_recording: ";
+  if (c.unit_wander.given())
+    throw ConfigError(where +
+                      "give the unit's wander either as a static recording or as "
+                      "unit.bias_instability_*, not both");
+  try {
+    FitNoiseOptions nothing_given;
+    c.unit_static_recording = take_static_recording_wander(
+        nothing_given,
+        stand_unit_static_allan(read_input(c.unit_static_recording_file), c.g_local_mps2));
+  } catch (const std::exception& e) {
+    throw ConfigError(where + e.what());
+  }
+  if (c.unit_static_recording->gave == "wander") c.unit_wander = c.unit_static_recording->wander;
 }
 
 void read_sim(Section& top, DaemonConfig& c) {
@@ -322,6 +343,7 @@ DaemonConfig parse_config(const json& doc, const std::string& source) {
       throw ConfigError(c.source + ": run.budget: " + e.what());
     }
   }
+  if (!c.unit_static_recording_file.empty()) take_unit_static_recording(c);
   return c;
 }
 

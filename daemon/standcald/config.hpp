@@ -9,6 +9,7 @@
 #include <string>
 
 #include "calib/noise_model.hpp"
+#include "calib/norm_calibration.hpp"
 #include "calib/uncertainty_budget.hpp"
 #include "drivers/stand.hpp"
 #include "protocol/jsonrpc/paths.hpp"
@@ -103,6 +104,13 @@ struct DaemonConfig {
   // unit.bias_instability_tau_max_s when that is there too (the range `standcal noise` gives
   // from a static recording). A run's recording carries it in its header, which its fits read.
   GivenWander unit_wander;
+  // unit.static_recording: a long static recording of the unit (g or m/s^2, as `standcal
+  // noise` reads it), read and fitted once at start. Where unit.bias_instability_* is not
+  // configured (both are refused), the wander its Allan curves pin is unit_wander, and each
+  // run's header says where it came from (kHeaderUnitWanderSource). What it gave, and why, is
+  // logged at start.
+  std::string unit_static_recording_file;
+  std::optional<UnitStaticRecordingUse> unit_static_recording;
   SimSettings sim;
   AxisRange outer;  // limited ±180° unless configured
   AxisRange inner;

@@ -95,6 +95,10 @@ int run_daemon(const standcal::daemon::DaemonConfig& config) {
   spdlog::info("standcald {} starting: backend {}, state in {}", standcal::kVersion,
                hardware.description, config.state_dir);
   for (const std::string& warning : hardware.warnings) spdlog::warn("{}", warning);
+  if (const auto& u = config.unit_static_recording) {
+    spdlog::info("unit.static_recording: {}", unit_static_recording_words(*u));
+    for (const std::string& warning : u->warnings) spdlog::warn("{}", warning);
+  }
   // The records sink outlives the sequencer that feeds it; the recording and result.json
   // stay the source of truth, the database is filled from them (and retried).
   RecordsSink records(config.state_dir, config.db_url);

@@ -8,6 +8,7 @@
 #include "daemon/standcald/hardware.hpp"
 #include "daemon_process.hpp"
 #include "tests/support/command.hpp"
+#include "tests/support/unit_static_recording.hpp"
 
 using namespace standcal::daemon;
 using nlohmann::json;
@@ -87,6 +88,37 @@ TEST(DaemonConfig, TheUnitsCorrelationTimeIsAValueOrARange) {
                 {"unit", {{"bias_instability_tau_s", 700}, {"bias_instability_tau_max_s", 200}}}}),
             "lab.json: unit.bias_instability_tau_max_s: 200 s is below bias_instability_tau_s "
             "(700 s): the range is MIN to MAX");
+}
+
+// unit.static_recording is read and fitted at start: the wander its Allan curves pin is the
+// unit's; one whose curves show none gives nothing; beside unit.bias_instability_*, or a file
+// that cannot be read, stops the start, naming the key.
+TEST(DaemonConfig, TheUnitsStaticRecordingGivesItsWanderAtStart) {
+  const std::string pinned = ::testing::TempDir() + "/standcal-static-pinned.csv";
+  standcal::write_recording(standcal::test::unit_static_recording(7200, 3, 60, 7), pinned);
+  const DaemonConfig c = parse_config(json{{"unit", {{"static_recording", pinned}}}}, "lab.json");
+  ASSERT_TRUE(c.unit_static_recording.has_value());
+  EXPECT_EQ(c.unit_static_recording->gave, "wander") << c.unit_static_recording->why;
+  EXPECT_NEAR(c.unit_wander.size_ug, 3, 1.2);
+  ASSERT_TRUE(c.unit_wander.known_tau.has_value());
+  EXPECT_LT(c.unit_wander.known_tau->min_s, 60 * 1.5);
+  EXPECT_GT(c.unit_wander.known_tau->max_s, 60 / 1.5);
+  EXPECT_EQ(
+      config_error(json{{"unit", {{"static_recording", pinned}, {"bias_instability_ug", 3}}}}),
+      "lab.json: unit.static_recording: give the unit's wander either as a static "
+      "recording or as unit.bias_instability_*, not both");
+  EXPECT_EQ(config_error(json{{"unit", {{"static_recording", "/nonexistent/still.csv"}}}})
+                .rfind("lab.json: unit.static_recording: /nonexistent/still.csv", 0),
+            0u)
+      << config_error(json{{"unit", {{"static_recording", "/nonexistent/still.csv"}}}});
+  const std::string still = ::testing::TempDir() + "/standcal-static-still.csv";
+  standcal::write_recording(standcal::test::unit_static_recording(7200, 0, 300, 4), still);
+  const DaemonConfig none = parse_config(json{{"unit", {{"static_recording", still}}}}, "lab.json");
+  ASSERT_TRUE(none.unit_static_recording.has_value());
+  EXPECT_EQ(none.unit_static_recording->gave, "nothing");
+  EXPECT_FALSE(none.unit_wander.given());
+  std::remove(pinned.c_str());
+  std::remove(still.c_str());
 }
 
 // run.budget is read at start: a bad file stops the daemon's start, naming the key.

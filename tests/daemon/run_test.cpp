@@ -15,6 +15,7 @@
 #include "calib/simulator.hpp"
 #include "daemon_process.hpp"
 #include "tests/support/command.hpp"
+#include "tests/support/unit_static_recording.hpp"
 
 using namespace standcal;
 using namespace std::chrono_literals;
@@ -223,6 +224,29 @@ TEST(DaemonRun, TheFitsAssumeTheUnitsConfiguredBiasWander) {
   const std::string line = run.report.substr(bias_x, run.report.find('\n', bias_x) - bias_x + 1);
   EXPECT_NE(line.find(sigma), std::string::npos)
       << "the result's bias_x sigma" << sigma << "in " << line;
+}
+
+// unit.static_recording: the wander its Allan curves pin (two hours of a 3 ug wander of 60 s) is
+// what the runs' fits weigh with; the recording's header keeps it and says where it came from,
+// the result says so, and the start is logged with what the file gave.
+TEST(DaemonRun, TheFitsTakeTheWanderTheUnitsStaticRecordingPins) {
+  const std::string pinned = ::testing::TempDir() + "/standcal-run-static-pinned.csv";
+  write_recording(test::unit_static_recording(7200, 3, 60, 7), pinned);
+  const ConfiguredRun run = run_with_configured_wander({{"static_recording", pinned}});
+  const json& noise = run.result["noise"];
+  EXPECT_EQ(noise["unit_wander_from"], "header") << noise.dump(2) << run.log;
+  EXPECT_EQ(noise["tau_given"], true) << noise.dump(2);
+  EXPECT_NEAR(run.recorded.size_ug, 3, 1.2);
+  EXPECT_GT(run.recorded.tau_s, 0);
+  ASSERT_TRUE(run.result.contains("unit_wander_source")) << run.result.dump(2);
+  EXPECT_NE(run.result["unit_wander_source"].get<std::string>().find(
+                "the unit's static recording " + pinned + " (2 h static) gave its wander"),
+            std::string::npos)
+      << run.result["unit_wander_source"];
+  EXPECT_NE(run.log.find("unit.static_recording: the unit's static recording " + pinned),
+            std::string::npos)
+      << run.log;
+  std::remove(pinned.c_str());
 }
 
 TEST(DaemonRun, TheFitsTakeTheUnitsCorrelationTimeAsARange) {
