@@ -41,6 +41,9 @@ struct DesignSettings {
   double move_rate_deg_s = 10;
   double remount_s = 600;
   MountingModel mounting = MountingModel::common_fixture;
+  // Where the noise figures came from, in words, when not given as figures (the unit's static
+  // recording); "" otherwise.
+  std::string noise_from;
   bool wander() const { return bias_instability_ug > 0; }
   KnownTau wander_tau() const;  // one value, or the range
 };

@@ -443,7 +443,8 @@ UnitStaticAllan unit_static_allan(const RawInput& s, const Vec3& ug_per_unit,
                              d.how + ")");
   const DwellAllan a = allan_in_ug(d, ug_per_unit, 1.0 / s.sample_rate_hz);
   std::optional<GaussMarkovAllanFit> fit;
-  UnitStaticAllan out{fitted_allan_finding(a, true, true, &fit), {}};
+  UnitStaticAllan out{fitted_allan_finding(a, true, true, &fit), {}, std::nullopt};
+  out.gauss_markov = fit;
   out.use.source = s.source;
   out.use.warnings = s.warnings;
   for (const StaticInterval& iv : d.intervals) out.use.static_s += iv.t_end_s - iv.t_start_s;

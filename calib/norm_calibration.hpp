@@ -54,6 +54,10 @@ struct UnitStaticRecordingUse {
 struct UnitStaticAllan {
   AllanFinding allan;
   UnitStaticRecordingUse use;
+  // The fit of white noise and one wander to its curves (ug), where they are long enough: its
+  // white_density is the white noise beside the wander, which the curves' -1/2 slope read at
+  // 1 s (allan.figures) overstates where a wander of seconds to minutes is there.
+  std::optional<GaussMarkovAllanFit> gauss_markov;
 };
 UnitStaticAllan unit_static_allan(const RawInput& recording, const Vec3& ug_per_unit,
                                   const StaticDetectorOptions& detector = {});

@@ -215,6 +215,43 @@ TEST_F(Cli, ARevisitPlanIsWrittenAsAProgrammeTheToolsReadBack) {
       0);
 }
 
+// `design --unit-static-recording`: the unit's noise as its static recording shows it (the
+// default unit's 10 ug/sqrt(Hz) and a 3 ug wander of 60 s over two hours), in place of the
+// figures, which are refused beside it; a recording that pins no wander is white noise's.
+TEST_F(Cli, DesignTakesTheNoiseTheUnitsStaticRecordingShows) {
+  const std::string pinned = static_recording("pinned", 7200, 60, 7);
+  const CliRun ev = run_cli("design evaluate paper9 --unit-static-recording " + pinned + " --json");
+  ASSERT_EQ(ev.exit_code, 0) << ev.output;
+  const auto j = nlohmann::json::parse(ev.output.substr(ev.output.find('{')));
+  // The white noise fitted beside the wander: the curves read at 1 s gave 13.4 (the wander's).
+  EXPECT_NEAR(j["noise_density_ug_rthz"].get<double>(), 10, 0.7) << j.dump(2);
+  EXPECT_NEAR(j["bias_instability_ug"].get<double>(), 3, 1.2);
+  EXPECT_LT(j["bias_instability_tau_s"].get<double>(), 60 * 1.5);
+  EXPECT_GT(j["bias_instability_tau_max_s"].get<double>(), 60 / 1.5);
+  EXPECT_NE(j["noise_from"].get<std::string>().find("the unit's static recording " + pinned +
+                                                    " (2 h static): white noise "),
+            std::string::npos)
+      << j["noise_from"];
+  const CliRun noise = run_cli("noise " + pinned);
+  EXPECT_NE(noise.output.find("the wander below raises the noise density read at 1 s; the white "
+                              "noise fitted beside it is x "),
+            std::string::npos)
+      << noise.output;
+  const CliRun still = run_cli("design compare paper9 --unit-static-recording " +
+                               static_recording("still", 7200, 300, 4, 0) + " --json");
+  ASSERT_EQ(still.exit_code, 0) << still.output;
+  const auto w = nlohmann::json::parse(still.output.substr(still.output.find('{')));
+  EXPECT_EQ(w["bias_instability_ug"].get<double>(), 0) << w["noise_from"];
+  EXPECT_NE(w["noise_from"].get<std::string>().find("no wander: its Allan curves"),
+            std::string::npos)
+      << w["noise_from"];
+  const CliRun both = run_cli("design evaluate paper9 --unit-static-recording " + pinned +
+                              " --bias-instability-ug 3");
+  EXPECT_EQ(both.exit_code, 2) << both.output;
+  for (const char* option : {"--unit-static-recording", "--bias-instability-ug", " excludes "})
+    EXPECT_NE(both.output.find(option), std::string::npos) << option << "\n" << both.output;
+}
+
 // A unit serial with a newline would inject a header line ("# mount: y") into the
 // recording: the recording writer refuses it, naming the key, and nothing is written.
 TEST_F(Cli, SimulateRefusesAUnitSerialThatWouldInjectAHeaderLine) {

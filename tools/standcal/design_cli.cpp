@@ -1,4 +1,5 @@
 // `standcal design evaluate|optimize|compare` (experiment design), issue 3.
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
@@ -13,6 +14,7 @@
 #include "calib/atomic_file.hpp"
 #include "calib/design.hpp"
 #include "calib/json_text.hpp"
+#include "calib/norm_calibration.hpp"
 #include "calib/programs.hpp"
 #include "tools/cli_checks.hpp"
 #include "tools/standcal/commands.hpp"
@@ -29,6 +31,7 @@ struct DesignFlags {
   std::string mounting = "common";
   std::string limits;
   bool json = false;
+  std::string unit_static_recording;  // in place of the noise flags
 };
 
 struct EvaluateOptions {
@@ -69,6 +72,13 @@ void add_design_flags(CLI::App* cmd, DesignFlags& f) {
                   "range `standcal noise` gives): the predicted sigmas are averaged over it, as "
                   "the fits given that range average theirs")
       ->check(cli_checks::kPositive);
+  CLI::Option* from_file = add_unit_static_recording_option(
+      cmd, f.unit_static_recording,
+      "the white noise and the wander it shows (`standcal noise`'s figures, the largest axis's) "
+      "in place of --noise-density-ug-rthz and --bias-instability-*");
+  for (const char* given : {"--noise-density-ug-rthz", "--bias-instability-ug",
+                            "--bias-instability-tau-s", "--bias-instability-tau-max-s"})
+    from_file->excludes(cmd->get_option(given));
   cmd->add_option("--settle-s", f.settings.settle_s, "settle time per position, s")
       ->check(cli_checks::kNonNegative)
       ->capture_default_str();
@@ -142,12 +152,59 @@ MountingModel parse_mounting(const std::string& text) {
   throw std::runtime_error("--mounting '" + text + "': expected common or per-mount");
 }
 
+std::string wander_words(const DesignSettings& s) {
+  if (!s.wander()) return "white noise only";
+  const KnownTau tau = s.wander_tau();
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "bias wander %.3g ug (Gauss-Markov, tau %s%s)",
+                s.bias_instability_ug, tau.seconds().c_str(),
+                tau.range() ? ": the sigmas averaged over the range" : "");
+  return buf;
+}
+
+// --unit-static-recording: the white noise and the wander the unit's static recording shows, as
+// `standcal noise` measures them (the largest axis's; a wander only where its Allan curves pin
+// one), in place of the flags'. Said on stderr, and in the JSON's noise_from.
+void take_static_recording_noise(const std::string& path, DesignSettings& s) {
+  const RawInput in = read_input(path, input_options(InputCliOptions{}));
+  print_warnings(in.warnings);
+  const UnitStaticAllan a = stand_unit_static_allan(in, in.g_mps2);
+  // The white noise fitted beside the wander; the curves' reading at 1 s where none was fitted.
+  double density = 0;
+  if (a.gauss_markov)
+    for (double n : a.gauss_markov->white_density) density = std::max(density, n);
+  else
+    for (const NoiseFigures& f : a.allan.figures)
+      if (f.white_density) density = std::max(density, *f.white_density);
+  if (!(density > 0))
+    throw std::runtime_error(path + ": the unit's static recording gives no white noise density (" +
+                             a.use.why + ")");
+  s.noise_density_ug_rthz = density;
+  s.bias_instability_ug = 0;
+  s.bias_instability_tau_max_s = 0;
+  char white[96];
+  std::snprintf(white, sizeof white, "white noise %.3g ug/sqrt(Hz) and ", density);
+  std::string wander = "no wander: " + a.use.why;
+  if (const std::optional<WanderToGive>& w = a.allan.wander) {
+    s.bias_instability_ug = w->q;
+    s.bias_instability_tau_s = w->tau_min_s;
+    if (w->tau_max_s > w->tau_min_s) s.bias_instability_tau_max_s = w->tau_max_s;
+    wander = wander_words(s);
+  }
+  char hours[32];
+  std::snprintf(hours, sizeof hours, "%.3g", a.use.static_s / 3600);
+  s.noise_from =
+      "the unit's static recording " + path + " (" + hours + " h static): " + white + wander;
+  std::fprintf(stderr, "noise from %s\n", s.noise_from.c_str());
+}
+
 // The settings the flags describe, the mounting parsed and the correlation time's range
 // checked as the fits check it (the design's --bias-instability-tau-s has a default, so a
 // range needs only its upper end).
 DesignSettings settings_of(const DesignFlags& f) {
   DesignSettings s = f.settings;
   s.mounting = parse_mounting(f.mounting);
+  if (!f.unit_static_recording.empty()) take_static_recording_noise(f.unit_static_recording, s);
   WanderCliOptions as_fits_take_it;
   as_fits_take_it.bias_instability_tau_s = s.bias_instability_tau_s;
   as_fits_take_it.bias_instability_tau_max_s = s.bias_instability_tau_max_s;
@@ -195,22 +252,13 @@ std::string format_time(const BenchTime& t) {
   return buf;
 }
 
-std::string wander_words(const DesignSettings& s) {
-  if (!s.wander()) return "white noise only";
-  const KnownTau tau = s.wander_tau();
-  char buf[200];
-  std::snprintf(buf, sizeof buf, "bias wander %.3g ug (Gauss-Markov, tau %s%s)",
-                s.bias_instability_ug, tau.seconds().c_str(),
-                tau.range() ? ": the sigmas averaged over the range" : "");
-  return buf;
-}
-
 // The wander as the JSON states it: its correlation time's upper end null when one value.
 void add_wander_json(json& j, const DesignSettings& s) {
   j["bias_instability_ug"] = s.bias_instability_ug;
   j["bias_instability_tau_s"] = s.bias_instability_tau_s;
   j["bias_instability_tau_max_s"] =
       s.wander_tau().range() ? json(s.bias_instability_tau_max_s) : json(nullptr);
+  if (!s.noise_from.empty()) j["noise_from"] = s.noise_from;
 }
 
 void print_json(const json& j) { std::cout << json_text(j) << "\n"; }

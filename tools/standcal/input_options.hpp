@@ -65,7 +65,8 @@ FitNoiseOptions fit_noise_options(const NoiseCliOptions& o);
 
 // `--unit-static-recording FILE` (the file named in the JSON and the records: UTF-8); its help
 // says what it gives the command (`gives`).
-void add_unit_static_recording_option(CLI::App* cmd, std::string& path, const std::string& gives);
+CLI::Option* add_unit_static_recording_option(CLI::App* cmd, std::string& path,
+                                              const std::string& gives);
 // `--unit-static-recording PATH` of `fit`, `import` and `certificate` with `method`: refused,
 // naming the option, for the paper-sequential method, with --noise white and beside
 // --bias-instability-*. Nothing where PATH is empty.
