@@ -463,9 +463,9 @@ UnitStaticAllan stand_unit_static_allan(const RawInput& s, double g_mps2) {
   if (s.units == InputUnits::counts)
     throw std::runtime_error(
         s.source +
-        ": the unit's static recording is in counts, which the stand methods cannot put in ug: "
-        "record it in g or m/s^2, or use it with a recording without angles (the norm fit "
-        "scales it by its own compensation)");
+        ": the unit's static recording is in counts, which have no scale to ug here: record it "
+        "in g or m/s^2 (only the norm fit of a recording without angles scales counts, by its "
+        "own compensation)");
   const double ug_per_unit = s.units == InputUnits::g ? 1 / kUg : 1 / (g_mps2 * kUg);
   return unit_static_allan(s, Vec3::Constant(ug_per_unit));
 }
@@ -486,6 +486,16 @@ UnitStaticRecordingUse take_static_recording_wander(FitNoiseOptions& options,
         ": a stand fit's sigmas average over no wander sizes it cannot exclude, so there is "
         "nothing for them to bound";
   }
+  return use;
+}
+
+std::optional<UnitStaticRecordingUse> take_unit_wander_with_static_recording(
+    FitNoiseOptions& options, const Recording& rec, const std::optional<AllanFinding>& allan,
+    const UnitStaticAllan* unit_static) {
+  take_header_wander(options, rec);
+  std::optional<UnitStaticRecordingUse> use;
+  if (unit_static) use = take_static_recording_wander(options, *unit_static);
+  take_recording_wander(options, allan);
   return use;
 }
 

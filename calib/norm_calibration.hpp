@@ -71,6 +71,13 @@ UnitStaticAllan stand_unit_static_allan(const RawInput& recording, double g_mps2
 // over no wander sizes (the norm fit's do). Returns what it gave and why.
 UnitStaticRecordingUse take_static_recording_wander(FitNoiseOptions& options,
                                                     const UnitStaticAllan& unit_static);
+// The stand fits' unit wander where nothing of it is given, in their order: the one the
+// recording's header gives (what its run was made with), else the one the unit's static
+// recording pins (`unit_static`, null where none was given), else the one the recording's own
+// long dwell pins (`allan`). Returns what the static recording gave, where one was given.
+std::optional<UnitStaticRecordingUse> take_unit_wander_with_static_recording(
+    FitNoiseOptions& options, const Recording& rec, const std::optional<AllanFinding>& allan,
+    const UnitStaticAllan* unit_static);
 // `unit_static_recording` in the fit JSON, and the report's line on it.
 nlohmann::json unit_static_recording_json(const UnitStaticRecordingUse& use);
 std::string unit_static_recording_words(const UnitStaticRecordingUse& use);

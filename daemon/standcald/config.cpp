@@ -260,7 +260,17 @@ void take_unit_static_recording(DaemonConfig& c) {
   } catch (const std::exception& e) {
     throw ConfigError(where + e.what());
   }
-  if (c.unit_static_recording->gave == "wander") c.unit_wander = c.unit_static_recording->wander;
+  if (c.unit_static_recording->gave != "wander") return;
+  // Each run's header carries it, and its readers refuse what unit.bias_instability_* refuses.
+  const GivenWander& w = c.unit_static_recording->wander;
+  if (w.size_ug > kMaxUnitWanderUg || w.known_tau->min_s < kMinUnitWanderTauS ||
+      w.known_tau->max_s > kMaxUnitWanderTauS)
+    throw ConfigError(where + "its Allan curves pin a wander of " + number_text(w.size_ug) +
+                      " ug at " + w.known_tau->seconds() +
+                      ", outside what unit.bias_instability_* allows (up to " +
+                      number_text(kMaxUnitWanderUg) + " ug, " + number_text(kMinUnitWanderTauS) +
+                      "-" + number_text(kMaxUnitWanderTauS) + " s)");
+  c.unit_wander = w;
 }
 
 void read_sim(Section& top, DaemonConfig& c) {

@@ -179,14 +179,15 @@ CertificateInput prepare_certificate(const CertificateRequest& req) {
   // Nothing of the unit's wander given: the header's, else the one the unit's static recording
   // pins, else the one the recording's own long dwell pins (as `standcal fit`).
   FitNoiseOptions noise = req.noise;
-  take_header_wander(noise, run.recording);
-  if (req.unit_static_recording) {
-    in.unit_static_recording = take_static_recording_wander(
-        noise, stand_unit_static_allan(*req.unit_static_recording, run.recording.g_local_mps2));
+  std::optional<UnitStaticAllan> static_allan;
+  if (req.unit_static_recording)
+    static_allan = stand_unit_static_allan(*req.unit_static_recording, run.recording.g_local_mps2);
+  in.unit_static_recording = take_unit_wander_with_static_recording(
+      noise, run.recording, averaged.allan, static_allan ? &*static_allan : nullptr);
+  if (in.unit_static_recording) {
     const std::vector<std::string>& w = in.unit_static_recording->warnings;
     in.warnings.insert(in.warnings.end(), w.begin(), w.end());
   }
-  take_recording_wander(noise, averaged.allan);
   in.invariant = fit_invariant_joint(in.positions, noise);
   in.invariant->noise.allan = averaged.allan;
   try {

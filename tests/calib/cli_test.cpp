@@ -217,7 +217,8 @@ TEST_F(Cli, ARevisitPlanIsWrittenAsAProgrammeTheToolsReadBack) {
 
 // `design --unit-static-recording`: the unit's noise as its static recording shows it (the
 // default unit's 10 ug/sqrt(Hz) and a 3 ug wander of 60 s over two hours), in place of the
-// figures, which are refused beside it; a recording that pins no wander is white noise's.
+// figures, which are refused beside it; a recording that shows no wander is white noise's, one
+// that sees a wander it does not pin is refused.
 TEST_F(Cli, DesignTakesTheNoiseTheUnitsStaticRecordingShows) {
   const std::string pinned = static_recording("pinned", 7200, 60, 7);
   const CliRun ev = run_cli("design evaluate paper9 --unit-static-recording " + pinned + " --json");
@@ -245,6 +246,10 @@ TEST_F(Cli, DesignTakesTheNoiseTheUnitsStaticRecordingShows) {
   EXPECT_NE(w["noise_from"].get<std::string>().find("no wander: its Allan curves"),
             std::string::npos)
       << w["noise_from"];
+  // Half an hour of a 32 ug wander of 300 s: seen, not pinned; white noise would promise too much.
+  expect_refused(run_cli("design evaluate paper9 --unit-static-recording " +
+                         static_recording("seen", 1800, 300, 13, 31.6)),
+                 "see a wander they do not pin");
   const CliRun both = run_cli("design evaluate paper9 --unit-static-recording " + pinned +
                               " --bias-instability-ug 3");
   EXPECT_EQ(both.exit_code, 2) << both.output;

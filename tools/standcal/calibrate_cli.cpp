@@ -119,15 +119,13 @@ void fit_stand_averages(const FitOptions& o, const std::string& method, const Re
   // Nothing of the unit's wander given: the one its run was made with (the header), else the
   // one the unit's static recording pins, else the one the recording's own long dwell pins.
   FitNoiseOptions noise = noise_weighting(o);
-  take_header_wander(noise, rec);
-  std::optional<UnitStaticRecordingUse> unit_static;
-  if (!o.unit_static_recording.empty()) {
-    unit_static = take_static_recording_wander(
-        noise, stand_unit_static_allan(read_input(o.unit_static_recording, input_options(o.input)),
-                                       rec.g_local_mps2));
-    print_warnings(unit_static->warnings);
-  }
-  take_recording_wander(noise, allan);
+  std::optional<UnitStaticAllan> static_allan;
+  if (!o.unit_static_recording.empty())
+    static_allan = stand_unit_static_allan(
+        read_input(o.unit_static_recording, input_options(o.input)), rec.g_local_mps2);
+  const std::optional<UnitStaticRecordingUse> unit_static = take_unit_wander_with_static_recording(
+      noise, rec, allan, static_allan ? &*static_allan : nullptr);
+  if (unit_static) print_warnings(unit_static->warnings);
   FitResult fit = fit_with(o, method, averages, noise);
   fit.noise.allan = std::move(allan);
   std::optional<Compensation> compensation;  // made before the report takes the averages

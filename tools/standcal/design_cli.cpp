@@ -163,8 +163,10 @@ std::string wander_words(const DesignSettings& s) {
 }
 
 // --unit-static-recording: the white noise and the wander the unit's static recording shows, as
-// `standcal noise` measures them (the largest axis's; a wander only where its Allan curves pin
-// one), in place of the flags'. Said on stderr, and in the JSON's noise_from.
+// `standcal noise` measures them (the largest axis's; the wander as the fits take it from the
+// recording), in place of the flags'. Curves that see a wander the fits would not take are
+// refused: white noise alone, and the white noise fitted beside that wander, would promise too
+// much. Said on stderr, and in the JSON's noise_from.
 void take_static_recording_noise(const std::string& path, DesignSettings& s) {
   const RawInput in = read_input(path, input_options(InputCliOptions{}));
   print_warnings(in.warnings);
@@ -184,12 +186,18 @@ void take_static_recording_noise(const std::string& path, DesignSettings& s) {
   s.bias_instability_tau_max_s = 0;
   char white[96];
   std::snprintf(white, sizeof white, "white noise %.3g ug/sqrt(Hz) and ", density);
+  FitNoiseOptions nothing_given;
+  const UnitStaticRecordingUse use = take_static_recording_wander(nothing_given, a);
   std::string wander = "no wander: " + a.use.why;
-  if (const std::optional<WanderToGive>& w = a.allan.wander) {
-    s.bias_instability_ug = w->q;
-    s.bias_instability_tau_s = w->tau_min_s;
-    if (w->tau_max_s > w->tau_min_s) s.bias_instability_tau_max_s = w->tau_max_s;
+  if (use.gave == "wander") {
+    s.bias_instability_ug = use.wander.size_ug;
+    s.bias_instability_tau_s = use.wander.known_tau->min_s;
+    if (use.wander.known_tau->range()) s.bias_instability_tau_max_s = use.wander.known_tau->max_s;
     wander = wander_words(s);
+  } else if (a.gauss_markov && a.gauss_markov->wander_seen) {
+    throw std::runtime_error(path + ": " + use.why +
+                             ": record the unit longer, or give --noise-density-ug-rthz and "
+                             "--bias-instability-* as they are known");
   }
   char hours[32];
   std::snprintf(hours, sizeof hours, "%.3g", a.use.static_s / 3600);

@@ -300,11 +300,9 @@ void run_noise(const NoiseOptions& o) {
     // The -1/2 slope read at 1 s carries some of a wander of seconds to minutes.
     std::printf(
         "the wander below raises the noise density read at 1 s; the white noise fitted beside "
-        "it is x %.3g, y %.3g, z %.3g ug/rtHz: give `standcal design` that with the wander "
-        "(--noise-density-ug-rthz N and --bias-instability-*), or the recording itself if in g or "
-        "m/s^2 (--unit-static-recording %s)\n",
-        wander->white_density[0], wander->white_density[1], wander->white_density[2],
-        o.recording.c_str());
+        "it is x %.3g, y %.3g, z %.3g ug/rtHz, the one to give `standcal design "
+        "--noise-density-ug-rthz N` with the wander\n",
+        wander->white_density[0], wander->white_density[1], wander->white_density[2]);
   else
     std::printf("use the noise density with `standcal design ... --noise-density-ug-rthz N`\n");
   double curve_end_s = 0;  // the longest averaging time of any axis

@@ -9,7 +9,9 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -113,9 +115,23 @@ std::string start_of(const ImportOptions& o, const Recording& rec, const std::st
   return file_time_utc(path);
 }
 
-// `unit_static`: the unit's static recording, read once for every recording imported.
+// The unit's static recording, read once for every recording imported and fitted once for
+// every g it is put in ug with (once for a file in g).
+struct UnitStaticForImport {
+  std::optional<RawInput> file;
+  std::map<double, UnitStaticAllan> fitted;  // by g; 0 for a file in g
+
+  const UnitStaticAllan* at_g(double g_mps2) {
+    if (!file) return nullptr;
+    const double key = file->units == InputUnits::g ? 0 : g_mps2;
+    auto it = fitted.find(key);
+    if (it == fitted.end()) it = fitted.emplace(key, stand_unit_static_allan(*file, g_mps2)).first;
+    return &it->second;
+  }
+};
+
 CalibrationRecord import_record(const ImportOptions& o, const std::string& path,
-                                const RawInput* unit_static) {
+                                UnitStaticForImport& unit_static) {
   const std::string text = file_text(path);
   const Recording rec = parse_recording(text, path);
   if (rec.unit_serial.empty())
@@ -126,12 +142,8 @@ CalibrationRecord import_record(const ImportOptions& o, const std::string& path,
   // Nothing of the unit's wander given: its header's, else the one the unit's static recording
   // pins, else the one its own long dwell pins (as `standcal fit`).
   FitNoiseOptions noise = fit_noise_options(o.noise);
-  take_header_wander(noise, rec);
-  std::optional<UnitStaticRecordingUse> static_use;
-  if (unit_static)
-    static_use = take_static_recording_wander(
-        noise, stand_unit_static_allan(*unit_static, rec.g_local_mps2));
-  take_recording_wander(noise, averaged.allan);
+  const std::optional<UnitStaticRecordingUse> static_use = take_unit_wander_with_static_recording(
+      noise, rec, averaged.allan, unit_static.at_g(rec.g_local_mps2));
   FitResult fit = fit_by_method(o.method, averaged.averages, noise);
   fit.noise.allan = std::move(averaged.allan);
   CalibrationRecord r;
@@ -163,15 +175,15 @@ CalibrationRecord import_record(const ImportOptions& o, const std::string& path,
 
 void run_import(const ImportOptions& o) {
   check_unit_static_recording(o.unit_static_recording, o.method, o.noise);
-  std::optional<RawInput> unit_static;
+  UnitStaticForImport unit_static;
   if (!o.unit_static_recording.empty()) {
-    unit_static = read_input(o.unit_static_recording, input_options(InputCliOptions{}));
-    print_warnings(unit_static->warnings);
+    unit_static.file = read_input(o.unit_static_recording, input_options(InputCliOptions{}));
+    print_warnings(unit_static.file->warnings);
   }
   auto db = records::open_and_migrate(o.db.empty() ? default_db() : o.db);
   int stored = 0;
   for (const std::string& path : o.recordings) {
-    const CalibrationRecord r = import_record(o, path, unit_static ? &*unit_static : nullptr);
+    const CalibrationRecord r = import_record(o, path, unit_static);
     // Each begins with the file's name, as the reader's do.
     for (const json& w : r.result["recording_warnings"])
       std::fprintf(stderr, "warning: %s\n", w.get<std::string>().c_str());
