@@ -10,6 +10,7 @@
 #include <sstream>
 #include <string>
 
+#include "calib/diagnosis/diagnosis.hpp"
 #include "protocol/jsonrpc/exit_codes.hpp"
 #include "tests/certificate/certificate_support.hpp"
 #include "tests/certificate/html_query.hpp"
@@ -193,17 +194,27 @@ TEST_F(CertificateCli, CertifiesAnImportedRecording) {
 }
 
 // The certificate's fits take the wander the unit's static recording pins, as `standcal fit`
-// does, and its noise paragraph says so; a wander given beside it is refused.
+// does, its noise paragraph says so, and --diagnose tests against it; a wander given beside it
+// is refused.
 TEST_F(CertificateCli, TakesTheWanderTheUnitsStaticRecordingPins) {
   const std::string still = state_.file("still.csv");
   write_recording(unit_static_recording(7200, 3, 60, 7), still);
-  const std::string recording = (run_dir_ / "recording.csv").string();
+  // diagnostic32: orientations enough for the diagnosis to reach its noise step.
+  SimulationRequest run;
+  run.program = diagnostic32();
+  run.truth = default_truth();
+  run.seed = 12;
+  run.timing.dwell_s = 10;
+  run.unit_serial = "AU-0044";
+  const std::string recording = state_.file("d32.csv");
+  write_recording(simulate_run(run), recording);
   const std::filesystem::path out = state_.file("static.html");
   const CommandResult r =
       run_cli("certificate --recording " + recording + " --unit-static-recording " + still +
               " --diagnose -o " + out.string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  const std::string noise = HtmlDocument(read_text(out)).text("//p[@id='noise-model']");
+  const HtmlDocument page(read_text(out));
+  const std::string noise = page.text("//p[@id='noise-model']");
   EXPECT_NE(noise.find("the unit's bias wander as its static recording shows it"),
             std::string::npos)
       << noise;
@@ -211,6 +222,10 @@ TEST_F(CertificateCli, TakesTheWanderTheUnitsStaticRecordingPins) {
                        " (2 h static) gave its wander: its Allan curves pin a wander of "),
             std::string::npos)
       << noise;
+  // --diagnose tests the terms against the same wander.
+  const std::string diagnosis = page.text("//div[@id='diagnosis']");
+  EXPECT_NE(diagnosis.find("the unit's wander as its static recording shows it"), std::string::npos)
+      << diagnosis;
   const CommandResult refused =
       run_cli("certificate --recording " + recording + " --unit-static-recording " + still +
               " --bias-instability-ug 3 -o " + out.string());

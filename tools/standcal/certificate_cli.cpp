@@ -132,11 +132,9 @@ void run_certificate(const CertificateCliOptions& o) {
   report::CertificateRequest request = o.request;
   request.noise = fit_noise_options(o.noise);
   check_unit_static_recording(o.unit_static_recording, request.method, o.noise);
-  if (!o.unit_static_recording.empty()) {
-    request.unit_static_recording = std::make_shared<RawInput>(
-        read_input(o.unit_static_recording, input_options(InputCliOptions{})));
-    print_warnings(request.unit_static_recording->warnings);
-  }
+  if (!o.unit_static_recording.empty())
+    request.unit_static_recording =
+        std::make_shared<RawInput>(read_unit_static_recording(o.unit_static_recording));
   const report::CertificateInput input = report::prepare_certificate(request);
   const std::string html = report::render_certificate_html(input);
   write_certificate(o.output, ends_with(o.output, ".pdf") ? render_pdf(html) : html);

@@ -168,8 +168,7 @@ std::string wander_words(const DesignSettings& s) {
 // refused: white noise alone, and the white noise fitted beside that wander, would promise too
 // much. Said on stderr, and in the JSON's noise_from.
 void take_static_recording_noise(const std::string& path, DesignSettings& s) {
-  const RawInput in = read_input(path, input_options(InputCliOptions{}));
-  print_warnings(in.warnings);
+  const RawInput in = read_unit_static_recording(path);
   const UnitStaticAllan a = stand_unit_static_allan(in, in.g_mps2);
   // The white noise fitted beside the wander; the curves' reading at 1 s where none was fitted.
   double density = 0;

@@ -150,6 +150,12 @@ CLI::Option* add_unit_static_recording_option(CLI::App* cmd, std::string& path,
       ->check(cli_checks::kUtf8Text & CLI::ExistingFile);
 }
 
+RawInput read_unit_static_recording(const std::string& path) {
+  RawInput s = read_input(path, input_options(InputCliOptions{}));
+  print_warnings(s.warnings);
+  return s;
+}
+
 // --unit-static-recording: for the fits that model the wander, and not beside one given
 // outright.
 void check_unit_static_recording(const std::string& static_path, const std::string& method,

@@ -67,6 +67,10 @@ FitNoiseOptions fit_noise_options(const NoiseCliOptions& o);
 // says what it gives the command (`gives`).
 CLI::Option* add_unit_static_recording_option(CLI::App* cmd, std::string& path,
                                               const std::string& gives);
+// The unit's static recording for a command without input options of its own (`import`,
+// `certificate`, `design`): read with the defaults, its reader's warnings printed.
+RawInput read_unit_static_recording(const std::string& path);
+
 // `--unit-static-recording PATH` of `fit`, `import` and `certificate` with `method`: refused,
 // naming the option, for the paper-sequential method, with --noise white and beside
 // --bias-instability-*. Nothing where PATH is empty.

@@ -176,10 +176,8 @@ CalibrationRecord import_record(const ImportOptions& o, const std::string& path,
 void run_import(const ImportOptions& o) {
   check_unit_static_recording(o.unit_static_recording, o.method, o.noise);
   UnitStaticForImport unit_static;
-  if (!o.unit_static_recording.empty()) {
-    unit_static.file = read_input(o.unit_static_recording, input_options(InputCliOptions{}));
-    print_warnings(unit_static.file->warnings);
-  }
+  if (!o.unit_static_recording.empty())
+    unit_static.file = read_unit_static_recording(o.unit_static_recording);
   auto db = records::open_and_migrate(o.db.empty() ? default_db() : o.db);
   int stored = 0;
   for (const std::string& path : o.recordings) {
