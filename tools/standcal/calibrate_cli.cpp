@@ -167,8 +167,8 @@ void run_fit(const FitOptions& o) {
   }
   if (o.method != "norm" && streams_as_stand_recording(o.input, o.recording)) {
     const std::string method = o.method == "auto" ? "joint" : o.method;
-    check_unit_static_recording(o.unit_static_recording, method,
-                                o.noise);  // before the recording is read
+    // Before the recording is read.
+    check_unit_static_recording(o.unit_static_recording, method, o.noise);
     RecordingDigest digest = digest_on_two_threads(o.recording, digest_options(o.input));
     print_warnings(digest.recording.warnings);
     print_warnings({digest.allan_warning()});
@@ -251,7 +251,8 @@ void add_calibrate_commands(CLI::App& app) {
       ->capture_default_str();
   add_noise_options(fit, fit_opts->noise);
   add_unit_static_recording_option(fit, fit_opts->unit_static_recording,
-                                   "the wander its Allan curves pin is taken as the unit's, or "
+                                   "read as the recording is; the wander its Allan curves pin "
+                                   "is taken as the unit's, or "
                                    "where they show none, they bound the wander the norm fit's "
                                    "sigmas allow for");
   fit->add_flag("--json", fit_opts->json, "machine-readable output");

@@ -189,8 +189,9 @@ void add_certificate_commands(CLI::App& app) {
       ->capture_default_str();
   add_noise_options(cmd, opts->noise);
   add_unit_static_recording_option(cmd, opts->unit_static_recording,
-                                   "the wander its Allan curves pin is taken as the unit's where "
-                                   "the recording's header gives none, and the diagnosis tests "
+                                   "read with the default options (g or m/s^2); the wander its "
+                                   "Allan curves pin is taken as the unit's where the "
+                                   "recording's header gives none, and the diagnosis tests "
                                    "against it");
   cmd->add_flag(
       "--diagnose", opts->request.diagnose,

@@ -74,7 +74,8 @@ void add_design_flags(CLI::App* cmd, DesignFlags& f) {
       ->check(cli_checks::kPositive);
   CLI::Option* from_file = add_unit_static_recording_option(
       cmd, f.unit_static_recording,
-      "the white noise and the wander it shows (`standcal noise`'s figures, the largest axis's) "
+      "read with the default options (g or m/s^2); the white noise fitted beside its wander "
+      "and the wander it pins (the largest axis's), "
       "in place of --noise-density-ug-rthz and --bias-instability-*");
   for (const char* given : {"--noise-density-ug-rthz", "--bias-instability-ug",
                             "--bias-instability-tau-s", "--bias-instability-tau-max-s"})

@@ -164,7 +164,8 @@ void add_diagnose_commands(CLI::App& app) {
                          "wander itself");
   add_unit_static_recording_option(
       cmd, opts->unit_static_recording,
-      "the wander its Allan curves pin is the one the terms are tested against");
+      "read as the recording is; the wander its Allan curves pin is the one the terms are "
+      "tested against");
   cmd->callback([opts] { run_diagnose(*opts); });
 }
 

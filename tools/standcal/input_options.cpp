@@ -144,9 +144,8 @@ FitNoiseOptions fit_noise_options(const NoiseCliOptions& o) {
 CLI::Option* add_unit_static_recording_option(CLI::App* cmd, std::string& path,
                                               const std::string& gives) {
   return cmd
-      ->add_option(
-          "--unit-static-recording", path,
-          "a long static recording of the same unit (hours; read as the recording is): " + gives)
+      ->add_option("--unit-static-recording", path,
+                   "a long static recording of the same unit (hours): " + gives)
       ->check(cli_checks::kUtf8Text & CLI::ExistingFile);
 }
 

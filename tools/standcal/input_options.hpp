@@ -64,7 +64,7 @@ void add_wander_options(CLI::App* cmd, double& sigma_ug, double& tau_s, const st
 FitNoiseOptions fit_noise_options(const NoiseCliOptions& o);
 
 // `--unit-static-recording FILE` (the file named in the JSON and the records: UTF-8); its help
-// says what it gives the command (`gives`).
+// says how the command reads it and what it gives the command (`gives`).
 CLI::Option* add_unit_static_recording_option(CLI::App* cmd, std::string& path,
                                               const std::string& gives);
 // The unit's static recording for a command without input options of its own (`import`,

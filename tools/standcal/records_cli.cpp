@@ -309,8 +309,9 @@ void add_import_command(CLI::App& app) {
   cmd->add_option("--method", o->method, "joint | paper-sequential | full")->capture_default_str();
   add_noise_options(cmd, o->noise);
   add_unit_static_recording_option(cmd, o->unit_static_recording,
-                                   "the wander its Allan curves pin is taken as the unit's where "
-                                   "a recording's header gives none");
+                                   "read with the default options (g or m/s^2); the wander its "
+                                   "Allan curves pin is taken as the unit's where a recording's "
+                                   "header gives none");
   cmd->callback([o] { run_import(*o); });
 }
 
