@@ -798,10 +798,7 @@ bool take_recording_wander(FitNoiseOptions& options, const std::optional<AllanFi
   // at tau 60 s and 2 of 1000 at tau 300 s (bench/noise), the latter's biases' z-variance
   // 0.61-0.71 becoming 0.70-0.73 over the 1000 runs.
   if (w.curves_end_s < w.tau_max_s || w.tau_max_s < shortest_model_tau_s(options)) return false;
-  GivenWander given;
-  given.size_ug = w.q;
-  given.known_tau = KnownTau{w.tau_min_s, w.tau_max_s};
-  given.give_to(options, from);
+  given_wander_of(w).give_to(options, from);
   return true;
 }
 
@@ -827,6 +824,13 @@ void set_unit_wander_header(Recording& header, const GivenWander& w) {
   header.set_header(kHeaderUnitWanderTauS, round_trip_text(w.known_tau->min_s));
   if (w.known_tau->range())
     header.set_header(kHeaderUnitWanderTauMaxS, round_trip_text(w.known_tau->max_s));
+}
+
+GivenWander given_wander_of(const WanderToGive& pinned) {
+  GivenWander w;
+  w.size_ug = pinned.q;
+  w.known_tau = KnownTau{pinned.tau_min_s, pinned.tau_max_s};
+  return w;
 }
 
 GivenWander given_wander_of(const RecordedUnitWander& recorded) {

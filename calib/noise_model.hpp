@@ -271,6 +271,9 @@ struct GivenWander {
 // the default, which given_wander_of restores.
 void set_unit_wander_header(Recording& header, const GivenWander& w);
 GivenWander given_wander_of(const RecordedUnitWander& recorded);
+// The wander Allan curves pin (AllanFinding::wander), as the unit's: its size and the
+// correlation times the curves allow.
+GivenWander given_wander_of(const WanderToGive& pinned);
 
 // Where the fit estimates the noise and nothing of the unit's wander is given, the wander the
 // recording's header says its run was made with (standcald's unit.bias_instability_*, which

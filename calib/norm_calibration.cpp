@@ -354,18 +354,13 @@ constexpr const char* kGivenWords =
     "the unit's wander or its correlation time was given (--bias-instability-*, or the "
     "recording's header: what its run was made with), or the noise is not estimated";
 
-// What the static recording's curves pin, taken as the unit's wander.
-GivenWander given_wander(const WanderToGive& w) {
-  GivenWander g;
-  g.size_ug = w.q;
-  g.known_tau = KnownTau{w.tau_min_s, w.tau_max_s};
-  return g;
-}
-
-std::string pinned_wander_words(const WanderToGive& w) {
-  return "its Allan curves pin a wander of " + fmt("%.3g", w.q) + " ug, correlation time " +
-         fmt("%.0f", w.tau_min_s) + "-" + fmt("%.0f", w.tau_max_s) +
-         " s: weighted with as the unit's";
+// The static recording gave the wander its curves pin, weighted with as the unit's.
+void say_gave_pinned_wander(UnitStaticRecordingUse& use, const WanderToGive& w) {
+  use.gave = "wander";
+  use.why = "its Allan curves pin a wander of " + fmt("%.3g", w.q) + " ug, correlation time " +
+            fmt("%.0f", w.tau_min_s) + "-" + fmt("%.0f", w.tau_max_s) +
+            " s: weighted with as the unit's";
+  use.wander = given_wander_of(w);
 }
 
 // A wander the curves pin that take_recording_wander did not take: its times are beyond them or
@@ -394,12 +389,8 @@ std::string curves_show_words(const GaussMarkovAllanFit& fit, double end_s) {
 void say_unit_static_use(UnitStaticRecordingUse& use, const AllanFinding& allan,
                          const FitNoiseOptions& given, const FitNoiseOptions& taken,
                          const NoiseFinding& first, const NoiseFinding& result) {
-  if (result.unit_wander_given && result.unit_wander_from == kWanderFromStaticRecording) {
-    use.gave = "wander";
-    use.why = pinned_wander_words(*allan.wander);
-    use.wander = given_wander(*allan.wander);
-    return;
-  }
+  if (result.unit_wander_given && result.unit_wander_from == kWanderFromStaticRecording)
+    return say_gave_pinned_wander(use, *allan.wander);
   if (result.sigmas_allowance_allan_curves_from == kWanderFromStaticRecording) {
     use.gave = "bound";
     use.why += ": they weigh the wander the sigmas allow for";
@@ -442,9 +433,9 @@ UnitStaticAllan unit_static_allan(const RawInput& s, const Vec3& ug_per_unit,
     throw std::runtime_error(s.source + ": no static interval in the unit's static recording (" +
                              d.how + ")");
   const DwellAllan a = allan_in_ug(d, ug_per_unit, 1.0 / s.sample_rate_hz);
-  std::optional<GaussMarkovAllanFit> fit;
-  UnitStaticAllan out{fitted_allan_finding(a, true, true, &fit), {}, std::nullopt};
-  out.gauss_markov = fit;
+  UnitStaticAllan out;
+  out.allan = fitted_allan_finding(a, true, true, &out.gauss_markov);
+  const std::optional<GaussMarkovAllanFit>& fit = out.gauss_markov;
   out.use.source = s.source;
   out.use.warnings = s.warnings;
   for (const StaticInterval& iv : d.intervals) out.use.static_s += iv.t_end_s - iv.t_start_s;
@@ -474,9 +465,7 @@ UnitStaticRecordingUse take_static_recording_wander(FitNoiseOptions& options,
                                                     const UnitStaticAllan& unit_static) {
   UnitStaticRecordingUse use = unit_static.use;
   if (take_recording_wander(options, unit_static.allan, kWanderFromStaticRecording)) {
-    use.gave = "wander";
-    use.why = pinned_wander_words(*unit_static.allan.wander);
-    use.wander = given_wander(*unit_static.allan.wander);
+    say_gave_pinned_wander(use, *unit_static.allan.wander);
   } else if (!may_take_recording_wander(options)) {
     use.why = kGivenWords;
   } else if (unit_static.allan.wander) {
@@ -504,9 +493,13 @@ nlohmann::json unit_static_recording_json(const UnitStaticRecordingUse& u) {
           {"gave", u.gave},     {"why", u.why},           {"warnings", u.warnings}};
 }
 
-std::string unit_static_recording_words(const UnitStaticRecordingUse& u) {
+std::string unit_static_recording_name(const UnitStaticRecordingUse& u) {
   return "the unit's static recording " + u.source + " (" + fmt("%.3g", u.static_s / 3600) +
-         " h static) gave " +
+         " h static)";
+}
+
+std::string unit_static_recording_words(const UnitStaticRecordingUse& u) {
+  return unit_static_recording_name(u) + " gave " +
          (u.gave == "wander"  ? "its wander"
           : u.gave == "bound" ? "a bound on the wander"
                               : "nothing") +

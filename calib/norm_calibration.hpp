@@ -81,6 +81,8 @@ std::optional<UnitStaticRecordingUse> take_unit_wander_with_static_recording(
 // `unit_static_recording` in the fit JSON, and the report's line on it.
 nlohmann::json unit_static_recording_json(const UnitStaticRecordingUse& use);
 std::string unit_static_recording_words(const UnitStaticRecordingUse& use);
+// Its name in words: "the unit's static recording FILE (2 h static)".
+std::string unit_static_recording_name(const UnitStaticRecordingUse& use);
 
 // The result at another threshold, against the main one.
 struct ThresholdStability {

@@ -199,10 +199,7 @@ void take_static_recording_noise(const std::string& path, DesignSettings& s) {
                              ": record the unit longer, or give --noise-density-ug-rthz and "
                              "--bias-instability-* as they are known");
   }
-  char hours[32];
-  std::snprintf(hours, sizeof hours, "%.3g", a.use.static_s / 3600);
-  s.noise_from =
-      "the unit's static recording " + path + " (" + hours + " h static): " + white + wander;
+  s.noise_from = unit_static_recording_name(a.use) + ": " + white + wander;
   std::fprintf(stderr, "noise from %s\n", s.noise_from.c_str());
 }
 

@@ -52,11 +52,12 @@ std::optional<UnitStaticRecordingUse> take_static_wander(const DiagnoseCliOption
   FitNoiseOptions fit;
   fit.specified = options.specified_wander;
   fit.known_tau = options.known_tau;
-  take_header_wander(fit, rec);
-  const UnitStaticRecordingUse use = take_static_recording_wander(
-      fit, stand_unit_static_allan(read_input(o.unit_static_recording, input_options(o.input)),
-                                   rec.g_local_mps2));
-  if (use.gave == "wander") options.give_static_recording_wander(use.wander);
+  const UnitStaticAllan unit_static = stand_unit_static_allan(
+      read_input(o.unit_static_recording, input_options(o.input)), rec.g_local_mps2);
+  // No Allan finding of the recording's own: the diagnosis takes its long dwell's itself.
+  const std::optional<UnitStaticRecordingUse> use =
+      take_unit_wander_with_static_recording(fit, rec, std::nullopt, &unit_static);
+  if (use->gave == "wander") options.give_static_recording_wander(use->wander);
   return use;
 }
 
