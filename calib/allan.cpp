@@ -554,7 +554,10 @@ DwellAllan finish_dwell_allan(double sample_period_s, const std::array<AllanAccu
   const std::optional<GaussMarkovAllanFit> fit = fit_gauss_markov_allan(curves, sample_period_s);
   if (fit) {
     out.sample_correlation = sample_correlation_of(*fit, sample_period_s);
-    if (!gaps.too_much()) out.wander = wander_to_give(*fit, curves_end_s(curves));
+    if (!gaps.too_much()) {
+      out.wander = wander_to_give(*fit, curves_end_s(curves));
+      out.wander_curves = wander_curves(*fit, curves, sample_period_s);
+    }
   }
   return out;
 }
@@ -651,8 +654,8 @@ std::optional<AllanFinding> allan_finding(const Recording& rec, std::string* why
 }
 
 AllanFinding allan_finding_of(const DwellAllan& a) {
-  return {a.sample_period_s, a.segments,       a.figures,   a.sample_correlation,
-          a.wander,          a.gaps.warning(), std::nullopt};
+  return {a.sample_period_s, a.segments,       a.figures,      a.sample_correlation,
+          a.wander,          a.gaps.warning(), a.wander_curves};
 }
 
 std::string no_sample_period_warning(const Recording& rec) {

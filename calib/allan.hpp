@@ -333,6 +333,7 @@ struct DwellAllan {
   std::array<NoiseFigures, 3> figures;                  // ug/sqrt(Hz), ug, ug/sqrt(s)
   std::optional<SampleCorrelation> sample_correlation;  // set by finish_dwell_allan
   std::optional<WanderToGive> wander;                   // set by finish_dwell_allan (ug)
+  std::optional<WanderCurves> wander_curves;            // likewise, where they show none
 };
 // Throws std::runtime_error naming the recording when it has fewer than kMinAllanSamples.
 inline constexpr std::size_t kMinAllanSamples = 30;
@@ -354,7 +355,7 @@ struct AllanFinding {
   std::optional<WanderToGive> wander;
   std::string gaps_warning;  // DwellGaps::warning of the dwells (static intervals)
   // The curves as a likelihood of the wander (ug), where they show none (wander_curves) and no
-  // gaps distort them: what bounds the wander a norm fit's sigmas allow for.
+  // gaps distort them: what bounds the wander a fit's sigmas allow for (take_wander_curves).
   std::optional<WanderCurves> wander_curves;
 };
 AllanFinding allan_finding_of(const DwellAllan& a);

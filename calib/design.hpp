@@ -42,8 +42,10 @@ struct DesignSettings {
   double remount_s = 600;
   MountingModel mounting = MountingModel::common_fixture;
   // Where the noise figures came from, in words, when not given as figures (the unit's static
-  // recording); "" otherwise.
+  // recording); "" otherwise. Its reader's warnings, each naming the file (a last line cut off,
+  // g assumed ...): the JSON carries them beside it.
   std::string noise_from;
+  std::vector<std::string> noise_from_warnings;
   bool wander() const { return bias_instability_ug > 0; }
   KnownTau wander_tau() const;  // one value, or the range
 };

@@ -784,7 +784,14 @@ bool take_wander_curves(FitNoiseOptions& options, const std::optional<AllanFindi
   if (allan->wander_curves->curves_end_s < shortest_model_tau_s(options)) return false;
   options.wander_curves_ug = allan->wander_curves;
   options.wander_curves_from = from;
+  options.average_over_wander_sizes = true;  // the curves weigh the sizes only there
   return true;
+}
+
+bool take_recording_wander_or_bound(FitNoiseOptions& options,
+                                    const std::optional<AllanFinding>& allan) {
+  if (take_recording_wander(options, allan)) return true;
+  return !options.wander_curves_ug && take_wander_curves(options, allan);
 }
 
 bool take_recording_wander(FitNoiseOptions& options, const std::optional<AllanFinding>& allan,
@@ -851,6 +858,18 @@ bool take_header_wander(FitNoiseOptions& options, const Recording& rec) {
 bool take_unit_wander(FitNoiseOptions& options, const Recording& rec,
                       const std::optional<AllanFinding>& allan) {
   return take_header_wander(options, rec) || take_recording_wander(options, allan);
+}
+
+std::string sigmas_allowance_words(const NoiseFinding& n, const std::string& rows) {
+  if (n.sigmas_allow_wander_up_to_ug <= 0) return "";
+  const char* curves = !n.sigmas_allowance_weighs_allan_curves ? ""
+                       : n.sigmas_allowance_allan_curves_from == kWanderFromStaticRecording
+                           ? " and the unit's static recording"
+                           : " and their Allan curves";
+  char size_ug[32];
+  std::snprintf(size_ug, sizeof size_ug, "%.3g", n.sigmas_allow_wander_up_to_ug);
+  return "; the sigmas allow for a bias wander of up to " + std::string(size_ug) +
+         " ug that these " + rows + curves + " cannot exclude";
 }
 
 std::string unit_wander_advice(const NoiseFinding& n, bool static_recording_given) {

@@ -239,12 +239,12 @@ struct FitNoiseOptions {
   // wander no finding: widen the sigmas to at least their average over the wander's sizes and
   // correlation times the run allows (FitNoiseChoice::plausible_sizes). For fits whose rows
   // cannot tell white noise from a wander as large as a dwell's error (the norm fit: one row
-  // per interval).
+  // per interval), and for any fit given curves that bound the wander (below).
   bool average_over_wander_sizes = false;
-  // average_over_wander_sizes: the recording's own Allan curves (ug), where they show no
-  // wander (take_wander_curves), which weigh each size beside the rows: a long static stretch
-  // that shows no wander excludes one its curves would show (an hour's warm-up, a long first
-  // interval), and narrows the sigmas.
+  // average_over_wander_sizes: Allan curves (ug) that show no wander (take_wander_curves: the
+  // recording's own, or the unit's static recording's), which weigh each size beside the rows:
+  // a long static stretch that shows no wander excludes one its curves would show (an hour's
+  // warm-up, a long first interval, a static recording), and narrows the sigmas.
   std::optional<WanderCurves> wander_curves_ug;
   // Whose curves those are: kWanderFromRecording (this recording's own) or
   // kWanderFromStaticRecording (the unit's static recording).
@@ -281,8 +281,10 @@ GivenWander given_wander_of(const WanderToGive& pinned);
 // `certificate`, `records import`) then weigh as the run did. Returns whether it took one.
 bool take_header_wander(FitNoiseOptions& options, const Recording& rec);
 
-// The unit's wander for the fits of `rec`, where none is given: its header's, else its own
-// long dwell's (take_recording_wander). Returns whether it took one.
+// The unit's wander for `rec`, where none is given: its header's, else its own long dwell's
+// (take_recording_wander). Returns whether it took one. The diagnosis's rule (it weighs no
+// bound on a wander); the fits also take a long dwell's bound where it pins none
+// (take_recording_wander_or_bound, take_unit_wander_with_static_recording).
 bool take_unit_wander(FitNoiseOptions& options, const Recording& rec,
                       const std::optional<AllanFinding>& allan);
 
@@ -305,8 +307,9 @@ bool take_recording_wander(FitNoiseOptions& options, const std::optional<AllanFi
 // (AllanFinding::wander_curves) to weigh the wander's sizes beside the rows
 // (FitNoiseOptions::wander_curves_ug): only curves that reach the shortest correlation time
 // of the fits' wander model (estimate.tau_grid_s, 60 s, whatever time was given: a long dwell
-// or interval), since shorter ones say nothing of a wander of minutes. There the sigmas are
-// the average over the sizes alone. Pooled 10 s
+// or interval), since shorter ones say nothing of a wander of minutes. Sets
+// average_over_wander_sizes, through which alone the curves weigh (a stand fit's too), and
+// there the sigmas are the average over the sizes alone. Pooled 10 s
 // intervals (curves to 3.3 s) had, so weighed with the average replacing the Student-t
 // widening, taken a 1x wander's norm-fit biases from 0.79-0.92 to 1.10-1.27 in z-variance
 // (bench/noise --runs 1000): the runs weighted for a wander below the bar lost their
@@ -317,6 +320,11 @@ bool take_wander_curves(FitNoiseOptions& options, const std::optional<AllanFindi
 // Whether `options` leave room for that: a caller that fits the curves for it alone can skip
 // the fit otherwise.
 bool may_weigh_wander_curves(const FitNoiseOptions& options);
+// A stand fit's use of its recording's own long dwell (a warm-up): the wander its curves pin
+// (take_recording_wander), else, where they show none and no other curves bound the wander
+// already, the curves as that bound (take_wander_curves). Returns whether it took either.
+bool take_recording_wander_or_bound(FitNoiseOptions& options,
+                                    const std::optional<AllanFinding>& allan);
 // The shortest correlation time of the fits' wander model (estimate.tau_grid_s; 0 for an empty
 // grid): curves that end before it show nothing of a wander of minutes.
 double shortest_model_tau_s(const FitNoiseOptions& options);
@@ -463,6 +471,11 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const Eigen::
 // recording was given and did not pin the wander, and the command refuses
 // --bias-instability-* beside it, so the advice says what would.
 std::string unit_wander_advice(const NoiseFinding& n, bool static_recording_given);
+// Where the sigmas allow for the wanders the run cannot exclude
+// (NoiseFinding::sigmas_allow_wander_up_to_ug), what a report's noise line says of it: "; the
+// sigmas allow for a bias wander of up to Q ug that these ROWS [and the unit's static
+// recording | and their Allan curves] cannot exclude"; "" where they allow for none.
+std::string sigmas_allowance_words(const NoiseFinding& n, const std::string& rows);
 
 // The peak of the Allan deviation of a Gauss-Markov process (q, tau): the "bias
 // instability floor" an Allan plot of this wander would show, and the averaging time at

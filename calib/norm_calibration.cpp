@@ -204,14 +204,8 @@ std::string fmt(const char* f, double v) {
 // where unit_wander_advice gives its own beneath, nor where the unit's static recording was
 // given (`static_given`: the line beneath says what it gave, and why).
 std::string allowed_wander_words(const NoiseFinding& n, bool static_given) {
-  if (n.sigmas_allow_wander_up_to_ug <= 0) return "";
-  const std::string curves = !n.sigmas_allowance_weighs_allan_curves ? ""
-                             : n.sigmas_allowance_allan_curves_from == kWanderFromStaticRecording
-                                 ? " and the unit's static recording"
-                                 : " and their Allan curves";
-  std::string out = "; the sigmas allow for a bias wander of up to " +
-                    fmt("%.3g", n.sigmas_allow_wander_up_to_ug) + " ug that these intervals" +
-                    curves + " cannot exclude";
+  const std::string out = sigmas_allowance_words(n, "intervals");
+  if (out.empty()) return "";
   if (!unit_wander_advice(n, static_given).empty() || static_given) return out;
   return out + (n.tau_given ? " (give the unit's measured wander size, --bias-instability-ug, "
                               "to narrow them)"
@@ -370,6 +364,13 @@ std::string untaken_wander_words(const WanderToGive& w) {
          fmt("%.0f", w.tau_max_s) + " s, which they do not reach past or the fits do not model";
 }
 
+// Curves that show no wander but end before the shortest correlation time of the fits' model
+// (`options`): they say nothing of a wander of minutes.
+std::string curves_end_too_soon_words(const FitNoiseOptions& options) {
+  return ", but end before the shortest correlation time the fits model (" +
+         fmt("%.0f", shortest_model_tau_s(options)) + " s): record longer";
+}
+
 // What fitted curves show of a wander, in words, where they pin none (wander_to_give empty) or
 // show none.
 std::string curves_show_words(const GaussMarkovAllanFit& fit, double end_s) {
@@ -383,6 +384,24 @@ std::string curves_show_words(const GaussMarkovAllanFit& fit, double end_s) {
   return "its Allan curves (to " + fmt("%.0f", end_s) + " s) show no wander";
 }
 
+// The end of a static recording's `why` where its curves show no wander and were taken to bound
+// the one the sigmas allow for: whether they did, in the fit whose noise is `result`, or why
+// not (`rows`: the fit's, "intervals" or "dwells"). Returns whether it said one.
+bool say_curves_bound(UnitStaticRecordingUse& use, const NoiseFinding& result,
+                      const std::string& rows) {
+  if (result.sigmas_allowance_allan_curves_from == kWanderFromStaticRecording) {
+    use.gave = "bound";
+    use.why += ": they bound the wander the sigmas allow for";
+  } else if (result.bias_instability) {
+    use.why += ", but this run's " + rows + " show a wander of their own, weighted for";
+  } else if (result.sigmas_allow_wander_up_to_ug <= 0) {
+    use.why += ", and this run's sigmas allow for none they could bound";
+  } else {
+    return false;
+  }
+  return true;
+}
+
 // What the unit's static recording gave the fit (`result`: its final noise) and why, where
 // `given` are the caller's options, `taken` those the fit was made with and `first` the fit
 // without either recording's curves.
@@ -392,8 +411,7 @@ void say_unit_static_use(UnitStaticRecordingUse& use, const AllanFinding& allan,
   if (result.unit_wander_given && result.unit_wander_from == kWanderFromStaticRecording)
     return say_gave_pinned_wander(use, *allan.wander);
   if (result.sigmas_allowance_allan_curves_from == kWanderFromStaticRecording) {
-    use.gave = "bound";
-    use.why += ": they weigh the wander the sigmas allow for";
+    say_curves_bound(use, result, "intervals");
     return;
   }
   if (!may_take_recording_wander(given) && !may_weigh_wander_curves(given)) {
@@ -408,13 +426,8 @@ void say_unit_static_use(UnitStaticRecordingUse& use, const AllanFinding& allan,
     use.why += "; this recording's own long interval pins a wander, weighted with instead";
   } else if (result.sigmas_allowance_allan_curves_from == kWanderFromRecording) {
     use.why += "; this recording's own long interval bounds the wander instead";
-  } else if (allan.wander_curves && first.bias_instability) {
-    use.why += ", but this run's intervals show a wander of their own, weighted for";
-  } else if (allan.wander_curves && first.sigmas_allow_wander_up_to_ug <= 0) {
-    use.why += ", and this run's sigmas allow for none they could bound";
   } else if (allan.wander_curves) {
-    use.why += ", but end before the shortest correlation time the fits model (" +
-               fmt("%.0f", shortest_model_tau_s(taken)) + " s): record longer";
+    if (!say_curves_bound(use, first, "intervals")) use.why += curves_end_too_soon_words(taken);
   }
 }
 
@@ -461,8 +474,8 @@ UnitStaticAllan stand_unit_static_allan(const RawInput& s, double g_mps2) {
   return unit_static_allan(s, Vec3::Constant(ug_per_unit));
 }
 
-UnitStaticRecordingUse take_static_recording_wander(FitNoiseOptions& options,
-                                                    const UnitStaticAllan& unit_static) {
+UnitStaticRecordingUse take_static_recording_pinned_wander(FitNoiseOptions& options,
+                                                           const UnitStaticAllan& unit_static) {
   UnitStaticRecordingUse use = unit_static.use;
   if (take_recording_wander(options, unit_static.allan, kWanderFromStaticRecording)) {
     say_gave_pinned_wander(use, *unit_static.allan.wander);
@@ -470,12 +483,30 @@ UnitStaticRecordingUse take_static_recording_wander(FitNoiseOptions& options,
     use.why = kGivenWords;
   } else if (unit_static.allan.wander) {
     use.why = untaken_wander_words(*unit_static.allan.wander);
-  } else if (unit_static.allan.wander_curves) {
-    use.why +=
-        ": a stand fit's sigmas average over no wander sizes it cannot exclude, so there is "
-        "nothing for them to bound";
   }
   return use;
+}
+
+namespace {
+// Where its curves show no wander: them as a bound on the wander the sigmas allow for, where no
+// size of the unit's is given (take_wander_curves); `use` then says "bound" until the fit
+// settles it (settle_unit_static_use), or why not.
+void take_static_recording_bound(FitNoiseOptions& options, const UnitStaticAllan& unit_static,
+                                 UnitStaticRecordingUse& use) {
+  if (!unit_static.allan.wander_curves) return;
+  if (take_wander_curves(options, unit_static.allan, kWanderFromStaticRecording)) {
+    use.gave = "bound";
+    use.why = unit_static.use.why;
+  } else if (may_weigh_wander_curves(options)) {
+    use.why = unit_static.use.why + curves_end_too_soon_words(options);
+  }
+}
+}  // namespace
+
+void settle_unit_static_use(UnitStaticRecordingUse& use, const NoiseFinding& result) {
+  if (use.gave != "bound") return;
+  use.gave = "nothing";
+  if (!say_curves_bound(use, result, "dwells")) use.why += ", which this fit did not weigh";
 }
 
 std::optional<UnitStaticRecordingUse> take_unit_wander_with_static_recording(
@@ -483,8 +514,16 @@ std::optional<UnitStaticRecordingUse> take_unit_wander_with_static_recording(
     const UnitStaticAllan* unit_static) {
   take_header_wander(options, rec);
   std::optional<UnitStaticRecordingUse> use;
-  if (unit_static) use = take_static_recording_wander(options, *unit_static);
-  take_recording_wander(options, allan);
+  if (unit_static) use = take_static_recording_pinned_wander(options, *unit_static);
+  // A wander pinned, the static recording's then the recording's own, before either's bound.
+  if (take_recording_wander(options, allan)) {
+    if (use && unit_static->allan.wander_curves)
+      use->why += "; this recording's own long dwell pins a wander, weighted with instead";
+    return use;
+  }
+  if (use && use->gave != "wander") take_static_recording_bound(options, *unit_static, *use);
+  if (take_recording_wander_or_bound(options, allan) && use)  // its bound: no wander is left
+    use->why += "; this recording's own long dwell bounds the wander instead";
   return use;
 }
 

@@ -65,19 +65,30 @@ UnitStaticAllan unit_static_allan(const RawInput& recording, const Vec3& ug_per_
 // recording's g). A recording in counts is refused: it has no scale without the norm fit's
 // compensation.
 UnitStaticAllan stand_unit_static_allan(const RawInput& recording, double g_mps2);
-// The stand fits' use of it (`standcal fit --unit-static-recording` with a stand method): the
-// wander its curves pin, as the unit's where nothing of it is given (take_recording_wander,
-// kWanderFromStaticRecording). Curves that show none give them nothing: their sigmas average
-// over no wander sizes (the norm fit's do). Returns what it gave and why.
-UnitStaticRecordingUse take_static_recording_wander(FitNoiseOptions& options,
-                                                    const UnitStaticAllan& unit_static);
-// The stand fits' unit wander where nothing of it is given, in their order: the one the
-// recording's header gives (what its run was made with), else the one the unit's static
+// The wander its curves pin, as the unit's where nothing of it is given (take_recording_wander,
+// kWanderFromStaticRecording), and nothing else: for a caller that carries the unit's wander
+// and no curves (standcald's run headers, design). Returns what it gave and why.
+UnitStaticRecordingUse take_static_recording_pinned_wander(FitNoiseOptions& options,
+                                                           const UnitStaticAllan& unit_static);
+// The stand fits' unit wander where nothing of it is given (`standcal fit
+// --unit-static-recording` with a stand method, import, certificate), in their order: the one
+// the recording's header gives (what its run was made with), else the one the unit's static
 // recording pins (`unit_static`, null where none was given), else the one the recording's own
-// long dwell pins (`allan`). Returns what the static recording gave, where one was given.
+// long dwell pins (`allan`); where none is pinned and no size of the unit's is given, the
+// static recording's curves that show none bound the wander the sigmas allow for, else the
+// long dwell's (take_wander_curves, take_recording_wander_or_bound), as the norm fit takes
+// them: a stand fit that weighs for a wander below the bar of a finding then has its sigmas
+// averaged over the sizes this run and the curves allow, not widened by Student-t at the few
+// degrees of freedom the run leaves the wander's size. Returns what the static recording gave
+// and why, where one was given: a bound taken is settled by the fit (settle_unit_static_use).
 std::optional<UnitStaticRecordingUse> take_unit_wander_with_static_recording(
     FitNoiseOptions& options, const Recording& rec, const std::optional<AllanFinding>& allan,
     const UnitStaticAllan* unit_static);
+// After the stand fit whose noise is `result`: whether the static recording's curves, taken as
+// a bound, bounded the wander its sigmas allow for ("bound"), or why not (the run shows a
+// wander of its own; its sigmas allow for none). Every caller of
+// take_unit_wander_with_static_recording calls it before saying what the recording gave.
+void settle_unit_static_use(UnitStaticRecordingUse& use, const NoiseFinding& result);
 // `unit_static_recording` in the fit JSON, and the report's line on it.
 nlohmann::json unit_static_recording_json(const UnitStaticRecordingUse& use);
 std::string unit_static_recording_words(const UnitStaticRecordingUse& use);

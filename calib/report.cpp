@@ -248,7 +248,7 @@ std::string noise_line(const NoiseFinding& n, bool static_recording_given) {
     return "white: no bias wander between dwells (2 delta log L = " + format("%.1f", n.lr) + ", " +
            format("%.1f", n.lr_threshold) +
            " needed); each dwell mean weighted by its own standard error" +
-           sample_correlation_words(n);
+           sigmas_allowance_words(n, "dwells") + sample_correlation_words(n);
   }
   const std::string unit =
       n.unit_wander_from == kWanderFromRecording
@@ -272,7 +272,8 @@ std::string noise_line(const NoiseFinding& n, bool static_recording_given) {
          "; dwell means close in time share it, so they are weighted by the covariance it "
          "implies "
          "(generalised least squares); sigma/sqrt(n) understates a dwell mean's error up to " +
-         format("%.1f", n.understated_in_total().maxCoeff()) + "x" + sample_correlation_words(n);
+         format("%.1f", n.understated_in_total().maxCoeff()) + "x" +
+         sigmas_allowance_words(n, "dwells") + sample_correlation_words(n);
 }
 
 std::string format_report(const FitResult& fit, const ReportContext& ctx) {

@@ -42,8 +42,10 @@ struct GivenWander {
   GaussMarkovNoise size;
   std::optional<KnownTau> tau;
   // Where the static recording (Setup::static_hours) advises no wander: the recording itself,
-  // which `standcal noise` then advises giving the norm fit (--unit-static-recording).
+  // which `standcal noise` then advises giving the fits (--unit-static-recording), and its
+  // curves as the stand fits take them (stand_unit_static_allan).
   std::shared_ptr<const RawInput> static_recording;
+  std::shared_ptr<const UnitStaticAllan> stand_static_allan;
 };
 
 // The correlation time the "tau given" rows are told: the truth's, scaled and widened by the
@@ -61,6 +63,7 @@ GivenWander given_wander(const TruthModel& truth, const Setup& setup, std::uint6
     return {{Vec3::Constant(truth.noise.bias_instability_ug * setup.size_given_factor * kUg),
              tau.centre_s()},
             tau,
+            nullptr,
             nullptr};
   }
   const double period_s = 1 / kStaticRecordingRateHz;
@@ -75,10 +78,12 @@ GivenWander given_wander(const TruthModel& truth, const Setup& setup, std::uint6
   if (!give) {
     GivenWander none;
     none.static_recording = static_raw_input(axes_ug, kStaticRecordingRateHz, truth.g_local_mps2);
+    none.stand_static_allan = std::make_shared<const UnitStaticAllan>(
+        stand_unit_static_allan(*none.static_recording, truth.g_local_mps2));
     return none;
   }
   const KnownTau tau{give->tau_min_s, give->tau_max_s};
-  return {{Vec3::Constant(give->q * kUg), tau.centre_s()}, tau, nullptr};
+  return {{Vec3::Constant(give->q * kUg), tau.centre_s()}, tau, nullptr, nullptr};
 }
 
 FitResult fit_with(const Method& m, const Recording& rec, const AveragedRecording& averaged,
@@ -87,15 +92,19 @@ FitResult fit_with(const Method& m, const Recording& rec, const AveragedRecordin
   FitNoiseOptions noise;
   noise.weighting_lr = setup.weighting_lr;
   noise.specified_exceeded_p = setup.specified_exceeded_p;
-  // As standcal fit: nothing given, the recording's own long dwell's wander where it pins one
-  // (the norm fit takes it from its own static intervals' curves).
-  if (m.weighting == "estimated" && m.estimator != "norm")
-    take_recording_wander(noise, averaged.allan);
   if (m.weighting == "white") noise = white_noise_weighting();
   if (m.weighting == "tau given") noise.known_tau = tau_given(truth, setup);
+  // As standcal fit: nothing of the unit's size given, the recording's own long dwell's wander
+  // where it pins one, or the bound its curves set where they show none (the norm fit takes
+  // either from its own static intervals' curves).
+  if ((m.weighting == "estimated" || m.weighting == "tau given") && m.estimator != "norm")
+    take_recording_wander_or_bound(noise, averaged.allan);
   if (m.weighting == "unit given") {  // as `--bias-instability-ug Q --bias-instability-tau-s T`
     noise.known_tau = given.tau;
     noise.specified = given.size;
+    if (given.stand_static_allan && m.estimator != "norm")
+      take_unit_wander_with_static_recording(noise, rec, averaged.allan,
+                                             given.stand_static_allan.get());
   }
   if (m.weighting == "true") {
     noise.mode = FitNoiseOptions::Mode::specified;

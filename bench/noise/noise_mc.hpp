@@ -54,14 +54,14 @@ struct Setup {
   // recording of the same unit this many hours long (its own seeded recording per run, at
   // kStaticRecordingRateHz): the largest axis's q and the correlation times it allows, where
   // it sees a wander, pins its time and describes the curves (the advice it then prints);
-  // otherwise no wander, and those runs' rows are fitted as "estimated", but for the norm
-  // fit's, given the static recording itself (`--unit-static-recording`, as standcal noise
-  // then advises): its curves bound the wander the norm fit's sigmas allow for.
+  // otherwise no wander, and those runs' fits are given the static recording itself
+  // (`--unit-static-recording`, as standcal noise then advises): where its curves show no
+  // wander, they bound the wander the fits' sigmas allow for (the stand fits' since 2026-12-07).
   double static_hours = 0;
   // Above 0: the programme's warm-up (Program::warmup_s): the first position held this many
   // hours before its dwell, recorded but out of its mean, whose Allan curves the "estimated"
-  // rows take as the unit's wander where they pin one (take_recording_wander), as standcal
-  // fit and standcald do.
+  // and "tau given" rows take as the unit's wander where they pin one, and as a bound on it
+  // where they show none (take_recording_wander_or_bound), as standcal fit and standcald do.
   double warmup_hours = 0;
   // Above 0: a bias settling after power-on, warmup_transient_ug * exp(-t / tau) on every axis
   // from the run's first sample (a warm-up that still drifts thermally, which neither the

@@ -84,8 +84,8 @@ struct DiagnoseOptions {
   // dwell is not white (the Allan deviation of an attitude-free recording) passes it here.
   std::vector<Vec3> dwell_standard_error_g;
 
-  // The wander the unit's static recording pinned (take_static_recording_wander: its use.wander
-  // where use.gave is "wander"), as the unit's: the terms are tested against it.
+  // The wander the unit's static recording pinned (take_static_recording_pinned_wander: its
+  // use.wander where use.gave is "wander"), as the unit's: the terms are tested against it.
   void give_static_recording_wander(const GivenWander& w);
 };
 

@@ -19,10 +19,11 @@ struct NoiseAndTerms {
   bool weighted_as_specified = false;
 };
 
-// `options` with the unit's wander where nothing of it is given, by the rule of the fits
-// (take_unit_wander): the one `rec`'s header says its run was made with, else the one its own
-// long dwell pins (its dwells' pooled Allan curves, `allan`; for a recording without angles,
-// of its static intervals, as its norm fit takes it).
+// `options` with the unit's wander where nothing of it is given, by the rule of the fits for a
+// pinned wander (take_unit_wander; the diagnosis weighs no bound on one): the one `rec`'s header
+// says its run was made with, else the one its own long dwell pins (its dwells' pooled Allan
+// curves, `allan`; for a recording without angles, of its static intervals, as its norm fit takes
+// it).
 DiagnoseOptions with_unit_wander(DiagnoseOptions options, const Recording& rec,
                                  const std::optional<AllanFinding>& allan);
 

@@ -254,9 +254,14 @@ void take_unit_static_recording(DaemonConfig& c) {
                       "unit.bias_instability_*, not both");
   try {
     FitNoiseOptions nothing_given;
-    c.unit_static_recording = take_static_recording_wander(
-        nothing_given,
-        stand_unit_static_allan(read_input(c.unit_static_recording_file), c.g_local_mps2));
+    const UnitStaticAllan s =
+        stand_unit_static_allan(read_input(c.unit_static_recording_file), c.g_local_mps2);
+    c.unit_static_recording = take_static_recording_pinned_wander(nothing_given, s);
+    if (s.allan.wander_curves)
+      c.unit_static_recording->why +=
+          ": each run's header carries a wander it pins, not its curves (`standcal fit`, "
+          "`records import` and `certificate` with --unit-static-recording let them bound the "
+          "wander their sigmas allow for)";
   } catch (const std::exception& e) {
     throw ConfigError(where + e.what());
   }

@@ -74,10 +74,11 @@ json fit_finished_run(RunRecord& record, const std::string& run_dir, const Given
   const std::optional<AllanFinding> allan = digest.allan_finding();
   // The unit's configured wander, as the header keeps it (a correlation time configured: the
   // run then estimates only the wander's size, which one run pins far better than tau); none
-  // configured: the one the recording's own long dwell pins (a warm-up), if any.
+  // configured: the one the recording's own long dwell pins (a warm-up), if any, or the bound
+  // its curves set where they show none.
   FitNoiseOptions noise;
   if (!take_header_wander(noise, digest.recording)) configured.give_to(noise);
-  take_recording_wander(noise, allan);
+  take_recording_wander_or_bound(noise, allan);
   JointFit joint = joint_fit(averages, noise, allan);
   json& result = joint.result;
   try {

@@ -76,7 +76,7 @@ struct CertificateRequest {
   FitNoiseOptions noise;
   // `--unit-static-recording`: a long static recording of the unit (g or m/s^2), whose pinned
   // wander the fits take after the header's and before the recording's own long dwell's, and
-  // the diagnosis tests against (take_static_recording_wander). Null: none.
+  // the diagnosis tests against (take_unit_wander_with_static_recording). Null: none.
   std::shared_ptr<const RawInput> unit_static_recording;
 };
 

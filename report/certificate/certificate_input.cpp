@@ -202,6 +202,7 @@ CertificateInput prepare_certificate(const CertificateRequest& req) {
   if (req.method == "full" && !in.full)
     throw std::runtime_error("--method full: the full-vector fit failed");
   in.fit = req.method == "full" ? *in.full : *in.invariant;
+  if (in.unit_static_recording) settle_unit_static_use(*in.unit_static_recording, in.fit.noise);
   in.compensation = make_compensation(in.fit, in.trace.g_local_mps2);
   const CertificateTraceability& t = in.trace;
   in.compensation.identity =

@@ -233,19 +233,26 @@ TEST_F(Cli, DesignTakesTheNoiseTheUnitsStaticRecordingShows) {
                                                     " (2 h static): white noise "),
             std::string::npos)
       << j["noise_from"];
+  EXPECT_EQ(j["noise_from_warnings"], nlohmann::json::array()) << j["noise_from_warnings"];
   const CliRun noise = run_cli("noise " + pinned);
   EXPECT_NE(noise.output.find("the wander below raises the noise density read at 1 s; the white "
                               "noise fitted beside it is x "),
             std::string::npos)
       << noise.output;
-  const CliRun still = run_cli("design compare paper9 --unit-static-recording " +
-                               static_recording("still", 7200, 300, 4, 0) + " --json");
+  // Its reader's warnings are in the JSON beside noise_from (a last line cut off mid-write).
+  const std::string still_file = static_recording("still", 7200, 300, 4, 0);
+  std::ofstream(still_file, std::ios::app) << "7200.05,0";
+  const CliRun still =
+      run_cli("design compare paper9 --unit-static-recording " + still_file + " --json");
   ASSERT_EQ(still.exit_code, 0) << still.output;
   const auto w = nlohmann::json::parse(still.output.substr(still.output.find('{')));
   EXPECT_EQ(w["bias_instability_ug"].get<double>(), 0) << w["noise_from"];
   EXPECT_NE(w["noise_from"].get<std::string>().find("no wander: its Allan curves"),
             std::string::npos)
       << w["noise_from"];
+  ASSERT_EQ(w["noise_from_warnings"].size(), 1u) << w["noise_from_warnings"];
+  EXPECT_EQ(w["noise_from_warnings"][0].get<std::string>().rfind(still_file + ":", 0), 0u)
+      << w["noise_from_warnings"];
   // Half an hour of a 32 ug wander of 300 s: seen, not pinned; white noise would promise too much.
   expect_refused(run_cli("design evaluate paper9 --unit-static-recording " +
                          static_recording("seen", 1800, 300, 13, 31.6)),
@@ -683,15 +690,16 @@ TEST_F(Cli, FitOfARecordingWithoutAnglesChoosesTheNormFit) {
 }
 
 // A long static recording that shows no wander: `standcal noise` says the norm fit takes it,
-// and `standcal fit --method norm --unit-static-recording` weighs its curves; the stand fits and
-// a wander given beside it are refused, naming the option.
+// and `standcal fit --unit-static-recording` weighs its curves, norm and stand fits alike; the
+// paper's sequential method and a wander given beside it are refused, naming the option.
 TEST_F(Cli, TheNormFitTakesTheUnitsStaticRecording) {
   const std::string still = static_recording("still", 7200, 300, 4, 0);
   const CliRun noise = run_cli("noise " + still);
   ASSERT_EQ(noise.exit_code, 0) << noise.output;
-  EXPECT_NE(
-      noise.output.find("standcal fit RECORDING --method norm --unit-static-recording " + still),
-      std::string::npos)
+  EXPECT_NE(noise.output.find("the fits take this recording as the unit's: standcal fit RECORDING "
+                              "--unit-static-recording " +
+                              still + " (any method but paper-sequential"),
+            std::string::npos)
       << noise.output;
   nlohmann::json white = default_model();
   white["noise"]["bias_instability_ug"] = 0;
@@ -705,15 +713,23 @@ TEST_F(Cli, TheNormFitTakesTheUnitsStaticRecording) {
   EXPECT_EQ(j["unit_static_recording"]["source"], still);
   EXPECT_EQ(j["noise"]["sigmas_allowance_allan_curves_from"], "static_recording") << j["noise"];
 
-  // A stand fit averages over no wander sizes: curves that show none give it nothing, and say so.
+  // A stand fit takes the curves as the norm fit does: they bound the wander its sigmas allow
+  // for, which its report's noise line says.
   const CliRun stand = run_cli("fit " + cal + " --unit-static-recording " + still + " --json");
   ASSERT_EQ(stand.exit_code, 0) << stand.output;
   const auto s = nlohmann::json::parse(stand.output);
-  EXPECT_EQ(s["unit_static_recording"]["gave"], "nothing") << s["unit_static_recording"];
+  EXPECT_EQ(s["unit_static_recording"]["gave"], "bound") << s["unit_static_recording"];
   EXPECT_NE(s["unit_static_recording"]["why"].get<std::string>().find(
-                "a stand fit's sigmas average over no wander sizes"),
+                "show no wander: they bound the wander the sigmas allow for"),
             std::string::npos)
       << s["unit_static_recording"];
+  EXPECT_EQ(s["noise"]["sigmas_allowance_allan_curves_from"], "static_recording") << s["noise"];
+  const CliRun stand_text = run_cli("fit " + cal + " --unit-static-recording " + still);
+  ASSERT_EQ(stand_text.exit_code, 0) << stand_text.output;
+  EXPECT_NE(stand_text.output.find("that these dwells and the unit's static recording cannot "
+                                   "exclude"),
+            std::string::npos)
+      << stand_text.output;
   expect_refused(
       run_cli("fit " + cal + " --method paper-sequential --unit-static-recording " + still),
       "--unit-static-recording: the paper-sequential method models no bias wander");
@@ -759,6 +775,14 @@ TEST_F(Cli, AStaticRecordingThatPinsNoWanderIsAdvisedOnInTheCommandsTerms) {
     const std::string warning = u["warnings"][0].get<std::string>();
     EXPECT_EQ(warning.rfind(cut_off, 0), 0u) << method << u;
     EXPECT_NE(warning.find("last line has no newline"), std::string::npos) << method << u;
+    // Its curves show no wander, but the run shows one of its own: they bounded nothing, which
+    // the stand fit says after it is made as the norm fit does.
+    EXPECT_EQ(u["gave"], "nothing") << method << u;
+    EXPECT_NE(
+        u["why"].get<std::string>().find(std::string(method == "norm" ? "intervals" : "dwells") +
+                                         " show a wander of their own, weighted for"),
+        std::string::npos)
+        << method << u;
   }
 }
 
@@ -821,6 +845,18 @@ TEST_F(Cli, DiagnoseTestsAgainstTheWanderTheUnitsStaticRecordingPins) {
               std::string::npos)
         << file << text.output;
   }
+  // One that shows no wander gives a stand recording's diagnosis nothing: it tests the terms
+  // against a wander, and weighs no bound on one (the fits do: "bound").
+  const CliRun still = run_cli("diagnose " + cal + " --g-mps2 9.81625 --unit-static-recording " +
+                               static_recording("still", 7200, 300, 4, 0) + " --json");
+  ASSERT_EQ(still.exit_code == 0 || still.exit_code == 1, true) << still.output;
+  const auto s = nlohmann::json::parse(still.output.substr(still.output.find('{')));
+  EXPECT_EQ(s["unit_static_recording"]["gave"], "nothing") << s["unit_static_recording"];
+  EXPECT_NE(s["unit_static_recording"]["why"].get<std::string>().find(
+                "show no wander: the diagnosis tests the terms against a wander they pin, and "
+                "weighs no bound"),
+            std::string::npos)
+      << s["unit_static_recording"];
   expect_refused(run_cli("diagnose " + cal + " --unit-static-recording " + pinned +
                          " --bias-instability-ug 3"),
                  "either as a static recording or as --bias-instability-*");

@@ -116,6 +116,11 @@ TEST(DaemonConfig, TheUnitsStaticRecordingGivesItsWanderAtStart) {
   const DaemonConfig none = parse_config(json{{"unit", {{"static_recording", still}}}}, "lab.json");
   ASSERT_TRUE(none.unit_static_recording.has_value());
   EXPECT_EQ(none.unit_static_recording->gave, "nothing");
+  // Its curves bound nothing here (a run's header carries a wander, not curves): said so.
+  EXPECT_NE(none.unit_static_recording->why.find("show no wander: each run's header carries a "
+                                                 "wander it pins, not its curves"),
+            std::string::npos)
+      << none.unit_static_recording->why;
   EXPECT_FALSE(none.unit_wander.given());
   std::remove(pinned.c_str());
   std::remove(still.c_str());

@@ -123,10 +123,11 @@ void fit_stand_averages(const FitOptions& o, const std::string& method, const Re
   if (!o.unit_static_recording.empty())
     static_allan = stand_unit_static_allan(
         read_input(o.unit_static_recording, input_options(o.input)), rec.g_local_mps2);
-  const std::optional<UnitStaticRecordingUse> unit_static = take_unit_wander_with_static_recording(
+  std::optional<UnitStaticRecordingUse> unit_static = take_unit_wander_with_static_recording(
       noise, rec, allan, static_allan ? &*static_allan : nullptr);
   if (unit_static) print_warnings(unit_static->warnings);
   FitResult fit = fit_with(o, method, averages, noise);
+  if (unit_static) settle_unit_static_use(*unit_static, fit.noise);
   fit.noise.allan = std::move(allan);
   std::optional<Compensation> compensation;  // made before the report takes the averages
   if (!o.compensation.empty()) {

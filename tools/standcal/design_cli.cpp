@@ -187,7 +187,7 @@ void take_static_recording_noise(const std::string& path, DesignSettings& s) {
   char white[96];
   std::snprintf(white, sizeof white, "white noise %.3g ug/sqrt(Hz) and ", density);
   FitNoiseOptions nothing_given;
-  const UnitStaticRecordingUse use = take_static_recording_wander(nothing_given, a);
+  const UnitStaticRecordingUse use = take_static_recording_pinned_wander(nothing_given, a);
   std::string wander = "no wander: " + a.use.why;
   if (use.gave == "wander") {
     s.bias_instability_ug = use.wander.size_ug;
@@ -200,6 +200,7 @@ void take_static_recording_noise(const std::string& path, DesignSettings& s) {
                              "--bias-instability-* as they are known");
   }
   s.noise_from = unit_static_recording_name(a.use) + ": " + white + wander;
+  s.noise_from_warnings = a.use.warnings;
   std::fprintf(stderr, "noise from %s\n", s.noise_from.c_str());
 }
 
@@ -263,7 +264,10 @@ void add_wander_json(json& j, const DesignSettings& s) {
   j["bias_instability_tau_s"] = s.bias_instability_tau_s;
   j["bias_instability_tau_max_s"] =
       s.wander_tau().range() ? json(s.bias_instability_tau_max_s) : json(nullptr);
-  if (!s.noise_from.empty()) j["noise_from"] = s.noise_from;
+  if (!s.noise_from.empty()) {
+    j["noise_from"] = s.noise_from;
+    j["noise_from_warnings"] = s.noise_from_warnings;
+  }
 }
 
 void print_json(const json& j) { std::cout << json_text(j) << "\n"; }

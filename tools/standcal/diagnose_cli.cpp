@@ -44,7 +44,8 @@ DiagnoseOptions diagnose_options(const DiagnoseCliOptions& o) {
 }
 
 // The wander the unit's static recording pins, as the one the terms are tested against: after
-// the one the recording's header gives (what its run was made with), as the fits take it.
+// the one the recording's header gives (what its run was made with), as the fits take it. Only
+// a wander: the diagnosis's selection weighs no bound on one (the fits' "bound").
 std::optional<UnitStaticRecordingUse> take_static_wander(const DiagnoseCliOptions& o,
                                                          const Recording& rec,
                                                          DiagnoseOptions& options) {
@@ -54,10 +55,12 @@ std::optional<UnitStaticRecordingUse> take_static_wander(const DiagnoseCliOption
   fit.known_tau = options.known_tau;
   const UnitStaticAllan unit_static = stand_unit_static_allan(
       read_input(o.unit_static_recording, input_options(o.input)), rec.g_local_mps2);
-  // No Allan finding of the recording's own: the diagnosis takes its long dwell's itself.
-  const std::optional<UnitStaticRecordingUse> use =
-      take_unit_wander_with_static_recording(fit, rec, std::nullopt, &unit_static);
-  if (use->gave == "wander") options.give_static_recording_wander(use->wander);
+  // Nothing of the recording's own: the diagnosis takes its long dwell's wander itself.
+  take_header_wander(fit, rec);
+  UnitStaticRecordingUse use = take_static_recording_pinned_wander(fit, unit_static);
+  if (use.gave == "wander") options.give_static_recording_wander(use.wander);
+  if (unit_static.allan.wander_curves)
+    use.why += ": the diagnosis tests the terms against a wander they pin, and weighs no bound";
   return use;
 }
 

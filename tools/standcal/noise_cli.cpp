@@ -164,13 +164,15 @@ std::string short_correlation_words(const GaussMarkovAllanFit& f) {
 }
 
 // Curves that show no wander and reach the fits' shortest correlation time bound the wander a
-// norm fit's sigmas allow for (take_wander_curves): how to give them.
+// fit's sigmas allow for (take_wander_curves): how to give them.
 std::string bound_words(const GaussMarkovAllanFit& f, double curve_end_s, const DwellGaps& gaps,
                         const std::string& recording) {
   if (!f.describes_curves || gaps.too_much() || curve_end_s < shortest_model_tau_s({})) return "";
-  return "\nthe norm fit (recordings without angles) takes this recording as the unit's: "
-         "standcal fit RECORDING --method norm --unit-static-recording " +
-         recording + ", where it bounds the wander the fit's sigmas allow for";
+  return "\nthe fits take this recording as the unit's: standcal fit RECORDING "
+         "--unit-static-recording " +
+         recording +
+         " (any method but paper-sequential; import and certificate take it too), where it bounds "
+         "the wander the fit's sigmas allow for";
 }
 
 // What the Allan curves say of the unit's correlation time, and how to give it to the fits

@@ -142,9 +142,10 @@ CalibrationRecord import_record(const ImportOptions& o, const std::string& path,
   // Nothing of the unit's wander given: its header's, else the one the unit's static recording
   // pins, else the one its own long dwell pins (as `standcal fit`).
   FitNoiseOptions noise = fit_noise_options(o.noise);
-  const std::optional<UnitStaticRecordingUse> static_use = take_unit_wander_with_static_recording(
+  std::optional<UnitStaticRecordingUse> static_use = take_unit_wander_with_static_recording(
       noise, rec, averaged.allan, unit_static.at_g(rec.g_local_mps2));
   FitResult fit = fit_by_method(o.method, averaged.averages, noise);
+  if (static_use) settle_unit_static_use(*static_use, fit.noise);
   fit.noise.allan = std::move(averaged.allan);
   CalibrationRecord r;
   const std::string header_run = rec.header_value("run_id");

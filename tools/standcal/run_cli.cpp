@@ -147,7 +147,9 @@ void print_result(const json& r) {
     const Recording rec = read_recording(path);
     AveragedRecording averaged = average_recording(rec);
     FitNoiseOptions noise;
-    take_unit_wander(noise, rec, averaged.allan);  // as the daemon: the run's, or its own
+    // As the daemon: the run's, or its own long dwell's wander or bound.
+    take_header_wander(noise, rec);
+    take_recording_wander_or_bound(noise, averaged.allan);
     FitResult fit = fit_invariant_joint(averaged.averages, noise);
     fit.noise.allan = std::move(averaged.allan);
     std::cout << format_report(fit, report_context(rec, std::move(averaged.averages)));
