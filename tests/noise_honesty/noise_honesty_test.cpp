@@ -1188,6 +1188,57 @@ TEST(FitNoise, GivenAStaticRecordingEveryFitsSigmasAreWhiteNoisesUnderWhiteNoise
   expect_stand_runs_weighted_for_a_wander_honest(r, "unit given", "a 2 h static recording");
 }
 
+// The stand fits' order (take_unit_wander_with_static_recording): a pinned wander before either
+// bound, the static recording's bound before the warm-up's, and no bound where a size of the
+// unit's wander is given. White noise throughout: a one-hour warm-up whose curves show none,
+// a two-hour static recording whose curves show none, and one of 72 s whose curves end before
+// the fits' shortest correlation time (60 s).
+TEST(FitNoise, TheStandFitsTakeTheBoundsInTheirOrder) {
+  const Recording rec = bench_run_with_warm_up(3600, 0, 300, 31);
+  const AveragedRecording averaged = average_recording(rec);
+  ASSERT_TRUE(averaged.allan && averaged.allan->wander_curves) << "the warm-up's curves";
+  const double g = rec.g_local_mps2;
+  const UnitStaticAllan long_static =
+      stand_unit_static_allan(*unit_static_recording(2, 0, 300, 32), g);
+  const UnitStaticAllan short_static =
+      stand_unit_static_allan(*unit_static_recording(0.02, 0, 300, 33), g);
+  ASSERT_TRUE(long_static.allan.wander_curves);
+  ASSERT_TRUE(short_static.allan.wander_curves);
+  ASSERT_LT(short_static.allan.wander_curves->curves_end_s, 60);
+
+  // The static recording's bound first, settled by the fit it bounded.
+  FitNoiseOptions both;
+  std::optional<UnitStaticRecordingUse> use =
+      take_unit_wander_with_static_recording(both, rec, averaged.allan, &long_static);
+  EXPECT_EQ(both.wander_curves_from, kWanderFromStaticRecording);
+  EXPECT_TRUE(both.average_over_wander_sizes);
+  const FitResult fit = fit_full_vector(averaged.averages, both);
+  ASSERT_FALSE(fit.noise.bias_instability) << fit.noise.how;
+  settle_unit_static_use(*use, fit.noise);
+  EXPECT_EQ(use->gave, "bound") << use->why;
+  EXPECT_EQ(fit.noise.sigmas_allowance_allan_curves_from, kWanderFromStaticRecording);
+
+  // Curves too short to bound a wander of minutes: the warm-up's bound instead, and said so.
+  FitNoiseOptions short_first;
+  use = take_unit_wander_with_static_recording(short_first, rec, averaged.allan, &short_static);
+  EXPECT_EQ(short_first.wander_curves_from, kWanderFromRecording);
+  EXPECT_EQ(use->gave, "nothing");
+  EXPECT_NE(use->why.find("end before the shortest correlation time the fits model (60 s): "
+                          "record longer; this recording's own long dwell bounds the wander "
+                          "instead"),
+            std::string::npos)
+      << use->why;
+
+  // A size given: neither bounds it, and the static recording says why.
+  FitNoiseOptions sized;
+  sized.specified = {Vec3::Constant(3 * kUg), 300};
+  use = take_unit_wander_with_static_recording(sized, rec, averaged.allan, &long_static);
+  EXPECT_FALSE(sized.wander_curves_ug.has_value());
+  EXPECT_FALSE(sized.average_over_wander_sizes);
+  EXPECT_EQ(use->gave, "nothing");
+  EXPECT_NE(use->why.find("was given"), std::string::npos) << use->why;
+}
+
 // A run whose own wander departs from the one specified because it is larger on some axis is
 // weighted with its own there, and the specified one on the axes where its own is smaller:
 // it was judged at the laxer bar (specified_exceeded_p), which says nothing of those. Here the
