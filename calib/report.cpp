@@ -95,8 +95,17 @@ void append_strong_correlations(std::string& out, const FitResult& fit) {
 }  // namespace
 
 ReportContext report_context(const Recording& rec, std::vector<PositionAverage> averages) {
-  return {rec.source,        rec.unit_serial, rec.program,         rec.g_local_mps2,
-          rec.g_from_header, rec.warnings,    std::move(averages), {}};
+  // What standcald's unit.static_recording gave the run (its header): said of the run, which
+  // this fit's own options may have overridden.
+  const std::string from_run = rec.header_value(kHeaderUnitWanderSource);
+  return {rec.source,
+          rec.unit_serial,
+          rec.program,
+          rec.g_local_mps2,
+          rec.g_from_header,
+          rec.warnings,
+          std::move(averages),
+          from_run.empty() ? "" : "its run, by standcald's unit.static_recording: " + from_run};
 }
 
 json noise_finding_json(const NoiseFinding& n) {

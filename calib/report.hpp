@@ -20,7 +20,8 @@ struct ReportContext {
   std::vector<std::string> warnings;
   std::vector<PositionAverage> averages;
   // What the unit's static recording gave the fit, in words (unit_static_recording_words;
-  // empty where none was given): printed beneath the Noise line.
+  // empty where none was given): printed beneath the Noise line. report_context takes what
+  // standcald's unit.static_recording gave the run (kHeaderUnitWanderSource).
   std::string unit_static_recording;
 };
 

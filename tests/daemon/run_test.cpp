@@ -250,6 +250,26 @@ TEST(DaemonRun, TheFitsTakeTheWanderTheUnitsStaticRecordingPins) {
   std::remove(pinned.c_str());
 }
 
+// One that pins none gives the runs nothing, and each run's header says so: `run.result`'s
+// unit_wander_source and `standcal run result`'s report beneath its Noise line, where a
+// run's own wander is then advised on as beside a static recording (not by the
+// unit.bias_instability_* the daemon refuses beside it).
+TEST(DaemonRun, AStaticRecordingThatPinsNoWanderIsSaidOfEachRun) {
+  const std::string still = ::testing::TempDir() + "/standcal-run-static-still.csv";
+  write_recording(test::unit_static_recording(7200, 0, 300, 4), still);
+  const ConfiguredRun run = run_with_configured_wander({{"static_recording", still}});
+  EXPECT_FALSE(run.result["noise"].contains("unit_wander_from")) << run.result["noise"].dump(2);
+  EXPECT_EQ(run.recorded.size_ug, 0);
+  const std::string gave = "the unit's static recording " + still + " (2 h static) gave nothing";
+  ASSERT_TRUE(run.result.contains("unit_wander_source")) << run.result.dump(2);
+  EXPECT_NE(run.result["unit_wander_source"].get<std::string>().find(gave), std::string::npos)
+      << run.result["unit_wander_source"];
+  EXPECT_NE(run.report.find("            its run, by standcald's unit.static_recording: " + gave),
+            std::string::npos)
+      << run.report;
+  std::remove(still.c_str());
+}
+
 TEST(DaemonRun, TheFitsTakeTheUnitsCorrelationTimeAsARange) {
   const ConfiguredRun run = run_with_configured_wander({{"bias_instability_ug", 5},
                                                         {"bias_instability_tau_s", 300},
