@@ -254,7 +254,7 @@ void add_calibrate_commands(CLI::App& app) {
   add_unit_static_recording_option(fit, fit_opts->unit_static_recording,
                                    "read as the recording is; the wander its Allan curves pin "
                                    "is taken as the unit's, or "
-                                   "where they show none, they bound the wander the norm fit's "
+                                   "where they show none, they bound the wander the fit's "
                                    "sigmas allow for");
   fit->add_flag("--json", fit_opts->json, "machine-readable output");
   fit->add_option("--compensation", fit_opts->compensation,

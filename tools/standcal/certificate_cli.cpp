@@ -192,7 +192,8 @@ void add_certificate_commands(CLI::App& app) {
                                    "read with the default options (g or m/s^2); the wander its "
                                    "Allan curves pin is taken as the unit's where the "
                                    "recording's header gives none, and the diagnosis tests "
-                                   "against it");
+                                   "against it; where they show none, they bound the wander the "
+                                   "fits' sigmas allow for");
   cmd->add_flag(
       "--diagnose", opts->request.diagnose,
       "run the model-mismatch diagnosis now (else RUN_DIR/diagnosis.json is used if present)");

@@ -312,7 +312,8 @@ void add_import_command(CLI::App& app) {
   add_unit_static_recording_option(cmd, o->unit_static_recording,
                                    "read with the default options (g or m/s^2); the wander its "
                                    "Allan curves pin is taken as the unit's where a recording's "
-                                   "header gives none");
+                                   "header gives none, or where they show none, they bound the "
+                                   "wander the fit's sigmas allow for");
   cmd->callback([o] { run_import(*o); });
 }
 
