@@ -17,6 +17,7 @@
 #include "calib/compensation.hpp"
 #include "calib/invariant_estimator.hpp"
 #include "calib/json_text.hpp"
+#include "calib/norm_calibration.hpp"
 #include "calib/programs.hpp"
 #include "calib/recording.hpp"
 #include "calib/report.hpp"
@@ -147,9 +148,8 @@ void print_result(const json& r) {
     const Recording rec = read_recording(path);
     AveragedRecording averaged = average_recording(rec);
     FitNoiseOptions noise;
-    // As the daemon: the run's, or its own long dwell's wander or bound.
-    take_header_wander(noise, rec);
-    take_recording_wander_or_bound(noise, averaged.allan);
+    // As the daemon: the run's, or its own long dwell's wander or bound (no static recording).
+    take_unit_wander_with_static_recording(noise, rec, averaged.allan, nullptr);
     FitResult fit = fit_invariant_joint(averaged.averages, noise);
     fit.noise.allan = std::move(averaged.allan);
     std::cout << format_report(fit, report_context(rec, std::move(averaged.averages)));
