@@ -94,18 +94,16 @@ void append_strong_correlations(std::string& out, const FitResult& fit) {
 
 }  // namespace
 
-ReportContext report_context(const Recording& rec, std::vector<PositionAverage> averages) {
-  // What standcald's unit.static_recording gave the run (its header): said of the run, which
-  // this fit's own options may have overridden.
+std::string run_unit_static_recording_words(const Recording& rec) {
   const std::string from_run = rec.header_value(kHeaderUnitWanderSource);
-  return {rec.source,
-          rec.unit_serial,
-          rec.program,
-          rec.g_local_mps2,
-          rec.g_from_header,
-          rec.warnings,
-          std::move(averages),
-          from_run.empty() ? "" : "its run, by standcald's unit.static_recording: " + from_run};
+  return from_run.empty() ? "" : "its run, by standcald's unit.static_recording: " + from_run;
+}
+
+ReportContext report_context(const Recording& rec, std::vector<PositionAverage> averages) {
+  return {rec.source,          rec.unit_serial,
+          rec.program,         rec.g_local_mps2,
+          rec.g_from_header,   rec.warnings,
+          std::move(averages), run_unit_static_recording_words(rec)};
 }
 
 json noise_finding_json(const NoiseFinding& n) {

@@ -26,6 +26,10 @@ struct ReportContext {
 };
 
 ReportContext report_context(const Recording& rec, std::vector<PositionAverage> averages);
+// What standcald's unit.static_recording gave the run `rec` records, in words ("its run, by
+// standcald's unit.static_recording: ..."; its header's kHeaderUnitWanderSource), or "" where
+// the header says nothing. Said of the run: a later fit's own options may override it.
+std::string run_unit_static_recording_words(const Recording& rec);
 
 nlohmann::json fit_to_json(const FitResult& fit);
 // `noise` of the fit and diagnosis JSON: the noise model a result was weighted with.

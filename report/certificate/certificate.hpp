@@ -51,6 +51,9 @@ struct CertificateInput {
   std::vector<std::string> warnings;  // recording warnings, missing traceability, ...
   // What the unit's static recording gave the fits, where one was given.
   std::optional<UnitStaticRecordingUse> unit_static_recording;
+  // Where none was given: what standcald's unit.static_recording gave the run, in words, from
+  // its header (run_unit_static_recording_words; empty where it says nothing).
+  std::string run_unit_static_recording;
   double coverage_factor = records::kDefaultCoverageFactor;
   std::string issued_utc;  // when the certificate was made
   std::string issuing_software_version;

@@ -2,6 +2,7 @@
 // attributes (tests/certificate parses them): #verdict, #traceability dd[data-field],
 // #parameters tr[data-parameter] td.value/.U/.limit/.margin/.outcome, #rule, #compensation,
 // figure#residuals-invariant, figure#residuals-axes, #diagnosis.
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -247,12 +248,16 @@ std::string results_section(const CertificateInput& in) {
                 : outcome_label(in.conformity->model_check.outcome)) +
            ").";
   // What every sigma and U on the page rests on: the unit's wander given, found or none.
+  // The unit's static recording given to this certificate, else what standcald's gave the run.
+  std::string static_words = in.unit_static_recording
+                                 ? unit_static_recording_words(*in.unit_static_recording)
+                                 : in.run_unit_static_recording;
   out += "</p>\n<p id=\"noise-model\"><b>Noise model.</b> The uncertainties rest on: " +
-         html_escape(noise_line(in.fit.noise, in.unit_static_recording.has_value())) + ".";
-  if (in.unit_static_recording) {
-    std::string words = unit_static_recording_words(*in.unit_static_recording);
-    words[0] = 'T';  // "the unit's static recording …" opens a sentence here
-    out += " " + html_escape(words) + ".";
+         html_escape(noise_line(in.fit.noise, !static_words.empty())) + ".";
+  if (!static_words.empty()) {
+    // "the unit's static recording …" / "its run, by …" opens a sentence here
+    static_words[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(static_words[0])));
+    out += " " + html_escape(static_words) + ".";
   }
   out += "</p>\n<h2>Decision rule</h2>\n<p id=\"rule\">" +
          html_escape(records::decision_rule_text(in.coverage_factor, in.budget.has_value())) +

@@ -11,6 +11,7 @@
 #include "calib/full_estimator.hpp"
 #include "calib/invariant_estimator.hpp"
 #include "calib/recording.hpp"
+#include "calib/report.hpp"
 #include "calib/text.hpp"
 #include "calib/utc_time.hpp"
 #include "report/certificate/certificate.hpp"
@@ -187,6 +188,8 @@ CertificateInput prepare_certificate(const CertificateRequest& req) {
   if (in.unit_static_recording) {
     const std::vector<std::string>& w = in.unit_static_recording->warnings;
     in.warnings.insert(in.warnings.end(), w.begin(), w.end());
+  } else {
+    in.run_unit_static_recording = run_unit_static_recording_words(run.recording);
   }
   in.invariant = fit_invariant_joint(in.positions, noise);
   in.invariant->noise.allan = averaged.allan;

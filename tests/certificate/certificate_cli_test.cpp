@@ -235,6 +235,34 @@ TEST_F(CertificateCli, TakesTheWanderTheUnitsStaticRecordingPins) {
       << refused.output;
 }
 
+// The certificate of a daemon run says what standcald's unit.static_recording gave the run
+// (its header), as `standcal run result` does, and advises on the run's own wander as beside a
+// static recording: not by the unit.bias_instability_* the daemon refuses beside it.
+TEST_F(CertificateCli, SaysWhatTheDaemonsStaticRecordingGaveItsRun) {
+  TruthModel wandering = default_truth();
+  wandering.noise.bias_instability_ug = 60;
+  wandering.noise.bias_instability_tau_s = 60;
+  Recording rec = simulated_recording("AU-0045", wandering, 6, "classic24", 10);
+  const std::string gave =
+      "the unit's static recording /lab/AU-0045-still.csv (2 h static) gave nothing: its Allan "
+      "curves (to 1995 s) show no wander";
+  rec.set_header(kHeaderUnitWanderSource, gave);
+  write_done_run(state_.path(), "20261122T080000Z-AU-0045", std::move(rec));
+  const std::filesystem::path out = state_.file("daemon-static.html");
+  const CommandResult r = run_cli("certificate 20261122T080000Z-AU-0045 --state-dir " +
+                                  state_.path() + " -o " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string noise = HtmlDocument(read_text(out)).text("//p[@id='noise-model']");
+  EXPECT_NE(noise.find("Its run, by standcald's unit.static_recording: " + gave), std::string::npos)
+      << noise;
+  // The run shows a wander of its own, whose correlation time it leaves open.
+  ASSERT_NE(noise.find("give the unit's correlation time"), std::string::npos) << noise;
+  EXPECT_NE(noise.find("as a static recording of the unit whose Allan curves pin it"),
+            std::string::npos)
+      << noise;
+  EXPECT_EQ(noise.find("unit.bias_instability_tau_s"), std::string::npos) << noise;
+}
+
 TEST_F(CertificateCli, ExplainsAWrongRequestInOneLine) {
   const std::string out = state_.file("x.html");
   CommandResult r = run_cli("certificate 20990101T000000Z-NO-SUCH-RUN --state-dir " +

@@ -112,11 +112,13 @@ TEST_F(ImportTest, ImportTakesTheWanderTheUnitsStaticRecordingPinsAsFitDoes) {
       << refused.output;
 }
 
-TEST_F(ImportTest, ADaemonRecordingKeepsItsRunIdStartAndStand) {
+TEST_F(ImportTest, ADaemonRecordingKeepsItsRunIdStartStandAndWanderSource) {
   Recording rec = test::simulate_calibration(default_truth(), "AU-0200", 3);
   rec.set_header("run_id", "20261121T223638Z-AU-0200");
   rec.set_header("started_utc", "2026-11-21T22:36:38Z");
   rec.set_header("stand_id", "bench-7");
+  const std::string gave = "the unit's static recording /lab/still.csv (2 h static) gave nothing";
+  rec.set_header(kHeaderUnitWanderSource, gave);
   const std::string path = dir_.path() + "/recording.csv";
   write_recording(rec, path);
   const test::CommandOutcome r = standcal_cli("import " + path + " --db " + db_);
@@ -125,6 +127,8 @@ TEST_F(ImportTest, ADaemonRecordingKeepsItsRunIdStartAndStand) {
   ASSERT_TRUE(stored.has_value()) << r.output;
   EXPECT_EQ(stored->started_utc, "2026-11-21T22:36:38Z");
   EXPECT_EQ(stored->stand_id, "bench-7");
+  // What standcald's unit.static_recording gave the run, as its run.result keeps it.
+  EXPECT_EQ(stored->result.value("unit_wander_source", ""), gave) << stored->result.dump(2);
 }
 
 TEST_F(ImportTest, HistoryAndRecordsShowAnAgeingUnitAndFilterByDate) {
