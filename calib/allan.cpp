@@ -575,6 +575,7 @@ std::optional<WanderToGive> wander_to_give(const GaussMarkovAllanFit& fit, doubl
   const auto axis = static_cast<std::size_t>(largest - fit.q.begin());
   WanderToGive w;
   w.q = *largest;
+  w.q_axes = fit.q;
   if (axis < fit.q_min.size()) {
     w.q_min = fit.q_min[axis];
     w.q_max = fit.q_max[axis];

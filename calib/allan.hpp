@@ -195,6 +195,7 @@ std::optional<GaussMarkovAllanFit> fit_gauss_markov_allan(
 // one larger on the others only widens theirs (docs/calibration.md, "The unit given").
 struct WanderToGive {
   double q = 0;                         // the largest axis's q, in the curves' unit
+  std::vector<double> q_axes;           // each axis's q: a unit's axes wander each its own
   double q_min = 0, q_max = 0;          // the sizes the curves allow it (q_max infinite: no bound)
   double tau_min_s = 0, tau_max_s = 0;  // the correlation times they allow
   double curves_end_s = 0;              // the longest averaging time of the curves

@@ -809,8 +809,12 @@ bool take_recording_wander(FitNoiseOptions& options, const std::optional<AllanFi
   return true;
 }
 
+Vec3 GivenWander::axes_ug() const {
+  return size_axes_ug.isZero() ? Vec3::Constant(size_ug) : size_axes_ug;
+}
+
 GaussMarkovNoise GivenWander::specified() const {
-  return {Vec3::Constant(size_ug * kUg), known_tau ? known_tau->centre_s() : tau_s};
+  return {axes_ug() * kUg, known_tau ? known_tau->centre_s() : tau_s};
 }
 
 void GivenWander::give_to(FitNoiseOptions& options, const std::string& from) const {
@@ -822,11 +826,18 @@ void GivenWander::give_to(FitNoiseOptions& options, const std::string& from) con
 void set_unit_wander_header(Recording& header, const GivenWander& w) {
   std::erase_if(header.header, [](const auto& kv) {
     return kv.first == kHeaderUnitWanderUg || kv.first == kHeaderUnitWanderTauS ||
-           kv.first == kHeaderUnitWanderTauMaxS;
+           kv.first == kHeaderUnitWanderTauMaxS ||
+           std::find(kHeaderUnitWanderAxisUg.begin(), kHeaderUnitWanderAxisUg.end(), kv.first) !=
+               kHeaderUnitWanderAxisUg.end();
   });
   header.unit_wander = {w.size_ug, w.known_tau ? w.known_tau->min_s : 0,
-                        w.known_tau && w.known_tau->range() ? w.known_tau->max_s : 0};
+                        w.known_tau && w.known_tau->range() ? w.known_tau->max_s : 0,
+                        w.size_axes_ug};
   if (w.size_ug > 0) header.set_header(kHeaderUnitWanderUg, round_trip_text(w.size_ug));
+  if (!w.size_axes_ug.isZero())
+    for (int a = 0; a < 3; ++a)
+      header.set_header(kHeaderUnitWanderAxisUg[static_cast<std::size_t>(a)],
+                        round_trip_text(w.size_axes_ug[a]));
   if (!w.known_tau) return;
   header.set_header(kHeaderUnitWanderTauS, round_trip_text(w.known_tau->min_s));
   if (w.known_tau->range())
@@ -836,6 +847,8 @@ void set_unit_wander_header(Recording& header, const GivenWander& w) {
 GivenWander given_wander_of(const WanderToGive& pinned) {
   GivenWander w;
   w.size_ug = pinned.q;
+  if (pinned.q_axes.size() == 3)
+    w.size_axes_ug = Vec3(pinned.q_axes[0], pinned.q_axes[1], pinned.q_axes[2]);
   w.known_tau = KnownTau{pinned.tau_min_s, pinned.tau_max_s};
   return w;
 }
@@ -843,6 +856,7 @@ GivenWander given_wander_of(const WanderToGive& pinned) {
 GivenWander given_wander_of(const RecordedUnitWander& recorded) {
   GivenWander w;
   w.size_ug = recorded.size_ug;
+  w.size_axes_ug = recorded.size_axes_ug;
   if (recorded.tau_s > 0)
     w.known_tau = KnownTau{recorded.tau_s, std::max(recorded.tau_s, recorded.tau_max_s)};
   return w;

@@ -255,10 +255,16 @@ struct FitNoiseOptions {
 // `--bias-instability-*`, standcald's unit.bias_instability_*): its size and, where known,
 // its correlation time, one value or a range. One spelling for every place that gives it.
 struct GivenWander {
-  double size_ug = 0;  // steady-state sigma per axis; 0: no size given
+  // Steady-state sigma per axis, the largest axis's where size_axes_ug is given; 0: no size
+  // given.
+  double size_ug = 0;
   double tau_s = 300;  // the correlation time weighed at where none is known
   std::optional<KnownTau> known_tau;
+  // Each axis's, where Allan curves pin one per axis (a unit's axes wander each its own: the
+  // largest on every axis overstates the others'); zero: size_ug on each.
+  Vec3 size_axes_ug = Vec3::Zero();
   bool given() const { return size_ug > 0 || known_tau.has_value(); }
+  Vec3 axes_ug() const;  // each axis's size
   // The wander to weigh with: at a range's log-middle, where the fits then average the biases'
   // variance over the range itself.
   GaussMarkovNoise specified() const;

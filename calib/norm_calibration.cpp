@@ -351,10 +351,12 @@ constexpr const char* kGivenWords =
 // The static recording gave the wander its curves pin, weighted with as the unit's.
 void say_gave_pinned_wander(UnitStaticRecordingUse& use, const WanderToGive& w) {
   use.gave = "wander";
-  use.why = "its Allan curves pin a wander of " + fmt("%.3g", w.q) + " ug, correlation time " +
-            fmt("%.0f", w.tau_min_s) + "-" + fmt("%.0f", w.tau_max_s) +
-            " s: weighted with as the unit's";
   use.wander = given_wander_of(w);
+  const Vec3 q = use.wander.axes_ug();
+  use.why = "its Allan curves pin a wander of " + fmt("%.3g", q[0]) + " / " + fmt("%.3g", q[1]) +
+            " / " + fmt("%.3g", q[2]) + " ug (x/y/z), correlation time " +
+            fmt("%.0f", w.tau_min_s) + "-" + fmt("%.0f", w.tau_max_s) +
+            " s: weighted with as the unit's, each axis with its own";
 }
 
 // A wander the curves pin that take_recording_wander did not take: its times are beyond them or
@@ -528,8 +530,15 @@ std::optional<UnitStaticRecordingUse> take_unit_wander_with_static_recording(
 }
 
 nlohmann::json unit_static_recording_json(const UnitStaticRecordingUse& u) {
-  return {{"source", u.source}, {"static_s", u.static_s}, {"curves_end_s", u.curves_end_s},
-          {"gave", u.gave},     {"why", u.why},           {"warnings", u.warnings}};
+  nlohmann::json j = {
+      {"source", u.source}, {"static_s", u.static_s}, {"curves_end_s", u.curves_end_s},
+      {"gave", u.gave},     {"why", u.why},           {"warnings", u.warnings}};
+  if (u.gave == "wander") {
+    const Vec3 q = u.wander.axes_ug();
+    j["wander_ug"] = {q[0], q[1], q[2]};
+    if (u.wander.known_tau) j["tau_s"] = {u.wander.known_tau->min_s, u.wander.known_tau->max_s};
+  }
+  return j;
 }
 
 std::string unit_static_recording_name(const UnitStaticRecordingUse& u) {

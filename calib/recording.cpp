@@ -641,6 +641,25 @@ class Parser {
       refuse_header(kHeaderUnitWanderTauMaxS,
                     round_trip_text(w.tau_max_s) + " s is below " + kHeaderUnitWanderTauS + " " +
                         round_trip_text(w.tau_s) + " s: the range is MIN to MAX");
+    check_unit_wander_axes();
+  }
+
+  // Each axis's size: all three or none, beside the size that is their largest.
+  void check_unit_wander_axes() const {
+    std::vector<std::string> given;
+    for (const char* key : kHeaderUnitWanderAxisUg)
+      if (seen_keys_.count(key)) given.emplace_back(key);
+    if (given.empty()) return;
+    if (given.size() < 3)
+      refuse_header(given.front(), "each axis's size comes with the others': " +
+                                       std::string(kHeaderUnitWanderAxisUg[0]) +
+                                       ", _y_ug and _z_ug");
+    const RecordedUnitWander& w = rec_.unit_wander;
+    if (w.size_axes_ug.maxCoeff() != w.size_ug)
+      refuse_header(given.front(), "the largest axis's size, " +
+                                       round_trip_text(w.size_axes_ug.maxCoeff()) + " ug, is not " +
+                                       kHeaderUnitWanderUg + "'s " + round_trip_text(w.size_ug) +
+                                       " ug: that key holds the largest");
   }
 
   // A number of the unit's wander, within kMaxUnitWanderUg or kMin/kMaxUnitWanderTauS.
@@ -678,6 +697,11 @@ class Parser {
                       value + " degC is not a temperature a unit works at (-273.15 ... 1000 degC)");
     } else if (key == kHeaderUnitWanderUg) {
       rec_.unit_wander.size_ug = unit_wander_number(key, value, 0, kMaxUnitWanderUg, "ug");
+    } else if (const auto axis =
+                   std::find(kHeaderUnitWanderAxisUg.begin(), kHeaderUnitWanderAxisUg.end(), key);
+               axis != kHeaderUnitWanderAxisUg.end()) {
+      rec_.unit_wander.size_axes_ug[axis - kHeaderUnitWanderAxisUg.begin()] =
+          unit_wander_number(key, value, 0, kMaxUnitWanderUg, "ug");
     } else if (key == kHeaderUnitWanderTauS) {
       rec_.unit_wander.tau_s =
           unit_wander_number(key, value, kMinUnitWanderTauS, kMaxUnitWanderTauS, "s");

@@ -1,6 +1,7 @@
 #pragma once
 // Reader and writer of the recording interchange format `standcal-recording/1`
 // (docs/recording-format.md). Every error names file, line and column.
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <cstdint>
@@ -51,11 +52,15 @@ struct RecordingColumns {
 // The fits of the recording take it as the unit's given wander (calib/noise_model.hpp,
 // take_unit_wander), so that every later fit of a run weighs as the run's own did.
 struct RecordedUnitWander {
-  double size_ug = 0;    // steady-state sigma per axis
+  double size_ug = 0;    // steady-state sigma per axis (the largest axis's, with size_axes_ug)
   double tau_s = 0;      // its correlation time; 0: not given
   double tau_max_s = 0;  // with tau_s: the range tau_s-tau_max_s; 0: one value
+  // Each axis's (unit_bias_instability_x_ug, _y_ug, _z_ug: all three or none); zero: size_ug.
+  Vec3 size_axes_ug = Vec3::Zero();
 };
 inline constexpr const char* kHeaderUnitWanderUg = "unit_bias_instability_ug";
+inline constexpr std::array<const char*, 3> kHeaderUnitWanderAxisUg = {
+    "unit_bias_instability_x_ug", "unit_bias_instability_y_ug", "unit_bias_instability_z_ug"};
 inline constexpr const char* kHeaderUnitWanderTauS = "unit_bias_instability_tau_s";
 inline constexpr const char* kHeaderUnitWanderTauMaxS = "unit_bias_instability_tau_max_s";
 // Where the wander those keys give came from, in words, when not from the configuration's

@@ -3,7 +3,8 @@
 // estimator, the z-variance (mean of ((estimate - truth) / sigma)^2) of each unit parameter:
 // 1 is an honest sigma. "estimated" weights as `standcal fit` does (the run's own noise
 // model); "tau given" as `standcal fit --bias-instability-tau-s T`; "unit given" as that
-// with `--bias-instability-ug Q` too (the unit's wander known before the run); "true" with
+// with `--bias-instability-ug Q` too (the unit's wander known before the run), or with
+// --static-hours H as `--unit-static-recording` of an H-hour static recording; "true" with
 // the simulated wander whatever the run shows; "white" as if every dwell mean were
 // independent, for comparison. Under each table,
 // each weighting's sigmas over the white-weighted sigmas of the same fit on the same run
@@ -137,7 +138,7 @@ void print_result(const ScenarioResult& r) {
     if (z.recording_wander > 0)
       std::printf(" (the long dwell's wander taken in %d)", z.recording_wander);
     if (z.weighting == "unit given" && z.unit_given < z.runs)
-      std::printf(" (given a wander in %d: the static recording's advice)", z.unit_given);
+      std::printf(" (given a wander in %d: the static recording's)", z.unit_given);
     std::printf("\n");
   }
   print_sigma_over_white(r);
@@ -186,8 +187,8 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   app.add_option("--static-hours", setup.static_hours,
-                 "the 'unit given' rows are told what `standcal noise` advises from a static "
-                 "recording of the unit this many hours long (one per run)")
+                 "the 'unit given' rows are given a static recording of the unit this many "
+                 "hours long (one per run), as `--unit-static-recording` gives it")
       ->check(CLI::NonNegativeNumber);
   app.add_option("--warmup-hours", setup.warmup_hours,
                  "the programme's warm-up (its warmup_s: the first position held this many "
@@ -254,9 +255,9 @@ int main(int argc, char** argv) {
         setup.warmup_transient_ug, setup.warmup_transient_tau_s);
   if (setup.static_hours > 0)
     std::printf(
-        "'unit given': what `standcal noise` advises from a %.3g-hour static recording of the "
-        "unit at %.0f Hz (the largest axis's size, the correlation times it allows), where it "
-        "advises\n",
+        "'unit given': a %.3g-hour static recording of the unit at %.0f Hz, as "
+        "--unit-static-recording gives it (each axis's size and the correlation times its "
+        "curves pin, else the bound they set)\n",
         setup.static_hours, kStaticRecordingRateHz);
   else
     std::printf(

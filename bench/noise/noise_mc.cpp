@@ -37,13 +37,14 @@ std::vector<Method> methods(const Setup& setup) {
 }
 
 // The unit's wander as the "unit given" rows are told it (`--bias-instability-ug Q
-// --bias-instability-tau-s A [--bias-instability-tau-max-s B]`); nothing given: as estimated.
+// --bias-instability-tau-s A [--bias-instability-tau-max-s B]`), or a static recording of the
+// unit (`--unit-static-recording FILE`).
 struct GivenWander {
   GaussMarkovNoise size;
   std::optional<KnownTau> tau;
-  // Where the static recording (Setup::static_hours) advises no wander: the recording itself,
-  // which `standcal noise` then advises giving the fits (--unit-static-recording), and its
-  // curves as the stand fits take them (stand_unit_static_allan).
+  // A static recording of the unit (Setup::static_hours), and its curves as the stand fits take
+  // them (stand_unit_static_allan): the wander they pin, each axis its own, or the bound they
+  // set where they show none.
   std::shared_ptr<const RawInput> static_recording;
   std::shared_ptr<const UnitStaticAllan> stand_static_allan;
 };
@@ -55,8 +56,8 @@ KnownTau tau_given(const TruthModel& truth, const Setup& setup) {
   return {tau_s / setup.tau_given_range, tau_s * setup.tau_given_range};
 }
 
-// The truth's, scaled by the setup's factors; or what `standcal noise` advises from a static
-// recording of the unit (Setup::static_hours), seeded apart from the run's own noise.
+// The truth's, scaled by the setup's factors; or a static recording of the unit
+// (Setup::static_hours), seeded apart from the run's own noise.
 GivenWander given_wander(const TruthModel& truth, const Setup& setup, std::uint64_t seed) {
   if (setup.static_hours <= 0) {
     const KnownTau tau = tau_given(truth, setup);
@@ -66,24 +67,15 @@ GivenWander given_wander(const TruthModel& truth, const Setup& setup, std::uint6
             nullptr,
             nullptr};
   }
-  const double period_s = 1 / kStaticRecordingRateHz;
   const std::vector<std::vector<double>> axes_ug = simulate_static_gauss_markov(
       truth.noise.density_ug_rthz, truth.noise.bias_instability_ug,
       truth.noise.bias_instability_tau_s, setup.static_hours * 3600, kStaticRecordingRateHz,
       static_cast<unsigned>(seed ^ 0x5747'4154'4943ULL));
-  std::vector<std::vector<AllanPoint>> curves;
-  for (const std::vector<double>& axis : axes_ug)
-    curves.push_back(overlapping_allan_deviation({axis}, period_s));
-  const std::optional<WanderToGive> give = wander_to_give(curves, period_s);
-  if (!give) {
-    GivenWander none;
-    none.static_recording = static_raw_input(axes_ug, kStaticRecordingRateHz, truth.g_local_mps2);
-    none.stand_static_allan = std::make_shared<const UnitStaticAllan>(
-        stand_unit_static_allan(*none.static_recording, truth.g_local_mps2));
-    return none;
-  }
-  const KnownTau tau{give->tau_min_s, give->tau_max_s};
-  return {{Vec3::Constant(give->q * kUg), tau.centre_s()}, tau, nullptr, nullptr};
+  GivenWander w;
+  w.static_recording = static_raw_input(axes_ug, kStaticRecordingRateHz, truth.g_local_mps2);
+  w.stand_static_allan = std::make_shared<const UnitStaticAllan>(
+      stand_unit_static_allan(*w.static_recording, truth.g_local_mps2));
+  return w;
 }
 
 FitResult fit_with(const Method& m, const Recording& rec, const AveragedRecording& averaged,
@@ -99,7 +91,8 @@ FitResult fit_with(const Method& m, const Recording& rec, const AveragedRecordin
   // either from its own static intervals' curves).
   if ((m.weighting == "estimated" || m.weighting == "tau given") && m.estimator != "norm")
     take_recording_wander_or_bound(noise, averaged.allan);
-  if (m.weighting == "unit given") {  // as `--bias-instability-ug Q --bias-instability-tau-s T`
+  // As `--bias-instability-ug Q --bias-instability-tau-s T`, or `--unit-static-recording FILE`.
+  if (m.weighting == "unit given") {
     noise.known_tau = given.tau;
     noise.specified = given.size;
     if (given.stand_static_allan && m.estimator != "norm")
@@ -287,9 +280,10 @@ ScenarioResult run_scenario(const Setup& setup, const Scenario& scenario) {
       const GivenWander given =
           setup.unit_given_rows ? given_wander(req.truth, setup, req.seed) : GivenWander{};
       for (std::size_t k = 0; k < all.size(); ++k) {
-        local[k].unit_given += all[k].weighting == "unit given" && given.tau.has_value();
         try {
           fits[k] = fit_with(all[k], rec, averaged, req.truth, setup, given);
+          local[k].unit_given += all[k].weighting == "unit given" &&
+                                 fits[k]->noise.unit_wander_from == kWanderFromStaticRecording;
           accumulate(local[k], *fits[k], x_true, req.truth.noise.bias_instability_ug);
         } catch (const std::exception&) {
           ++local[k].failed;

@@ -98,8 +98,8 @@ struct ZStats {
   double wander_q2_ratio_sum = 0;
   int wander_q2_ratio_n = 0;
   int wander_significant = 0;  // runs whose fit found the wander significant
-  int unit_given = 0;          // "unit given" runs that were given a wander (static_hours)
-  int recording_wander = 0;    // runs whose fit took the recording's own (warmup_hours)
+  int unit_given = 0;  // "unit given" runs the static recording (static_hours) gave its wander
+  int recording_wander = 0;  // runs whose fit took the recording's own (warmup_hours)
   int runs = 0;
   int failed = 0;  // runs whose fit threw
 };

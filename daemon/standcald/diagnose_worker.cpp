@@ -70,6 +70,9 @@ json job_to_json(const DiagnoseJob& job) {
             {"alpha2", axis_range_to_json(job.limits.alpha2)}}},
           {"report", job.with_report},
           {"unit_wander_ug", job.unit_wander.size_ug},
+          {"unit_wander_axes_ug",
+           {job.unit_wander.size_axes_ug[0], job.unit_wander.size_axes_ug[1],
+            job.unit_wander.size_axes_ug[2]}},
           {"unit_wander_tau_s", job.unit_wander.tau_s},
           {"unit_known_tau_s",
            job.unit_wander.known_tau
@@ -84,6 +87,9 @@ DiagnoseJob job_from_json(const json& j) {
   job.limits.alpha2 = axis_range_from_json(j.at("limits").at("alpha2"));
   job.with_report = j.at("report").get<bool>();
   job.unit_wander.size_ug = j.at("unit_wander_ug").get<double>();
+  const json& axes = j.at("unit_wander_axes_ug");
+  job.unit_wander.size_axes_ug =
+      Vec3(axes.at(0).get<double>(), axes.at(1).get<double>(), axes.at(2).get<double>());
   job.unit_wander.tau_s = j.at("unit_wander_tau_s").get<double>();
   if (const json& tau = j.at("unit_known_tau_s"); !tau.is_null())
     job.unit_wander.known_tau = KnownTau{tau.at(0).get<double>(), tau.at(1).get<double>()};

@@ -660,19 +660,24 @@ struct HeaderOnly : RecordingRowSink {
 // begun before headers carried it) or cannot be read (the reopened recording is checked as
 // it is read on).
 GivenWander Sequencer::recorded_run_wander(const RunRecord& record) const {
+  const auto size_text = [](const GivenWander& w) {
+    if (w.size_axes_ug.isZero()) return number_text(w.size_ug);
+    const Vec3 q = w.size_axes_ug;
+    return number_text(q[0]) + " / " + number_text(q[1]) + " / " + number_text(q[2]) + " (x/y/z)";
+  };
   if (!(config_.stability.trend_limit_sigmas > 0)) return unit_wander();  // the rule is off
   try {
     HeaderOnly sink;
     RecordingReader reader(record.recording_path);
     const GivenWander begun_with = given_wander_of(reader.read_header(sink).unit_wander);
     if (!begun_with.given()) return unit_wander();
-    if (begun_with.size_ug != unit_wander().size_ug ||
+    if (begun_with.axes_ug() != unit_wander().axes_ug() ||
         begun_with.specified().tau_s != unit_wander().specified().tau_s)
       spdlog::info(
           "run {}: the drift rule allows for the unit's bias wander the run was begun with, "
           "{} µg at tau {} s (its recording's header), not the configured {} µg at tau {} s",
-          record.run_id, number_text(begun_with.size_ug), number_text(begun_with.specified().tau_s),
-          number_text(unit_wander().size_ug), number_text(unit_wander().specified().tau_s));
+          record.run_id, size_text(begun_with), number_text(begun_with.specified().tau_s),
+          size_text(unit_wander()), number_text(unit_wander().specified().tau_s));
     return begun_with;
   } catch (const std::exception& e) {
     spdlog::warn(

@@ -325,6 +325,12 @@ TEST_F(Cli, NoiseOfAStaticRecordingNamesTheCorrelationTimeToGiveTheFits) {
   EXPECT_NE(text.output.find("the size is the largest axis's, which this recording allows at "),
             std::string::npos)
       << text.output;
+  // Or the recording itself, whose curves give each axis its own size.
+  EXPECT_NE(text.output.find("or give this recording itself, which weighs each axis with its own "
+                             "size: standcal fit RECORDING --unit-static-recording " +
+                             eight_hours),
+            std::string::npos)
+      << text.output;
   EXPECT_EQ(gm["wander_seen"], true);
   EXPECT_GT(gm["wander_deviance"].get<double>(), kGaussMarkovWanderDeviance) << gm.dump(2);
   // Half an hour of a 1200 s wander: the curves end before it turns over, and the range is

@@ -11,6 +11,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "calib/noise_model.hpp"
 #include "calib/recording.hpp"
 #include "calib/simulator.hpp"
 
@@ -277,6 +278,43 @@ TEST(RecordingErrors, TheUnitsWanderItsRunWasMadeWithIsReadOrRefusedByItsLine) {
                 .find("rec.csv:3: header 'unit_bias_instability_tau_max_s': 200 s is below "
                       "unit_bias_instability_tau_s 900 s: the range is MIN to MAX"),
             std::string::npos);
+}
+
+// Each axis's size (a static recording's curves pin one per axis): all three, beside the
+// size that is their largest, or refused naming the line.
+TEST(RecordingErrors, TheUnitsWanderPerAxisIsReadWithItsLargestOrRefusedByItsLine) {
+  const std::string axes =
+      "# unit_bias_instability_x_ug: 2\n# unit_bias_instability_y_ug: 4.5\n"
+      "# unit_bias_instability_z_ug: 3\n";
+  const Recording r = parse_recording("# format: standcal-recording/1\n" + axes +
+                                          "# unit_bias_instability_ug: 4.5\n" + kColumns + kRow0,
+                                      "rec.csv");
+  EXPECT_EQ(r.unit_wander.size_axes_ug, Vec3(2, 4.5, 3));
+  EXPECT_DOUBLE_EQ(r.unit_wander.size_ug, 4.5);
+  EXPECT_NE(error_of(with_header("# unit_bias_instability_ug: 4.5\n"
+                                 "# unit_bias_instability_y_ug: 4.5"))
+                .find("rec.csv:3: header 'unit_bias_instability_y_ug': each axis's size comes "
+                      "with the others': unit_bias_instability_x_ug, _y_ug and _z_ug"),
+            std::string::npos);
+  EXPECT_NE(error_of("# format: standcal-recording/1\n" + axes + "# unit_bias_instability_ug: 5\n" +
+                     kColumns + kRow0)
+                .find("rec.csv:2: header 'unit_bias_instability_x_ug': the largest axis's size, "
+                      "4.5 ug, is not unit_bias_instability_ug's 5 ug: that key holds the largest"),
+            std::string::npos);
+  EXPECT_NE(error_of(with_header("# unit_bias_instability_z_ug: -3"))
+                .find("rec.csv:2: header 'unit_bias_instability_z_ug': -3 ug is outside 0 ... "),
+            std::string::npos);
+  // What set_unit_wander_header writes is what is read back.
+  GivenWander w;
+  w.size_ug = 4.5;
+  w.size_axes_ug = Vec3(2, 4.5, 3);
+  w.known_tau = KnownTau{40, 90};
+  Recording header =
+      parse_recording("# format: standcal-recording/1\n" + kColumns + kRow0, "rec.csv");
+  set_unit_wander_header(header, w);
+  const Recording back = parse_recording(format_recording_header(header) + kRow0, "back.csv");
+  EXPECT_EQ(given_wander_of(back.unit_wander).axes_ug(), w.size_axes_ug);
+  EXPECT_EQ(given_wander_of(back.unit_wander).specified().q_g, w.size_axes_ug * kUg);
 }
 
 // A header in Latin-1 (a serial typed on an old bench PC): `standcal import` stored the

@@ -237,6 +237,9 @@ TEST(DaemonRun, TheFitsTakeTheWanderTheUnitsStaticRecordingPins) {
   EXPECT_EQ(noise["unit_wander_from"], "header") << noise.dump(2) << run.log;
   EXPECT_EQ(noise["tau_given"], true) << noise.dump(2);
   EXPECT_NEAR(run.recorded.size_ug, 3, 1.2);
+  // Each axis's own size too, the largest of which is the size.
+  EXPECT_FALSE(run.recorded.size_axes_ug.isZero());
+  EXPECT_DOUBLE_EQ(run.recorded.size_axes_ug.maxCoeff(), run.recorded.size_ug);
   EXPECT_LT(run.recorded.tau_s, 60 * 1.5);  // the range the recording allows holds 60 s
   EXPECT_GT(run.recorded.tau_max_s, 60 / 1.5);
   ASSERT_TRUE(run.result.contains("unit_wander_source")) << run.result.dump(2);

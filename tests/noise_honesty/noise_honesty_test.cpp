@@ -757,7 +757,11 @@ TEST(FitNoise, ALongDwellInTheRecordingGivesTheFitsTheUnitsWander) {
   const FitResult fit = fit_full_vector(averaged.averages, noise);
   EXPECT_EQ(fit.noise.unit_wander_from, kWanderFromRecording) << fit.noise.how;
   EXPECT_EQ(fit.noise.source, "specified") << fit.noise.how;
-  for (int a = 0; a < 3; ++a) EXPECT_DOUBLE_EQ(fit.noise.wander_ug[a], w.q);
+  // Each axis with its own size, the largest of which is the one the words give.
+  ASSERT_EQ(w.q_axes.size(), 3u);
+  for (int a = 0; a < 3; ++a)
+    EXPECT_DOUBLE_EQ(fit.noise.wander_ug[a], w.q_axes[static_cast<std::size_t>(a)]);
+  EXPECT_DOUBLE_EQ(fit.noise.wander_ug.maxCoeff(), w.q);
   EXPECT_EQ(fit_to_json(fit)["noise"]["unit_wander_from"], "recording");
   const std::string report = format_report(fit, report_context(rec, averaged.averages));
   EXPECT_NE(report.find("the unit's bias wander as this recording's long dwell shows it"),
@@ -882,7 +886,12 @@ TEST(FitNoise, ANormFitCountsTheWanderBetweenItsIntervalsOnce) {
   const double curve = median_error_over_white(norm.detection.intervals, true);
   const double weighted = median_error_over_white(norm.detection.intervals, false);
   EXPECT_GT(curve, 2.5) << "the curves hold the wander's share";
-  EXPECT_NEAR(weighted, 1, 0.1) << norm.detection.standard_errors_how;
+  // What is left is the curve's variance less the wander's share, a difference of two numbers
+  // ten times its size: a curve 4 % above the model's (3.17 against 3.04 x white here) leaves
+  // 1.2 x white. Until each axis took its own size (2026-12-07) the largest axis's was taken
+  // off every axis, which left less than white noise's and was floored at it: exactly 1.
+  EXPECT_GE(weighted, 1) << norm.detection.standard_errors_how;
+  EXPECT_LT(weighted, 1.5) << norm.detection.standard_errors_how;
   EXPECT_NE(norm.detection.standard_errors_how.find("less the share of the bias wander"),
             std::string::npos)
       << norm.detection.standard_errors_how;
@@ -1237,6 +1246,43 @@ TEST(FitNoise, TheStandFitsTakeTheBoundsInTheirOrder) {
   EXPECT_FALSE(sized.average_over_wander_sizes);
   EXPECT_EQ(use->gave, "nothing");
   EXPECT_NE(use->why.find("was given"), std::string::npos) << use->why;
+}
+
+// A unit whose axes wander unalike (3, 6 and 12 ug, 60 s): the static recording's curves give
+// each axis its own size, which the fits weigh with, and its words and JSON say them. Until
+// 2026-12-07 the largest axis's was given to every axis: x's wander taken as 16 times its
+// variance (the first check fails so), and over 1000 runs of bench/noise (--static-hours 2)
+// the biases' z-variance at 1x was 0.84-0.86 where the axes wander alike.
+TEST(FitNoise, AStaticRecordingGivesEachAxisItsOwnWander) {
+  const TruthModel truth = default_truth();
+  const Vec3 q_ug(3, 6, 12);
+  std::vector<std::vector<double>> axes;
+  for (int a = 0; a < 3; ++a)
+    axes.push_back(simulate_static_gauss_markov(
+        truth.noise.density_ug_rthz, q_ug[a], 60, 2 * 3600, noise_mc::kStaticRecordingRateHz,
+        static_cast<unsigned>(40 + a))[static_cast<std::size_t>(a)]);
+  const UnitStaticAllan unit_static = stand_unit_static_allan(
+      *noise_mc::static_raw_input(axes, noise_mc::kStaticRecordingRateHz, truth.g_local_mps2),
+      truth.g_local_mps2);
+  const Recording rec = bench_run_with_warm_up(0, 0, 60, 41);
+  const AveragedRecording averaged = average_recording(rec);
+  FitNoiseOptions noise;
+  const std::optional<UnitStaticRecordingUse> use =
+      take_unit_wander_with_static_recording(noise, rec, averaged.allan, &unit_static);
+  ASSERT_TRUE(use.has_value());
+  ASSERT_EQ(use->gave, "wander") << use->why;
+  const Vec3 q = use->wander.axes_ug();
+  for (int a = 0; a < 3; ++a) EXPECT_NEAR(q[a] / q_ug[a], 1, 0.4) << "axis " << a << ": " << q;
+  EXPECT_DOUBLE_EQ(use->wander.size_ug, q.maxCoeff());
+  const FitResult fit = fit_full_vector(averaged.averages, noise);
+  EXPECT_EQ(fit.noise.unit_wander_from, kWanderFromStaticRecording) << fit.noise.how;
+  for (int a = 0; a < 3; ++a) EXPECT_DOUBLE_EQ(fit.noise.wander_ug[a], q[a]) << fit.noise.how;
+  char words[96];
+  std::snprintf(words, sizeof words,
+                "its Allan curves pin a wander of %.3g / %.3g / %.3g ug (x/y/z)", q[0], q[1], q[2]);
+  EXPECT_EQ(use->why.rfind(words, 0), 0u) << use->why;
+  const nlohmann::json j = unit_static_recording_json(*use);
+  EXPECT_EQ(j["wander_ug"], nlohmann::json::array({q[0], q[1], q[2]})) << j;
 }
 
 // A run whose own wander departs from the one specified because it is larger on some axis is

@@ -219,7 +219,10 @@ std::string gauss_markov_words(const std::optional<GaussMarkovAllanFit>& f, doub
          "unit.bias_instability_tau_max_s; the size is the largest axis's, which this "
          "recording allows at " +
          size_range_text(give->q_min, give->q_max) +
-         ": a longer one narrows that); one calibration run "
+         ": a longer one narrows that); or give this recording itself, which weighs each "
+         "axis with its own size: standcal fit RECORDING --unit-static-recording " +
+         recording +
+         " (standcald: unit.static_recording). One calibration run "
          "cannot pin the correlation time, nor the size of a wander it seldom shows, and too "
          "short a tau or too small a size makes the biases' sigmas too small. The averaging "
          "time of the bias-instability floor above is not the correlation time (a Gauss-Markov "
