@@ -536,7 +536,8 @@ nlohmann::json unit_static_recording_json(const UnitStaticRecordingUse& u) {
   if (u.gave == "wander") {
     const Vec3 q = u.wander.axes_ug();
     j["wander_ug"] = {q[0], q[1], q[2]};
-    if (u.wander.known_tau) j["tau_s"] = {u.wander.known_tau->min_s, u.wander.known_tau->max_s};
+    if (u.wander.known_tau)
+      j["tau_range_s"] = {u.wander.known_tau->min_s, u.wander.known_tau->max_s};
   }
   return j;
 }

@@ -655,6 +655,9 @@ class Parser {
                                        std::string(kHeaderUnitWanderAxisUg[0]) +
                                        ", _y_ug and _z_ug");
     const RecordedUnitWander& w = rec_.unit_wander;
+    if (!seen_keys_.count(kHeaderUnitWanderUg))
+      refuse_header(given.front(), std::string("the axes' sizes come beside ") +
+                                       kHeaderUnitWanderUg + ", their largest");
     if (w.size_axes_ug.maxCoeff() != w.size_ug)
       refuse_header(given.front(), "the largest axis's size, " +
                                        round_trip_text(w.size_axes_ug.maxCoeff()) + " ug, is not " +

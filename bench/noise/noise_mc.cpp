@@ -282,8 +282,10 @@ ScenarioResult run_scenario(const Setup& setup, const Scenario& scenario) {
       for (std::size_t k = 0; k < all.size(); ++k) {
         try {
           fits[k] = fit_with(all[k], rec, averaged, req.truth, setup, given);
+          // Given a wander: the figures told, or the one the static recording pins.
           local[k].unit_given += all[k].weighting == "unit given" &&
-                                 fits[k]->noise.unit_wander_from == kWanderFromStaticRecording;
+                                 (!given.static_recording ||
+                                  fits[k]->noise.unit_wander_from == kWanderFromStaticRecording);
           accumulate(local[k], *fits[k], x_true, req.truth.noise.bias_instability_ug);
         } catch (const std::exception&) {
           ++local[k].failed;

@@ -98,7 +98,7 @@ struct ZStats {
   double wander_q2_ratio_sum = 0;
   int wander_q2_ratio_n = 0;
   int wander_significant = 0;  // runs whose fit found the wander significant
-  int unit_given = 0;  // "unit given" runs the static recording (static_hours) gave its wander
+  int unit_given = 0;        // "unit given" runs given a wander: figures, or the static recording's
   int recording_wander = 0;  // runs whose fit took the recording's own (warmup_hours)
   int runs = 0;
   int failed = 0;  // runs whose fit threw

@@ -188,7 +188,8 @@ CertificateInput prepare_certificate(const CertificateRequest& req) {
   if (in.unit_static_recording) {
     const std::vector<std::string>& w = in.unit_static_recording->warnings;
     in.warnings.insert(in.warnings.end(), w.begin(), w.end());
-  } else {
+  } else if (may_take_recording_wander(req.noise)) {
+    // The run's, where nothing of the certificate's own overrode the header's wander.
     in.run_unit_static_recording = run_unit_static_recording_words(run.recording);
   }
   in.invariant = fit_invariant_joint(in.positions, noise);

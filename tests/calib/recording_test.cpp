@@ -301,6 +301,10 @@ TEST(RecordingErrors, TheUnitsWanderPerAxisIsReadWithItsLargestOrRefusedByItsLin
                 .find("rec.csv:2: header 'unit_bias_instability_x_ug': the largest axis's size, "
                       "4.5 ug, is not unit_bias_instability_ug's 5 ug: that key holds the largest"),
             std::string::npos);
+  EXPECT_NE(error_of("# format: standcal-recording/1\n" + axes + kColumns + kRow0)
+                .find("rec.csv:2: header 'unit_bias_instability_x_ug': the axes' sizes come "
+                      "beside unit_bias_instability_ug, their largest"),
+            std::string::npos);
   EXPECT_NE(error_of(with_header("# unit_bias_instability_z_ug: -3"))
                 .find("rec.csv:2: header 'unit_bias_instability_z_ug': -3 ug is outside 0 ... "),
             std::string::npos);

@@ -261,6 +261,14 @@ TEST_F(CertificateCli, SaysWhatTheDaemonsStaticRecordingGaveItsRun) {
             std::string::npos)
       << noise;
   EXPECT_EQ(noise.find("unit.bias_instability_tau_s"), std::string::npos) << noise;
+  // The certificate's own wander given in place of the header's: the run's line is not what the
+  // uncertainties rest on, and is not printed.
+  const CommandResult given =
+      run_cli("certificate 20261122T080000Z-AU-0045 --state-dir " + state_.path() +
+              " --bias-instability-ug 60 -o " + out.string());
+  ASSERT_EQ(given.exit_code, 0) << given.output;
+  const std::string own = HtmlDocument(read_text(out)).text("//p[@id='noise-model']");
+  EXPECT_EQ(own.find("by standcald's unit.static_recording"), std::string::npos) << own;
 }
 
 TEST_F(CertificateCli, ExplainsAWrongRequestInOneLine) {

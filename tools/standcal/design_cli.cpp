@@ -164,8 +164,9 @@ std::string wander_words(const DesignSettings& s) {
 }
 
 // --unit-static-recording: the white noise and the wander the unit's static recording shows, as
-// `standcal noise` measures them (the largest axis's; the wander as the fits take it from the
-// recording), in place of the flags'. Curves that see a wander the fits would not take are
+// `standcal noise` measures them (the largest axis's, one size, where the fits weigh each axis
+// with its own; the correlation times as the fits take them from the recording), in place of
+// the flags'. Curves that see a wander the fits would not take are
 // refused: white noise alone, and the white noise fitted beside that wander, would promise too
 // much. Said on stderr, and in the JSON's noise_from.
 void take_static_recording_noise(const std::string& path, DesignSettings& s) {
