@@ -188,10 +188,10 @@ std::string unexplained_drift(const DwellAverage& dwell, const DwellExpectation&
   if (!(rule.trend_limit_sigmas > 0) || dwell.count < 3) return {};
   const double trend_ug = dwell.trend_mps2[a] * ug_per_mps2;
   const double widening = expected.sample_correlation_widening[static_cast<std::size_t>(a)];
-  const double explained_ug =
-      explained_trend_sigma_mps2(dwell, a, expected.bias_wander_ug / ug_per_mps2,
-                                 expected.bias_wander_tau_s, widening) *
-      ug_per_mps2;
+  const double wander_ug = expected.bias_wander_ug[static_cast<std::size_t>(a)];
+  const double explained_ug = explained_trend_sigma_mps2(dwell, a, wander_ug / ug_per_mps2,
+                                                         expected.bias_wander_tau_s, widening) *
+                              ug_per_mps2;
   if (!(explained_ug > 0)) return {};
   // The ratio said is the ratio judged.
   const double times_explained = std::abs(trend_ug) / explained_ug;
@@ -202,8 +202,8 @@ std::string unexplained_drift(const DwellAverage& dwell, const DwellExpectation&
          " µg from its sample σ" +
          (widening > 1 ? fmt::format(" widened {:.3g} times for its correlated samples", widening)
                        : std::string()) +
-         (expected.bias_wander_ug > 0 ? std::string(" and the unit's bias wander") : "") +
-         "; limit " + limit + " times)";
+         (wander_ug > 0 ? std::string(" and the unit's bias wander") : "") + "; limit " + limit +
+         " times)";
 }
 
 }  // namespace

@@ -44,9 +44,9 @@ struct DwellExpectation {
   double sample_rate_hz = 0;      // the unit's configured rate
   std::uint64_t incomplete = 0;   // frames the unit reported incomplete during the dwell
   double g_local_mps2 = 9.80665;  // µg conversions
-  // The unit's configured Gauss-Markov bias wander (unit.bias_instability_ug / _tau_s): part
-  // of what explains a drift over the dwell.
-  double bias_wander_ug = 0;
+  // The unit's configured Gauss-Markov bias wander (unit.bias_instability_ug / _tau_s, or each
+  // axis's from unit.static_recording): part of what explains a drift over the dwell.
+  std::array<double, 3> bias_wander_ug{0, 0, 0};
   double bias_wander_tau_s = 300;
   // What the dwell's white noise is widened by per axis for its samples' own correlation
   // (DwellSampleCorrelation): a drift's scatter grows with it as a mean's error does.

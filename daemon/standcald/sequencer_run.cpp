@@ -755,7 +755,8 @@ Sequencer::SampledDwell Sequencer::sample_stable_dwell(const RunRecord& record, 
     DwellExpectation expected{hw_.unit->name(), dwell_s, config_.sample_rate_hz,
                               hw_.unit->health().incomplete_samples - incomplete_before,
                               record.g_local_mps2};
-    expected.bias_wander_ug = run_wander_.size_ug;
+    const Vec3 wander_ug = run_wander_.axes_ug();  // each axis's own
+    expected.bias_wander_ug = {wander_ug[0], wander_ug[1], wander_ug[2]};
     expected.bias_wander_tau_s = run_wander_.specified().tau_s;
     if (dwell_correlation_ && implausible_reading(d.average).empty())
       expected.sample_correlation_widening = dwell_correlation_->add_dwell(d.samples, d.average);

@@ -234,9 +234,14 @@ TEST(DwellStability, ADriftBeyondWhatTheNoiseExplainsIsReMeasuredWhenTheRuleAsks
   EXPECT_NE(problem.find("limit 6 times"), std::string::npos) << problem;
   // The same dwell from a unit configured with a 100 ug wander of 60 s: explained.
   DwellExpectation wandering = expect(10, 100);
-  wandering.bias_wander_ug = 100;
+  wandering.bias_wander_ug = {100, 100, 100};
   wandering.bias_wander_tau_s = 60;
   EXPECT_EQ(dwell_problem(drifting, wandering, rule), "");
+  // A unit whose y axis wanders 1 ug where x and z wander 100 (each axis's size, as a static
+  // recording pins them): y's drift is not explained by the others' wander. Until 2026-12-07
+  // the largest axis's size stood for every axis, and it was.
+  wandering.bias_wander_ug = {100, 1, 100};
+  EXPECT_EQ(dwell_problem(drifting, wandering, rule).rfind("axis y drifted ", 0), 0u);
   // A quiet dwell is kept.
   EXPECT_EQ(dwell_problem(average_dwell(noisy_dwell(1000, 100, 100, 0, 300, 0, rng)),
                           expect(10, 100), rule),
