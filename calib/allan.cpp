@@ -586,13 +586,6 @@ std::optional<WanderToGive> wander_to_give(const GaussMarkovAllanFit& fit, doubl
   return w;
 }
 
-std::optional<WanderToGive> wander_to_give(const std::vector<std::vector<AllanPoint>>& curves,
-                                           double sample_period_s) {
-  const std::optional<GaussMarkovAllanFit> fit = fit_gauss_markov_allan(curves, sample_period_s);
-  if (!fit) return std::nullopt;
-  return wander_to_give(*fit, curves_end_s(curves));
-}
-
 double WanderCurves::deviance(double q, double tau_c_s) const {
   double sum = 0;
   for (const ThinnedAllanCurve& c : axes)

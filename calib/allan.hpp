@@ -201,9 +201,6 @@ struct WanderToGive {
   double curves_end_s = 0;              // the longest averaging time of the curves
 };
 std::optional<WanderToGive> wander_to_give(const GaussMarkovAllanFit& fit, double curves_end_s);
-// The same of curves not yet fitted (fit_gauss_markov_allan).
-std::optional<WanderToGive> wander_to_give(const std::vector<std::vector<AllanPoint>>& curves,
-                                           double sample_period_s);
 // The longest averaging time of any of the curves (0 for none).
 double curves_end_s(const std::vector<std::vector<AllanPoint>>& curves);
 

@@ -99,6 +99,11 @@ std::string run_unit_static_recording_words(const Recording& rec) {
   return from_run.empty() ? "" : "its run, by standcald's unit.static_recording: " + from_run;
 }
 
+void put_unit_wander_source(json& result, const Recording& rec) {
+  if (const std::string from = rec.header_value(kHeaderUnitWanderSource); !from.empty())
+    result["unit_wander_source"] = from;
+}
+
 ReportContext report_context(const Recording& rec, std::vector<PositionAverage> averages) {
   return {rec.source,          rec.unit_serial,
           rec.program,         rec.g_local_mps2,

@@ -30,6 +30,9 @@ ReportContext report_context(const Recording& rec, std::vector<PositionAverage> 
 // standcald's unit.static_recording: ..."; its header's kHeaderUnitWanderSource), or "" where
 // the header says nothing. Said of the run: a later fit's own options may override it.
 std::string run_unit_static_recording_words(const Recording& rec);
+// The same line, where the header has one, into a result's JSON as `unit_wander_source`
+// (standcald's run.result, `records import`'s stored result).
+void put_unit_wander_source(nlohmann::json& result, const Recording& rec);
 
 nlohmann::json fit_to_json(const FitResult& fit);
 // `noise` of the fit and diagnosis JSON: the noise model a result was weighted with.

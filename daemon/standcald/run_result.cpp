@@ -93,9 +93,7 @@ json fit_finished_run(RunRecord& record, const std::string& run_dir, const Given
   record.ended_utc = utc_now_iso();
   result["recording_path"] = record.recording_path;
   result["traceability"] = traceability_to_json(record);
-  if (const std::string from = digest.recording.header_value(kHeaderUnitWanderSource);
-      !from.empty())
-    result["unit_wander_source"] = from;  // the header's wander: where the daemon took it
+  put_unit_wander_source(result, digest.recording);  // what its unit.static_recording gave
   result["recording_warnings"] = digest.recording.warnings;
   if (std::string why = digest.allan_warning(); !why.empty())
     result["recording_warnings"].push_back(std::move(why));

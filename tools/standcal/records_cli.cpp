@@ -170,9 +170,7 @@ CalibrationRecord import_record(const ImportOptions& o, const std::string& path,
   r.result["recording_warnings"] = warnings;
   r.result["import"] = json{{"source", path}, {"fingerprint", fingerprint(text)}};
   if (static_use) r.result["unit_static_recording"] = unit_static_recording_json(*static_use);
-  // What standcald's unit.static_recording gave the run, as its run.result gives it.
-  if (const std::string from = rec.header_value(kHeaderUnitWanderSource); !from.empty())
-    r.result["unit_wander_source"] = from;
+  put_unit_wander_source(r.result, rec);  // as the run's run.result gives it
   r.origin = "import";
   return r;
 }
