@@ -557,6 +557,7 @@ DwellAllan finish_dwell_allan(double sample_period_s, const std::array<AllanAccu
     if (!gaps.too_much()) {
       out.wander = wander_to_give(*fit, curves_end_s(curves));
       out.wander_curves = wander_curves(*fit, curves, sample_period_s);
+      out.wander_tau_floor_s = wander_tau_floor_s(*fit);
     }
   }
   return out;
@@ -576,6 +577,12 @@ std::optional<WanderToGive> wander_to_give(const GaussMarkovAllanFit& fit, doubl
   WanderToGive w;
   w.q = *largest;
   w.q_axes = fit.q;
+  w.axes_at_bound.assign(fit.q.size(), false);
+  for (std::size_t a = 0; a < fit.q.size() && a < fit.q_min.size(); ++a)
+    if (fit.q_min[a] <= 0 && a != axis) {
+      w.q_axes[a] = std::min(fit.q_max[a], w.q);
+      w.axes_at_bound[a] = true;
+    }
   if (axis < fit.q_min.size()) {
     w.q_min = fit.q_min[axis];
     w.q_max = fit.q_max[axis];
@@ -584,6 +591,10 @@ std::optional<WanderToGive> wander_to_give(const GaussMarkovAllanFit& fit, doubl
   w.tau_max_s = fit.tau_max_s;
   w.curves_end_s = curves_end_s;
   return w;
+}
+
+double wander_tau_floor_s(const GaussMarkovAllanFit& fit) {
+  return fit.wander_seen && fit.describes_curves && fit.tau_open_above ? fit.tau_min_s : 0.0;
 }
 
 double WanderCurves::deviance(double q, double tau_c_s) const {
@@ -648,8 +659,8 @@ std::optional<AllanFinding> allan_finding(const Recording& rec, std::string* why
 }
 
 AllanFinding allan_finding_of(const DwellAllan& a) {
-  return {a.sample_period_s, a.segments,       a.figures,      a.sample_correlation,
-          a.wander,          a.gaps.warning(), a.wander_curves};
+  return {a.sample_period_s, a.segments,       a.figures,       a.sample_correlation,
+          a.wander,          a.gaps.warning(), a.wander_curves, a.wander_tau_floor_s};
 }
 
 std::string no_sample_period_warning(const Recording& rec) {

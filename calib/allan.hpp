@@ -190,17 +190,27 @@ std::optional<GaussMarkovAllanFit> fit_gauss_markov_allan(
 
 // The unit's wander as a static recording's curves give it to the fits: where the fit sees a
 // wander, pins its correlation time inside the curves and describes them (`standcal noise`'s
-// advice; a calibration recording's own long dwell, take_recording_wander). One size for the
-// three axes, the largest axis's: one too small is what makes the biases' sigmas too small,
-// one larger on the others only widens theirs (docs/calibration.md, "The unit given").
+// advice; a calibration recording's own long dwell, take_recording_wander): each axis's size,
+// a unit's axes wandering each its own (docs/calibration.md, "Each axis its own size").
 struct WanderToGive {
-  double q = 0;                         // the largest axis's q, in the curves' unit
-  std::vector<double> q_axes;           // each axis's q: a unit's axes wander each its own
+  double q = 0;  // the largest axis's q, in the curves' unit
+  // Each axis's q; where its curves do not tell a wander from none (its q_min 0; not the
+  // largest axis), the largest size they allow it (its q_max, at most q) instead of its fit, which
+  // may be 0 by chance: a size too small is what makes that axis's bias sigma too small, one too
+  // large only widens it.
+  std::vector<double> q_axes;
+  std::vector<bool> axes_at_bound;      // the axes given their bound so
   double q_min = 0, q_max = 0;          // the sizes the curves allow it (q_max infinite: no bound)
   double tau_min_s = 0, tau_max_s = 0;  // the correlation times they allow
   double curves_end_s = 0;              // the longest averaging time of the curves
 };
 std::optional<WanderToGive> wander_to_give(const GaussMarkovAllanFit& fit, double curves_end_s);
+// Where the fit sees a wander that has not turned over by the curves' end (its correlation time
+// open above: no WanderToGive), the shortest correlation time it allows, s: what the curves do
+// say of the unit's (a two-hour warm-up of a 1200 s wander, 6 tau, lower-bounds it so in about
+// 4 of 5 recordings, bench/noise/allan_tau_main.cpp). 0 otherwise, and where the curves do not
+// describe white noise and one wander.
+double wander_tau_floor_s(const GaussMarkovAllanFit& fit);
 // The longest averaging time of any of the curves (0 for none).
 double curves_end_s(const std::vector<std::vector<AllanPoint>>& curves);
 
@@ -332,6 +342,7 @@ struct DwellAllan {
   std::optional<SampleCorrelation> sample_correlation;  // set by finish_dwell_allan
   std::optional<WanderToGive> wander;                   // set by finish_dwell_allan (ug)
   std::optional<WanderCurves> wander_curves;            // likewise, where they show none
+  double wander_tau_floor_s = 0;                        // likewise (wander_tau_floor_s)
 };
 // Throws std::runtime_error naming the recording when it has fewer than kMinAllanSamples.
 inline constexpr std::size_t kMinAllanSamples = 30;
@@ -355,6 +366,10 @@ struct AllanFinding {
   // The curves as a likelihood of the wander (ug), where they show none (wander_curves) and no
   // gaps distort them: what bounds the wander a fit's sigmas allow for (take_wander_curves).
   std::optional<WanderCurves> wander_curves;
+  // Where the curves see a wander they do not pin (wander_tau_floor_s), the shortest
+  // correlation time they allow it, s: the fits weigh the unit's at no shorter one
+  // (take_recording_tau_floor, noise_model.hpp). 0 otherwise.
+  double wander_tau_floor_s = 0;
 };
 AllanFinding allan_finding_of(const DwellAllan& a);
 // `why_none`, where given, is set when a recording of kMinAllanSamples or more has no curve

@@ -205,7 +205,9 @@ bool takes_full_vector_wander(const FitNoiseChoice& full, const FitNoiseOptions&
   if (full.noise.white()) return false;
   if (full.finding.bias_instability) return true;  // estimated, or agreeing with the specified
   if (full.finding.source != "estimated") return false;
-  const bool one_tau_given = options.known_tau && !options.known_tau->range();
+  // A floor set aside is no correlation time given (FitNoiseChoice::tau_floor_set_aside).
+  const bool one_tau_given =
+      options.known_tau && !options.known_tau->range() && !full.tau_floor_set_aside;
   return one_tau_given || full.finding.lr > kFullVectorWanderLr;
 }
 
@@ -245,7 +247,8 @@ FitNoiseChoice checked_by_full_vector(const WanderAgainstWhite& against, FitNois
     return taken_from_full_vector(std::move(full),
                                   ", which disfavour the wander the invariant rows estimate");
   std::erase_if(own.plausible, [&](const PlausibleNoise& p) { return disfavoured(p.noise); });
-  set_tau_provenance(own.finding, own.plausible, options.known_tau);
+  set_tau_provenance(own.finding, own.plausible,
+                     own.tau_floor_set_aside ? std::nullopt : options.known_tau);
   return own;
 }
 

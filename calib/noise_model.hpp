@@ -170,6 +170,9 @@ std::string seconds_text(double s);
 // weighs (kKnownTauRangePoints correlation times, log-spaced).
 struct KnownTau {
   double min_s = 0, max_s = 0;  // equal: one value
+  // Known only from below: Allan curves that see a wander they do not pin put it at min_s or
+  // longer, and max_s is the longest the fits model (take_recording_tau_floor).
+  bool open_above = false;
   bool range() const { return max_s > min_s; }
   double centre_s() const;  // the log-middle, sqrt(min max): one wander to weight with
   std::vector<double> grid_s() const;
@@ -288,9 +291,9 @@ GivenWander given_wander_of(const WanderToGive& pinned);
 bool take_header_wander(FitNoiseOptions& options, const Recording& rec);
 
 // The unit's wander for `rec`, where none is given: its header's, else its own long dwell's
-// (take_recording_wander). Returns whether it took one. The diagnosis's rule (it weighs no
-// bound on a wander); the fits also take a long dwell's bound where it pins none
-// (take_recording_wander_or_bound, take_unit_wander_with_static_recording).
+// (take_recording_wander, else take_recording_tau_floor). Returns whether it took one. The
+// diagnosis's rule (it weighs no bound on a wander); the fits also take a long dwell's bound where
+// it pins none (take_recording_wander_or_bound, take_unit_wander_with_static_recording).
 bool take_unit_wander(FitNoiseOptions& options, const Recording& rec,
                       const std::optional<AllanFinding>& allan);
 
@@ -326,9 +329,25 @@ bool take_wander_curves(FitNoiseOptions& options, const std::optional<AllanFindi
 // Whether `options` leave room for that: a caller that fits the curves for it alone can skip
 // the fit otherwise.
 bool may_weigh_wander_curves(const FitNoiseOptions& options);
+// Where the fit estimates the noise and nothing of the unit's wander is given, and Allan curves
+// see a wander they do not pin (AllanFinding::wander_tau_floor_s: a long dwell of a few of its
+// correlation times, which ends before the wander turns over) whose shortest correlation time
+// lies above the fits' shortest: the correlation time as known from that floor to the longest
+// the fits model (known_tau, open_above; at the floor where it lies beyond), its size estimated
+// from the run. One run's rows allow correlation times the curves exclude, the shorter of
+// which make the biases' sigmas several times too small where the wander is slow (tau 1200 s:
+// docs/calibration.md, "Curves that see a wander they do not pin"). Too long a floor (a
+// warm-up still settling) only widens the sigmas. Returns whether it took one. `from`: as
+// take_recording_wander's.
+bool take_recording_tau_floor(FitNoiseOptions& options, const std::optional<AllanFinding>& allan,
+                              const std::string& from = kWanderFromRecording);
+// The longest correlation time of the fits' wander model (estimate.tau_grid_s; 0 for an empty
+// grid).
+double longest_model_tau_s(const FitNoiseOptions& options);
 // A stand fit's use of its recording's own long dwell (a warm-up): the wander its curves pin
-// (take_recording_wander), else, where they show none and no other curves bound the wander
-// already, the curves as that bound (take_wander_curves). Returns whether it took either.
+// (take_recording_wander), else the correlation time they bound from below
+// (take_recording_tau_floor), else, where they show no wander and no other curves bound it
+// already, the curves as that bound (take_wander_curves). Returns whether it took any.
 bool take_recording_wander_or_bound(FitNoiseOptions& options,
                                     const std::optional<AllanFinding>& allan);
 // The shortest correlation time of the fits' wander model (estimate.tau_grid_s; 0 for an empty
@@ -363,6 +382,8 @@ struct NoiseFinding {
   bool tau_given = false;         // given, not estimated (known_tau, or a specified wander)
   // The range of correlation times given (known_tau as a range; 0 when one value).
   double tau_given_min_s = 0, tau_given_max_s = 0;
+  // ... known only from below (KnownTau::open_above): tau_given_max_s is the fits' longest.
+  bool tau_given_open_above = false;
   // Estimated, or given as a range: the correlation times of the grid the run allows
   // (2 delta log L within plausible_lr of the best); the biases' sigmas are averaged over them.
   double tau_plausible_min_s = 0, tau_plausible_max_s = 0;
@@ -436,6 +457,10 @@ struct FitNoiseChoice {
   // ... or, where the recording's Allan curves weighed them too (FitNoiseOptions::
   // wander_curves_ug), to that average alone.
   bool sizes_weigh_curves = false;
+  // The floor Allan curves put under the correlation time (KnownTau::open_above) was not
+  // taken: the run's rows do not show the wander under it (choose_fit_noise). The choice is
+  // then the fit's without known_tau.
+  bool tau_floor_set_aside = false;
 };
 
 // How much each parameter's sigma widens when the noise model is estimated from the run:
@@ -467,6 +492,9 @@ bool run_agrees_with_specified(const std::vector<NoiseRow>& rows, const Eigen::M
 // correlation time is given as a range.
 GaussMarkovNoise specified_at_known_tau(const FitNoiseOptions& options);
 
+// A floor under the correlation time (known_tau open_above) is taken only where the run's
+// rows show the wander under it, as a finding; otherwise the choice is made without it
+// (FitNoiseChoice::tau_floor_set_aside).
 FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const Eigen::MatrixXd& X,
                                 const Eigen::VectorXd& y, const FitNoiseOptions& options,
                                 const std::vector<PositionAverage>& positions);

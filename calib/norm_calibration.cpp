@@ -10,6 +10,7 @@
 #include "calib/parameters.hpp"
 #include "calib/report.hpp"
 #include "calib/static_noise.hpp"
+#include "calib/text.hpp"
 
 namespace standcal {
 
@@ -319,6 +320,7 @@ AllanFinding fitted_allan_finding(const DwellAllan& a, bool wander, bool curves,
   if (fit) *fit = fitted;
   if (!fitted) return out;
   if (wander) out.wander = wander_to_give(*fitted, curves_end_s(axes));
+  if (wander) out.wander_tau_floor_s = wander_tau_floor_s(*fitted);
   if (curves) out.wander_curves = wander_curves(*fitted, axes, a.sample_period_s);
   return out;
 }
@@ -348,15 +350,27 @@ constexpr const char* kGivenWords =
     "the unit's wander or its correlation time was given (--bias-instability-*, or the "
     "recording's header: what its run was made with), or the noise is not estimated";
 
+// The axes given the largest size their curves allow (WanderToGive::axes_at_bound), in words.
+std::string at_bound_words(const WanderToGive& w) {
+  std::string axes;
+  int count = 0;
+  for (std::size_t a = 0; a < w.axes_at_bound.size() && a < 3; ++a)
+    if (w.axes_at_bound[a]) axes += std::string(count++ ? " and " : "") + "xyz"[a];
+  if (count == 0) return "";
+  return " (" + axes +
+         (count == 1 ? " at the largest size its curve allows: it does"
+                     : " at the largest sizes their curves allow: they do") +
+         " not tell a wander from none)";
+}
+
 // The static recording gave the wander its curves pin, weighted with as the unit's.
 void say_gave_pinned_wander(UnitStaticRecordingUse& use, const WanderToGive& w) {
   use.gave = "wander";
   use.wander = given_wander_of(w);
   const Vec3 q = use.wander.axes_ug();
-  use.why = "its Allan curves pin a wander of " + fmt("%.3g", q[0]) + " / " + fmt("%.3g", q[1]) +
-            " / " + fmt("%.3g", q[2]) + " ug (x/y/z), correlation time " +
-            fmt("%.0f", w.tau_min_s) + "-" + fmt("%.0f", w.tau_max_s) +
-            " s: weighted with as the unit's, each axis with its own";
+  use.why = "its Allan curves pin a wander of " + axes_text("%.3g", q[0], q[1], q[2], "ug") +
+            ", correlation time " + fmt("%.0f", w.tau_min_s) + "-" + fmt("%.0f", w.tau_max_s) +
+            " s: weighted with as the unit's, each axis with its own" + at_bound_words(w);
 }
 
 // A wander the curves pin that take_recording_wander did not take: its times are beyond them or
@@ -524,6 +538,13 @@ std::optional<UnitStaticRecordingUse> take_unit_wander_with_static_recording(
     return use;
   }
   if (use && use->gave != "wander") take_static_recording_bound(options, *unit_static, *use);
+  if (take_recording_tau_floor(options, allan)) {
+    if (use)
+      use->why +=
+          "; this recording's own long dwell sees a wander it does not pin, whose "
+          "correlation time it bounds from below";
+    return use;
+  }
   if (take_recording_wander_or_bound(options, allan) && use)  // its bound: no wander is left
     use->why += "; this recording's own long dwell bounds the wander instead";
   return use;
@@ -681,7 +702,8 @@ NormCalibration calibrate(const RawInput& in, const NormCalibrationOptions& o) {
                                                           may_take_recording_wander(o.fit.noise),
                                                           may_weigh_wander_curves(o.fit.noise));
   // Nothing of the unit's wander given: the one a long static interval's Allan curves pin, as
-  // the stand fits take it (take_recording_wander); the fit weighted with it again.
+  // the stand fits take it (take_recording_wander), else the floor they put on its correlation
+  // time where they see one they do not pin (take_recording_tau_floor); the fit made again.
   // Either way, a wander weighted for between the intervals is taken out of their errors.
   // Otherwise, where the sigmas allow for a wander the intervals cannot exclude, the curves
   // weigh it too where they reach the wander's times (take_wander_curves): the fit is made
@@ -696,7 +718,8 @@ NormCalibration calibrate(const RawInput& in, const NormCalibrationOptions& o) {
   const NoiseFinding first = c.fit.result.noise;
   NormCalibrationOptions taken = o;
   if (take_recording_wander(taken.fit.noise, static_allan, kWanderFromStaticRecording) ||
-      take_recording_wander(taken.fit.noise, allan)) {
+      take_recording_wander(taken.fit.noise, allan) ||
+      take_recording_tau_floor(taken.fit.noise, allan)) {
     c.fit = fit_beside_wander(c.detection.intervals, in.g_mps2, in.units, taken.fit);
   } else {
     if (first.sigmas_allow_wander_up_to_ug > 0 &&

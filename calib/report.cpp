@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "calib/distributions.hpp"
+#include "calib/text.hpp"
 
 namespace standcal {
 
@@ -125,6 +126,7 @@ json noise_finding_json(const NoiseFinding& n) {
     j["tau_given"] = n.tau_given;
     if (n.tau_given_max_s > 0)
       j["tau_given_s"] = json::array({n.tau_given_min_s, n.tau_given_max_s});
+    if (n.tau_given_open_above) j["tau_given_open_above"] = true;
     if (n.unit_wander_given)
       j["unit_wander_from"] = n.unit_wander_from.empty() ? "given" : n.unit_wander_from;
     if (n.tau_plausible_max_s > 0)
@@ -226,6 +228,15 @@ std::string tau_words(const NoiseFinding& n, bool static_recording_given) {
                          : n.unit_wander_from == kWanderFromStaticRecording
                              ? " (the unit's static recording allows "
                              : " (given as ";
+  if (n.tau_given_open_above)
+    return " (a long static stretch's Allan curves see a wander they do not pin, and put its "
+           "correlation time at " +
+           format("%.0f", n.tau_given_max_s > 0 ? n.tau_given_min_s : n.tau_s) +
+           " s or longer; the biases' sigmas allow for " +
+           (n.tau_given_max_s > 0
+                ? "up to " + format("%.0f", n.tau_given_max_s) + " s, the longest the fits model"
+                : std::string("that time, beyond the longest the fits model")) +
+           ": record about 100 x it to pin it, or give it)";
   if (n.tau_given && n.tau_given_max_s > 0)
     return std::string(given_as) + format("%.0f", n.tau_given_min_s) + "-" +
            format("%.0f", n.tau_given_max_s) + " s; the biases' sigmas allow for it)";
@@ -247,8 +258,7 @@ std::string sample_correlation_words(const NoiseFinding& n) {
   const SampleCorrelation& c = *n.allan->sample_correlation;
   return "; the samples are correlated over about " + format("%.3g", c.tau_s) +
          " s (the unit's output filter), so each dwell mean's standard error is sigma/sqrt(n) x " +
-         format("%.2f", c.factor[0]) + " / " + format("%.2f", c.factor[1]) + " / " +
-         format("%.2f", c.factor[2]) + " (x/y/z)";
+         axes_text("%.2f", c.factor[0], c.factor[1], c.factor[2]);
 }
 
 }  // namespace
@@ -277,10 +287,9 @@ std::string noise_line(const NoiseFinding& n, bool static_recording_given) {
           ? "bias wander estimated from this run"
           : "a possible bias wander (below the bar of a finding: 2 delta log L = " +
                 format("%.1f", n.lr) + " of " + format("%.1f", n.lr_threshold) + "), weighted for";
-  return what + ", Gauss-Markov " + format("%.2f", n.wander_ug[0]) + " / " +
-         format("%.2f", n.wander_ug[1]) + " / " + format("%.2f", n.wander_ug[2]) +
-         " ug (x/y/z), tau " + format("%.0f", n.tau_s) + " s" +
-         tau_words(n, static_recording_given) +
+  return what + ", Gauss-Markov " +
+         axes_text("%.2f", n.wander_ug[0], n.wander_ug[1], n.wander_ug[2], "ug") + ", tau " +
+         format("%.0f", n.tau_s) + " s" + tau_words(n, static_recording_given) +
          "; dwell means close in time share it, so they are weighted by the covariance it "
          "implies "
          "(generalised least squares); sigma/sqrt(n) understates a dwell mean's error up to " +

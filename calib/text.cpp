@@ -88,6 +88,17 @@ int precision_apart(double value, double limit, int precision, int most, Format 
 
 std::string number_text(double v) { return significant_digits_text(v, 6); }
 
+std::string axes_text(const char* printf_format, double x, double y, double z,
+                      std::string_view unit) {
+  std::string out;
+  for (const double v : {x, y, z}) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, printf_format, v);
+    out += (out.empty() ? "" : " / ") + std::string(buf);
+  }
+  return out + (unit.empty() ? "" : " " + std::string(unit)) + " (x/y/z)";
+}
+
 NumberTextsApart number_texts_apart(double value, double limit) {
   // 17 significant digits tell any two doubles apart.
   const int digits = precision_apart(value, limit, 6, 17, significant_digits_text);

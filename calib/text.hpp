@@ -30,6 +30,10 @@ std::optional<std::size_t> first_non_utf8_byte(std::string_view text);
 // A number as an operator writes it, six significant digits: 122.5, not 122.500000;
 // 7.36e+161.
 std::string number_text(double v);
+// One value per axis, each as `printf_format` writes it, then `unit` (none where empty):
+// "1.10 / 6.40 / 11.90 ug (x/y/z)", as every report and log spells per-axis figures.
+std::string axes_text(const char* printf_format, double x, double y, double z,
+                      std::string_view unit = "");
 // A value found past its limit and the limit, as number_text writes them, with more digits
 // (the same for both) where six would show them equal in size: "5000.004 µg above the
 // limit 5000 µg", not "5000 µg above the limit 5000 µg".

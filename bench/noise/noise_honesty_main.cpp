@@ -137,6 +137,8 @@ void print_result(const ScenarioResult& r) {
     if (z.failed) std::printf(" (%d fits failed)", z.failed);
     if (z.recording_wander > 0)
       std::printf(" (the long dwell's wander taken in %d)", z.recording_wander);
+    if (z.recording_tau_floor > 0)
+      std::printf(" (the floor its curves put under tau taken in %d)", z.recording_tau_floor);
     if (z.weighting == "unit given" && z.unit_given < z.runs)
       std::printf(" (given a wander in %d: the static recording's)", z.unit_given);
     std::printf("\n");

@@ -144,6 +144,7 @@ void accumulate(ZStats& z, const FitResult& fit,
                 const std::array<double, kUnitParameterCount>& truth, double wander_ug) {
   ++z.runs;
   z.recording_wander += fit.noise.unit_wander_from == kWanderFromRecording;
+  z.recording_tau_floor += fit.noise.tau_given_open_above;
   if (wander_ug > 0)
     for (int a = 0; a < 3; ++a, ++z.wander_q2_ratio_n)
       z.wander_q2_ratio_sum += std::pow(fit.noise.wander_ug[a] / wander_ug, 2);
@@ -190,6 +191,7 @@ void merge(ZStats& into, const ZStats& part) {
   into.wander_significant += part.wander_significant;
   into.unit_given += part.unit_given;
   into.recording_wander += part.recording_wander;
+  into.recording_tau_floor += part.recording_tau_floor;
   into.wander_q2_ratio_sum += part.wander_q2_ratio_sum;
   into.wander_q2_ratio_n += part.wander_q2_ratio_n;
   for (std::size_t w = 0; w < 2; ++w) {

@@ -100,6 +100,7 @@ struct ZStats {
   int wander_significant = 0;  // runs whose fit found the wander significant
   int unit_given = 0;        // "unit given" runs given a wander: figures, or the static recording's
   int recording_wander = 0;  // runs whose fit took the recording's own (warmup_hours)
+  int recording_tau_floor = 0;  // ... or the floor its curves put under the correlation time
   int runs = 0;
   int failed = 0;  // runs whose fit threw
 };

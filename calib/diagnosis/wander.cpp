@@ -239,6 +239,9 @@ namespace {
 
 // "given; ", "within the given 400-900 s; " or nothing: where the correlation time came from.
 std::string tau_given_words(const NoiseFinding& n) {
+  if (n.tau_given_open_above)
+    return "from " + fmt("%.0f", n.tau_given_max_s > 0 ? n.tau_given_min_s : n.tau_s) +
+           " s up, by a long static stretch's Allan curves, which see a wander they do not pin; ";
   if (n.tau_given_max_s > 0)
     return "within the given " + fmt("%.0f", n.tau_given_min_s) + "-" +
            fmt("%.0f", n.tau_given_max_s) + " s; ";
@@ -247,6 +250,11 @@ std::string tau_given_words(const NoiseFinding& n) {
 
 // " (the middle of the given 400-900 s)": the correlation time a range was weighed at.
 std::string middle_of_range_words(const NoiseFinding& n) {
+  if (n.tau_given_open_above)
+    return " (the middle of " + fmt("%.0f", n.tau_given_min_s) + "-" +
+           fmt("%.0f", n.tau_given_max_s) +
+           " s: from the shortest a long static stretch's Allan curves allow to the longest the "
+           "fits model)";
   return std::string(n.unit_wander_from == kWanderFromRecording
                          ? " (the middle of the long dwell's "
                      : n.unit_wander_from == kWanderFromStaticRecording

@@ -661,9 +661,9 @@ struct HeaderOnly : RecordingRowSink {
 // it is read on).
 GivenWander Sequencer::recorded_run_wander(const RunRecord& record) const {
   const auto size_text = [](const GivenWander& w) {
-    if (w.size_axes_ug.isZero()) return number_text(w.size_ug);
+    if (w.size_axes_ug.isZero()) return number_text(w.size_ug) + " µg";
     const Vec3 q = w.size_axes_ug;
-    return number_text(q[0]) + " / " + number_text(q[1]) + " / " + number_text(q[2]) + " (x/y/z)";
+    return axes_text("%.6g", q[0], q[1], q[2], "µg");  // number_text's digits
   };
   if (!(config_.stability.trend_limit_sigmas > 0)) return unit_wander();  // the rule is off
   try {
@@ -675,7 +675,7 @@ GivenWander Sequencer::recorded_run_wander(const RunRecord& record) const {
         begun_with.specified().tau_s != unit_wander().specified().tau_s)
       spdlog::info(
           "run {}: the drift rule allows for the unit's bias wander the run was begun with, "
-          "{} µg at tau {} s (its recording's header), not the configured {} µg at tau {} s",
+          "{} at tau {} s (its recording's header), not the configured {} at tau {} s",
           record.run_id, size_text(begun_with), number_text(begun_with.specified().tau_s),
           size_text(unit_wander()), number_text(unit_wander().specified().tau_s));
     return begun_with;
