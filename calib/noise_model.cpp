@@ -797,11 +797,15 @@ FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixX
   without_floor.known_tau.reset();
   FitNoiseChoice choice = choose_fit_noise_as_given(rows, X, y, without_floor, positions);
   choice.tau_floor_set_aside = true;
-  choice.finding.how += "; the floor " + seconds_text(options.known_tau->min_s) +
-                        " s that a long static stretch's Allan curves put under the correlation "
-                        "time is set aside: this run does not show the wander by itself, and "
-                        "curves cannot tell a slow wander from a unit still settling";
+  choice.finding.how += tau_floor_set_aside_words(options.known_tau->min_s);
   return choice;
+}
+
+std::string tau_floor_set_aside_words(double floor_s) {
+  return "; the floor " + seconds_text(floor_s) +
+         " s that a long static stretch's Allan curves put under the correlation time is set "
+         "aside: this run's rows do not show the wander at those times, and curves cannot tell "
+         "a slow wander from a unit still settling";
 }
 
 bool may_take_recording_wander(const FitNoiseOptions& options) {
@@ -986,11 +990,14 @@ std::string KnownTau::seconds() const {
 }
 
 std::string KnownTau::words() const {
-  if (open_above)
+  if (open_above && range())
     return "correlation times " + seconds() +
-           ": from the shortest that Allan curves of a long "
-           "static stretch allow (they see a wander they do not pin) to the longest the fits "
-           "model";
+           ": from the shortest that Allan curves of a long static stretch allow (they see a "
+           "wander they do not pin) to the longest the fits model";
+  if (open_above)
+    return "the correlation time " + seconds() +
+           ": the shortest that Allan curves of a long static stretch allow (they see a wander "
+           "they do not pin), at or beyond the longest the fits model";
   return (range() ? "the given correlation times " : "the given correlation time ") + seconds();
 }
 

@@ -341,6 +341,9 @@ bool may_weigh_wander_curves(const FitNoiseOptions& options);
 // take_recording_wander's.
 bool take_recording_tau_floor(FitNoiseOptions& options, const std::optional<AllanFinding>& allan,
                               const std::string& from = kWanderFromRecording);
+// "; the floor F s … is set aside: …", for the `how` of a fit or diagnosis that set aside the
+// floor `floor_s` (choose_fit_noise).
+std::string tau_floor_set_aside_words(double floor_s);
 // The longest correlation time of the fits' wander model (estimate.tau_grid_s; 0 for an empty
 // grid).
 double longest_model_tau_s(const FitNoiseOptions& options);
@@ -494,7 +497,7 @@ GaussMarkovNoise specified_at_known_tau(const FitNoiseOptions& options);
 
 // A floor under the correlation time (known_tau open_above) is taken only where the run's
 // rows show the wander under it, as a finding; otherwise the choice is made without it
-// (FitNoiseChoice::tau_floor_set_aside).
+// (FitNoiseChoice::tau_floor_set_aside), and tau_floor_set_aside_words says so in its `how`.
 FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const Eigen::MatrixXd& X,
                                 const Eigen::VectorXd& y, const FitNoiseOptions& options,
                                 const std::vector<PositionAverage>& positions);

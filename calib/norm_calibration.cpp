@@ -358,8 +358,9 @@ std::string at_bound_words(const WanderToGive& w) {
     if (w.axes_at_bound[a]) axes += std::string(count++ ? " and " : "") + "xyz"[a];
   if (count == 0) return "";
   return " (" + axes +
-         (count == 1 ? " at the largest size its curve allows: it does"
-                     : " at the largest sizes their curves allow: they do") +
+         (count == 1 ? " at the largest size its curve allows, at most the largest axis's: it does"
+                     : " at the largest sizes their curves allow, at most the largest axis's: "
+                       "they do") +
          " not tell a wander from none)";
 }
 
@@ -438,6 +439,10 @@ void say_unit_static_use(UnitStaticRecordingUse& use, const AllanFinding& allan,
         "not override";
   } else if (allan.wander) {
     use.why = untaken_wander_words(*allan.wander);
+  } else if (taken.known_tau && taken.known_tau->open_above) {
+    use.why +=
+        "; this recording's own long interval sees a wander it does not pin, whose "
+        "correlation time it bounds from below";
   } else if (taken.specified_from == kWanderFromRecording) {
     use.why += "; this recording's own long interval pins a wander, weighted with instead";
   } else if (result.sigmas_allowance_allan_curves_from == kWanderFromRecording) {
@@ -718,14 +723,16 @@ NormCalibration calibrate(const RawInput& in, const NormCalibrationOptions& o) {
   const NoiseFinding first = c.fit.result.noise;
   NormCalibrationOptions taken = o;
   if (take_recording_wander(taken.fit.noise, static_allan, kWanderFromStaticRecording) ||
-      take_recording_wander(taken.fit.noise, allan) ||
-      take_recording_tau_floor(taken.fit.noise, allan)) {
+      take_recording_wander(taken.fit.noise, allan)) {
     c.fit = fit_beside_wander(c.detection.intervals, in.g_mps2, in.units, taken.fit);
   } else {
-    if (first.sigmas_allow_wander_up_to_ug > 0 &&
+    // The floor beside either's bound, as the stand fits take them: the floor may be set aside.
+    const bool floor = take_recording_tau_floor(taken.fit.noise, allan);
+    const bool bound =
+        first.sigmas_allow_wander_up_to_ug > 0 &&
         (take_wander_curves(taken.fit.noise, static_allan, kWanderFromStaticRecording) ||
-         take_wander_curves(taken.fit.noise, allan)))
-      c.fit = fit_norm(c.detection.intervals, in.g_mps2, in.units, taken.fit);
+         take_wander_curves(taken.fit.noise, allan));
+    if (floor || bound) c.fit = fit_norm(c.detection.intervals, in.g_mps2, in.units, taken.fit);
     c.fit = refit_beside_wander(c.detection.intervals, in.g_mps2, in.units, taken.fit, c.fit);
   }
   if (unit_static) {

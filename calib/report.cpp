@@ -235,8 +235,8 @@ std::string tau_words(const NoiseFinding& n, bool static_recording_given) {
            " s or longer; the biases' sigmas allow for " +
            (n.tau_given_max_s > 0
                 ? "up to " + format("%.0f", n.tau_given_max_s) + " s, the longest the fits model"
-                : std::string("that time, beyond the longest the fits model")) +
-           ": record about 100 x it to pin it, or give it)";
+                : std::string("that time, at or beyond the longest the fits model")) +
+           ": a static recording of about 100 times it pins it, or give the unit's)";
   if (n.tau_given && n.tau_given_max_s > 0)
     return std::string(given_as) + format("%.0f", n.tau_given_min_s) + "-" +
            format("%.0f", n.tau_given_max_s) + " s; the biases' sigmas allow for it)";

@@ -132,7 +132,8 @@ Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& given)
   // 4-5. Candidates, forward selection, ambiguity; the noise they are tested against.
   const NoiseAndTerms chosen = select_terms_and_noise(P, options);
   const Selection& selection = chosen.selection;
-  d.noise = noise_finding(chosen.noise, P.avg, options.known_tau);
+  d.noise = noise_finding(chosen.noise, P.avg,
+                          chosen.tau_floor_set_aside ? std::nullopt : options.known_tau);
   if (chosen.weighted_as_specified) d.noise.source = "specified";  // a finding, tested as given
   d.noise.unit_wander_given = !options.specified_wander.white();
   if (d.noise.unit_wander_given) d.noise.unit_wander_from = options.specified_wander_from;

@@ -205,16 +205,30 @@ NoiseAndTerms select_terms_and_noise(Prepared& P, const DiagnoseOptions& options
   o.lr_threshold = options.wander_lr_threshold;
   if (options.known_tau) o.tau_grid_s = options.known_tau->grid_s();
   const double tolerance_rad = options.attitude_free ? kAttitudeFreeSamePose_deg * kDegToRad : 1e-9;
-  BetweenVisits bv = between_visits(P, slow, tolerance_rad);
-  RunWander run;
-  if (options.attitude_free) {
-    run = attitude_free_wander(P, slow, bv, o);
-  } else if (bv.rows.size() > 0) {
-    run = estimate_from(std::move(bv.problem), o);
-  } else {
-    run.estimate.how = "not estimated: no position is visited twice";
+  const BetweenVisits bv = between_visits(P, slow, tolerance_rad);
+  const auto estimate = [&](const NoiseEstimateOptions& on_grid) {
+    RunWander r;
+    if (options.attitude_free) {
+      r = attitude_free_wander(P, slow, bv, on_grid);
+    } else if (bv.rows.size() > 0) {
+      r = estimate_from(bv.problem, on_grid);
+    } else {
+      r.estimate.how = "not estimated: no position is visited twice";
+    }
+    return r;
+  };
+  RunWander run = estimate(o);
+  NoiseAndTerms out;
+  // A floor under the correlation time stands only where these rows show the wander under it,
+  // as the fits' (choose_fit_noise): curves cannot tell a slow wander from a settling.
+  if (options.known_tau && options.known_tau->open_above && !run.estimate.significant) {
+    o.tau_grid_s = NoiseEstimateOptions{}.tau_grid_s;
+    run = estimate(o);
+    run.estimate.how += tau_floor_set_aside_words(options.known_tau->min_s);
+    out.tau_floor_set_aside = true;
+  } else if (options.known_tau) {
+    run.estimate.how += "; at " + options.known_tau->words();
   }
-  if (options.known_tau) run.estimate.how += "; at " + options.known_tau->words();
   NoiseEstimate& e = run.estimate;
   if (e.significant && e.noise.q_g.maxCoeff() > options.max_bias_instability_ug * kUg) {
     const double wander_ug = e.noise.q_g.maxCoeff() / kUg;  // the size judged
@@ -224,7 +238,6 @@ NoiseAndTerms select_terms_and_noise(Prepared& P, const DiagnoseOptions& options
     e.how += "; not taken as noise: " + wander +
              " ug is beyond the bias instability of this class of unit (" + most + " ug)";
   }
-  NoiseAndTerms out;
   out.weighted_as_specified = weigh_as_specified_where_agreeing(run, options);
   out.noise = std::move(e);
   if (!out.noise.significant && !options.specified_wander.white()) {

@@ -17,6 +17,9 @@ struct NoiseAndTerms {
   // The run shows a wander that agrees with the unit's given one (size and correlation
   // time), which the terms are then tested against, as the fits weigh with it.
   bool weighted_as_specified = false;
+  // The floor under the correlation time (KnownTau::open_above) was set aside: these rows do
+  // not show the wander under it; the wander was estimated without it.
+  bool tau_floor_set_aside = false;
 };
 
 // `options` with the unit's wander where nothing of it is given, by the rule of the fits for a

@@ -840,9 +840,6 @@ double median_error_over_white(const std::vector<StaticInterval>& intervals, boo
   return r[r.size() / 2];
 }
 
-// One run of bench/noise (its truth_for: one rigid fixture) with a warm-up of `warmup_s`
-// (the programme's warmup_s) and a wander `times` the white error of a dwell mean, of
-// correlation time `tau_s`.
 // A seed whose two-hour warm-up sees a 1200 s wander of 3x the dwell error and does not pin it
 // (most do not: bench/noise/allan_tau_main.cpp bounds its correlation time in about 1 of 5),
 // and whose run alone favours a correlation time below the floor the curves put under it; its
@@ -851,6 +848,9 @@ constexpr std::uint64_t kUnpinnedWarmUpSeed = 9;
 // The same, but its rows show the wander there only below the bar of a finding.
 constexpr std::uint64_t kUnpinnedWarmUpBelowBarSeed = 14;
 
+// One run of bench/noise (its truth_for: one rigid fixture) with a warm-up of `warmup_s`
+// (the programme's warmup_s) and a wander `times` the white error of a dwell mean, of
+// correlation time `tau_s`.
 Recording bench_run_with_warm_up(double warmup_s, double times, double tau_s, std::uint64_t seed) {
   SimulationRequest req;
   req.program = diagnostic32();
@@ -1336,7 +1336,7 @@ TEST(FitNoise, AWarmUpThatSeesAWanderItDoesNotPinPutsAFloorUnderItsCorrelationTi
   EXPECT_TRUE(noise.known_tau->open_above);
   EXPECT_TRUE(noise.specified.white()) << "its size is the run's own";
   FitNoiseOptions diagnosis;  // the diagnosis's rule takes the same
-  EXPECT_TRUE(take_unit_wander(diagnosis, rec, averaged.allan));
+  ASSERT_TRUE(take_unit_wander(diagnosis, rec, averaged.allan));
   EXPECT_EQ(diagnosis.known_tau->min_s, floor_s);
 
   const FitResult floored = fit_full_vector(averaged.averages, noise);
@@ -1381,14 +1381,20 @@ TEST(FitNoise, AFloorUnderTheCorrelationTimeStandsOnlyWhereTheRunShowsTheWander)
   ASSERT_FALSE(unfloored.noise.bias_instability) << "the case this test is of";
   EXPECT_FALSE(set_aside.noise.tau_given_open_above) << set_aside.noise.how;
   EXPECT_NE(set_aside.noise.how.find("that a long static stretch's Allan curves put under the "
-                                     "correlation time is set aside: this run does not show "
-                                     "the wander by itself"),
+                                     "correlation time is set aside: this run's rows do not "
+                                     "show the wander at those times"),
             std::string::npos)
       << set_aside.noise.how;
   for (int a = 0; a < 3; ++a) {
     const auto bias = static_cast<std::size_t>(a);
     EXPECT_DOUBLE_EQ(*set_aside.unit[bias].sigma, *unfloored.unit[bias].sigma) << "bias " << a;
   }
+  // The diagnosis by the same rule, on its own between-visit rows.
+  const Diagnosis d = diagnose_recording(rec);
+  if (d.noise.tau_given_open_above)
+    EXPECT_TRUE(d.noise.bias_instability) << d.noise.how;
+  else
+    EXPECT_NE(d.noise.how.find("is set aside"), std::string::npos) << d.noise.how;
 }
 
 // A unit with one quiet axis beside two that wander (x none, y 6 and z 12 ug, 60 s): x's curve
@@ -1416,8 +1422,8 @@ TEST(FitNoise, AnAxisWhoseCurveCannotTellAWanderFromNoneIsGivenTheLargestItAllow
   EXPECT_DOUBLE_EQ(q[1], curves.q[1]);
   EXPECT_DOUBLE_EQ(q[2], curves.q[2]);
   EXPECT_EQ(pinned.axes_at_bound, (std::vector<bool>{true, false, false}));
-  EXPECT_NE(use->why.find("(x at the largest size its curve allows: it does not tell a wander "
-                          "from none)"),
+  EXPECT_NE(use->why.find("(x at the largest size its curve allows, at most the largest axis's: "
+                          "it does not tell a wander from none)"),
             std::string::npos)
       << use->why;
   const FitResult fit = fit_full_vector(averaged.averages, noise);
