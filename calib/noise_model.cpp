@@ -768,34 +768,24 @@ FitNoiseChoice choose_fit_noise_as_given(const std::vector<NoiseRow>& rows, cons
   return choice;
 }
 
-// Whether the floor Allan curves put under the correlation time (KnownTau::open_above) stands
-// for this run: only where the run's own rows show the wander under it, as a finding. Curves
-// cannot tell a slow wander from a unit still settling after power-on, and taken where the rows
-// show none the floor had the fits weigh for a slow wander the run does not have: under white
-// noise after a two-hour warm-up settling by 30 ug, the runs weighted for one below the bar at
-// z-variance 0.01-0.03 (sigmas 6-10x too large) and the norm fit's biases at 0.26-0.31 where
-// 0.54-0.60 without the floor (bench/noise, docs/calibration.md).
-bool tau_floor_stands(const std::vector<NoiseRow>& rows, const MatrixXd& X, const VectorXd& y,
-                      const FitNoiseOptions& options) {
-  if (!options.known_tau || !options.known_tau->open_above) return true;
-  if (options.mode != FitNoiseOptions::Mode::estimate ||
-      !can_estimate_wander(rows.size(), X.cols()))
-    return false;
-  NoiseEstimateOptions estimate = options.estimate;
-  estimate.tau_grid_s = options.known_tau->grid_s();
-  return estimate_bias_wander(rows, X, y, estimate).significant;
-}
-
 }  // namespace
 
+// A floor Allan curves put under the correlation time (KnownTau::open_above) stands only where
+// the run's own rows show the wander under it, as a finding. Curves cannot tell a slow wander
+// from a unit still settling after power-on, and taken where the rows show none the floor had
+// the fits weigh for a slow wander the run does not have: under white noise after a two-hour
+// warm-up settling by 30 ug, the runs weighted for one below the bar at z-variance 0.01-0.03
+// (sigmas 6-10x too large) and the norm fit's biases at 0.26-0.31 where 0.54-0.60 without the
+// floor (bench/noise, docs/calibration.md).
 FitNoiseChoice choose_fit_noise(const std::vector<NoiseRow>& rows, const MatrixXd& X,
                                 const VectorXd& y, const FitNoiseOptions& options,
                                 const std::vector<PositionAverage>& positions) {
-  if (tau_floor_stands(rows, X, y, options))
-    return choose_fit_noise_as_given(rows, X, y, options, positions);
+  FitNoiseChoice choice = choose_fit_noise_as_given(rows, X, y, options, positions);
+  if (!options.known_tau || !options.known_tau->open_above || choice.finding.bias_instability)
+    return choice;
   FitNoiseOptions without_floor = options;
   without_floor.known_tau.reset();
-  FitNoiseChoice choice = choose_fit_noise_as_given(rows, X, y, without_floor, positions);
+  choice = choose_fit_noise_as_given(rows, X, y, without_floor, positions);
   choice.tau_floor_set_aside = true;
   choice.finding.how += tau_floor_set_aside_words(options.known_tau->min_s);
   return choice;
