@@ -336,8 +336,9 @@ AllanFinding allan_finding_in_ug(const StaticDetection& d, const NormCompensatio
 std::string static_recording_units_error(const RawInput& s, const RawInput& in) {
   return s.source + ": the unit's static recording is in " + std::string(to_string(s.units)) +
          " and " + in.source + " in " + std::string(to_string(in.units)) +
-         ": its curves are put in ug by this fit's scale, so both must be in the same units (one "
-         "--units reads both: convert one file)";
+         ": its curves are put in ug by this fit's scale, so both must be in the same units "
+         "(convert one file, or say how each is read: " +
+         in.option("units") + ", " + s.option("units") + ")";
 }
 
 // The unit's static recording in ug of the norm fit's calibrated axes (its compensation `k` at
@@ -404,6 +405,19 @@ std::string curves_show_words(const GaussMarkovAllanFit& fit, double end_s) {
 // The end of a static recording's `why` where its curves show no wander and were taken to bound
 // the one the sigmas allow for: whether they did, in the fit whose noise is `result`, or why
 // not (`rows`: the fit's, "intervals" or "dwells"). Returns whether it said one.
+// The recording's own long `stretch` (dwell, interval) sees a wander it does not pin: the floor
+// it put under the correlation time, and whether the fit (`result`) kept it, which it does only
+// where its `rows` show the wander at those times (choose_fit_noise).
+std::string recording_tau_floor_words(const std::string& stretch, const std::string& rows,
+                                      const NoiseFinding& result) {
+  std::string words = "; this recording's own long " + stretch +
+                      " sees a wander it does not pin, whose correlation time it bounds from below";
+  if (!result.tau_given_open_above)
+    words += ", a floor this fit set aside: this run's " + rows +
+             " do not show the wander at those times";
+  return words;
+}
+
 bool say_curves_bound(UnitStaticRecordingUse& use, const NoiseFinding& result,
                       const std::string& rows) {
   if (result.sigmas_allowance_allan_curves_from == kWanderFromStaticRecording) {
@@ -419,19 +433,21 @@ bool say_curves_bound(UnitStaticRecordingUse& use, const NoiseFinding& result,
   return true;
 }
 
-// What the unit's static recording gave the fit (`result`: its final noise) and why, where
-// `given` are the caller's options, `taken` those the fit was made with and `first` the fit
-// without either recording's curves.
-void say_unit_static_use(UnitStaticRecordingUse& use, const AllanFinding& allan,
-                         const FitNoiseOptions& given, const FitNoiseOptions& taken,
-                         const NoiseFinding& first, const NoiseFinding& result) {
-  if (result.unit_wander_given && result.unit_wander_from == kWanderFromStaticRecording)
-    return say_gave_pinned_wander(use, *allan.wander);
+// The recording's own long stretch put a floor under the correlation time
+// (take_recording_tau_floor, whose `specified_from` is the recording's too, with no wander pinned).
+bool took_recording_tau_floor(const FitNoiseOptions& taken) {
+  return taken.known_tau && taken.known_tau->open_above;
+}
+
+// What the unit's static recording's curves gave the fit (`result`: its final noise) and why,
+// where they pin no wander it took: `given` are the caller's options, `taken` those the fit was
+// made with and `first` the fit without either recording's curves.
+void say_static_curves_use(UnitStaticRecordingUse& use, const AllanFinding& allan,
+                           const FitNoiseOptions& given, const FitNoiseOptions& taken,
+                           const NoiseFinding& first, const NoiseFinding& result) {
   if (result.sigmas_allowance_allan_curves_from == kWanderFromStaticRecording) {
     say_curves_bound(use, result, "intervals");
-    return;
-  }
-  if (!may_take_recording_wander(given) && !may_weigh_wander_curves(given)) {
+  } else if (!may_take_recording_wander(given) && !may_weigh_wander_curves(given)) {
     use.why = kGivenWords;
   } else if (allan.wander && !may_take_recording_wander(given)) {
     use.why =
@@ -439,17 +455,26 @@ void say_unit_static_use(UnitStaticRecordingUse& use, const AllanFinding& allan,
         "not override";
   } else if (allan.wander) {
     use.why = untaken_wander_words(*allan.wander);
-  } else if (taken.known_tau && taken.known_tau->open_above) {
-    use.why +=
-        "; this recording's own long interval sees a wander it does not pin, whose "
-        "correlation time it bounds from below";
-  } else if (taken.specified_from == kWanderFromRecording) {
+  } else if (taken.specified_from == kWanderFromRecording && !took_recording_tau_floor(taken)) {
     use.why += "; this recording's own long interval pins a wander, weighted with instead";
   } else if (result.sigmas_allowance_allan_curves_from == kWanderFromRecording) {
     use.why += "; this recording's own long interval bounds the wander instead";
   } else if (allan.wander_curves) {
     if (!say_curves_bound(use, first, "intervals")) use.why += curves_end_too_soon_words(taken);
   }
+}
+
+// What the unit's static recording gave the fit and why (say_static_curves_use), and beside it
+// the floor this recording's own long interval put under the correlation time, as the stand
+// fits say it (settle_unit_static_use).
+void say_unit_static_use(UnitStaticRecordingUse& use, const AllanFinding& allan,
+                         const FitNoiseOptions& given, const FitNoiseOptions& taken,
+                         const NoiseFinding& first, const NoiseFinding& result) {
+  if (result.unit_wander_given && result.unit_wander_from == kWanderFromStaticRecording)
+    return say_gave_pinned_wander(use, *allan.wander);
+  say_static_curves_use(use, allan, given, taken, first, result);
+  if (took_recording_tau_floor(taken))
+    use.why += recording_tau_floor_words("interval", "intervals", result);
 }
 
 }  // namespace
@@ -525,9 +550,11 @@ void take_static_recording_bound(FitNoiseOptions& options, const UnitStaticAllan
 }  // namespace
 
 void settle_unit_static_use(UnitStaticRecordingUse& use, const NoiseFinding& result) {
-  if (use.gave != "bound") return;
-  use.gave = "nothing";
-  if (!say_curves_bound(use, result, "dwells")) use.why += ", which this fit did not weigh";
+  if (use.gave == "bound") {
+    use.gave = "nothing";
+    if (!say_curves_bound(use, result, "dwells")) use.why += ", which this fit did not weigh";
+  }
+  if (use.recording_tau_floor) use.why += recording_tau_floor_words("dwell", "dwells", result);
 }
 
 std::optional<UnitStaticRecordingUse> take_unit_wander_with_static_recording(
@@ -544,10 +571,7 @@ std::optional<UnitStaticRecordingUse> take_unit_wander_with_static_recording(
   }
   if (use && use->gave != "wander") take_static_recording_bound(options, *unit_static, *use);
   if (take_recording_tau_floor(options, allan)) {
-    if (use)
-      use->why +=
-          "; this recording's own long dwell sees a wander it does not pin, whose "
-          "correlation time it bounds from below";
+    if (use) use->recording_tau_floor = true;  // said by settle_unit_static_use
     return use;
   }
   if (take_recording_wander_or_bound(options, allan) && use)  // its bound: no wander is left

@@ -44,6 +44,9 @@ struct UnitStaticRecordingUse {
   std::string why;     // in words: what its curves show, and why that gave what it gave
   GivenWander wander;  // "wander": the one it gave (its size and correlation times)
   std::vector<std::string> warnings;  // its reader's, each naming the file
+  // The stand recording's own long dwell put a floor under the correlation time beside it
+  // (take_recording_tau_floor): settle_unit_static_use says so, and whether the fit kept it.
+  bool recording_tau_floor = false;
 };
 
 // A static recording of the unit, its curves in ug (`ug_per_unit`: per input unit) fitted once:
@@ -86,7 +89,8 @@ std::optional<UnitStaticRecordingUse> take_unit_wander_with_static_recording(
     const UnitStaticAllan* unit_static);
 // After the stand fit whose noise is `result`: whether the static recording's curves, taken as
 // a bound, bounded the wander its sigmas allow for ("bound"), or why not (the run shows a
-// wander of its own; its sigmas allow for none). Every caller of
+// wander of its own; its sigmas allow for none); and where the recording's own long dwell put a
+// floor under the correlation time, whether the fit kept it. Every caller of
 // take_unit_wander_with_static_recording calls it before saying what the recording gave.
 void settle_unit_static_use(UnitStaticRecordingUse& use, const NoiseFinding& result);
 // `unit_static_recording` in the fit JSON, and the report's line on it.

@@ -439,6 +439,7 @@ class Reader {
          const InputOptions& options)
       : lines_(std::move(lines)), text_(text), options_(options) {
     out_.source = source;
+    out_.option_prefix = options.option_prefix;
   }
 
   RawInput run() {
@@ -476,18 +477,21 @@ class Reader {
     throw RecordingError(out_.source, line, column, what);
   }
 
+  std::string option(std::string_view name) const { return out_.option(name); }
+
   void check_options() const {
-    if (options_.skip_lines < 0) throw std::invalid_argument("--skip-lines must be 0 or more");
+    if (options_.skip_lines < 0)
+      throw std::invalid_argument(option("skip-lines") + " must be 0 or more");
     if (options_.rate_hz && !is_plausible_sample_rate(*options_.rate_hz))
-      throw std::invalid_argument("--rate-hz: " +
+      throw std::invalid_argument(option("rate-hz") + ": " +
                                   implausible_sample_rate_text(round_trip_text(*options_.rate_hz)));
     if (options_.g_mps2 && !(std::isfinite(*options_.g_mps2) && *options_.g_mps2 > 0))
-      throw std::invalid_argument("--g-mps2 must be a positive acceleration in m/s^2");
+      throw std::invalid_argument(option("g-mps2") + " must be a positive acceleration in m/s^2");
     if (!options_.columns.empty() && options_.columns.size() != 3)
-      throw std::invalid_argument(
-          "--columns takes three columns (x, y, z) by name or 1-based "
-          "number; " +
-          std::to_string(options_.columns.size()) + " given");
+      throw std::invalid_argument(option("columns") +
+                                  " takes three columns (x, y, z) by name or 1-based "
+                                  "number; " +
+                                  std::to_string(options_.columns.size()) + " given");
   }
 
   // Next line without its newline; false at the end.
@@ -513,7 +517,7 @@ class Reader {
     if (options_.skip_lines > 0)
       fail_at(std::max(line_no_, 1), 0,
               "nothing after the " + std::to_string(options_.skip_lines) +
-                  " preamble lines skipped (--skip-lines)");
+                  " preamble lines skipped (" + option("skip-lines") + ")");
     fail_at(std::max(line_no_, 1), 0, "the file is empty");
   }
 
@@ -682,7 +686,7 @@ class Reader {
   // A recording with its angle columns: parse_recording reads it, the samples are copied.
   void read_full_recording() {
     Recording rec = read_recording_again();
-    if (options_.rate_hz) rec.use_given_sample_rate(*options_.rate_hz);
+    if (options_.rate_hz) rec.use_given_sample_rate(*options_.rate_hz, option("rate-hz"));
     RawInput samples = samples_of(rec);
     out_.t_s = std::move(samples.t_s);
     out_.axis = std::move(samples.axis);
@@ -695,7 +699,7 @@ class Reader {
       out_.units_how =
           "the " + std::string(kRecordingFormat) + " format (fx_mps2, fy_mps2, fz_mps2 in m/s^2)";
     }
-    if (options_.g_mps2) rec.use_given_g(*options_.g_mps2);
+    if (options_.g_mps2) rec.use_given_g(*options_.g_mps2, option("g-mps2"));
     out_.warnings.insert(out_.warnings.end(), rec.warnings.begin(), rec.warnings.end());
     out_.g_mps2 = rec.g_local_mps2;
     out_.g_given = rec.g_from_header;
@@ -764,7 +768,8 @@ class Reader {
     if (format == InputFormat::imu_tk)
       fail_at(first.number, 1,
               "imu_tk text holds rows of numbers `t x y z` only; this line is not numbers (a "
-              "header line? read the file with --format delimited)");
+              "header line? read the file with " +
+                  option("format") + " delimited)");
     out_.format = InputFormat::delimited;
     read_with_header(first);
   }
@@ -798,18 +803,22 @@ class Reader {
       fail_at(first.number, 0,
               "rows of " + n +
                   " numbers and no header line naming them: add a header line "
-                  "(e.g. t,ax,ay,az,...) or pass --columns X,Y,Z as 1-based column numbers");
+                  "(e.g. t,ax,ay,az,...) or pass " +
+                  option("columns") + " X,Y,Z as 1-based column numbers");
     } else {
       fail_at(first.number, 0, "rows of " + n + " numbers: three accelerometer columns are needed");
     }
     if (layout.time < 0 && !time_rate())
       fail_at(first.number, 0,
               options_.columns.empty()
-                  ? "rows of " + n +
-                        " numbers (x y z) without a time column: pass --rate-hz "
+                  ? "rows of " + n + " numbers (x y z) without a time column: pass " +
+                        option("rate-hz") +
+                        " "
                         "with the sample rate"
-                  : "no time column (column 1 is one of --columns): pass --rate-hz with the "
-                    "sample rate");
+                  : "no time column (column 1 is one of " + option("columns") + "): pass " +
+                        option("rate-hz") +
+                        " with the "
+                        "sample rate");
     rewind_to(first);
     read_rows(layout);
     list_ignored(layout);
@@ -842,8 +851,8 @@ class Reader {
     find_time(names, layout);
     if (layout.time < 0 && !time_rate())
       fail_at(header.number, 0,
-              "no time column (columns: " + join(layout.names) +
-                  "): pass --rate-hz with the sample rate");
+              "no time column (columns: " + join(layout.names) + "): pass " + option("rate-hz") +
+                  " with the sample rate");
     rewind_to(row);
     read_rows(layout);
     list_ignored(layout);
@@ -925,13 +934,13 @@ class Reader {
           std::all_of(want.begin(), want.end(), [](char c) { return c >= '0' && c <= '9'; })) {
         if (!parse_int(want, index) || index < 1 || static_cast<std::size_t>(index) > count)
           fail_at(line, 0,
-                  "--columns: column " + std::string(want) + " is out of range (the " +
+                  option("columns") + ": column " + std::string(want) + " is out of range (the " +
                       "rows have " + std::to_string(count) + " columns)");
         chosen[k] = index - 1;
       } else {
         if (!names)
           fail_at(line, 0,
-                  "--columns '" + std::string(want) +
+                  option("columns") + " '" + std::string(want) +
                       "': the file has no header line, so columns are chosen by "
                       "1-based number");
         const std::string wanted = lower(want);
@@ -940,19 +949,20 @@ class Reader {
           const ColumnName& c = (*names)[i];
           if (lower(c.original) != wanted && c.full != wanted_norm) continue;
           if (chosen[k] >= 0)
-            fail_at(line, static_cast<int>(i) + 1,
-                    "--columns '" + std::string(want) + "' matches more than one column");
+            fail_at(
+                line, static_cast<int>(i) + 1,
+                option("columns") + " '" + std::string(want) + "' matches more than one column");
           chosen[k] = static_cast<int>(i);
         }
         if (chosen[k] < 0)
           fail_at(line, 0,
-                  "--columns: no column named '" + std::string(want) + "' (columns: " + join(all) +
-                      ")");
+                  option("columns") + ": no column named '" + std::string(want) +
+                      "' (columns: " + join(all) + ")");
       }
       for (std::size_t j = 0; j < k; ++j)
         if (chosen[j] == chosen[k])
           fail_at(line, chosen[k] + 1,
-                  "--columns names column " + std::to_string(chosen[k] + 1) + " twice");
+                  option("columns") + " names column " + std::to_string(chosen[k] + 1) + " twice");
     }
     return chosen;
   }
@@ -980,9 +990,10 @@ class Reader {
       }
       fail_at(line, 0,
               "no accelerometer columns found among the header's columns (" + join(all) + "): " +
-                  (means_columns
-                       ? std::string("they look like a table of static means: pass --format means")
-                       : std::string("pass --columns X,Y,Z (names or 1-based numbers)")));
+                  (means_columns ? std::string("they look like a table of static means: pass " +
+                                               option("format") + " means")
+                                 : std::string("pass " + option("columns") +
+                                               " X,Y,Z (names or 1-based numbers)")));
     }
     std::array<int, 3> axis{};
     for (std::size_t k = 0; k < 3; ++k) {
@@ -992,14 +1003,14 @@ class Reader {
                 "no column for the " + letter +
                     " accelerometer among the header's "
                     "columns (" +
-                    join(all) + "): pass --columns X,Y,Z");
+                    join(all) + "): pass " + option("columns") + " X,Y,Z");
       if (found[k].size() > 1) {
         const auto a = static_cast<std::size_t>(found[k][0]);
         const auto b = static_cast<std::size_t>(found[k][1]);
         fail_at(line, found[k][1] + 1,
                 "columns '" + names[a].original + "' (column " + std::to_string(a + 1) + ") and '" +
                     names[b].original + "' (column " + std::to_string(b + 1) + ") both name the " +
-                    letter + " accelerometer: choose with --columns X,Y,Z");
+                    letter + " accelerometer: choose with " + option("columns") + " X,Y,Z");
       }
       axis[k] = found[k][0];
       units[k] = is_force_unit(found_units[k]) ? found_units[k] : Unit::none;
@@ -1075,7 +1086,8 @@ class Reader {
       if (!rate)
         fail_at(time_broken_line_, 1,
                 "no time: column 1 decreases here, so it is not a time, and the rows have "
-                "no other time column: pass --rate-hz with the sample rate");
+                "no other time column: pass " +
+                    option("rate-hz") + " with the sample rate");
       out_.t_s.resize(out_.axis[0].size());
       for (std::size_t i = 0; i < out_.t_s.size(); ++i)
         out_.t_s[i] = static_cast<double>(i) / *rate;
@@ -1302,13 +1314,15 @@ class Reader {
       if (found[k].empty())
         fail_at(line, 0,
                 "no mean column for " + letter + " (e.g. mean_" + letter +
-                    ") among the header's columns (" + join(all) + "): pass --columns X,Y,Z");
+                    ") among the header's columns (" + join(all) + "): pass " + option("columns") +
+                    " X,Y,Z");
       if (found[k].size() > 1) {
         const auto a = static_cast<std::size_t>(found[k][0]);
         const auto b = static_cast<std::size_t>(found[k][1]);
         fail_at(line, found[k][1] + 1,
                 "columns '" + names[a].original + "' and '" + names[b].original +
-                    "' both name the mean of " + letter + ": choose with --columns X,Y,Z");
+                    "' both name the mean of " + letter + ": choose with " + option("columns") +
+                    " X,Y,Z");
       }
       axis[k] = found[k][0];
       units[k] = is_force_unit(found_units[k]) ? found_units[k] : Unit::none;
@@ -1320,7 +1334,7 @@ class Reader {
 
   void set_units_from_option() {
     out_.units = options_.units;
-    out_.units_how = "--units " + std::string(to_string(options_.units));
+    out_.units_how = option("units") + " " + std::string(to_string(options_.units));
   }
 
   void units_from_names_or_values(const Layout& layout) {
@@ -1339,7 +1353,7 @@ class Reader {
                     layout.names[static_cast<std::size_t>(
                         layout.axis[static_cast<std::size_t>(named_axis)])] +
                     "' and '" + layout.names[static_cast<std::size_t>(layout.axis[k])] +
-                    "' name different units: pass --units counts|g|mps2");
+                    "' name different units: pass " + option("units") + " counts|g|mps2");
       named = u;
       named_axis = static_cast<int>(k);
     }
@@ -1386,7 +1400,7 @@ class Reader {
                   (integers ? ", every value an integer: too small for raw counts, and g or "
                               "m/s^2 would not be whole numbers"
                             : ", neither near 1 g nor near 9.81 m/s^2") +
-                  "): pass --units counts|g|mps2");
+                  "): pass " + option("units") + " counts|g|mps2");
     }
   }
 
@@ -1395,8 +1409,8 @@ class Reader {
       out_.g_mps2 = *options_.g_mps2;
       out_.g_given = true;
       if (from_file && *from_file != *options_.g_mps2)
-        out_.warnings.push_back(
-            g_option_replaces_header_warning(out_.source, *options_.g_mps2, *from_file));
+        out_.warnings.push_back(g_option_replaces_header_warning(out_.source, *options_.g_mps2,
+                                                                 *from_file, option("g-mps2")));
     } else if (from_file) {
       out_.g_mps2 = *from_file;
       out_.g_given = true;
@@ -1404,8 +1418,9 @@ class Reader {
       out_.g_mps2 = kStandardGravity_mps2;
       out_.g_given = false;
       out_.warnings.push_back(out_.source +
-                              ": no local gravity given (no '# g_local_mps2' header, no "
-                              "--g-mps2); assuming standard gravity 9.80665 m/s^2 (a wrong g "
+                              ": no local gravity given (no '# g_local_mps2' header, no " +
+                              option("g-mps2") +
+                              "); assuming standard gravity 9.80665 m/s^2 (a wrong g "
                               "reads as a common scale-factor error)");
     }
   }
@@ -1417,7 +1432,7 @@ class Reader {
                             std::to_string(out_.t_s.size()) + " rows the time " +
                             number_texts_apart(out_.t_s.back(), kMaxAbsTime_s).value +
                             " s, beyond 1e12 s";
-    if (options_.rate_hz) throw std::invalid_argument("--rate-hz: " + why);
+    if (options_.rate_hz) throw std::invalid_argument(option("rate-hz") + ": " + why);
     fail_at(header_rate_line_, 0, "header 'sample_rate_hz': " + why);
   }
 
@@ -1438,8 +1453,8 @@ class Reader {
     } else if (header_rate_) {
       out_.sample_rate_hz = *header_rate_;
       if (options_.rate_hz && *options_.rate_hz != *header_rate_)
-        out_.warnings.push_back(
-            rate_option_not_used_warning(out_.source, *options_.rate_hz, *header_rate_));
+        out_.warnings.push_back(rate_option_not_used_warning(out_.source, *options_.rate_hz,
+                                                             *header_rate_, option("rate-hz")));
     } else if (options_.rate_hz) {
       out_.sample_rate_hz = *options_.rate_hz;
     } else {
@@ -1448,7 +1463,7 @@ class Reader {
   }
 
   std::string rate_option_replaces_header_warning(double given_hz) const {
-    return out_.source + ":" + std::to_string(header_rate_line_) + ": --rate-hz " +
+    return out_.source + ":" + std::to_string(header_rate_line_) + ": " + option("rate-hz") + " " +
            round_trip_text(given_hz) + " replaces the header's sample_rate_hz " +
            round_trip_text(*header_rate_) +
            ": the rows have no time column, so their times are made from " +
@@ -1462,7 +1477,8 @@ class Reader {
     for (std::size_t i = 1; i < t.size(); ++i) steps[i - 1] = t[i] - t[i - 1];
     const double step = median_of(std::move(steps));
     if (const std::string why = unusable_step_text(step); !why.empty()) {
-      out_.warnings.push_back(out_.source + ": " + why + "; sample rate unknown (pass --rate-hz)");
+      out_.warnings.push_back(out_.source + ": " + why + "; sample rate unknown (pass " +
+                              option("rate-hz") + ")");
       return kNaN;
     }
     return 1 / step;
@@ -1488,6 +1504,10 @@ class Reader {
 
 }  // namespace input_reader
 }  // namespace
+
+std::string input_option_name(const std::string& prefix, std::string_view name) {
+  return "--" + prefix + std::string(name);
+}
 
 RawInput raw_input_of(const Recording& rec) {
   RawInput out = input_reader::samples_of(rec);

@@ -56,7 +56,13 @@ struct InputOptions {
   int skip_lines = 0;  // preamble lines before the header (or the first row)
   InputUnits units = InputUnits::automatic;
   std::optional<double> g_mps2;  // local gravity; overrides the file's own
+  // How the command line names these options, in the reader's messages: --<prefix>columns
+  // and so on ("unit-static-" for the unit's static recording beside a run's).
+  std::string option_prefix;
 };
+
+// An input option as the command line names it: "--" + prefix + name.
+std::string input_option_name(const std::string& prefix, std::string_view name);
 
 // One row of a table of static means.
 struct StaticMeanRow {
@@ -91,6 +97,10 @@ struct RawInput {
 
   std::vector<std::string> ignored_columns;  // columns read past (gyroscopes, counters...)
   std::vector<std::string> warnings;
+  std::string option_prefix;  // InputOptions::option_prefix it was read with
+
+  // The input option `name` ("rate-hz") as the command line that read this file names it.
+  std::string option(std::string_view name) const { return input_option_name(option_prefix, name); }
 
   std::size_t size() const { return t_s.size(); }
   // Sample i as a vector, input units.

@@ -846,36 +846,36 @@ bool is_assumed_gravity_warning(std::string_view warning) {
 }
 
 std::string g_option_replaces_header_warning(const std::string& source, double given_mps2,
-                                             double header_mps2) {
+                                             double header_mps2, std::string_view option) {
   char ppm[32];
   std::snprintf(ppm, sizeof ppm, "%+.1f ppm", (given_mps2 / header_mps2 - 1) * 1e6);
-  return source + ": --g-mps2 " + round_trip_text(given_mps2) +
+  return source + ": " + std::string(option) + " " + round_trip_text(given_mps2) +
          " replaces the header's g_local_mps2 " + round_trip_text(header_mps2) + " (" + ppm +
          "): the scale factors take up the difference";
 }
 
-void Recording::use_given_g(double g_mps2) {
+void Recording::use_given_g(double g_mps2, std::string_view option) {
   // The operator's word over the header's (a g measured since), but said: it moves every
   // scale factor by the difference.
   if (g_from_header && g_mps2 != g_local_mps2)
-    warnings.push_back(g_option_replaces_header_warning(source, g_mps2, g_local_mps2));
+    warnings.push_back(g_option_replaces_header_warning(source, g_mps2, g_local_mps2, option));
   g_local_mps2 = g_mps2;
   g_from_header = true;  // given, not assumed
   std::erase_if(warnings, [](const std::string& w) { return is_assumed_gravity_warning(w); });
 }
 
-void Recording::use_given_sample_rate(double rate_hz) {
+void Recording::use_given_sample_rate(double rate_hz, std::string_view option) {
   if (!is_plausible_sample_rate(rate_hz))
     throw std::invalid_argument(implausible_sample_rate_text(round_trip_text(rate_hz)));
   if (!(sample_rate_hz > 0))
     sample_rate_hz = rate_hz;
   else if (rate_hz != sample_rate_hz)
-    warnings.push_back(rate_option_not_used_warning(source, rate_hz, sample_rate_hz));
+    warnings.push_back(rate_option_not_used_warning(source, rate_hz, sample_rate_hz, option));
 }
 
 std::string rate_option_not_used_warning(const std::string& source, double given_hz,
-                                         double header_hz) {
-  return source + ": --rate-hz " + round_trip_text(given_hz) +
+                                         double header_hz, std::string_view option) {
+  return source + ": " + std::string(option) + " " + round_trip_text(given_hz) +
          " is not used: the header's sample_rate_hz " + round_trip_text(header_hz) +
          " was written with the samples";
 }

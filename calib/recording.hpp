@@ -97,17 +97,15 @@ struct Recording {
   void set_header(const std::string& key, const std::string& value);
   // Local gravity the operator gave (--g-mps2): it replaces the header's, with a warning when
   // the two differ (g_option_replaces_header_warning), and the reader's "g assumed" warning
-  // no longer holds.
-  void use_given_g(double g_mps2);
+  // no longer holds. `option`: how the command line that gave it names it.
+  void use_given_g(double g_mps2, std::string_view option = "--g-mps2");
   // The sample rate the operator gave (--rate-hz) for a recording with no sample_rate_hz
   // header: its Allan curves then need no period from the times' steps. A header's rate
   // is kept (it was written with the samples), with a warning when the two differ. Throws
   // std::invalid_argument for a rate no recording has (is_plausible_sample_rate).
-  void use_given_sample_rate(double rate_hz);
+  void use_given_sample_rate(double rate_hz, std::string_view option = "--rate-hz");
 };
 
-// "SOURCE: --rate-hz 100 is not used: the header's sample_rate_hz 25 was written with the
-// samples", for a reader that keeps a header's rate over the option.
 // Where position 0's warm-up ends (Recording::warmup_s after that position's first row), or
 // -infinity without one: a row before it is the unit settling, not a measurement.
 double warmup_end_s(const Recording& rec);
@@ -120,13 +118,16 @@ inline bool one_segment(const RecordingSample& a, const RecordingSample& b, doub
   return a.pos == b.pos && is_warmup_row(a, warmup_end_s) == is_warmup_row(b, warmup_end_s);
 }
 
+// "SOURCE: --rate-hz 100 is not used: the header's sample_rate_hz 25 was written with the
+// samples", for a reader that keeps a header's rate over the option (named `option`).
 std::string rate_option_not_used_warning(const std::string& source, double given_hz,
-                                         double header_hz);
+                                         double header_hz, std::string_view option = "--rate-hz");
 
 // "SOURCE: --g-mps2 9.80665 replaces the header's g_local_mps2 9.81625 (-978.0 ppm): the scale
 // factors take up the difference", for every reader where the option wins over the header.
 std::string g_option_replaces_header_warning(const std::string& source, double given_mps2,
-                                             double header_mps2);
+                                             double header_mps2,
+                                             std::string_view option = "--g-mps2");
 
 // The reader's warning that the recording has no g_local_mps2 header.
 bool is_assumed_gravity_warning(std::string_view warning);

@@ -327,7 +327,7 @@ StaticDetection detect_static_intervals(const RawInput& in, const StaticDetector
   if (in.size() == 0)
     throw std::runtime_error(in.source + ": no samples to find static intervals in");
   if (!(in.sample_rate_hz > 0))
-    throw std::runtime_error(in.source + ": no sample rate (give --rate-hz)");
+    throw std::runtime_error(in.source + ": no sample rate (give " + in.option("rate-hz") + ")");
   if (!is_plausible_sample_rate(in.sample_rate_hz))  // the readers refuse it; windows overflow
     throw std::runtime_error(in.source + ": " +
                              implausible_sample_rate_text(round_trip_text(in.sample_rate_hz)));

@@ -31,8 +31,8 @@ Vec3 counts_scale_from_norm_fit(const RawInput& in, const StaticNoiseOptions& o,
     c = calibrate_without_angles(in, fit);
   } catch (const std::runtime_error& e) {
     throw std::runtime_error(std::string(e.what()) +
-                             "; counts need a scale to be read in ug: give --counts-per-g, or "
-                             "--units g|mps2 if the values are not counts");
+                             "; counts need a scale to be read in ug: give --counts-per-g, or " +
+                             in.option("units") + " g|mps2 if the values are not counts");
   }
   const Vec3 ug_per_count = ug_per_input_unit(c.fit.compensation, in.g_mps2);
   how = "counts by the norm fit's scale over " + std::to_string(c.detection.intervals.size()) +

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "calib/allan.hpp"
+#include "calib/raw_input.hpp"
 #include "tests/calib/test_support.hpp"
 #include "tests/support/command.hpp"
 
@@ -815,6 +816,66 @@ TEST_F(Cli, AStandFitTakesTheWanderTheUnitsStaticRecordingPins) {
   EXPECT_NE(text.output.find("(2 h static) gave its wander: its Allan curves pin a wander of "),
             std::string::npos)
       << text.output;
+}
+
+// The unit's static recording is its own file, perhaps of another logger than the run's: every
+// command that takes it reads it by its own input options (--unit-static-*), never the run's,
+// and the reader's messages name those. Here the same two hours as headerless `x,y,z` rows,
+// which need their sample rate given.
+TEST_F(Cli, EveryCommandReadsTheUnitsStaticRecordingByItsOwnInputOptions) {
+  const std::string pinned = static_recording("pinned", 7200, 60, 7);
+  const standcal::RawInput samples = standcal::read_input(pinned);
+  const std::string rows = path("rows.csv");
+  {
+    std::ofstream out(rows);
+    out.precision(17);
+    for (std::size_t i = 0; i < samples.size(); ++i)
+      out << samples.axis[0][i] << ',' << samples.axis[1][i] << ',' << samples.axis[2][i] << '\n';
+  }
+  const std::string run = tumble_recording("run", "");  // orientations for the norm fit too
+  const std::string rate = " --unit-static-rate-hz 10";
+
+  // The run's --rate-hz is the run's: the rows are not read by it.
+  const CliRun unread = run_cli("fit " + run + " --rate-hz 10 --unit-static-recording " + rows);
+  EXPECT_NE(unread.exit_code, 0) << unread.output;
+  EXPECT_NE(unread.output.find(rows), std::string::npos) << unread.output;
+  EXPECT_NE(unread.output.find("pass --unit-static-rate-hz with the sample rate"),
+            std::string::npos)
+      << unread.output;
+
+  // Read by their own options, the rows give what the recording gives.
+  const CliRun from_recording =
+      run_cli("fit " + run + " --unit-static-recording " + pinned + " --json");
+  const CliRun from_rows =
+      run_cli("fit " + run + " --unit-static-recording " + rows + rate + " --json");
+  ASSERT_EQ(from_recording.exit_code, 0) << from_recording.output;
+  ASSERT_EQ(from_rows.exit_code, 0) << from_rows.output;
+  const auto r = nlohmann::json::parse(from_recording.output);
+  // Its warnings (no local gravity in the rows) come first, on stderr.
+  const auto j = nlohmann::json::parse(from_rows.output.substr(from_rows.output.find('{')));
+  EXPECT_EQ(j["unit_static_recording"]["gave"], "wander") << j["unit_static_recording"];
+  EXPECT_EQ(j["parameters"], r["parameters"]);
+  EXPECT_EQ(j["noise"]["wander_ug"], r["noise"]["wander_ug"]) << j["noise"];
+
+  // The same options, and the same reading, in every other command that takes the recording.
+  const std::vector<std::string> commands = {
+      "fit " + run + " --method norm",
+      "diagnose " + run,
+      "design evaluate paper9",
+      "certificate --recording " + run + " -o " + path("c.html"),
+      "import " + run + " --db " + path("r.db"),
+  };
+  for (const std::string& command : commands) {
+    const CliRun refused = run_cli(command + " --unit-static-recording " + rows);
+    EXPECT_NE(refused.exit_code, 0) << command << "\n" << refused.output;
+    EXPECT_NE(refused.output.find("--unit-static-rate-hz"), std::string::npos) << command << "\n"
+                                                                               << refused.output;
+    const CliRun read = run_cli(command + " --unit-static-recording " + rows + rate);
+    EXPECT_EQ(read.exit_code, 0) << command << "\n" << read.output;
+  }
+  // The reading options belong to the static recording: alone, they are refused.
+  expect_refused(run_cli("fit " + run + rate),
+                 "--unit-static-rate-hz requires --unit-static-recording");
 }
 
 // `diagnose --unit-static-recording` tests the terms against the wander the static recording

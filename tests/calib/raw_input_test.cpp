@@ -318,6 +318,25 @@ TEST(RawInputImuTk, ThreeColumnsNeedTheRateAndUseIt) {
   EXPECT_DOUBLE_EQ(in.axis[2][1], 0.999);
 }
 
+// A file read beside another (the unit's static recording beside a run) has its own options:
+// the messages name them as the command line does (InputOptions::option_prefix).
+TEST(RawInputImuTk, TheMessagesNameTheOptionsAsTheCommandLineDoes) {
+  InputOptions beside;
+  beside.option_prefix = "unit-static-";
+  const std::string rows = "0.012 -0.004 0.998\n0.011 -0.003 0.999\n";
+  const std::string message = input_error_of(rows, beside);
+  EXPECT_TRUE(contains(message, "pass --unit-static-rate-hz with the sample rate")) << message;
+  beside.columns = {"1", "2", "7"};
+  beside.rate_hz = 50;
+  const std::string column = input_error_of(rows, beside);
+  EXPECT_TRUE(contains(column, "--unit-static-columns: column 7 is out of range")) << column;
+  beside.columns.clear();
+  const RawInput in = parse_input(rows, "in.txt", beside);
+  EXPECT_EQ(in.option("g-mps2"), "--unit-static-g-mps2");
+  ASSERT_FALSE(in.warnings.empty());
+  EXPECT_TRUE(contains(in.warnings[0], "no --unit-static-g-mps2")) << in.warnings[0];
+}
+
 TEST(RawInputImuTk, ManyColumnsWithoutAHeaderAskForOneOrForColumns) {
   const std::string rows = "0.00 1 2 0.01 0.02 0.98\n0.01 1 2 0.01 0.02 0.99\n";
   const std::string message = input_error_of(rows);

@@ -1286,6 +1286,28 @@ RunGivenAStaticRecording run_given(const UnitStaticAllan& unit_static, std::uint
   return r;
 }
 
+// A run whose warm-up puts a floor under the correlation time, given beside it a two-hour
+// static recording whose curves show no wander: what the static recording's words say once the
+// full-vector fit (`fit`) has settled them.
+UnitStaticRecordingUse static_recording_words_beside_a_floor(const Recording& rec,
+                                                             const AveragedRecording& averaged,
+                                                             FitResult& fit) {
+  const UnitStaticAllan still =
+      stand_unit_static_allan(*unit_static_recording(2, 0, 300, 32), rec.g_local_mps2);
+  FitNoiseOptions noise;
+  std::optional<UnitStaticRecordingUse> use =
+      take_unit_wander_with_static_recording(noise, rec, averaged.allan, &still);
+  EXPECT_TRUE(noise.known_tau && noise.known_tau->open_above) << "the warm-up's floor";
+  if (!use) return {};
+  fit = fit_full_vector(averaged.averages, noise);
+  settle_unit_static_use(*use, fit.noise);
+  return *use;
+}
+
+constexpr const char* kRecordingTauFloorWords =
+    "; this recording's own long dwell sees a wander it does not pin, whose correlation time it "
+    "bounds from below";
+
 }  // namespace
 
 // A unit whose axes wander unalike (3, 6 and 12 ug, 60 s): the static recording's curves give
@@ -1360,6 +1382,13 @@ TEST(FitNoise, AWarmUpThatSeesAWanderItDoesNotPinPutsAFloorUnderItsCorrelationTi
                 "correlation time at %.0f s or longer",
                 floor_s);
   EXPECT_NE(report.find(words), std::string::npos) << report;
+
+  // Beside the unit's static recording, its words say the floor, and that the fit kept it.
+  FitResult beside;
+  const UnitStaticRecordingUse use = static_recording_words_beside_a_floor(rec, averaged, beside);
+  EXPECT_TRUE(beside.noise.tau_given_open_above) << beside.noise.how;
+  EXPECT_NE(use.why.find(kRecordingTauFloorWords), std::string::npos) << use.why;
+  EXPECT_EQ(use.why.find("set aside"), std::string::npos) << use.why;
 }
 
 // Where the run's rows do not show the wander at the floor's correlation times (below the bar
@@ -1395,6 +1424,43 @@ TEST(FitNoise, AFloorUnderTheCorrelationTimeStandsOnlyWhereTheRunShowsTheWander)
     EXPECT_TRUE(d.noise.bias_instability) << d.noise.how;
   else
     EXPECT_NE(d.noise.how.find("is set aside"), std::string::npos) << d.noise.how;
+
+  // Beside the unit's static recording, its words say the floor was set aside, after what the
+  // fit made of the recording's own curves. Until 2026-12-07 they said the floor alone, before
+  // the fit, as if it stood.
+  FitResult beside;
+  const UnitStaticRecordingUse use = static_recording_words_beside_a_floor(rec, averaged, beside);
+  EXPECT_FALSE(beside.noise.tau_given_open_above) << beside.noise.how;
+  const std::string set_aside_words = std::string(kRecordingTauFloorWords) +
+                                      ", a floor this fit set aside: this run's dwells do not "
+                                      "show the wander at those times";
+  EXPECT_TRUE(use.why.ends_with(set_aside_words)) << use.why;
+}
+
+// The norm fit says the same of its static recording beside the floor its recording's warm-up
+// puts under the correlation time: kept or set aside, as its fit did. Until 2026-12-07 it said
+// the floor only where the static recording gave nothing, and then as if the floor stood.
+TEST(FitNoise, TheNormFitsStaticRecordingWordsSayWhetherItKeptTheFloor) {
+  for (const std::uint64_t seed : {kUnpinnedWarmUpSeed, kUnpinnedWarmUpBelowBarSeed}) {
+    const Recording rec = bench_run_with_warm_up(7200, 3, 1200, seed);
+    NormCalibrationOptions options;
+    options.stability = false;
+    options.unit_static_recording = unit_static_recording(2, 0, 300, 32);
+    const NormCalibration c = calibrate_without_angles(raw_input_of(rec), options);
+    ASSERT_TRUE(c.unit_static_recording.has_value());
+    const std::string& why = c.unit_static_recording->why;
+    const NoiseFinding& noise = c.fit.result.noise;
+    ASSERT_NE(why.find("; this recording's own long interval sees a wander it does not pin, whose "
+                       "correlation time it bounds from below"),
+              std::string::npos)
+        << "seed " << seed << ": " << why;
+    EXPECT_EQ(why.find(", a floor this fit set aside: this run's intervals do not show the "
+                       "wander at those times") != std::string::npos,
+              !noise.tau_given_open_above)
+        << "seed " << seed << ": " << why << "\n"
+        << noise.how;
+    EXPECT_EQ(why.find("pins a wander"), std::string::npos) << "it pins none: " << why;
+  }
 }
 
 // A unit with one quiet axis beside two that wander (x none, y 6 and z 12 ug, 60 s): x's curve

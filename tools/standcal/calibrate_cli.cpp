@@ -52,7 +52,7 @@ struct FitOptions {
   std::string budget;  // standcal-budget/1: the GUM budget's type B inputs
   std::string mounting = "common";
   NoiseCliOptions noise;
-  std::string unit_static_recording;  // the norm fit's: a long static recording of the unit
+  UnitStaticCliOptions unit_static;  // a long static recording of the unit
 };
 
 void run_simulate(const SimulateOptions& o) {
@@ -96,11 +96,10 @@ void save_compensation(const Compensation& c, const std::string& path) {
 void run_norm_fit(const FitOptions& o, const RawInput& in) {
   NormCalibrationOptions options;
   options.fit.noise = noise_weighting(o);
-  if (!o.unit_static_recording.empty()) {
-    auto unit_static =
-        std::make_shared<RawInput>(read_input(o.unit_static_recording, input_options(o.input)));
-    print_warnings(unit_static->warnings);
-    options.unit_static_recording = std::move(unit_static);
+  if (o.unit_static.given()) {
+    options.unit_static_recording =
+        std::make_shared<RawInput>(read_unit_static_recording(o.unit_static));
+    print_warnings(options.unit_static_recording->warnings);
   }
   const NormCalibration c = calibrate_without_angles(in, options);
   print_warnings({gaps_warning(c, in)});
@@ -120,9 +119,9 @@ void fit_stand_averages(const FitOptions& o, const std::string& method, const Re
   // one the unit's static recording pins, else the one the recording's own long dwell pins.
   FitNoiseOptions noise = noise_weighting(o);
   std::optional<UnitStaticAllan> static_allan;
-  if (!o.unit_static_recording.empty())
-    static_allan = stand_unit_static_allan(
-        read_input(o.unit_static_recording, input_options(o.input)), rec.g_local_mps2);
+  if (o.unit_static.given())
+    static_allan =
+        stand_unit_static_allan(read_unit_static_recording(o.unit_static), rec.g_local_mps2);
   std::optional<UnitStaticRecordingUse> unit_static = take_unit_wander_with_static_recording(
       noise, rec, allan, static_allan ? &*static_allan : nullptr);
   if (unit_static) print_warnings(unit_static->warnings);
@@ -169,7 +168,7 @@ void run_fit(const FitOptions& o) {
   if (o.method != "norm" && streams_as_stand_recording(o.input, o.recording)) {
     const std::string method = o.method == "auto" ? "joint" : o.method;
     // Before the recording is read.
-    check_unit_static_recording(o.unit_static_recording, method, o.noise);
+    check_unit_static_recording(o.unit_static.path, method, o.noise);
     RecordingDigest digest = digest_on_two_threads(o.recording, digest_options(o.input));
     print_warnings(digest.recording.warnings);
     print_warnings({digest.allan_warning()});
@@ -179,7 +178,7 @@ void run_fit(const FitOptions& o) {
   const RawInput in = read_input(o.recording, input_options(o.input));
   print_warnings(in.warnings);
   const std::string method = o.method != "auto" ? o.method : in.recording ? "joint" : "norm";
-  check_unit_static_recording(o.unit_static_recording, method, o.noise);
+  check_unit_static_recording(o.unit_static.path, method, o.noise);
   if (method == "norm") {
     if (!o.budget.empty()) {
       throw std::runtime_error(o.recording +
@@ -251,9 +250,8 @@ void add_calibrate_commands(CLI::App& app) {
       ->check(CLI::IsMember({"common", "per-mount"}))
       ->capture_default_str();
   add_noise_options(fit, fit_opts->noise);
-  add_unit_static_recording_option(fit, fit_opts->unit_static_recording,
-                                   "read as the recording is; the wander its Allan curves pin "
-                                   "is taken as the unit's, or "
+  add_unit_static_recording_option(fit, fit_opts->unit_static,
+                                   "the wander its Allan curves pin is taken as the unit's, or "
                                    "where they show none, they bound the wander the fit's "
                                    "sigmas allow for");
   fit->add_flag("--json", fit_opts->json, "machine-readable output");

@@ -29,7 +29,7 @@ namespace {
 struct CertificateCliOptions {
   report::CertificateRequest request;
   NoiseCliOptions noise;  // as `standcal fit`'s
-  std::string unit_static_recording;
+  UnitStaticCliOptions unit_static;
   std::string output;
 };
 
@@ -131,10 +131,12 @@ void run_certificate(const CertificateCliOptions& o) {
         "them; certify a recording elsewhere with --recording FILE)");
   report::CertificateRequest request = o.request;
   request.noise = fit_noise_options(o.noise);
-  check_unit_static_recording(o.unit_static_recording, request.method, o.noise);
-  if (!o.unit_static_recording.empty())
+  check_unit_static_recording(o.unit_static.path, request.method, o.noise);
+  if (o.unit_static.given()) {
     request.unit_static_recording =
-        std::make_shared<RawInput>(read_unit_static_recording(o.unit_static_recording));
+        std::make_shared<RawInput>(read_unit_static_recording(o.unit_static));
+    print_warnings(request.unit_static_recording->warnings);
+  }
   const report::CertificateInput input = report::prepare_certificate(request);
   const std::string html = report::render_certificate_html(input);
   write_certificate(o.output, ends_with(o.output, ".pdf") ? render_pdf(html) : html);
@@ -188,12 +190,12 @@ void add_certificate_commands(CLI::App& app) {
       ->check(CLI::IsMember({"joint", "full"}))
       ->capture_default_str();
   add_noise_options(cmd, opts->noise);
-  add_unit_static_recording_option(cmd, opts->unit_static_recording,
-                                   "read with the default options (g or m/s^2); the wander its "
-                                   "Allan curves pin is taken as the unit's where the "
-                                   "recording's header gives none, and the diagnosis tests "
-                                   "against it; where they show none, they bound the wander the "
-                                   "fits' sigmas allow for");
+  add_unit_static_recording_option(
+      cmd, opts->unit_static,
+      "the wander its Allan curves pin is taken as the unit's where the "
+      "recording's header gives none, and the diagnosis tests "
+      "against it; where they show none, they bound the wander the "
+      "fits' sigmas allow for");
   cmd->add_flag(
       "--diagnose", opts->request.diagnose,
       "run the model-mismatch diagnosis now (else RUN_DIR/diagnosis.json is used if present)");

@@ -31,7 +31,7 @@ struct DesignFlags {
   std::string mounting = "common";
   std::string limits;
   bool json = false;
-  std::string unit_static_recording;  // in place of the noise flags
+  UnitStaticCliOptions unit_static;  // in place of the noise flags
 };
 
 struct EvaluateOptions {
@@ -73,8 +73,8 @@ void add_design_flags(CLI::App* cmd, DesignFlags& f) {
                   "the fits given that range average theirs")
       ->check(cli_checks::kPositive);
   CLI::Option* from_file = add_unit_static_recording_option(
-      cmd, f.unit_static_recording,
-      "read with the default options (g or m/s^2); the white noise fitted beside its wander "
+      cmd, f.unit_static,
+      "the white noise fitted beside its wander "
       "and the wander it pins (the largest axis's), "
       "in place of --noise-density-ug-rthz and --bias-instability-*");
   for (const char* given : {"--noise-density-ug-rthz", "--bias-instability-ug",
@@ -169,8 +169,9 @@ std::string wander_words(const DesignSettings& s) {
 // the flags'. Curves that see a wander the fits would not take are
 // refused: white noise alone, and the white noise fitted beside that wander, would promise too
 // much. Said on stderr, and in the JSON's noise_from.
-void take_static_recording_noise(const std::string& path, DesignSettings& s) {
-  const RawInput in = read_unit_static_recording(path);
+void take_static_recording_noise(const UnitStaticCliOptions& o, DesignSettings& s) {
+  const RawInput in = read_unit_static_recording(o);
+  print_warnings(in.warnings);
   const UnitStaticAllan a = stand_unit_static_allan(in, in.g_mps2);
   // The white noise fitted beside the wander; the curves' reading at 1 s where none was fitted.
   double density = 0;
@@ -180,8 +181,8 @@ void take_static_recording_noise(const std::string& path, DesignSettings& s) {
     for (const NoiseFigures& f : a.allan.figures)
       if (f.white_density) density = std::max(density, *f.white_density);
   if (!(density > 0))
-    throw std::runtime_error(path + ": the unit's static recording gives no white noise density (" +
-                             a.use.why + ")");
+    throw std::runtime_error(
+        o.path + ": the unit's static recording gives no white noise density (" + a.use.why + ")");
   s.noise_density_ug_rthz = density;
   s.bias_instability_ug = 0;
   s.bias_instability_tau_max_s = 0;
@@ -196,7 +197,7 @@ void take_static_recording_noise(const std::string& path, DesignSettings& s) {
     if (use.wander.known_tau->range()) s.bias_instability_tau_max_s = use.wander.known_tau->max_s;
     wander = wander_words(s);
   } else if (a.gauss_markov && a.gauss_markov->wander_seen) {
-    throw std::runtime_error(path + ": " + use.why +
+    throw std::runtime_error(o.path + ": " + use.why +
                              ": record the unit longer, or give --noise-density-ug-rthz and "
                              "--bias-instability-* as they are known");
   }
@@ -211,7 +212,7 @@ void take_static_recording_noise(const std::string& path, DesignSettings& s) {
 DesignSettings settings_of(const DesignFlags& f) {
   DesignSettings s = f.settings;
   s.mounting = parse_mounting(f.mounting);
-  if (!f.unit_static_recording.empty()) take_static_recording_noise(f.unit_static_recording, s);
+  if (f.unit_static.given()) take_static_recording_noise(f.unit_static, s);
   WanderCliOptions as_fits_take_it;
   as_fits_take_it.bias_instability_tau_s = s.bias_instability_tau_s;
   as_fits_take_it.bias_instability_tau_max_s = s.bias_instability_tau_max_s;

@@ -32,7 +32,7 @@ struct DiagnoseCliOptions {
   // The unit's bias instability as its data sheet or a static recording gives it.
   WanderCliOptions wander;
   InputCliOptions input;
-  std::string unit_static_recording;  // the unit's static recording itself
+  UnitStaticCliOptions unit_static;  // the unit's static recording itself
 };
 
 DiagnoseOptions diagnose_options(const DiagnoseCliOptions& o) {
@@ -49,12 +49,12 @@ DiagnoseOptions diagnose_options(const DiagnoseCliOptions& o) {
 std::optional<UnitStaticRecordingUse> take_static_wander(const DiagnoseCliOptions& o,
                                                          const Recording& rec,
                                                          DiagnoseOptions& options) {
-  if (o.unit_static_recording.empty()) return std::nullopt;
+  if (!o.unit_static.given()) return std::nullopt;
   FitNoiseOptions fit;
   fit.specified = options.specified_wander;
   fit.known_tau = options.known_tau;
-  const UnitStaticAllan unit_static = stand_unit_static_allan(
-      read_input(o.unit_static_recording, input_options(o.input)), rec.g_local_mps2);
+  const UnitStaticAllan unit_static =
+      stand_unit_static_allan(read_unit_static_recording(o.unit_static), rec.g_local_mps2);
   // Nothing of the recording's own: the diagnosis takes its long dwell's wander itself.
   take_header_wander(fit, rec);
   UnitStaticRecordingUse use = take_static_recording_pinned_wander(fit, unit_static);
@@ -101,9 +101,9 @@ std::pair<Diagnosis, Recording> diagnose_input(const DiagnoseCliOptions& o,
   NormCalibrationOptions calibrate;
   calibrate.stability = false;                    // the diagnosis does not report it
   o.wander.given().give_to(calibrate.fit.noise);  // as `fit`
-  if (!o.unit_static_recording.empty())
+  if (o.unit_static.given())
     calibrate.unit_static_recording =
-        std::make_shared<RawInput>(read_input(o.unit_static_recording, input_options(o.input)));
+        std::make_shared<RawInput>(read_unit_static_recording(o.unit_static));
   const NormCalibration calibration = calibrate_without_angles(in, calibrate);
   print_warnings({gaps_warning(calibration, in)});
   DiagnoseOptions options = diagnose_options(o);
@@ -115,7 +115,7 @@ std::pair<Diagnosis, Recording> diagnose_input(const DiagnoseCliOptions& o,
 }
 
 void run_diagnose(const DiagnoseCliOptions& o) {
-  if (!o.unit_static_recording.empty() && o.wander.given().given())
+  if (o.unit_static.given() && o.wander.given().given())
     throw CLI::ValidationError("--unit-static-recording",
                                "give the unit's wander either as a static recording or as "
                                "--bias-instability-*, not both");
@@ -166,10 +166,9 @@ void add_diagnose_commands(CLI::App& app) {
   add_fit_wander_options(cmd, opts->wander,
                          "against which the terms are tested when the run does not show the "
                          "wander itself");
-  add_unit_static_recording_option(
-      cmd, opts->unit_static_recording,
-      "read as the recording is; the wander its Allan curves pin is the one the terms are "
-      "tested against");
+  add_unit_static_recording_option(cmd, opts->unit_static,
+                                   "the wander its Allan curves pin is the one the terms are "
+                                   "tested against");
   cmd->callback([opts] { run_diagnose(*opts); });
 }
 

@@ -25,27 +25,34 @@ std::vector<std::string> split_at_commas(const std::string& text) {
 
 }  // namespace
 
-void add_input_options(CLI::App* cmd, InputCliOptions& o) {
-  cmd->add_option("--format", o.format,
-                  "auto (told from the content) | standcal | imu_tk | delimited | means")
-      ->check(CLI::IsMember({"auto", "standcal", "imu_tk", "delimited", "means"}))
-      ->capture_default_str();
-  cmd->add_option("--columns", o.columns,
-                  "the three accelerometer columns, by header name or 1-based index: x,y,z");
-  cmd->add_option("--rate-hz", o.rate_hz,
-                  "sample rate: the times of rows without a time column; else the rate of a file "
-                  "whose header states none")
-      ->check(cli_checks::number_within(kMinSampleRate_hz, true, kMaxSampleRate_hz));
-  cmd->add_option("--skip-lines", o.skip_lines, "preamble lines before the header or first row")
-      ->check(cli_checks::kNonNegative);
-  cmd->add_option("--units", o.units, "auto | counts | g | mps2")
-      ->check(CLI::IsMember({"auto", "counts", "g", "mps2"}))
-      ->capture_default_str();
-  cmd->add_option("--g-mps2", o.g_mps2, "local gravity (overrides the file's)")
-      ->check(CLI::Range(9.7, 9.9));
+std::vector<CLI::Option*> add_input_options(CLI::App* cmd, InputCliOptions& o,
+                                            const std::string& prefix, const std::string& of) {
+  const auto name = [&prefix](const char* option) { return input_option_name(prefix, option); };
+  const auto help = [&of](const std::string& text) { return of.empty() ? text : of + ": " + text; };
+  return {
+      cmd->add_option(name("format"), o.format,
+                      help("auto (told from the content) | standcal | imu_tk | delimited | means"))
+          ->check(CLI::IsMember({"auto", "standcal", "imu_tk", "delimited", "means"}))
+          ->capture_default_str(),
+      cmd->add_option(name("columns"), o.columns,
+                      help("the three accelerometer columns, by header name or 1-based index: "
+                           "x,y,z")),
+      cmd->add_option(name("rate-hz"), o.rate_hz,
+                      help("sample rate: the times of rows without a time column; else the rate "
+                           "of a file whose header states none"))
+          ->check(cli_checks::number_within(kMinSampleRate_hz, true, kMaxSampleRate_hz)),
+      cmd->add_option(name("skip-lines"), o.skip_lines,
+                      help("preamble lines before the header or first row"))
+          ->check(cli_checks::kNonNegative),
+      cmd->add_option(name("units"), o.units, help("auto | counts | g | mps2"))
+          ->check(CLI::IsMember({"auto", "counts", "g", "mps2"}))
+          ->capture_default_str(),
+      cmd->add_option(name("g-mps2"), o.g_mps2, help("local gravity (overrides the file's)"))
+          ->check(CLI::Range(9.7, 9.9)),
+  };
 }
 
-InputOptions input_options(const InputCliOptions& o) {
+InputOptions input_options(const InputCliOptions& o, const std::string& prefix) {
   InputOptions in;
   in.format = parse_input_format(o.format);
   in.units = parse_input_units(o.units);
@@ -53,6 +60,7 @@ InputOptions input_options(const InputCliOptions& o) {
   if (o.rate_hz > 0) in.rate_hz = o.rate_hz;
   in.skip_lines = o.skip_lines;
   if (o.g_mps2 > 0) in.g_mps2 = o.g_mps2;
+  in.option_prefix = prefix;
   return in;
 }
 
@@ -141,18 +149,28 @@ FitNoiseOptions fit_noise_options(const NoiseCliOptions& o) {
   return n;
 }
 
-CLI::Option* add_unit_static_recording_option(CLI::App* cmd, std::string& path,
+namespace {
+constexpr const char* kUnitStaticPrefix = "unit-static-";
+}  // namespace
+
+CLI::Option* add_unit_static_recording_option(CLI::App* cmd, UnitStaticCliOptions& o,
                                               const std::string& gives) {
-  return cmd
-      ->add_option("--unit-static-recording", path,
-                   "a long static recording of the same unit (hours): " + gives)
-      ->check(cli_checks::kUtf8Text & CLI::ExistingFile);
+  constexpr const char* kGroup = "The unit's static recording";
+  CLI::Option* path =
+      cmd->add_option("--unit-static-recording", o.path,
+                      "a long static recording of the same unit (hours), read by the "
+                      "--unit-static-* options below (not the run's): " +
+                          gives)
+          ->check(cli_checks::kUtf8Text & CLI::ExistingFile)
+          ->group(kGroup);
+  for (CLI::Option* reading :
+       add_input_options(cmd, o.input, kUnitStaticPrefix, "how the static recording is read"))
+    reading->needs(path)->group(kGroup);
+  return path;
 }
 
-RawInput read_unit_static_recording(const std::string& path) {
-  RawInput s = read_input(path, input_options(InputCliOptions{}));
-  print_warnings(s.warnings);
-  return s;
+RawInput read_unit_static_recording(const UnitStaticCliOptions& o) {
+  return read_input(o.path, input_options(o.input, kUnitStaticPrefix));
 }
 
 // --unit-static-recording: for the fits that model the wander, and not beside one given

@@ -22,8 +22,13 @@ struct InputCliOptions {
   double g_mps2 = 0;
 };
 
-void add_input_options(CLI::App* cmd, InputCliOptions& o);
-InputOptions input_options(const InputCliOptions& o);
+// --format, --columns, --rate-hz, --skip-lines, --units, --g-mps2; each named
+// --<prefix><name> and described as of `of` where a prefix is given.
+std::vector<CLI::Option*> add_input_options(CLI::App* cmd, InputCliOptions& o,
+                                            const std::string& prefix = "",
+                                            const std::string& of = "");
+// `prefix`: as add_input_options named them, for the reader's messages.
+InputOptions input_options(const InputCliOptions& o, const std::string& prefix = "");
 // The same options for a stand recording that is streamed: --g-mps2 and --rate-hz.
 DigestOptions digest_options(const InputCliOptions& o);
 // The file is a standcal recording with the stand's angles and no option asks to read it
@@ -63,13 +68,23 @@ void add_wander_options(CLI::App* cmd, double& sigma_ug, double& tau_s, const st
                         bool* tau_given = nullptr);
 FitNoiseOptions fit_noise_options(const NoiseCliOptions& o);
 
-// `--unit-static-recording FILE` (the file named in the JSON and the records: UTF-8); its help
-// says how the command reads it and what it gives the command (`gives`).
-CLI::Option* add_unit_static_recording_option(CLI::App* cmd, std::string& path,
+// The unit's static recording (`--unit-static-recording FILE`) and how it is read: the input
+// options under the prefix "unit-static-" (--unit-static-columns, --unit-static-units...),
+// automatic by default. It is its own file, perhaps of another logger than the run's, so no
+// command reads it with the run's options: each reads it alike.
+struct UnitStaticCliOptions {
+  std::string path;
+  InputCliOptions input;
+  bool given() const { return !path.empty(); }
+};
+// Adds --unit-static-recording (the file named in the JSON and the records: UTF-8), whose help
+// says what it gives the command (`gives`), and its input options, which need it. `o` is
+// written while the command line is parsed: it must outlive the parse.
+CLI::Option* add_unit_static_recording_option(CLI::App* cmd, UnitStaticCliOptions& o,
                                               const std::string& gives);
-// The unit's static recording for a command without input options of its own (`import`,
-// `certificate`, `design`): read with the defaults, its reader's warnings printed.
-RawInput read_unit_static_recording(const std::string& path);
+// The unit's static recording read by its own input options; the reader's messages name those.
+// Its warnings are the caller's to print: the fits carry them on (UnitStaticRecordingUse).
+RawInput read_unit_static_recording(const UnitStaticCliOptions& o);
 
 // `--unit-static-recording PATH` of `fit`, `import` and `certificate` with `method`: refused,
 // naming the option, for the paper-sequential method, with --noise white and beside

@@ -64,8 +64,8 @@ struct ImportOptions {
   std::string operator_name;
   std::string started_utc;
   std::string method = "joint";
-  NoiseCliOptions noise;  // as `standcal fit` weights: the unit's known wander, or white
-  std::string unit_static_recording;  // as `standcal fit`'s: a long static recording of the unit
+  NoiseCliOptions noise;             // as `standcal fit` weights: the unit's known wander, or white
+  UnitStaticCliOptions unit_static;  // as `standcal fit`'s: a long static recording of the unit
 };
 
 std::string file_text(const std::string& path) {
@@ -176,10 +176,12 @@ CalibrationRecord import_record(const ImportOptions& o, const std::string& path,
 }
 
 void run_import(const ImportOptions& o) {
-  check_unit_static_recording(o.unit_static_recording, o.method, o.noise);
+  check_unit_static_recording(o.unit_static.path, o.method, o.noise);
   UnitStaticForImport unit_static;
-  if (!o.unit_static_recording.empty())
-    unit_static.file = read_unit_static_recording(o.unit_static_recording);
+  if (o.unit_static.given()) {
+    unit_static.file = read_unit_static_recording(o.unit_static);
+    print_warnings(unit_static.file->warnings);
+  }
   auto db = records::open_and_migrate(o.db.empty() ? default_db() : o.db);
   int stored = 0;
   for (const std::string& path : o.recordings) {
@@ -310,11 +312,11 @@ void add_import_command(CLI::App& app) {
                   "when they ran, UTC (default: the recording's started_utc, else the file time)");
   cmd->add_option("--method", o->method, "joint | paper-sequential | full")->capture_default_str();
   add_noise_options(cmd, o->noise);
-  add_unit_static_recording_option(cmd, o->unit_static_recording,
-                                   "read with the default options (g or m/s^2); the wander its "
-                                   "Allan curves pin is taken as the unit's where a recording's "
-                                   "header gives none, or where they show none, they bound the "
-                                   "wander the fit's sigmas allow for");
+  add_unit_static_recording_option(
+      cmd, o->unit_static,
+      "the wander its Allan curves pin is taken as the unit's where a recording's "
+      "header gives none, or where they show none, they bound the "
+      "wander the fit's sigmas allow for");
   cmd->callback([o] { run_import(*o); });
 }
 
