@@ -581,6 +581,8 @@ NoiseFinding noise_finding(const NoiseEstimate& e, const std::vector<PositionAve
     std::nth_element(se.begin(), se.begin() + static_cast<std::ptrdiff_t>(se.size() / 2), se.end());
     const double sigma = se[se.size() / 2], q = e.noise.q_g[a];
     n.wander_ug[a] = q / kUg;
+    n.wander_axes_specified[static_cast<std::size_t>(a)] =
+        e.axes_specified[static_cast<std::size_t>(a)];
     n.allan_peak_ug[a] = gauss_markov_allan_peak(q, e.noise.tau_s).deviation / kUg;
     n.understated_by[a] = sigma > 0 ? std::sqrt(1 + wander_share * q * q / (sigma * sigma)) : 1.0;
   }
@@ -628,6 +630,8 @@ std::string allowed_sizes_words(double largest_ug, double plausible_lr,
 // norm fit's z wander of 0.4 ug where 31.6 was simulated (and specified) left its bias 9.7
 // sigma off (bench/noise --warmup-hours 2, 10x, seed 238). Returns whether any axis was kept.
 bool keep_specified_where_smaller(NoiseEstimate& e, const Vec3& specified_q_g) {
+  for (int a = 0; a < 3; ++a)
+    e.axes_specified[static_cast<std::size_t>(a)] = e.noise.q_g[a] < specified_q_g[a];
   const bool any = (e.noise.q_g.array() < specified_q_g.array()).any();
   e.noise.q_g = e.noise.q_g.cwiseMax(specified_q_g);
   for (PlausibleNoise& p : e.plausible) p.noise.q_g = p.noise.q_g.cwiseMax(specified_q_g);
@@ -923,6 +927,17 @@ bool take_unit_wander(FitNoiseOptions& options, const Recording& rec,
                       const std::optional<AllanFinding>& allan) {
   return take_header_wander(options, rec) || take_recording_wander(options, allan) ||
          take_recording_tau_floor(options, allan);
+}
+
+std::string specified_axes_words(const NoiseFinding& n) {
+  std::vector<std::string> axes;
+  for (std::size_t a = 0; a < 3; ++a)
+    if (n.wander_axes_specified[a]) axes.emplace_back(1, "xyz"[a]);
+  if (axes.empty()) return "";
+  std::string names = axes.front();
+  for (std::size_t k = 1; k < axes.size(); ++k)
+    names += (k + 1 == axes.size() ? " and " : ", ") + axes[k];
+  return ", " + names + " at the specified size (this run's own is smaller there)";
 }
 
 std::string sigmas_allowance_words(const NoiseFinding& n, const std::string& rows) {

@@ -20,6 +20,7 @@
 // and tau from it by restricted maximum likelihood (REML), which does not count the fitted
 // parameters' share of the residual as noise.
 #include <Eigen/Dense>
+#include <array>
 #include <functional>
 #include <optional>
 #include <string>
@@ -106,6 +107,9 @@ struct NoiseEstimate {
   // optimum at each tau of the grid within plausible_lr of the best, with its likelihood
   // relative to the best's.
   std::vector<PlausibleNoise> plausible;
+  // The axes that keep the specified q where the run departs upwards from it
+  // (run_agrees_with_specified): the run's own is smaller there.
+  std::array<bool, 3> axes_specified{};
 };
 
 struct NoiseEstimateOptions {
@@ -381,8 +385,11 @@ struct NoiseFinding {
   std::string source;             // gauss_markov: "estimated" (this recording) or "specified"
   bool bias_instability = false;  // the recording itself shows the wander
   Vec3 wander_ug = Vec3::Zero();  // Gauss-Markov standard deviation per axis
-  double tau_s = 0;               // its correlation time
-  bool tau_given = false;         // given, not estimated (known_tau, or a specified wander)
+  // The axes whose wander_ug is the specified one, not this run's (NoiseEstimate::
+  // axes_specified): the report says so (specified_axes_words).
+  std::array<bool, 3> wander_axes_specified{};
+  double tau_s = 0;        // its correlation time
+  bool tau_given = false;  // given, not estimated (known_tau, or a specified wander)
   // The range of correlation times given (known_tau as a range; 0 when one value).
   double tau_given_min_s = 0, tau_given_max_s = 0;
   // ... known only from below (KnownTau::open_above): tau_given_max_s is the fits' longest.
@@ -513,6 +520,10 @@ std::string unit_wander_advice(const NoiseFinding& n, bool static_recording_give
 // sigmas allow for a bias wander of up to Q ug that these ROWS [and the unit's static
 // recording | and their Allan curves] cannot exclude"; "" where they allow for none.
 std::string sigmas_allowance_words(const NoiseFinding& n, const std::string& rows);
+// Where some axes' wander is the specified one in a wander estimated from the run
+// (NoiseFinding::wander_axes_specified), what a report's noise line says beside the sizes:
+// ", x and z at the specified size (this run's own is smaller there)"; "" otherwise.
+std::string specified_axes_words(const NoiseFinding& n);
 
 // The peak of the Allan deviation of a Gauss-Markov process (q, tau): the "bias
 // instability floor" an Allan plot of this wander would show, and the averaging time at

@@ -222,8 +222,8 @@ std::string wander_words(const NoiseFinding& n, bool static_given) {
            allowed_wander_words(n, static_given);
   return "bias wander between intervals " + fmt("%.0f", n.wander_ug[0]) + ", " +
          fmt("%.0f", n.wander_ug[1]) + ", " + fmt("%.0f", n.wander_ug[2]) +
-         " ug (Gauss-Markov, tau " + fmt("%.0f", n.tau_s) + " s, " + n.source + "), weighted for" +
-         allowed_wander_words(n, static_given);
+         " ug (Gauss-Markov, tau " + fmt("%.0f", n.tau_s) + " s, " + n.source + ")" +
+         specified_axes_words(n) + ", weighted for" + allowed_wander_words(n, static_given);
 }
 
 json vec_json(const Vec3& v) { return json::array({v[0], v[1], v[2]}); }

@@ -122,6 +122,9 @@ json noise_finding_json(const NoiseFinding& n) {
   if (n.model == "gauss_markov") {
     j["source"] = n.source;
     j["wander_ug"] = vec(n.wander_ug);
+    if (!specified_axes_words(n).empty())
+      j["wander_axes_specified"] = json::array(
+          {n.wander_axes_specified[0], n.wander_axes_specified[1], n.wander_axes_specified[2]});
     j["tau_s"] = n.tau_s;
     j["tau_given"] = n.tau_given;
     if (n.tau_given_max_s > 0)
@@ -288,8 +291,9 @@ std::string noise_line(const NoiseFinding& n, bool static_recording_given) {
           : "a possible bias wander (below the bar of a finding: 2 delta log L = " +
                 format("%.1f", n.lr) + " of " + format("%.1f", n.lr_threshold) + "), weighted for";
   return what + ", Gauss-Markov " +
-         axes_text("%.2f", n.wander_ug[0], n.wander_ug[1], n.wander_ug[2], "ug") + ", tau " +
-         format("%.0f", n.tau_s) + " s" + tau_words(n, static_recording_given) +
+         axes_text("%.2f", n.wander_ug[0], n.wander_ug[1], n.wander_ug[2], "ug") +
+         specified_axes_words(n) + ", tau " + format("%.0f", n.tau_s) + " s" +
+         tau_words(n, static_recording_given) +
          "; dwell means close in time share it, so they are weighted by the covariance it "
          "implies "
          "(generalised least squares); sigma/sqrt(n) understates a dwell mean's error up to " +

@@ -316,7 +316,8 @@ std::string noise_words(const NoiseFinding& n) {
   for (int a = 0; a < 3; ++a)
     s +=
         std::string(a ? "," : "") + " " + kAxisNames[a] + " " + fmt("%.1f", n.wander_ug[a]) + " ug";
-  s += ", correlation time " + fmt("%.0f", n.tau_s) + " s (" + tau_given_words(n) + "Allan floor";
+  s += specified_axes_words(n) + ", correlation time " + fmt("%.0f", n.tau_s) + " s (" +
+       tau_given_words(n) + "Allan floor";
   for (int a = 0; a < 3; ++a)
     s += std::string(a ? "," : "") + " " + fmt("%.1f", n.allan_peak_ug[a]);
   s += " ug); sigma/sqrt(n) understated a dwell mean's error by up to " +

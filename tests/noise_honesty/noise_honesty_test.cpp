@@ -1520,4 +1520,21 @@ TEST(FitNoise, ARunThatDepartsUpwardsKeepsTheSpecifiedWanderOnItsQuieterAxes) {
     const ParameterEstimate& b = norm.fit.result.unit[static_cast<std::size_t>(a)];
     EXPECT_LT(std::abs(*b.value - default_truth().unit.bias_g[a]), 4 * *b.sigma) << a;
   }
+  // The report, the JSON and the diagnosis say which axes' sizes are the specified one, not the
+  // run's. Until 2026-12-07 they printed them as the run's (session 35's review, item 14).
+  nlohmann::json flags = nlohmann::json::array();
+  for (std::size_t a = 0; a < 3; ++a) {
+    flags.push_back(n.wander_axes_specified[a]);
+    if (n.wander_axes_specified[a])
+      EXPECT_NEAR(n.wander_ug[static_cast<int>(a)], allan->wander->q_axes[a],
+                  1e-9 * allan->wander->q_axes[a])
+          << a;
+  }
+  const std::string words = specified_axes_words(n);
+  ASSERT_FALSE(words.empty()) << "z's 0.4 ug is below the specified";
+  EXPECT_NE(words.find("this run's own is smaller there"), std::string::npos) << words;
+  const RawInput in = raw_input_of(rec);
+  const std::string report = format_norm_report(norm, in);
+  EXPECT_NE(report.find(" s, estimated)" + words + ", weighted for"), std::string::npos) << report;
+  EXPECT_EQ(norm_calibration_to_json(norm, in)["noise"]["wander_axes_specified"], flags);
 }
