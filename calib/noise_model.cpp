@@ -937,7 +937,7 @@ std::string specified_axes_words(const NoiseFinding& n) {
   std::string names = axes.front();
   for (std::size_t k = 1; k < axes.size(); ++k)
     names += (k + 1 == axes.size() ? " and " : ", ") + axes[k];
-  return ", " + names + " at the specified size (this run's own is smaller there)";
+  return ", " + names + " at the given size (this run's own is smaller there)";
 }
 
 std::string sigmas_allowance_words(const NoiseFinding& n, const std::string& rows) {

@@ -522,7 +522,8 @@ std::string unit_wander_advice(const NoiseFinding& n, bool static_recording_give
 std::string sigmas_allowance_words(const NoiseFinding& n, const std::string& rows);
 // Where some axes' wander is the specified one in a wander estimated from the run
 // (NoiseFinding::wander_axes_specified), what a report's noise line says beside the sizes:
-// ", x and z at the specified size (this run's own is smaller there)"; "" otherwise.
+// ", x and z at the given size (this run's own is smaller there)"; "" otherwise. (Given: by
+// the operator, the header, a static recording or the recording's own curves.)
 std::string specified_axes_words(const NoiseFinding& n);
 
 // The peak of the Allan deviation of a Gauss-Markov process (q, tau): the "bias

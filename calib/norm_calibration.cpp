@@ -402,9 +402,6 @@ std::string curves_show_words(const GaussMarkovAllanFit& fit, double end_s) {
   return "its Allan curves (to " + fmt("%.0f", end_s) + " s) show no wander";
 }
 
-// The end of a static recording's `why` where its curves show no wander and were taken to bound
-// the one the sigmas allow for: whether they did, in the fit whose noise is `result`, or why
-// not (`rows`: the fit's, "intervals" or "dwells"). Returns whether it said one.
 // The recording's own long `stretch` (dwell, interval) sees a wander it does not pin: the floor
 // it put under the correlation time, and whether the fit (`result`) kept it, which it does only
 // where its `rows` show the wander at those times (choose_fit_noise).
@@ -418,6 +415,9 @@ std::string recording_tau_floor_words(const std::string& stretch, const std::str
   return words;
 }
 
+// The end of a static recording's `why` where its curves show no wander and were taken to bound
+// the one the sigmas allow for: whether they did, in the fit whose noise is `result`, or why
+// not (`rows`: the fit's, "intervals" or "dwells"). Returns whether it said one.
 bool say_curves_bound(UnitStaticRecordingUse& use, const NoiseFinding& result,
                       const std::string& rows) {
   if (result.sigmas_allowance_allan_curves_from == kWanderFromStaticRecording) {
@@ -460,7 +460,11 @@ void say_static_curves_use(UnitStaticRecordingUse& use, const AllanFinding& alla
   } else if (result.sigmas_allowance_allan_curves_from == kWanderFromRecording) {
     use.why += "; this recording's own long interval bounds the wander instead";
   } else if (allan.wander_curves) {
-    if (!say_curves_bound(use, first, "intervals")) use.why += curves_end_too_soon_words(taken);
+    // Taken as a bound (beside a floor under the correlation time), the fit it bounded says
+    // what came of it, as for the stand fits; not taken, the fit without curves says why.
+    const bool taken_as_bound = taken.wander_curves_from == kWanderFromStaticRecording;
+    if (!say_curves_bound(use, taken_as_bound ? result : first, "intervals"))
+      use.why += curves_end_too_soon_words(taken);
   }
 }
 
@@ -514,8 +518,10 @@ UnitStaticAllan stand_unit_static_allan(const RawInput& s, double g_mps2) {
     throw std::runtime_error(
         s.source +
         ": the unit's static recording is in counts, which have no scale to ug here: record it "
-        "in g or m/s^2 (only the norm fit of a recording without angles scales counts, by its "
-        "own compensation)");
+        "in g or m/s^2, or where its values are not counts say so (" +
+        s.option("units") +
+        " g|mps2); only the norm fit of a recording without angles scales counts, by its own "
+        "compensation");
   const double ug_per_unit = s.units == InputUnits::g ? 1 / kUg : 1 / (g_mps2 * kUg);
   return unit_static_allan(s, Vec3::Constant(ug_per_unit));
 }

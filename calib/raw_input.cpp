@@ -1506,7 +1506,14 @@ class Reader {
 }  // namespace
 
 std::string input_option_name(const std::string& prefix, std::string_view name) {
-  return "--" + prefix + std::string(name);
+  if (prefix.empty() || prefix.back() != '.') return "--" + prefix + std::string(name);
+  std::string key = prefix + std::string(name);
+  std::replace(key.begin() + static_cast<std::ptrdiff_t>(prefix.size()), key.end(), '-', '_');
+  return key;
+}
+
+void drop_assumed_gravity_warning(RawInput& s) {
+  std::erase_if(s.warnings, [](const std::string& w) { return is_assumed_gravity_warning(w); });
 }
 
 RawInput raw_input_of(const Recording& rec) {

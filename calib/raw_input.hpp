@@ -56,12 +56,15 @@ struct InputOptions {
   int skip_lines = 0;  // preamble lines before the header (or the first row)
   InputUnits units = InputUnits::automatic;
   std::optional<double> g_mps2;  // local gravity; overrides the file's own
-  // How the command line names these options, in the reader's messages: --<prefix>columns
-  // and so on ("unit-static-" for the unit's static recording beside a run's).
+  // How the caller names these options in the reader's messages: a command line's prefix
+  // ("unit-static-": --unit-static-columns, for the unit's static recording beside a run's),
+  // or a configuration section ending in '.' ("unit.static_recording_input.":
+  // unit.static_recording_input.columns).
   std::string option_prefix;
 };
 
-// An input option as the command line names it: "--" + prefix + name.
+// An input option `name` ("rate-hz") as the caller names it (InputOptions::option_prefix):
+// "--" + prefix + name, or for a configuration section prefix + name with '_' for '-'.
 std::string input_option_name(const std::string& prefix, std::string_view name);
 
 // One row of a table of static means.
@@ -109,6 +112,11 @@ struct RawInput {
 
 // A standcal recording's samples as raw input: m/s^2, its dwell blocks, its gravity.
 RawInput raw_input_of(const Recording& rec);
+
+// A static recording read for its noise alone (the unit's, beside a run): its g only puts m/s^2
+// in ug for the wander's size, where the fits take the run's g, so the reader's "assuming
+// standard gravity ... a scale-factor error" warning is not so for it, and is dropped.
+void drop_assumed_gravity_warning(RawInput& s);
 
 // Reads a file (throws RecordingError naming file, line and column, or std::runtime_error
 // when it cannot be opened).

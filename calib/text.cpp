@@ -115,4 +115,16 @@ NumberTextsApart fixed_texts_apart(double value, double limit, int decimals) {
   return {fixed_decimals_text(value, apart), fixed_decimals_text(limit, apart)};
 }
 
+std::vector<std::string> split_at_commas(const std::string& text) {
+  std::vector<std::string> out;
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t comma = text.find(',', start);
+    out.push_back(
+        text.substr(start, comma == std::string::npos ? std::string::npos : comma - start));
+    if (comma == std::string::npos) return out;
+    start = comma + 1;
+  }
+}
+
 }  // namespace standcal

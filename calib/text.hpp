@@ -6,6 +6,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace standcal {
 
@@ -30,6 +31,9 @@ std::optional<std::size_t> first_non_utf8_byte(std::string_view text);
 // A number as an operator writes it, six significant digits: 122.5, not 122.500000;
 // 7.36e+161.
 std::string number_text(double v);
+// "x,y,z" as its fields, empty ones kept ("a,,b": "a", "", "b"): the lists an option or a
+// configuration key takes as one text (--columns, unit.static_recording_input.columns).
+std::vector<std::string> split_at_commas(const std::string& text);
 // One value per axis, each as `printf_format` writes it, then `unit` (none where empty):
 // "1.10 / 6.40 / 11.90 ug (x/y/z)", as every report and log spells per-axis figures.
 std::string axes_text(const char* printf_format, double x, double y, double z,

@@ -217,6 +217,23 @@ void read_stand(Section& top, DaemonConfig& c) {
   s->reject_unknown();
 }
 
+// unit.static_recording_input: the reading options of `standcal noise` and --unit-static-*, one
+// key each, which the reader's messages then name. No g: run.g_local_mps2 puts it in ug.
+void read_static_recording_input(Section& s, InputOptions& in) {
+  std::string format = "auto", units = "auto", columns;
+  s.choice("format", format, {"auto", "standcal", "imu_tk", "delimited", "means"});
+  s.choice("units", units, {"auto", "counts", "g", "mps2"});
+  in.format = parse_input_format(format);
+  in.units = parse_input_units(units);
+  s.text("columns", columns);
+  if (!columns.empty()) in.columns = split_at_commas(columns);
+  double rate_hz = 0;
+  s.number("rate_hz", rate_hz, kMinSampleRate_hz, kMaxSampleRate_hz);
+  if (rate_hz > 0) in.rate_hz = rate_hz;
+  s.integer("skip_lines", in.skip_lines, 0, 1000000);
+  s.reject_unknown();
+}
+
 void read_unit(Section& top, DaemonConfig& c) {
   auto s = top.sub("unit");
   if (!s) return;
@@ -240,6 +257,13 @@ void read_unit(Section& top, DaemonConfig& c) {
                 Section::fmt(w.tau_s) + " s): the range is MIN to MAX");
   if (tau_given) w.known_tau = KnownTau{w.tau_s, tau_max_s > 0 ? tau_max_s : w.tau_s};
   s->text("static_recording", c.unit_static_recording_file);
+  // The reader's messages name these keys, given or not.
+  c.unit_static_recording_input.option_prefix = "unit.static_recording_input.";
+  if (auto input = s->sub("static_recording_input")) {
+    if (c.unit_static_recording_file.empty())
+      s->fail("static_recording_input", "says how unit.static_recording is read: give it too");
+    read_static_recording_input(*input, c.unit_static_recording_input);
+  }
   s->reject_unknown();
 }
 
@@ -254,8 +278,9 @@ void take_unit_static_recording(DaemonConfig& c) {
                       "unit.bias_instability_*, not both");
   try {
     FitNoiseOptions nothing_given;
-    const UnitStaticAllan s =
-        stand_unit_static_allan(read_input(c.unit_static_recording_file), c.g_local_mps2);
+    RawInput file = read_input(c.unit_static_recording_file, c.unit_static_recording_input);
+    drop_assumed_gravity_warning(file);  // run.g_local_mps2 puts it in ug
+    const UnitStaticAllan s = stand_unit_static_allan(file, c.g_local_mps2);
     c.unit_static_recording = take_static_recording_pinned_wander(nothing_given, s);
     if (s.allan.wander_curves)
       c.unit_static_recording->why +=

@@ -110,6 +110,10 @@ struct DaemonConfig {
   // run's header says where it came from (kHeaderUnitWanderSource). What it gave, and why, is
   // logged at start.
   std::string unit_static_recording_file;
+  // unit.static_recording_input: how that file is read (format, columns, rate_hz, skip_lines,
+  // units, g_mps2, as `standcal noise` and `--unit-static-*` take them); automatic by default,
+  // and the reader's messages name these keys.
+  InputOptions unit_static_recording_input;
   std::optional<UnitStaticRecordingUse> unit_static_recording;
   SimSettings sim;
   AxisRange outer;  // limited ±180° unless configured

@@ -126,6 +126,55 @@ TEST(DaemonConfig, TheUnitsStaticRecordingGivesItsWanderAtStart) {
   std::remove(still.c_str());
 }
 
+// unit.static_recording_input says how the file is read, as --unit-static-* does for the
+// offline commands: here the same two hours as headerless x,y,z rows, which need their sample
+// rate. Without it the start stops, and the message names the key, not a command-line option.
+TEST(DaemonConfig, TheUnitsStaticRecordingIsReadByItsOwnInputKeys) {
+  const standcal::Recording still = standcal::test::unit_static_recording(7200, 3, 60, 7);
+  const std::string recording = ::testing::TempDir() + "/standcal-static-recording.csv";
+  const std::string rows = ::testing::TempDir() + "/standcal-static-rows.csv";
+  standcal::write_recording(still, recording);
+  {
+    std::ofstream out(rows);
+    out.precision(17);
+    for (const standcal::RecordingSample& r : still.samples)
+      out << r.f_mps2[0] << ',' << r.f_mps2[1] << ',' << r.f_mps2[2] << '\n';
+  }
+  const std::string unread = config_error(json{{"unit", {{"static_recording", rows}}}});
+  EXPECT_EQ(unread.rfind("lab.json: unit.static_recording: " + rows, 0), 0u) << unread;
+  EXPECT_NE(unread.find("pass unit.static_recording_input.rate_hz with the sample rate"),
+            std::string::npos)
+      << unread;
+
+  const DaemonConfig from_rows = parse_config(
+      json{{"unit", {{"static_recording", rows}, {"static_recording_input", {{"rate_hz", 10}}}}}},
+      "lab.json");
+  const DaemonConfig from_recording =
+      parse_config(json{{"unit", {{"static_recording", recording}}}}, "lab.json");
+  ASSERT_TRUE(from_rows.unit_static_recording.has_value());
+  EXPECT_EQ(from_rows.unit_static_recording->gave, "wander")
+      << from_rows.unit_static_recording->why;
+  // The same samples: the same wander, but for the rows' times made from the rate.
+  EXPECT_TRUE(
+      from_rows.unit_wander.size_axes_ug.isApprox(from_recording.unit_wander.size_axes_ug, 1e-6))
+      << from_rows.unit_wander.size_axes_ug - from_recording.unit_wander.size_axes_ug;
+  // No g of its own (run.g_local_mps2 puts it in ug), so no "assuming standard gravity".
+  EXPECT_TRUE(from_rows.unit_static_recording->warnings.empty())
+      << from_rows.unit_static_recording->warnings.front();
+
+  EXPECT_EQ(config_error(json{{"unit", {{"static_recording_input", {{"rate_hz", 10}}}}}}),
+            "lab.json: unit.static_recording_input: says how unit.static_recording is read: "
+            "give it too");
+  EXPECT_NE(
+      config_error(json{{"unit",
+                         {{"static_recording", rows},
+                          {"static_recording_input", {{"rate_hz", 10}, {"colums", "1,2,3"}}}}}})
+          .find("unit.static_recording_input.colums"),
+      std::string::npos);
+  std::remove(recording.c_str());
+  std::remove(rows.c_str());
+}
+
 // run.budget is read at start: a bad file stops the daemon's start, naming the key.
 TEST(DaemonConfig, TheBudgetFileIsReadAtStart) {
   const std::string path = ::testing::TempDir() + "/standcal-budget-test.json";

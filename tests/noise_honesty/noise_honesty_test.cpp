@@ -13,6 +13,7 @@
 #include "calib/allan.hpp"
 #include "calib/averaging.hpp"
 #include "calib/diagnosis/diagnosis.hpp"
+#include "calib/diagnosis/wander.hpp"
 #include "calib/full_estimator.hpp"
 #include "calib/invariant_estimator.hpp"
 #include "calib/norm_calibration.hpp"
@@ -1441,7 +1442,9 @@ TEST(FitNoise, AFloorUnderTheCorrelationTimeStandsOnlyWhereTheRunShowsTheWander)
 // puts under the correlation time: kept or set aside, as its fit did. Until 2026-12-07 it said
 // the floor only where the static recording gave nothing, and then as if the floor stood.
 TEST(FitNoise, TheNormFitsStaticRecordingWordsSayWhetherItKeptTheFloor) {
-  for (const std::uint64_t seed : {kUnpinnedWarmUpSeed, kUnpinnedWarmUpBelowBarSeed}) {
+  // The first seed's intervals show the wander at the floor's times, the second's do not.
+  for (const auto& [seed, kept] :
+       {std::pair{kUnpinnedWarmUpSeed, true}, std::pair{kUnpinnedWarmUpBelowBarSeed, false}}) {
     const Recording rec = bench_run_with_warm_up(7200, 3, 1200, seed);
     NormCalibrationOptions options;
     options.stability = false;
@@ -1454,12 +1457,13 @@ TEST(FitNoise, TheNormFitsStaticRecordingWordsSayWhetherItKeptTheFloor) {
                        "correlation time it bounds from below"),
               std::string::npos)
         << "seed " << seed << ": " << why;
+    ASSERT_EQ(noise.tau_given_open_above, kept) << "the case this test is of: " << noise.how;
     EXPECT_EQ(why.find(", a floor this fit set aside: this run's intervals do not show the "
                        "wander at those times") != std::string::npos,
-              !noise.tau_given_open_above)
-        << "seed " << seed << ": " << why << "\n"
-        << noise.how;
+              !kept)
+        << "seed " << seed << ": " << why;
     EXPECT_EQ(why.find("pins a wander"), std::string::npos) << "it pins none: " << why;
+    EXPECT_EQ(why.find("record longer"), std::string::npos) << "its curves reach 60 s: " << why;
   }
 }
 
@@ -1520,21 +1524,27 @@ TEST(FitNoise, ARunThatDepartsUpwardsKeepsTheSpecifiedWanderOnItsQuieterAxes) {
     const ParameterEstimate& b = norm.fit.result.unit[static_cast<std::size_t>(a)];
     EXPECT_LT(std::abs(*b.value - default_truth().unit.bias_g[a]), 4 * *b.sigma) << a;
   }
-  // The report, the JSON and the diagnosis say which axes' sizes are the specified one, not the
-  // run's. Until 2026-12-07 they printed them as the run's (session 35's review, item 14).
-  nlohmann::json flags = nlohmann::json::array();
+  // The reports, the JSON and the diagnosis's words say which axes' sizes are the given one, not
+  // the run's. Until 2026-12-07 they printed them as the run's (session 35's review, item 14).
+  // An axis kept the given size exactly; one that did not has its own, larger.
   for (std::size_t a = 0; a < 3; ++a) {
-    flags.push_back(n.wander_axes_specified[a]);
-    if (n.wander_axes_specified[a])
-      EXPECT_NEAR(n.wander_ug[static_cast<int>(a)], allan->wander->q_axes[a],
-                  1e-9 * allan->wander->q_axes[a])
-          << a;
+    const double given = allan->wander->q_axes[a], weighted = n.wander_ug[static_cast<int>(a)];
+    EXPECT_EQ(n.wander_axes_specified[a], std::abs(weighted - given) <= 1e-9 * given)
+        << "axis " << a << ": " << weighted << " ug weighted, " << given << " ug given";
   }
+  ASSERT_TRUE(n.wander_axes_specified[2]) << "z's 0.4 ug is below the given";
   const std::string words = specified_axes_words(n);
-  ASSERT_FALSE(words.empty()) << "z's 0.4 ug is below the specified";
-  EXPECT_NE(words.find("this run's own is smaller there"), std::string::npos) << words;
+  EXPECT_NE(words.find("z at the given size (this run's own is smaller there)"), std::string::npos)
+      << words;
   const RawInput in = raw_input_of(rec);
   const std::string report = format_norm_report(norm, in);
   EXPECT_NE(report.find(" s, estimated)" + words + ", weighted for"), std::string::npos) << report;
-  EXPECT_EQ(norm_calibration_to_json(norm, in)["noise"]["wander_axes_specified"], flags);
+  EXPECT_NE(noise_line(n, false).find(" ug (x/y/z)" + words + ", tau "), std::string::npos)
+      << noise_line(n, false);
+  const std::string diagnosis_words = diagnosis::noise_words(n);
+  EXPECT_NE(diagnosis_words.find(" ug" + words + ", correlation time "), std::string::npos)
+      << diagnosis_words;
+  const nlohmann::json flags = norm_calibration_to_json(norm, in)["noise"]["wander_axes_specified"];
+  EXPECT_EQ(flags, nlohmann::json::array({n.wander_axes_specified[0], n.wander_axes_specified[1],
+                                          n.wander_axes_specified[2]}));
 }

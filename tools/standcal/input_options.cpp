@@ -9,24 +9,8 @@
 
 namespace standcal::cli {
 
-namespace {
-
-std::vector<std::string> split_at_commas(const std::string& text) {
-  std::vector<std::string> out;
-  std::size_t start = 0;
-  while (true) {
-    const std::size_t comma = text.find(',', start);
-    out.push_back(
-        text.substr(start, comma == std::string::npos ? std::string::npos : comma - start));
-    if (comma == std::string::npos) return out;
-    start = comma + 1;
-  }
-}
-
-}  // namespace
-
-std::vector<CLI::Option*> add_input_options(CLI::App* cmd, InputCliOptions& o,
-                                            const std::string& prefix, const std::string& of) {
+std::vector<CLI::Option*> add_reading_options(CLI::App* cmd, InputCliOptions& o,
+                                              const std::string& prefix, const std::string& of) {
   const auto name = [&prefix](const char* option) { return input_option_name(prefix, option); };
   const auto help = [&of](const std::string& text) { return of.empty() ? text : of + ": " + text; };
   return {
@@ -47,9 +31,13 @@ std::vector<CLI::Option*> add_input_options(CLI::App* cmd, InputCliOptions& o,
       cmd->add_option(name("units"), o.units, help("auto | counts | g | mps2"))
           ->check(CLI::IsMember({"auto", "counts", "g", "mps2"}))
           ->capture_default_str(),
-      cmd->add_option(name("g-mps2"), o.g_mps2, help("local gravity (overrides the file's)"))
-          ->check(CLI::Range(9.7, 9.9)),
   };
+}
+
+void add_input_options(CLI::App* cmd, InputCliOptions& o) {
+  add_reading_options(cmd, o);
+  cmd->add_option("--g-mps2", o.g_mps2, "local gravity (overrides the file's)")
+      ->check(CLI::Range(9.7, 9.9));
 }
 
 InputOptions input_options(const InputCliOptions& o, const std::string& prefix) {
@@ -158,19 +146,22 @@ CLI::Option* add_unit_static_recording_option(CLI::App* cmd, UnitStaticCliOption
   constexpr const char* kGroup = "The unit's static recording";
   CLI::Option* path =
       cmd->add_option("--unit-static-recording", o.path,
-                      "a long static recording of the same unit (hours), read by the "
-                      "--unit-static-* options below (not the run's): " +
+                      "a long static recording of the same unit (hours; g or m/s^2, or counts "
+                      "beside a norm fit's counts), read by the --unit-static-* options below "
+                      "(not the run's): " +
                           gives)
           ->check(cli_checks::kUtf8Text & CLI::ExistingFile)
           ->group(kGroup);
   for (CLI::Option* reading :
-       add_input_options(cmd, o.input, kUnitStaticPrefix, "how the static recording is read"))
+       add_reading_options(cmd, o.input, kUnitStaticPrefix, "how the static recording is read"))
     reading->needs(path)->group(kGroup);
   return path;
 }
 
 RawInput read_unit_static_recording(const UnitStaticCliOptions& o) {
-  return read_input(o.path, input_options(o.input, kUnitStaticPrefix));
+  RawInput s = read_input(o.path, input_options(o.input, kUnitStaticPrefix));
+  drop_assumed_gravity_warning(s);
+  return s;
 }
 
 // --unit-static-recording: for the fits that model the wander, and not beside one given

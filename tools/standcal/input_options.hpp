@@ -22,11 +22,13 @@ struct InputCliOptions {
   double g_mps2 = 0;
 };
 
-// --format, --columns, --rate-hz, --skip-lines, --units, --g-mps2; each named
+// --format, --columns, --rate-hz, --skip-lines, --units: how a file is read, each named
 // --<prefix><name> and described as of `of` where a prefix is given.
-std::vector<CLI::Option*> add_input_options(CLI::App* cmd, InputCliOptions& o,
-                                            const std::string& prefix = "",
-                                            const std::string& of = "");
+std::vector<CLI::Option*> add_reading_options(CLI::App* cmd, InputCliOptions& o,
+                                              const std::string& prefix = "",
+                                              const std::string& of = "");
+// The reading options and --g-mps2, the local gravity of the run a command fits.
+void add_input_options(CLI::App* cmd, InputCliOptions& o);
 // `prefix`: as add_input_options named them, for the reader's messages.
 InputOptions input_options(const InputCliOptions& o, const std::string& prefix = "");
 // The same options for a stand recording that is streamed: --g-mps2 and --rate-hz.
@@ -68,10 +70,11 @@ void add_wander_options(CLI::App* cmd, double& sigma_ug, double& tau_s, const st
                         bool* tau_given = nullptr);
 FitNoiseOptions fit_noise_options(const NoiseCliOptions& o);
 
-// The unit's static recording (`--unit-static-recording FILE`) and how it is read: the input
+// The unit's static recording (`--unit-static-recording FILE`) and how it is read: the reading
 // options under the prefix "unit-static-" (--unit-static-columns, --unit-static-units...),
-// automatic by default. It is its own file, perhaps of another logger than the run's, so no
-// command reads it with the run's options: each reads it alike.
+// automatic by default; no g of its own (drop_assumed_gravity_warning). It is its own file, perhaps
+// of another logger than the run's, so no command reads it with the run's options: each reads it
+// alike.
 struct UnitStaticCliOptions {
   std::string path;
   InputCliOptions input;
