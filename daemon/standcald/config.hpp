@@ -111,8 +111,8 @@ struct DaemonConfig {
   // logged at start.
   std::string unit_static_recording_file;
   // unit.static_recording_input: how that file is read (format, columns, rate_hz, skip_lines,
-  // units, g_mps2, as `standcal noise` and `--unit-static-*` take them); automatic by default,
-  // and the reader's messages name these keys.
+  // units, as `standcal noise` and `--unit-static-*` take them; no g: run.g_local_mps2 puts it
+  // in ug); automatic by default, and the reader's messages name these keys.
   InputOptions unit_static_recording_input;
   std::optional<UnitStaticRecordingUse> unit_static_recording;
   SimSettings sim;

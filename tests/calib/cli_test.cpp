@@ -835,6 +835,15 @@ TEST_F(Cli, EveryCommandReadsTheUnitsStaticRecordingByItsOwnInputOptions) {
   const std::string run = tumble_recording("run", "");  // orientations for the norm fit too
   const std::string rate = " --unit-static-rate-hz 10";
 
+  // `standcal noise`, which reads them by its own options, advises giving them so.
+  const CliRun noise = run_cli("noise " + rows + " --rate-hz 10");
+  ASSERT_EQ(noise.exit_code, 0) << noise.output;
+  EXPECT_NE(noise.output.find("--unit-static-recording " + rows + rate + " (standcald: " +
+                              "unit.static_recording with unit.static_recording_input " +
+                              "{\"rate_hz\":10.0})"),
+            std::string::npos)
+      << noise.output;
+
   // The run's --rate-hz is the run's: the rows are not read by it.
   const CliRun unread = run_cli("fit " + run + " --rate-hz 10 --unit-static-recording " + rows);
   EXPECT_NE(unread.exit_code, 0) << unread.output;

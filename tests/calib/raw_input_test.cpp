@@ -332,9 +332,10 @@ TEST(RawInputImuTk, TheMessagesNameTheOptionsAsTheCommandLineDoes) {
   EXPECT_TRUE(contains(column, "--unit-static-columns: column 7 is out of range")) << column;
   beside.columns.clear();
   const RawInput in = parse_input(rows, "in.txt", beside);
-  EXPECT_EQ(in.option("g-mps2"), "--unit-static-g-mps2");
-  ASSERT_FALSE(in.warnings.empty());
-  EXPECT_TRUE(contains(in.warnings[0], "no --unit-static-g-mps2")) << in.warnings[0];
+  EXPECT_EQ(in.option("skip-lines"), "--unit-static-skip-lines");
+  // A configuration section names its keys (standcald's unit.static_recording_input).
+  EXPECT_EQ(input_option_name("unit.static_recording_input.", "rate-hz"),
+            "unit.static_recording_input.rate_hz");
 }
 
 TEST(RawInputImuTk, ManyColumnsWithoutAHeaderAskForOneOrForColumns) {

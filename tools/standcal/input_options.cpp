@@ -1,6 +1,7 @@
 #include "tools/standcal/input_options.hpp"
 
 #include <cstdio>
+#include <nlohmann/json.hpp>
 #include <stdexcept>
 
 #include "calib/recording_digest.hpp"
@@ -156,6 +157,29 @@ CLI::Option* add_unit_static_recording_option(CLI::App* cmd, UnitStaticCliOption
        add_reading_options(cmd, o.input, kUnitStaticPrefix, "how the static recording is read"))
     reading->needs(path)->group(kGroup);
   return path;
+}
+
+std::string unit_static_reading_args(const InputCliOptions& o) {
+  const auto arg = [](const char* name, const std::string& value) {
+    return " " + input_option_name(kUnitStaticPrefix, name) + " " + value;
+  };
+  std::string out;
+  if (o.format != "auto") out += arg("format", o.format);
+  if (!o.columns.empty()) out += arg("columns", o.columns);
+  if (o.rate_hz > 0) out += arg("rate-hz", round_trip_text(o.rate_hz));
+  if (o.skip_lines > 0) out += arg("skip-lines", std::to_string(o.skip_lines));
+  if (o.units != "auto") out += arg("units", o.units);
+  return out;
+}
+
+std::string unit_static_reading_keys(const InputCliOptions& o) {
+  nlohmann::json keys = nlohmann::json::object();
+  if (o.format != "auto") keys["format"] = o.format;
+  if (!o.columns.empty()) keys["columns"] = o.columns;
+  if (o.rate_hz > 0) keys["rate_hz"] = o.rate_hz;
+  if (o.skip_lines > 0) keys["skip_lines"] = o.skip_lines;
+  if (o.units != "auto") keys["units"] = o.units;
+  return keys.empty() ? "" : keys.dump();
 }
 
 RawInput read_unit_static_recording(const UnitStaticCliOptions& o) {

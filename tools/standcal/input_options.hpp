@@ -29,7 +29,7 @@ std::vector<CLI::Option*> add_reading_options(CLI::App* cmd, InputCliOptions& o,
                                               const std::string& of = "");
 // The reading options and --g-mps2, the local gravity of the run a command fits.
 void add_input_options(CLI::App* cmd, InputCliOptions& o);
-// `prefix`: as add_input_options named them, for the reader's messages.
+// `prefix`: as add_reading_options named them, for the reader's messages.
 InputOptions input_options(const InputCliOptions& o, const std::string& prefix = "");
 // The same options for a stand recording that is streamed: --g-mps2 and --rate-hz.
 DigestOptions digest_options(const InputCliOptions& o);
@@ -85,6 +85,12 @@ struct UnitStaticCliOptions {
 // written while the command line is parsed: it must outlive the parse.
 CLI::Option* add_unit_static_recording_option(CLI::App* cmd, UnitStaticCliOptions& o,
                                               const std::string& gives);
+// How a file read by `o` is read again as the unit's static recording: the --unit-static-*
+// options that are not the defaults (" --unit-static-rate-hz 10"), and standcald's
+// unit.static_recording_input as JSON ({"rate_hz":10}); both empty where all are. No g: it has
+// none of its own.
+std::string unit_static_reading_args(const InputCliOptions& o);
+std::string unit_static_reading_keys(const InputCliOptions& o);
 // The unit's static recording read by its own input options; the reader's messages name those.
 // Its warnings are the caller's to print: the fits carry them on (UnitStaticRecordingUse).
 RawInput read_unit_static_recording(const UnitStaticCliOptions& o);

@@ -163,14 +163,28 @@ std::string short_correlation_words(const GaussMarkovAllanFit& f) {
          " (the noise density to give `standcal design`)";
 }
 
+// This recording as the fits and standcald take it, read as this command read it: "FILE
+// --unit-static-rate-hz 10", and standcald's "unit.static_recording with
+// unit.static_recording_input {"rate_hz":10}".
+struct RecordingToGive {
+  std::string args;
+  std::string standcald;
+};
+RecordingToGive recording_to_give(const NoiseOptions& o) {
+  const std::string keys = unit_static_reading_keys(o.input);
+  return {o.recording + unit_static_reading_args(o.input),
+          "unit.static_recording" +
+              (keys.empty() ? std::string() : " with unit.static_recording_input " + keys)};
+}
+
 // Curves that show no wander and reach the fits' shortest correlation time bound the wander a
 // fit's sigmas allow for (take_wander_curves): how to give them.
 std::string bound_words(const GaussMarkovAllanFit& f, double curve_end_s, const DwellGaps& gaps,
-                        const std::string& recording) {
+                        const RecordingToGive& recording) {
   if (!f.describes_curves || gaps.too_much() || curve_end_s < shortest_model_tau_s({})) return "";
   return "\nthe fits take this recording as the unit's: standcal fit RECORDING "
          "--unit-static-recording " +
-         recording +
+         recording.args +
          " (any method but paper-sequential; import and certificate take it too), where it bounds "
          "the wander the fit's sigmas allow for";
 }
@@ -178,7 +192,7 @@ std::string bound_words(const GaussMarkovAllanFit& f, double curve_end_s, const 
 // What the Allan curves say of the unit's correlation time, and how to give it to the fits
 // (one calibration run cannot pin it: docs/calibration.md, "The correlation time, given").
 std::string gauss_markov_words(const std::optional<GaussMarkovAllanFit>& f, double curve_end_s,
-                               const DwellGaps& gaps, const std::string& recording) {
+                               const DwellGaps& gaps, const RecordingToGive& recording) {
   if (!f) return "Gauss-Markov wander: the curves are too short to fit one (fewer than 5 octaves)";
   if (f->short_correlation) return short_correlation_words(*f);
   if (!f->wander_seen)
@@ -221,8 +235,8 @@ std::string gauss_markov_words(const std::optional<GaussMarkovAllanFit>& f, doub
          size_range_text(give->q_min, give->q_max) +
          ": a longer one narrows that); or give this recording itself, which weighs each "
          "axis with its own size: standcal fit RECORDING --unit-static-recording " +
-         recording +
-         " (standcald: unit.static_recording). One calibration run "
+         recording.args + " (standcald: " + recording.standcald +
+         "). One calibration run "
          "cannot pin the correlation time, nor the size of a wander it seldom shows, and too "
          "short a tau or too small a size makes the biases' sigmas too small. The averaging "
          "time of the bias-instability floor above is not the correlation time (a Gauss-Markov "
@@ -313,7 +327,8 @@ void run_noise(const NoiseOptions& o) {
   double curve_end_s = 0;  // the longest averaging time of any axis
   for (const auto& c : curves)
     if (!c.empty()) curve_end_s = std::max(curve_end_s, c.back().tau_s);
-  std::printf("%s\n", gauss_markov_words(wander, curve_end_s, allan.gaps, o.recording).c_str());
+  std::printf("%s\n",
+              gauss_markov_words(wander, curve_end_s, allan.gaps, recording_to_give(o)).c_str());
   if (wander && !wander->describes_curves) {
     const GaussMarkovAllanFit::Departure& d = wander->worst_departure;
     const bool white_alone = !wander->wander_seen && !wander->short_correlation;
