@@ -812,13 +812,9 @@ class Reader {
       fail_at(first.number, 0,
               options_.columns.empty()
                   ? "rows of " + n + " numbers (x y z) without a time column: pass " +
-                        option("rate-hz") +
-                        " "
-                        "with the sample rate"
+                        option("rate-hz") + " with the sample rate"
                   : "no time column (column 1 is one of " + option("columns") + "): pass " +
-                        option("rate-hz") +
-                        " with the "
-                        "sample rate");
+                        option("rate-hz") + " with the sample rate");
     rewind_to(first);
     read_rows(layout);
     list_ignored(layout);
