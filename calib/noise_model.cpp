@@ -632,7 +632,7 @@ std::string allowed_sizes_words(double largest_ug, double plausible_lr,
 bool keep_specified_where_smaller(NoiseEstimate& e, const Vec3& specified_q_g) {
   for (int a = 0; a < 3; ++a)
     e.axes_specified[static_cast<std::size_t>(a)] = e.noise.q_g[a] < specified_q_g[a];
-  const bool any = (e.noise.q_g.array() < specified_q_g.array()).any();
+  const bool any = std::ranges::any_of(e.axes_specified, [](bool kept) { return kept; });
   e.noise.q_g = e.noise.q_g.cwiseMax(specified_q_g);
   for (PlausibleNoise& p : e.plausible) p.noise.q_g = p.noise.q_g.cwiseMax(specified_q_g);
   return any;
@@ -930,13 +930,9 @@ bool take_unit_wander(FitNoiseOptions& options, const Recording& rec,
 }
 
 std::string specified_axes_words(const NoiseFinding& n) {
-  std::vector<std::string> axes;
-  for (std::size_t a = 0; a < 3; ++a)
-    if (n.wander_axes_specified[a]) axes.emplace_back(1, "xyz"[a]);
-  if (axes.empty()) return "";
-  std::string names = axes.front();
-  for (std::size_t k = 1; k < axes.size(); ++k)
-    names += (k + 1 == axes.size() ? " and " : ", ") + axes[k];
+  const std::array<bool, 3>& kept = n.wander_axes_specified;
+  const std::string names = axis_names({kept[0], kept[1], kept[2]});
+  if (names.empty()) return "";
   return ", " + names + " at the given size (this run's own is smaller there)";
 }
 

@@ -353,15 +353,13 @@ constexpr const char* kGivenWords =
 
 // The axes given the largest size their curves allow (WanderToGive::axes_at_bound), in words.
 std::string at_bound_words(const WanderToGive& w) {
-  std::string axes;
-  int count = 0;
-  for (std::size_t a = 0; a < w.axes_at_bound.size() && a < 3; ++a)
-    if (w.axes_at_bound[a]) axes += std::string(count++ ? " and " : "") + "xyz"[a];
-  if (count == 0) return "";
+  const std::string axes = axis_names(w.axes_at_bound);
+  if (axes.empty()) return "";
   return " (" + axes +
-         (count == 1 ? " at the largest size its curve allows, at most the largest axis's: it does"
-                     : " at the largest sizes their curves allow, at most the largest axis's: "
-                       "they do") +
+         (axes.size() == 1
+              ? " at the largest size its curve allows, at most the largest axis's: it does"
+              : " at the largest sizes their curves allow, at most the largest axis's: "
+                "they do") +
          " not tell a wander from none)";
 }
 

@@ -127,4 +127,14 @@ std::vector<std::string> split_at_commas(const std::string& text) {
   }
 }
 
+std::string axis_names(const std::vector<bool>& chosen) {
+  std::vector<char> axes;
+  for (std::size_t a = 0; a < chosen.size() && a < 3; ++a)
+    if (chosen[a]) axes.push_back("xyz"[a]);
+  std::string names;
+  for (std::size_t k = 0; k < axes.size(); ++k)
+    names += std::string(k == 0 ? "" : k + 1 == axes.size() ? " and " : ", ") + axes[k];
+  return names;
+}
+
 }  // namespace standcal

@@ -34,6 +34,9 @@ std::string number_text(double v);
 // "x,y,z" as its fields, empty ones kept ("a,,b": "a", "", "b"): the lists an option or a
 // configuration key takes as one text (--columns, unit.static_recording_input.columns).
 std::vector<std::string> split_at_commas(const std::string& text);
+// The axes `chosen` flags (x, y, z in order; any beyond three ignored), as a sentence names
+// them: "x", "x and z", "x, y and z"; "" for none.
+std::string axis_names(const std::vector<bool>& chosen);
 // One value per axis, each as `printf_format` writes it, then `unit` (none where empty):
 // "1.10 / 6.40 / 11.90 ug (x/y/z)", as every report and log spells per-axis figures.
 std::string axes_text(const char* printf_format, double x, double y, double z,

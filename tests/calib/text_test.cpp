@@ -32,6 +32,16 @@ TEST(RoundTripText, WritesTheShortestTextThatReadsBackExactly) {
     EXPECT_EQ(std::stod(plain_round_trip_text(v)), v);
 }
 
+// The axes a finding flags, as the reports' sentences name them (a static recording's axes at
+// their bound, a run's axes at the given wander's size).
+TEST(AxisNames, TheFlaggedAxesReadAsASentence) {
+  EXPECT_EQ(axis_names({false, false, false}), "");
+  EXPECT_EQ(axis_names({false, true, false}), "y");
+  EXPECT_EQ(axis_names({true, false, true}), "x and z");
+  EXPECT_EQ(axis_names({true, true, true}), "x, y and z");
+  EXPECT_EQ(axis_names({false, true, false, true}), "y");  // three axes only
+}
+
 // A value found past its limit never reads as equal to it (standcald said "noise 5000 µg
 // above the limit 5000 µg" of 5000.004 µg).
 TEST(NumberTextsApart, AValuePastItsLimitReadsAsPastIt) {
