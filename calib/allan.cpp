@@ -6,6 +6,8 @@
 #include <limits>
 #include <stdexcept>
 
+#include <nlohmann/json.hpp>
+
 #include "calib/golden_section.hpp"
 #include "calib/text.hpp"
 #include "calib/units.hpp"
@@ -614,6 +616,81 @@ std::optional<WanderCurves> wander_curves(const GaussMarkovAllanFit& fit,
     out.axes.push_back(thinned(curve, sample_period_s));
   out.deviance_scale = kWanderCurvesDevianceScale / std::max(1.0, fit.deviance_per_dof);
   out.curves_end_s = curves_end_s(curves);
+  return out;
+}
+
+namespace {
+
+// A finite number above `min` (or at it, `or_equal`), or why not, naming `what`.
+double curves_number(const nlohmann::json& j, const std::string& what, double min,
+                     bool or_equal = false) {
+  if (!j.is_number()) throw std::invalid_argument(what + " is not a number");
+  const double v = j.get<double>();
+  if (!std::isfinite(v) || v < min || (!or_equal && v == min))
+    throw std::invalid_argument(what + " is " + j.dump() + ", not a number " +
+                                (or_equal ? "from " : "above ") + plain_round_trip_text(min));
+  return v;
+}
+
+const nlohmann::json& curves_array(const nlohmann::json& j, const char* key,
+                                   const std::string& where) {
+  if (!j.is_object() || !j.contains(key) || !j[key].is_array())
+    throw std::invalid_argument(where + " has no array '" + key + "'");
+  return j[key];
+}
+
+ThinnedAllanCurve parse_thinned_curve(const nlohmann::json& j, const std::string& where) {
+  const nlohmann::json& taus = curves_array(j, "tau_s", where);
+  const nlohmann::json& deviations = curves_array(j, "deviation", where);
+  const nlohmann::json& clusters = curves_array(j, "clusters", where);
+  if (taus.empty() || deviations.size() != taus.size() || clusters.size() != taus.size())
+    throw std::invalid_argument(where +
+                                ": 'tau_s', 'deviation' and 'clusters' need one value "
+                                "per point, and at least one point");
+  ThinnedAllanCurve c;
+  for (std::size_t i = 0; i < taus.size(); ++i) {
+    const std::string point = where + " point " + std::to_string(i + 1);
+    AllanPoint p;
+    p.tau_s = curves_number(taus[i], point + " tau_s", 0);
+    if (!c.points.empty() && !(p.tau_s > c.points.back().tau_s))
+      throw std::invalid_argument(point + " tau_s does not rise from the point before");
+    p.deviation = curves_number(deviations[i], point + " deviation", 0);
+    c.points.push_back(p);
+    c.clusters.push_back(curves_number(clusters[i], point + " clusters", 1, true));
+  }
+  return c;
+}
+
+}  // namespace
+
+std::string wander_curves_text(const WanderCurves& curves) {
+  nlohmann::json axes = nlohmann::json::array();
+  for (const ThinnedAllanCurve& c : curves.axes) {
+    nlohmann::json taus = nlohmann::json::array(), deviations = nlohmann::json::array();
+    for (const AllanPoint& p : c.points) {
+      taus.push_back(p.tau_s);
+      deviations.push_back(p.deviation);
+    }
+    axes.push_back({{"tau_s", taus}, {"deviation", deviations}, {"clusters", c.clusters}});
+  }
+  return nlohmann::json{{"curves_end_s", curves.curves_end_s},
+                        {"deviance_scale", curves.deviance_scale},
+                        {"axes", axes}}
+      .dump();
+}
+
+WanderCurves parse_wander_curves(std::string_view text) {
+  const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+  if (j.is_discarded()) throw std::invalid_argument("not JSON");
+  if (!j.is_object()) throw std::invalid_argument("not a JSON object");
+  WanderCurves out;
+  out.curves_end_s = curves_number(j.value("curves_end_s", nlohmann::json()), "curves_end_s", 0);
+  out.deviance_scale =
+      curves_number(j.value("deviance_scale", nlohmann::json()), "deviance_scale", 0);
+  const nlohmann::json& axes = curves_array(j, "axes", "the curves");
+  if (axes.size() != 3) throw std::invalid_argument("'axes' needs three curves, x, y and z");
+  for (std::size_t a = 0; a < axes.size(); ++a)
+    out.axes.push_back(parse_thinned_curve(axes[a], std::string("axis ") + "xyz"[a]));
   return out;
 }
 

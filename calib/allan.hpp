@@ -237,6 +237,13 @@ struct WanderCurves {
   // q = 0 is white noise alone.
   double deviance(double q, double tau_c_s) const;
 };
+// Curves as one line of JSON, a recording header's value (standcald's runs carry their unit's
+// static recording's: kHeaderUnitStaticCurves), and back. Every number round-trips exactly, so
+// a later fit of the run weighs them as the run's own did; the points keep what the deviance
+// reads (averaging time, deviation, clusters), not their terms. The parser throws
+// std::invalid_argument naming what is wrong.
+std::string wander_curves_text(const WanderCurves& curves);
+WanderCurves parse_wander_curves(std::string_view text);
 // chi2_1's 3.84 (a 95 % interval for one parameter) over kGaussMarkovSizeRangeDeviance: the
 // points of one curve are not independent, and their profile's curvature overstates what they
 // know of q (the range at 4 held the true q on 79-92 % of axes, at 9 on 94-99 %), so a

@@ -831,14 +831,31 @@ bool may_weigh_wander_curves(const FitNoiseOptions& options) {
   return options.mode == FitNoiseOptions::Mode::estimate && options.specified.white();
 }
 
-bool take_wander_curves(FitNoiseOptions& options, const std::optional<AllanFinding>& allan,
-                        const std::string& from) {
-  if (!may_weigh_wander_curves(options) || !allan || !allan->wander_curves) return false;
-  if (allan->wander_curves->curves_end_s < shortest_model_tau_s(options)) return false;
-  options.wander_curves_ug = allan->wander_curves;
+namespace {
+bool take_curves(FitNoiseOptions& options, const WanderCurves& curves, const std::string& from) {
+  if (!may_weigh_wander_curves(options)) return false;
+  if (curves.curves_end_s < shortest_model_tau_s(options)) return false;
+  options.wander_curves_ug = curves;
   options.wander_curves_from = from;
   options.average_over_wander_sizes = true;  // the curves weigh the sizes only there
   return true;
+}
+}  // namespace
+
+bool take_wander_curves(FitNoiseOptions& options, const std::optional<AllanFinding>& allan,
+                        const std::string& from) {
+  return allan && allan->wander_curves && take_curves(options, *allan->wander_curves, from);
+}
+
+bool take_header_static_curves(FitNoiseOptions& options, const Recording& rec) {
+  const std::string text = rec.header_value(kHeaderUnitStaticCurves);
+  if (text.empty() || !may_weigh_wander_curves(options)) return false;
+  try {
+    return take_curves(options, parse_wander_curves(text), kWanderFromStaticRecording);
+  } catch (const std::invalid_argument& e) {
+    throw std::runtime_error(rec.source + ": header '" + kHeaderUnitStaticCurves +
+                             "': not the Allan curves of a static recording: " + e.what());
+  }
 }
 
 bool take_recording_wander_or_bound(FitNoiseOptions& options,

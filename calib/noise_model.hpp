@@ -333,6 +333,11 @@ bool take_wander_curves(FitNoiseOptions& options, const std::optional<AllanFindi
 // Whether `options` leave room for that: a caller that fits the curves for it alone can skip
 // the fit otherwise.
 bool may_weigh_wander_curves(const FitNoiseOptions& options);
+// The same for the unit's static recording's curves as the recording's header carries them
+// (kHeaderUnitStaticCurves: standcald's runs), from kWanderFromStaticRecording: every later fit
+// of the run weighs them as the run's own did. Returns whether it took them; throws
+// std::runtime_error naming the recording and the key where the value is not such curves.
+bool take_header_static_curves(FitNoiseOptions& options, const Recording& rec);
 // Where the fit estimates the noise and nothing of the unit's wander is given, and Allan curves
 // see a wander they do not pin (AllanFinding::wander_tau_floor_s: a long dwell of a few of its
 // correlation times, which ends before the wander turns over) whose shortest correlation time

@@ -537,10 +537,6 @@ UnitStaticRecordingUse take_static_recording_pinned_wander(FitNoiseOptions& opti
   return use;
 }
 
-namespace {
-// Where its curves show no wander: them as a bound on the wander the sigmas allow for, where no
-// size of the unit's is given (take_wander_curves); `use` then says "bound" until the fit
-// settles it (settle_unit_static_use), or why not.
 void take_static_recording_bound(FitNoiseOptions& options, const UnitStaticAllan& unit_static,
                                  UnitStaticRecordingUse& use) {
   if (!unit_static.allan.wander_curves) return;
@@ -551,7 +547,6 @@ void take_static_recording_bound(FitNoiseOptions& options, const UnitStaticAllan
     use.why = unit_static.use.why + curves_end_too_soon_words(options);
   }
 }
-}  // namespace
 
 void settle_unit_static_use(UnitStaticRecordingUse& use, const NoiseFinding& result) {
   if (use.gave == "bound") {
@@ -573,7 +568,10 @@ std::optional<UnitStaticRecordingUse> take_unit_wander_with_static_recording(
       use->why += "; this recording's own long dwell pins a wander, weighted with instead";
     return use;
   }
-  if (use && use->gave != "wander") take_static_recording_bound(options, *unit_static, *use);
+  if (use && use->gave != "wander")
+    take_static_recording_bound(options, *unit_static, *use);
+  else if (!unit_static)
+    take_header_static_curves(options, rec);  // its run's, where standcald's run carried them
   if (take_recording_tau_floor(options, allan)) {
     if (use) use->recording_tau_floor = true;  // said by settle_unit_static_use
     return use;
@@ -754,11 +752,14 @@ NormCalibration calibrate(const RawInput& in, const NormCalibrationOptions& o) {
       take_recording_wander(taken.fit.noise, allan)) {
     c.fit = fit_beside_wander(c.detection.intervals, in.g_mps2, in.units, taken.fit);
   } else {
-    // The floor beside either's bound, as the stand fits take them: the floor may be set aside.
+    // The floor beside either's bound (the static recording's, given here or carried in a
+    // standcald run's header), as the stand fits take them: the floor may be set aside.
     const bool floor = take_recording_tau_floor(taken.fit.noise, allan);
     const bool bound =
         first.sigmas_allow_wander_up_to_ug > 0 &&
         (take_wander_curves(taken.fit.noise, static_allan, kWanderFromStaticRecording) ||
+         (!unit_static && in.recording &&
+          take_header_static_curves(taken.fit.noise, *in.recording)) ||
          take_wander_curves(taken.fit.noise, allan));
     if (floor || bound) c.fit = fit_norm(c.detection.intervals, in.g_mps2, in.units, taken.fit);
     c.fit = refit_beside_wander(c.detection.intervals, in.g_mps2, in.units, taken.fit, c.fit);

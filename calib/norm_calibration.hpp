@@ -73,13 +73,19 @@ UnitStaticAllan stand_unit_static_allan(const RawInput& recording, double g_mps2
 // and no curves (standcald's run headers, design). Returns what it gave and why.
 UnitStaticRecordingUse take_static_recording_pinned_wander(FitNoiseOptions& options,
                                                            const UnitStaticAllan& unit_static);
+// Where its curves show no wander: them as a bound on the wander the sigmas allow for, where no
+// size of the unit's is given (take_wander_curves); `use` then says "bound" until the fit
+// settles it (settle_unit_static_use), or why not.
+void take_static_recording_bound(FitNoiseOptions& options, const UnitStaticAllan& unit_static,
+                                 UnitStaticRecordingUse& use);
 // The stand fits' unit wander where nothing of it is given (`standcal fit
 // --unit-static-recording` with a stand method, import, certificate), in their order: the one
 // the recording's header gives (what its run was made with), else the one the unit's static
 // recording pins (`unit_static`, null where none was given), else the one the recording's own
 // long dwell pins (`allan`); where none is pinned and no size of the unit's is given, the
-// static recording's curves that show none bound the wander the sigmas allow for, else the
-// long dwell's (take_wander_curves, take_recording_wander_or_bound), as the norm fit takes
+// static recording's curves that show none bound the wander the sigmas allow for (without
+// `unit_static`, the ones the header carries from its run: take_header_static_curves), else
+// the long dwell's (take_wander_curves, take_recording_wander_or_bound), as the norm fit takes
 // them: a stand fit that weighs for a wander below the bar of a finding then has its sigmas
 // averaged over the sizes this run and the curves allow, not widened by Student-t at the few
 // degrees of freedom the run leaves the wander's size. Returns what the static recording gave

@@ -66,6 +66,11 @@ inline constexpr const char* kHeaderUnitWanderTauMaxS = "unit_bias_instability_t
 // Where the wander those keys give came from, in words, when not from the configuration's
 // figures (standcald's unit.static_recording): for the reader, not read back.
 inline constexpr const char* kHeaderUnitWanderSource = "unit_bias_instability_source";
+// The unit's static recording's Allan curves, where they show no wander (standcald's
+// unit.static_recording; wander_curves_text): every fit of the run weighs them as a bound on
+// the wander its sigmas allow for, where nothing of the unit's wander is given
+// (take_header_static_curves).
+inline constexpr const char* kHeaderUnitStaticCurves = "unit_static_allan_curves";
 // What a unit's wander can be, here and in standcald's unit.bias_instability_*.
 inline constexpr double kMaxUnitWanderUg = 100000;
 inline constexpr double kMinUnitWanderTauS = 1, kMaxUnitWanderTauS = 1e6;

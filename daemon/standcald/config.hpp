@@ -107,14 +107,18 @@ struct DaemonConfig {
   // unit.static_recording: a long static recording of the unit (g or m/s^2, as `standcal
   // noise` reads it), read and fitted once at start. Where unit.bias_instability_* is not
   // configured (both are refused), the wander its Allan curves pin is unit_wander, and each
-  // run's header says where it came from (kHeaderUnitWanderSource). What it gave, and why, is
-  // logged at start.
+  // run's header says where it came from (kHeaderUnitWanderSource); where they show none,
+  // unit_static_curves_ug. What it gave, and why, is logged at start.
   std::string unit_static_recording_file;
   // unit.static_recording_input: how that file is read (format, columns, rate_hz, skip_lines,
   // units, as `standcal noise` and `--unit-static-*` take them; no g: run.g_local_mps2 puts it
   // in ug); automatic by default, and the reader's messages name these keys.
   InputOptions unit_static_recording_input;
   std::optional<UnitStaticRecordingUse> unit_static_recording;
+  // Its Allan curves, where they show no wander and reach the wanders the fits model: each
+  // run's header carries them (kHeaderUnitStaticCurves), and every fit of the run weighs them
+  // as a bound on the wander its sigmas allow for, as `standcal fit --unit-static-recording`.
+  std::optional<WanderCurves> unit_static_curves_ug;
   SimSettings sim;
   AxisRange outer;  // limited ±180° unless configured
   AxisRange inner;

@@ -5,6 +5,7 @@
 #include "calib/full_estimator.hpp"
 #include "calib/identifiability.hpp"
 #include "calib/invariant_estimator.hpp"
+#include "calib/norm_calibration.hpp"
 #include "calib/recording_digest.hpp"
 #include "calib/report.hpp"
 #include "calib/utc_time.hpp"
@@ -74,11 +75,12 @@ json fit_finished_run(RunRecord& record, const std::string& run_dir, const Given
   const std::optional<AllanFinding> allan = digest.allan_finding();
   // The unit's configured wander, as the header keeps it (a correlation time configured: the
   // run then estimates only the wander's size, which one run pins far better than tau); none
-  // configured: the one the recording's own long dwell pins (a warm-up), if any, or the bound
-  // its curves set where they show none.
+  // configured: the one the recording's own long dwell pins (a warm-up), if any, else the bound
+  // the unit's static recording's curves set where they show none (the header carries them),
+  // else its own long dwell's: as every later fit of the recording weighs.
   FitNoiseOptions noise;
   if (!take_header_wander(noise, digest.recording)) configured.give_to(noise);
-  take_recording_wander_or_bound(noise, allan);
+  take_unit_wander_with_static_recording(noise, digest.recording, allan, nullptr);
   JointFit joint = joint_fit(averages, noise, allan);
   json& result = joint.result;
   try {

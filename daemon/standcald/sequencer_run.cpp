@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <span>
 
+#include "calib/allan.hpp"
 #include "calib/averaging.hpp"
 #include "calib/json_text.hpp"
 #include "calib/recording.hpp"
@@ -334,6 +335,8 @@ void Sequencer::run_loop(RunRecord record, const std::function<void()>& started)
             // What its unit.static_recording gave it: the wander above, or nothing and why.
             if (const auto& u = config_.unit_static_recording; u)
               header.set_header(kHeaderUnitWanderSource, unit_static_recording_words(*u));
+            if (const auto& curves = config_.unit_static_curves_ug; curves)
+              header.set_header(kHeaderUnitStaticCurves, wander_curves_text(*curves));
             if (program.warmup_s > 0)
               header.set_header(kHeaderWarmupS, round_trip_text(program.warmup_s));
             header.columns = recording_columns(program);

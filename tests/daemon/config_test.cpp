@@ -115,13 +115,18 @@ TEST(DaemonConfig, TheUnitsStaticRecordingGivesItsWanderAtStart) {
   standcal::write_recording(standcal::test::unit_static_recording(7200, 0, 300, 4), still);
   const DaemonConfig none = parse_config(json{{"unit", {{"static_recording", still}}}}, "lab.json");
   ASSERT_TRUE(none.unit_static_recording.has_value());
-  EXPECT_EQ(none.unit_static_recording->gave, "nothing");
-  // Its curves bound nothing here (a run's header carries a wander, not curves): said so.
-  EXPECT_NE(none.unit_static_recording->why.find("show no wander: each run's header carries a "
-                                                 "wander it pins, not its curves"),
+  // Its curves bound the wander each run's sigmas allow for: the runs' headers carry them.
+  EXPECT_EQ(none.unit_static_recording->gave, "bound") << none.unit_static_recording->why;
+  EXPECT_NE(none.unit_static_recording->why.find(
+                "show no wander; each run's header carries its curves (unit_static_allan_curves), "
+                "and a fit of the run weighs them where the run shows no wander of its own"),
             std::string::npos)
       << none.unit_static_recording->why;
+  ASSERT_TRUE(none.unit_static_curves_ug.has_value());
+  EXPECT_GT(none.unit_static_curves_ug->curves_end_s, 60);
   EXPECT_FALSE(none.unit_wander.given());
+  // A pinned wander carries no curves.
+  EXPECT_FALSE(c.unit_static_curves_ug.has_value());
   std::remove(pinned.c_str());
   std::remove(still.c_str());
 }

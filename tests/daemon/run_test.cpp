@@ -8,6 +8,7 @@
 #include <map>
 #include <set>
 
+#include "calib/allan.hpp"
 #include "calib/averaging.hpp"
 #include "calib/invariant_estimator.hpp"
 #include "calib/recording.hpp"
@@ -160,6 +161,7 @@ namespace {
 struct ConfiguredRun {
   json result;
   RecordedUnitWander recorded;  // what the recording's header says
+  std::string static_curves;    // ... of the unit's static recording's curves (its value)
   std::string report;           // `standcal run result RUN_ID`
   std::string log;
 };
@@ -184,12 +186,27 @@ ConfiguredRun run_with_configured_wander(const json& unit) {
   run.log = daemon.log();
   EXPECT_EQ(final_status["state"], "done") << final_status.dump() << run.log;
   run.result = c.call("run.result", {{"run_id", run_id}});
-  run.recorded = read_recording(run.result["recording_path"]).unit_wander;
+  const Recording rec = read_recording(run.result["recording_path"]);
+  run.recorded = rec.unit_wander;
+  run.static_curves = rec.header_value(kHeaderUnitStaticCurves);
   const test::CommandOutcome shown =
       test::standcal_cli("run result " + run_id + " --socket " + socket_of(dir));
   EXPECT_EQ(shown.exit_code, 0) << shown.output;
   run.report = shown.output;
   return run;
+}
+
+// `standcal run result`'s report, which refits the recording, gives the bias_x sigma of the
+// run's own result: it weighs as the run did.
+void expect_the_report_gives_the_results_bias_x_sigma(const ConfiguredRun& run) {
+  char sigma[32];
+  std::snprintf(sigma, sizeof sigma, " %.2f\n",
+                run.result["parameters"]["bias_x"]["sigma"].get<double>());
+  const auto bias_x = run.report.find("  bias_x ");
+  ASSERT_NE(bias_x, std::string::npos) << run.report;
+  const std::string line = run.report.substr(bias_x, run.report.find('\n', bias_x) - bias_x + 1);
+  EXPECT_NE(line.find(sigma), std::string::npos)
+      << "the result's bias_x sigma" << sigma << "in " << line;
 }
 
 }  // namespace
@@ -216,14 +233,7 @@ TEST(DaemonRun, TheFitsAssumeTheUnitsConfiguredBiasWander) {
   EXPECT_EQ(run.recorded.tau_max_s, 0);
   EXPECT_NE(run.report.find("the specified bias wander its run was made with"), std::string::npos)
       << run.report;
-  char sigma[32];
-  std::snprintf(sigma, sizeof sigma, " %.2f\n",
-                run.result["parameters"]["bias_x"]["sigma"].get<double>());
-  const auto bias_x = run.report.find("  bias_x ");
-  ASSERT_NE(bias_x, std::string::npos) << run.report;
-  const std::string line = run.report.substr(bias_x, run.report.find('\n', bias_x) - bias_x + 1);
-  EXPECT_NE(line.find(sigma), std::string::npos)
-      << "the result's bias_x sigma" << sigma << "in " << line;
+  expect_the_report_gives_the_results_bias_x_sigma(run);
 }
 
 // unit.static_recording: the wander its Allan curves pin (two hours of a 3 ug wander of 60 s) is
@@ -253,17 +263,27 @@ TEST(DaemonRun, TheFitsTakeTheWanderTheUnitsStaticRecordingPins) {
   std::remove(pinned.c_str());
 }
 
-// One that pins none gives the runs nothing, and each run's header says so: `run.result`'s
-// unit_wander_source and `standcal run result`'s report beneath its Noise line, where a
-// run's own wander is then advised on as beside a static recording (not by the
-// unit.bias_instability_* the daemon refuses beside it).
-TEST(DaemonRun, AStaticRecordingThatPinsNoWanderIsSaidOfEachRun) {
+// One whose curves show no wander gives the runs no wander but its curves, which each run's
+// header carries (kHeaderUnitStaticCurves): the run's fits weigh them as a bound on the wander
+// their sigmas allow for, as `standcal fit --unit-static-recording` does, and so does every
+// later fit of the recording. The header says so too: `run.result`'s unit_wander_source and
+// `standcal run result`'s report beneath its Noise line, where a run's own wander is then
+// advised on as beside a static recording (not by the unit.bias_instability_* the daemon
+// refuses beside it). Until 2026-12-07 the runs carried no curves, and their fits weighed none.
+TEST(DaemonRun, AStaticRecordingThatPinsNoWanderBoundsEachRunsWander) {
   const std::string still = ::testing::TempDir() + "/standcal-run-static-still.csv";
   write_recording(test::unit_static_recording(7200, 0, 300, 4), still);
   const ConfiguredRun run = run_with_configured_wander({{"static_recording", still}});
   EXPECT_FALSE(run.result["noise"].contains("unit_wander_from")) << run.result["noise"].dump(2);
   EXPECT_EQ(run.recorded.size_ug, 0);
-  const std::string gave = "the unit's static recording " + still + " (2 h static) gave nothing";
+  ASSERT_FALSE(run.static_curves.empty()) << "the header carries the curves";
+  EXPECT_GT(parse_wander_curves(run.static_curves).curves_end_s, 60);
+  const json& full_noise = run.result["full_vector"]["noise"];
+  EXPECT_EQ(full_noise["sigmas_allowance_allan_curves_from"], "static_recording")
+      << full_noise.dump(2);
+  expect_the_report_gives_the_results_bias_x_sigma(run);
+  const std::string gave =
+      "the unit's static recording " + still + " (2 h static) gave a bound on the wander";
   ASSERT_TRUE(run.result.contains("unit_wander_source")) << run.result.dump(2);
   EXPECT_NE(run.result["unit_wander_source"].get<std::string>().find(gave), std::string::npos)
       << run.result["unit_wander_source"];

@@ -1257,6 +1257,104 @@ TEST(FitNoise, TheStandFitsTakeTheBoundsInTheirOrder) {
   EXPECT_NE(use->why.find("was given"), std::string::npos) << use->why;
 }
 
+// standcald's runs carry their unit's static recording's curves in the header
+// (unit.static_recording, kHeaderUnitStaticCurves) where those curves show no wander: every fit
+// of the recording file then weighs them as `--unit-static-recording` would, to the bit, the
+// stand fits and the norm fit alike. Until 2026-12-07 the runs carried only a wander the curves
+// pin, so a static recording that showed none gave them nothing: the fits from the header
+// were those without it (the third fit below), and the first checks failed.
+TEST(FitNoise, TheStaticRecordingsCurvesARunsHeaderCarriesBoundItsFitsAsTheFileWould) {
+  const test::TempDir dir;
+  const std::shared_ptr<const RawInput> still = unit_static_recording(2, 0, 300, 11);
+  Recording run = bench_run_with_warm_up(0, 0, 300, 1);
+  const UnitStaticAllan still_allan = stand_unit_static_allan(*still, run.g_local_mps2);
+  ASSERT_TRUE(still_allan.allan.wander_curves);
+  run.set_header(kHeaderUnitStaticCurves, wander_curves_text(*still_allan.allan.wander_curves));
+  write_recording(run, dir.file("run.csv"));
+  const Recording carried = read_recording(dir.file("run.csv"));
+  Recording bare = carried;
+  std::erase_if(bare.header, [](const auto& kv) { return kv.first == kHeaderUnitStaticCurves; });
+  write_recording(bare, dir.file("bare.csv"));
+  const AveragedRecording averaged = average_recording(carried);
+
+  FitNoiseOptions given, from_header, neither;
+  take_unit_wander_with_static_recording(given, bare, averaged.allan, &still_allan);
+  take_unit_wander_with_static_recording(from_header, carried, averaged.allan, nullptr);
+  take_unit_wander_with_static_recording(neither, bare, averaged.allan, nullptr);
+  EXPECT_EQ(from_header.wander_curves_from, kWanderFromStaticRecording);
+  const FitResult as_given = fit_full_vector(averaged.averages, given);
+  const FitResult as_carried = fit_full_vector(averaged.averages, from_header);
+  const FitResult without = fit_full_vector(averaged.averages, neither);
+  ASSERT_FALSE(as_carried.noise.bias_instability) << as_carried.noise.how;
+  EXPECT_EQ(as_carried.noise.sigmas_allowance_allan_curves_from, kWanderFromStaticRecording)
+      << as_carried.noise.how;
+  EXPECT_DOUBLE_EQ(as_carried.noise.sigmas_allow_wander_up_to_ug,
+                   as_given.noise.sigmas_allow_wander_up_to_ug);
+  for (std::size_t k = 0; k < kUnitParameterNames.size(); ++k)
+    EXPECT_DOUBLE_EQ(*as_carried.unit[k].sigma, *as_given.unit[k].sigma) << kUnitParameterNames[k];
+  // The curves are what made those sigmas: without them the biases' differ.
+  EXPECT_NE(*as_carried.unit[0].sigma, *without.unit[0].sigma);
+
+  // The norm fit, of the files as `standcal fit --method norm` reads them. Given the file, it
+  // puts the static recording in ug by its own fitted scale factors, where the header's curves
+  // are in ug by g as the stand fits put them: the sigmas agree to about 1e-6 here.
+  const NormCalibration norm_carried = norm_fit_of(read_input(dir.file("run.csv")));
+  const NormCalibration norm_given = norm_fit_with_static(read_input(dir.file("bare.csv")), still);
+  const NoiseFinding& n = norm_carried.fit.result.noise;
+  EXPECT_EQ(n.sigmas_allowance_allan_curves_from, kWanderFromStaticRecording) << n.how;
+  EXPECT_DOUBLE_EQ(n.sigmas_allow_wander_up_to_ug,
+                   norm_given.fit.result.noise.sigmas_allow_wander_up_to_ug);
+  for (std::size_t k = 0; k < kUnitParameterNames.size(); ++k) {
+    const double given_sigma = *norm_given.fit.result.unit[k].sigma;
+    EXPECT_NEAR(*norm_carried.fit.result.unit[k].sigma, given_sigma, 1e-5 * given_sigma)
+        << kUnitParameterNames[k];
+  }
+}
+
+// The curves as the header carries them: their text gives back the same likelihood of every
+// wander, and one that is not such curves is refused naming the recording, the key and what
+// is wrong in it.
+TEST(FitNoise, TheCarriedCurvesRoundTripAndABadOneIsNamed) {
+  const UnitStaticAllan still =
+      stand_unit_static_allan(*unit_static_recording(2, 0, 300, 11), kStandardGravity_mps2);
+  ASSERT_TRUE(still.allan.wander_curves);
+  const WanderCurves& curves = *still.allan.wander_curves;
+  const WanderCurves back = parse_wander_curves(wander_curves_text(curves));
+  EXPECT_EQ(back.curves_end_s, curves.curves_end_s);
+  for (const double q_ug : {0.0, 0.5, 3.0})
+    for (const double tau_s : {60.0, 300.0, 1200.0})
+      EXPECT_EQ(back.deviance(q_ug, tau_s), curves.deviance(q_ug, tau_s)) << q_ug << ", " << tau_s;
+
+  const auto refusal = [](const std::string& text) {
+    Recording rec;
+    rec.source = "run.csv";
+    rec.set_header(kHeaderUnitStaticCurves, text);
+    FitNoiseOptions options;
+    try {
+      take_header_static_curves(options, rec);
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string("taken");
+  };
+  const std::string prefix =
+      "run.csv: header 'unit_static_allan_curves': not the Allan curves of a static recording: ";
+  EXPECT_EQ(refusal("{\"curves_end_s\": 7200"), prefix + "not JSON");
+  EXPECT_EQ(refusal("{}"), prefix + "curves_end_s is not a number");
+  nlohmann::json j = nlohmann::json::parse(wander_curves_text(curves));
+  j["axes"].erase(2);
+  EXPECT_EQ(refusal(j.dump()), prefix + "'axes' needs three curves, x, y and z");
+  j = nlohmann::json::parse(wander_curves_text(curves));
+  j["axes"][1]["deviation"][1] = -1;
+  EXPECT_EQ(refusal(j.dump()), prefix + "axis y point 2 deviation is -1, not a number above 0");
+  j = nlohmann::json::parse(wander_curves_text(curves));
+  j["axes"][2]["clusters"].erase(0);
+  EXPECT_EQ(refusal(j.dump()),
+            prefix +
+                "axis z: 'tau_s', 'deviation' and 'clusters' need one value per point, and "
+                "at least one point");
+}
+
 namespace {
 
 // The Allan curves of a seeded two-hour static recording of the default unit (10 Hz) whose
