@@ -621,42 +621,55 @@ std::optional<WanderCurves> wander_curves(const GaussMarkovAllanFit& fit,
 
 namespace {
 
-// A finite number above `min` (or at it, `or_equal`), or why not, naming `what`.
-double curves_number(const nlohmann::json& j, const std::string& what, double min,
-                     bool or_equal = false) {
+// What the curves' text holds, each refused naming `what` where it is not so.
+double finite_number(const nlohmann::json& j, const std::string& what) {
   if (!j.is_number()) throw std::invalid_argument(what + " is not a number");
   const double v = j.get<double>();
-  if (!std::isfinite(v) || v < min || (!or_equal && v == min))
-    throw std::invalid_argument(what + " is " + j.dump() + ", not a number " +
-                                (or_equal ? "from " : "above ") + plain_round_trip_text(min));
+  if (!std::isfinite(v)) throw std::invalid_argument(what + " is not finite");
+  return v;
+}
+double positive_number(const nlohmann::json& j, const std::string& what) {
+  const double v = finite_number(j, what);
+  if (!(v > 0)) throw std::invalid_argument(what + " is " + j.dump() + ", not above 0");
   return v;
 }
 
 const nlohmann::json& curves_array(const nlohmann::json& j, const char* key,
                                    const std::string& where) {
-  if (!j.is_object() || !j.contains(key) || !j[key].is_array())
+  if (!j.contains(key) || !j[key].is_array())
     throw std::invalid_argument(where + " has no array '" + key + "'");
   return j[key];
 }
 
+// One axis's points as wander_curves_text writes them: at least as many as a fit needs, their
+// averaging times rising, each deviation one whose square is a normal number (the deviance
+// divides by it) and each count of clusters at least one.
 ThinnedAllanCurve parse_thinned_curve(const nlohmann::json& j, const std::string& where) {
+  if (!j.is_object()) throw std::invalid_argument(where + " is not a JSON object");
   const nlohmann::json& taus = curves_array(j, "tau_s", where);
   const nlohmann::json& deviations = curves_array(j, "deviation", where);
   const nlohmann::json& clusters = curves_array(j, "clusters", where);
-  if (taus.empty() || deviations.size() != taus.size() || clusters.size() != taus.size())
+  if (taus.size() < kGaussMarkovFitMinPoints || deviations.size() != taus.size() ||
+      clusters.size() != taus.size())
     throw std::invalid_argument(where +
-                                ": 'tau_s', 'deviation' and 'clusters' need one value "
-                                "per point, and at least one point");
+                                ": 'tau_s', 'deviation' and 'clusters' need one value per "
+                                "point, and at least " +
+                                std::to_string(kGaussMarkovFitMinPoints) + " points");
   ThinnedAllanCurve c;
   for (std::size_t i = 0; i < taus.size(); ++i) {
     const std::string point = where + " point " + std::to_string(i + 1);
     AllanPoint p;
-    p.tau_s = curves_number(taus[i], point + " tau_s", 0);
+    p.tau_s = positive_number(taus[i], point + " tau_s");
     if (!c.points.empty() && !(p.tau_s > c.points.back().tau_s))
       throw std::invalid_argument(point + " tau_s does not rise from the point before");
-    p.deviation = curves_number(deviations[i], point + " deviation", 0);
+    p.deviation = positive_number(deviations[i], point + " deviation");
+    if (!std::isnormal(p.deviation * p.deviation))
+      throw std::invalid_argument(point + " deviation is " + deviations[i].dump() +
+                                  ", too small or large to square");
     c.points.push_back(p);
-    c.clusters.push_back(curves_number(clusters[i], point + " clusters", 1, true));
+    c.clusters.push_back(finite_number(clusters[i], point + " clusters"));
+    if (c.clusters.back() < 1)
+      throw std::invalid_argument(point + " clusters is " + clusters[i].dump() + ", below 1");
   }
   return c;
 }
@@ -679,19 +692,38 @@ std::string wander_curves_text(const WanderCurves& curves) {
       .dump();
 }
 
+// The curves' end at or after every axis's last point, and the deviance's scale at most
+// kWanderCurvesDevianceScale (wander_curves divides it by the curves' scatter, never more).
 WanderCurves parse_wander_curves(std::string_view text) {
   const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
   if (j.is_discarded()) throw std::invalid_argument("not JSON");
   if (!j.is_object()) throw std::invalid_argument("not a JSON object");
   WanderCurves out;
-  out.curves_end_s = curves_number(j.value("curves_end_s", nlohmann::json()), "curves_end_s", 0);
+  out.curves_end_s = positive_number(j.value("curves_end_s", nlohmann::json()), "curves_end_s");
   out.deviance_scale =
-      curves_number(j.value("deviance_scale", nlohmann::json()), "deviance_scale", 0);
-  const nlohmann::json& axes = curves_array(j, "axes", "the curves");
+      positive_number(j.value("deviance_scale", nlohmann::json()), "deviance_scale");
+  if (out.deviance_scale > kWanderCurvesDevianceScale)
+    throw std::invalid_argument("deviance_scale is " + plain_round_trip_text(out.deviance_scale) +
+                                ", above " + plain_round_trip_text(kWanderCurvesDevianceScale));
+  const nlohmann::json& axes = curves_array(j, "axes", "the text");
   if (axes.size() != 3) throw std::invalid_argument("'axes' needs three curves, x, y and z");
-  for (std::size_t a = 0; a < axes.size(); ++a)
-    out.axes.push_back(parse_thinned_curve(axes[a], std::string("axis ") + "xyz"[a]));
+  for (std::size_t a = 0; a < axes.size(); ++a) {
+    const std::string axis = std::string("axis ") + "xyz"[a];
+    out.axes.push_back(parse_thinned_curve(axes[a], axis));
+    if (out.axes.back().points.back().tau_s > out.curves_end_s)
+      throw std::invalid_argument("curves_end_s " + plain_round_trip_text(out.curves_end_s) +
+                                  " s is before " + axis + "'s last point");
+  }
   return out;
+}
+
+std::string wander_curves_text_error(std::string_view text) {
+  try {
+    parse_wander_curves(text);
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "";
 }
 
 std::optional<SampleCorrelation> sample_correlation(

@@ -241,7 +241,8 @@ struct WanderCurves {
 // static recording's: kHeaderUnitStaticCurves), and back. Every number round-trips exactly, so
 // a later fit of the run weighs them as the run's own did; the points keep what the deviance
 // reads (averaging time, deviation, clusters), not their terms. The parser throws
-// std::invalid_argument naming what is wrong.
+// std::invalid_argument naming what is wrong (wander_curves_text_error, calib/recording.hpp,
+// says it, for the recording reader).
 std::string wander_curves_text(const WanderCurves& curves);
 WanderCurves parse_wander_curves(std::string_view text);
 // chi2_1's 3.84 (a 95 % interval for one parameter) over kGaussMarkovSizeRangeDeviance: the

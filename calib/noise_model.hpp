@@ -194,8 +194,10 @@ inline constexpr const char* kWanderFromRecording = "recording";
 inline constexpr const char* kWanderFromHeader = "header";
 
 // FitNoiseOptions::specified_from and wander_curves_from of what a long static recording of
-// the unit, apart from the calibration's, gave: the wander its Allan curves pin, or the curves
-// themselves where they show none (NormCalibrationOptions::unit_static_recording).
+// the unit, apart from the calibration's, gave: the wander its Allan curves pin, the floor they
+// put under its correlation time, or the curves themselves where they show none
+// (NormCalibrationOptions::unit_static_recording; standcald's, whose runs' headers carry its
+// curves: take_header_static_curves).
 inline constexpr const char* kWanderFromStaticRecording = "static_recording";
 
 struct FitNoiseOptions {

@@ -433,8 +433,30 @@ bool say_curves_bound(UnitStaticRecordingUse& use, const NoiseFinding& result,
 
 // The recording's own long stretch put a floor under the correlation time
 // (take_recording_tau_floor, whose `specified_from` is the recording's too, with no wander pinned).
+bool took_tau_floor(const FitNoiseOptions& taken, const std::string& from) {
+  return taken.known_tau && taken.known_tau->open_above && taken.specified_from == from;
+}
 bool took_recording_tau_floor(const FitNoiseOptions& taken) {
-  return taken.known_tau && taken.known_tau->open_above;
+  return took_tau_floor(taken, kWanderFromRecording);
+}
+
+// The unit's static recording's curves see a wander they do not pin, and put a floor under its
+// correlation time (take_higher_tau_floor): whether the fit (`result`) kept it, which it does
+// only where its `rows` show the wander at those times (choose_fit_noise). `use.gave` says
+// "floor" where it did.
+void say_static_tau_floor(UnitStaticRecordingUse& use, const NoiseFinding& result,
+                          const std::string& rows) {
+  const std::string floor = fmt("%.0f", use.tau_floor_s) + " s";
+  if (result.tau_given_open_above) {
+    use.gave = "floor";
+    use.why += ": they put its correlation time at " + floor +
+               " or longer, which the sigmas allow for up to the longest the fits model";
+  } else {
+    use.gave = "nothing";
+    use.why += ": they put its correlation time at " + floor +
+               " or longer, a floor this fit set aside: this run's " + rows +
+               " do not show the wander at those times";
+  }
 }
 
 // What the unit's static recording's curves gave the fit (`result`: its final noise) and why,
@@ -453,6 +475,9 @@ void say_static_curves_use(UnitStaticRecordingUse& use, const AllanFinding& alla
         "not override";
   } else if (allan.wander) {
     use.why = untaken_wander_words(*allan.wander);
+  } else if (took_tau_floor(taken, kWanderFromStaticRecording)) {
+    use.tau_floor_s = taken.known_tau->min_s;
+    say_static_tau_floor(use, result, "intervals");
   } else if (taken.specified_from == kWanderFromRecording && !took_recording_tau_floor(taken)) {
     use.why += "; this recording's own long interval pins a wander, weighted with instead";
   } else if (result.sigmas_allowance_allan_curves_from == kWanderFromRecording) {
@@ -548,7 +573,32 @@ void take_static_recording_bound(FitNoiseOptions& options, const UnitStaticAllan
   }
 }
 
+std::string take_higher_tau_floor(FitNoiseOptions& options,
+                                  const std::optional<AllanFinding>& static_allan,
+                                  const std::optional<AllanFinding>& allan) {
+  const double static_floor_s = static_allan ? static_allan->wander_tau_floor_s : 0;
+  const double own_floor_s = allan ? allan->wander_tau_floor_s : 0;
+  if (static_floor_s > own_floor_s &&
+      take_recording_tau_floor(options, static_allan, kWanderFromStaticRecording))
+    return kWanderFromStaticRecording;
+  return take_recording_tau_floor(options, allan) ? kWanderFromRecording : "";
+}
+
+UnitStaticRecordingUse take_static_recording_for_runs(FitNoiseOptions& options,
+                                                      const UnitStaticAllan& unit_static) {
+  UnitStaticRecordingUse use = take_static_recording_pinned_wander(options, unit_static);
+  if (use.gave == "wander") return use;
+  take_static_recording_bound(options, unit_static, use);
+  if (use.gave != "bound") return use;
+  use.gave = "curves";  // each fit of a run settles whether they bound it
+  use.why += std::string("; each run's header carries them (") + kHeaderUnitStaticCurves +
+             "), and a fit of the run weighs them as a bound on the wander its sigmas allow for "
+             "where the run shows no wander of its own";
+  return use;
+}
+
 void settle_unit_static_use(UnitStaticRecordingUse& use, const NoiseFinding& result) {
+  if (use.gave == "floor") say_static_tau_floor(use, result, "dwells");
   if (use.gave == "bound") {
     use.gave = "nothing";
     if (!say_curves_bound(use, result, "dwells")) use.why += ", which this fit did not weigh";
@@ -572,7 +622,15 @@ std::optional<UnitStaticRecordingUse> take_unit_wander_with_static_recording(
     take_static_recording_bound(options, *unit_static, *use);
   else if (!unit_static)
     take_header_static_curves(options, rec);  // its run's, where standcald's run carried them
-  if (take_recording_tau_floor(options, allan)) {
+  const std::optional<AllanFinding> static_allan =
+      unit_static ? std::optional<AllanFinding>(unit_static->allan) : std::nullopt;
+  const std::string floor_from = take_higher_tau_floor(options, static_allan, allan);
+  if (floor_from == kWanderFromStaticRecording) {
+    use->gave = "floor";  // until settle_unit_static_use says whether the fit kept it
+    use->tau_floor_s = options.known_tau->min_s;
+    return use;
+  }
+  if (floor_from == kWanderFromRecording) {
     if (use) use->recording_tau_floor = true;  // said by settle_unit_static_use
     return use;
   }
@@ -591,6 +649,7 @@ nlohmann::json unit_static_recording_json(const UnitStaticRecordingUse& u) {
     if (u.wander.known_tau)
       j["tau_range_s"] = {u.wander.known_tau->min_s, u.wander.known_tau->max_s};
   }
+  if (u.gave == "floor") j["tau_floor_s"] = u.tau_floor_s;
   return j;
 }
 
@@ -601,9 +660,11 @@ std::string unit_static_recording_name(const UnitStaticRecordingUse& u) {
 
 std::string unit_static_recording_words(const UnitStaticRecordingUse& u) {
   return unit_static_recording_name(u) + " gave " +
-         (u.gave == "wander"  ? "its wander"
-          : u.gave == "bound" ? "a bound on the wander"
-                              : "nothing") +
+         (u.gave == "wander"   ? "its wander"
+          : u.gave == "bound"  ? "a bound on the wander"
+          : u.gave == "floor"  ? "a floor under the wander's correlation time"
+          : u.gave == "curves" ? "its curves, to bound the wander"
+                               : "nothing") +
          ": " + u.why;
 }
 
@@ -754,7 +815,7 @@ NormCalibration calibrate(const RawInput& in, const NormCalibrationOptions& o) {
   } else {
     // The floor beside either's bound (the static recording's, given here or carried in a
     // standcald run's header), as the stand fits take them: the floor may be set aside.
-    const bool floor = take_recording_tau_floor(taken.fit.noise, allan);
+    const bool floor = !take_higher_tau_floor(taken.fit.noise, static_allan, allan).empty();
     const bool bound =
         first.sigmas_allow_wander_up_to_ug > 0 &&
         (take_wander_curves(taken.fit.noise, static_allan, kWanderFromStaticRecording) ||
@@ -848,12 +909,17 @@ std::string format_norm_report(const NormCalibration& c, const RawInput& in) {
          " ug over " + std::to_string(c.detection.intervals.size()) + " intervals; chi2/dof " +
          fmt("%.2f", f.result.chi2_dof) + " (redundancy " + std::to_string(f.result.redundancy) +
          ")\n";
-  out += "Noise:      " + wander_words(f.result.noise, c.unit_static_recording.has_value()) + "\n";
+  // What the unit's static recording gave: this fit's, else what standcald's gave the run the
+  // recording is of (its header's words, beside the curves it may carry), as the stand report.
   const std::optional<UnitStaticRecordingUse>& unit_static = c.unit_static_recording;
-  if (const std::string advice = unit_wander_advice(f.result.noise, unit_static.has_value());
+  const std::string static_words = unit_static    ? unit_static_recording_words(*unit_static)
+                                   : in.recording ? run_unit_static_recording_words(*in.recording)
+                                                  : "";
+  out += "Noise:      " + wander_words(f.result.noise, !static_words.empty()) + "\n";
+  if (const std::string advice = unit_wander_advice(f.result.noise, !static_words.empty());
       !advice.empty())
     out += "            " + advice + "\n";
-  if (unit_static) out += "            " + unit_static_recording_words(*unit_static) + "\n";
+  if (!static_words.empty()) out += "            " + static_words + "\n";
   out += "            within an interval, white noise would understate a mean's error by x" +
          fmt("%.2f", c.understated_by[0]) + ", x" + fmt("%.2f", c.understated_by[1]) + ", x" +
          fmt("%.2f", c.understated_by[2]) + " (" + c.detection.standard_errors_how + ")\n";

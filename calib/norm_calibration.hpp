@@ -39,7 +39,10 @@ struct UnitStaticRecordingUse {
   double static_s = 0;      // the static time its curves pool
   double curves_end_s = 0;  // their longest averaging time
   // "wander" (the one its curves pin, weighted with), "bound" (curves that show none weighed
-  // the wander the sigmas allow for) or "nothing".
+  // the wander the sigmas allow for), "floor" (curves that see a wander they do not pin put
+  // its correlation time at tau_floor_s or longer, and the fit kept that floor), "curves"
+  // (standcald's: curves that show none, which each run's header carries to bound its
+  // wander: take_static_recording_for_runs) or "nothing".
   std::string gave = "nothing";
   std::string why;     // in words: what its curves show, and why that gave what it gave
   GivenWander wander;  // "wander": the one it gave (its size and correlation times)
@@ -47,6 +50,7 @@ struct UnitStaticRecordingUse {
   // The stand recording's own long dwell put a floor under the correlation time beside it
   // (take_recording_tau_floor): settle_unit_static_use says so, and whether the fit kept it.
   bool recording_tau_floor = false;
+  double tau_floor_s = 0;  // "floor": the shortest correlation time its curves allow
 };
 
 // A static recording of the unit, its curves in ug (`ug_per_unit`: per input unit) fitted once:
@@ -69,10 +73,24 @@ UnitStaticAllan unit_static_allan(const RawInput& recording, const Vec3& ug_per_
 // compensation.
 UnitStaticAllan stand_unit_static_allan(const RawInput& recording, double g_mps2);
 // The wander its curves pin, as the unit's where nothing of it is given (take_recording_wander,
-// kWanderFromStaticRecording), and nothing else: for a caller that carries the unit's wander
-// and no curves (standcald's run headers, design). Returns what it gave and why.
+// kWanderFromStaticRecording), and nothing else: for a caller that weighs no curves (design,
+// the diagnosis) or takes them after other wanders (the fits). Returns what it gave and why.
 UnitStaticRecordingUse take_static_recording_pinned_wander(FitNoiseOptions& options,
                                                            const UnitStaticAllan& unit_static);
+// standcald's use of the unit's static recording for its runs (`options`: nothing of the
+// unit's wander given): the wander its curves pin (take_static_recording_pinned_wander), else,
+// where they show none and reach the fits' shortest correlation time, the curves themselves
+// (`options.wander_curves_ug`), which each run's header carries (kHeaderUnitStaticCurves) and
+// each fit of the run weighs as a bound (gave "curves"), else why neither.
+UnitStaticRecordingUse take_static_recording_for_runs(FitNoiseOptions& options,
+                                                      const UnitStaticAllan& unit_static);
+// The floors under the correlation time that the unit's static recording's curves
+// (`static_allan`) and this recording's own long stretch (`allan`) put, where each sees a
+// wander it does not pin: the higher, which excludes more (take_recording_tau_floor). Returns
+// whose it took (kWanderFromStaticRecording, kWanderFromRecording), or "" for neither.
+std::string take_higher_tau_floor(FitNoiseOptions& options,
+                                  const std::optional<AllanFinding>& static_allan,
+                                  const std::optional<AllanFinding>& allan);
 // Where its curves show no wander: them as a bound on the wander the sigmas allow for, where no
 // size of the unit's is given (take_wander_curves); `use` then says "bound" until the fit
 // settles it (settle_unit_static_use), or why not.
@@ -84,8 +102,9 @@ void take_static_recording_bound(FitNoiseOptions& options, const UnitStaticAllan
 // recording pins (`unit_static`, null where none was given), else the one the recording's own
 // long dwell pins (`allan`); where none is pinned and no size of the unit's is given, the
 // static recording's curves that show none bound the wander the sigmas allow for (without
-// `unit_static`, the ones the header carries from its run: take_header_static_curves), else
-// the long dwell's (take_wander_curves, take_recording_wander_or_bound), as the norm fit takes
+// `unit_static`, the ones the header carries from its run: take_header_static_curves), and
+// the higher floor under the correlation time that either's curves put (take_higher_tau_floor),
+// else the long dwell's (take_wander_curves, take_recording_wander_or_bound), as the norm fit takes
 // them: a stand fit that weighs for a wander below the bar of a finding then has its sigmas
 // averaged over the sizes this run and the curves allow, not widened by Student-t at the few
 // degrees of freedom the run leaves the wander's size. Returns what the static recording gave

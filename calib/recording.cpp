@@ -711,6 +711,9 @@ class Parser {
     } else if (key == kHeaderUnitWanderTauMaxS) {
       rec_.unit_wander.tau_max_s =
           unit_wander_number(key, value, kMinUnitWanderTauS, kMaxUnitWanderTauS, "s");
+    } else if (key == kHeaderUnitStaticCurves) {
+      if (const std::string why = wander_curves_text_error(value); !why.empty())
+        refuse_header(key, "not the Allan curves of a static recording: " + why);
     } else if (key == "unit_serial") {
       rec_.unit_serial = value;
     } else if (key == "program") {

@@ -71,6 +71,9 @@ inline constexpr const char* kHeaderUnitWanderSource = "unit_bias_instability_so
 // the wander its sigmas allow for, where nothing of the unit's wander is given
 // (take_header_static_curves).
 inline constexpr const char* kHeaderUnitStaticCurves = "unit_static_allan_curves";
+// Why `text` is not such curves ("" where it is), which the reader refuses at its line: defined
+// with the curves (parse_wander_curves, calib/allan.cpp), which include this header.
+std::string wander_curves_text_error(std::string_view text);
 // What a unit's wander can be, here and in standcald's unit.bias_instability_*.
 inline constexpr double kMaxUnitWanderUg = 100000;
 inline constexpr double kMinUnitWanderTauS = 1, kMaxUnitWanderTauS = 1e6;

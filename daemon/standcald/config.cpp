@@ -281,14 +281,8 @@ void take_unit_static_recording(DaemonConfig& c) {
     RawInput file = read_input(c.unit_static_recording_file, c.unit_static_recording_input);
     drop_assumed_gravity_warning(file);  // run.g_local_mps2 puts it in ug
     const UnitStaticAllan s = stand_unit_static_allan(file, c.g_local_mps2);
-    c.unit_static_recording = take_static_recording_pinned_wander(nothing_given, s);
-    if (c.unit_static_recording->gave != "wander")
-      take_static_recording_bound(nothing_given, s, *c.unit_static_recording);
+    c.unit_static_recording = take_static_recording_for_runs(nothing_given, s);
     c.unit_static_curves_ug = nothing_given.wander_curves_ug;
-    if (c.unit_static_curves_ug)
-      c.unit_static_recording->why +=
-          "; each run's header carries its curves (" + std::string(kHeaderUnitStaticCurves) +
-          "), and a fit of the run weighs them where the run shows no wander of its own";
   } catch (const std::exception& e) {
     throw ConfigError(where + e.what());
   }

@@ -79,8 +79,10 @@ json fit_finished_run(RunRecord& record, const std::string& run_dir, const Given
   // the unit's static recording's curves set where they show none (the header carries them),
   // else its own long dwell's: as every later fit of the recording weighs.
   FitNoiseOptions noise;
-  if (!take_header_wander(noise, digest.recording)) configured.give_to(noise);
-  take_unit_wander_with_static_recording(noise, digest.recording, allan, nullptr);
+  const Recording& rec = digest.recording;
+  if (!take_header_wander(noise, rec) && rec.header_value(kHeaderUnitStaticCurves).empty())
+    configured.give_to(noise);  // a header that carries neither (a run begun before it did)
+  take_unit_wander_with_static_recording(noise, rec, allan, nullptr);
   JointFit joint = joint_fit(averages, noise, allan);
   json& result = joint.result;
   try {

@@ -332,7 +332,8 @@ void Sequencer::run_loop(RunRecord record, const std::function<void()>& started)
             header.set_header("stand_id", record.stand_id);
             // What the run's fits weigh with, and every later fit of its recording.
             set_unit_wander_header(header, run_wander_);
-            // What its unit.static_recording gave it: the wander above, or nothing and why.
+            // What its unit.static_recording gave it: the wander above, its curves (below), or
+            // nothing and why.
             if (const auto& u = config_.unit_static_recording; u)
               header.set_header(kHeaderUnitWanderSource, unit_static_recording_words(*u));
             if (const auto& curves = config_.unit_static_curves_ug; curves)

@@ -244,8 +244,8 @@ TEST_F(CertificateCli, SaysWhatTheDaemonsStaticRecordingGaveItsRun) {
   wandering.noise.bias_instability_tau_s = 60;
   Recording rec = simulated_recording("AU-0045", wandering, 6, "classic24", 10);
   const std::string gave =
-      "the unit's static recording /lab/AU-0045-still.csv (2 h static) gave nothing: its Allan "
-      "curves (to 1995 s) show no wander";
+      "the unit's static recording /lab/AU-0045-still.csv (2 h static) gave its curves, to "
+      "bound the wander: its Allan curves (to 1995 s) show no wander";
   rec.set_header(kHeaderUnitWanderSource, gave);
   write_done_run(state_.path(), "20261122T080000Z-AU-0045", std::move(rec));
   const std::filesystem::path out = state_.file("daemon-static.html");

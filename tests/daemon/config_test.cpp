@@ -91,8 +91,8 @@ TEST(DaemonConfig, TheUnitsCorrelationTimeIsAValueOrARange) {
 }
 
 // unit.static_recording is read and fitted at start: the wander its Allan curves pin is the
-// unit's; one whose curves show none gives nothing; beside unit.bias_instability_*, or a file
-// that cannot be read, stops the start, naming the key.
+// unit's; one whose curves show none gives its curves, which the runs' headers carry; beside
+// unit.bias_instability_*, or a file that cannot be read, stops the start, naming the key.
 TEST(DaemonConfig, TheUnitsStaticRecordingGivesItsWanderAtStart) {
   const std::string pinned = ::testing::TempDir() + "/standcal-static-pinned.csv";
   standcal::write_recording(standcal::test::unit_static_recording(7200, 3, 60, 7), pinned);
@@ -116,10 +116,11 @@ TEST(DaemonConfig, TheUnitsStaticRecordingGivesItsWanderAtStart) {
   const DaemonConfig none = parse_config(json{{"unit", {{"static_recording", still}}}}, "lab.json");
   ASSERT_TRUE(none.unit_static_recording.has_value());
   // Its curves bound the wander each run's sigmas allow for: the runs' headers carry them.
-  EXPECT_EQ(none.unit_static_recording->gave, "bound") << none.unit_static_recording->why;
+  EXPECT_EQ(none.unit_static_recording->gave, "curves") << none.unit_static_recording->why;
   EXPECT_NE(none.unit_static_recording->why.find(
-                "show no wander; each run's header carries its curves (unit_static_allan_curves), "
-                "and a fit of the run weighs them where the run shows no wander of its own"),
+                "show no wander; each run's header carries them (unit_static_allan_curves), and a "
+                "fit of the run weighs them as a bound on the wander its sigmas allow for where "
+                "the run shows no wander of its own"),
             std::string::npos)
       << none.unit_static_recording->why;
   ASSERT_TRUE(none.unit_static_curves_ug.has_value());

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <random>
 
@@ -846,6 +847,11 @@ double median_error_over_white(const std::vector<StaticInterval>& intervals, boo
 // and whose run alone favours a correlation time below the floor the curves put under it; its
 // rows show the wander at the floor's times (a finding), so the floor stands.
 constexpr std::uint64_t kUnpinnedWarmUpSeed = 9;
+// A two-hour static recording of a 10x wander of 1200 s whose curves see it and pin none
+// (unit_static_recording), and a quarter-hour run of the same wander whose rows show it and,
+// alone, favour correlation times below the recording's floor.
+constexpr unsigned kSlowStaticRecordingSeed = 42;
+constexpr std::uint64_t kSlowRunSeed = 3;
 // The same, but its rows show the wander there only below the bar of a finding.
 constexpr std::uint64_t kUnpinnedWarmUpBelowBarSeed = 14;
 
@@ -1270,6 +1276,9 @@ TEST(FitNoise, TheStaticRecordingsCurvesARunsHeaderCarriesBoundItsFitsAsTheFileW
   const UnitStaticAllan still_allan = stand_unit_static_allan(*still, run.g_local_mps2);
   ASSERT_TRUE(still_allan.allan.wander_curves);
   run.set_header(kHeaderUnitStaticCurves, wander_curves_text(*still_allan.allan.wander_curves));
+  run.set_header(kHeaderUnitWanderSource,
+                 "the unit's static recording still.csv (2 h static) "
+                 "gave its curves, to bound the wander");
   write_recording(run, dir.file("run.csv"));
   const Recording carried = read_recording(dir.file("run.csv"));
   Recording bare = carried;
@@ -1294,11 +1303,26 @@ TEST(FitNoise, TheStaticRecordingsCurvesARunsHeaderCarriesBoundItsFitsAsTheFileW
     EXPECT_DOUBLE_EQ(*as_carried.unit[k].sigma, *as_given.unit[k].sigma) << kUnitParameterNames[k];
   // The curves are what made those sigmas: without them the biases' differ.
   EXPECT_NE(*as_carried.unit[0].sigma, *without.unit[0].sigma);
+  // The command line's own static recording comes before the header's curves, and a size of
+  // the unit's wander given leaves no room for either.
+  const UnitStaticAllan other =
+      stand_unit_static_allan(*unit_static_recording(2, 0, 300, 12), run.g_local_mps2);
+  FitNoiseOptions both;
+  take_unit_wander_with_static_recording(both, carried, averaged.allan, &other);
+  ASSERT_TRUE(both.wander_curves_ug.has_value());
+  EXPECT_EQ(both.wander_curves_ug->deviance(1, 300), other.allan.wander_curves->deviance(1, 300));
+  EXPECT_NE(both.wander_curves_ug->deviance(1, 300),
+            still_allan.allan.wander_curves->deviance(1, 300));
+  FitNoiseOptions sized;
+  sized.specified = {Vec3::Constant(3 * kUg), 300};
+  take_unit_wander_with_static_recording(sized, carried, averaged.allan, nullptr);
+  EXPECT_FALSE(sized.wander_curves_ug.has_value());
 
   // The norm fit, of the files as `standcal fit --method norm` reads them. Given the file, it
   // puts the static recording in ug by its own fitted scale factors, where the header's curves
   // are in ug by g as the stand fits put them: the sigmas agree to about 1e-6 here.
-  const NormCalibration norm_carried = norm_fit_of(read_input(dir.file("run.csv")));
+  const RawInput carried_input = read_input(dir.file("run.csv"));
+  const NormCalibration norm_carried = norm_fit_of(carried_input);
   const NormCalibration norm_given = norm_fit_with_static(read_input(dir.file("bare.csv")), still);
   const NoiseFinding& n = norm_carried.fit.result.noise;
   EXPECT_EQ(n.sigmas_allowance_allan_curves_from, kWanderFromStaticRecording) << n.how;
@@ -1309,50 +1333,97 @@ TEST(FitNoise, TheStaticRecordingsCurvesARunsHeaderCarriesBoundItsFitsAsTheFileW
     EXPECT_NEAR(*norm_carried.fit.result.unit[k].sigma, given_sigma, 1e-5 * given_sigma)
         << kUnitParameterNames[k];
   }
+  // Its report says what standcald's static recording gave the run, as the stand report does,
+  // and advises no static recording it already has.
+  const std::string report = format_norm_report(norm_carried, carried_input);
+  EXPECT_NE(report.find("that these intervals and the unit's static recording cannot exclude\n"
+                        "            its run, by standcald's unit.static_recording: the unit's "
+                        "static recording still.csv"),
+            std::string::npos)
+      << report;
+  EXPECT_EQ(report.find("--unit-static-recording"), std::string::npos) << report;
 }
 
 // The curves as the header carries them: their text gives back the same likelihood of every
-// wander, and one that is not such curves is refused naming the recording, the key and what
-// is wrong in it.
-TEST(FitNoise, TheCarriedCurvesRoundTripAndABadOneIsNamed) {
+// wander, and the recording reader refuses a value that is not such curves at its line, naming
+// the key and what is wrong in it, whatever the fit would weigh.
+TEST(FitNoise, TheCarriedCurvesRoundTripAndABadOneIsRefusedAtItsLine) {
   const UnitStaticAllan still =
       stand_unit_static_allan(*unit_static_recording(2, 0, 300, 11), kStandardGravity_mps2);
   ASSERT_TRUE(still.allan.wander_curves);
   const WanderCurves& curves = *still.allan.wander_curves;
-  const WanderCurves back = parse_wander_curves(wander_curves_text(curves));
+  const std::string text = wander_curves_text(curves);
+  const WanderCurves back = parse_wander_curves(text);
   EXPECT_EQ(back.curves_end_s, curves.curves_end_s);
   for (const double q_ug : {0.0, 0.5, 3.0})
     for (const double tau_s : {60.0, 300.0, 1200.0})
       EXPECT_EQ(back.deviance(q_ug, tau_s), curves.deviance(q_ug, tau_s)) << q_ug << ", " << tau_s;
 
-  const auto refusal = [](const std::string& text) {
-    Recording rec;
-    rec.source = "run.csv";
-    rec.set_header(kHeaderUnitStaticCurves, text);
-    FitNoiseOptions options;
+  const test::TempDir dir;
+  Recording run = bench_run_with_warm_up(0, 0, 300, 1);
+  const auto read_error = [&](const std::string& value) {
+    run.set_header(kHeaderUnitStaticCurves, value);
+    write_recording(run, dir.file("run.csv"));
     try {
-      take_header_static_curves(options, rec);
-    } catch (const std::runtime_error& e) {
+      read_recording(dir.file("run.csv"));
+    } catch (const RecordingError& e) {
       return std::string(e.what());
     }
-    return std::string("taken");
+    return std::string("read");
   };
-  const std::string prefix =
-      "run.csv: header 'unit_static_allan_curves': not the Allan curves of a static recording: ";
-  EXPECT_EQ(refusal("{\"curves_end_s\": 7200"), prefix + "not JSON");
-  EXPECT_EQ(refusal("{}"), prefix + "curves_end_s is not a number");
-  nlohmann::json j = nlohmann::json::parse(wander_curves_text(curves));
-  j["axes"].erase(2);
-  EXPECT_EQ(refusal(j.dump()), prefix + "'axes' needs three curves, x, y and z");
-  j = nlohmann::json::parse(wander_curves_text(curves));
-  j["axes"][1]["deviation"][1] = -1;
-  EXPECT_EQ(refusal(j.dump()), prefix + "axis y point 2 deviation is -1, not a number above 0");
-  j = nlohmann::json::parse(wander_curves_text(curves));
-  j["axes"][2]["clusters"].erase(0);
-  EXPECT_EQ(refusal(j.dump()),
-            prefix +
-                "axis z: 'tau_s', 'deviation' and 'clusters' need one value per point, and "
-                "at least one point");
+  EXPECT_EQ(read_error(text), "read");
+  const auto expect_refused = [&](const std::string& value, const std::string& why) {
+    const std::string error = read_error(value);
+    EXPECT_NE(error.find(dir.file("run.csv") + ":"), std::string::npos) << error;
+    EXPECT_NE(error.find(": header 'unit_static_allan_curves': not the Allan curves of a static "
+                         "recording: " +
+                         why),
+              std::string::npos)
+        << error;
+  };
+  expect_refused("{\"curves_end_s\": 7200", "not JSON");
+  expect_refused("{}", "curves_end_s is not a number");
+  const auto edited = [&](const std::function<void(nlohmann::json&)>& edit) {
+    nlohmann::json j = nlohmann::json::parse(text);
+    edit(j);
+    return j.dump();
+  };
+  expect_refused(edited([](nlohmann::json& j) { j["axes"].erase(2); }),
+                 "'axes' needs three curves, x, y and z");
+  expect_refused(edited([](nlohmann::json& j) { j["axes"][1]["deviation"][1] = -1; }),
+                 "axis y point 2 deviation is -1, not above 0");
+  expect_refused(edited([](nlohmann::json& j) { j["axes"][1]["deviation"][1] = 1e-200; }),
+                 "axis y point 2 deviation is 1e-200, too small or large to square");
+  expect_refused(edited([](nlohmann::json& j) { j["axes"][0]["clusters"][0] = 0.5; }),
+                 "axis x point 1 clusters is 0.5, below 1");
+  expect_refused(edited([](nlohmann::json& j) { j["axes"][0]["tau_s"][1] = "long"; }),
+                 "axis x point 2 tau_s is not a number");
+  expect_refused(
+      edited([](nlohmann::json& j) { j["axes"][0]["tau_s"][1] = j["axes"][0]["tau_s"][0]; }),
+      "axis x point 2 tau_s does not rise from the point before");
+  expect_refused(edited([](nlohmann::json& j) { j["axes"][2] = 3; }),
+                 "axis z is not a JSON object");
+  expect_refused(edited([](nlohmann::json& j) { j["axes"][2]["clusters"].erase(0); }),
+                 "axis z: 'tau_s', 'deviation' and 'clusters' need one value per point, and at "
+                 "least 5 points");
+  expect_refused(edited([](nlohmann::json& j) { j["curves_end_s"] = 10; }),
+                 "curves_end_s 10 s is before axis x's last point");
+  expect_refused(edited([](nlohmann::json& j) { j["deviance_scale"] = 1e300; }),
+                 "deviance_scale is 1e+300, above ");
+
+  // A recording made in memory reaches the fits unread: they refuse it, naming it.
+  Recording in_memory;
+  in_memory.source = "run.csv";
+  in_memory.set_header(kHeaderUnitStaticCurves, "{}");
+  FitNoiseOptions options;
+  try {
+    take_header_static_curves(options, in_memory);
+    ADD_FAILURE() << "taken";
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "run.csv: header 'unit_static_allan_curves': not the Allan curves of a static "
+              "recording: curves_end_s is not a number");
+  }
 }
 
 namespace {
@@ -1488,6 +1559,69 @@ TEST(FitNoise, AWarmUpThatSeesAWanderItDoesNotPinPutsAFloorUnderItsCorrelationTi
   EXPECT_TRUE(beside.noise.tau_given_open_above) << beside.noise.how;
   EXPECT_NE(use.why.find(kRecordingTauFloorWords), std::string::npos) << use.why;
   EXPECT_EQ(use.why.find("set aside"), std::string::npos) << use.why;
+}
+
+// The unit's static recording of two hours likewise sees a slow wander (10x the dwell error,
+// 1200 s) it does not pin, and puts a floor under its correlation time: the stand fits and the
+// norm fit take it as they take a warm-up's, the higher of the two where both put one, and its
+// words and JSON say whether the fit kept it ("floor") or set it aside ("nothing", where the
+// run's rows do not show the wander at those times: here a run of white noise). Until
+// 2026-12-07 such a static recording gave the fits nothing: the first checks failed.
+TEST(FitNoise, AStaticRecordingThatSeesAWanderItDoesNotPinPutsAFloorUnderItsCorrelationTime) {
+  const std::shared_ptr<const RawInput> slow_rows =
+      unit_static_recording(2, 10, 1200, kSlowStaticRecordingSeed);
+  const Recording rec = bench_run_with_warm_up(0, 10, 1200, kSlowRunSeed);
+  const AveragedRecording averaged = average_recording(rec);
+  const UnitStaticAllan slow = stand_unit_static_allan(*slow_rows, rec.g_local_mps2);
+  ASSERT_FALSE(slow.allan.wander.has_value()) << "the case this test is of: it pins none";
+  const double floor_s = slow.allan.wander_tau_floor_s;
+  ASSERT_GT(floor_s, 60) << "the case this test is of: a floor above the fits' shortest";
+
+  FitNoiseOptions noise;
+  std::optional<UnitStaticRecordingUse> use =
+      take_unit_wander_with_static_recording(noise, rec, averaged.allan, &slow);
+  ASSERT_TRUE(noise.known_tau && noise.known_tau->open_above);
+  EXPECT_EQ(noise.known_tau->min_s, floor_s);
+  EXPECT_EQ(noise.specified_from, kWanderFromStaticRecording);
+  const FitResult floored = fit_full_vector(averaged.averages, noise);
+  const FitResult unfloored = fit_full_vector(averaged.averages, FitNoiseOptions{});
+  ASSERT_TRUE(floored.noise.tau_given_open_above) << floored.noise.how;
+  ASSERT_LT(unfloored.noise.tau_s, floor_s) << "the case this test is of: " << unfloored.noise.how;
+  for (std::size_t bias = 0; bias < 3; ++bias)
+    EXPECT_GT(*floored.unit[bias].sigma, *unfloored.unit[bias].sigma) << "bias " << bias;
+  settle_unit_static_use(*use, floored.noise);
+  EXPECT_EQ(use->gave, "floor") << use->why;
+  char words[160];
+  std::snprintf(words, sizeof words,
+                "do not show it turn over: record about 100 x its correlation time): they put its "
+                "correlation time at %.0f s or longer, which the sigmas allow for",
+                floor_s);
+  EXPECT_NE(use->why.find(words), std::string::npos) << use->why;
+  EXPECT_EQ(unit_static_recording_json(*use)["tau_floor_s"], floor_s);
+  EXPECT_NE(unit_static_recording_words(*use).find(
+                "gave a floor under the wander's correlation time: its Allan curves see a wander"),
+            std::string::npos)
+      << unit_static_recording_words(*use);
+
+  // The norm fit of the same run takes it too.
+  const NormCalibration norm = norm_fit_with_static(raw_input_of(rec), slow_rows);
+  ASSERT_TRUE(norm.unit_static_recording);
+  EXPECT_TRUE(norm.fit.result.noise.tau_given_open_above) << norm.fit.result.noise.how;
+  EXPECT_EQ(norm.unit_static_recording->gave, "floor") << norm.unit_static_recording->why;
+
+  // A run of white noise: set aside, and said so.
+  const Recording white = bench_run_with_warm_up(0, 0, 1200, kSlowRunSeed);
+  const AveragedRecording white_averaged = average_recording(white);
+  FitNoiseOptions white_noise;
+  use = take_unit_wander_with_static_recording(white_noise, white, white_averaged.allan, &slow);
+  const FitResult white_fit = fit_full_vector(white_averaged.averages, white_noise);
+  EXPECT_FALSE(white_fit.noise.tau_given_open_above) << white_fit.noise.how;
+  settle_unit_static_use(*use, white_fit.noise);
+  EXPECT_EQ(use->gave, "nothing");
+  EXPECT_NE(use->why.find("or longer, a floor this fit set aside: this run's dwells do not show "
+                          "the wander at those times"),
+            std::string::npos)
+      << use->why;
 }
 
 // Where the run's rows do not show the wander at the floor's correlation times (below the bar

@@ -117,11 +117,15 @@ TEST_F(ImportTest, ADaemonRecordingKeepsItsRunIdStartStandAndWanderSource) {
   rec.set_header("run_id", "20261121T223638Z-AU-0200");
   rec.set_header("started_utc", "2026-11-21T22:36:38Z");
   rec.set_header("stand_id", "bench-7");
-  const std::string gave = "the unit's static recording /lab/still.csv (2 h static) gave nothing";
+  const std::string gave =
+      "the unit's static recording /lab/still.csv (2 h static) gave its curves, to bound the "
+      "wander";
   rec.set_header(kHeaderUnitWanderSource, gave);
+  rec.set_header(kHeaderUnitStaticCurves, test::still_unit_curves_text());
   const std::string path = dir_.path() + "/recording.csv";
   write_recording(rec, path);
-  const test::CommandOutcome r = standcal_cli("import " + path + " --db " + db_);
+  // The full vector: paper9's 27 rows estimate a wander, where the joint fit's nine do not.
+  const test::CommandOutcome r = standcal_cli("import " + path + " --db " + db_ + " --method full");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const auto stored = open_and_migrate(db_)->get("20261121T223638Z-AU-0200");
   ASSERT_TRUE(stored.has_value()) << r.output;
@@ -129,6 +133,10 @@ TEST_F(ImportTest, ADaemonRecordingKeepsItsRunIdStartStandAndWanderSource) {
   EXPECT_EQ(stored->stand_id, "bench-7");
   // What standcald's unit.static_recording gave the run, as its run.result keeps it.
   EXPECT_EQ(stored->result.value("unit_wander_source", ""), gave) << stored->result.dump(2);
+  // ... and the curves its header carries bound the wander the stored fit's sigmas allow for.
+  EXPECT_EQ(stored->result["noise"].value("sigmas_allowance_allan_curves_from", ""),
+            "static_recording")
+      << stored->result["noise"].dump(2);
 }
 
 TEST_F(ImportTest, HistoryAndRecordsShowAnAgeingUnitAndFilterByDate) {

@@ -4,7 +4,12 @@
 // `standcal noise`.
 #include <cstdint>
 
+#include <string>
+
+#include "calib/allan.hpp"
+#include "calib/norm_calibration.hpp"
 #include "calib/programs.hpp"
+#include "calib/raw_input.hpp"
 #include "calib/recording.hpp"
 #include "calib/simulator.hpp"
 
@@ -23,6 +28,14 @@ inline Recording unit_static_recording(double dwell_s, double wander_ug, double 
   req.timing.dwell_s = dwell_s;
   req.seed = seed;
   return simulate_run(req);
+}
+
+// The Allan curves of two still hours of the default unit (seed 4), as standcald's runs carry
+// them in their header (kHeaderUnitStaticCurves) where its static recording shows no wander.
+inline std::string still_unit_curves_text() {
+  const UnitStaticAllan still = stand_unit_static_allan(
+      raw_input_of(unit_static_recording(7200, 0, 300, 4)), kStandardGravity_mps2);
+  return wander_curves_text(still.allan.wander_curves.value());
 }
 
 }  // namespace standcal::test
