@@ -819,8 +819,11 @@ double longest_model_tau_s(const FitNoiseOptions& options) {
 
 bool take_recording_tau_floor(FitNoiseOptions& options, const std::optional<AllanFinding>& allan,
                               const std::string& from) {
-  if (!may_take_recording_wander(options) || !allan) return false;
-  const double floor_s = allan->wander_tau_floor_s;
+  return allan && take_tau_floor(options, allan->wander_tau_floor_s, from);
+}
+
+bool take_tau_floor(FitNoiseOptions& options, double floor_s, const std::string& from) {
+  if (!may_take_recording_wander(options)) return false;
   if (!(floor_s > shortest_model_tau_s(options))) return false;  // it excludes nothing
   options.known_tau = KnownTau{floor_s, std::max(floor_s, longest_model_tau_s(options)), true};
   options.specified_from = from;

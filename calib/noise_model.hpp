@@ -352,6 +352,9 @@ bool take_header_static_curves(FitNoiseOptions& options, const Recording& rec);
 // take_recording_wander's.
 bool take_recording_tau_floor(FitNoiseOptions& options, const std::optional<AllanFinding>& allan,
                               const std::string& from = kWanderFromRecording);
+// The same of a floor `floor_s` from elsewhere (the unit's static recording's curves, or the
+// one a standcald run's header carries from them: kHeaderUnitStaticTauFloorS).
+bool take_tau_floor(FitNoiseOptions& options, double floor_s, const std::string& from);
 // "; the floor F s … is set aside: …", for the `how` of a fit or diagnosis that set aside the
 // floor `floor_s` (choose_fit_noise).
 std::string tau_floor_set_aside_words(double floor_s);

@@ -431,8 +431,8 @@ bool say_curves_bound(UnitStaticRecordingUse& use, const NoiseFinding& result,
   return true;
 }
 
-// The recording's own long stretch put a floor under the correlation time
-// (take_recording_tau_floor, whose `specified_from` is the recording's too, with no wander pinned).
+// `from`'s long stretch put a floor under the correlation time (take_tau_floor: the recording's
+// own, or the unit's static recording's; no wander pinned).
 bool took_tau_floor(const FitNoiseOptions& taken, const std::string& from) {
   return taken.known_tau && taken.known_tau->open_above && taken.specified_from == from;
 }
@@ -573,13 +573,11 @@ void take_static_recording_bound(FitNoiseOptions& options, const UnitStaticAllan
   }
 }
 
-std::string take_higher_tau_floor(FitNoiseOptions& options,
-                                  const std::optional<AllanFinding>& static_allan,
+std::string take_higher_tau_floor(FitNoiseOptions& options, double static_floor_s,
                                   const std::optional<AllanFinding>& allan) {
-  const double static_floor_s = static_allan ? static_allan->wander_tau_floor_s : 0;
   const double own_floor_s = allan ? allan->wander_tau_floor_s : 0;
   if (static_floor_s > own_floor_s &&
-      take_recording_tau_floor(options, static_allan, kWanderFromStaticRecording))
+      take_tau_floor(options, static_floor_s, kWanderFromStaticRecording))
     return kWanderFromStaticRecording;
   return take_recording_tau_floor(options, allan) ? kWanderFromRecording : "";
 }
@@ -589,11 +587,19 @@ UnitStaticRecordingUse take_static_recording_for_runs(FitNoiseOptions& options,
   UnitStaticRecordingUse use = take_static_recording_pinned_wander(options, unit_static);
   if (use.gave == "wander") return use;
   take_static_recording_bound(options, unit_static, use);
-  if (use.gave != "bound") return use;
-  use.gave = "curves";  // each fit of a run settles whether they bound it
-  use.why += std::string("; each run's header carries them (") + kHeaderUnitStaticCurves +
-             "), and a fit of the run weighs them as a bound on the wander its sigmas allow for "
-             "where the run shows no wander of its own";
+  if (use.gave == "bound") {
+    use.gave = "curves";  // each fit of a run settles whether they bound it
+    use.why += std::string("; each run's header carries them (") + kHeaderUnitStaticCurves +
+               "), and a fit of the run weighs them as a bound on the wander its sigmas allow "
+               "for where the run shows no wander of its own";
+  } else if (take_tau_floor(options, unit_static.allan.wander_tau_floor_s,
+                            kWanderFromStaticRecording)) {
+    use.gave = "floor";  // each fit of a run settles whether it stands
+    use.tau_floor_s = options.known_tau->min_s;
+    use.why += std::string(": they put its correlation time at ") + fmt("%.0f", use.tau_floor_s) +
+               " s or longer; each run's header carries that floor (" + kHeaderUnitStaticTauFloorS +
+               "), and a fit of the run takes it where the run shows the wander at those times";
+  }
   return use;
 }
 
@@ -622,12 +628,18 @@ std::optional<UnitStaticRecordingUse> take_unit_wander_with_static_recording(
     take_static_recording_bound(options, *unit_static, *use);
   else if (!unit_static)
     take_header_static_curves(options, rec);  // its run's, where standcald's run carried them
-  const std::optional<AllanFinding> static_allan =
-      unit_static ? std::optional<AllanFinding>(unit_static->allan) : std::nullopt;
-  const std::string floor_from = take_higher_tau_floor(options, static_allan, allan);
+  // The static recording's floor: its own, or the one standcald's run carried from its.
+  const double static_floor_s =
+      unit_static ? unit_static->allan.wander_tau_floor_s : rec.unit_static_tau_floor_s;
+  const std::string floor_from = take_higher_tau_floor(options, static_floor_s, allan);
   if (floor_from == kWanderFromStaticRecording) {
-    use->gave = "floor";  // until settle_unit_static_use says whether the fit kept it
-    use->tau_floor_s = options.known_tau->min_s;
+    if (use) {
+      use->gave = "floor";  // until settle_unit_static_use says whether the fit kept it
+      use->tau_floor_s = options.known_tau->min_s;
+    }
+    // Beside it the bound of this recording's own long dwell, where its curves show none (the
+    // fit may set the floor aside), as the norm fit takes them.
+    if (!options.wander_curves_ug) take_wander_curves(options, allan);
     return use;
   }
   if (floor_from == kWanderFromRecording) {
@@ -795,7 +807,8 @@ NormCalibration calibrate(const RawInput& in, const NormCalibrationOptions& o) {
                                                           may_weigh_wander_curves(o.fit.noise));
   // Nothing of the unit's wander given: the one a long static interval's Allan curves pin, as
   // the stand fits take it (take_recording_wander), else the floor they put on its correlation
-  // time where they see one they do not pin (take_recording_tau_floor); the fit made again.
+  // time where they see one they do not pin, the higher of the static recording's and this
+  // recording's own (take_higher_tau_floor); the fit made again.
   // Either way, a wander weighted for between the intervals is taken out of their errors.
   // Otherwise, where the sigmas allow for a wander the intervals cannot exclude, the curves
   // weigh it too where they reach the wander's times (take_wander_curves): the fit is made
@@ -815,7 +828,10 @@ NormCalibration calibrate(const RawInput& in, const NormCalibrationOptions& o) {
   } else {
     // The floor beside either's bound (the static recording's, given here or carried in a
     // standcald run's header), as the stand fits take them: the floor may be set aside.
-    const bool floor = !take_higher_tau_floor(taken.fit.noise, static_allan, allan).empty();
+    const double static_floor_s = unit_static    ? unit_static->allan.wander_tau_floor_s
+                                  : in.recording ? in.recording->unit_static_tau_floor_s
+                                                 : 0;
+    const bool floor = !take_higher_tau_floor(taken.fit.noise, static_floor_s, allan).empty();
     const bool bound =
         first.sigmas_allow_wander_up_to_ug > 0 &&
         (take_wander_curves(taken.fit.noise, static_allan, kWanderFromStaticRecording) ||

@@ -85,11 +85,10 @@ UnitStaticRecordingUse take_static_recording_pinned_wander(FitNoiseOptions& opti
 UnitStaticRecordingUse take_static_recording_for_runs(FitNoiseOptions& options,
                                                       const UnitStaticAllan& unit_static);
 // The floors under the correlation time that the unit's static recording's curves
-// (`static_allan`) and this recording's own long stretch (`allan`) put, where each sees a
-// wander it does not pin: the higher, which excludes more (take_recording_tau_floor). Returns
+// (`static_floor_s`, 0: none) and this recording's own long stretch (`allan`) put, where each sees
+// a wander it does not pin: the higher, which excludes more (take_recording_tau_floor). Returns
 // whose it took (kWanderFromStaticRecording, kWanderFromRecording), or "" for neither.
-std::string take_higher_tau_floor(FitNoiseOptions& options,
-                                  const std::optional<AllanFinding>& static_allan,
+std::string take_higher_tau_floor(FitNoiseOptions& options, double static_floor_s,
                                   const std::optional<AllanFinding>& allan);
 // Where its curves show no wander: them as a bound on the wander the sigmas allow for, where no
 // size of the unit's is given (take_wander_curves); `use` then says "bound" until the fit
@@ -114,8 +113,9 @@ std::optional<UnitStaticRecordingUse> take_unit_wander_with_static_recording(
     const UnitStaticAllan* unit_static);
 // After the stand fit whose noise is `result`: whether the static recording's curves, taken as
 // a bound, bounded the wander its sigmas allow for ("bound"), or why not (the run shows a
-// wander of its own; its sigmas allow for none); and where the recording's own long dwell put a
-// floor under the correlation time, whether the fit kept it. Every caller of
+// wander of its own; its sigmas allow for none); whether the floor they put under the
+// correlation time stood ("floor") or was set aside ("nothing"); and where the recording's own
+// long dwell put that floor instead, whether the fit kept it. Once per use. Every caller of
 // take_unit_wander_with_static_recording calls it before saying what the recording gave.
 void settle_unit_static_use(UnitStaticRecordingUse& use, const NoiseFinding& result);
 // `unit_static_recording` in the fit JSON, and the report's line on it.

@@ -711,6 +711,9 @@ class Parser {
     } else if (key == kHeaderUnitWanderTauMaxS) {
       rec_.unit_wander.tau_max_s =
           unit_wander_number(key, value, kMinUnitWanderTauS, kMaxUnitWanderTauS, "s");
+    } else if (key == kHeaderUnitStaticTauFloorS) {
+      rec_.unit_static_tau_floor_s =
+          unit_wander_number(key, value, kMinUnitWanderTauS, kMaxUnitWanderTauS, "s");
     } else if (key == kHeaderUnitStaticCurves) {
       if (const std::string why = wander_curves_text_error(value); !why.empty())
         refuse_header(key, "not the Allan curves of a static recording: " + why);

@@ -71,6 +71,10 @@ inline constexpr const char* kHeaderUnitWanderSource = "unit_bias_instability_so
 // the wander its sigmas allow for, where nothing of the unit's wander is given
 // (take_header_static_curves).
 inline constexpr const char* kHeaderUnitStaticCurves = "unit_static_allan_curves";
+// Where those curves see a wander they do not pin, the floor they put under its correlation
+// time (s; AllanFinding::wander_tau_floor_s): every fit of the run takes it as the static
+// recording's own floor would be taken (take_higher_tau_floor).
+inline constexpr const char* kHeaderUnitStaticTauFloorS = "unit_static_tau_floor_s";
 // Why `text` is not such curves ("" where it is), which the reader refuses at its line: defined
 // with the curves (parse_wander_curves, calib/allan.cpp), which include this header.
 std::string wander_curves_text_error(std::string_view text);
@@ -91,6 +95,9 @@ struct Recording {
   std::string unit_serial;
   std::string program;
   RecordedUnitWander unit_wander;
+  // standcald's unit static recording's floor under the correlation time
+  // (kHeaderUnitStaticTauFloorS), s; 0: none.
+  double unit_static_tau_floor_s = 0;
   // The first warmup_s seconds of position 0's block are a warm-up (header `warmup_s`): the
   // unit held still to settle and to show its noise; they feed the Allan curves (the noise
   // model) and are left out of that position's mean. 0: none.

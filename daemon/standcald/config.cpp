@@ -268,8 +268,10 @@ void read_unit(Section& top, DaemonConfig& c) {
 }
 
 // unit.static_recording, read and fitted once at start (run.g_local_mps2 puts a file in m/s^2
-// in ug): the wander its curves pin is the unit's, as `standcal fit --unit-static-recording`
-// takes it. A file that cannot be read, or has no static stretch, stops the start.
+// in ug): the wander its curves pin is the unit's, else the curves that show none or the floor
+// they put under a wander they do not pin, which each run's header carries, as `standcal fit
+// --unit-static-recording` takes them (take_static_recording_for_runs). A file that cannot be
+// read, or has no static stretch, stops the start.
 void take_unit_static_recording(DaemonConfig& c) {
   const std::string where = c.source + ": unit.static_recording: ";
   if (c.unit_wander.given())
@@ -283,6 +285,7 @@ void take_unit_static_recording(DaemonConfig& c) {
     const UnitStaticAllan s = stand_unit_static_allan(file, c.g_local_mps2);
     c.unit_static_recording = take_static_recording_for_runs(nothing_given, s);
     c.unit_static_curves_ug = nothing_given.wander_curves_ug;
+    c.unit_static_tau_floor_s = c.unit_static_recording->tau_floor_s;
   } catch (const std::exception& e) {
     throw ConfigError(where + e.what());
   }

@@ -119,6 +119,10 @@ struct DaemonConfig {
   // run's header carries them (kHeaderUnitStaticCurves), and every fit of the run weighs them
   // as a bound on the wander its sigmas allow for, as `standcal fit --unit-static-recording`.
   std::optional<WanderCurves> unit_static_curves_ug;
+  // Where its curves see a wander they do not pin, the floor they put under its correlation
+  // time (s; 0: none): each run's header carries it (kHeaderUnitStaticTauFloorS), and every fit
+  // of the run takes it where the run shows the wander at those times.
+  double unit_static_tau_floor_s = 0;
   SimSettings sim;
   AxisRange outer;  // limited ±180° unless configured
   AxisRange inner;

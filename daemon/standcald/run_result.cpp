@@ -76,12 +76,14 @@ json fit_finished_run(RunRecord& record, const std::string& run_dir, const Given
   // The unit's configured wander, as the header keeps it (a correlation time configured: the
   // run then estimates only the wander's size, which one run pins far better than tau); none
   // configured: the one the recording's own long dwell pins (a warm-up), if any, else the bound
-  // the unit's static recording's curves set where they show none (the header carries them),
-  // else its own long dwell's: as every later fit of the recording weighs.
+  // the unit's static recording's curves set where they show none and the floor they put under
+  // the correlation time where they see one they do not pin (the header carries either), and
+  // its own long dwell's: as every later fit of the recording weighs.
   FitNoiseOptions noise;
   const Recording& rec = digest.recording;
-  if (!take_header_wander(noise, rec) && rec.header_value(kHeaderUnitStaticCurves).empty())
-    configured.give_to(noise);  // a header that carries neither (a run begun before it did)
+  if (!take_header_wander(noise, rec) && rec.header_value(kHeaderUnitStaticCurves).empty() &&
+      rec.unit_static_tau_floor_s == 0)
+    configured.give_to(noise);  // a header that carries none of them (a run begun before)
   take_unit_wander_with_static_recording(noise, rec, allan, nullptr);
   JointFit joint = joint_fit(averages, noise, allan);
   json& result = joint.result;

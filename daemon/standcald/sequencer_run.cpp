@@ -332,12 +332,14 @@ void Sequencer::run_loop(RunRecord record, const std::function<void()>& started)
             header.set_header("stand_id", record.stand_id);
             // What the run's fits weigh with, and every later fit of its recording.
             set_unit_wander_header(header, run_wander_);
-            // What its unit.static_recording gave it: the wander above, its curves (below), or
-            // nothing and why.
+            // What its unit.static_recording gave it: the wander above, its curves or its floor
+            // under the correlation time (below), or nothing and why.
             if (const auto& u = config_.unit_static_recording; u)
               header.set_header(kHeaderUnitWanderSource, unit_static_recording_words(*u));
             if (const auto& curves = config_.unit_static_curves_ug; curves)
               header.set_header(kHeaderUnitStaticCurves, wander_curves_text(*curves));
+            if (const double floor_s = config_.unit_static_tau_floor_s; floor_s > 0)
+              header.set_header(kHeaderUnitStaticTauFloorS, round_trip_text(floor_s));
             if (program.warmup_s > 0)
               header.set_header(kHeaderWarmupS, round_trip_text(program.warmup_s));
             header.columns = recording_columns(program);

@@ -280,6 +280,25 @@ TEST(RecordingErrors, TheUnitsWanderItsRunWasMadeWithIsReadOrRefusedByItsLine) {
             std::string::npos);
 }
 
+// What standcald's static recording gave a run beside a wander: the floor its curves put under
+// the correlation time, and its curves themselves, each refused at its line where it is not one
+// (the curves' own checks: FitNoise.TheCarriedCurvesRoundTripAndABadOneIsRefusedAtItsLine).
+TEST(RecordingErrors, TheStaticRecordingsFloorAndCurvesAreReadOrRefusedByTheirLine) {
+  EXPECT_DOUBLE_EQ(parse_recording(with_header("# unit_static_tau_floor_s: 859"), "rec.csv")
+                       .unit_static_tau_floor_s,
+                   859);
+  EXPECT_EQ(parse_recording(with_header("# unit_serial: A"), "rec.csv").unit_static_tau_floor_s, 0);
+  EXPECT_NE(error_of(with_header("# unit_static_tau_floor_s: 0.5"))
+                .find("rec.csv:2: header 'unit_static_tau_floor_s': 0.5 s is outside 1 ... "),
+            std::string::npos)
+      << error_of(with_header("# unit_static_tau_floor_s: 0.5"));
+  EXPECT_NE(error_of(with_header("# unit_static_allan_curves: {}"))
+                .find("rec.csv:2: header 'unit_static_allan_curves': not the Allan curves of a "
+                      "static recording: curves_end_s is not a number"),
+            std::string::npos)
+      << error_of(with_header("# unit_static_allan_curves: {}"));
+}
+
 // Each axis's size (a static recording's curves pin one per axis): all three, beside the
 // size that is their largest, or refused naming the line.
 TEST(RecordingErrors, TheUnitsWanderPerAxisIsReadWithItsLargestOrRefusedByItsLine) {

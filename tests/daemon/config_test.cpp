@@ -128,6 +128,26 @@ TEST(DaemonConfig, TheUnitsStaticRecordingGivesItsWanderAtStart) {
   EXPECT_FALSE(none.unit_wander.given());
   // A pinned wander carries no curves.
   EXPECT_FALSE(c.unit_static_curves_ug.has_value());
+  EXPECT_EQ(c.unit_static_tau_floor_s, 0);
+  // Curves that see a wander they do not pin give the floor they put under its correlation
+  // time, which the runs' headers carry.
+  const std::string slow = ::testing::TempDir() + "/standcal-static-slow.csv";
+  standcal::write_recording(
+      standcal::test::unit_static_recording(7200, 30, 1200, standcal::test::kSlowWanderStaticSeed),
+      slow);
+  const DaemonConfig floored =
+      parse_config(json{{"unit", {{"static_recording", slow}}}}, "lab.json");
+  ASSERT_TRUE(floored.unit_static_recording.has_value());
+  EXPECT_EQ(floored.unit_static_recording->gave, "floor") << floored.unit_static_recording->why;
+  EXPECT_GT(floored.unit_static_tau_floor_s, 60);
+  EXPECT_EQ(floored.unit_static_tau_floor_s, floored.unit_static_recording->tau_floor_s);
+  EXPECT_NE(floored.unit_static_recording->why.find(
+                "s or longer; each run's header carries that floor (unit_static_tau_floor_s), and "
+                "a fit of the run takes it where the run shows the wander at those times"),
+            std::string::npos)
+      << floored.unit_static_recording->why;
+  EXPECT_FALSE(floored.unit_wander.given());
+  std::remove(slow.c_str());
   std::remove(pinned.c_str());
   std::remove(still.c_str());
 }

@@ -160,10 +160,11 @@ namespace {
 
 struct ConfiguredRun {
   json result;
-  RecordedUnitWander recorded;  // what the recording's header says
-  std::string static_curves;    // ... of the unit's static recording's curves (its value)
-  std::string report;           // `standcal run result RUN_ID`
-  json full_refit;              // `standcal fit RECORDING --method full --json`
+  RecordedUnitWander recorded;    // what the recording's header says
+  std::string static_curves;      // ... of the unit's static recording's curves (its value)
+  double static_tau_floor_s = 0;  // ... of the floor they put under the correlation time
+  std::string report;             // `standcal run result RUN_ID`
+  json full_refit;                // `standcal fit RECORDING --method full --json`
   std::string log;
 };
 
@@ -190,6 +191,7 @@ ConfiguredRun run_with_configured_wander(const json& unit) {
   const Recording rec = read_recording(run.result["recording_path"]);
   run.recorded = rec.unit_wander;
   run.static_curves = rec.header_value(kHeaderUnitStaticCurves);
+  run.static_tau_floor_s = rec.unit_static_tau_floor_s;
   const test::CommandOutcome shown =
       test::standcal_cli("run result " + run_id + " --socket " + socket_of(dir));
   EXPECT_EQ(shown.exit_code, 0) << shown.output;
@@ -197,7 +199,9 @@ ConfiguredRun run_with_configured_wander(const json& unit) {
   const test::CommandOutcome refit = test::standcal_cli(
       "fit " + run.result["recording_path"].get<std::string>() + " --method full --json");
   EXPECT_EQ(refit.exit_code, 0) << refit.output;
-  run.full_refit = json::parse(refit.output.substr(refit.output.find('{')), nullptr, false);
+  const std::size_t brace = refit.output.find('{');
+  run.full_refit =
+      json::parse(brace == std::string::npos ? "" : refit.output.substr(brace), nullptr, false);
   return run;
 }
 
@@ -289,9 +293,12 @@ TEST(DaemonRun, AStaticRecordingThatPinsNoWanderBoundsEachRunsWander) {
   // A later fit of the recording weighs them as the run's did: the full vector's sigmas alike.
   // (The joint fit's nine rows of paper9 estimate no wander, so `run result`'s report, a joint
   // fit's, has no wander to bound.)
-  EXPECT_EQ(run.full_refit["noise"]["sigmas_allowance_allan_curves_from"], "static_recording");
-  EXPECT_EQ(run.full_refit["parameters"]["bias_x"]["sigma"],
-            run.result["full_vector"]["parameters"]["bias_x"]["sigma"]);
+  ASSERT_TRUE(run.full_refit.contains("noise") && run.full_refit.contains("parameters"))
+      << run.full_refit.dump(2);
+  EXPECT_EQ(run.full_refit["noise"].value("sigmas_allowance_allan_curves_from", ""),
+            "static_recording");
+  EXPECT_DOUBLE_EQ(run.full_refit["parameters"]["bias_x"].value("sigma", 0.0),
+                   run.result["full_vector"]["parameters"]["bias_x"]["sigma"].get<double>());
   const std::string gave =
       "the unit's static recording " + still + " (2 h static) gave its curves, to bound the wander";
   ASSERT_TRUE(run.result.contains("unit_wander_source")) << run.result.dump(2);
@@ -301,6 +308,34 @@ TEST(DaemonRun, AStaticRecordingThatPinsNoWanderBoundsEachRunsWander) {
             std::string::npos)
       << run.report;
   std::remove(still.c_str());
+}
+
+// One whose curves see a wander they do not pin (two hours of a 30 ug wander of 1200 s) gives
+// the runs the floor they put under its correlation time, which each run's header carries
+// (kHeaderUnitStaticTauFloorS): the run's fits take it where the run shows the wander at those
+// times, and set it aside, saying so, where it does not (this simulated unit has no wander), as
+// every later fit of the recording does. Until 2026-12-07 such a recording gave the runs
+// nothing.
+TEST(DaemonRun, AStaticRecordingThatSeesAWanderItDoesNotPinPutsItsFloorInEachRunsHeader) {
+  const std::string slow = ::testing::TempDir() + "/standcal-run-static-slow.csv";
+  write_recording(test::unit_static_recording(7200, 30, 1200, test::kSlowWanderStaticSeed), slow);
+  const ConfiguredRun run = run_with_configured_wander({{"static_recording", slow}});
+  EXPECT_EQ(run.recorded.size_ug, 0);
+  EXPECT_GT(run.static_tau_floor_s, 60) << run.log;
+  EXPECT_TRUE(run.static_curves.empty());
+  const std::string full_how = run.result["full_vector"]["noise"].value("how", "");
+  EXPECT_NE(full_how.find("that a long static stretch's Allan curves put under the correlation "
+                          "time is set aside"),
+            std::string::npos)
+      << full_how;
+  EXPECT_EQ(run.full_refit.value("noise", json::object()).value("how", ""), full_how);
+  ASSERT_TRUE(run.result.contains("unit_wander_source")) << run.result.dump(2);
+  EXPECT_NE(run.result["unit_wander_source"].get<std::string>().find(
+                "(2 h static) gave a floor under the wander's correlation time: its Allan curves "
+                "see a wander they do not pin"),
+            std::string::npos)
+      << run.result["unit_wander_source"];
+  std::remove(slow.c_str());
 }
 
 TEST(DaemonRun, TheFitsTakeTheUnitsCorrelationTimeAsARange) {

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <random>
@@ -23,6 +24,7 @@
 #include "calib/report.hpp"
 #include "calib/simulator.hpp"
 #include "calib/static_noise.hpp"
+#include "calib/text.hpp"
 #include "calib/units.hpp"
 #include "tests/calib/test_support.hpp"
 #include "tests/support/statistical.hpp"
@@ -1372,9 +1374,19 @@ TEST(FitNoise, TheCarriedCurvesRoundTripAndABadOneIsRefusedAtItsLine) {
     return std::string("read");
   };
   EXPECT_EQ(read_error(text), "read");
+  // The key's line in the file as written.
+  const auto key_line = [&] {
+    std::ifstream in(dir.file("run.csv"));
+    std::string line;
+    for (int n = 1; std::getline(in, line); ++n)
+      if (line.rfind("# unit_static_allan_curves:", 0) == 0) return n;
+    return 0;
+  };
   const auto expect_refused = [&](const std::string& value, const std::string& why) {
     const std::string error = read_error(value);
-    EXPECT_NE(error.find(dir.file("run.csv") + ":"), std::string::npos) << error;
+    EXPECT_NE(error.find(dir.file("run.csv") + ":" + std::to_string(key_line()) + ":"),
+              std::string::npos)
+        << error;
     EXPECT_NE(error.find(": header 'unit_static_allan_curves': not the Allan curves of a static "
                          "recording: " +
                          why),
@@ -1603,11 +1615,37 @@ TEST(FitNoise, AStaticRecordingThatSeesAWanderItDoesNotPinPutsAFloorUnderItsCorr
             std::string::npos)
       << unit_static_recording_words(*use);
 
-  // The norm fit of the same run takes it too.
+  // A standcald run's header carries the floor (kHeaderUnitStaticTauFloorS): a fit of the run
+  // given no static recording takes it as the file's own, to the bit.
+  const test::TempDir dir;
+  Recording carrying = rec;
+  carrying.set_header(kHeaderUnitStaticTauFloorS, round_trip_text(floor_s));
+  write_recording(carrying, dir.file("run.csv"));
+  const Recording carried = read_recording(dir.file("run.csv"));
+  EXPECT_EQ(carried.unit_static_tau_floor_s, floor_s);
+  FitNoiseOptions from_header;
+  take_unit_wander_with_static_recording(from_header, carried, averaged.allan, nullptr);
+  ASSERT_TRUE(from_header.known_tau && from_header.known_tau->open_above);
+  EXPECT_EQ(from_header.known_tau->min_s, floor_s);
+  EXPECT_EQ(from_header.specified_from, kWanderFromStaticRecording);
+  const FitResult as_carried = fit_full_vector(averaged.averages, from_header);
+  for (std::size_t k = 0; k < kUnitParameterNames.size(); ++k)
+    EXPECT_DOUBLE_EQ(*as_carried.unit[k].sigma, *floored.unit[k].sigma) << kUnitParameterNames[k];
+
+  // The norm fit of the same run takes it too, from the file and from the header.
   const NormCalibration norm = norm_fit_with_static(raw_input_of(rec), slow_rows);
   ASSERT_TRUE(norm.unit_static_recording);
   EXPECT_TRUE(norm.fit.result.noise.tau_given_open_above) << norm.fit.result.noise.how;
   EXPECT_EQ(norm.unit_static_recording->gave, "floor") << norm.unit_static_recording->why;
+  char floor_words[64];
+  std::snprintf(floor_words, sizeof floor_words,
+                "they put its correlation time at %.0f s or longer", floor_s);
+  EXPECT_NE(norm.unit_static_recording->why.find(floor_words), std::string::npos)
+      << norm.unit_static_recording->why;
+  const NormCalibration norm_carried = norm_fit_of(read_input(dir.file("run.csv")));
+  EXPECT_TRUE(norm_carried.fit.result.noise.tau_given_open_above)
+      << norm_carried.fit.result.noise.how;
+  EXPECT_EQ(norm_carried.fit.result.noise.tau_given_min_s, floor_s);
 
   // A run of white noise: set aside, and said so.
   const Recording white = bench_run_with_warm_up(0, 0, 1200, kSlowRunSeed);
@@ -1622,6 +1660,21 @@ TEST(FitNoise, AStaticRecordingThatSeesAWanderItDoesNotPinPutsAFloorUnderItsCorr
                           "the wander at those times"),
             std::string::npos)
       << use->why;
+
+  // Beside it the bound of the recording's own warm-up, whose curves show no wander, as the
+  // norm fit takes both: the fit that sets the floor aside is bounded by the warm-up.
+  const Recording warmed = bench_run_with_warm_up(3600, 0, 1200, kSlowRunSeed);
+  const AveragedRecording warmed_averaged = average_recording(warmed);
+  ASSERT_TRUE(warmed_averaged.allan && warmed_averaged.allan->wander_curves);
+  FitNoiseOptions beside;
+  take_unit_wander_with_static_recording(beside, warmed, warmed_averaged.allan, &slow);
+  EXPECT_TRUE(beside.known_tau && beside.known_tau->open_above);
+  EXPECT_EQ(beside.wander_curves_from, kWanderFromRecording);
+  ASSERT_TRUE(beside.wander_curves_ug.has_value());
+  const FitResult bounded = fit_full_vector(warmed_averaged.averages, beside);
+  EXPECT_FALSE(bounded.noise.tau_given_open_above) << bounded.noise.how;
+  EXPECT_EQ(bounded.noise.sigmas_allowance_allan_curves_from, kWanderFromRecording)
+      << bounded.noise.how;
 }
 
 // Where the run's rows do not show the wander at the floor's correlation times (below the bar

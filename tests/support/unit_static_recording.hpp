@@ -30,6 +30,10 @@ inline Recording unit_static_recording(double dwell_s, double wander_ug, double 
   return simulate_run(req);
 }
 
+// Two hours of a unit whose wander (30 ug, 1200 s) its curves see and do not pin: they put a
+// floor under its correlation time (unit_static_recording(7200, 30, 1200, this seed)).
+inline constexpr std::uint64_t kSlowWanderStaticSeed = 6;
+
 // The Allan curves of two still hours of the default unit (seed 4), as standcald's runs carry
 // them in their header (kHeaderUnitStaticCurves) where its static recording shows no wander.
 inline std::string still_unit_curves_text() {

@@ -253,7 +253,8 @@ void add_calibrate_commands(CLI::App& app) {
   add_unit_static_recording_option(fit, fit_opts->unit_static,
                                    "the wander its Allan curves pin is taken as the unit's, or "
                                    "where they show none, they bound the wander the fit's "
-                                   "sigmas allow for");
+                                   "sigmas allow for, or where they see one they do not pin, "
+                                   "they put a floor under its correlation time");
   fit->add_flag("--json", fit_opts->json, "machine-readable output");
   fit->add_option("--compensation", fit_opts->compensation,
                   "write the compensation (bias, correction matrix) as FILE.json and FILE.csv");

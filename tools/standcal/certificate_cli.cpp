@@ -195,7 +195,8 @@ void add_certificate_commands(CLI::App& app) {
       "the wander its Allan curves pin is taken as the unit's where the "
       "recording's header gives none, and the diagnosis tests "
       "against it; where they show none, they bound the wander the "
-      "fits' sigmas allow for");
+      "fits' sigmas allow for, and where they see one they do not pin, they "
+      "put a floor under its correlation time for the fits");
   cmd->add_flag(
       "--diagnose", opts->request.diagnose,
       "run the model-mismatch diagnosis now (else RUN_DIR/diagnosis.json is used if present)");

@@ -316,7 +316,8 @@ void add_import_command(CLI::App& app) {
       cmd, o->unit_static,
       "the wander its Allan curves pin is taken as the unit's where a recording's "
       "header gives none, or where they show none, they bound the "
-      "wander the fit's sigmas allow for");
+      "wander the fit's sigmas allow for, or where they see one they do "
+      "not pin, they put a floor under its correlation time");
   cmd->callback([o] { run_import(*o); });
 }
 
