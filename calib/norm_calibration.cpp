@@ -444,19 +444,28 @@ bool took_recording_tau_floor(const FitNoiseOptions& taken) {
 // correlation time (take_higher_tau_floor): whether the fit (`result`) kept it, which it does
 // only where its `rows` show the wander at those times (choose_fit_noise). `use.gave` says
 // "floor" where it did.
+std::string static_tau_floor_words(double floor_s) {
+  return ": they put its correlation time at " + fmt("%.0f", floor_s) + " s or longer";
+}
 void say_static_tau_floor(UnitStaticRecordingUse& use, const NoiseFinding& result,
                           const std::string& rows) {
-  const std::string floor = fmt("%.0f", use.tau_floor_s) + " s";
+  use.why += static_tau_floor_words(use.tau_floor_s);
   if (result.tau_given_open_above) {
     use.gave = "floor";
-    use.why += ": they put its correlation time at " + floor +
-               " or longer, which the sigmas allow for up to the longest the fits model";
+    use.why += ", which the sigmas allow for up to the longest the fits model";
   } else {
     use.gave = "nothing";
-    use.why += ": they put its correlation time at " + floor +
-               " or longer, a floor this fit set aside: this run's " + rows +
+    use.why += ", a floor this fit set aside: this run's " + rows +
                " do not show the wander at those times";
   }
+}
+
+// The floor the unit's static recording's curves put under the correlation time: those given
+// (`unit_static`), else the one a standcald run's header carries from its own (`rec`); 0: none.
+double static_tau_floor_s(const UnitStaticAllan* unit_static, const Recording* rec) {
+  return unit_static ? unit_static->allan.wander_tau_floor_s
+         : rec       ? rec->unit_static_tau_floor_s
+                     : 0.0;
 }
 
 // What the unit's static recording's curves gave the fit (`result`: its final noise) and why,
@@ -592,12 +601,16 @@ UnitStaticRecordingUse take_static_recording_for_runs(FitNoiseOptions& options,
     use.why += std::string("; each run's header carries them (") + kHeaderUnitStaticCurves +
                "), and a fit of the run weighs them as a bound on the wander its sigmas allow "
                "for where the run shows no wander of its own";
-  } else if (take_tau_floor(options, unit_static.allan.wander_tau_floor_s,
-                            kWanderFromStaticRecording)) {
-    use.gave = "floor";  // each fit of a run settles whether it stands
+  } else if (const double floor_s = unit_static.allan.wander_tau_floor_s;
+             floor_s > kMaxUnitWanderTauS) {
+    // Beyond what a run's header holds (its readers refuse it): a wander that slow is an offset.
+    use.why += static_tau_floor_words(floor_s) + ", beyond what a run's header holds (" +
+               plain_round_trip_text(kMaxUnitWanderTauS) + " s), so the runs are given none";
+  } else if (take_tau_floor(options, floor_s, kWanderFromStaticRecording)) {
+    use.gave = "floor";  // given to the runs: each fit of a run settles whether it stands
     use.tau_floor_s = options.known_tau->min_s;
-    use.why += std::string(": they put its correlation time at ") + fmt("%.0f", use.tau_floor_s) +
-               " s or longer; each run's header carries that floor (" + kHeaderUnitStaticTauFloorS +
+    use.why += static_tau_floor_words(use.tau_floor_s) +
+               "; each run's header carries that floor (" + kHeaderUnitStaticTauFloorS +
                "), and a fit of the run takes it where the run shows the wander at those times";
   }
   return use;
@@ -620,7 +633,7 @@ std::optional<UnitStaticRecordingUse> take_unit_wander_with_static_recording(
   if (unit_static) use = take_static_recording_pinned_wander(options, *unit_static);
   // A wander pinned, the static recording's then the recording's own, before either's bound.
   if (take_recording_wander(options, allan)) {
-    if (use && unit_static->allan.wander_curves)
+    if (use && (unit_static->allan.wander_curves || unit_static->allan.wander_tau_floor_s > 0))
       use->why += "; this recording's own long dwell pins a wander, weighted with instead";
     return use;
   }
@@ -628,10 +641,8 @@ std::optional<UnitStaticRecordingUse> take_unit_wander_with_static_recording(
     take_static_recording_bound(options, *unit_static, *use);
   else if (!unit_static)
     take_header_static_curves(options, rec);  // its run's, where standcald's run carried them
-  // The static recording's floor: its own, or the one standcald's run carried from its.
-  const double static_floor_s =
-      unit_static ? unit_static->allan.wander_tau_floor_s : rec.unit_static_tau_floor_s;
-  const std::string floor_from = take_higher_tau_floor(options, static_floor_s, allan);
+  const std::string floor_from =
+      take_higher_tau_floor(options, static_tau_floor_s(unit_static, &rec), allan);
   if (floor_from == kWanderFromStaticRecording) {
     if (use) {
       use->gave = "floor";  // until settle_unit_static_use says whether the fit kept it
@@ -828,9 +839,8 @@ NormCalibration calibrate(const RawInput& in, const NormCalibrationOptions& o) {
   } else {
     // The floor beside either's bound (the static recording's, given here or carried in a
     // standcald run's header), as the stand fits take them: the floor may be set aside.
-    const double static_floor_s = unit_static    ? unit_static->allan.wander_tau_floor_s
-                                  : in.recording ? in.recording->unit_static_tau_floor_s
-                                                 : 0;
+    const double static_floor_s = static_tau_floor_s(unit_static ? &*unit_static : nullptr,
+                                                     in.recording ? &*in.recording : nullptr);
     const bool floor = !take_higher_tau_floor(taken.fit.noise, static_floor_s, allan).empty();
     const bool bound =
         first.sigmas_allow_wander_up_to_ug > 0 &&

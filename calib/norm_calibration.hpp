@@ -28,6 +28,8 @@ struct NormCalibrationOptions {
   // Where nothing of the unit's wander is given, the wander its Allan curves pin is taken as
   // the unit's (take_recording_wander), and where they show none, they bound the wander the
   // sigmas allow for (take_wander_curves); either before this recording's own long intervals.
+  // Where they see one they do not pin, the floor they put under its correlation time, where it
+  // is higher than this recording's own (take_higher_tau_floor).
   // Its curves are put in ug by this fit's compensation, so counts need no scale of their own.
   std::shared_ptr<const RawInput> unit_static_recording;
 };
@@ -40,7 +42,8 @@ struct UnitStaticRecordingUse {
   double curves_end_s = 0;  // their longest averaging time
   // "wander" (the one its curves pin, weighted with), "bound" (curves that show none weighed
   // the wander the sigmas allow for), "floor" (curves that see a wander they do not pin put
-  // its correlation time at tau_floor_s or longer, and the fit kept that floor), "curves"
+  // its correlation time at tau_floor_s or longer, and the fit kept that floor; standcald's:
+  // given to its runs, each of whose fits settles it), "curves"
   // (standcald's: curves that show none, which each run's header carries to bound its
   // wander: take_static_recording_for_runs) or "nothing".
   std::string gave = "nothing";
@@ -81,12 +84,15 @@ UnitStaticRecordingUse take_static_recording_pinned_wander(FitNoiseOptions& opti
 // unit's wander given): the wander its curves pin (take_static_recording_pinned_wander), else,
 // where they show none and reach the fits' shortest correlation time, the curves themselves
 // (`options.wander_curves_ug`), which each run's header carries (kHeaderUnitStaticCurves) and
-// each fit of the run weighs as a bound (gave "curves"), else why neither.
+// each fit of the run weighs as a bound (gave "curves"), else, where they see a wander they do
+// not pin, the floor they put under its correlation time (`options.known_tau`), which each
+// run's header carries (kHeaderUnitStaticTauFloorS; gave "floor", before any fit), else why
+// none.
 UnitStaticRecordingUse take_static_recording_for_runs(FitNoiseOptions& options,
                                                       const UnitStaticAllan& unit_static);
 // The floors under the correlation time that the unit's static recording's curves
 // (`static_floor_s`, 0: none) and this recording's own long stretch (`allan`) put, where each sees
-// a wander it does not pin: the higher, which excludes more (take_recording_tau_floor). Returns
+// a wander it does not pin: the higher, which excludes more (take_tau_floor). Returns
 // whose it took (kWanderFromStaticRecording, kWanderFromRecording), or "" for neither.
 std::string take_higher_tau_floor(FitNoiseOptions& options, double static_floor_s,
                                   const std::optional<AllanFinding>& allan);
@@ -102,12 +108,13 @@ void take_static_recording_bound(FitNoiseOptions& options, const UnitStaticAllan
 // long dwell pins (`allan`); where none is pinned and no size of the unit's is given, the
 // static recording's curves that show none bound the wander the sigmas allow for (without
 // `unit_static`, the ones the header carries from its run: take_header_static_curves), and
-// the higher floor under the correlation time that either's curves put (take_higher_tau_floor),
-// else the long dwell's (take_wander_curves, take_recording_wander_or_bound), as the norm fit takes
-// them: a stand fit that weighs for a wander below the bar of a finding then has its sigmas
-// averaged over the sizes this run and the curves allow, not widened by Student-t at the few
-// degrees of freedom the run leaves the wander's size. Returns what the static recording gave
-// and why, where one was given: a bound taken is settled by the fit (settle_unit_static_use).
+// the higher floor under the correlation time that either's curves put (take_higher_tau_floor;
+// beside the static recording's, the long dwell's bound), else the long dwell's bound
+// (take_wander_curves, take_recording_wander_or_bound), as the norm fit takes them: a stand fit
+// that weighs for a wander below the bar of a finding then has its sigmas averaged over the sizes
+// this run and the curves allow, not widened by Student-t at the few degrees of freedom the run
+// leaves the wander's size. Returns what the static recording gave and why, where one was given: a
+// bound taken is settled by the fit (settle_unit_static_use).
 std::optional<UnitStaticRecordingUse> take_unit_wander_with_static_recording(
     FitNoiseOptions& options, const Recording& rec, const std::optional<AllanFinding>& allan,
     const UnitStaticAllan* unit_static);

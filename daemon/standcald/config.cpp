@@ -285,7 +285,8 @@ void take_unit_static_recording(DaemonConfig& c) {
     const UnitStaticAllan s = stand_unit_static_allan(file, c.g_local_mps2);
     c.unit_static_recording = take_static_recording_for_runs(nothing_given, s);
     c.unit_static_curves_ug = nothing_given.wander_curves_ug;
-    c.unit_static_tau_floor_s = c.unit_static_recording->tau_floor_s;
+    if (c.unit_static_recording->gave == "floor")
+      c.unit_static_tau_floor_s = c.unit_static_recording->tau_floor_s;
   } catch (const std::exception& e) {
     throw ConfigError(where + e.what());
   }

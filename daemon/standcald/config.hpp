@@ -108,7 +108,8 @@ struct DaemonConfig {
   // noise` reads it), read and fitted once at start. Where unit.bias_instability_* is not
   // configured (both are refused), the wander its Allan curves pin is unit_wander, and each
   // run's header says where it came from (kHeaderUnitWanderSource); where they show none,
-  // unit_static_curves_ug. What it gave, and why, is logged at start.
+  // unit_static_curves_ug, and where they see one they do not pin, unit_static_tau_floor_s.
+  // What it gave, and why, is logged at start.
   std::string unit_static_recording_file;
   // unit.static_recording_input: how that file is read (format, columns, rate_hz, skip_lines,
   // units, as `standcal noise` and `--unit-static-*` take them; no g: run.g_local_mps2 puts it

@@ -75,10 +75,11 @@ json fit_finished_run(RunRecord& record, const std::string& run_dir, const Given
   const std::optional<AllanFinding> allan = digest.allan_finding();
   // The unit's configured wander, as the header keeps it (a correlation time configured: the
   // run then estimates only the wander's size, which one run pins far better than tau); none
-  // configured: the one the recording's own long dwell pins (a warm-up), if any, else the bound
-  // the unit's static recording's curves set where they show none and the floor they put under
-  // the correlation time where they see one they do not pin (the header carries either), and
-  // its own long dwell's: as every later fit of the recording weighs.
+  // configured: the one the recording's own long dwell pins (a warm-up), if any, else what the
+  // unit's static recording's curves give (the header carries them): the bound they set where
+  // they show none, or the floor they put under the correlation time where they see one they
+  // do not pin; and the recording's own long dwell's bound or floor. As every later fit of the
+  // recording weighs.
   FitNoiseOptions noise;
   const Recording& rec = digest.recording;
   if (!take_header_wander(noise, rec) && rec.header_value(kHeaderUnitStaticCurves).empty() &&

@@ -933,6 +933,19 @@ TEST_F(Cli, DiagnoseTestsAgainstTheWanderTheUnitsStaticRecordingPins) {
                 "weighs no bound"),
             std::string::npos)
       << s["unit_static_recording"];
+  // One that sees a wander it does not pin (30 ug, 1200 s) gives it no floor under the
+  // correlation time either (the fits take one: "floor"), and says so.
+  const CliRun slow = run_cli("diagnose " + cal + " --g-mps2 9.81625 --unit-static-recording " +
+                              static_recording("slow", 7200, 1200, 6, 30) + " --json");
+  ASSERT_EQ(slow.exit_code == 0 || slow.exit_code == 1, true) << slow.output;
+  const auto f = nlohmann::json::parse(slow.output.substr(slow.output.find('{')));
+  EXPECT_EQ(f["unit_static_recording"]["gave"], "nothing") << f["unit_static_recording"];
+  EXPECT_NE(f["unit_static_recording"]["why"].get<std::string>().find(
+                "see a wander they do not pin (to 1995 s they do not show it turn over: record "
+                "about 100 x its correlation time); the diagnosis tests the terms against a "
+                "wander they pin, and takes no floor under its correlation time"),
+            std::string::npos)
+      << f["unit_static_recording"];
   expect_refused(run_cli("diagnose " + cal + " --unit-static-recording " + pinned +
                          " --bias-instability-ug 3"),
                  "either as a static recording or as --bias-instability-*");

@@ -91,7 +91,8 @@ TEST(DaemonConfig, TheUnitsCorrelationTimeIsAValueOrARange) {
 }
 
 // unit.static_recording is read and fitted at start: the wander its Allan curves pin is the
-// unit's; one whose curves show none gives its curves, which the runs' headers carry; beside
+// unit's; one whose curves show none gives its curves, and one whose curves see a wander they do
+// not pin the floor they put under its correlation time, which the runs' headers carry; beside
 // unit.bias_instability_*, or a file that cannot be read, stops the start, naming the key.
 TEST(DaemonConfig, TheUnitsStaticRecordingGivesItsWanderAtStart) {
   const std::string pinned = ::testing::TempDir() + "/standcal-static-pinned.csv";
@@ -140,7 +141,13 @@ TEST(DaemonConfig, TheUnitsStaticRecordingGivesItsWanderAtStart) {
   ASSERT_TRUE(floored.unit_static_recording.has_value());
   EXPECT_EQ(floored.unit_static_recording->gave, "floor") << floored.unit_static_recording->why;
   EXPECT_GT(floored.unit_static_tau_floor_s, 60);
-  EXPECT_EQ(floored.unit_static_tau_floor_s, floored.unit_static_recording->tau_floor_s);
+  // The floor the file's own curves put, as `standcal fit --unit-static-recording` reads it.
+  EXPECT_DOUBLE_EQ(
+      floored.unit_static_tau_floor_s,
+      standcal::stand_unit_static_allan(standcal::read_input(slow), floored.g_local_mps2)
+          .allan.wander_tau_floor_s);
+  EXPECT_FALSE(floored.unit_static_curves_ug.has_value());
+  EXPECT_EQ(none.unit_static_tau_floor_s, 0);
   EXPECT_NE(floored.unit_static_recording->why.find(
                 "s or longer; each run's header carries that floor (unit_static_tau_floor_s), and "
                 "a fit of the run takes it where the run shows the wander at those times"),

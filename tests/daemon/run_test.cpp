@@ -11,6 +11,7 @@
 #include "calib/allan.hpp"
 #include "calib/averaging.hpp"
 #include "calib/invariant_estimator.hpp"
+#include "calib/noise_model.hpp"
 #include "calib/recording.hpp"
 #include "calib/report.hpp"
 #include "calib/simulator.hpp"
@@ -293,7 +294,8 @@ TEST(DaemonRun, AStaticRecordingThatPinsNoWanderBoundsEachRunsWander) {
   // A later fit of the recording weighs them as the run's did: the full vector's sigmas alike.
   // (The joint fit's nine rows of paper9 estimate no wander, so `run result`'s report, a joint
   // fit's, has no wander to bound.)
-  ASSERT_TRUE(run.full_refit.contains("noise") && run.full_refit.contains("parameters"))
+  ASSERT_TRUE(run.full_refit.is_object() && run.full_refit.contains("noise") &&
+              run.full_refit.contains("parameters"))
       << run.full_refit.dump(2);
   EXPECT_EQ(run.full_refit["noise"].value("sigmas_allowance_allan_curves_from", ""),
             "static_recording");
@@ -323,11 +325,11 @@ TEST(DaemonRun, AStaticRecordingThatSeesAWanderItDoesNotPinPutsItsFloorInEachRun
   EXPECT_EQ(run.recorded.size_ug, 0);
   EXPECT_GT(run.static_tau_floor_s, 60) << run.log;
   EXPECT_TRUE(run.static_curves.empty());
+  // The run's own floor, set aside: the words name its value.
   const std::string full_how = run.result["full_vector"]["noise"].value("how", "");
-  EXPECT_NE(full_how.find("that a long static stretch's Allan curves put under the correlation "
-                          "time is set aside"),
-            std::string::npos)
+  EXPECT_NE(full_how.find(tau_floor_set_aside_words(run.static_tau_floor_s)), std::string::npos)
       << full_how;
+  ASSERT_TRUE(run.full_refit.is_object());
   EXPECT_EQ(run.full_refit.value("noise", json::object()).value("how", ""), full_how);
   ASSERT_TRUE(run.result.contains("unit_wander_source")) << run.result.dump(2);
   EXPECT_NE(run.result["unit_wander_source"].get<std::string>().find(

@@ -43,6 +43,17 @@ DiagnoseOptions diagnose_options(const DiagnoseCliOptions& o) {
   return d;
 }
 
+// What the diagnosis takes of the unit's static recording: a wander its curves pin, not the
+// floor they put under its correlation time where they see one they do not pin (which the fits
+// take: `use` says "floor" where the norm fit took it).
+void say_diagnosis_takes_no_floor(UnitStaticRecordingUse& use, double floor_s) {
+  if (use.gave == "wander" || !(floor_s > 0)) return;
+  use.gave = "nothing";
+  use.why +=
+      "; the diagnosis tests the terms against a wander they pin, and takes no floor "
+      "under its correlation time";
+}
+
 // The wander the unit's static recording pins, as the one the terms are tested against: after
 // the one the recording's header gives (what its run was made with), as the fits take it. Only
 // a wander: the diagnosis's selection weighs no bound on one (the fits' "bound").
@@ -61,6 +72,7 @@ std::optional<UnitStaticRecordingUse> take_static_wander(const DiagnoseCliOption
   if (use.gave == "wander") options.give_static_recording_wander(use.wander);
   if (unit_static.allan.wander_curves)
     use.why += ": the diagnosis tests the terms against a wander they pin, and weighs no bound";
+  say_diagnosis_takes_no_floor(use, unit_static.allan.wander_tau_floor_s);
   return use;
 }
 
@@ -110,6 +122,8 @@ std::pair<Diagnosis, Recording> diagnose_input(const DiagnoseCliOptions& o,
   unit_static = calibration.unit_static_recording;
   if (unit_static && unit_static->gave == "wander")
     options.give_static_recording_wander(unit_static->wander);
+  if (unit_static && unit_static->gave == "floor")
+    say_diagnosis_takes_no_floor(*unit_static, unit_static->tau_floor_s);
   Diagnosis d = diagnose_without_angles(in, calibration, options);
   return {std::move(d), calibrated_recording(in, calibration)};
 }

@@ -148,8 +148,8 @@ void print_result(const json& r) {
     const Recording rec = read_recording(path);
     AveragedRecording averaged = average_recording(rec);
     FitNoiseOptions noise;
-    // As the daemon: the run's wander, its own long dwell's, or the bound of its unit's static
-    // recording (the header carries its curves) or of its own long dwell.
+    // As the daemon: the run's wander, its own long dwell's, or the bound or floor of its unit's
+    // static recording (the header carries its curves or its floor) or of its own long dwell.
     take_unit_wander_with_static_recording(noise, rec, averaged.allan, nullptr);
     FitResult fit = fit_invariant_joint(averaged.averages, noise);
     fit.noise.allan = std::move(averaged.allan);
