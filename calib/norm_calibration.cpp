@@ -440,13 +440,15 @@ bool took_recording_tau_floor(const FitNoiseOptions& taken) {
   return took_tau_floor(taken, kWanderFromRecording);
 }
 
-// The unit's static recording's curves see a wander they do not pin, and put a floor under its
-// correlation time (take_higher_tau_floor): whether the fit (`result`) kept it, which it does
-// only where its `rows` show the wander at those times (choose_fit_noise). `use.gave` says
-// "floor" where it did.
+// What the unit's static recording's curves, which see a wander they do not pin, say of its
+// correlation time.
 std::string static_tau_floor_words(double floor_s) {
   return ": they put its correlation time at " + fmt("%.0f", floor_s) + " s or longer";
 }
+
+// The floor they put under it (take_higher_tau_floor): whether the fit (`result`) kept it, which
+// it does only where its `rows` show the wander at those times (choose_fit_noise). `use.gave`
+// says "floor" where it did.
 void say_static_tau_floor(UnitStaticRecordingUse& use, const NoiseFinding& result,
                           const std::string& rows) {
   use.why += static_tau_floor_words(use.tau_floor_s);
