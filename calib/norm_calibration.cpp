@@ -400,6 +400,13 @@ std::string curves_show_words(const GaussMarkovAllanFit& fit, double end_s) {
   return "its Allan curves (to " + fmt("%.0f", end_s) + " s) show no wander";
 }
 
+// Where a fit set aside a floor under the correlation time: its `rows` (dwells, intervals) do
+// not show the wander at those times (choose_fit_noise).
+std::string floor_set_aside_words(const std::string& rows) {
+  return ", a floor this fit set aside: this run's " + rows +
+         " do not show the wander at those times";
+}
+
 // The recording's own long `stretch` (dwell, interval) sees a wander it does not pin: the floor
 // it put under the correlation time, and whether the fit (`result`) kept it, which it does only
 // where its `rows` show the wander at those times (choose_fit_noise).
@@ -407,9 +414,7 @@ std::string recording_tau_floor_words(const std::string& stretch, const std::str
                                       const NoiseFinding& result) {
   std::string words = "; this recording's own long " + stretch +
                       " sees a wander it does not pin, whose correlation time it bounds from below";
-  if (!result.tau_given_open_above)
-    words += ", a floor this fit set aside: this run's " + rows +
-             " do not show the wander at those times";
+  if (!result.tau_given_open_above) words += floor_set_aside_words(rows);
   return words;
 }
 
@@ -457,8 +462,7 @@ void say_static_tau_floor(UnitStaticRecordingUse& use, const NoiseFinding& resul
     use.why += ", which the sigmas allow for up to the longest the fits model";
   } else {
     use.gave = "nothing";
-    use.why += ", a floor this fit set aside: this run's " + rows +
-               " do not show the wander at those times";
+    use.why += floor_set_aside_words(rows);
   }
 }
 
