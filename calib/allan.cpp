@@ -633,6 +633,25 @@ double positive_number(const nlohmann::json& j, const std::string& what) {
   if (!(v > 0)) throw std::invalid_argument(what + " is " + j.dump() + ", not above 0");
   return v;
 }
+// A number within [min, max] (each bound one a static recording's curves can reach), refused
+// naming `what` and the bounds otherwise.
+double number_within(const nlohmann::json& j, const std::string& what, double min, double max) {
+  const double v = positive_number(j, what);
+  if (!(v >= min && v <= max))
+    throw std::invalid_argument(what + " is " + j.dump() + ", outside " +
+                                plain_round_trip_text(min) + " ... " + plain_round_trip_text(max));
+  return v;
+}
+
+// What a static recording's curves (in ug) can hold: averaging times from the shortest sample
+// period a recording has (kMaxSampleRate_hz) to the longest time (kMaxAbsTime_s); deviations of
+// an accelerometer at rest from 1e-6 ug to 1 g; no more clusters than a recording's samples. Within
+// them the deviance's sums are numbers; beyond, a curve reaching 7e105 ug beside its 0.2 ug made
+// them overflow and the deviance NaN, which every fit of the run would have weighed (fuzz finding
+// fuzz/regressions/wander_curves/deviation_7e105_clusters_5e11_deviance_nan, 2026-12-07).
+constexpr double kMinCurveTau_s = 1 / kMaxSampleRate_hz, kMaxCurveTau_s = kMaxAbsTime_s;
+constexpr double kMinCurveDeviation_ug = 1e-6, kMaxCurveDeviation_ug = 1e6;
+constexpr double kMaxCurveClusters = 1e12;
 
 const nlohmann::json& curves_array(const nlohmann::json& j, const char* key,
                                    const std::string& where) {
@@ -642,8 +661,8 @@ const nlohmann::json& curves_array(const nlohmann::json& j, const char* key,
 }
 
 // One axis's points as wander_curves_text writes them: at least as many as a fit needs, their
-// averaging times rising, each deviation one whose square is a normal number (the deviance
-// divides by it) and each count of clusters at least one.
+// averaging times rising, each averaging time, deviation and count of clusters (at least one)
+// within what a static recording's curves can hold (kMinCurveTau_s ...).
 ThinnedAllanCurve parse_thinned_curve(const nlohmann::json& j, const std::string& where) {
   if (!j.is_object()) throw std::invalid_argument(where + " is not a JSON object");
   const nlohmann::json& taus = curves_array(j, "tau_s", where);
@@ -659,17 +678,13 @@ ThinnedAllanCurve parse_thinned_curve(const nlohmann::json& j, const std::string
   for (std::size_t i = 0; i < taus.size(); ++i) {
     const std::string point = where + " point " + std::to_string(i + 1);
     AllanPoint p;
-    p.tau_s = positive_number(taus[i], point + " tau_s");
+    p.tau_s = number_within(taus[i], point + " tau_s", kMinCurveTau_s, kMaxCurveTau_s);
     if (!c.points.empty() && !(p.tau_s > c.points.back().tau_s))
       throw std::invalid_argument(point + " tau_s does not rise from the point before");
-    p.deviation = positive_number(deviations[i], point + " deviation");
-    if (!std::isnormal(p.deviation * p.deviation))
-      throw std::invalid_argument(point + " deviation is " + deviations[i].dump() +
-                                  ", too small or large to square");
+    p.deviation = number_within(deviations[i], point + " deviation (ug)", kMinCurveDeviation_ug,
+                                kMaxCurveDeviation_ug);
     c.points.push_back(p);
-    c.clusters.push_back(finite_number(clusters[i], point + " clusters"));
-    if (c.clusters.back() < 1)
-      throw std::invalid_argument(point + " clusters is " + clusters[i].dump() + ", below 1");
+    c.clusters.push_back(number_within(clusters[i], point + " clusters", 1, kMaxCurveClusters));
   }
   return c;
 }
@@ -699,7 +714,8 @@ WanderCurves parse_wander_curves(std::string_view text) {
   if (j.is_discarded()) throw std::invalid_argument("not JSON");
   if (!j.is_object()) throw std::invalid_argument("not a JSON object");
   WanderCurves out;
-  out.curves_end_s = positive_number(j.value("curves_end_s", nlohmann::json()), "curves_end_s");
+  out.curves_end_s = number_within(j.value("curves_end_s", nlohmann::json()), "curves_end_s",
+                                   kMinCurveTau_s, kMaxCurveTau_s);
   out.deviance_scale =
       positive_number(j.value("deviance_scale", nlohmann::json()), "deviance_scale");
   if (out.deviance_scale > kWanderCurvesDevianceScale)

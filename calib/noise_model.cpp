@@ -830,6 +830,15 @@ bool take_tau_floor(FitNoiseOptions& options, double floor_s, const std::string&
   return true;
 }
 
+std::string take_higher_tau_floor(FitNoiseOptions& options, double static_floor_s,
+                                  const std::optional<AllanFinding>& allan) {
+  const double own_floor_s = allan ? allan->wander_tau_floor_s : 0;
+  if (static_floor_s > own_floor_s &&
+      take_tau_floor(options, static_floor_s, kWanderFromStaticRecording))
+    return kWanderFromStaticRecording;
+  return take_recording_tau_floor(options, allan) ? kWanderFromRecording : "";
+}
+
 bool may_weigh_wander_curves(const FitNoiseOptions& options) {
   return options.mode == FitNoiseOptions::Mode::estimate && options.specified.white();
 }
@@ -907,7 +916,9 @@ void set_unit_wander_header(Recording& header, const GivenWander& w) {
   header.unit_wander = {w.size_ug, w.known_tau ? w.known_tau->min_s : 0,
                         w.known_tau && w.known_tau->range() ? w.known_tau->max_s : 0,
                         w.size_axes_ug};
-  if (w.size_ug > 0) header.set_header(kHeaderUnitWanderUg, round_trip_text(w.size_ug));
+  // Always, 0 for none: a header that says nothing is a run's from before headers carried it
+  // (header_silent_on_unit_wander).
+  header.set_header(kHeaderUnitWanderUg, round_trip_text(w.size_ug));
   if (!w.size_axes_ug.isZero())
     for (int a = 0; a < 3; ++a)
       header.set_header(kHeaderUnitWanderAxisUg[static_cast<std::size_t>(a)],
@@ -943,10 +954,20 @@ bool take_header_wander(FitNoiseOptions& options, const Recording& rec) {
   return true;
 }
 
+bool header_silent_on_unit_wander(const Recording& rec) {
+  return rec.header_value(kHeaderUnitWanderUg).empty() &&
+         rec.header_value(kHeaderUnitWanderSource).empty() &&
+         rec.header_value(kHeaderUnitStaticCurves).empty() &&
+         rec.header_value(kHeaderUnitStaticTauFloorS).empty();
+}
+
 bool take_unit_wander(FitNoiseOptions& options, const Recording& rec,
-                      const std::optional<AllanFinding>& allan) {
-  return take_header_wander(options, rec) || take_recording_wander(options, allan) ||
-         take_recording_tau_floor(options, allan);
+                      const std::optional<AllanFinding>& allan,
+                      std::optional<double> static_tau_floor_s) {
+  if (take_header_wander(options, rec) || take_recording_wander(options, allan)) return true;
+  return !take_higher_tau_floor(options, static_tau_floor_s.value_or(rec.unit_static_tau_floor_s),
+                                allan)
+              .empty();
 }
 
 std::string specified_axes_words(const NoiseFinding& n) {

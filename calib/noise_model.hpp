@@ -295,13 +295,24 @@ GivenWander given_wander_of(const WanderToGive& pinned);
 // the run's own fits weighed with): later fits of the run (`standcal fit`, `run result`,
 // `certificate`, `records import`) then weigh as the run did. Returns whether it took one.
 bool take_header_wander(FitNoiseOptions& options, const Recording& rec);
+// Whether `rec`'s header says nothing of the unit's wander its run was begun with: none of
+// unit_bias_instability_ug (0 where none was configured: set_unit_wander_header writes it
+// always), its static recording's words, curves or floor. Only a run begun before standcald's
+// headers carried them: standcald's end fit and run.diagnose of such a run take the configured
+// wander, as they did then. Every other run is weighed as its header says, even none, as every
+// later fit of its recording is, whatever the configuration says since.
+bool header_silent_on_unit_wander(const Recording& rec);
 
 // The unit's wander for `rec`, where none is given: its header's, else its own long dwell's
-// (take_recording_wander, else take_recording_tau_floor). Returns whether it took one. The
-// diagnosis's rule (it weighs no bound on a wander); the fits also take a long dwell's bound where
-// it pins none (take_recording_wander_or_bound, take_unit_wander_with_static_recording).
+// (take_recording_wander), else the higher floor under the correlation time that the unit's
+// static recording's curves (`static_tau_floor_s`: of the one given, 0 where its curves put
+// none; nullopt where none was given: the one rec's header carries from standcald's) and its own
+// long dwell put (take_higher_tau_floor). Returns whether it took one. The diagnosis's rule (it
+// weighs no bound on a wander); the fits also take a long dwell's bound where it pins none
+// (take_recording_wander_or_bound, take_unit_wander_with_static_recording).
 bool take_unit_wander(FitNoiseOptions& options, const Recording& rec,
-                      const std::optional<AllanFinding>& allan);
+                      const std::optional<AllanFinding>& allan,
+                      std::optional<double> static_tau_floor_s = std::nullopt);
 
 // Where the fit estimates the noise and nothing of the unit's wander is given (no size, no
 // correlation time), takes the wander the recording's own dwells' Allan curves pin as the
@@ -355,6 +366,12 @@ bool take_recording_tau_floor(FitNoiseOptions& options, const std::optional<Alla
 // The same of a floor `floor_s` from elsewhere (the unit's static recording's curves, or the
 // one a standcald run's header carries from them: kHeaderUnitStaticTauFloorS).
 bool take_tau_floor(FitNoiseOptions& options, double floor_s, const std::string& from);
+// The floors under the correlation time that the unit's static recording's curves
+// (`static_floor_s`, 0: none) and this recording's own long stretch (`allan`) put, where each sees
+// a wander it does not pin: the higher, which excludes more (take_tau_floor). Returns
+// whose it took (kWanderFromStaticRecording, kWanderFromRecording), or "" for neither.
+std::string take_higher_tau_floor(FitNoiseOptions& options, double static_floor_s,
+                                  const std::optional<AllanFinding>& allan);
 // "; the floor F s … is set aside: …", for the `how` of a fit or diagnosis that set aside the
 // floor `floor_s` (choose_fit_noise).
 std::string tau_floor_set_aside_words(double floor_s);

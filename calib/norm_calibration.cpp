@@ -400,10 +400,11 @@ std::string curves_show_words(const GaussMarkovAllanFit& fit, double end_s) {
   return "its Allan curves (to " + fmt("%.0f", end_s) + " s) show no wander";
 }
 
-// Where a fit set aside a floor under the correlation time: its `rows` (dwells, intervals) do
-// not show the wander at those times (choose_fit_noise).
-std::string floor_set_aside_words(const std::string& rows) {
-  return ", a floor this fit set aside: this run's " + rows +
+// Where a fit (`who`: "this fit", "the diagnosis") set aside a floor under the correlation time:
+// its `rows` (dwells, intervals, positions) do not show the wander at those times
+// (choose_fit_noise, select_terms_and_noise).
+std::string floor_set_aside_words(const std::string& rows, const std::string& who = "this fit") {
+  return ", a floor " + who + " set aside: this run's " + rows +
          " do not show the wander at those times";
 }
 
@@ -459,12 +460,40 @@ void say_static_tau_floor(UnitStaticRecordingUse& use, const NoiseFinding& resul
   use.why += static_tau_floor_words(use.tau_floor_s);
   if (result.tau_given_open_above) {
     use.gave = "floor";
-    use.why += ", which the sigmas allow for up to the longest the fits model";
+    // At or beyond the longest the fits model, the floor is the one correlation time weighed.
+    use.why += result.tau_given_max_s > 0
+                   ? ", which the sigmas allow for up to the longest the fits model"
+                   : ", which the sigmas weigh as its correlation time (at or beyond the longest "
+                     "the fits model)";
   } else {
     use.gave = "nothing";
     use.why += floor_set_aside_words(rows);
   }
 }
+
+}  // namespace
+
+void say_diagnosis_static_tau_floor(UnitStaticRecordingUse& use, const NoiseFinding& noise,
+                                    const std::string& floor_from, bool fit_said) {
+  if (use.gave == "wander" || !(use.tau_floor_s > 0) || floor_from.empty()) return;
+  const std::string stretch = fit_said ? "interval" : "dwell";
+  if (!fit_said) use.why += static_tau_floor_words(use.tau_floor_s);
+  use.gave = "nothing";
+  if (floor_from == kWanderFromRecording) {
+    use.why += "; the diagnosis takes the higher floor this recording's own long " + stretch +
+               " puts under it";
+  } else if (floor_from == kWanderFromStaticRecording && noise.tau_given_open_above) {
+    use.gave = "floor";
+    use.why += fit_said ? "; the diagnosis tests the terms against the wander under that floor"
+                        : ", under which the diagnosis tests the terms against the wander";
+  } else if (floor_from == kWanderFromStaticRecording) {
+    use.why += fit_said ? "; the diagnosis set that floor aside: this run's positions do not "
+                          "show the wander at those times"
+                        : floor_set_aside_words("positions", "the diagnosis");
+  }
+}
+
+namespace {
 
 // The floor the unit's static recording's curves put under the correlation time: those given
 // (`unit_static`), else the one a standcald run's header carries from its own (`rec`); 0: none.
@@ -586,15 +615,6 @@ void take_static_recording_bound(FitNoiseOptions& options, const UnitStaticAllan
   } else if (may_weigh_wander_curves(options)) {
     use.why = unit_static.use.why + curves_end_too_soon_words(options);
   }
-}
-
-std::string take_higher_tau_floor(FitNoiseOptions& options, double static_floor_s,
-                                  const std::optional<AllanFinding>& allan) {
-  const double own_floor_s = allan ? allan->wander_tau_floor_s : 0;
-  if (static_floor_s > own_floor_s &&
-      take_tau_floor(options, static_floor_s, kWanderFromStaticRecording))
-    return kWanderFromStaticRecording;
-  return take_recording_tau_floor(options, allan) ? kWanderFromRecording : "";
 }
 
 UnitStaticRecordingUse take_static_recording_for_runs(FitNoiseOptions& options,

@@ -90,12 +90,6 @@ UnitStaticRecordingUse take_static_recording_pinned_wander(FitNoiseOptions& opti
 // none.
 UnitStaticRecordingUse take_static_recording_for_runs(FitNoiseOptions& options,
                                                       const UnitStaticAllan& unit_static);
-// The floors under the correlation time that the unit's static recording's curves
-// (`static_floor_s`, 0: none) and this recording's own long stretch (`allan`) put, where each sees
-// a wander it does not pin: the higher, which excludes more (take_tau_floor). Returns
-// whose it took (kWanderFromStaticRecording, kWanderFromRecording), or "" for neither.
-std::string take_higher_tau_floor(FitNoiseOptions& options, double static_floor_s,
-                                  const std::optional<AllanFinding>& allan);
 // Where its curves show no wander: them as a bound on the wander the sigmas allow for, where no
 // size of the unit's is given (take_wander_curves); `use` then says "bound" until the fit
 // settles it (settle_unit_static_use), or why not.
@@ -125,6 +119,15 @@ std::optional<UnitStaticRecordingUse> take_unit_wander_with_static_recording(
 // long dwell put that floor instead, whether the fit kept it. Once per use. Every caller of
 // take_unit_wander_with_static_recording calls it before saying what the recording gave.
 void settle_unit_static_use(UnitStaticRecordingUse& use, const NoiseFinding& result);
+// After a diagnosis offered the floor under the correlation time that the unit's static
+// recording's curves put (use.tau_floor_s; DiagnoseOptions::unit_static_tau_floor_s), whose
+// floor it took (`floor_from`: Diagnosis::tau_floor_from) and `noise` its noise finding: whether
+// it tested the terms under that floor ("floor"), set it aside where its positions do not show
+// the wander at those times, or took the recording's own higher floor ("nothing"). `fit_said`:
+// use.why already says the floor and what the norm fit made of it. Nothing where the static
+// recording pinned a wander or put no floor, or the diagnosis took none (a wander given).
+void say_diagnosis_static_tau_floor(UnitStaticRecordingUse& use, const NoiseFinding& noise,
+                                    const std::string& floor_from, bool fit_said);
 // `unit_static_recording` in the fit JSON, and the report's line on it.
 nlohmann::json unit_static_recording_json(const UnitStaticRecordingUse& use);
 std::string unit_static_recording_words(const UnitStaticRecordingUse& use);

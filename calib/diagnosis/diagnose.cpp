@@ -116,9 +116,12 @@ Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& given)
   // 1. Baseline: position averages, the residual model's fit, linearised.
   Prepared P = prepare(rec, given);
   // Nothing of the unit's wander given: the one its header says the run was made with, else the
-  // one the recording's own long dwell pins, which the fits of the same recording weigh with
-  // (take_unit_wander).
+  // one the recording's own long dwell pins, else the higher floor under its correlation time
+  // that the unit's static recording and that dwell put, which the fits of the same recording
+  // weigh with (take_unit_wander).
   const DiagnoseOptions options = with_unit_wander(given, rec, P.allan);
+  if (options.known_tau && options.known_tau->open_above)
+    d.tau_floor_from = options.specified_wander_from;
   const ResidualModel& model = *P.model;
   d.method = model.name();
   d.baseline = model.fit();

@@ -63,6 +63,12 @@ struct DiagnoseOptions {
   // recording's header or its own long dwell, which diagnose_recording takes where nothing is
   // given, as the fits do (take_unit_wander).
   std::string specified_wander_from;
+  // The floor under the wander's correlation time that the unit's static recording's Allan
+  // curves put where they see a wander they do not pin (0: they put none); nullopt where no
+  // static recording was given, and the one the recording's header carries from standcald's is
+  // taken. Where nothing pins a wander, the diagnosis tests the terms under the higher of it and
+  // the recording's own long dwell's floor, as the fits weigh (take_unit_wander).
+  std::optional<double> unit_static_tau_floor_s;
   // Before `explained` or `consistent`: the residuals must pass the whiteness tests at this
   // family-wise false-alarm rate, each chosen term must agree between the two halves of the
   // run within this many sigma, and no found value may exceed this many times its
@@ -186,6 +192,11 @@ struct Diagnosis {
   std::vector<std::string> summary;  // the diagnosis in sentences, with numbers
   TruthModel model;                  // augmented model for `standcal simulate --model`
   NoiseFinding noise;
+  // Whose floor under the wander's correlation time the terms were offered
+  // (kWanderFromStaticRecording, kWanderFromRecording; "" none): it stands where
+  // noise.tau_given_open_above, and was set aside where the positions do not show the wander
+  // under it.
+  std::string tau_floor_from;
   HonestyChecks checks;
 };
 

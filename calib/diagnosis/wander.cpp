@@ -183,7 +183,7 @@ DiagnoseOptions with_unit_wander(DiagnoseOptions options, const Recording& rec,
   FitNoiseOptions fit;
   fit.specified = options.specified_wander;
   fit.known_tau = options.known_tau;
-  if (!take_unit_wander(fit, rec, allan)) return options;
+  if (!take_unit_wander(fit, rec, allan, options.unit_static_tau_floor_s)) return options;
   options.specified_wander = fit.specified;
   options.known_tau = fit.known_tau;
   options.specified_wander_from = fit.specified_from;

@@ -26,7 +26,8 @@ struct NoiseAndTerms {
 // pinned wander (take_unit_wander; the diagnosis weighs no bound on one): the one `rec`'s header
 // says its run was made with, else the one its own long dwell pins (its dwells' pooled Allan
 // curves, `allan`; for a recording without angles, of its static intervals, as its norm fit takes
-// it).
+// it), else the higher floor under its correlation time that the unit's static recording
+// (options.unit_static_tau_floor_s, else the one the header carries) and that long dwell put.
 DiagnoseOptions with_unit_wander(DiagnoseOptions options, const Recording& rec,
                                  const std::optional<AllanFinding>& allan);
 

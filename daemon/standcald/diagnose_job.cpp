@@ -68,7 +68,7 @@ json diagnose_run(const json& run_status, const StandLimits& limits, const Given
   try {
     DiagnoseOptions options;
     options.limits = limits;
-    if (!given_wander_of(rec.unit_wander).given()) {  // a recording from before headers had it
+    if (header_silent_on_unit_wander(rec)) {  // a recording from before headers carried it
       options.specified_wander = configured.specified();
       options.known_tau = configured.known_tau;
     }

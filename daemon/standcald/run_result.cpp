@@ -82,9 +82,7 @@ json fit_finished_run(RunRecord& record, const std::string& run_dir, const Given
   // recording weighs.
   FitNoiseOptions noise;
   const Recording& rec = digest.recording;
-  if (!take_header_wander(noise, rec) && rec.header_value(kHeaderUnitStaticCurves).empty() &&
-      rec.unit_static_tau_floor_s == 0)
-    configured.give_to(noise);  // a header that carries none of them (a run begun before)
+  if (header_silent_on_unit_wander(rec)) configured.give_to(noise);  // a run begun before
   take_unit_wander_with_static_recording(noise, rec, allan, nullptr);
   JointFit joint = joint_fit(averages, noise, allan);
   json& result = joint.result;

@@ -662,9 +662,9 @@ struct HeaderOnly : RecordingRowSink {
 }  // namespace
 
 // The unit's wander a resumed run was begun with, as its recording's header keeps it (what
-// its fits weigh with: fit_finished_run); the configured one where the header has none (a run
-// begun before headers carried it) or cannot be read (the reopened recording is checked as
-// it is read on).
+// its fits weigh with: fit_finished_run), none included; the configured one where the header
+// says nothing of it (a run begun before headers carried it: header_silent_on_unit_wander) or
+// cannot be read (the reopened recording is checked as it is read on).
 GivenWander Sequencer::recorded_run_wander(const RunRecord& record) const {
   const auto size_text = [](const GivenWander& w) {
     if (w.size_axes_ug.isZero()) return number_text(w.size_ug) + " µg";
@@ -675,15 +675,19 @@ GivenWander Sequencer::recorded_run_wander(const RunRecord& record) const {
   try {
     HeaderOnly sink;
     RecordingReader reader(record.recording_path);
-    const GivenWander begun_with = given_wander_of(reader.read_header(sink).unit_wander);
-    if (!begun_with.given()) return unit_wander();
+    const Recording& header = reader.read_header(sink);
+    if (header_silent_on_unit_wander(header)) return unit_wander();
+    const GivenWander begun_with = given_wander_of(header.unit_wander);
+    const auto wander_text = [&](const GivenWander& w) {
+      return w.given() ? size_text(w) + " at tau " + number_text(w.specified().tau_s) + " s"
+                       : std::string("none");
+    };
     if (begun_with.axes_ug() != unit_wander().axes_ug() ||
         begun_with.specified().tau_s != unit_wander().specified().tau_s)
       spdlog::info(
           "run {}: the drift rule allows for the unit's bias wander the run was begun with, "
-          "{} at tau {} s (its recording's header), not the configured {} at tau {} s",
-          record.run_id, size_text(begun_with), number_text(begun_with.specified().tau_s),
-          size_text(unit_wander()), number_text(unit_wander().specified().tau_s));
+          "{} (its recording's header), not the configured {}",
+          record.run_id, wander_text(begun_with), wander_text(unit_wander()));
     return begun_with;
   } catch (const std::exception& e) {
     spdlog::warn(

@@ -9,6 +9,7 @@ int standcal_fuzz_recording(const std::uint8_t* data, std::size_t size);
 int standcal_fuzz_raw_input(const std::uint8_t* data, std::size_t size);
 int standcal_fuzz_program_json(const std::uint8_t* data, std::size_t size);
 int standcal_fuzz_model_json(const std::uint8_t* data, std::size_t size);
+int standcal_fuzz_wander_curves(const std::uint8_t* data, std::size_t size);
 int standcal_fuzz_certificate_configs(const std::uint8_t* data, std::size_t size);
 int standcal_fuzz_diagnosis(const std::uint8_t* data, std::size_t size);
 int standcal_fuzz_can_layout_json(const std::uint8_t* data, std::size_t size);

@@ -23,7 +23,7 @@ GivenWander wander_of(double size_ug, double tau_s) {
   return w;
 }
 
-// The result of a paper9 run whose recording's header carries `recorded` (none: no keys),
+// The result of a paper9 run whose recording's header carries `recorded` (nullopt: no keys),
 // fitted by a daemon configured with `configured`.
 json fit_of_run(const std::optional<GivenWander>& recorded, const GivenWander& configured) {
   test::TempDir dir{"standcal-run-result"};
@@ -46,7 +46,8 @@ json fit_of_run(const std::optional<GivenWander>& recorded, const GivenWander& c
 
 // A run begun by a daemon whose recordings did not yet carry the unit's wander (resumed after
 // an upgrade, or diagnosed now) is fitted with the configured one, as it was then; a recording
-// that carries one is fitted with its own, whatever the configuration says now.
+// that carries one, or says it was begun with none, is fitted with its own, whatever the
+// configuration says now.
 TEST(RunResult, TheHeadersWanderComesFirstAndTheConfiguredOneStandsInForNone) {
   const json old_recording = fit_of_run(std::nullopt, wander_of(5, 600));
   const json& noise = old_recording["noise"];
@@ -61,6 +62,13 @@ TEST(RunResult, TheHeadersWanderComesFirstAndTheConfiguredOneStandsInForNone) {
 
   const json neither = fit_of_run(std::nullopt, GivenWander{});
   EXPECT_EQ(neither["noise"]["model"], "white") << neither["noise"].dump(2);
+
+  // Begun with none configured (unit_bias_instability_ug 0), weighed with none, whatever the
+  // configuration says now: as `standcal fit` of the recording weighs. Until 2026-12-07 it took
+  // the configured one (a header without the wander's size was taken for an old run's).
+  const json none_configured = fit_of_run(GivenWander{}, wander_of(5, 600));
+  EXPECT_EQ(none_configured["noise"]["model"], "white") << none_configured["noise"].dump(2);
+  EXPECT_FALSE(none_configured["noise"].contains("unit_wander_from"));
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 
 #include "calib/allan.hpp"
 #include "calib/averaging.hpp"
+#include "calib/diagnosis/diagnosis.hpp"
 #include "calib/invariant_estimator.hpp"
 #include "calib/noise_model.hpp"
 #include "calib/recording.hpp"
@@ -438,9 +439,67 @@ TEST(DaemonRun, AResumedRunsDriftRulePoolsTheDwellsOfItsRecording) {
       << daemon.log();
   EXPECT_NE(daemon.log().find("the drift rule allows for the unit's bias wander the run was "
                               "begun with, 5 µg at tau 600 s (its recording's header), not the "
-                              "configured 0 µg"),
+                              "configured none"),
             std::string::npos)
       << daemon.log();
+}
+
+// The mirror: a run begun with no wander configured, resumed by a daemon configured with one
+// since, is weighed as its header says (none), by its end fits, its drift rule and run.diagnose,
+// as every later fit of its recording is. Until 2026-12-07 a header without the wander's keys
+// was taken for a run begun before headers carried it, and the configured wander stood in: the
+// run's result was not what `standcal fit` of its recording gives (the first checks failed).
+TEST(DaemonRun, ARunBegunWithNoWanderConfiguredIsWeighedAsItsHeaderSaysAfterResume) {
+  TempDir dir;
+  json config = config_in(dir);
+  config["run"] = {{"stability", {{"trend_limit_sigmas", 3}}}};
+  std::string run_id;
+  {
+    DaemonProcess daemon(dir.path(), sim_daemon_args(dir, config));
+    daemon.wait_ready(socket_of(dir));
+    Client c(socket_of(dir));
+    // Twelve distinct orientations on one mount: enough for the diagnosis to test its terms.
+    json twelve = json::array();
+    for (double a1_deg : {0.0, 60.0, 120.0, 180.0, 240.0, 300.0})
+      twelve.push_back({{"alpha1_deg", a1_deg}, {"alpha2_deg", 0.0}});
+    for (double a2_deg : {45.0, 90.0, 135.0, 225.0, 270.0, 315.0})
+      twelve.push_back({{"alpha1_deg", 0.0}, {"alpha2_deg", a2_deg}});
+    run_id = c.call(
+        "run.start",
+        {{"program", twelve}, {"unit_serial", "AU-8"}, {"dwell_s", 4}, {"settle_s", 1}})["run_id"];
+    wait_run(c, run_id,
+             [](const json& s) { return s["positions_done"].get<int>() >= 3 || finished(s); });
+    daemon.kill_now(SIGKILL);
+  }
+  config["unit"] = {{"bias_instability_ug", 5}, {"bias_instability_tau_s", 600}};
+  DaemonProcess daemon(dir.path(), sim_daemon_args(dir, config));
+  daemon.wait_ready(socket_of(dir));
+  Client c(socket_of(dir));
+  c.call("run.resume", {{"run_id", run_id}});
+  const json final_status = wait_run(c, run_id, finished);
+  ASSERT_EQ(final_status["state"], "done") << final_status.dump() << daemon.log();
+  const json result = c.call("run.result", {{"run_id", run_id}});
+  const std::string recording = result["recording_path"];
+  EXPECT_EQ(read_recording(recording).header_value(kHeaderUnitWanderUg), "0")
+      << "none configured, and said so";
+  EXPECT_FALSE(result["full_vector"]["noise"].contains("unit_wander_from"))
+      << result["full_vector"]["noise"].dump(2);
+  const test::CommandOutcome refit =
+      test::standcal_cli("fit " + recording + " --method full --json");
+  ASSERT_EQ(refit.exit_code, 0) << refit.output;
+  const json full = json::parse(refit.output.substr(refit.output.find('{')));
+  EXPECT_EQ(result["full_vector"]["parameters"]["bias_x"]["sigma"],
+            full["parameters"]["bias_x"]["sigma"]);
+  EXPECT_NE(daemon.log().find("the drift rule allows for the unit's bias wander the run was "
+                              "begun with, none (its recording's header), not the configured 5 "
+                              "µg at tau 600 s"),
+            std::string::npos)
+      << daemon.log();
+  // run.diagnose: what `standcal diagnose` of the recording gives.
+  const json diagnosed = c.call("run.diagnose", {{"run_id", run_id}}, 300s);
+  const json local = diagnose_to_json(diagnose_recording(read_recording(recording)));
+  EXPECT_EQ(diagnosed["verdict"], local["verdict"]);
+  EXPECT_EQ(diagnosed["noise"], local["noise"]) << diagnosed["noise"].dump(2);
 }
 
 // A run begun under a rate at which its dwells fit what a dwell holds (kMaxDwellSamples), and

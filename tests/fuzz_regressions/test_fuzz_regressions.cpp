@@ -86,6 +86,7 @@ TEST_F(FuzzReplay, Recording) { replay_target("recording", standcal_fuzz_recordi
 TEST_F(FuzzReplay, RawInput) { replay_target("raw_input", standcal_fuzz_raw_input); }
 TEST_F(FuzzReplay, ProgramJson) { replay_target("program_json", standcal_fuzz_program_json); }
 TEST_F(FuzzReplay, ModelJson) { replay_target("model_json", standcal_fuzz_model_json); }
+TEST_F(FuzzReplay, WanderCurves) { replay_target("wander_curves", standcal_fuzz_wander_curves); }
 TEST_F(FuzzReplay, CertificateConfigs) {
   replay_target("certificate_configs", standcal_fuzz_certificate_configs);
 }

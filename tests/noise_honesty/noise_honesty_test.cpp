@@ -1403,11 +1403,17 @@ TEST(FitNoise, TheCarriedCurvesRoundTripAndABadOneIsRefusedAtItsLine) {
   expect_refused(edited([](nlohmann::json& j) { j["axes"].erase(2); }),
                  "'axes' needs three curves, x, y and z");
   expect_refused(edited([](nlohmann::json& j) { j["axes"][1]["deviation"][1] = -1; }),
-                 "axis y point 2 deviation is -1, not above 0");
+                 "axis y point 2 deviation (ug) is -1, not above 0");
   expect_refused(edited([](nlohmann::json& j) { j["axes"][1]["deviation"][1] = 1e-200; }),
-                 "axis y point 2 deviation is 1e-200, too small or large to square");
+                 "axis y point 2 deviation (ug) is 1e-200, outside 1e-06 ... 1000000");
+  // Beside the other points' few ug, 7e105 ug made the deviance's sums overflow: not a number
+  // (fuzz/regressions/wander_curves).
+  expect_refused(edited([](nlohmann::json& j) { j["axes"][1]["deviation"][7] = 6.7e105; }),
+                 "axis y point 8 deviation (ug) is 6.7e+105, outside 1e-06 ... 1000000");
   expect_refused(edited([](nlohmann::json& j) { j["axes"][0]["clusters"][0] = 0.5; }),
-                 "axis x point 1 clusters is 0.5, below 1");
+                 "axis x point 1 clusters is 0.5, outside 1 ... 1000000000000");
+  expect_refused(edited([](nlohmann::json& j) { j["axes"][0]["tau_s"][0] = 1e-7; }),
+                 "axis x point 1 tau_s is 1e-07, outside 1e-06 ... 1000000000000");
   expect_refused(edited([](nlohmann::json& j) { j["axes"][0]["tau_s"][1] = "long"; }),
                  "axis x point 2 tau_s is not a number");
   expect_refused(
@@ -1675,6 +1681,108 @@ TEST(FitNoise, AStaticRecordingThatSeesAWanderItDoesNotPinPutsAFloorUnderItsCorr
   EXPECT_FALSE(bounded.noise.tau_given_open_above) << bounded.noise.how;
   EXPECT_EQ(bounded.noise.sigmas_allowance_allan_curves_from, kWanderFromRecording)
       << bounded.noise.how;
+}
+
+// A floor at or beyond the longest correlation time the fits model (1200 s) is the one time the
+// sigmas weigh (KnownTau{floor, floor}): the words say so, not "up to the longest the fits
+// model", which they said until 2026-12-07 (the second check failed).
+TEST(FitNoise, AStaticFloorBeyondTheLongestModelledIsSaidToBeTheOneTimeWeighed) {
+  NoiseFinding within;
+  within.tau_given_open_above = true;
+  within.tau_given_min_s = 800;
+  within.tau_given_max_s = 1200;
+  UnitStaticRecordingUse use;
+  use.gave = "floor";
+  use.tau_floor_s = 800;
+  settle_unit_static_use(use, within);
+  EXPECT_EQ(use.gave, "floor");
+  EXPECT_NE(use.why.find("at 800 s or longer, which the sigmas allow for up to the longest the "
+                         "fits model"),
+            std::string::npos)
+      << use.why;
+  NoiseFinding beyond;
+  beyond.tau_given_open_above = true;
+  beyond.tau_s = 1500;  // KnownTau{1500, 1500}: no range
+  UnitStaticRecordingUse slow;
+  slow.gave = "floor";
+  slow.tau_floor_s = 1500;
+  settle_unit_static_use(slow, beyond);
+  EXPECT_EQ(slow.gave, "floor");
+  EXPECT_NE(slow.why.find("at 1500 s or longer, which the sigmas weigh as its correlation time (at "
+                          "or beyond the longest the fits model)"),
+            std::string::npos)
+      << slow.why;
+}
+
+// The diagnosis weighs the unit's static recording's floor under the correlation time as the fits
+// do (take_unit_wander): given (`diagnose --unit-static-recording`) or carried in a standcald
+// run's header, it tests the terms under it where the revisits show the wander at those times,
+// and sets it aside where they do not (a run of white noise); its words say which. Until
+// 2026-12-07 it took only the recording's own floor, so a recording's fit and its diagnosis
+// weighed different correlation times: the first checks failed.
+TEST(FitNoise, TheDiagnosisWeighsTheStaticRecordingsFloorAsTheFitsDo) {
+  const std::shared_ptr<const RawInput> slow_rows =
+      unit_static_recording(2, 10, 1200, kSlowStaticRecordingSeed);
+  const Recording rec = bench_run_with_warm_up(0, 10, 1200, kSlowRunSeed);
+  const UnitStaticAllan slow = stand_unit_static_allan(*slow_rows, rec.g_local_mps2);
+  const double floor_s = slow.allan.wander_tau_floor_s;
+  ASSERT_GT(floor_s, 60) << "the case this test is of: a floor above the fits' shortest";
+  DiagnoseOptions given;
+  given.unit_static_tau_floor_s = floor_s;
+  // The simulated wander (10x a dwell's 3.2 ug) is beyond a navigation-grade unit's class bound,
+  // which would refuse it as noise: this unit's class is coarser.
+  given.max_bias_instability_ug = 100;
+  const Diagnosis d = diagnose_recording(rec, given);
+  EXPECT_EQ(d.tau_floor_from, kWanderFromStaticRecording);
+  ASSERT_TRUE(d.noise.tau_given_open_above) << d.noise.how;
+  EXPECT_EQ(d.noise.tau_given_min_s, floor_s) << d.noise.how;
+  EXPECT_GE(d.noise.tau_s, floor_s) << d.noise.how;
+  DiagnoseOptions no_floor = given;
+  no_floor.unit_static_tau_floor_s.reset();
+  const Diagnosis without = diagnose_recording(rec, no_floor);
+  EXPECT_TRUE(without.tau_floor_from.empty()) << without.tau_floor_from;
+  EXPECT_LT(without.noise.tau_s, floor_s) << "the case this test is of: " << without.noise.how;
+  UnitStaticRecordingUse use = slow.use;
+  use.tau_floor_s = floor_s;
+  say_diagnosis_static_tau_floor(use, d.noise, d.tau_floor_from, false);
+  EXPECT_EQ(use.gave, "floor") << use.why;
+  char words[160];
+  std::snprintf(words, sizeof words,
+                "they put its correlation time at %.0f s or longer, under which the diagnosis "
+                "tests the terms against the wander",
+                floor_s);
+  EXPECT_NE(use.why.find(words), std::string::npos) << use.why;
+
+  // A standcald run's header carries the floor: the diagnosis of the run takes it as the given
+  // one, and a static recording given that puts none (0) comes before it.
+  const test::TempDir dir;
+  Recording carrying = rec;
+  carrying.set_header(kHeaderUnitStaticTauFloorS, round_trip_text(floor_s));
+  write_recording(carrying, dir.file("run.csv"));
+  const Recording carried = read_recording(dir.file("run.csv"));
+  const Diagnosis of_run = diagnose_recording(carried, no_floor);
+  EXPECT_EQ(of_run.tau_floor_from, kWanderFromStaticRecording);
+  EXPECT_EQ(of_run.noise.tau_given_min_s, floor_s) << of_run.noise.how;
+  EXPECT_EQ(of_run.noise.tau_s, d.noise.tau_s);
+  EXPECT_EQ(of_run.verdict, d.verdict);
+  DiagnoseOptions none_given = given;
+  none_given.unit_static_tau_floor_s = 0.0;
+  EXPECT_TRUE(diagnose_recording(carried, none_given).tau_floor_from.empty());
+
+  // A run of white noise: the revisits do not show the wander at those times; set aside.
+  const Recording white = bench_run_with_warm_up(0, 0, 1200, kSlowRunSeed);
+  const Diagnosis dw = diagnose_recording(white, given);
+  EXPECT_EQ(dw.tau_floor_from, kWanderFromStaticRecording);
+  EXPECT_FALSE(dw.noise.tau_given_open_above) << dw.noise.how;
+  EXPECT_NE(dw.noise.how.find("is set aside"), std::string::npos) << dw.noise.how;
+  UnitStaticRecordingUse white_use = slow.use;
+  white_use.tau_floor_s = floor_s;
+  say_diagnosis_static_tau_floor(white_use, dw.noise, dw.tau_floor_from, false);
+  EXPECT_EQ(white_use.gave, "nothing");
+  EXPECT_NE(white_use.why.find("or longer, a floor the diagnosis set aside: this run's positions "
+                               "do not show the wander at those times"),
+            std::string::npos)
+      << white_use.why;
 }
 
 // Where the run's rows do not show the wander at the floor's correlation times (below the bar

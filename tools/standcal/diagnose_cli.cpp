@@ -43,20 +43,11 @@ DiagnoseOptions diagnose_options(const DiagnoseCliOptions& o) {
   return d;
 }
 
-// What the diagnosis takes of the unit's static recording: a wander its curves pin, not the
-// floor they put under its correlation time where they see one they do not pin (which the fits
-// take: `use` says "floor" where the norm fit took it).
-void say_diagnosis_takes_no_floor(UnitStaticRecordingUse& use, double floor_s) {
-  if (use.gave == "wander" || !(floor_s > 0)) return;
-  use.gave = "nothing";
-  use.why +=
-      "; the diagnosis tests the terms against a wander they pin, and takes no floor "
-      "under its correlation time";
-}
-
 // The wander the unit's static recording pins, as the one the terms are tested against: after
-// the one the recording's header gives (what its run was made with), as the fits take it. Only
-// a wander: the diagnosis's selection weighs no bound on one (the fits' "bound").
+// the one the recording's header gives (what its run was made with), as the fits take it; where
+// it pins none, the floor its curves put under the correlation time, which the diagnosis weighs
+// beside the recording's own as the fits do (take_unit_wander), and say_diagnosis_static_tau_floor
+// settles. No bound on the wander: the diagnosis's selection weighs none (the fits' "bound").
 std::optional<UnitStaticRecordingUse> take_static_wander(const DiagnoseCliOptions& o,
                                                          const Recording& rec,
                                                          DiagnoseOptions& options) {
@@ -69,10 +60,14 @@ std::optional<UnitStaticRecordingUse> take_static_wander(const DiagnoseCliOption
   // Nothing of the recording's own: the diagnosis takes its long dwell's wander itself.
   take_header_wander(fit, rec);
   UnitStaticRecordingUse use = take_static_recording_pinned_wander(fit, unit_static);
-  if (use.gave == "wander") options.give_static_recording_wander(use.wander);
+  if (use.gave == "wander") {
+    options.give_static_recording_wander(use.wander);
+    return use;
+  }
   if (unit_static.allan.wander_curves)
     use.why += ": the diagnosis tests the terms against a wander they pin, and weighs no bound";
-  say_diagnosis_takes_no_floor(use, unit_static.allan.wander_tau_floor_s);
+  options.unit_static_tau_floor_s = unit_static.allan.wander_tau_floor_s;  // 0: none
+  use.tau_floor_s = unit_static.allan.wander_tau_floor_s;
   return use;
 }
 
@@ -86,6 +81,7 @@ std::pair<Diagnosis, Recording> diagnose_stand_recording(
   DiagnoseOptions options = diagnose_options(o);
   unit_static = take_static_wander(o, rec, options);
   Diagnosis d = diagnose_recording(rec, options);
+  if (unit_static) say_diagnosis_static_tau_floor(*unit_static, d.noise, d.tau_floor_from, false);
   return {std::move(d), std::move(rec)};
 }
 
@@ -122,9 +118,11 @@ std::pair<Diagnosis, Recording> diagnose_input(const DiagnoseCliOptions& o,
   unit_static = calibration.unit_static_recording;
   if (unit_static && unit_static->gave == "wander")
     options.give_static_recording_wander(unit_static->wander);
-  if (unit_static && unit_static->gave == "floor")
-    say_diagnosis_takes_no_floor(*unit_static, unit_static->tau_floor_s);
+  // The floor the norm fit took from it (kept or set aside): the diagnosis settles its own.
+  if (unit_static && unit_static->gave != "wander")
+    options.unit_static_tau_floor_s = unit_static->tau_floor_s;
   Diagnosis d = diagnose_without_angles(in, calibration, options);
+  if (unit_static) say_diagnosis_static_tau_floor(*unit_static, d.noise, d.tau_floor_from, true);
   return {std::move(d), calibrated_recording(in, calibration)};
 }
 
