@@ -955,7 +955,10 @@ bool take_header_wander(FitNoiseOptions& options, const Recording& rec) {
 }
 
 bool header_silent_on_unit_wander(const Recording& rec) {
-  return rec.header_value(kHeaderUnitWanderUg).empty() &&
+  // A header of the correlation time alone (unit.bias_instability_tau_s configured, no size)
+  // says something: written before the size was written always.
+  return !given_wander_of(rec.unit_wander).given() &&
+         rec.header_value(kHeaderUnitWanderUg).empty() &&
          rec.header_value(kHeaderUnitWanderSource).empty() &&
          rec.header_value(kHeaderUnitStaticCurves).empty() &&
          rec.header_value(kHeaderUnitStaticTauFloorS).empty();

@@ -296,11 +296,12 @@ GivenWander given_wander_of(const WanderToGive& pinned);
 // `certificate`, `records import`) then weigh as the run did. Returns whether it took one.
 bool take_header_wander(FitNoiseOptions& options, const Recording& rec);
 // Whether `rec`'s header says nothing of the unit's wander its run was begun with: none of
-// unit_bias_instability_ug (0 where none was configured: set_unit_wander_header writes it
-// always), its static recording's words, curves or floor. Only a run begun before standcald's
-// headers carried them: standcald's end fit and run.diagnose of such a run take the configured
-// wander, as they did then. Every other run is weighed as its header says, even none, as every
-// later fit of its recording is, whatever the configuration says since.
+// unit_bias_instability_* (_ug is 0 where none was configured: set_unit_wander_header writes it
+// always; a correlation time alone is something), its static recording's words, curves or
+// floor. Only a run begun before standcald's headers carried them: standcald's end fit, drift
+// rule and run.diagnose of such a run take the configured wander, as they did then. Every other
+// run is weighed as its header says, even none, as every later fit of its recording is,
+// whatever the configuration says since.
 bool header_silent_on_unit_wander(const Recording& rec);
 
 // The unit's wander for `rec`, where none is given: its header's, else its own long dwell's

@@ -471,29 +471,16 @@ void say_static_tau_floor(UnitStaticRecordingUse& use, const NoiseFinding& resul
   }
 }
 
-}  // namespace
-
-void say_diagnosis_static_tau_floor(UnitStaticRecordingUse& use, const NoiseFinding& noise,
-                                    const std::string& floor_from, bool fit_said) {
-  if (use.gave == "wander" || !(use.tau_floor_s > 0) || floor_from.empty()) return;
-  const std::string stretch = fit_said ? "interval" : "dwell";
-  if (!fit_said) use.why += static_tau_floor_words(use.tau_floor_s);
-  use.gave = "nothing";
-  if (floor_from == kWanderFromRecording) {
-    use.why += "; the diagnosis takes the higher floor this recording's own long " + stretch +
-               " puts under it";
-  } else if (floor_from == kWanderFromStaticRecording && noise.tau_given_open_above) {
-    use.gave = "floor";
-    use.why += fit_said ? "; the diagnosis tests the terms against the wander under that floor"
-                        : ", under which the diagnosis tests the terms against the wander";
-  } else if (floor_from == kWanderFromStaticRecording) {
-    use.why += fit_said ? "; the diagnosis set that floor aside: this run's positions do not "
-                          "show the wander at those times"
-                        : floor_set_aside_words("positions", "the diagnosis");
-  }
+// Where the unit's static recording's curves put a floor (`floor_s`) under the correlation time
+// that the recording's own long `stretch` (dwell, interval) outdoes: said, with the floor, as
+// passed over for the higher.
+void say_lower_static_floor(UnitStaticRecordingUse& use, double floor_s,
+                            const std::string& stretch) {
+  if (floor_s > 0)
+    use.why += static_tau_floor_words(floor_s) +
+               ", not above the floor this recording's own long " + stretch +
+               " puts, taken instead";
 }
-
-namespace {
 
 // The floor the unit's static recording's curves put under the correlation time: those given
 // (`unit_static`), else the one a standcald run's header carries from its own (`rec`); 0: none.
@@ -522,6 +509,11 @@ void say_static_curves_use(UnitStaticRecordingUse& use, const AllanFinding& alla
   } else if (took_tau_floor(taken, kWanderFromStaticRecording)) {
     use.tau_floor_s = taken.known_tau->min_s;
     say_static_tau_floor(use, result, "intervals");
+  } else if (allan.wander_tau_floor_s > 0 && !may_take_recording_wander(given)) {
+    use.why += static_tau_floor_words(allan.wander_tau_floor_s) +
+               ", but a correlation time was given, which it does not override";
+  } else if (allan.wander_tau_floor_s > 0 && took_recording_tau_floor(taken)) {
+    say_lower_static_floor(use, allan.wander_tau_floor_s, "interval");
   } else if (taken.specified_from == kWanderFromRecording && !took_recording_tau_floor(taken)) {
     use.why += "; this recording's own long interval pins a wander, weighted with instead";
   } else if (result.sigmas_allowance_allan_curves_from == kWanderFromRecording) {
@@ -549,6 +541,38 @@ void say_unit_static_use(UnitStaticRecordingUse& use, const AllanFinding& allan,
 }
 
 }  // namespace
+
+void say_diagnosis_static_tau_floor(UnitStaticRecordingUse& use, const std::string& floor_from,
+                                    const std::string& outcome, const NoiseFinding& noise,
+                                    bool fit_said) {
+  if (use.gave == "wander" || !(use.tau_floor_s > 0)) return;
+  const std::string stretch = fit_said ? "interval" : "dwell";
+  const bool pinned_by_recording =
+      noise.unit_wander_given && noise.unit_wander_from == kWanderFromRecording;
+  if (floor_from.empty() && !pinned_by_recording) return;  // a wander given: said already
+  if (!fit_said) use.why += static_tau_floor_words(use.tau_floor_s);
+  use.gave = "nothing";
+  if (pinned_by_recording) {
+    use.why += "; the diagnosis tests the terms against the wander this recording's own long " +
+               stretch + " pins instead";
+  } else if (floor_from == kWanderFromRecording) {
+    use.why += "; the diagnosis takes the higher floor this recording's own long " + stretch +
+               " puts under it";
+  } else if (outcome == "kept") {
+    use.gave = "floor";
+    use.why += fit_said ? "; the diagnosis estimates the wander the terms are tested against "
+                          "under that floor"
+                        : ", under which the diagnosis estimates the wander the terms are "
+                          "tested against";
+  } else if (outcome == "set_aside") {
+    use.why += fit_said ? "; the diagnosis set that floor aside: this run's positions do not "
+                          "show the wander at those times"
+                        : floor_set_aside_words("positions", "the diagnosis");
+  } else {
+    use.why += std::string(fit_said ? "; the diagnosis" : ", which the diagnosis") +
+               " did not weigh: it could not check the model (too few positions)";
+  }
+}
 
 UnitStaticAllan unit_static_allan(const RawInput& s, const Vec3& ug_per_unit,
                                   const StaticDetectorOptions& detector) {
@@ -621,7 +645,20 @@ UnitStaticRecordingUse take_static_recording_for_runs(FitNoiseOptions& options,
                                                       const UnitStaticAllan& unit_static) {
   UnitStaticRecordingUse use = take_static_recording_pinned_wander(options, unit_static);
   if (use.gave == "wander") return use;
+  const FitNoiseOptions unbound = options;
   take_static_recording_bound(options, unit_static, use);
+  if (use.gave == "bound" && options.wander_curves_ug) {
+    // Curves a run's header cannot hold (its readers would refuse every run): given to none.
+    if (const std::string why =
+            wander_curves_text_error(wander_curves_text(*options.wander_curves_ug));
+        !why.empty()) {
+      options = unbound;
+      use.gave = "nothing";
+      use.why += "; its curves lie beyond what a run's header holds (" + why +
+                 "), so the runs are given none";
+      return use;
+    }
+  }
   if (use.gave == "bound") {
     use.gave = "curves";  // each fit of a run settles whether they bound it
     use.why += std::string("; each run's header carries them (") + kHeaderUnitStaticCurves +
@@ -680,7 +717,10 @@ std::optional<UnitStaticRecordingUse> take_unit_wander_with_static_recording(
     return use;
   }
   if (floor_from == kWanderFromRecording) {
-    if (use) use->recording_tau_floor = true;  // said by settle_unit_static_use
+    if (use) {
+      use->recording_tau_floor = true;  // said by settle_unit_static_use
+      say_lower_static_floor(*use, static_tau_floor_s(unit_static, nullptr), "dwell");
+    }
     return use;
   }
   if (take_recording_wander_or_bound(options, allan) && use)  // its bound: no wander is left

@@ -120,14 +120,16 @@ std::optional<UnitStaticRecordingUse> take_unit_wander_with_static_recording(
 // take_unit_wander_with_static_recording calls it before saying what the recording gave.
 void settle_unit_static_use(UnitStaticRecordingUse& use, const NoiseFinding& result);
 // After a diagnosis offered the floor under the correlation time that the unit's static
-// recording's curves put (use.tau_floor_s; DiagnoseOptions::unit_static_tau_floor_s), whose
-// floor it took (`floor_from`: Diagnosis::tau_floor_from) and `noise` its noise finding: whether
-// it tested the terms under that floor ("floor"), set it aside where its positions do not show
-// the wander at those times, or took the recording's own higher floor ("nothing"). `fit_said`:
-// use.why already says the floor and what the norm fit made of it. Nothing where the static
-// recording pinned a wander or put no floor, or the diagnosis took none (a wander given).
-void say_diagnosis_static_tau_floor(UnitStaticRecordingUse& use, const NoiseFinding& noise,
-                                    const std::string& floor_from, bool fit_said);
+// recording's curves put (use.tau_floor_s; DiagnoseOptions::unit_static_tau_floor_s): whose
+// floor it took (`floor_from`, `outcome`: Diagnosis::tau_floor_from, tau_floor_outcome; `noise`
+// its noise finding), and so whether it estimated the wander under that floor ("floor"), set it
+// aside where its positions do not show the wander at those times, could not check the model,
+// took the recording's own higher floor or the wander the recording's own long stretch pins
+// ("nothing"). `fit_said`: use.why already says the floor and what the norm fit made of it.
+// Nothing where the static recording pinned a wander or put no floor, or a wander was given.
+void say_diagnosis_static_tau_floor(UnitStaticRecordingUse& use, const std::string& floor_from,
+                                    const std::string& outcome, const NoiseFinding& noise,
+                                    bool fit_said);
 // `unit_static_recording` in the fit JSON, and the report's line on it.
 nlohmann::json unit_static_recording_json(const UnitStaticRecordingUse& use);
 std::string unit_static_recording_words(const UnitStaticRecordingUse& use);

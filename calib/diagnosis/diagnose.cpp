@@ -120,8 +120,10 @@ Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& given)
   // that the unit's static recording and that dwell put, which the fits of the same recording
   // weigh with (take_unit_wander).
   const DiagnoseOptions options = with_unit_wander(given, rec, P.allan);
-  if (options.known_tau && options.known_tau->open_above)
+  if (options.known_tau && options.known_tau->open_above) {
     d.tau_floor_from = options.specified_wander_from;
+    d.tau_floor_outcome = "untested";  // until the terms and noise are chosen
+  }
   const ResidualModel& model = *P.model;
   d.method = model.name();
   d.baseline = model.fit();
@@ -135,6 +137,8 @@ Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& given)
   // 4-5. Candidates, forward selection, ambiguity; the noise they are tested against.
   const NoiseAndTerms chosen = select_terms_and_noise(P, options);
   const Selection& selection = chosen.selection;
+  if (!d.tau_floor_from.empty())
+    d.tau_floor_outcome = chosen.tau_floor_set_aside ? "set_aside" : "kept";
   d.noise = noise_finding(chosen.noise, P.avg,
                           chosen.tau_floor_set_aside ? std::nullopt : options.known_tau);
   if (chosen.weighted_as_specified) d.noise.source = "specified";  // a finding, tested as given

@@ -193,10 +193,12 @@ struct Diagnosis {
   TruthModel model;                  // augmented model for `standcal simulate --model`
   NoiseFinding noise;
   // Whose floor under the wander's correlation time the terms were offered
-  // (kWanderFromStaticRecording, kWanderFromRecording; "" none): it stands where
-  // noise.tau_given_open_above, and was set aside where the positions do not show the wander
-  // under it.
+  // (kWanderFromStaticRecording, kWanderFromRecording; "" none), and what came of it: "kept"
+  // (the wander estimated under it; the class bound may still refuse it as noise: noise.how),
+  // "set_aside" (the revisits do not show the wander at those times) or "untested" (the
+  // diagnosis could not check the model: too few positions).
   std::string tau_floor_from;
+  std::string tau_floor_outcome;
   HonestyChecks checks;
 };
 

@@ -248,6 +248,10 @@ CertificateInput prepare_certificate(const CertificateRequest& req) {
     options.known_tau = req.noise.known_tau;
     if (in.unit_static_recording && in.unit_static_recording->gave == "wander")
       options.give_static_recording_wander(in.unit_static_recording->wander);
+    // Where it pins none, the floor its curves put under the correlation time (0: none), before
+    // the header's, as the fits take it.
+    else if (static_allan)
+      options.unit_static_tau_floor_s = static_allan->allan.wander_tau_floor_s;
     const Diagnosis d = diagnose_recording(run.recording, options);
     in.diagnosis =
         CertificateDiagnosis{d.verdict, d.summary, d.located, "run for this certificate"};

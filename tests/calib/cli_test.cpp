@@ -953,6 +953,19 @@ TEST_F(Cli, DiagnoseTestsAgainstTheWanderTheUnitsStaticRecordingPins) {
       << slow_why;
   EXPECT_NE(f["noise"]["how"].get<std::string>().find("is set aside"), std::string::npos)
       << f["noise"];
+  // The same samples without their angles: the norm fit's words on the floor, then the
+  // diagnosis's own.
+  const CliRun slow_raw =
+      run_cli("diagnose " + path("raw.csv") + " --g-mps2 9.81625 --unit-static-recording " +
+              path("slow.csv") + " --json");
+  ASSERT_EQ(slow_raw.exit_code == 0 || slow_raw.exit_code == 1, true) << slow_raw.output;
+  const auto r = nlohmann::json::parse(slow_raw.output.substr(slow_raw.output.find('{')));
+  const std::string raw_why = r["unit_static_recording"]["why"].get<std::string>();
+  EXPECT_NE(raw_why.find(" s or longer, a floor this fit set aside: this run's intervals do not "
+                         "show the wander at those times; the diagnosis set that floor aside: "
+                         "this run's positions do not show the wander at those times"),
+            std::string::npos)
+      << raw_why;
   expect_refused(run_cli("diagnose " + cal + " --unit-static-recording " + pinned +
                          " --bias-instability-ug 3"),
                  "either as a static recording or as --bias-instability-*");

@@ -1,6 +1,6 @@
 // The fit of a finished run (daemon/standcald/run_result.cpp) on recordings written here: the
 // unit's wander it weighs with comes from the recording's header, and from the configuration
-// only for a recording whose header has none.
+// only for a recording whose header says nothing of it (header_silent_on_unit_wander).
 #include "daemon/standcald/run_result.hpp"
 
 #include <gtest/gtest.h>
@@ -25,7 +25,10 @@ GivenWander wander_of(double size_ug, double tau_s) {
 
 // The result of a paper9 run whose recording's header carries `recorded` (nullopt: no keys),
 // fitted by a daemon configured with `configured`.
-json fit_of_run(const std::optional<GivenWander>& recorded, const GivenWander& configured) {
+// `size_key`: false drops unit_bias_instability_ug, as headers written before it was written
+// always lack it.
+json fit_of_run(const std::optional<GivenWander>& recorded, const GivenWander& configured,
+                bool size_key = true) {
   test::TempDir dir{"standcal-run-result"};
   SimulationRequest req;
   req.program = paper9();
@@ -35,6 +38,8 @@ json fit_of_run(const std::optional<GivenWander>& recorded, const GivenWander& c
   req.unit_serial = "AU-R";
   Recording rec = simulate_run(req);
   if (recorded) set_unit_wander_header(rec, *recorded);
+  if (!size_key)
+    std::erase_if(rec.header, [](const auto& kv) { return kv.first == kHeaderUnitWanderUg; });
   RunRecord record;
   record.run_id = "20261206T000000Z-AU-R";
   record.unit_serial = "AU-R";
@@ -69,6 +74,18 @@ TEST(RunResult, TheHeadersWanderComesFirstAndTheConfiguredOneStandsInForNone) {
   const json none_configured = fit_of_run(GivenWander{}, wander_of(5, 600));
   EXPECT_EQ(none_configured["noise"]["model"], "white") << none_configured["noise"].dump(2);
   EXPECT_FALSE(none_configured["noise"].contains("unit_wander_from"));
+
+  // A header of the correlation time alone, as a daemon configured with only
+  // unit.bias_instability_tau_s wrote before the size was written always: that time, not the
+  // configured wander (the first draft of the rule above took the configured one).
+  GivenWander tau_only;
+  tau_only.known_tau = KnownTau{900, 900};
+  const json at_tau = fit_of_run(tau_only, wander_of(5, 600), false);
+  EXPECT_NE(at_tau["noise"]["how"].get<std::string>().find(
+                "the unit's wander as this recording's header gives it"),
+            std::string::npos)
+      << at_tau["noise"].dump(2);
+  EXPECT_FALSE(at_tau["noise"].contains("unit_wander_from")) << at_tau["noise"].dump(2);
 }
 
 }  // namespace

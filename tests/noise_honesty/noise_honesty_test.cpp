@@ -1683,6 +1683,44 @@ TEST(FitNoise, AStaticRecordingThatSeesAWanderItDoesNotPinPutsAFloorUnderItsCorr
       << bounded.noise.how;
 }
 
+// Curves a run's header cannot hold (a deviation below what the readers take, 1e-6 ug) are given
+// to no run, and said: until 2026-12-07 standcald wrote them into every run's header, which every
+// reader then refused (the first check failed).
+TEST(FitNoise, StaticCurvesARunsHeaderCannotHoldAreGivenToNoRun) {
+  UnitStaticAllan unit_static;
+  unit_static.use.why = "its Allan curves (to 2000 s) show no wander";
+  WanderCurves curves;
+  curves.curves_end_s = 2000;
+  curves.deviance_scale = kWanderCurvesDevianceScale;
+  for (int a = 0; a < 3; ++a) {
+    ThinnedAllanCurve c;
+    for (double tau_s : {1.0, 10.0, 100.0, 1000.0, 2000.0}) {
+      AllanPoint p;
+      p.tau_s = tau_s;
+      p.deviation = 3 / std::sqrt(tau_s);  // white noise, ug
+      c.points.push_back(p);
+      c.clusters.push_back(7200 / tau_s);
+    }
+    curves.axes.push_back(c);
+  }
+  curves.axes[0].points[0].deviation = 1e-8;  // an axis all but stuck, at rounding level
+  unit_static.allan.wander_curves = curves;
+  FitNoiseOptions options;
+  const UnitStaticRecordingUse use = take_static_recording_for_runs(options, unit_static);
+  EXPECT_EQ(use.gave, "nothing") << use.why;
+  EXPECT_FALSE(options.wander_curves_ug.has_value());
+  EXPECT_FALSE(options.average_over_wander_sizes);
+  EXPECT_NE(use.why.find("; its curves lie beyond what a run's header holds (axis x point 1 "
+                         "deviation (ug) is 1e-08, outside 1e-06 ... 1000000), so the runs are "
+                         "given none"),
+            std::string::npos)
+      << use.why;
+  curves.axes[0].points[0].deviation = 3;  // within: carried
+  unit_static.allan.wander_curves = curves;
+  FitNoiseOptions carried;
+  EXPECT_EQ(take_static_recording_for_runs(carried, unit_static).gave, "curves");
+}
+
 // A floor at or beyond the longest correlation time the fits model (1200 s) is the one time the
 // sigmas weigh (KnownTau{floor, floor}): the words say so, not "up to the longest the fits
 // model", which they said until 2026-12-07 (the second check failed).
@@ -1714,6 +1752,28 @@ TEST(FitNoise, AStaticFloorBeyondTheLongestModelledIsSaidToBeTheOneTimeWeighed) 
       << slow.why;
 }
 
+// Where the recording's own long dwell puts the higher floor under the correlation time, the
+// static recording's lower one is said to be passed over for it; until 2026-12-07 its words said
+// nothing of its floor (the last check failed).
+TEST(FitNoise, AStaticFloorBelowTheRecordingsOwnIsSaidToBePassedOver) {
+  UnitStaticAllan unit_static;
+  unit_static.allan.wander_tau_floor_s = 300;
+  unit_static.use.why = "its Allan curves see a wander they do not pin";
+  AllanFinding own;
+  own.wander_tau_floor_s = 600;
+  FitNoiseOptions options;
+  const std::optional<UnitStaticRecordingUse> use =
+      take_unit_wander_with_static_recording(options, Recording{}, own, &unit_static);
+  ASSERT_TRUE(use.has_value());
+  ASSERT_TRUE(options.known_tau.has_value());
+  EXPECT_EQ(options.known_tau->min_s, 600);
+  EXPECT_EQ(options.specified_from, kWanderFromRecording);
+  EXPECT_NE(use->why.find("they put its correlation time at 300 s or longer, not above the floor "
+                          "this recording's own long dwell puts, taken instead"),
+            std::string::npos)
+      << use->why;
+}
+
 // The diagnosis weighs the unit's static recording's floor under the correlation time as the fits
 // do (take_unit_wander): given (`diagnose --unit-static-recording`) or carried in a standcald
 // run's header, it tests the terms under it where the revisits show the wander at those times,
@@ -1734,6 +1794,7 @@ TEST(FitNoise, TheDiagnosisWeighsTheStaticRecordingsFloorAsTheFitsDo) {
   given.max_bias_instability_ug = 100;
   const Diagnosis d = diagnose_recording(rec, given);
   EXPECT_EQ(d.tau_floor_from, kWanderFromStaticRecording);
+  EXPECT_EQ(d.tau_floor_outcome, "kept");
   ASSERT_TRUE(d.noise.tau_given_open_above) << d.noise.how;
   EXPECT_EQ(d.noise.tau_given_min_s, floor_s) << d.noise.how;
   EXPECT_GE(d.noise.tau_s, floor_s) << d.noise.how;
@@ -1744,14 +1805,22 @@ TEST(FitNoise, TheDiagnosisWeighsTheStaticRecordingsFloorAsTheFitsDo) {
   EXPECT_LT(without.noise.tau_s, floor_s) << "the case this test is of: " << without.noise.how;
   UnitStaticRecordingUse use = slow.use;
   use.tau_floor_s = floor_s;
-  say_diagnosis_static_tau_floor(use, d.noise, d.tau_floor_from, false);
+  say_diagnosis_static_tau_floor(use, d.tau_floor_from, d.tau_floor_outcome, d.noise, false);
   EXPECT_EQ(use.gave, "floor") << use.why;
   char words[160];
   std::snprintf(words, sizeof words,
                 "they put its correlation time at %.0f s or longer, under which the diagnosis "
-                "tests the terms against the wander",
+                "estimates the wander the terms are tested against",
                 floor_s);
   EXPECT_NE(use.why.find(words), std::string::npos) << use.why;
+  // A navigation-grade class bound (6 ug) refuses that wander as noise after it was estimated
+  // under the floor: kept, and the noise's words say it was refused, not that it was not shown.
+  DiagnoseOptions navigation_grade = given;
+  navigation_grade.max_bias_instability_ug = DiagnoseOptions{}.max_bias_instability_ug;
+  const Diagnosis refused = diagnose_recording(rec, navigation_grade);
+  EXPECT_EQ(refused.tau_floor_outcome, "kept");
+  EXPECT_NE(refused.noise.how.find("beyond the bias instability of this class"), std::string::npos)
+      << refused.noise.how;
 
   // A standcald run's header carries the floor: the diagnosis of the run takes it as the given
   // one, and a static recording given that puts none (0) comes before it.
@@ -1773,16 +1842,36 @@ TEST(FitNoise, TheDiagnosisWeighsTheStaticRecordingsFloorAsTheFitsDo) {
   const Recording white = bench_run_with_warm_up(0, 0, 1200, kSlowRunSeed);
   const Diagnosis dw = diagnose_recording(white, given);
   EXPECT_EQ(dw.tau_floor_from, kWanderFromStaticRecording);
+  EXPECT_EQ(dw.tau_floor_outcome, "set_aside");
   EXPECT_FALSE(dw.noise.tau_given_open_above) << dw.noise.how;
   EXPECT_NE(dw.noise.how.find("is set aside"), std::string::npos) << dw.noise.how;
   UnitStaticRecordingUse white_use = slow.use;
   white_use.tau_floor_s = floor_s;
-  say_diagnosis_static_tau_floor(white_use, dw.noise, dw.tau_floor_from, false);
+  say_diagnosis_static_tau_floor(white_use, dw.tau_floor_from, dw.tau_floor_outcome, dw.noise,
+                                 false);
   EXPECT_EQ(white_use.gave, "nothing");
   EXPECT_NE(white_use.why.find("or longer, a floor the diagnosis set aside: this run's positions "
                                "do not show the wander at those times"),
             std::string::npos)
       << white_use.why;
+
+  // Nine positions cannot check the model: nothing was weighed under the floor, and said so (not
+  // "set aside", which the first draft said).
+  SimulationRequest nine;
+  nine.program = paper9();
+  nine.truth = default_truth();
+  nine.seed = 9;
+  const Diagnosis few = diagnose_recording(simulate_run(nine), given);
+  EXPECT_EQ(few.tau_floor_outcome, "untested") << few.verdict;
+  UnitStaticRecordingUse few_use = slow.use;
+  few_use.tau_floor_s = floor_s;
+  say_diagnosis_static_tau_floor(few_use, few.tau_floor_from, few.tau_floor_outcome, few.noise,
+                                 false);
+  EXPECT_EQ(few_use.gave, "nothing");
+  EXPECT_NE(few_use.why.find("or longer, which the diagnosis did not weigh: it could not check the "
+                             "model (too few positions)"),
+            std::string::npos)
+      << few_use.why;
 }
 
 // Where the run's rows do not show the wander at the floor's correlation times (below the bar

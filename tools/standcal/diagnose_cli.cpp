@@ -81,7 +81,9 @@ std::pair<Diagnosis, Recording> diagnose_stand_recording(
   DiagnoseOptions options = diagnose_options(o);
   unit_static = take_static_wander(o, rec, options);
   Diagnosis d = diagnose_recording(rec, options);
-  if (unit_static) say_diagnosis_static_tau_floor(*unit_static, d.noise, d.tau_floor_from, false);
+  if (unit_static)
+    say_diagnosis_static_tau_floor(*unit_static, d.tau_floor_from, d.tau_floor_outcome, d.noise,
+                                   false);
   return {std::move(d), std::move(rec)};
 }
 
@@ -122,7 +124,9 @@ std::pair<Diagnosis, Recording> diagnose_input(const DiagnoseCliOptions& o,
   if (unit_static && unit_static->gave != "wander")
     options.unit_static_tau_floor_s = unit_static->tau_floor_s;
   Diagnosis d = diagnose_without_angles(in, calibration, options);
-  if (unit_static) say_diagnosis_static_tau_floor(*unit_static, d.noise, d.tau_floor_from, true);
+  if (unit_static)
+    say_diagnosis_static_tau_floor(*unit_static, d.tau_floor_from, d.tau_floor_outcome, d.noise,
+                                   true);
   return {std::move(d), calibrated_recording(in, calibration)};
 }
 
