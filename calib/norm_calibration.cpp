@@ -564,13 +564,18 @@ void say_diagnosis_static_tau_floor(UnitStaticRecordingUse& use, const std::stri
                           "under that floor"
                         : ", under which the diagnosis estimates the wander the terms are "
                           "tested against";
+  } else if (outcome == "refused") {
+    const char* under =
+        fit_said ? "; under that floor the diagnosis" : ", under which the diagnosis";
+    use.why +=
+        std::string(under) + " estimated a wander beyond its class of unit, not taken as noise";
   } else if (outcome == "set_aside") {
     use.why += fit_said ? "; the diagnosis set that floor aside: this run's positions do not "
                           "show the wander at those times"
                         : floor_set_aside_words("positions", "the diagnosis");
   } else {
-    use.why += std::string(fit_said ? "; the diagnosis" : ", which the diagnosis") +
-               " did not weigh: it could not check the model (too few positions)";
+    use.why += fit_said ? "; the diagnosis did not weigh that floor: it could not check the model"
+                        : ", which the diagnosis did not weigh: it could not check the model";
   }
 }
 
@@ -649,6 +654,7 @@ UnitStaticRecordingUse take_static_recording_for_runs(FitNoiseOptions& options,
   take_static_recording_bound(options, unit_static, use);
   if (use.gave == "bound" && options.wander_curves_ug) {
     // Curves a run's header cannot hold (its readers would refuse every run): given to none.
+    // Their floor under the correlation time, if any, is still given (below).
     if (const std::string why =
             wander_curves_text_error(wander_curves_text(*options.wander_curves_ug));
         !why.empty()) {
@@ -656,7 +662,6 @@ UnitStaticRecordingUse take_static_recording_for_runs(FitNoiseOptions& options,
       use.gave = "nothing";
       use.why += "; its curves lie beyond what a run's header holds (" + why +
                  "), so the runs are given none";
-      return use;
     }
   }
   if (use.gave == "bound") {

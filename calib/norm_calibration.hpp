@@ -122,11 +122,12 @@ void settle_unit_static_use(UnitStaticRecordingUse& use, const NoiseFinding& res
 // After a diagnosis offered the floor under the correlation time that the unit's static
 // recording's curves put (use.tau_floor_s; DiagnoseOptions::unit_static_tau_floor_s): whose
 // floor it took (`floor_from`, `outcome`: Diagnosis::tau_floor_from, tau_floor_outcome; `noise`
-// its noise finding), and so whether it estimated the wander under that floor ("floor"), set it
-// aside where its positions do not show the wander at those times, could not check the model,
-// took the recording's own higher floor or the wander the recording's own long stretch pins
-// ("nothing"). `fit_said`: use.why already says the floor and what the norm fit made of it.
-// Nothing where the static recording pinned a wander or put no floor, or a wander was given.
+// its noise finding), and so whether it estimated the wander under that floor ("floor"), or
+// estimated one there beyond the class bound, set it aside where its positions do not show the
+// wander at those times, could not check the model, took the recording's own higher floor or
+// the wander the recording's own long stretch pins ("nothing"). `fit_said`: use.why already
+// says the floor and what the norm fit made of it. Nothing where the static recording pinned a
+// wander or put no floor, or a wander was given.
 void say_diagnosis_static_tau_floor(UnitStaticRecordingUse& use, const std::string& floor_from,
                                     const std::string& outcome, const NoiseFinding& noise,
                                     bool fit_said);

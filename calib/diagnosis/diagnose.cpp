@@ -137,8 +137,12 @@ Diagnosis diagnose_recording(const Recording& rec, const DiagnoseOptions& given)
   // 4-5. Candidates, forward selection, ambiguity; the noise they are tested against.
   const NoiseAndTerms chosen = select_terms_and_noise(P, options);
   const Selection& selection = chosen.selection;
+  // Kept, the wander was a finding under the floor; it is no longer one where the class bound
+  // refused it as noise.
   if (!d.tau_floor_from.empty())
-    d.tau_floor_outcome = chosen.tau_floor_set_aside ? "set_aside" : "kept";
+    d.tau_floor_outcome = chosen.tau_floor_set_aside ? "set_aside"
+                          : chosen.noise.significant ? "kept"
+                                                     : "refused";
   d.noise = noise_finding(chosen.noise, P.avg,
                           chosen.tau_floor_set_aside ? std::nullopt : options.known_tau);
   if (chosen.weighted_as_specified) d.noise.source = "specified";  // a finding, tested as given

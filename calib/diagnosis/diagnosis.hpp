@@ -194,9 +194,10 @@ struct Diagnosis {
   NoiseFinding noise;
   // Whose floor under the wander's correlation time the terms were offered
   // (kWanderFromStaticRecording, kWanderFromRecording; "" none), and what came of it: "kept"
-  // (the wander estimated under it; the class bound may still refuse it as noise: noise.how),
-  // "set_aside" (the revisits do not show the wander at those times) or "untested" (the
-  // diagnosis could not check the model: too few positions).
+  // (the wander estimated under it, which the terms are tested against), "refused" (estimated
+  // under it, but beyond the class bound: not taken as noise, noise.how says so), "set_aside"
+  // (the revisits do not show the wander at those times) or "untested" (the diagnosis could not
+  // check the model: its summary says why).
   std::string tau_floor_from;
   std::string tau_floor_outcome;
   HonestyChecks checks;

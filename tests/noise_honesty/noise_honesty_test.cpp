@@ -1715,6 +1715,15 @@ TEST(FitNoise, StaticCurvesARunsHeaderCannotHoldAreGivenToNoRun) {
                          "given none"),
             std::string::npos)
       << use.why;
+  // Curves the header cannot hold beside a floor under the correlation time: the floor is still
+  // given (the first draft of the check gave nothing).
+  unit_static.allan.wander_tau_floor_s = 500;
+  FitNoiseOptions floored;
+  const UnitStaticRecordingUse floor_use = take_static_recording_for_runs(floored, unit_static);
+  EXPECT_EQ(floor_use.gave, "floor") << floor_use.why;
+  EXPECT_EQ(floor_use.tau_floor_s, 500);
+  EXPECT_FALSE(floored.wander_curves_ug.has_value());
+  unit_static.allan.wander_tau_floor_s = 0;
   curves.axes[0].points[0].deviation = 3;  // within: carried
   unit_static.allan.wander_curves = curves;
   FitNoiseOptions carried;
@@ -1818,9 +1827,18 @@ TEST(FitNoise, TheDiagnosisWeighsTheStaticRecordingsFloorAsTheFitsDo) {
   DiagnoseOptions navigation_grade = given;
   navigation_grade.max_bias_instability_ug = DiagnoseOptions{}.max_bias_instability_ug;
   const Diagnosis refused = diagnose_recording(rec, navigation_grade);
-  EXPECT_EQ(refused.tau_floor_outcome, "kept");
+  EXPECT_EQ(refused.tau_floor_outcome, "refused");
   EXPECT_NE(refused.noise.how.find("beyond the bias instability of this class"), std::string::npos)
       << refused.noise.how;
+  UnitStaticRecordingUse refused_use = slow.use;
+  refused_use.tau_floor_s = floor_s;
+  say_diagnosis_static_tau_floor(refused_use, refused.tau_floor_from, refused.tau_floor_outcome,
+                                 refused.noise, false);
+  EXPECT_EQ(refused_use.gave, "nothing");
+  EXPECT_NE(refused_use.why.find("or longer, under which the diagnosis estimated a wander beyond "
+                                 "its class of unit, not taken as noise"),
+            std::string::npos)
+      << refused_use.why;
 
   // A standcald run's header carries the floor: the diagnosis of the run takes it as the given
   // one, and a static recording given that puts none (0) comes before it.
@@ -1869,7 +1887,7 @@ TEST(FitNoise, TheDiagnosisWeighsTheStaticRecordingsFloorAsTheFitsDo) {
                                  false);
   EXPECT_EQ(few_use.gave, "nothing");
   EXPECT_NE(few_use.why.find("or longer, which the diagnosis did not weigh: it could not check the "
-                             "model (too few positions)"),
+                             "model"),
             std::string::npos)
       << few_use.why;
 }
