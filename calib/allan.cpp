@@ -559,7 +559,7 @@ DwellAllan finish_dwell_allan(double sample_period_s, const std::array<AllanAccu
     if (!gaps.too_much()) {
       out.wander = wander_to_give(*fit, curves_end_s(curves));
       out.wander_curves = wander_curves(*fit, curves, sample_period_s);
-      out.wander_tau_floor_s = wander_tau_floor_s(*fit);
+      out.wander_tau_floor_s = wander_tau_floor_s(*fit, curves_end_s(curves));
     }
   }
   return out;
@@ -595,8 +595,13 @@ std::optional<WanderToGive> wander_to_give(const GaussMarkovAllanFit& fit, doubl
   return w;
 }
 
-double wander_tau_floor_s(const GaussMarkovAllanFit& fit) {
-  return fit.wander_seen && fit.describes_curves && fit.tau_open_above ? fit.tau_min_s : 0.0;
+bool curves_show_turnover(double tau_max_s, double curves_end_s) {
+  return curves_end_s >= kGaussMarkovAllanPeakPerTau * tau_max_s;
+}
+
+double wander_tau_floor_s(const GaussMarkovAllanFit& fit, double curves_end_s) {
+  const bool not_pinned = fit.tau_open_above || !curves_show_turnover(fit.tau_max_s, curves_end_s);
+  return fit.wander_seen && fit.describes_curves && not_pinned ? fit.tau_min_s : 0.0;
 }
 
 double WanderCurves::deviance(double q, double tau_c_s) const {

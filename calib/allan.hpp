@@ -206,11 +206,28 @@ struct WanderToGive {
 };
 std::optional<WanderToGive> wander_to_give(const GaussMarkovAllanFit& fit, double curves_end_s);
 // Where the fit sees a wander that has not turned over by the curves' end (its correlation time
-// open above: no WanderToGive), the shortest correlation time it allows, s: what the curves do
-// say of the unit's (a two-hour warm-up of a 1200 s wander, 6 tau, lower-bounds it so in about
-// 4 of 5 recordings, bench/noise/allan_tau_main.cpp). 0 otherwise, and where the curves do not
-// describe white noise and one wander.
-double wander_tau_floor_s(const GaussMarkovAllanFit& fit);
+// open above: no WanderToGive; or bounded at a longest time whose Allan peak lies beyond the
+// curves' longest averaging time `curves_end_s`: curves_show_turnover, which the fits do not
+// take as pinned: take_recording_wander), the shortest
+// correlation time it allows, s: what the curves do say of the unit's (a two-hour warm-up of a
+// 1200 s wander, 6 tau, lower-bounds it so in about 4 of 5 recordings,
+// bench/noise/allan_tau_main.cpp). 0 otherwise, and where the curves do not describe white
+// noise and one wander. Until 2026-12-07 a bounded range gave no floor, and one beyond the
+// curves' end gave the fits nothing (docs/calibration.md, "A range that ends beyond the
+// curves").
+double wander_tau_floor_s(const GaussMarkovAllanFit& fit, double curves_end_s);
+// A Gauss-Markov wander's Allan deviation peaks at about 1.89 x its correlation time
+// (gauss_markov_allan_peak); below that it still rises as a random walk's, whose slope pins only
+// q^2 / tau_c.
+inline constexpr double kGaussMarkovAllanPeakPerTau = 1.89;
+// Whether curves ending at `curves_end_s` reach the Allan peak of a wander of the longest
+// correlation time they allow (`tau_max_s`): they then show it turn over at every time they
+// allow, and its size at each. Short of it, the size they give is the one at the range's
+// middle, too small at its slow end: two-hour static recordings of a 1200 s wander (curves to
+// 1995 s) gave ranges such as 385-1916 s with the size 0.49-0.58 x the simulated in q^2, and
+// the biases' z-variance 2.4-3.8 on the runs given them (docs/calibration.md, "A range that
+// ends beyond the curves").
+bool curves_show_turnover(double tau_max_s, double curves_end_s);
 // The longest averaging time of any of the curves (0 for none).
 double curves_end_s(const std::vector<std::vector<AllanPoint>>& curves);
 

@@ -488,6 +488,15 @@ VectorXd likelihood_weighted_variance(
   return sum / weights;
 }
 
+// Each parameter's largest variance over `plausible` (not empty).
+VectorXd largest_variance(const std::function<VectorXd(const GaussMarkovNoise&)>& variances,
+                          const std::vector<PlausibleNoise>& plausible) {
+  VectorXd out = variances(plausible.front().noise);
+  for (std::size_t i = 1; i < plausible.size(); ++i)
+    out = out.cwiseMax(variances(plausible[i].noise));
+  return out;
+}
+
 }  // namespace
 
 // sqrt(nu / (nu - 2)), the standard deviation of Student's t, so that a sigma with nu
@@ -505,9 +514,11 @@ SigmaWidening widen_for_estimated_noise(
   const VectorXd at_best = variances(choice.noise);
   SigmaWidening w{VectorXd::Ones(at_best.size()),
                   parameter_variance_dof(variances, at_best, choice.noise, choice.scales)};
-  // Averaged over the correlation times the run allows, each weighted by its likelihood.
-  const VectorXd averaged = choice.plausible.empty()
-                                ? at_best
+  // Averaged over the correlation times the run allows, each weighted by its likelihood; or,
+  // above a floor, the largest over them (FitNoiseChoice::sigmas_at_slowest_tau).
+  const VectorXd averaged = choice.plausible.empty() ? at_best
+                            : choice.sigmas_at_slowest_tau
+                                ? largest_variance(variances, choice.plausible)
                                 : likelihood_weighted_variance(variances, choice.plausible);
   for (Eigen::Index j = 0; j < at_best.size(); ++j)
     if (at_best[j] > 0)
@@ -701,7 +712,12 @@ FitNoiseChoice choose_fit_noise_as_given(const std::vector<NoiseRow>& rows, cons
   } else {
     NoiseEstimateOptions estimate = options.estimate;
     if (options.known_tau) estimate.tau_grid_s = options.known_tau->grid_s();
-    e = estimate_bias_wander(rows, X, y, estimate);
+    // Above a floor every time of the range is kept, however the rows weigh it
+    // (FitNoiseChoice::sigmas_at_slowest_tau).
+    NoiseEstimateOptions wander_estimate = estimate;
+    if (options.known_tau && options.known_tau->open_above)
+      wander_estimate.plausible_lr = std::numeric_limits<double>::infinity();
+    e = estimate_bias_wander(rows, X, y, wander_estimate);
     if (options.known_tau) e.how += "; at " + options.known_tau->words();
     if (options.average_over_wander_sizes && !e.significant && options.specified.white()) {
       plausible_sizes = plausible_wander_sizes(rows, X, y, estimate, options.wander_curves_ug);
@@ -757,6 +773,8 @@ FitNoiseChoice choose_fit_noise_as_given(const std::vector<NoiseRow>& rows, cons
     for (double tau_s : options.known_tau->grid_s())
       choice.plausible.push_back({{e.noise.q_g, tau_s}, 1.0});
   if (finding_weighted) choice.parameters = e.parameters;
+  choice.sigmas_at_slowest_tau =
+      finding_weighted && options.known_tau && options.known_tau->open_above;
   choice.finding.sigmas_allow_wander_up_to_ug = allowed_ug;
   choice.finding.sigmas_allowance_weighs_allan_curves =
       !choice.plausible_sizes.empty() && choice.sizes_weigh_curves;
@@ -881,13 +899,17 @@ bool take_recording_wander(FitNoiseOptions& options, const std::optional<AllanFi
                            const std::string& from) {
   if (!may_take_recording_wander(options) || !allan || !allan->wander) return false;
   const WanderToGive& w = *allan->wander;
-  // The curves must reach past the longest correlation time they allow, as one long dwell's
-  // do, and those times reach the ones the fits' wander model takes (its grid's shortest,
-  // 60 s): a 10 s dwell's curves (to 3.3 s) then give nothing whatever they show. Without
-  // either, pooled 10 s dwells had given a wander of 10x the dwell error in 13 of 1000 runs
-  // at tau 60 s and 2 of 1000 at tau 300 s (bench/noise), the latter's biases' z-variance
-  // 0.61-0.71 becoming 0.70-0.73 over the 1000 runs.
-  if (w.curves_end_s < w.tau_max_s || w.tau_max_s < shortest_model_tau_s(options)) return false;
+  // The curves must reach the Allan peak of the longest correlation time they allow
+  // (curves_show_turnover; until 2026-12-07 that time itself), as one long dwell's do, and
+  // those times reach the ones the fits' wander model takes (its grid's shortest, 60 s): a 10 s
+  // dwell's curves (to 3.3 s) then give nothing whatever they show. Without either, pooled
+  // 10 s dwells had given a wander of 10x the dwell error in 13 of 1000 runs at tau 60 s and 2
+  // of 1000 at tau 300 s (bench/noise), the latter's biases' z-variance 0.61-0.71 becoming
+  // 0.70-0.73 over the 1000 runs. Curves short of the peak put a floor instead
+  // (wander_tau_floor_s).
+  if (!curves_show_turnover(w.tau_max_s, w.curves_end_s) ||
+      w.tau_max_s < shortest_model_tau_s(options))
+    return false;
   given_wander_of(w).give_to(options, from);
   return true;
 }

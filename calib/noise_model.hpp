@@ -313,7 +313,7 @@ bool header_silent_on_unit_wander(const Recording& rec);
 // (take_recording_wander_or_bound, take_unit_wander_with_static_recording).
 bool take_unit_wander(FitNoiseOptions& options, const Recording& rec,
                       const std::optional<AllanFinding>& allan,
-                      std::optional<double> static_tau_floor_s = std::nullopt);
+                      std::optional<double> static_tau_floor_s);
 
 // Where the fit estimates the noise and nothing of the unit's wander is given (no size, no
 // correlation time), takes the wander the recording's own dwells' Allan curves pin as the
@@ -499,6 +499,13 @@ struct FitNoiseChoice {
   // taken: the run's rows do not show the wander under it (choose_fit_noise). The choice is
   // then the fit's without known_tau.
   bool tau_floor_set_aside = false;
+  // The floor was taken and the run's wander weighted for: `plausible` holds every correlation
+  // time from the floor to the longest the fits model, and the sigmas are the largest over
+  // them, not their average by the rows' likelihood. Above the floor the curves cannot tell the
+  // times apart, and the rows favour the short end (the fitted biases absorb a slow wander's
+  // slow part), where a bias's variance is smallest (docs/calibration.md, "A range that ends
+  // beyond the curves, and the sigmas at the slowest time a floor allows").
+  bool sigmas_at_slowest_tau = false;
 };
 
 // How much each parameter's sigma widens when the noise model is estimated from the run:

@@ -320,7 +320,7 @@ AllanFinding fitted_allan_finding(const DwellAllan& a, bool wander, bool curves,
   if (fit) *fit = fitted;
   if (!fitted) return out;
   if (wander) out.wander = wander_to_give(*fitted, curves_end_s(axes));
-  if (wander) out.wander_tau_floor_s = wander_tau_floor_s(*fitted);
+  if (wander) out.wander_tau_floor_s = wander_tau_floor_s(*fitted, curves_end_s(axes));
   if (curves) out.wander_curves = wander_curves(*fitted, axes, a.sample_period_s);
   return out;
 }
@@ -373,11 +373,17 @@ void say_gave_pinned_wander(UnitStaticRecordingUse& use, const WanderToGive& w) 
             " s: weighted with as the unit's, each axis with its own" + at_bound_words(w);
 }
 
-// A wander the curves pin that take_recording_wander did not take: its times are beyond them or
-// the fits' model.
+// A wander the curves bound that take_recording_wander did not take: they do not show the
+// slowest of its times turn over (they put a floor under it instead: wander_tau_floor_s), or
+// its times are shorter than the fits model.
 std::string untaken_wander_words(const WanderToGive& w) {
-  return "its Allan curves pin a wander of correlation time " + fmt("%.0f", w.tau_min_s) + "-" +
-         fmt("%.0f", w.tau_max_s) + " s, which they do not reach past or the fits do not model";
+  const std::string range =
+      "correlation time " + fmt("%.0f", w.tau_min_s) + "-" + fmt("%.0f", w.tau_max_s) + " s";
+  if (!curves_show_turnover(w.tau_max_s, w.curves_end_s))
+    return "its Allan curves see a wander they do not pin (" + range + ", but they end at " +
+           fmt("%.0f", w.curves_end_s) +
+           " s, before the slowest of those turns over: record about 100 x its correlation time)";
+  return "its Allan curves pin a wander of " + range + ", shorter than the fits model";
 }
 
 // Curves that show no wander but end before the shortest correlation time of the fits' model
@@ -462,7 +468,8 @@ void say_static_tau_floor(UnitStaticRecordingUse& use, const NoiseFinding& resul
     use.gave = "floor";
     // At or beyond the longest the fits model, the floor is the one correlation time weighed.
     use.why += result.tau_given_max_s > 0
-                   ? ", which the sigmas allow for up to the longest the fits model"
+                   ? ", which the sigmas allow for up to the longest the fits model, at the "
+                     "widest of those times"
                    : ", which the sigmas weigh as its correlation time (at or beyond the longest "
                      "the fits model)";
   } else {
@@ -501,12 +508,14 @@ void say_static_curves_use(UnitStaticRecordingUse& use, const AllanFinding& alla
   } else if (!may_take_recording_wander(given) && !may_weigh_wander_curves(given)) {
     use.why = kGivenWords;
   } else if (allan.wander && !may_take_recording_wander(given)) {
-    use.why =
-        "its Allan curves pin a wander, but a correlation time was given, which it does "
-        "not override";
-  } else if (allan.wander) {
+    const WanderToGive& w = *allan.wander;
+    use.why = (curves_show_turnover(w.tau_max_s, w.curves_end_s) ? "its Allan curves pin a wander"
+                                                                 : untaken_wander_words(w)) +
+              ", but a correlation time was given, which it does not override";
+  } else if (allan.wander && !took_tau_floor(taken, kWanderFromStaticRecording)) {
     use.why = untaken_wander_words(*allan.wander);
   } else if (took_tau_floor(taken, kWanderFromStaticRecording)) {
+    if (allan.wander) use.why = untaken_wander_words(*allan.wander);
     use.tau_floor_s = taken.known_tau->min_s;
     say_static_tau_floor(use, result, "intervals");
   } else if (allan.wander_tau_floor_s > 0 && !may_take_recording_wander(given)) {

@@ -237,7 +237,8 @@ std::string tau_words(const NoiseFinding& n, bool static_recording_given) {
            format("%.0f", n.tau_given_max_s > 0 ? n.tau_given_min_s : n.tau_s) +
            " s or longer; the biases' sigmas allow for " +
            (n.tau_given_max_s > 0
-                ? "up to " + format("%.0f", n.tau_given_max_s) + " s, the longest the fits model"
+                ? "up to " + format("%.0f", n.tau_given_max_s) +
+                      " s, the longest the fits model, at the widest of those times"
                 : std::string("that time, at or beyond the longest the fits model")) +
            ": a static recording of about 100 times it pins it, or give the unit's)";
   if (n.tau_given && n.tau_given_max_s > 0)

@@ -349,6 +349,28 @@ TEST_F(Cli, NoiseOfAStaticRecordingNamesTheCorrelationTimeToGiveTheFits) {
       << open_text.output;
   EXPECT_EQ(open_text.output.find("--bias-instability-tau-max-s"), std::string::npos)
       << open_text.output;
+  // Two hours of a 10 ug wander of 1200 s (seed 5): a range bounded at 306-1523 s, but the
+  // curves end at 1995 s, before the slowest of it turns over (its Allan peak near 1.9 x it).
+  // No size to give (the one they give is the middle's), but the floor the fits take from the
+  // recording itself; until 2026-12-07 the size and range were advised.
+  const std::string two_hours = static_recording("slow", 7200, 1200, 5, 10);
+  const CliRun slow_json = run_cli("noise " + two_hours + " --json");
+  ASSERT_EQ(slow_json.exit_code, 0) << slow_json.output;
+  const auto slow = nlohmann::json::parse(slow_json.output)["gauss_markov"];
+  ASSERT_EQ(slow["tau_bounded"], true) << slow.dump(2);
+  ASSERT_GT(slow["tau_max_s"].get<double>() * 1.89, 1995) << slow.dump(2);
+  const CliRun slow_text = run_cli("noise " + two_hours);
+  EXPECT_NE(slow_text.output.find(" s, but its curves end before the slowest of those turns over"),
+            std::string::npos)
+      << slow_text.output;
+  EXPECT_EQ(slow_text.output.find("--bias-instability-tau-max-s"), std::string::npos)
+      << slow_text.output;
+  char floor_words[160];
+  std::snprintf(floor_words, sizeof floor_words,
+                "the fits take this recording as a floor of %.0f s under the unit's correlation "
+                "time: standcal fit RECORDING --unit-static-recording ",
+                slow["tau_min_s"].get<double>());
+  EXPECT_NE(slow_text.output.find(floor_words), std::string::npos) << slow_text.output;
 }
 
 // `standcal noise` reads what `standcal fit` reads: the same static samples as imu_tk text

@@ -818,11 +818,11 @@ TEST(FitNoise, ALongDwellInTheRecordingGivesTheFitsTheUnitsWander) {
   Recording made_with = rec;
   set_unit_wander_header(made_with, configured);
   FitNoiseOptions header_first;
-  ASSERT_TRUE(take_unit_wander(header_first, made_with, averaged.allan));
+  ASSERT_TRUE(take_unit_wander(header_first, made_with, averaged.allan, std::nullopt));
   EXPECT_EQ(header_first.specified_from, kWanderFromHeader);
   EXPECT_DOUBLE_EQ(header_first.specified.q_g[0], 2 * w.q * kUg);
   FitNoiseOptions told_white = white_noise_weighting();
-  EXPECT_FALSE(take_unit_wander(told_white, made_with, averaged.allan));
+  EXPECT_FALSE(take_unit_wander(told_white, made_with, averaged.allan, std::nullopt));
   EXPECT_EQ(diagnose_recording(made_with).noise.unit_wander_from, kWanderFromHeader);
   RawInput raw_made_with = raw_input_of(made_with);
   raw_made_with.recording = made_with;
@@ -1546,7 +1546,7 @@ TEST(FitNoise, AWarmUpThatSeesAWanderItDoesNotPinPutsAFloorUnderItsCorrelationTi
   EXPECT_TRUE(noise.known_tau->open_above);
   EXPECT_TRUE(noise.specified.white()) << "its size is the run's own";
   FitNoiseOptions diagnosis;  // the diagnosis's rule takes the same
-  ASSERT_TRUE(take_unit_wander(diagnosis, rec, averaged.allan));
+  ASSERT_TRUE(take_unit_wander(diagnosis, rec, averaged.allan, std::nullopt));
   EXPECT_EQ(diagnosis.known_tau->min_s, floor_s);
 
   const FitResult floored = fit_full_vector(averaged.averages, noise);
@@ -1683,6 +1683,102 @@ TEST(FitNoise, AStaticRecordingThatSeesAWanderItDoesNotPinPutsAFloorUnderItsCorr
       << bounded.noise.how;
 }
 
+// Two hours of a 1200 s wander (10x the dwell error) whose curves, ending at 1995 s, bound its
+// correlation time but do not show the slowest of it turn over (its Allan peak near 1.89 x it):
+// seed 1 allows 343-1358 s, seed 4 432-2410 s. Until 2026-12-07 the first was weighted with as a
+// pinned wander, at the size the curves give at the range's middle, and the second gave the fits
+// nothing (no floor: its range was not open above); on the bench's runs given such recordings
+// the biases' z-variance was 2.4-3.8 (docs/calibration.md, "A range that ends beyond the
+// curves"). Both now put a floor at the range's shortest time, as curves open above do.
+TEST(FitNoise, CurvesThatEndBeforeTheSlowestWanderTheyAllowTurnsOverPutAFloorUnderIt) {
+  const Recording rec = bench_run_with_warm_up(0, 10, 1200, kSlowRunSeed);
+  const AveragedRecording averaged = average_recording(rec);
+  for (const unsigned seed : {1U, 4U}) {
+    SCOPED_TRACE("static recording seed " + std::to_string(seed));
+    const UnitStaticAllan slow =
+        stand_unit_static_allan(*unit_static_recording(2, 10, 1200, seed), rec.g_local_mps2);
+    ASSERT_TRUE(slow.allan.wander.has_value()) << "the case this test is of: a range they bound";
+    const WanderToGive& w = *slow.allan.wander;
+    ASSERT_FALSE(curves_show_turnover(w.tau_max_s, w.curves_end_s))
+        << w.tau_min_s << "-" << w.tau_max_s << " s, curves to " << w.curves_end_s << " s";
+    EXPECT_EQ(slow.allan.wander_tau_floor_s, w.tau_min_s);
+
+    FitNoiseOptions noise;
+    std::optional<UnitStaticRecordingUse> use =
+        take_unit_wander_with_static_recording(noise, rec, averaged.allan, &slow);
+    EXPECT_TRUE(noise.specified.white()) << "no wander pinned: its size is the run's own";
+    ASSERT_TRUE(noise.known_tau && noise.known_tau->open_above);
+    EXPECT_EQ(noise.known_tau->min_s, w.tau_min_s);
+    EXPECT_EQ(noise.known_tau->max_s, 1200);
+    const FitResult fit = fit_full_vector(averaged.averages, noise);
+    EXPECT_TRUE(fit.noise.tau_given_open_above) << fit.noise.how;
+    settle_unit_static_use(*use, fit.noise);
+    EXPECT_EQ(use->gave, "floor") << use->why;
+    char words[240];
+    std::snprintf(words, sizeof words,
+                  "its Allan curves see a wander they do not pin (correlation time %.0f-%.0f s, "
+                  "but they end at %.0f s, before the slowest of those turns over",
+                  w.tau_min_s, w.tau_max_s, w.curves_end_s);
+    EXPECT_NE(use->why.find(words), std::string::npos) << use->why;
+    std::snprintf(words, sizeof words, "they put its correlation time at %.0f s or longer",
+                  w.tau_min_s);
+    EXPECT_NE(use->why.find(words), std::string::npos) << use->why;
+  }
+}
+
+// The norm fit given a correlation time beside the unit's static recording keeps it: the floor
+// the recording's curves put is not taken, and its words say so, as they do of curves that
+// bound a wander's times without showing the slowest turn over (static seed 1). Neither branch
+// of these words was tested before.
+TEST(FitNoise, TheNormFitSaysAGivenCorrelationTimeOutranksTheStaticRecordingsFloor) {
+  const Recording rec = bench_run_with_warm_up(0, 10, 1200, kSlowRunSeed);
+  for (const unsigned seed : {kSlowStaticRecordingSeed, 1U}) {
+    SCOPED_TRACE("static recording seed " + std::to_string(seed));
+    NormCalibrationOptions options;
+    options.stability = false;
+    options.unit_static_recording = unit_static_recording(2, 10, 1200, seed);
+    options.fit.noise.known_tau = KnownTau{600, 600};
+    const NormCalibration norm = calibrate_without_angles(raw_input_of(rec), options);
+    ASSERT_TRUE(norm.unit_static_recording);
+    EXPECT_FALSE(norm.fit.result.noise.tau_given_open_above) << norm.fit.result.noise.how;
+    EXPECT_EQ(norm.fit.result.noise.tau_s, 600) << norm.fit.result.noise.how;
+    const std::string& why = norm.unit_static_recording->why;
+    EXPECT_NE(why.find(", but a correlation time was given, which it does not override"),
+              std::string::npos)
+        << why;
+    EXPECT_NE(why.find(seed == 1U ? "before the slowest of those turns over"
+                                  : "they put its correlation time at "),
+              std::string::npos)
+        << why;
+  }
+}
+
+// Above a floor the curves cannot tell the correlation times apart, and one run's rows favour
+// the short end, where a bias's variance is smallest: the biases' sigmas are the widest over the
+// range, as large as the fit's given its longest time alone, where the rows' likelihood had
+// weighted them towards the floor's (the floor's run above, and a warm-up's: bench/noise --tau-s
+// 1200 --static-hours 2, 10x, the biases at 1.75-2.08 in z-variance before, docs/calibration.md).
+TEST(FitNoise, AFloorWeighsTheBiasesAtTheSlowestTimeItAllows) {
+  const Recording warmed = bench_run_with_warm_up(7200, 3, 1200, kUnpinnedWarmUpSeed);
+  const Recording slow = bench_run_with_warm_up(0, 10, 1200, kSlowRunSeed);
+  for (const Recording* rec : {&warmed, &slow}) {
+    const AveragedRecording averaged = average_recording(*rec);
+    ASSERT_TRUE(averaged.allan.has_value());
+    const double floor_s = rec == &warmed ? averaged.allan->wander_tau_floor_s : 859.0;
+    SCOPED_TRACE("floor " + std::to_string(floor_s));
+    FitNoiseOptions floored, at_longest;
+    ASSERT_TRUE(take_tau_floor(floored, floor_s, kWanderFromRecording));
+    at_longest.known_tau = KnownTau{1200, 1200};
+    const FitResult fit = fit_full_vector(averaged.averages, floored);
+    const FitResult longest = fit_full_vector(averaged.averages, at_longest);
+    ASSERT_TRUE(fit.noise.tau_given_open_above && fit.noise.bias_instability) << fit.noise.how;
+    EXPECT_EQ(fit.noise.tau_plausible_min_s, floor_s) << "every time of the range is kept";
+    EXPECT_EQ(fit.noise.tau_plausible_max_s, 1200) << "every time of the range is kept";
+    for (std::size_t bias = 0; bias < 3; ++bias)
+      EXPECT_GE(*fit.unit[bias].sigma, 0.97 * *longest.unit[bias].sigma) << "bias " << bias;
+  }
+}
+
 // Curves a run's header cannot hold (a deviation below what the readers take, 1e-6 ug) are given
 // to no run, and said: until 2026-12-07 standcald wrote them into every run's header, which every
 // reader then refused (the first check failed).
@@ -1812,9 +1908,15 @@ TEST(FitNoise, TheDiagnosisWeighsTheStaticRecordingsFloorAsTheFitsDo) {
   const Diagnosis without = diagnose_recording(rec, no_floor);
   EXPECT_TRUE(without.tau_floor_from.empty()) << without.tau_floor_from;
   EXPECT_LT(without.noise.tau_s, floor_s) << "the case this test is of: " << without.noise.how;
-  UnitStaticRecordingUse use = slow.use;
-  use.tau_floor_s = floor_s;
-  say_diagnosis_static_tau_floor(use, d.tau_floor_from, d.tau_floor_outcome, d.noise, false);
+  // What the static recording's words say of the floor after a diagnosis (the CLI's).
+  const auto said_after = [&](const Diagnosis& diagnosis) {
+    UnitStaticRecordingUse use = slow.use;
+    use.tau_floor_s = floor_s;
+    say_diagnosis_static_tau_floor(use, diagnosis.tau_floor_from, diagnosis.tau_floor_outcome,
+                                   diagnosis.noise, false);
+    return use;
+  };
+  const UnitStaticRecordingUse use = said_after(d);
   EXPECT_EQ(use.gave, "floor") << use.why;
   char words[160];
   std::snprintf(words, sizeof words,
@@ -1830,10 +1932,7 @@ TEST(FitNoise, TheDiagnosisWeighsTheStaticRecordingsFloorAsTheFitsDo) {
   EXPECT_EQ(refused.tau_floor_outcome, "refused");
   EXPECT_NE(refused.noise.how.find("beyond the bias instability of this class"), std::string::npos)
       << refused.noise.how;
-  UnitStaticRecordingUse refused_use = slow.use;
-  refused_use.tau_floor_s = floor_s;
-  say_diagnosis_static_tau_floor(refused_use, refused.tau_floor_from, refused.tau_floor_outcome,
-                                 refused.noise, false);
+  const UnitStaticRecordingUse refused_use = said_after(refused);
   EXPECT_EQ(refused_use.gave, "nothing");
   EXPECT_NE(refused_use.why.find("or longer, under which the diagnosis estimated a wander beyond "
                                  "its class of unit, not taken as noise"),
@@ -1863,10 +1962,7 @@ TEST(FitNoise, TheDiagnosisWeighsTheStaticRecordingsFloorAsTheFitsDo) {
   EXPECT_EQ(dw.tau_floor_outcome, "set_aside");
   EXPECT_FALSE(dw.noise.tau_given_open_above) << dw.noise.how;
   EXPECT_NE(dw.noise.how.find("is set aside"), std::string::npos) << dw.noise.how;
-  UnitStaticRecordingUse white_use = slow.use;
-  white_use.tau_floor_s = floor_s;
-  say_diagnosis_static_tau_floor(white_use, dw.tau_floor_from, dw.tau_floor_outcome, dw.noise,
-                                 false);
+  const UnitStaticRecordingUse white_use = said_after(dw);
   EXPECT_EQ(white_use.gave, "nothing");
   EXPECT_NE(white_use.why.find("or longer, a floor the diagnosis set aside: this run's positions "
                                "do not show the wander at those times"),
@@ -1881,10 +1977,7 @@ TEST(FitNoise, TheDiagnosisWeighsTheStaticRecordingsFloorAsTheFitsDo) {
   nine.seed = 9;
   const Diagnosis few = diagnose_recording(simulate_run(nine), given);
   EXPECT_EQ(few.tau_floor_outcome, "untested") << few.verdict;
-  UnitStaticRecordingUse few_use = slow.use;
-  few_use.tau_floor_s = floor_s;
-  say_diagnosis_static_tau_floor(few_use, few.tau_floor_from, few.tau_floor_outcome, few.noise,
-                                 false);
+  const UnitStaticRecordingUse few_use = said_after(few);
   EXPECT_EQ(few_use.gave, "nothing");
   EXPECT_NE(few_use.why.find("or longer, which the diagnosis did not weigh: it could not check the "
                              "model"),

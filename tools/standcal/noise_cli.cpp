@@ -189,6 +189,19 @@ std::string bound_words(const GaussMarkovAllanFit& f, double curve_end_s, const 
          "the wander the fit's sigmas allow for";
 }
 
+// Curves that see a wander they do not pin put a floor under its correlation time, which the
+// fits take from the recording itself (wander_tau_floor_s, take_tau_floor): how to give it.
+std::string floor_words(const GaussMarkovAllanFit& f, double curve_end_s, const DwellGaps& gaps,
+                        const RecordingToGive& recording) {
+  const double floor_s = wander_tau_floor_s(f, curve_end_s);
+  if (gaps.too_much() || !(floor_s > shortest_model_tau_s({}))) return "";
+  return "\nthe fits take this recording as a floor of " + seconds_text(floor_s) +
+         " s under the unit's correlation time: standcal fit RECORDING --unit-static-recording " +
+         recording.args +
+         " (any method but paper-sequential; import and certificate take it too), where the run "
+         "shows the wander at those times";
+}
+
 // What the Allan curves say of the unit's correlation time, and how to give it to the fits
 // (one calibration run cannot pin it: docs/calibration.md, "The correlation time, given").
 std::string gauss_markov_words(const std::optional<GaussMarkovAllanFit>& f, double curve_end_s,
@@ -208,7 +221,8 @@ std::string gauss_markov_words(const std::optional<GaussMarkovAllanFit>& f, doub
                                "pins it)";
   if (f->tau_open_above)
     return s + "; correlation time not pinned: this recording allows " +
-           seconds_text(f->tau_min_s) + " s and beyond" + how_long;
+           seconds_text(f->tau_min_s) + " s and beyond" + how_long +
+           floor_words(*f, curve_end_s, gaps, recording);
   if (!f->tau_bounded)  // the range reaches down to the shortest averaging time
     return s + "; correlation time not pinned: this recording allows up to " +
            seconds_text(f->tau_max_s) + " s" + how_long;
@@ -224,6 +238,12 @@ std::string gauss_markov_words(const std::optional<GaussMarkovAllanFit>& f, doub
            diagnosis::fmt("%.3g", 100 * gaps.mismatch_share()) +
            " % of their span (the warning above), so the curves may show the wrong correlation "
            "times: no range to give the fits from them";
+  if (!curves_show_turnover(f->tau_max_s, curve_end_s))
+    return s + "; correlation time not pinned: this recording allows " + lo + "-" + hi +
+           " s, but its curves end before the slowest of those turns over (a wander's Allan "
+           "peak lies near 1.9 x its correlation time), and the sizes above are those at its "
+           "middle, too small at its slow end" +
+           how_long + floor_words(*f, curve_end_s, gaps, recording);
   const std::optional<WanderToGive> give = wander_to_give(*f, curve_end_s);
   if (!give) return found;  // not reached: seen, bounded and describing the curves
   return found + "\ngive the unit's wander to the fits: standcal fit --bias-instability-ug " +
