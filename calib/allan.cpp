@@ -600,7 +600,10 @@ bool curves_show_turnover(double tau_max_s, double curves_end_s) {
 }
 
 double wander_tau_floor_s(const GaussMarkovAllanFit& fit, double curves_end_s) {
-  const bool not_pinned = fit.tau_open_above || !curves_show_turnover(fit.tau_max_s, curves_end_s);
+  // A range reaching down to the shortest averaging time (not bounded below) puts no floor.
+  const bool floor_short_of_turnover =
+      fit.tau_bounded && !curves_show_turnover(fit.tau_max_s, curves_end_s);
+  const bool not_pinned = fit.tau_open_above || floor_short_of_turnover;
   return fit.wander_seen && fit.describes_curves && not_pinned ? fit.tau_min_s : 0.0;
 }
 

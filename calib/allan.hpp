@@ -132,9 +132,10 @@ struct GaussMarkovAllanFit {
   std::vector<double> short_q;
   bool tau_open_above = false;  // the range reaches the search's end: tau_max_s is no bound
   // A wander is seen and both ends of its range lie inside the search (the shortest averaging
-  // time to 30 x the longest): the curves show it turn over. A seen wander without it has
-  // only a bound (the curve ends while the wander still looks like a random walk, or the
-  // range reaches down to the shortest averaging time).
+  // time to 30 x the longest). The curves show it turn over only where they also reach the Allan
+  // peak of the range's longest time (curves_show_turnover); short of it, and without a bounded
+  // range, they give only a bound (the curve ends while the wander still looks like a random
+  // walk, or the range reaches down to the shortest averaging time).
   bool tau_bounded = false;
   // Scatter about the model reported (white noise alone where no wander nor short correlation
   // is seen) relative to the points' confidence.
@@ -189,8 +190,9 @@ std::optional<GaussMarkovAllanFit> fit_gauss_markov_allan(
     const std::vector<std::vector<AllanPoint>>& axis_curves, double sample_period_s);
 
 // The unit's wander as a static recording's curves give it to the fits: where the fit sees a
-// wander, pins its correlation time inside the curves and describes them (`standcal noise`'s
-// advice; a calibration recording's own long dwell, take_recording_wander): each axis's size,
+// wander, bounds its correlation time inside the curves and describes them (`standcal noise`'s
+// advice; a calibration recording's own long dwell, take_recording_wander; the fits take it only
+// where the curves show it turn over: curves_show_turnover): each axis's size,
 // a unit's axes wandering each its own (docs/calibration.md, "Each axis its own size").
 struct WanderToGive {
   double q = 0;  // the largest axis's q, in the curves' unit
@@ -222,8 +224,8 @@ double wander_tau_floor_s(const GaussMarkovAllanFit& fit, double curves_end_s);
 inline constexpr double kGaussMarkovAllanPeakPerTau = 1.89;
 // Whether curves ending at `curves_end_s` reach the Allan peak of a wander of the longest
 // correlation time they allow (`tau_max_s`): they then show it turn over at every time they
-// allow, and its size at each. Short of it, the size they give is the one at the range's
-// middle, too small at its slow end: two-hour static recordings of a 1200 s wander (curves to
+// allow, and its size at each. Short of it, the size they give is the one at their best-fitting
+// time, too small at the range's slow end: two-hour static recordings of a 1200 s wander (curves to
 // 1995 s) gave ranges such as 385-1916 s with the size 0.49-0.58 x the simulated in q^2, and
 // the biases' z-variance 2.4-3.8 on the runs given them (docs/calibration.md, "A range that
 // ends beyond the curves").
@@ -384,8 +386,9 @@ struct AllanFinding {
   std::size_t segments = 0;
   std::array<NoiseFigures, 3> figures;
   std::optional<SampleCorrelation> sample_correlation;
-  // The wander the curves pin (a dwell long enough to show it turn over), in ug: what the
-  // fits take as the unit's where none is given (take_recording_wander, noise_model.hpp).
+  // The wander whose correlation time the curves bound, in ug: what the fits take as the unit's
+  // where none is given and the curves show it turn over (a dwell long enough:
+  // take_recording_wander, noise_model.hpp); where they do not, wander_tau_floor_s is set too.
   std::optional<WanderToGive> wander;
   std::string gaps_warning;  // DwellGaps::warning of the dwells (static intervals)
   // The curves as a likelihood of the wander (ug), where they show none (wander_curves) and no

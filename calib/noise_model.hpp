@@ -320,8 +320,9 @@ bool take_unit_wander(FitNoiseOptions& options, const Recording& rec,
 // unit's given one (specified, known_tau as the range the curves allow, specified_from
 // kWanderFromRecording): a dwell long enough to show the wander turn over (about 100 x its
 // correlation time: an hour's warm-up for a wander of a few tens of seconds, several for
-// 300 s) says what one quarter-hour of positions cannot. Only where the curves reach past the
-// longest correlation time they allow and that time is one the fits' wander model takes (at
+// 300 s) says what one quarter-hour of positions cannot. Only where the curves reach the Allan
+// peak of the longest correlation time they allow (curves_show_turnover) and that time is one
+// the fits' wander model takes (at
 // least the shortest of estimate.tau_grid_s): short dwells pooled do not show a wander of
 // minutes. The run is still tested against it as against a given wander
 // (run_agrees_with_specified). Returns whether it took one.

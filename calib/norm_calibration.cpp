@@ -512,10 +512,9 @@ void say_static_curves_use(UnitStaticRecordingUse& use, const AllanFinding& alla
     use.why = (curves_show_turnover(w.tau_max_s, w.curves_end_s) ? "its Allan curves pin a wander"
                                                                  : untaken_wander_words(w)) +
               ", but a correlation time was given, which it does not override";
-  } else if (allan.wander && !took_tau_floor(taken, kWanderFromStaticRecording)) {
-    use.why = untaken_wander_words(*allan.wander);
+  } else if (allan.wander && !(allan.wander_tau_floor_s > 0)) {
+    use.why = untaken_wander_words(*allan.wander);  // its times shorter than the fits model
   } else if (took_tau_floor(taken, kWanderFromStaticRecording)) {
-    if (allan.wander) use.why = untaken_wander_words(*allan.wander);
     use.tau_floor_s = taken.known_tau->min_s;
     say_static_tau_floor(use, result, "intervals");
   } else if (allan.wander_tau_floor_s > 0 && !may_take_recording_wander(given)) {
@@ -613,8 +612,9 @@ UnitStaticAllan unit_static_allan(const RawInput& s, const Vec3& ug_per_unit,
   else if (!fit)
     out.use.why = "its Allan curves are too short to fit";
   else
-    out.use.why = out.allan.wander ? "its Allan curves pin a wander"
-                                   : curves_show_words(*fit, out.use.curves_end_s);
+    out.use.why = !out.allan.wander                  ? curves_show_words(*fit, out.use.curves_end_s)
+                  : out.allan.wander_tau_floor_s > 0 ? untaken_wander_words(*out.allan.wander)
+                                                     : "its Allan curves pin a wander";
   return out;
 }
 

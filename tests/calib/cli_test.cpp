@@ -359,8 +359,11 @@ TEST_F(Cli, NoiseOfAStaticRecordingNamesTheCorrelationTimeToGiveTheFits) {
   const auto slow = nlohmann::json::parse(slow_json.output)["gauss_markov"];
   ASSERT_EQ(slow["tau_bounded"], true) << slow.dump(2);
   ASSERT_GT(slow["tau_max_s"].get<double>() * 1.89, 1995) << slow.dump(2);
+  EXPECT_EQ(slow["tau_floor_s"], slow["tau_min_s"]) << slow.dump(2);
+  EXPECT_EQ(gm["tau_floor_s"], 0) << "pinned: no floor";
   const CliRun slow_text = run_cli("noise " + two_hours);
-  EXPECT_NE(slow_text.output.find(" s, but its curves end before the slowest of those turns over"),
+  EXPECT_NE(slow_text.output.find(" s), not pinned: its curves end before the slowest of those "
+                                  "turns over"),
             std::string::npos)
       << slow_text.output;
   EXPECT_EQ(slow_text.output.find("--bias-instability-tau-max-s"), std::string::npos)

@@ -772,14 +772,22 @@ TEST(FitNoise, ALongDwellInTheRecordingGivesTheFitsTheUnitsWander) {
             std::string::npos)
       << report;
   EXPECT_EQ(report.find("give the unit's"), std::string::npos) << report;
-  // Curves that end before the longest correlation time they allow give nothing, nor do
-  // correlation times of seconds: without these checks pooled 10 s dwells had given a wander
-  // in 13 and 2 of 1000 runs of bench/noise at 10x (tau 60 and 300 s); both expectations
-  // fail without them.
+  // Curves that end before the Allan peak of the longest correlation time they allow (1.89 x
+  // it) give nothing, nor do correlation times of seconds: without these checks pooled 10 s
+  // dwells had given a wander in 13 and 2 of 1000 runs of bench/noise at 10x (tau 60 and
+  // 300 s); both expectations fail without them. Curves past that time but short of its peak
+  // were taken until 2026-12-07 (the second expectation failed then).
   std::optional<AllanFinding> short_curves = averaged.allan;
   short_curves->wander->curves_end_s = 0.9 * short_curves->wander->tau_max_s;
   FitNoiseOptions beyond_the_end;
   EXPECT_FALSE(take_recording_wander(beyond_the_end, short_curves));
+  short_curves->wander->curves_end_s = 1.5 * short_curves->wander->tau_max_s;
+  FitNoiseOptions short_of_the_peak;
+  EXPECT_FALSE(take_recording_wander(short_of_the_peak, short_curves));
+  short_curves->wander->curves_end_s =
+      kGaussMarkovAllanPeakPerTau * short_curves->wander->tau_max_s;
+  FitNoiseOptions at_the_peak;
+  EXPECT_TRUE(take_recording_wander(at_the_peak, short_curves));
   short_curves->wander->tau_min_s = 1;
   short_curves->wander->tau_max_s = 3;
   short_curves->wander->curves_end_s = 3.3;

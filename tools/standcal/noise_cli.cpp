@@ -102,13 +102,15 @@ json gaps_json(const DwellGaps& g) {
           {"too_much", g.too_much()}};
 }
 
-json gauss_markov_json(const GaussMarkovAllanFit& f) {
+json gauss_markov_json(const GaussMarkovAllanFit& f, double curve_end_s) {
   json j = {{"wander_seen", f.wander_seen},
             {"wander_deviance", f.wander_deviance},
             {"tau_s", f.tau_s},
             {"tau_min_s", f.tau_min_s},
             {"tau_max_s", f.tau_open_above ? json(nullptr) : json(f.tau_max_s)},
             {"tau_bounded", f.tau_bounded},
+            // The floor the fits take where the curves do not show the wander turn over (0: none).
+            {"tau_floor_s", wander_tau_floor_s(f, curve_end_s)},
             {"short_correlation", f.short_correlation},
             {"deviance_per_dof", f.deviance_per_dof},
             {"describes_curves", f.describes_curves},
@@ -239,11 +241,12 @@ std::string gauss_markov_words(const std::optional<GaussMarkovAllanFit>& f, doub
            " % of their span (the warning above), so the curves may show the wrong correlation "
            "times: no range to give the fits from them";
   if (!curves_show_turnover(f->tau_max_s, curve_end_s))
-    return s + "; correlation time not pinned: this recording allows " + lo + "-" + hi +
-           " s, but its curves end before the slowest of those turns over (a wander's Allan "
-           "peak lies near 1.9 x its correlation time), and the sizes above are those at its "
-           "middle, too small at its slow end" +
-           how_long + floor_words(*f, curve_end_s, gaps, recording);
+    return s + "; correlation time " + seconds_text(f->tau_s) + " s (this recording allows " + lo +
+           "-" + hi +
+           " s), not pinned: its curves end before the slowest of those turns over (a wander's "
+           "Allan peak lies near 1.9 x its correlation time), and the sizes above are those at " +
+           seconds_text(f->tau_s) + " s, too small at the slow end" + how_long +
+           floor_words(*f, curve_end_s, gaps, recording);
   const std::optional<WanderToGive> give = wander_to_give(*f, curve_end_s);
   if (!give) return found;  // not reached: seen, bounded and describing the curves
   return found + "\ngive the unit's wander to the fits: standcal fit --bias-instability-ug " +
@@ -289,6 +292,7 @@ void run_noise(const NoiseOptions& o) {
   auto opt = [](const std::optional<double>& v) { return v ? json(*v) : json(nullptr); };
   const std::optional<GaussMarkovAllanFit> wander =
       fit_gauss_markov_allan({curves[0], curves[1], curves[2]}, tau0);
+  const double curve_end_s = curves_end_s({curves[0], curves[1], curves[2]});
   if (o.json) {
     json j = {{"recording", o.recording}, {"sample_period_s", tau0}, {"segments", allan.segments}};
     for (int a = 0; a < 3; ++a) {
@@ -302,7 +306,7 @@ void run_noise(const NoiseOptions& o) {
                                   {"allan_deviation", curve}};
     }
     j["static"] = source.raw ? static_json(*source.raw) : json(nullptr);
-    j["gauss_markov"] = wander ? gauss_markov_json(*wander) : json(nullptr);
+    j["gauss_markov"] = wander ? gauss_markov_json(*wander, curve_end_s) : json(nullptr);
     j["gaps"] = gaps_json(allan.gaps);
     std::cout << json_text(j) << "\n";
     return;
@@ -344,9 +348,6 @@ void run_noise(const NoiseOptions& o) {
         wander->white_density[0], wander->white_density[1], wander->white_density[2]);
   else
     std::printf("use the noise density with `standcal design ... --noise-density-ug-rthz N`\n");
-  double curve_end_s = 0;  // the longest averaging time of any axis
-  for (const auto& c : curves)
-    if (!c.empty()) curve_end_s = std::max(curve_end_s, c.back().tau_s);
   std::printf("%s\n",
               gauss_markov_words(wander, curve_end_s, allan.gaps, recording_to_give(o)).c_str());
   if (wander && !wander->describes_curves) {
