@@ -557,9 +557,10 @@ DwellAllan finish_dwell_allan(double sample_period_s, const std::array<AllanAccu
   if (fit) {
     out.sample_correlation = sample_correlation_of(*fit, sample_period_s);
     if (!gaps.too_much()) {
-      out.wander = wander_to_give(*fit, curves_end_s(curves));
+      const double end_s = curves_end_s(curves);
+      out.wander = wander_to_give(*fit, end_s);
       out.wander_curves = wander_curves(*fit, curves, sample_period_s);
-      out.wander_tau_floor_s = wander_tau_floor_s(*fit, curves_end_s(curves));
+      out.wander_tau_floor_s = wander_tau_floor_s(*fit, end_s);
     }
   }
   return out;

@@ -683,6 +683,9 @@ FitNoiseChoice choose_fit_noise_as_given(const std::vector<NoiseRow>& rows, cons
   bool weighted_below_bar = false, specified_over_range = false, agrees_with_specified = false;
   std::vector<PlausibleNoise> plausible_sizes;
   double allowed_ug = 0;  // the largest of plausible_sizes
+  // A floor under the correlation time (KnownTau::open_above):
+  // FitNoiseChoice::sigmas_at_slowest_tau.
+  const bool above_floor = options.known_tau && options.known_tau->open_above;
   // The specified wander; where its correlation time is known only as a range, weighted at the
   // range's log-middle and the biases' variance averaged over the range, each time alike (no
   // run's likelihood weighs them: the run did not show the wander, or was not asked).
@@ -715,8 +718,7 @@ FitNoiseChoice choose_fit_noise_as_given(const std::vector<NoiseRow>& rows, cons
     // Above a floor every time of the range is kept, however the rows weigh it
     // (FitNoiseChoice::sigmas_at_slowest_tau).
     NoiseEstimateOptions wander_estimate = estimate;
-    if (options.known_tau && options.known_tau->open_above)
-      wander_estimate.plausible_lr = std::numeric_limits<double>::infinity();
+    if (above_floor) wander_estimate.plausible_lr = std::numeric_limits<double>::infinity();
     e = estimate_bias_wander(rows, X, y, wander_estimate);
     if (options.known_tau) e.how += "; at " + options.known_tau->words();
     if (options.average_over_wander_sizes && !e.significant && options.specified.white()) {
@@ -773,8 +775,7 @@ FitNoiseChoice choose_fit_noise_as_given(const std::vector<NoiseRow>& rows, cons
     for (double tau_s : options.known_tau->grid_s())
       choice.plausible.push_back({{e.noise.q_g, tau_s}, 1.0});
   if (finding_weighted) choice.parameters = e.parameters;
-  choice.sigmas_at_slowest_tau =
-      finding_weighted && options.known_tau && options.known_tau->open_above;
+  choice.sigmas_at_slowest_tau = finding_weighted && above_floor;
   choice.finding.sigmas_allow_wander_up_to_ug = allowed_ug;
   choice.finding.sigmas_allowance_weighs_allan_curves =
       !choice.plausible_sizes.empty() && choice.sizes_weigh_curves;
@@ -786,7 +787,7 @@ FitNoiseChoice choose_fit_noise_as_given(const std::vector<NoiseRow>& rows, cons
   if (agrees_with_specified) choice.finding.source = "specified";  // a finding, weighted as given
   if (choice.finding.model == "gauss_markov")
     set_tau_provenance(choice.finding, choice.plausible, options.known_tau);
-  choice.finding.tau_given_open_above = options.known_tau && options.known_tau->open_above;
+  choice.finding.tau_given_open_above = above_floor;
   return choice;
 }
 

@@ -319,8 +319,11 @@ AllanFinding fitted_allan_finding(const DwellAllan& a, bool wander, bool curves,
   const std::optional<GaussMarkovAllanFit> fitted = fit_gauss_markov_allan(axes, a.sample_period_s);
   if (fit) *fit = fitted;
   if (!fitted) return out;
-  if (wander) out.wander = wander_to_give(*fitted, curves_end_s(axes));
-  if (wander) out.wander_tau_floor_s = wander_tau_floor_s(*fitted, curves_end_s(axes));
+  if (wander) {
+    const double end_s = curves_end_s(axes);
+    out.wander = wander_to_give(*fitted, end_s);
+    out.wander_tau_floor_s = wander_tau_floor_s(*fitted, end_s);
+  }
   if (curves) out.wander_curves = wander_curves(*fitted, axes, a.sample_period_s);
   return out;
 }
@@ -384,6 +387,13 @@ std::string untaken_wander_words(const WanderToGive& w) {
            fmt("%.0f", w.curves_end_s) +
            " s, before the slowest of those turns over: record about 100 x its correlation time)";
   return "its Allan curves pin a wander of " + range + ", shorter than the fits model";
+}
+
+// What curves that bound a wander's correlation time say of it, in words: that they pin it (they
+// show it turn over), else why the fits did not take it (untaken_wander_words).
+std::string bounded_wander_words(const WanderToGive& w) {
+  return curves_show_turnover(w.tau_max_s, w.curves_end_s) ? "its Allan curves pin a wander"
+                                                           : untaken_wander_words(w);
 }
 
 // Curves that show no wander but end before the shortest correlation time of the fits' model
@@ -508,9 +518,7 @@ void say_static_curves_use(UnitStaticRecordingUse& use, const AllanFinding& alla
   } else if (!may_take_recording_wander(given) && !may_weigh_wander_curves(given)) {
     use.why = kGivenWords;
   } else if (allan.wander && !may_take_recording_wander(given)) {
-    const WanderToGive& w = *allan.wander;
-    use.why = (curves_show_turnover(w.tau_max_s, w.curves_end_s) ? "its Allan curves pin a wander"
-                                                                 : untaken_wander_words(w)) +
+    use.why = bounded_wander_words(*allan.wander) +
               ", but a correlation time was given, which it does not override";
   } else if (allan.wander && !(allan.wander_tau_floor_s > 0)) {
     use.why = untaken_wander_words(*allan.wander);  // its times shorter than the fits model
@@ -612,9 +620,8 @@ UnitStaticAllan unit_static_allan(const RawInput& s, const Vec3& ug_per_unit,
   else if (!fit)
     out.use.why = "its Allan curves are too short to fit";
   else
-    out.use.why = !out.allan.wander                  ? curves_show_words(*fit, out.use.curves_end_s)
-                  : out.allan.wander_tau_floor_s > 0 ? untaken_wander_words(*out.allan.wander)
-                                                     : "its Allan curves pin a wander";
+    out.use.why = out.allan.wander ? bounded_wander_words(*out.allan.wander)
+                                   : curves_show_words(*fit, out.use.curves_end_s);
   return out;
 }
 
