@@ -787,7 +787,6 @@ FitNoiseChoice choose_fit_noise_as_given(const std::vector<NoiseRow>& rows, cons
   if (agrees_with_specified) choice.finding.source = "specified";  // a finding, weighted as given
   if (choice.finding.model == "gauss_markov")
     set_tau_provenance(choice.finding, choice.plausible, options.known_tau);
-  choice.finding.tau_given_open_above = above_floor;
   return choice;
 }
 

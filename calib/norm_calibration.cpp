@@ -468,6 +468,13 @@ std::string static_tau_floor_words(double floor_s) {
   return ": they put its correlation time at " + fmt("%.0f", floor_s) + " s or longer";
 }
 
+// A correlation time given outranks the curves: the floor they put under it (`floor_s`; 0: none,
+// as where they pin a wander), said as not taken.
+std::string floor_outranked_words(double floor_s) {
+  return (floor_s > 0 ? static_tau_floor_words(floor_s) : std::string()) +
+         ", but a correlation time was given, which it does not override";
+}
+
 // The floor they put under it (take_higher_tau_floor): whether the fit (`result`) kept it, which
 // it does only where its `rows` show the wander at those times (choose_fit_noise). `use.gave`
 // says "floor" where it did.
@@ -518,16 +525,14 @@ void say_static_curves_use(UnitStaticRecordingUse& use, const AllanFinding& alla
   } else if (!may_take_recording_wander(given) && !may_weigh_wander_curves(given)) {
     use.why = kGivenWords;
   } else if (allan.wander && !may_take_recording_wander(given)) {
-    use.why = bounded_wander_words(*allan.wander) +
-              ", but a correlation time was given, which it does not override";
+    use.why = bounded_wander_words(*allan.wander) + floor_outranked_words(allan.wander_tau_floor_s);
   } else if (allan.wander && !(allan.wander_tau_floor_s > 0)) {
     use.why = untaken_wander_words(*allan.wander);  // its times shorter than the fits model
   } else if (took_tau_floor(taken, kWanderFromStaticRecording)) {
     use.tau_floor_s = taken.known_tau->min_s;
     say_static_tau_floor(use, result, "intervals");
   } else if (allan.wander_tau_floor_s > 0 && !may_take_recording_wander(given)) {
-    use.why += static_tau_floor_words(allan.wander_tau_floor_s) +
-               ", but a correlation time was given, which it does not override";
+    use.why += floor_outranked_words(allan.wander_tau_floor_s);
   } else if (allan.wander_tau_floor_s > 0 && took_recording_tau_floor(taken)) {
     say_lower_static_floor(use, allan.wander_tau_floor_s, "interval");
   } else if (taken.specified_from == kWanderFromRecording && !took_recording_tau_floor(taken)) {

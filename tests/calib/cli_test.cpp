@@ -374,6 +374,10 @@ TEST_F(Cli, NoiseOfAStaticRecordingNamesTheCorrelationTimeToGiveTheFits) {
                 "time: standcal fit RECORDING --unit-static-recording ",
                 slow["tau_min_s"].get<double>());
   EXPECT_NE(slow_text.output.find(floor_words), std::string::npos) << slow_text.output;
+  EXPECT_NE(slow_text.output.find("standcald: unit.static_recording), where the run shows the "
+                                  "wander at those times"),
+            std::string::npos)
+      << slow_text.output;
 }
 
 // `standcal noise` reads what `standcal fit` reads: the same static samples as imu_tk text
@@ -731,6 +735,10 @@ TEST_F(Cli, TheNormFitTakesTheUnitsStaticRecording) {
   EXPECT_NE(noise.output.find("the fits take this recording as the unit's: standcal fit RECORDING "
                               "--unit-static-recording " +
                               still + " (any method but paper-sequential"),
+            std::string::npos)
+      << noise.output;
+  // ... and how standcald takes it (its runs' fits weigh it as the command line's do).
+  EXPECT_NE(noise.output.find("standcald: unit.static_recording), where it bounds the wander"),
             std::string::npos)
       << noise.output;
   nlohmann::json white = default_model();

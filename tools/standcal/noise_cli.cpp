@@ -179,6 +179,12 @@ RecordingToGive recording_to_give(const NoiseOptions& o) {
               (keys.empty() ? std::string() : " with unit.static_recording_input " + keys)};
 }
 
+// Who else takes the recording so, and standcald's spelling of it (its runs' fits take it too).
+std::string taken_too_words(const RecordingToGive& recording) {
+  return " (any method but paper-sequential; import and certificate take it too; standcald: " +
+         recording.standcald + ")";
+}
+
 // Curves that show no wander and reach the fits' shortest correlation time bound the wander a
 // fit's sigmas allow for (take_wander_curves): how to give them.
 std::string bound_words(const GaussMarkovAllanFit& f, double curve_end_s, const DwellGaps& gaps,
@@ -186,9 +192,8 @@ std::string bound_words(const GaussMarkovAllanFit& f, double curve_end_s, const 
   if (!f.describes_curves || gaps.too_much() || curve_end_s < shortest_model_tau_s({})) return "";
   return "\nthe fits take this recording as the unit's: standcal fit RECORDING "
          "--unit-static-recording " +
-         recording.args +
-         " (any method but paper-sequential; import and certificate take it too), where it bounds "
-         "the wander the fit's sigmas allow for";
+         recording.args + taken_too_words(recording) +
+         ", where it bounds the wander the fit's sigmas allow for";
 }
 
 // Curves that see a wander they do not pin put a floor under its correlation time, which the
@@ -199,9 +204,8 @@ std::string floor_words(const GaussMarkovAllanFit& f, double curve_end_s, const 
   if (gaps.too_much() || !(floor_s > shortest_model_tau_s({}))) return "";
   return "\nthe fits take this recording as a floor of " + seconds_text(floor_s) +
          " s under the unit's correlation time: standcal fit RECORDING --unit-static-recording " +
-         recording.args +
-         " (any method but paper-sequential; import and certificate take it too), where the run "
-         "shows the wander at those times";
+         recording.args + taken_too_words(recording) +
+         ", where the run shows the wander at those times";
 }
 
 // What the Allan curves say of the unit's correlation time, and how to give it to the fits
