@@ -10,11 +10,15 @@
 #include <string>
 
 #include "calib/averaging.hpp"
+#include "calib/diagnosis/diagnosis.hpp"
 #include "calib/invariant_estimator.hpp"
 #include "calib/noise_model.hpp"
+#include "calib/norm_calibration.hpp"
+#include "calib/raw_input.hpp"
 #include "report/certificate/certificate.hpp"
 #include "tests/certificate/certificate_support.hpp"
 #include "tests/certificate/html_query.hpp"
+#include "tests/support/unit_static_recording.hpp"
 
 namespace standcal::test {
 namespace {
@@ -245,6 +249,46 @@ TEST_F(CertificateOfSimulatedRun, WeighsWithTheUnitsWanderItsRunWasMadeWith) {
   EXPECT_EQ(told_white.fit.noise.model, "white");
   const double sigma_x = *told_white.fit.unit[static_cast<std::size_t>(kBiasX)].sigma;
   EXPECT_NEAR(sigma_x, *white.unit[static_cast<std::size_t>(kBiasX)].sigma, 1e-9 * sigma_x);
+}
+
+// Where the unit's static recording sees a wander it does not pin, --diagnose tests the terms
+// under the floor its curves put under the correlation time, as `standcal diagnose
+// --unit-static-recording` does (DiagnoseOptions::unit_static_tau_floor_s); nothing tested that
+// the certificate passes it on. A 5 ug wander of 1200 s under 3 ug/rtHz of white noise (within
+// a navigation-grade class's 6 ug, shown by the run's rows): its two-hour static recording
+// (seed 1) puts the floor at 432 s, where the run alone favours 60 s.
+TEST_F(CertificateOfSimulatedRun, ItsDiagnosisTakesTheFloorTheUnitsStaticRecordingPuts) {
+  constexpr double kDensity_ug_rthz = 3, kWander_ug = 5, kTau_s = 1200;
+  const auto still = std::make_shared<const RawInput>(
+      raw_input_of(unit_static_recording(7200, kWander_ug, kTau_s, 1, kDensity_ug_rthz)));
+  const double floor_s =
+      stand_unit_static_allan(*still, kStandardGravity_mps2).allan.wander_tau_floor_s;
+  ASSERT_GT(floor_s, 60) << "the case this test is of: a floor above the fits' shortest";
+  SimulationRequest run;
+  run.program = diagnostic32();  // orientations enough for the diagnosis to reach its noise step
+  run.truth = default_truth();
+  run.truth.noise.density_ug_rthz = kDensity_ug_rthz;
+  run.truth.noise.bias_instability_ug = kWander_ug;
+  run.truth.noise.bias_instability_tau_s = kTau_s;
+  run.timing.dwell_s = 10;
+  run.seed = 1;
+  run.unit_serial = "AU-0046";
+  CertificateRequest r;
+  r.recording_path = state_.file("slow-wander.csv");
+  write_recording(simulate_run(run), r.recording_path);
+  r.unit_static_recording = still;
+  r.diagnose = true;
+  const report::CertificateInput in = report::prepare_certificate(r);
+  ASSERT_TRUE(in.diagnosis.has_value());
+  const Recording rec = read_recording(r.recording_path);
+  DiagnoseOptions under_floor;
+  under_floor.unit_static_tau_floor_s = floor_s;
+  const Diagnosis expected = diagnose_recording(rec, under_floor);
+  ASSERT_EQ(expected.tau_floor_outcome, "kept");
+  EXPECT_GE(expected.noise.tau_s, floor_s);
+  const Diagnosis without = diagnose_recording(rec, DiagnoseOptions{});
+  ASSERT_LT(without.noise.tau_s, floor_s) << "the case this test is of: the floor tells";
+  EXPECT_EQ(in.diagnosis->summary, expected.summary);
 }
 
 TEST_F(CertificateOfSimulatedRun, RefusesAnUnfinishedRunOrAMissingOne) {

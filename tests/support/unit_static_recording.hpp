@@ -15,13 +15,15 @@
 
 namespace standcal::test {
 
-// `dwell_s` at 10 Hz of a wander of `wander_ug` and `tau_s`, at alpha1 = alpha2 = 0.
+// `dwell_s` at 10 Hz of a wander of `wander_ug` and `tau_s`, at alpha1 = alpha2 = 0; under the
+// default unit's white noise, or `density_ug_rthz`.
 inline Recording unit_static_recording(double dwell_s, double wander_ug, double tau_s,
-                                       std::uint64_t seed) {
+                                       std::uint64_t seed, double density_ug_rthz = 0) {
   SimulationRequest req;
   req.program.name = "static";
   req.program.positions = {ProgramPosition{}};
   req.truth = default_truth();
+  if (density_ug_rthz > 0) req.truth.noise.density_ug_rthz = density_ug_rthz;
   req.truth.noise.bias_instability_ug = wander_ug;
   req.truth.noise.bias_instability_tau_s = tau_s;
   req.timing.sample_rate_hz = 10;
