@@ -675,6 +675,9 @@ bool run_agrees_with_specified(const std::vector<NoiseRow>& rows, const MatrixXd
 
 namespace {
 
+// The choice with options.known_tau as given. Its only caller, choose_fit_noise, refits without
+// a floor where the choice is no finding, so a floor's tau_given_open_above needs setting only
+// on a Gauss-Markov finding (set_tau_provenance).
 FitNoiseChoice choose_fit_noise_as_given(const std::vector<NoiseRow>& rows, const MatrixXd& X,
                                          const VectorXd& y, const FitNoiseOptions& options,
                                          const std::vector<PositionAverage>& positions) {
