@@ -245,9 +245,8 @@ std::string gauss_markov_words(const std::optional<GaussMarkovAllanFit>& f, doub
            " % of their span (the warning above), so the curves may show the wrong correlation "
            "times: no range to give the fits from them";
   if (!curves_show_turnover(f->tau_max_s, curve_end_s))
-    return s + "; correlation time " + seconds_text(f->tau_s) + " s (this recording allows " + lo +
-           "-" + hi +
-           " s), not pinned: its curves end before the slowest of those turns over (a wander's "
+    return found +
+           ", not pinned: its curves end before the slowest of those turns over (a wander's "
            "Allan peak lies near 1.9 x its correlation time), and the sizes above are those at " +
            seconds_text(f->tau_s) + " s, too small at the slow end" + how_long +
            floor_words(*f, curve_end_s, gaps, recording);
